@@ -1,0 +1,35 @@
+// Reading and writing pose graphs as g2o and TORO text files. Formats: docs/formats/pose-graph-files.md.
+//
+// g2o:  VERTEX_SE2 id x y θ | EDGE_SE2 i j dx dy dθ I11 I12 I13 I22 I23 I33 | FIX id
+// TORO: VERTEX2 id x y θ     | EDGE2 i j dx dy dθ I11 I12 I22 I33 I13 I23
+// Blank lines and lines starting with '#' are skipped. Any other problem (unknown tag, missing or extra
+// fields, NaN/inf, information not positive definite, an edge to a vertex that was not declared, a
+// duplicate vertex) fails the whole read with "FILE:LINE: reason"; nothing is half-loaded.
+// A file with edges but no vertex lines at all (e.g. the SE-Sync benchmarks) gets its initial poses by
+// composing edge measurements along a breadth-first spanning tree from the smallest vertex id.
+// Edges i→i+1 are read as motion edges, all others as observation edges.
+//
+// Thread safety: free functions without shared state.
+#pragma once
+
+#include <filesystem>
+#include <iosfwd>
+#include <string>
+
+#include "slamcore/pose_graph.h"
+
+namespace slamcore {
+
+enum class GraphFormat { kG2o, kToro };
+
+/// Reads a g2o or TORO file; the format is taken from the first tag in the file.
+Result<PoseGraph> ReadPoseGraph(const std::filesystem::path& path);
+/// Reads from a stream; `source_name` prefixes error messages.
+Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_name);
+
+/// Writes every node, edge and FIX mark with full double precision, so that reading the file back
+/// gives an identical graph. Fails only on I/O errors.
+Status WritePoseGraph(const PoseGraph& graph, const std::filesystem::path& path, GraphFormat format);
+void WritePoseGraph(const PoseGraph& graph, std::ostream& output, GraphFormat format);
+
+}  // namespace slamcore

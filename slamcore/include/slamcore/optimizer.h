@@ -1,0 +1,59 @@
+// Nonlinear least-squares optimisation of a PoseGraph with Ceres Solver.
+//
+// Error of an edge i→j with measurement z = i_T_j (the g2o EDGE_SE2 convention, so χ² values compare
+// with published g2o results):
+//     e = ( R_zᵀ · (R_iᵀ · (t_j − t_i) − t_z),  wrap(θ_j − θ_i − θ_z) ),     χ² = Σ eᵀ Ω e.
+// Residuals are L·e with Ω = LᵀL and analytic Jacobians; the linear solver is Ceres' sparse normal
+// Cholesky. The gauge is fixed per component: nodes marked `fixed`, or else the component's first node.
+// Optimisation starts from the graph's current poses (warm start) and stops when the relative cost
+// decrease of an iteration falls below `relative_cost_decrease`.
+//
+// Thread safety: Optimize writes the graph's poses; the caller serialises access to the graph.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "slamcore/pose_graph.h"
+
+namespace slamcore {
+
+enum class RobustLoss { kNone, kHuber, kCauchy };
+
+struct OptimizerOptions {
+  int max_iterations = 100;
+  /// Stop when |Δcost| / cost of an iteration is below this (Ceres' function_tolerance).
+  double relative_cost_decrease = 1e-6;
+  RobustLoss robust_loss = RobustLoss::kNone;
+  /// Scale of the robust loss in units of the whitened residual norm.
+  double robust_loss_scale = 1.0;
+  /// When set, only this component is optimised; otherwise every component is.
+  std::optional<ComponentId> component;
+  /// Threads for residual evaluation and the linear solver.
+  int num_threads = 1;
+};
+
+/// Checks that options are usable; names the bad field.
+Status Validate(const OptimizerOptions& options);
+
+struct OptimizerSummary {
+  double initial_chi2 = 0.0;
+  double final_chi2 = 0.0;
+  int iterations = 0;
+  double seconds = 0.0;
+  bool converged = false;  // stopped by a tolerance rather than by the iteration limit or a failure
+  std::string message;     // Ceres' reason for stopping
+};
+
+/// Optimises the poses of `graph` in place.
+Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& options = {});
+
+/// The error e of one edge (see the top of this file), with optional Jacobians with respect to the plain
+/// (x, y, θ) parameters of the two poses.
+Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix3* d_from = nullptr,
+                  Matrix3* d_to = nullptr);
+
+/// χ² = Σ eᵀ Ω e over all edges, or over the edges of one component.
+double Chi2(const PoseGraph& graph, std::optional<ComponentId> component = std::nullopt);
+
+}  // namespace slamcore

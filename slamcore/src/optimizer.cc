@@ -1,0 +1,174 @@
+#include "slamcore/optimizer.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Cholesky>
+#include <array>
+#include <chrono>
+#include <memory>
+#include <unordered_set>
+
+namespace slamcore {
+
+Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix3* d_from, Matrix3* d_to) {
+  const Matrix2 rotation_from_t = from.rotation().transpose();
+  const Matrix2 rotation_z_t = measurement.rotation().transpose();
+  const Vector2 local = rotation_from_t * (to.translation() - from.translation());  // R_iᵀ (t_j − t_i)
+  Vector3 error;
+  error.head<2>() = rotation_z_t * (local - measurement.translation());
+  error.z() = WrapAngle(to.theta() - from.theta() - measurement.theta());
+  if (d_from) {
+    d_from->setZero();
+    d_from->topLeftCorner<2, 2>() = -rotation_z_t * rotation_from_t;
+    d_from->block<2, 1>(0, 2) = -rotation_z_t * Perp(local);
+    (*d_from)(2, 2) = -1.0;
+  }
+  if (d_to) {
+    d_to->setZero();
+    d_to->topLeftCorner<2, 2>() = rotation_z_t * rotation_from_t;
+    (*d_to)(2, 2) = 1.0;
+  }
+  return error;
+}
+
+namespace {
+
+/// One edge's whitened residual L·e over two (x, y, θ) parameter blocks, with analytic Jacobians.
+class EdgeCost final : public ceres::SizedCostFunction<3, 3, 3> {
+ public:
+  EdgeCost(const SE2& measurement, const Matrix3& sqrt_information)
+      : measurement_(measurement), sqrt_information_(sqrt_information) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const SE2 from(parameters[0][0], parameters[0][1], parameters[0][2]);
+    const SE2 to(parameters[1][0], parameters[1][1], parameters[1][2]);
+    Matrix3 d_from, d_to;
+    const bool want_jacobians = jacobians != nullptr;
+    const Vector3 error = EdgeError(from, to, measurement_, want_jacobians ? &d_from : nullptr,
+                                    want_jacobians ? &d_to : nullptr);
+    Eigen::Map<Vector3> whitened(residuals);
+    whitened = sqrt_information_ * error;
+    if (want_jacobians) {
+      using RowMajor3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+      if (jacobians[0]) Eigen::Map<RowMajor3>{jacobians[0]} = sqrt_information_ * d_from;
+      if (jacobians[1]) Eigen::Map<RowMajor3>{jacobians[1]} = sqrt_information_ * d_to;
+    }
+    return true;
+  }
+
+ private:
+  SE2 measurement_;
+  Matrix3 sqrt_information_;
+};
+
+/// Upper-triangular L with LᵀL = Ω (Ω was checked positive definite when the edge was added).
+Matrix3 SqrtInformation(const Matrix3& information) {
+  return Eigen::LLT<Matrix3>(information).matrixU();
+}
+
+double EdgeChi2(const PoseGraph& graph, const Edge& edge) {
+  const Vector3 error = EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement);
+  return error.dot(edge.information * error);
+}
+
+}  // namespace
+
+Status Validate(const OptimizerOptions& options) {
+  if (options.max_iterations < 1) return InvalidArgument("max_iterations must be at least 1");
+  if (!(options.relative_cost_decrease > 0.0 && options.relative_cost_decrease < 1.0)) {
+    return InvalidArgument("relative_cost_decrease must be in (0, 1)");
+  }
+  if (!(options.robust_loss_scale > 0.0) || !std::isfinite(options.robust_loss_scale)) {
+    return InvalidArgument("robust_loss_scale must be positive and finite");
+  }
+  if (options.num_threads < 1) return InvalidArgument("num_threads must be at least 1");
+  return Status::Ok();
+}
+
+double Chi2(const PoseGraph& graph, std::optional<ComponentId> component) {
+  double chi2 = 0.0;
+  for (const Edge& edge : graph.edges()) {
+    if (component && graph.ComponentOf(edge.from) != *component) continue;
+    chi2 += EdgeChi2(graph, edge);
+  }
+  return chi2;
+}
+
+Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& options) {
+  SLAMCORE_RETURN_IF_ERROR(Validate(options));
+  if (options.component && !graph.HasNode(*options.component)) {
+    return NotFound("component " + std::to_string(*options.component) + " does not exist");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const std::optional<ComponentId> component =
+      options.component ? std::optional(graph.ComponentOf(*options.component)) : std::nullopt;
+  auto selected = [&](NodeId id) { return !component || graph.ComponentOf(id) == *component; };
+
+  OptimizerSummary summary;
+  summary.initial_chi2 = Chi2(graph, component);
+
+  // Parameter blocks: plain (x, y, θ) per node, θ kept wrapped by the residual, not by a manifold.
+  std::vector<std::array<double, 3>> parameters(graph.num_nodes());
+  for (std::size_t i = 0; i < graph.num_nodes(); ++i) {
+    const SE2& pose = graph.nodes()[i].pose;
+    parameters[i] = {pose.x(), pose.y(), pose.theta()};
+  }
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  std::unique_ptr<ceres::LossFunction> loss;
+  if (options.robust_loss == RobustLoss::kHuber) loss = std::make_unique<ceres::HuberLoss>(options.robust_loss_scale);
+  if (options.robust_loss == RobustLoss::kCauchy) {
+    loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_scale);
+  }
+  for (const Edge& edge : graph.edges()) {
+    if (!selected(edge.from)) continue;
+    problem.AddResidualBlock(new EdgeCost(edge.measurement, SqrtInformation(edge.information)), loss.get(),
+                             parameters[graph.IndexOf(edge.from)].data(),
+                             parameters[graph.IndexOf(edge.to)].data());
+  }
+  if (problem.NumResidualBlocks() == 0) {
+    summary.final_chi2 = summary.initial_chi2;
+    summary.converged = true;
+    summary.message = "no edges to optimise";
+    return summary;
+  }
+
+  // Gauge: fixed nodes, or else the first node of each component that has none.
+  std::unordered_set<ComponentId> anchored;
+  for (const Node& node : graph.nodes()) {
+    if (node.fixed && selected(node.id)) anchored.insert(graph.ComponentOf(node.id));
+  }
+  for (const Node& node : graph.nodes()) {
+    double* block = parameters[graph.IndexOf(node.id)].data();
+    if (!selected(node.id) || !problem.HasParameterBlock(block)) continue;
+    const ComponentId node_component = graph.ComponentOf(node.id);
+    if (node.fixed || anchored.insert(node_component).second) problem.SetParameterBlockConstant(block);
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.relative_cost_decrease;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary ceres_summary;
+  ceres::Solve(solver_options, &problem, &ceres_summary);
+  if (ceres_summary.termination_type == ceres::FAILURE) {
+    return Internal("optimisation failed: " + ceres_summary.message);
+  }
+
+  for (std::size_t i = 0; i < graph.num_nodes(); ++i) {
+    Node& node = graph.mutable_nodes()[i];
+    if (selected(node.id)) node.pose = SE2(parameters[i][0], parameters[i][1], parameters[i][2]);
+  }
+  summary.final_chi2 = Chi2(graph, component);
+  summary.iterations = ceres_summary.num_successful_steps + ceres_summary.num_unsuccessful_steps;
+  summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  summary.message = ceres_summary.message;
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace slamcore

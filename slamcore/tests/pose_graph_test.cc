@@ -1,0 +1,115 @@
+#include "slamcore/pose_graph.h"
+
+#include <gtest/gtest.h>
+
+namespace slamcore {
+namespace {
+
+Node MakeNode(NodeId id, double x = 0.0) {
+  Node node;
+  node.id = id;
+  node.pose = SE2(x, 0.0, 0.0);
+  return node;
+}
+
+Edge MakeEdge(NodeId from, NodeId to, EdgeKind kind = EdgeKind::kMotion) {
+  Edge edge;
+  edge.from = from;
+  edge.to = to;
+  edge.measurement = SE2(1.0, 0.0, 0.0);
+  edge.kind = kind;
+  return edge;
+}
+
+TEST(PoseGraphTest, NodesStartAsTheirOwnComponents) {
+  PoseGraph graph;
+  for (NodeId id = 0; id < 4; ++id) ASSERT_TRUE(graph.AddNode(MakeNode(id)).ok());
+  EXPECT_EQ(graph.NumComponents(), 4u);
+  EXPECT_FALSE(graph.SameComponent(0, 1));
+}
+
+TEST(PoseGraphTest, EdgesMergeComponents) {
+  PoseGraph graph;
+  for (NodeId id = 0; id < 6; ++id) ASSERT_TRUE(graph.AddNode(MakeNode(id)).ok());
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(0, 1)).ok());
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(1, 2)).ok());
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(3, 4)).ok());
+  EXPECT_EQ(graph.NumComponents(), 3u);  // {0,1,2} {3,4} {5}
+  EXPECT_TRUE(graph.SameComponent(0, 2));
+  EXPECT_FALSE(graph.SameComponent(2, 3));
+  EXPECT_EQ(graph.ComponentSize(4), 2u);
+
+  // Merging two components by an observation edge.
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(4, 1, EdgeKind::kObservation)).ok());
+  EXPECT_EQ(graph.NumComponents(), 2u);
+  EXPECT_TRUE(graph.SameComponent(0, 3));
+  EXPECT_EQ(graph.ComponentSize(3), 5u);
+  // The larger component's name survives the merge.
+  EXPECT_EQ(graph.ComponentOf(3), graph.ComponentOf(0));
+  EXPECT_EQ(graph.NodesOf(graph.ComponentOf(4)), (std::vector<NodeId>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(graph.Components().size(), 2u);
+}
+
+TEST(PoseGraphTest, RemovingAnEdgeSplitsComponentsAgain) {
+  PoseGraph graph;
+  for (NodeId id = 0; id < 4; ++id) ASSERT_TRUE(graph.AddNode(MakeNode(id)).ok());
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(0, 1)).ok());
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(2, 3)).ok());
+  ASSERT_TRUE(graph.AddEdge(MakeEdge(1, 2, EdgeKind::kObservation)).ok());
+  EXPECT_EQ(graph.NumComponents(), 1u);
+  EXPECT_EQ(graph.RemoveEdgesIf([](const Edge& edge) { return edge.kind == EdgeKind::kObservation; }), 1u);
+  EXPECT_EQ(graph.NumComponents(), 2u);
+  EXPECT_FALSE(graph.SameComponent(1, 2));
+}
+
+TEST(PoseGraphTest, CopiesAreIndependent) {
+  PoseGraph graph;
+  ASSERT_TRUE(graph.AddNode(MakeNode(0)).ok());
+  ASSERT_TRUE(graph.AddNode(MakeNode(1)).ok());
+  PoseGraph copy = graph;
+  ASSERT_TRUE(copy.AddEdge(MakeEdge(0, 1)).ok());
+  copy.mutable_node(0).pose = SE2(5.0, 0.0, 0.0);
+  EXPECT_EQ(graph.NumComponents(), 2u);
+  EXPECT_EQ(graph.num_edges(), 0u);
+  EXPECT_EQ(graph.node(0).pose.x(), 0.0);
+  EXPECT_EQ(copy.NumComponents(), 1u);
+}
+
+TEST(PoseGraphTest, ViewsAttachToNodes) {
+  PoseGraph graph;
+  ASSERT_TRUE(graph.AddNode(MakeNode(7)).ok());
+  ASSERT_TRUE(graph.AddView({.id = 70, .node = 7, .ambiguous = false}).ok());
+  EXPECT_EQ(graph.view(70).node, 7);
+  EXPECT_EQ(graph.FindView(71), nullptr);
+  EXPECT_EQ(graph.AddView({.id = 71, .node = 8, .ambiguous = false}).code(), StatusCode::kNotFound);
+  EXPECT_EQ(graph.AddView({.id = 70, .node = 7, .ambiguous = false}).code(), StatusCode::kInvalidArgument);
+}
+
+TEST(PoseGraphTest, RejectsBadInputAndStaysUnchanged) {
+  PoseGraph graph;
+  ASSERT_TRUE(graph.AddNode(MakeNode(0)).ok());
+  ASSERT_TRUE(graph.AddNode(MakeNode(1)).ok());
+  EXPECT_EQ(graph.AddNode(MakeNode(0)).code(), StatusCode::kInvalidArgument);
+
+  Node nan_node = MakeNode(2);
+  nan_node.pose = SE2(std::nan(""), 0.0, 0.0);
+  EXPECT_EQ(graph.AddNode(nan_node).code(), StatusCode::kInvalidArgument);
+
+  EXPECT_EQ(graph.AddEdge(MakeEdge(0, 9)).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(graph.AddEdge(MakeEdge(0, 0)).status().code(), StatusCode::kInvalidArgument);
+  Edge indefinite = MakeEdge(0, 1);
+  indefinite.information(2, 2) = -1.0;
+  const auto status = graph.AddEdge(indefinite).status();
+  EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("positive definite"), std::string::npos) << status.message();
+  Edge asymmetric = MakeEdge(0, 1);
+  asymmetric.information(0, 1) = 0.5;
+  EXPECT_EQ(graph.AddEdge(asymmetric).status().code(), StatusCode::kInvalidArgument);
+
+  EXPECT_EQ(graph.num_nodes(), 2u);
+  EXPECT_EQ(graph.num_edges(), 0u);
+  EXPECT_EQ(graph.NumComponents(), 2u);
+}
+
+}  // namespace
+}  // namespace slamcore
