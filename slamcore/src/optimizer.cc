@@ -1,5 +1,7 @@
 #include "slamcore/optimizer.h"
 
+#include "slamcore/linear_initialization.h"
+
 #include <ceres/ceres.h>
 
 #include <Eigen/Cholesky>
@@ -106,6 +108,7 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
 
   OptimizerSummary summary;
   summary.initial_chi2 = Chi2(graph, component);
+  if (options.linear_initialization) SLAMCORE_RETURN_IF_ERROR(InitializeLinear(graph, component));
 
   // Parameter blocks: plain (x, y, θ) per node, θ kept wrapped by the residual, not by a manifold.
   std::vector<std::array<double, 3>> parameters(graph.num_nodes());

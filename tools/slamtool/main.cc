@@ -1,6 +1,6 @@
 // slamtool: offline operations of the shared SLAM core on files.
 //
-//   slamtool optimize FILE [--out FILE.g2o] [--json]
+//   slamtool optimize FILE [--out FILE.g2o] [--json] [--init linear|warm] [--robust-loss none|huber|cauchy]
 //
 // Exit status: 0 on success, 1 when the input is refused (the message names file, line and reason),
 // 2 on a usage error.
@@ -27,6 +27,7 @@ struct OptimizeArguments {
   bool json = false;
   int max_iterations = 100;
   std::string robust_loss = "none";
+  std::string initialization = "linear";
 };
 
 int RunOptimize(const OptimizeArguments& arguments) {
@@ -34,6 +35,7 @@ int RunOptimize(const OptimizeArguments& arguments) {
   if (!graph.ok()) return Fail(graph.status());
   slamcore::OptimizerOptions options;
   options.max_iterations = arguments.max_iterations;
+  options.linear_initialization = arguments.initialization == "linear";
   if (arguments.robust_loss == "huber") options.robust_loss = slamcore::RobustLoss::kHuber;
   if (arguments.robust_loss == "cauchy") options.robust_loss = slamcore::RobustLoss::kCauchy;
   const auto summary = slamcore::Optimize(*graph, options);
@@ -78,6 +80,10 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   optimize_command->add_option("--robust-loss", optimize.robust_loss, "none, huber or cauchy")
       ->check(CLI::IsMember({"none", "huber", "cauchy"}));
+  optimize_command
+      ->add_option("--init", optimize.initialization,
+                   "linear: start from the linear (LAGO) estimate; warm: from the poses in the file")
+      ->check(CLI::IsMember({"linear", "warm"}));
 
   CLI11_PARSE(app, argc, argv);
   if (optimize_command->parsed()) return RunOptimize(optimize);

@@ -5,7 +5,8 @@
 //     e = ( R_zᵀ · (R_iᵀ · (t_j − t_i) − t_z),  wrap(θ_j − θ_i − θ_z) ),     χ² = Σ eᵀ Ω e.
 // Residuals are L·e with Ω = LᵀL and analytic Jacobians; the linear solver is Ceres' sparse normal
 // Cholesky. The gauge is fixed per component: nodes marked `fixed`, or else the component's first node.
-// Optimisation starts from the graph's current poses (warm start) and stops when the relative cost
+// Optimisation starts from the graph's current poses (warm start), or optionally from a linear estimate,
+// and stops when the relative cost
 // decrease of an iteration falls below `relative_cost_decrease`.
 //
 // Thread safety: Optimize writes the graph's poses; the caller serialises access to the graph.
@@ -31,6 +32,9 @@ struct OptimizerOptions {
   std::optional<ComponentId> component;
   /// Threads for residual evaluation and the linear solver.
   int num_threads = 1;
+  /// Start from the linear estimate of linear_initialization.h instead of the current poses (which is
+  /// the warm start). For batch optimisation of graphs whose initial guess is composed odometry.
+  bool linear_initialization = false;
 };
 
 /// Checks that options are usable; names the bad field.

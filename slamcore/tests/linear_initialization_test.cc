@@ -1,0 +1,62 @@
+#include "slamcore/linear_initialization.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <numbers>
+
+#include "slamcore/graph_io.h"
+#include "test_matchers.h"
+
+namespace slamcore {
+namespace {
+
+using testing::IsNearlyPose;
+
+TEST(LinearInitializationTest, RecoversNoiseFreeGraphExactly) {
+  // ring_groundTruth.g2o: ground-truth poses with noise-free edges. Scrambling the poses and initialising
+  // must give the ground truth back, anchored at node 0 (to the file's six printed decimals).
+  const auto truth = ReadPoseGraph(std::filesystem::path(SHARED_DATA_DIR) / "posegraphs/vertigo/ring_groundTruth.g2o");
+  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+  PoseGraph scrambled = *truth;
+  for (Node& node : scrambled.mutable_nodes()) {
+    if (node.id != 0) node.pose = SE2(0.1 * static_cast<double>(node.id), -3.0, 2.0);
+  }
+  ASSERT_TRUE(InitializeLinear(scrambled).ok());
+  for (const Node& node : truth->nodes()) EXPECT_THAT(scrambled.node(node.id).pose, IsNearlyPose(node.pose, 1e-4));
+}
+
+TEST(LinearInitializationTest, UnwrapsHeadingsAcrossPi) {
+  // A loop of 8 nodes turning 45° each step, so headings cross ±π; one observation edge closes it.
+  PoseGraph graph;
+  const SE2 step(1.0, 0.0, std::numbers::pi / 4);
+  SE2 truth = SE2(3.0, 1.0, 3.0);  // anchor near +π
+  std::vector<SE2> expected;
+  for (int k = 0; k < 8; ++k) {
+    Node node;
+    node.id = k;
+    node.pose = k == 0 ? truth : SE2::Identity();
+    ASSERT_TRUE(graph.AddNode(node).ok());
+    expected.push_back(truth);
+    truth = truth * step;
+  }
+  for (int k = 0; k < 8; ++k) {
+    Edge edge;
+    edge.from = k;
+    edge.to = (k + 1) % 8;
+    edge.measurement = step;
+    edge.kind = k < 7 ? EdgeKind::kMotion : EdgeKind::kObservation;
+    ASSERT_TRUE(graph.AddEdge(edge).ok());
+  }
+  ASSERT_TRUE(InitializeLinear(graph).ok());
+  for (int k = 0; k < 8; ++k) EXPECT_THAT(graph.node(k).pose, IsNearlyPose(expected[k], 1e-9)) << "node " << k;
+}
+
+TEST(LinearInitializationTest, UnknownComponentIsNotFound) {
+  PoseGraph graph;
+  EXPECT_EQ(InitializeLinear(graph, 5).code(), StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace slamcore
