@@ -3,8 +3,8 @@
 // Error of an edge i→j with measurement z = i_T_j (the g2o EDGE_SE2 convention, so χ² values compare
 // with published g2o results):
 //     e = ( R_zᵀ · (R_iᵀ · (t_j − t_i) − t_z),  wrap(θ_j − θ_i − θ_z) ),     χ² = Σ eᵀ Ω e.
-// Residuals are L·e with Ω = LᵀL and analytic Jacobians; the linear solver is Ceres' sparse normal
-// Cholesky. The gauge is fixed per component: nodes marked `fixed`, or else the component's first node.
+// Residuals are L·e with Ω = LᵀL and analytic Jacobians; the trust region is Powell's dogleg over Ceres'
+// sparse normal Cholesky. The gauge is fixed per component: nodes marked `fixed`, or else the component's first node.
 // Optimisation starts from the graph's current poses (warm start), or optionally from a linear estimate,
 // and stops when the relative cost
 // decrease of an iteration falls below `relative_cost_decrease`.
