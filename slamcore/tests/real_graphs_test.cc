@@ -54,6 +54,15 @@ std::vector<SE2> ReadTruthLines(const std::filesystem::path& path, bool with_id)
   return poses;
 }
 
+/// "vertigo/manhattanOlson3500_olson.g2o" → "vertigo_manhattanOlson3500_olson".
+std::string TestName(std::string graph) {
+  graph = graph.substr(0, graph.rfind('.'));
+  for (char& c : graph) {
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  }
+  return graph;
+}
+
 struct GroundTruthCase {
   const char* graph;
   const char* truth;
@@ -80,7 +89,8 @@ INSTANTIATE_TEST_SUITE_P(
         GroundTruthCase{"vertigo/manhattanOlson3500_g2o.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat",
                         false},
         GroundTruthCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", true},
-        GroundTruthCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt", true}));
+        GroundTruthCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt", true}),
+    [](const auto& info) { return TestName(info.param.graph); });
 
 struct ReferenceCase {
   const char* graph;
@@ -100,7 +110,8 @@ INSTANTIATE_TEST_SUITE_P(RealGraphs, ReferenceGraphTest,
                                            ReferenceCase{"sesync/intel.g2o", 45.00471},
                                            ReferenceCase{"sesync/CSAIL.g2o", 40.55513},
                                            ReferenceCase{"sesync/MIT.g2o", 770.6640},
-                                           ReferenceCase{"sesync/manhattan.g2o", 3549.037}));
+                                           ReferenceCase{"sesync/manhattan.g2o", 3549.037}),
+                         [](const auto& info) { return TestName(info.param.graph); });
 
 TEST(RealGraphTest, MitFromOdometryNeedsTheLinearStartWithinTheDefaultIterationLimit) {
   // Composed odometry leaves MIT far from the optimum: within 100 iterations the warm start does not
