@@ -90,7 +90,7 @@ INSTANTIATE_TEST_SUITE_P(
                         false},
         GroundTruthCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", true},
         GroundTruthCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt", true}),
-    [](const auto& info) { return TestName(info.param.graph); });
+    [](const auto& test_case) { return TestName(test_case.param.graph); });
 
 struct ReferenceCase {
   const char* graph;
@@ -111,7 +111,7 @@ INSTANTIATE_TEST_SUITE_P(RealGraphs, ReferenceGraphTest,
                                            ReferenceCase{"sesync/CSAIL.g2o", 40.55513},
                                            ReferenceCase{"sesync/MIT.g2o", 770.6640},
                                            ReferenceCase{"sesync/manhattan.g2o", 3549.037}),
-                         [](const auto& info) { return TestName(info.param.graph); });
+                         [](const auto& test_case) { return TestName(test_case.param.graph); });
 
 TEST(RealGraphTest, MitFromOdometryNeedsTheLinearStartWithinTheDefaultIterationLimit) {
   // Composed odometry leaves MIT far from the optimum: within 100 iterations the warm start does not
