@@ -1,0 +1,291 @@
+#include "analyzer/telemetry_codec.h"
+
+#include <cmath>
+
+namespace analyzer {
+namespace {
+
+using slamcore::InvalidArgument;
+using slamcore::Matrix3;
+using slamcore::Result;
+using slamcore::SE2;
+using slamcore::Status;
+
+Result<SE2> PoseFromProto(const fleet::v1::Pose2& pose, bool present, const std::string& field) {
+  if (!present) return InvalidArgument(field + ": missing");
+  if (!std::isfinite(pose.x()) || !std::isfinite(pose.y()) || !std::isfinite(pose.theta())) {
+    return InvalidArgument(field + ": not finite");
+  }
+  return SE2(pose.x(), pose.y(), pose.theta());
+}
+
+fleet::v1::Pose2 PoseToProto(const SE2& pose) {
+  fleet::v1::Pose2 proto;
+  proto.set_x(pose.x());
+  proto.set_y(pose.y());
+  proto.set_theta(pose.theta());
+  return proto;
+}
+
+Result<Matrix3> MatrixFromProto(const google::protobuf::RepeatedField<double>& values, const std::string& field) {
+  if (values.size() != 9) {
+    return InvalidArgument(field + ": expected 9 values, found " + std::to_string(values.size()));
+  }
+  Matrix3 matrix;
+  for (int k = 0; k < 9; ++k) matrix(k / 3, k % 3) = values[k];
+  if (const Status status = slamcore::CheckPositiveDefinite(matrix, field.c_str()); !status.ok()) return status;
+  return matrix;
+}
+
+void MatrixToProto(const Matrix3& matrix, google::protobuf::RepeatedField<double>* values) {
+  values->Clear();
+  for (int k = 0; k < 9; ++k) values->Add(matrix(k / 3, k % 3));
+}
+
+Result<slamcore::LocalMapEvent> LocalMapFromProto(const fleet::v1::LocalMap& proto, const std::string& field) {
+  constexpr int kMaxCells = 4096 * 4096;
+  if (!(proto.resolution() > 0.0) || !std::isfinite(proto.resolution())) {
+    return InvalidArgument(field + ".resolution: must be positive, found " + std::to_string(proto.resolution()));
+  }
+  if (proto.width() <= 0 || proto.height() <= 0 ||
+      static_cast<long long>(proto.width()) * proto.height() > kMaxCells) {
+    return InvalidArgument(field + ": size " + std::to_string(proto.width()) + "x" + std::to_string(proto.height()) +
+                           " is empty or larger than 4096x4096 cells");
+  }
+  const auto expected = static_cast<std::size_t>(proto.width()) * static_cast<std::size_t>(proto.height());
+  if (proto.cells().size() != expected) {
+    return InvalidArgument(field + ".cells: expected " + std::to_string(expected) + " bytes, found " +
+                           std::to_string(proto.cells().size()));
+  }
+  slamcore::LocalMapEvent patch;
+  patch.resolution = proto.resolution();
+  patch.width = proto.width();
+  patch.height = proto.height();
+  const auto origin = PoseFromProto(proto.node_t_origin(), proto.has_node_t_origin(), field + ".node_t_origin");
+  if (!origin.ok()) return origin.status();
+  patch.node_T_origin = *origin;
+  patch.cells.resize(expected);
+  for (std::size_t k = 0; k < expected; ++k) {
+    const auto cell = static_cast<std::int8_t>(proto.cells()[k]);
+    if (cell != -1 && (cell < 0 || cell > 100)) {
+      return InvalidArgument(field + ".cells[" + std::to_string(k) + "]: " + std::to_string(cell) +
+                             " is not -1 (unknown) or 0..100");
+    }
+    patch.cells[k] = cell;
+  }
+  return patch;
+}
+
+fleet::v1::LocalMap LocalMapToProto(const slamcore::LocalMapEvent& patch) {
+  fleet::v1::LocalMap proto;
+  proto.set_resolution(patch.resolution);
+  proto.set_width(patch.width);
+  proto.set_height(patch.height);
+  *proto.mutable_node_t_origin() = PoseToProto(patch.node_T_origin);
+  proto.set_cells(std::string(patch.cells.begin(), patch.cells.end()));
+  return proto;
+}
+
+}  // namespace
+
+Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::string& field) {
+  const double time = event.time();
+  if (!std::isfinite(time)) return InvalidArgument(field + ".time: not finite");
+  switch (event.kind_case()) {
+    case fleet::v1::Event::kOdometry: {
+      const auto increment =
+          PoseFromProto(event.odometry().increment(), event.odometry().has_increment(), field + ".odometry.increment");
+      if (!increment.ok()) return increment.status();
+      const auto covariance = MatrixFromProto(event.odometry().covariance(), field + ".odometry.covariance");
+      if (!covariance.ok()) return covariance.status();
+      return slamcore::Event(slamcore::OdometryEvent{.time = time, .increment = *increment, .covariance = *covariance});
+    }
+    case fleet::v1::Event::kViewCreated:
+      return slamcore::Event(slamcore::ViewCreatedEvent{.time = time, .view = event.view_created().view()});
+    case fleet::v1::Event::kViewObserved: {
+      const auto& observed = event.view_observed();
+      const auto z = PoseFromProto(observed.robot_t_view(), observed.has_robot_t_view(),
+                                   field + ".view_observed.robot_t_view");
+      if (!z.ok()) return z.status();
+      const auto covariance = MatrixFromProto(observed.covariance(), field + ".view_observed.covariance");
+      if (!covariance.ok()) return covariance.status();
+      return slamcore::Event(slamcore::ViewObservedEvent{
+          .time = time, .view = observed.view(), .robot_T_view = *z, .covariance = *covariance});
+    }
+    case fleet::v1::Event::kLocalMap: {
+      auto patch = LocalMapFromProto(event.local_map(), field + ".local_map");
+      if (!patch.ok()) return patch.status();
+      patch->time = time;
+      return slamcore::Event(std::move(patch).value());
+    }
+    case fleet::v1::Event::kKidnap: {
+      const auto cause = event.kidnap().cause() == fleet::v1::Kidnap::CAUSE_REBOOT
+                             ? slamcore::KidnapEvent::Cause::kReboot
+                             : slamcore::KidnapEvent::Cause::kKidnap;
+      return slamcore::Event(slamcore::KidnapEvent{.time = time, .cause = cause});
+    }
+    case fleet::v1::Event::kGroundTruth: {
+      const auto pose = PoseFromProto(event.ground_truth().world_t_robot(), event.ground_truth().has_world_t_robot(),
+                                      field + ".ground_truth.world_t_robot");
+      if (!pose.ok()) return pose.status();
+      return slamcore::Event(slamcore::GroundTruthEvent{.time = time, .world_T_robot = *pose});
+    }
+    case fleet::v1::Event::KIND_NOT_SET:
+      break;
+  }
+  return InvalidArgument(field + ": no event kind set");
+}
+
+fleet::v1::Event ToProto(const slamcore::Event& event) {
+  fleet::v1::Event proto;
+  std::visit(
+      [&proto](const auto& typed) {
+        using T = std::decay_t<decltype(typed)>;
+        proto.set_time(typed.time);
+        if constexpr (std::is_same_v<T, slamcore::OdometryEvent>) {
+          *proto.mutable_odometry()->mutable_increment() = PoseToProto(typed.increment);
+          MatrixToProto(typed.covariance, proto.mutable_odometry()->mutable_covariance());
+        } else if constexpr (std::is_same_v<T, slamcore::ViewCreatedEvent>) {
+          proto.mutable_view_created()->set_view(typed.view);
+        } else if constexpr (std::is_same_v<T, slamcore::ViewObservedEvent>) {
+          auto* observed = proto.mutable_view_observed();
+          observed->set_view(typed.view);
+          *observed->mutable_robot_t_view() = PoseToProto(typed.robot_T_view);
+          MatrixToProto(typed.covariance, observed->mutable_covariance());
+        } else if constexpr (std::is_same_v<T, slamcore::LocalMapEvent>) {
+          *proto.mutable_local_map() = LocalMapToProto(typed);
+        } else if constexpr (std::is_same_v<T, slamcore::KidnapEvent>) {
+          proto.mutable_kidnap()->set_cause(typed.cause == slamcore::KidnapEvent::Cause::kReboot
+                                                ? fleet::v1::Kidnap::CAUSE_REBOOT
+                                                : fleet::v1::Kidnap::CAUSE_KIDNAP);
+        } else if constexpr (std::is_same_v<T, slamcore::GroundTruthEvent>) {
+          *proto.mutable_ground_truth()->mutable_world_t_robot() = PoseToProto(typed.world_T_robot);
+        }
+      },
+      event);
+  return proto;
+}
+
+Result<std::vector<slamcore::Event>> FromProto(const google::protobuf::RepeatedPtrField<fleet::v1::Event>& events,
+                                               const std::string& field) {
+  std::vector<slamcore::Event> converted;
+  converted.reserve(static_cast<std::size_t>(events.size()));
+  for (int k = 0; k < events.size(); ++k) {
+    auto event = FromProto(events[k], field + "[" + std::to_string(k) + "]");
+    if (!event.ok()) return event.status();
+    converted.push_back(std::move(event).value());
+  }
+  return converted;
+}
+
+Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const std::string& field) {
+  if (snapshot.format_version() != kTelemetryFormatVersion && !(snapshot.format_version() == 0 && snapshot.nodes_size() == 0)) {
+    return InvalidArgument(field + ".format_version: " + std::to_string(snapshot.format_version()) +
+                           " is not supported (this program reads version " +
+                           std::to_string(kTelemetryFormatVersion) + ")");
+  }
+  slamcore::Map map;
+  for (int k = 0; k < snapshot.nodes_size(); ++k) {
+    const auto& proto = snapshot.nodes(k);
+    const std::string node_field = field + ".nodes[" + std::to_string(k) + "]";
+    const auto pose = PoseFromProto(proto.pose(), proto.has_pose(), node_field + ".pose");
+    if (!pose.ok()) return pose.status();
+    slamcore::Node node{.id = proto.id(), .pose = *pose, .time = proto.time(), .odometer = proto.odometer(),
+                        .fixed = false};
+    if (const Status status = map.graph.AddNode(node); !status.ok()) {
+      return InvalidArgument(node_field + ": " + status.message());
+    }
+  }
+  for (int k = 0; k < snapshot.views_size(); ++k) {
+    const auto& proto = snapshot.views(k);
+    const slamcore::View view{.id = proto.id(), .node = proto.node(), .ambiguous = proto.ambiguous()};
+    if (const Status status = map.graph.AddView(view); !status.ok()) {
+      return InvalidArgument(field + ".views[" + std::to_string(k) + "]: " + status.message());
+    }
+  }
+  for (int k = 0; k < snapshot.edges_size(); ++k) {
+    const auto& proto = snapshot.edges(k);
+    const std::string edge_field = field + ".edges[" + std::to_string(k) + "]";
+    const auto measurement = PoseFromProto(proto.measurement(), proto.has_measurement(), edge_field + ".measurement");
+    if (!measurement.ok()) return measurement.status();
+    const auto information = MatrixFromProto(proto.information(), edge_field + ".information");
+    if (!information.ok()) return information.status();
+    slamcore::Edge edge;
+    edge.from = proto.from();
+    edge.to = proto.to();
+    edge.measurement = *measurement;
+    edge.information = *information;
+    edge.kind = proto.kind() == fleet::v1::Edge::KIND_MOTION ? slamcore::EdgeKind::kMotion
+                                                              : slamcore::EdgeKind::kObservation;
+    if (proto.has_view()) edge.view = proto.view();
+    if (const auto added = map.graph.AddEdge(edge); !added.ok()) {
+      return InvalidArgument(edge_field + ": " + added.status().message());
+    }
+  }
+  for (int k = 0; k < snapshot.local_maps_size(); ++k) {
+    const auto& proto = snapshot.local_maps(k);
+    const std::string map_field = field + ".local_maps[" + std::to_string(k) + "]";
+    if (!map.graph.HasNode(proto.node())) {
+      return InvalidArgument(map_field + ".node: node " + std::to_string(proto.node()) + " does not exist");
+    }
+    auto patch = LocalMapFromProto(proto.local_map(), map_field + ".local_map");
+    if (!patch.ok()) return patch.status();
+    map.local_maps.insert_or_assign(proto.node(), std::move(patch).value());
+  }
+  return map;
+}
+
+fleet::v1::MapSnapshot ToProto(const slamcore::Map& map) {
+  fleet::v1::MapSnapshot snapshot;
+  snapshot.set_format_version(kTelemetryFormatVersion);
+  for (const slamcore::Node& node : map.graph.nodes()) {
+    auto* proto = snapshot.add_nodes();
+    proto->set_id(node.id);
+    *proto->mutable_pose() = PoseToProto(node.pose);
+    proto->set_time(node.time);
+    proto->set_odometer(node.odometer);
+  }
+  for (const slamcore::View& view : map.graph.views()) {
+    auto* proto = snapshot.add_views();
+    proto->set_id(view.id);
+    proto->set_node(view.node);
+    proto->set_ambiguous(view.ambiguous);
+  }
+  for (const slamcore::Edge& edge : map.graph.edges()) {
+    auto* proto = snapshot.add_edges();
+    proto->set_from(edge.from);
+    proto->set_to(edge.to);
+    *proto->mutable_measurement() = PoseToProto(edge.measurement);
+    MatrixToProto(edge.information, proto->mutable_information());
+    proto->set_kind(edge.kind == slamcore::EdgeKind::kMotion ? fleet::v1::Edge::KIND_MOTION
+                                                             : fleet::v1::Edge::KIND_OBSERVATION);
+    if (edge.view) proto->set_view(*edge.view);
+  }
+  // Local maps in node order, so equal maps serialise to equal bytes (snapshots are content-addressed).
+  for (const slamcore::Node& node : map.graph.nodes()) {
+    const auto it = map.local_maps.find(node.id);
+    if (it == map.local_maps.end()) continue;
+    auto* proto = snapshot.add_local_maps();
+    proto->set_node(node.id);
+    *proto->mutable_local_map() = LocalMapToProto(it->second);
+  }
+  return snapshot;
+}
+
+Status Validate(const fleet::v1::RunHeader& header) {
+  if (header.format_version() != kTelemetryFormatVersion) {
+    return InvalidArgument("header.format_version: " + std::to_string(header.format_version()) +
+                           " is not supported (this program reads version " + std::to_string(kTelemetryFormatVersion) +
+                           ")");
+  }
+  if (header.robot_id().empty()) return InvalidArgument("header.robot_id: missing");
+  if (header.run_id().empty()) return InvalidArgument("header.run_id: missing");
+  if (header.run_id().size() > 128) return InvalidArgument("header.run_id: longer than 128 characters");
+  if (!std::isfinite(header.started_at()) || !std::isfinite(header.ended_at())) {
+    return InvalidArgument("header.started_at/ended_at: not finite");
+  }
+  if (header.ended_at() < header.started_at()) return InvalidArgument("header.ended_at: before started_at");
+  return Status::Ok();
+}
+
+}  // namespace analyzer

@@ -1,0 +1,53 @@
+// MapperParams: every threshold of the Mapper in one place, with documented defaults and validation.
+// Section references are to the paper (docs: ../shared/docs/PAPER.md restates it).
+//
+// Thread safety: value type.
+#pragma once
+
+#include "slamcore/optimizer.h"
+#include "slamcore/status.h"
+
+namespace slamcore {
+
+/// How many observations of how many distinct views a hypothesis needs to be accepted (III-B).
+struct AcceptanceCriteria {
+  int min_observations = 3;
+  int min_views = 2;
+};
+
+struct MapperParams {
+  /// Mahalanobis gate, χ² with 3 degrees of freedom: 11.34 is the 99 % quantile. Used both for direct
+  /// observation edges against the current estimate and for joining an observation to a hypothesis.
+  double gate_chi2 = 11.34;
+
+  /// Recovery hypotheses (observations in the current component that failed the gate).
+  AcceptanceCriteria recovery{.min_observations = 3, .min_views = 2};
+  /// Merge hypotheses (observations of another component): permissive → conditional merge (IV-B) ...
+  AcceptanceCriteria merge_conditional{.min_observations = 2, .min_views = 1};
+  /// ... strict → full merge.
+  AcceptanceCriteria merge_full{.min_observations = 4, .min_views = 2};
+  /// When false, merge hypotheses go straight from nothing to a full merge under `merge_full`.
+  bool conditional_merge = true;
+
+  /// Expiry: a hypothesis with no new observation for this long (seconds) or this far (metres) is deleted.
+  double hypothesis_expiry_seconds = 120.0;
+  double hypothesis_expiry_distance = 8.0;
+
+  /// Ambiguity tracker (IV-A): observations are forgotten after the robot travelled this far (metres).
+  double ambiguity_window_distance = 4.0;
+  /// A view with at least this many rejected observations in the window is a candidate ...
+  int ambiguity_min_rejections = 2;
+  /// ... and is marked ambiguous when an accepted observation of a trusted view is also in the window.
+  /// Ambiguous views never count toward recovery acceptance; by this option not toward merges either.
+  bool discount_ambiguous_in_merge = true;
+
+  /// Optimisation after accepted edges.
+  bool optimize_after_accept = true;
+  OptimizerOptions optimizer{.max_iterations = 20, .relative_cost_decrease = 1e-6, .robust_loss = RobustLoss::kNone,
+                             .robust_loss_scale = 1.0, .component = std::nullopt, .num_threads = 1};
+
+  /// Checks every field; the message names the first bad one and its value.
+  Status Validate() const;
+};
+
+}  // namespace slamcore
