@@ -5,6 +5,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <array>
 #include <chrono>
 #include <memory>
@@ -31,6 +32,18 @@ Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix
     (*d_to)(2, 2) = 1.0;
   }
   return error;
+}
+
+Matrix3 EdgeInformationFromLeftCovariance(const SE2& measurement, const Matrix3& left_covariance) {
+  const Matrix3 adjoint = measurement.Adjoint();
+  const Matrix3 information = adjoint.transpose() * left_covariance.inverse() * adjoint;
+  return 0.5 * (information + information.transpose());
+}
+
+Matrix3 LeftCovarianceFromEdgeInformation(const SE2& measurement, const Matrix3& information) {
+  const Matrix3 adjoint = measurement.Adjoint();
+  const Matrix3 covariance = adjoint * information.inverse() * adjoint.transpose();
+  return 0.5 * (covariance + covariance.transpose());
 }
 
 namespace {
@@ -101,13 +114,33 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
   if (options.component && !graph.HasNode(*options.component)) {
     return NotFound("component " + std::to_string(*options.component) + " does not exist");
   }
+  for (const NodeId id : options.variable_nodes) {
+    if (!graph.HasNode(id)) return NotFound("variable node " + std::to_string(id) + " does not exist");
+  }
   const auto start = std::chrono::steady_clock::now();
   const std::optional<ComponentId> component =
       options.component ? std::optional(graph.ComponentOf(*options.component)) : std::nullopt;
-  auto selected = [&](NodeId id) { return !component || graph.ComponentOf(id) == *component; };
+  // Which nodes move: the listed window, or every node of the selected component(s).
+  std::vector<bool> variable(graph.num_nodes(), options.variable_nodes.empty());
+  if (!options.variable_nodes.empty()) {
+    for (const NodeId id : options.variable_nodes) variable[graph.IndexOf(id)] = true;
+  } else if (component) {
+    for (std::size_t i = 0; i < graph.num_nodes(); ++i) {
+      variable[i] = graph.ComponentOf(graph.nodes()[i].id) == *component;
+    }
+  }
+  std::vector<const Edge*> included;
+  for (const Edge& edge : graph.edges()) {
+    if (variable[graph.IndexOf(edge.from)] || variable[graph.IndexOf(edge.to)]) included.push_back(&edge);
+  }
+  auto included_chi2 = [&] {
+    double chi2 = 0.0;
+    for (const Edge* edge : included) chi2 += EdgeChi2(graph, *edge);
+    return chi2;
+  };
 
   OptimizerSummary summary;
-  summary.initial_chi2 = Chi2(graph, component);
+  summary.initial_chi2 = included_chi2();
   if (options.linear_initialization) SLAMCORE_RETURN_IF_ERROR(InitializeLinear(graph, component));
 
   // Parameter blocks: plain (x, y, θ) per node, θ kept wrapped by the residual, not by a manifold.
@@ -127,11 +160,10 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
   if (options.robust_loss == RobustLoss::kCauchy) {
     loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_scale);
   }
-  for (const Edge& edge : graph.edges()) {
-    if (!selected(edge.from)) continue;
-    problem.AddResidualBlock(new EdgeCost(edge.measurement, SqrtInformation(edge.information)), loss.get(),
-                             parameters[graph.IndexOf(edge.from)].data(),
-                             parameters[graph.IndexOf(edge.to)].data());
+  for (const Edge* edge : included) {
+    problem.AddResidualBlock(new EdgeCost(edge->measurement, SqrtInformation(edge->information)), loss.get(),
+                             parameters[graph.IndexOf(edge->from)].data(),
+                             parameters[graph.IndexOf(edge->to)].data());
   }
   if (problem.NumResidualBlocks() == 0) {
     summary.final_chi2 = summary.initial_chi2;
@@ -140,16 +172,21 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
     return summary;
   }
 
-  // Gauge: fixed nodes, or else the first node of each component that has none.
+  // Gauge: nodes outside a window are held where they are, and so are fixed nodes; a component with
+  // neither gets its first node held.
   std::unordered_set<ComponentId> anchored;
   for (const Node& node : graph.nodes()) {
-    if (node.fixed && selected(node.id)) anchored.insert(graph.ComponentOf(node.id));
+    const std::size_t index = graph.IndexOf(node.id);
+    if (!problem.HasParameterBlock(parameters[index].data())) continue;
+    if (node.fixed || !variable[index]) anchored.insert(graph.ComponentOf(node.id));
   }
   for (const Node& node : graph.nodes()) {
-    double* block = parameters[graph.IndexOf(node.id)].data();
-    if (!selected(node.id) || !problem.HasParameterBlock(block)) continue;
-    const ComponentId node_component = graph.ComponentOf(node.id);
-    if (node.fixed || anchored.insert(node_component).second) problem.SetParameterBlockConstant(block);
+    const std::size_t index = graph.IndexOf(node.id);
+    double* block = parameters[index].data();
+    if (!problem.HasParameterBlock(block)) continue;
+    if (node.fixed || !variable[index] || anchored.insert(graph.ComponentOf(node.id)).second) {
+      problem.SetParameterBlockConstant(block);
+    }
   }
 
   ceres::Solver::Options solver_options;
@@ -169,9 +206,9 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
 
   for (std::size_t i = 0; i < graph.num_nodes(); ++i) {
     Node& node = graph.mutable_nodes()[i];
-    if (selected(node.id)) node.pose = SE2(parameters[i][0], parameters[i][1], parameters[i][2]);
+    if (variable[i] && !node.fixed) node.pose = SE2(parameters[i][0], parameters[i][1], parameters[i][2]);
   }
-  summary.final_chi2 = Chi2(graph, component);
+  summary.final_chi2 = included_chi2();
   summary.iterations = ceres_summary.num_successful_steps + ceres_summary.num_unsuccessful_steps;
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
   summary.message = ceres_summary.message;

@@ -1,6 +1,8 @@
 // slamtool: offline operations of the shared SLAM core on files.
 //
 //   slamtool optimize FILE [--out FILE.g2o] [--json] [--init linear|warm] [--robust-loss none|huber|cauchy]
+//   slamtool replay-g2o FILE [--params FILE] [--json]
+//   slamtool corrupt-g2o FILE --out FILE [--count N] [--mode random|local] [--group G] [--seed S]
 //
 // Exit status: 0 on success, 1 when the input is refused (the message names file, line and reason),
 // 2 on a usage error.
@@ -11,7 +13,10 @@
 #include <iostream>
 #include <string>
 
+#include "mapper_params_file.h"
+#include "slamcore/g2o_replay.h"
 #include "slamcore/graph_io.h"
+#include "slamcore/loop_closure_outliers.h"
 #include "slamcore/optimizer.h"
 
 namespace {
@@ -65,6 +70,83 @@ int RunOptimize(const OptimizeArguments& arguments) {
   return 0;
 }
 
+struct ReplayArguments {
+  std::string input;
+  std::string params_file;
+  bool json = false;
+};
+
+nlohmann::json PairsToJson(const std::vector<slamcore::VertexPair>& pairs) {
+  nlohmann::json array = nlohmann::json::array();
+  for (const auto& [from, to] : pairs) array.push_back({from, to});
+  return array;
+}
+
+int RunReplay(const ReplayArguments& arguments) {
+  const auto graph = slamcore::ReadPoseGraph(arguments.input);
+  if (!graph.ok()) return Fail(graph.status());
+  slamcore::MapperParams params;
+  if (!arguments.params_file.empty()) {
+    const auto loaded = slamtool::ReadMapperParams(arguments.params_file);
+    if (!loaded.ok()) return Fail(loaded.status());
+    params = *loaded;
+  }
+  const auto result = slamcore::ReplayPoseGraph(*graph, params);
+  if (!result.ok()) return Fail(result.status());
+  const slamcore::MapperStatistics& stats = result->statistics;
+  if (arguments.json) {
+    const nlohmann::json report = {
+        {"file", arguments.input},
+        {"accepted", PairsToJson(result->accepted)},
+        {"rejected", PairsToJson(result->rejected)},
+        {"final_chi2", result->final_chi2},
+        {"seconds", result->seconds},
+        {"direct_edges", stats.direct_edges},
+        {"recovery_hypotheses", stats.recovery_created},
+        {"recovery_accepted", stats.recovery_accepted},
+        {"views_marked_ambiguous", stats.views_marked_ambiguous},
+    };
+    std::cout << report.dump() << "\n";
+  } else {
+    std::printf("%s: %zu loop closures accepted, %zu rejected\n", arguments.input.c_str(), result->accepted.size(),
+                result->rejected.size());
+    std::printf("direct edges %d, recovery hypotheses %d (accepted %d, expired %d, rejected %d), ambiguous views %d\n",
+                stats.direct_edges, stats.recovery_created, stats.recovery_accepted, stats.recovery_expired,
+                stats.recovery_rejected, stats.views_marked_ambiguous);
+    std::printf("final chi2 %.6g, %.3f s\n", result->final_chi2, result->seconds);
+  }
+  return 0;
+}
+
+struct CorruptArguments {
+  std::string input;
+  std::string output;
+  std::string mode = "random";
+  int count = 100;
+  int group = 1;
+  std::uint64_t seed = 1;
+};
+
+int RunCorrupt(const CorruptArguments& arguments) {
+  const auto graph = slamcore::ReadPoseGraph(arguments.input);
+  if (!graph.ok()) return Fail(graph.status());
+  slamcore::OutlierOptions options;
+  options.mode = arguments.mode == "local" ? slamcore::OutlierOptions::Mode::kLocal
+                                           : slamcore::OutlierOptions::Mode::kRandom;
+  options.count = arguments.count;
+  options.group_size = arguments.group;
+  options.seed = arguments.seed;
+  const auto corrupted = slamcore::AddLoopClosureOutliers(*graph, options);
+  if (!corrupted.ok()) return Fail(corrupted.status());
+  if (const auto status = slamcore::WritePoseGraph(corrupted->graph, arguments.output, slamcore::GraphFormat::kG2o);
+      !status.ok()) {
+    return Fail(status);
+  }
+  std::printf("%zu wrong loop closures appended; written to %s\n", corrupted->outliers.size(),
+              arguments.output.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -85,7 +167,27 @@ int main(int argc, char** argv) {
                    "linear: start from the linear (LAGO) estimate; warm: from the poses in the file")
       ->check(CLI::IsMember({"linear", "warm"}));
 
+  ReplayArguments replay;
+  CLI::App* replay_command =
+      app.add_subcommand("replay-g2o", "replay a g2o graph through the Mapper online, as a robot would see it");
+  replay_command->add_option("FILE", replay.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
+  replay_command->add_option("--params", replay.params_file, "Mapper parameters (key = value lines)")
+      ->check(CLI::ExistingFile);
+  replay_command->add_flag("--json", replay.json, "print one JSON object on stdout");
+
+  CorruptArguments corrupt;
+  CLI::App* corrupt_command =
+      app.add_subcommand("corrupt-g2o", "append seeded wrong loop closures (Vertigo protocol)");
+  corrupt_command->add_option("FILE", corrupt.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
+  corrupt_command->add_option("--out", corrupt.output, "output g2o file")->required();
+  corrupt_command->add_option("--count", corrupt.count, "outlier groups")->check(CLI::NonNegativeNumber);
+  corrupt_command->add_option("--group", corrupt.group, "consecutive pairs per group")->check(CLI::PositiveNumber);
+  corrupt_command->add_option("--mode", corrupt.mode, "random or local")->check(CLI::IsMember({"random", "local"}));
+  corrupt_command->add_option("--seed", corrupt.seed, "random seed");
+
   CLI11_PARSE(app, argc, argv);
   if (optimize_command->parsed()) return RunOptimize(optimize);
+  if (replay_command->parsed()) return RunReplay(replay);
+  if (corrupt_command->parsed()) return RunCorrupt(corrupt);
   return 2;
 }

@@ -5,7 +5,8 @@
 // from it.
 //
 // Error contract: Process() validates the event fully before changing anything. On error (unknown view,
-// NaN/inf, covariance not positive definite, time going backwards, an event before the first node …) it
+// NaN/inf, covariance not positive definite, time going backwards, an event before the first node or
+// between a KidnapEvent and the next OdometryEvent …) it
 // returns a Status naming the event and leaves the Mapper exactly as it was.
 //
 // Thread safety: not thread-safe; one Mapper per run, used from one thread.

@@ -15,6 +15,13 @@ struct AcceptanceCriteria {
   int min_views = 2;
 };
 
+/// The Mapper optimises often and from a warm start: a few iterations suffice.
+inline OptimizerOptions DefaultOptimizerOptions() {
+  OptimizerOptions options;
+  options.max_iterations = 20;
+  return options;
+}
+
 struct MapperParams {
   /// Mahalanobis gate, χ² with 3 degrees of freedom: 11.34 is the 99 % quantile. Used both for direct
   /// observation edges against the current estimate and for joining an observation to a hypothesis.
@@ -41,10 +48,13 @@ struct MapperParams {
   /// Ambiguous views never count toward recovery acceptance; by this option not toward merges either.
   bool discount_ambiguous_in_merge = true;
 
-  /// Optimisation after accepted edges.
+  /// Optimisation after accepted edges. A direct edge re-optimises the robot's last `local_window_nodes`
+  /// nodes (older ones held), and every `full_optimization_every`-th direct edge the whole component; an
+  /// accepted hypothesis always re-optimises the whole component.
   bool optimize_after_accept = true;
-  OptimizerOptions optimizer{.max_iterations = 20, .relative_cost_decrease = 1e-6, .robust_loss = RobustLoss::kNone,
-                             .robust_loss_scale = 1.0, .component = std::nullopt, .num_threads = 1};
+  int local_window_nodes = 30;
+  int full_optimization_every = 25;
+  OptimizerOptions optimizer = DefaultOptimizerOptions();
 
   /// Checks every field; the message names the first bad one and its value.
   Status Validate() const;

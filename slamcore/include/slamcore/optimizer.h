@@ -14,6 +14,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "slamcore/pose_graph.h"
 
@@ -30,6 +31,9 @@ struct OptimizerOptions {
   double robust_loss_scale = 1.0;
   /// When set, only this component is optimised; otherwise every component is.
   std::optional<ComponentId> component;
+  /// When non-empty, only these nodes move (a local window): the edges touching them are optimised and
+  /// their other ends are held where they are. `component` is then ignored.
+  std::vector<NodeId> variable_nodes;
   /// Threads for residual evaluation and the linear solver.
   int num_threads = 1;
   /// Start from the linear estimate of linear_initialization.h instead of the current poses (which is
@@ -49,13 +53,19 @@ struct OptimizerSummary {
   std::string message;     // Ceres' reason for stopping
 };
 
-/// Optimises the poses of `graph` in place.
+/// Optimises the poses of `graph` in place. χ² figures in the summary cover the optimised edges.
 Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& options = {});
 
 /// The error e of one edge (see the top of this file), with optional Jacobians with respect to the plain
 /// (x, y, θ) parameters of the two poses.
 Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix3* d_from = nullptr,
                   Matrix3* d_to = nullptr);
+
+/// The information matrix of an edge z = from_T_to over the error above, from a covariance of left
+/// perturbations of z (the convention of events.h): z·exp(e) = exp(Adj_z e)·z, so Σ_e = Adj_z⁻¹ Σ Adj_z⁻ᵀ.
+Matrix3 EdgeInformationFromLeftCovariance(const SE2& measurement, const Matrix3& left_covariance);
+/// The inverse translation: the left-perturbation covariance of z from an edge's information.
+Matrix3 LeftCovarianceFromEdgeInformation(const SE2& measurement, const Matrix3& information);
 
 /// χ² = Σ eᵀ Ω e over all edges, or over the edges of one component.
 double Chi2(const PoseGraph& graph, std::optional<ComponentId> component = std::nullopt);

@@ -1,0 +1,26 @@
+// Mapper parameter sets on the wire (fleet.v1.ParameterSet) and in JSON files, translated to slamcore's
+// MapperParams. Unset fields keep slamcore's documented defaults; unknown JSON keys and invalid values are
+// refused with a message naming the field.
+//
+// Thread safety: free functions without shared state.
+#pragma once
+
+#include <string>
+
+#include "fleet/v1/report.pb.h"
+#include "slamcore/mapper_params.h"
+
+namespace analyzer {
+
+/// The defaults of slamcore, as a proto with every field set.
+fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params);
+
+/// Unset fields keep slamcore's defaults: a parameter set names only what it changes.
+slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParameters& proto);
+
+/// Parses a JSON parameter set, e.g. {"name": "strict", "mapper": {"gate_chi2": 9.0}}, or a bare
+/// MapperParameters object ({"gate_chi2": 9.0}); `source` prefixes errors.
+slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json, const std::string& source);
+slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string& path);
+
+}  // namespace analyzer

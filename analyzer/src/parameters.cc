@@ -1,0 +1,87 @@
+#include "analyzer/parameters.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <fstream>
+#include <sstream>
+
+namespace analyzer {
+
+fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
+  fleet::v1::MapperParameters proto;
+  proto.set_gate_chi2(params.gate_chi2);
+  auto criteria = [](const slamcore::AcceptanceCriteria& from, fleet::v1::AcceptanceCriteria* to) {
+    to->set_min_observations(from.min_observations);
+    to->set_min_views(from.min_views);
+  };
+  criteria(params.recovery, proto.mutable_recovery());
+  criteria(params.merge_conditional, proto.mutable_merge_conditional());
+  criteria(params.merge_full, proto.mutable_merge_full());
+  proto.set_conditional_merge(params.conditional_merge);
+  proto.set_hypothesis_expiry_seconds(params.hypothesis_expiry_seconds);
+  proto.set_hypothesis_expiry_distance(params.hypothesis_expiry_distance);
+  proto.set_ambiguity_window_distance(params.ambiguity_window_distance);
+  proto.set_ambiguity_min_rejections(params.ambiguity_min_rejections);
+  proto.set_discount_ambiguous_in_merge(params.discount_ambiguous_in_merge);
+  proto.set_optimize_after_accept(params.optimize_after_accept);
+  proto.set_local_window_nodes(params.local_window_nodes);
+  proto.set_full_optimization_every(params.full_optimization_every);
+  return proto;
+}
+
+slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParameters& proto) {
+  slamcore::MapperParams params;
+  if (proto.has_gate_chi2()) params.gate_chi2 = proto.gate_chi2();
+  auto criteria = [](const fleet::v1::AcceptanceCriteria& from, slamcore::AcceptanceCriteria* to) {
+    if (from.has_min_observations()) to->min_observations = from.min_observations();
+    if (from.has_min_views()) to->min_views = from.min_views();
+  };
+  criteria(proto.recovery(), &params.recovery);
+  criteria(proto.merge_conditional(), &params.merge_conditional);
+  criteria(proto.merge_full(), &params.merge_full);
+  if (proto.has_conditional_merge()) params.conditional_merge = proto.conditional_merge();
+  if (proto.has_hypothesis_expiry_seconds()) params.hypothesis_expiry_seconds = proto.hypothesis_expiry_seconds();
+  if (proto.has_hypothesis_expiry_distance()) params.hypothesis_expiry_distance = proto.hypothesis_expiry_distance();
+  if (proto.has_ambiguity_window_distance()) params.ambiguity_window_distance = proto.ambiguity_window_distance();
+  if (proto.has_ambiguity_min_rejections()) params.ambiguity_min_rejections = proto.ambiguity_min_rejections();
+  if (proto.has_discount_ambiguous_in_merge()) {
+    params.discount_ambiguous_in_merge = proto.discount_ambiguous_in_merge();
+  }
+  if (proto.has_optimize_after_accept()) params.optimize_after_accept = proto.optimize_after_accept();
+  if (proto.has_local_window_nodes()) params.local_window_nodes = proto.local_window_nodes();
+  if (proto.has_full_optimization_every()) params.full_optimization_every = proto.full_optimization_every();
+  if (const slamcore::Status status = params.Validate(); !status.ok()) return status;
+  return params;
+}
+
+slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json, const std::string& source) {
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;
+  fleet::v1::ParameterSet set;
+  if (google::protobuf::util::JsonStringToMessage(json, &set, options).ok() && set.has_mapper()) {
+    if (const auto params = FromProto(set.mapper()); !params.ok()) {
+      return slamcore::InvalidArgument(source + ": " + params.status().message());
+    }
+    return set;
+  }
+  fleet::v1::MapperParameters bare;
+  const auto status = google::protobuf::util::JsonStringToMessage(json, &bare, options);
+  if (!status.ok()) {
+    return slamcore::InvalidArgument(source + ": " + std::string(status.message()));
+  }
+  if (const auto params = FromProto(bare); !params.ok()) {
+    return slamcore::InvalidArgument(source + ": " + params.status().message());
+  }
+  *set.mutable_mapper() = bare;
+  return set;
+}
+
+slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string& path) {
+  std::ifstream input(path);
+  if (!input) return slamcore::NotFound(path + ": cannot open file");
+  std::ostringstream text;
+  text << input.rdbuf();
+  return ParseParameterSetJson(text.str(), path);
+}
+
+}  // namespace analyzer

@@ -1,0 +1,64 @@
+// fleetsim: simulates a fleet of robots in real homes and prints the fleet statistics.
+//
+//   fleetsim --world DIR --robots N --runs M --seed S [--out DIR] [--minutes T] [--threads K] [--json]
+//
+// DIR holds floor plans (.txt) and/or map_server maps (.yaml); a single file works too. With --out, each
+// run's telemetry is written as OUT/<robot>/<run_id>.runpb (fleet.v1.RunFile). With --json, the last line of
+// stdout is one JSON object. Progress goes to stderr.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <iostream>
+
+#include "sim/fleet.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"fleetsim: a simulated fleet of real homes and robots, with ground truth"};
+  std::string world;
+  sim::FleetOptions options;
+  std::string out;
+  bool json = false;
+  app.add_option("--world", world, "directory of floor plans (.txt) and maps (.yaml), or one such file")
+      ->required();
+  app.add_option("--robots", options.robots, "robots")->check(CLI::Range(1, 100000));
+  app.add_option("--runs", options.runs, "runs per robot")->check(CLI::Range(1, 100000));
+  app.add_option("--seed", options.seed, "seed: the same seed gives the same fleet");
+  app.add_option("--out", out, "write each run's telemetry here");
+  app.add_option("--minutes", options.params.run_minutes, "simulated minutes per run")->check(CLI::PositiveNumber);
+  app.add_option("--threads", options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_flag("--json", json, "print the statistics as one JSON object on the last line");
+  CLI11_PARSE(app, argc, argv);
+
+  if (std::filesystem::is_directory(world)) {
+    auto worlds = sim::ListWorlds(world);
+    if (!worlds.ok()) {
+      std::cerr << "fleetsim: " << worlds.status().ToString() << "\n";
+      return 1;
+    }
+    options.worlds = std::move(worlds).value();
+  } else {
+    options.worlds = {world};
+  }
+  options.out = out;
+  const bool interactive = isatty(fileno(stderr));
+  const auto statistics = sim::SimulateFleet(options, [interactive](int done, int total) {
+    if (interactive) {
+      const int width = 40, filled = width * done / total;
+      std::fprintf(stderr, "\r[%.*s%*s] %d/%d runs", filled, "########################################",
+                   width - filled, "", done, total);
+      if (done == total) std::fprintf(stderr, "\n");
+    } else if (done == total || done % std::max(1, total / 10) == 0) {
+      std::fprintf(stderr, "fleetsim: %d/%d runs\n", done, total);
+    }
+  });
+  if (!statistics.ok()) {
+    std::cerr << "fleetsim: " << statistics.status().ToString() << "\n";
+    return 1;
+  }
+  if (json) {
+    std::cout << statistics->ToJson() << "\n";
+  } else {
+    std::cout << statistics->ToText();
+  }
+  return 0;
+}

@@ -1,0 +1,54 @@
+// One simulated robot run: physics (motion, collisions, slip, kidnaps), the odometry and camera front-end
+// a real robot reports, local occupancy patches, and the robot's own back-end (slamcore's Mapper) running
+// on board. The failure modes of the paper arise from this physics — a symmetric object seen from the
+// other side, look-alike fixtures, wheels turning while stuck — and are never painted into the telemetry;
+// ground truth is recorded beside it, in clearly marked fields.
+//
+// Thread safety: a RobotSimulator is used from one thread; different robots run on different threads.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "fleet/v1/telemetry.pb.h"
+#include "sim/sim_params.h"
+#include "sim/world.h"
+#include "slamcore/mapper.h"
+
+namespace sim {
+
+/// What one run produced, beside the telemetry.
+struct RunOutcome {
+  fleet::v1::RunFile run;                 // header, events (with ground truth), parent and child snapshots
+  slamcore::MapperStatistics statistics;  // the robot's own decisions
+  bool started_localized = false;         // joined the parent map within the first minute
+  bool had_parent = false;
+  int kidnaps = 0, reboots = 0, slip_episodes = 0;
+  int wrong_observations = 0, observations = 0;
+  std::size_t views_total = 0, views_ambiguous = 0;  // in the child map
+  double simulated_seconds = 0.0;
+};
+
+/// A robot living in one home across runs: its map, its front-end's view database and its odometry
+/// bias persist from run to run (the child map of run k is the parent map of run k+1).
+class RobotSimulator {
+ public:
+  RobotSimulator(const World& world, const SimParams& params, std::string robot_id, std::string firmware,
+                 std::uint64_t seed);
+  ~RobotSimulator();
+
+  /// Simulates the next run; `started_at` is its Unix start time.
+  slamcore::Result<RunOutcome> SimulateRun(const std::string& run_id, double started_at);
+
+  /// The robot's persistent state (map, view database, odometry bias); defined in the .cc.
+  struct State;
+
+ private:
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace sim

@@ -1,0 +1,102 @@
+// A simulated home: an occupancy raster of walls, furniture and floor, rooms, and visual landmarks.
+//
+// Homes come from real data (see docs/fleetsim.md):
+//  * apartment floor plans (vector walls, doors, rooms, fixtures; FloorplanTransformation annotations),
+//    scaled at kFloorPlanMetresPerPixel; doors are carved out of the walls, fixtures become obstacles;
+//  * occupancy maps of real homes mapped by robot vacuums (ROS map_server PGM + YAML).
+// Furniture is then placed per room (beds in bedrooms, tables in living rooms and kitchens), and
+// landmarks are put where a camera finds texture: pictures on walls (unique), fixtures (look-alike: every
+// washing basin looks the same), and furniture, of which beds, tables and ceiling lamps are symmetric —
+// seen from the opposite side they match with a 180°-wrong relative pose (paper IV-A).
+//
+// Thread safety: a World is immutable after loading; concurrent reads are safe.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "slamcore/se2.h"
+#include "slamcore/status.h"
+
+namespace sim {
+
+using slamcore::SE2;
+using slamcore::Vector2;
+
+/// Metres per pixel of the floor-plan annotations, which carry no scale: the median door (49 px) is then
+/// 0.78 m, the mean toilet 0.75 m long and the mean bathtub 1.22 m, as in real apartments.
+inline constexpr double kFloorPlanMetresPerPixel = 0.016;
+
+enum class Cell : std::uint8_t { kFree = 0, kOccupied = 1, kUnknown = 2 };
+
+class Grid {
+ public:
+  Grid() = default;
+  Grid(int width, int height, double resolution, Vector2 origin, Cell fill);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double resolution() const { return resolution_; }
+  /// World coordinates of the corner of cell (0, 0); cell (i, j) covers x ∈ origin.x + [i, i+1)·resolution.
+  const Vector2& origin() const { return origin_; }
+
+  bool Contains(int i, int j) const { return i >= 0 && j >= 0 && i < width_ && j < height_; }
+  Cell at(int i, int j) const { return Contains(i, j) ? cells_[Index(i, j)] : Cell::kUnknown; }
+  void set(int i, int j, Cell cell) {
+    if (Contains(i, j)) cells_[Index(i, j)] = cell;
+  }
+  Cell AtPoint(const Vector2& point) const;
+  std::pair<int, int> CellOf(const Vector2& point) const;
+  Vector2 CentreOf(int i, int j) const;
+
+  /// True when a disc of `radius` at `point` touches no occupied or unknown cell.
+  bool DiscIsFree(const Vector2& point, double radius) const;
+  /// Distance along the ray to the first occupied or unknown cell, capped at max_range.
+  double CastRay(const Vector2& from, double angle, double max_range) const;
+  /// True when the straight segment crosses no occupied cell.
+  bool LineOfSight(const Vector2& from, const Vector2& to) const;
+
+ private:
+  std::size_t Index(int i, int j) const { return static_cast<std::size_t>(j) * width_ + i; }
+  int width_ = 0, height_ = 0;
+  double resolution_ = 0.05;
+  Vector2 origin_ = Vector2::Zero();
+  std::vector<Cell> cells_;
+};
+
+struct Landmark {
+  int id = 0;
+  int appearance = 0;     // landmarks with equal appearance look alike to the front-end
+  SE2 pose;               // world pose; x axis points where the textured face looks
+  bool symmetric = false; // looks the same from the opposite side (beds, tables, lamps)
+  std::string kind;       // "picture", "washing_basin", "bed", …
+  int room = -1;
+};
+
+struct Room {
+  std::string label;     // "bedroom", "kitchen", … or "room" for maps without labels
+  Vector2 seed;          // a free point inside
+};
+
+struct World {
+  std::string name;
+  Grid grid;
+  std::vector<Room> rooms;
+  std::vector<Landmark> landmarks;
+  SE2 dock;  // where runs start: a free spot by a wall, facing into the room
+
+  /// Free cells (centres) a robot of `radius` fits on, for placing the robot and kidnaps.
+  std::vector<Vector2> FreeSpots(double radius, std::size_t max_count, std::mt19937_64& random) const;
+};
+
+/// Loads one home file: a floor-plan annotation (.txt) or a map_server YAML (.yaml). Furniture and
+/// landmarks are placed with `seed`, so the same file and seed give the same home.
+slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed);
+
+/// Every home file in a directory (either kind), sorted by name; fails when there is none.
+slamcore::Result<std::vector<std::filesystem::path>> ListWorlds(const std::filesystem::path& directory);
+
+}  // namespace sim

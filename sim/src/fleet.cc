@@ -1,0 +1,171 @@
+#include "sim/fleet.h"
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+namespace sim {
+
+void FleetStatistics::Add(const RunOutcome& outcome) {
+  const slamcore::MapperStatistics& stats = outcome.statistics;
+  ++runs;
+  if (outcome.had_parent) ++runs_with_parent;
+  if (outcome.started_localized) ++runs_started_localized;
+  if (stats.recovery_created > 0) ++runs_with_recovery;
+  recovery_created += stats.recovery_created;
+  recovery_accepted += stats.recovery_accepted;
+  merge_created += stats.merge_created;
+  merge_conditionally_accepted += stats.merge_conditionally_accepted;
+  merge_conditional_then_rejected += stats.merge_conditional_then_rejected;
+  merge_accepted += stats.merge_accepted;
+  if (outcome.views_total > 0) {
+    ++maps_with_views;
+    if (outcome.views_ambiguous > 0) {
+      ++maps_with_ambiguous_views;
+      ambiguous_view_share_sum += static_cast<double>(outcome.views_ambiguous) / static_cast<double>(outcome.views_total);
+    }
+  }
+  observations += outcome.observations;
+  wrong_observations += outcome.wrong_observations;
+  kidnaps += outcome.kidnaps;
+  reboots += outcome.reboots;
+  slip_episodes += outcome.slip_episodes;
+  simulated_hours += outcome.simulated_seconds / 3600.0;
+}
+
+namespace {
+
+double Share(double part, double whole) { return whole > 0 ? part / whole : 0.0; }
+
+}  // namespace
+
+std::string FleetStatistics::ToText() const {
+  char text[2048];
+  std::snprintf(
+      text, sizeof text,
+      "runs                                   %d (%.1f simulated hours, %.1f s wall)\n"
+      "runs on an existing map                %d, started localized %.1f %%   (paper: 43.2 %%)\n"
+      "runs with a recovery hypothesis        %.1f %%   (paper: most runs)\n"
+      "recovery hypotheses per run            %.2f, accepted %.1f %%   (paper: 1.1 %%)\n"
+      "merge hypotheses                       %ld, conditionally accepted then rejected %.1f %%   (paper: 18.6 %%)\n"
+      "maps with ambiguous views              %.1f %%   (paper: 90.7 %%)\n"
+      "ambiguous share of views in those maps %.1f %%   (paper: 15-18 %%)\n"
+      "wrong observations from the front-end  %.1f %% of %ld\n"
+      "kidnaps %d, reboots %d, slip episodes %d\n",
+      runs, simulated_hours, wall_seconds, runs_with_parent, 100 * Share(runs_started_localized, runs_with_parent),
+      100 * Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
+      100 * Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), merge_created,
+      100 * Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)),
+      100 * Share(maps_with_ambiguous_views, maps_with_views),
+      100 * Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
+      100 * Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), observations, kidnaps,
+      reboots, slip_episodes);
+  return text;
+}
+
+std::string FleetStatistics::ToJson() const {
+  char text[2048];
+  std::snprintf(
+      text, sizeof text,
+      "{\"runs\":%d,\"simulated_hours\":%.3f,\"wall_seconds\":%.3f,\"runs_with_parent\":%d,"
+      "\"started_localized_share\":%.4f,\"runs_with_recovery_share\":%.4f,\"recovery_per_run\":%.4f,"
+      "\"recovery_accepted_share\":%.4f,\"merge_created\":%ld,\"merge_conditionally_accepted\":%ld,"
+      "\"merge_conditional_then_rejected_share\":%.4f,\"merge_accepted\":%ld,"
+      "\"maps_with_ambiguous_views_share\":%.4f,\"ambiguous_view_share\":%.4f,\"observations\":%ld,"
+      "\"wrong_observation_share\":%.4f,\"kidnaps\":%d,\"reboots\":%d,\"slip_episodes\":%d}",
+      runs, simulated_hours, wall_seconds, runs_with_parent, Share(runs_started_localized, runs_with_parent),
+      Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
+      Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), merge_created,
+      merge_conditionally_accepted,
+      Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)), merge_accepted,
+      Share(maps_with_ambiguous_views, maps_with_views), Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
+      observations, Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), kidnaps,
+      reboots, slip_episodes);
+  return text;
+}
+
+slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
+                                                const std::function<void(int, int)>& progress) {
+  if (options.worlds.empty()) return slamcore::InvalidArgument("no worlds to simulate");
+  if (options.robots < 1 || options.runs < 1) return slamcore::InvalidArgument("robots and runs must be at least 1");
+  SLAMCORE_RETURN_IF_ERROR(options.params.Validate());
+  const auto start = std::chrono::steady_clock::now();
+
+  // Load each home once; robots share it read-only.
+  std::map<std::size_t, World> worlds;
+  for (int robot = 0; robot < options.robots; ++robot) {
+    const std::size_t index = static_cast<std::size_t>(robot) % options.worlds.size();
+    if (worlds.contains(index)) continue;
+    auto world = LoadWorld(options.worlds[index], options.seed * 1000003ULL + index);
+    if (!world.ok()) return world.status();
+    worlds.emplace(index, std::move(world).value());
+  }
+
+  const int total = options.robots * options.runs;
+  std::vector<std::vector<RunOutcome>> outcomes(static_cast<std::size_t>(options.robots));
+  std::atomic<int> next_robot{0}, done{0};
+  std::mutex mutex;  // guards first_error and progress calls
+  slamcore::Status first_error;
+  auto work = [&] {
+    for (int robot = next_robot++; robot < options.robots; robot = next_robot++) {
+      const World& world = worlds.at(static_cast<std::size_t>(robot) % options.worlds.size());
+      char robot_id[32];
+      std::snprintf(robot_id, sizeof robot_id, "robot-%04d", robot);
+      const std::string firmware = robot % 2 == 0 ? "1.4.2" : "1.5.0";
+      RobotSimulator simulator(world, options.params, robot_id, firmware,
+                               options.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(robot));
+      for (int run = 0; run < options.runs; ++run) {
+        char run_id[64];
+        std::snprintf(run_id, sizeof run_id, "%s-s%llu-run%04d", robot_id,
+                      static_cast<unsigned long long>(options.seed), run);
+        auto outcome = simulator.SimulateRun(run_id, options.first_start + 86400.0 * run + 60.0 * robot);
+        if (!outcome.ok()) {
+          std::lock_guard lock(mutex);
+          if (first_error.ok()) first_error = outcome.status();
+          return;
+        }
+        if (!options.out.empty()) {
+          const std::filesystem::path directory = options.out / robot_id;
+          std::filesystem::create_directories(directory);
+          const std::filesystem::path file = directory / (std::string(run_id) + ".runpb");
+          std::ofstream output(file.string() + ".tmp", std::ios::binary | std::ios::trunc);
+          if (!outcome->run.SerializeToOstream(&output)) {
+            std::lock_guard lock(mutex);
+            if (first_error.ok()) first_error = slamcore::DataLoss(file.string() + ": write failed");
+            return;
+          }
+          output.close();
+          std::filesystem::rename(file.string() + ".tmp", file);
+        }
+        outcome->run.Clear();  // the statistics need no telemetry
+        outcomes[static_cast<std::size_t>(robot)].push_back(std::move(outcome).value());
+        const int finished = ++done;
+        if (progress) {
+          std::lock_guard lock(mutex);
+          progress(finished, total);
+        }
+      }
+    }
+  };
+  const int threads = options.threads > 0 ? options.threads
+                                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (int t = 0; t < std::min(threads, options.robots); ++t) pool.emplace_back(work);
+  for (std::thread& thread : pool) thread.join();
+  if (!first_error.ok()) return first_error;
+
+  // Aggregate in robot order, so the figures do not depend on thread timing.
+  FleetStatistics statistics;
+  for (const auto& robot_outcomes : outcomes) {
+    for (const RunOutcome& outcome : robot_outcomes) statistics.Add(outcome);
+  }
+  statistics.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return statistics;
+}
+
+}  // namespace sim

@@ -1,0 +1,51 @@
+#include "sim/sim_params.h"
+
+#include <cmath>
+#include <string>
+
+namespace sim {
+
+slamcore::Status SimParams::Validate() const {
+  auto positive = [](double value, const char* name) -> slamcore::Status {
+    if (!(value > 0.0) || !std::isfinite(value)) {
+      return slamcore::InvalidArgument(std::string(name) + " must be positive, found " + std::to_string(value));
+    }
+    return slamcore::Status::Ok();
+  };
+  auto probability = [](double value, const char* name) -> slamcore::Status {
+    if (!(value >= 0.0 && value <= 1.0)) {
+      return slamcore::InvalidArgument(std::string(name) + " must be in [0, 1], found " + std::to_string(value));
+    }
+    return slamcore::Status::Ok();
+  };
+  SLAMCORE_RETURN_IF_ERROR(positive(run_minutes, "run_minutes"));
+  SLAMCORE_RETURN_IF_ERROR(positive(step_seconds, "step_seconds"));
+  SLAMCORE_RETURN_IF_ERROR(positive(robot_radius, "robot_radius"));
+  SLAMCORE_RETURN_IF_ERROR(positive(speed, "speed"));
+  SLAMCORE_RETURN_IF_ERROR(positive(turn_rate, "turn_rate"));
+  SLAMCORE_RETURN_IF_ERROR(positive(keyframe_distance, "keyframe_distance"));
+  SLAMCORE_RETURN_IF_ERROR(positive(keyframe_rotation, "keyframe_rotation"));
+  SLAMCORE_RETURN_IF_ERROR(positive(view_range, "view_range"));
+  SLAMCORE_RETURN_IF_ERROR(positive(view_field_of_view, "view_field_of_view"));
+  SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_xy, "observation_sigma_xy"));
+  SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_theta, "observation_sigma_theta"));
+  SLAMCORE_RETURN_IF_ERROR(positive(patch_range, "patch_range"));
+  SLAMCORE_RETURN_IF_ERROR(probability(wall_follow_share, "wall_follow_share"));
+  SLAMCORE_RETURN_IF_ERROR(probability(kidnap_probability, "kidnap_probability"));
+  SLAMCORE_RETURN_IF_ERROR(probability(reboot_probability, "reboot_probability"));
+  SLAMCORE_RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));
+  SLAMCORE_RETURN_IF_ERROR(probability(recognition_failure_probability, "recognition_failure_probability"));
+  SLAMCORE_RETURN_IF_ERROR(probability(lookalike_probability, "lookalike_probability"));
+  if (slip_episodes_per_hour < 0.0) return slamcore::InvalidArgument("slip_episodes_per_hour must not be negative");
+  if (!(slip_min_seconds > 0.0 && slip_max_seconds >= slip_min_seconds)) {
+    return slamcore::InvalidArgument("slip_min_seconds must be positive and at most slip_max_seconds");
+  }
+  if (odometry_scale_error < 0.0 || odometry_noise_per_metre < 0.0 || odometry_heading_noise_per_metre < 0.0 ||
+      odometry_heading_noise_per_radian < 0.0) {
+    return slamcore::InvalidArgument("odometry noise parameters must not be negative");
+  }
+  if (patch_every_nodes < 1) return slamcore::InvalidArgument("patch_every_nodes must be at least 1");
+  return mapper.Validate();
+}
+
+}  // namespace sim

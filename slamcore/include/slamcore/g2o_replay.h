@@ -1,0 +1,48 @@
+// Replaying a g2o pose graph through the Mapper "online, as a robot would see it", to check the
+// hypothesis filter against public benchmarks (with or without injected wrong loop closures).
+//
+// Translation of a file into a run: vertices in increasing id order are the robot's nodes, one every
+// `seconds_per_node`; vertex k creates view k at node k. Edge k−1 → k is the odometry that creates node k
+// (a missing one is a kidnap: node k starts a new component). Any other edge between i and j is an
+// observation made at node max(i, j) of the view of the other vertex, issued right after that node is
+// created, in file order: z = robot_T_view is the edge's measurement or its inverse. Covariances are the
+// inverse of the file's information, moved into the left-perturbation convention of events.h.
+//
+// Thread safety: free functions without shared state.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include "slamcore/events.h"
+#include "slamcore/mapper.h"
+#include "slamcore/pose_graph.h"
+
+namespace slamcore {
+
+/// A loop closure as written in the file: (from, to) vertex ids.
+using VertexPair = std::pair<NodeId, NodeId>;
+
+struct G2oRun {
+  std::vector<Event> events;
+  /// For every ViewObservedEvent, in event order, the file's edge it came from.
+  std::vector<VertexPair> observation_sources;
+};
+
+/// Builds the run. Fails when vertex ids are not contiguous from the smallest (the replay needs node k
+/// to follow node k−1).
+Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node = 1.0);
+
+struct ReplayResult {
+  std::vector<VertexPair> accepted;  // loop closures that became observation edges
+  std::vector<VertexPair> rejected;  // the others
+  double final_chi2 = 0.0;           // after a final optimisation of the Mapper's graph
+  double seconds = 0.0;              // Mapper plus final optimisation
+  MapperStatistics statistics;
+  PoseGraph graph;                   // the Mapper's graph, optimised
+};
+
+/// Replays `graph` through a Mapper with `params`, then optimises the resulting graph once more.
+Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams& params);
+
+}  // namespace slamcore

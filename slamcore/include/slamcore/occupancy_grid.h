@@ -1,0 +1,118 @@
+// Occupancy grids: the map as the robot and the fleet see it (paper IV-C works in this space).
+//
+//  * OccupancyGrid: a metric grid of cells -1 unknown, 0 free, 100 occupied (the LocalMapEvent and ROS
+//    OccupancyGrid convention). Cell (col, row) covers [origin + col·res, origin + (col+1)·res) in x and the
+//    same in y with row 0 at the LOWEST y, as in ROS. Images (PGM, PNG) have row 0 at the TOP, so readers
+//    and writers flip rows; ImageRowOf() converts.
+//  * ROS map_server PGM + YAML read/write (trinary mode: 254 free, 0 occupied, 205 unknown on write;
+//    occupied_thresh / free_thresh / negate honoured on read), and PNG read/write of the same image.
+//  * GlobalGridRenderer: the global grid rendered from Map::local_maps at the nodes' current poses, with an
+//    incremental update that re-renders only the cells of nodes whose pose or patch changed.
+//
+// Error contract: every reader returns a Status naming the file and what was wrong (corrupt header,
+// truncated pixels, absurd size, missing key); nothing here crashes on bad input.
+// Thread safety: value types; a GlobalGridRenderer is used from one thread.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "slamcore/events.h"
+#include "slamcore/pose_graph.h"
+#include "slamcore/status.h"
+
+namespace slamcore {
+
+struct Map;  // mapper.h: the pose graph and the local maps attached to its nodes
+
+enum class CellState : std::int8_t { kUnknown = -1, kFree = 0, kOccupied = 100 };
+
+/// The largest grid any reader or renderer accepts: 20000 cells on a side and 10^8 cells in all
+/// (a 1 km × 1 km home at 5 cm is 4·10^8; nothing real comes close to these).
+inline constexpr int kMaxGridSide = 20000;
+inline constexpr std::int64_t kMaxGridCells = 100'000'000;
+
+struct OccupancyGrid {
+  double resolution = 0.05;  // metres per cell
+  double origin_x = 0.0;     // world position of the lower-left corner of cell (0, 0)
+  double origin_y = 0.0;
+  double origin_yaw = 0.0;   // kept from map_server YAML; alignment requires equal yaws
+  int width = 0;
+  int height = 0;
+  std::vector<std::int8_t> cells;  // row-major, row 0 = lowest y
+
+  /// A width × height grid of unknown cells; fails on non-positive or absurd sizes or resolution.
+  static Result<OccupancyGrid> Create(int width, int height, double resolution, double origin_x = 0.0,
+                                      double origin_y = 0.0);
+
+  bool InBounds(int col, int row) const { return col >= 0 && row >= 0 && col < width && row < height; }
+  std::int8_t at(int col, int row) const { return cells[static_cast<std::size_t>(row) * width + col]; }
+  std::int8_t& at(int col, int row) { return cells[static_cast<std::size_t>(row) * width + col]; }
+  /// Row in an image (PGM/PNG, row 0 at the top) of grid row `row`, and back (the map is its own inverse).
+  int ImageRowOf(int row) const { return height - 1 - row; }
+  std::int64_t CountCells(CellState state) const;
+};
+
+/// Reads a ROS map_server YAML file and the image it names (PGM P5/P2, or PNG), relative to the YAML's
+/// directory. Strict: unknown keys are ignored, but image, resolution and origin are required and checked.
+Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path);
+/// Writes `yaml_path` and an image beside it (same stem, .pgm, or .png when `png` is true).
+Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_path, bool png = false);
+
+/// Decodes an 8-bit PGM (P5 binary or P2 ASCII, maxval ≤ 255) into a grid with map_server thresholds.
+Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, double origin_x, double origin_y,
+                                double occupied_thresh = 0.65, double free_thresh = 0.196, bool negate = false);
+std::string EncodePgm(const OccupancyGrid& grid);
+/// PNG of the same trinary image (254/0/205), through OpenCV's codec; colour PNGs are converted to grey.
+Result<OccupancyGrid> DecodePng(const std::string& bytes, double resolution, double origin_x, double origin_y,
+                                double occupied_thresh = 0.65, double free_thresh = 0.196, bool negate = false);
+Result<std::string> EncodePng(const OccupancyGrid& grid);
+
+Result<std::string> ReadFileBytes(const std::string& path);
+Status WriteFileBytes(const std::string& path, const std::string& bytes);
+
+/// Renders the global grid of a Map from its local patches at the nodes' current poses (paper II/IV-C:
+/// the occupancy map is a function of the graph, so it must follow every optimisation).
+///
+/// Each patch cell votes free or occupied into the global cells it covers (inverse mapping, so rotated
+/// patches leave no holes). A global cell is occupied when it has an occupied vote and occupied votes are
+/// at least half its free votes, free when it has only/mostly free votes, unknown without votes. Votes are
+/// kept per cell so that a moved node's old votes can be subtracted and its new ones added: Update() costs
+/// O(cells of the moved patches), and its grid equals RenderAll()'s on the same map exactly.
+class GlobalGridRenderer {
+ public:
+  explicit GlobalGridRenderer(double resolution = 0.05, double margin_m = 2.0)
+      : resolution_(resolution), margin_m_(margin_m) {}
+
+  /// From scratch: bounds are the union of all patches plus the margin.
+  Status RenderAll(const Map& map);
+  /// Re-renders only nodes whose pose or patch placement/size differs from the last render (added and
+  /// removed nodes included; a patch's cells are taken as immutable once attached, as the Mapper does); falls back to RenderAll when a patch leaves the current bounds. Returns the number of
+  /// nodes re-rendered through `nodes_rerendered` when not null.
+  Status Update(const Map& map, int* nodes_rerendered = nullptr);
+
+  const OccupancyGrid& grid() const { return grid_; }
+
+ private:
+  struct Contribution {
+    SE2 pose;                        // node pose used for the votes below
+    SE2 node_T_origin;               // and the patch's placement: a change of either re-renders the node
+    int patch_width = 0, patch_height = 0;
+    std::vector<std::int32_t> cells;  // global cell indices voted, with the vote in `occupied`
+    std::vector<bool> occupied;
+  };
+  Status ValidatePatch(NodeId node, const LocalMapEvent& patch) const;
+  bool Vote(const SE2& node_pose, const LocalMapEvent& patch, Contribution* contribution) const;
+  void Apply(const Contribution& contribution, int sign);
+  void Resolve(std::int32_t cell);
+
+  double resolution_;
+  double margin_m_;
+  OccupancyGrid grid_;
+  std::vector<std::int32_t> free_votes_, occupied_votes_;
+  std::unordered_map<NodeId, Contribution> contributions_;
+};
+
+}  // namespace slamcore

@@ -1,0 +1,112 @@
+#include "slamcore/g2o_replay.h"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+
+#include "slamcore/optimizer.h"
+
+namespace slamcore {
+Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node) {
+  std::vector<NodeId> ids;
+  ids.reserve(graph.num_nodes());
+  for (const Node& node : graph.nodes()) ids.push_back(node.id);
+  std::sort(ids.begin(), ids.end());
+  for (std::size_t k = 1; k < ids.size(); ++k) {
+    if (ids[k] != ids[k - 1] + 1) {
+      return InvalidArgument("vertex ids must be contiguous for replay: " + std::to_string(ids[k - 1]) +
+                             " is followed by " + std::to_string(ids[k]));
+    }
+  }
+
+  std::map<NodeId, const Edge*> odometry_into;              // node k → edge k−1 → k
+  std::multimap<NodeId, const Edge*> observations_at;       // robot node → loop closures, file order
+  for (const Edge& edge : graph.edges()) {
+    if (edge.to == edge.from + 1 && !odometry_into.contains(edge.to)) {
+      odometry_into.emplace(edge.to, &edge);
+    } else {
+      observations_at.emplace(std::max(edge.from, edge.to), &edge);
+    }
+  }
+
+  G2oRun run;
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const NodeId id = ids[k];
+    const double time = static_cast<double>(k) * seconds_per_node;
+    const auto odometry = odometry_into.find(id);
+    if (k == 0 || odometry == odometry_into.end()) {
+      if (k > 0) run.events.push_back(KidnapEvent{.time = time, .cause = KidnapEvent::Cause::kKidnap});
+      // A new component starts at an identity increment from nowhere: the Mapper places its first node.
+      run.events.push_back(OdometryEvent{.time = time, .increment = SE2::Identity(),
+                                         .covariance = Matrix3::Identity() * 1e-6});
+    } else {
+      const Edge& edge = *odometry->second;
+      run.events.push_back(OdometryEvent{.time = time, .increment = edge.measurement,
+                                         .covariance = LeftCovarianceFromEdgeInformation(edge.measurement,
+                                                                                         edge.information)});
+    }
+    run.events.push_back(ViewCreatedEvent{.time = time, .view = id});
+    const auto [begin, end] = observations_at.equal_range(id);
+    for (auto it = begin; it != end; ++it) {
+      const Edge& edge = *it->second;
+      // z = robot_T_view: the measurement when the edge leaves the robot's node, else its inverse. The
+      // inverse's left perturbations are the measurement's right ones: (z·exp(e))⁻¹ = exp(−e)·z⁻¹.
+      const bool from_robot = edge.from == id;
+      const SE2 z = from_robot ? edge.measurement : edge.measurement.inverse();
+      const Matrix3 covariance = from_robot ? LeftCovarianceFromEdgeInformation(edge.measurement, edge.information)
+                                            : LeftCovarianceFromEdgeInformation(SE2::Identity(), edge.information);
+      run.events.push_back(ViewObservedEvent{.time = time, .view = from_robot ? edge.to : edge.from,
+                                             .robot_T_view = z, .covariance = covariance});
+      run.observation_sources.emplace_back(edge.from, edge.to);
+    }
+  }
+  return run;
+}
+
+Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams& params) {
+  const auto run = RunFromPoseGraph(graph);
+  if (!run.ok()) return run.status();
+  const auto start = std::chrono::steady_clock::now();
+  auto mapper = Mapper::Create(params);
+  if (!mapper.ok()) return mapper.status();
+
+  // Observation events and the file edges they came from, keyed by (robot node, view) as the Mapper
+  // reports accepted edges (views carry the file's vertex ids, nodes the Mapper's own).
+  std::multimap<std::pair<NodeId, ViewId>, std::size_t> source_of;
+  std::size_t observation = 0;
+  NodeId robot = -1;
+  for (const Event& event : run->events) {
+    if (const Status status = (*mapper)->Process(event); !status.ok()) return status;
+    if (std::holds_alternative<OdometryEvent>(event)) robot = *(*mapper)->CurrentNode();
+    if (const auto* observed = std::get_if<ViewObservedEvent>(&event)) {
+      source_of.emplace(std::pair{robot, observed->view}, observation++);
+    }
+  }
+  const std::vector<AcceptedObservation> accepted_edges = (*mapper)->accepted_observations();
+  std::vector<bool> accepted(run->observation_sources.size(), false);
+  for (const AcceptedObservation& edge : accepted_edges) {
+    const auto [begin, end] = source_of.equal_range({edge.robot_node, edge.view});
+    for (auto it = begin; it != end; ++it) {
+      if (!accepted[it->second]) {
+        accepted[it->second] = true;
+        break;
+      }
+    }
+  }
+
+  ReplayResult result;
+  result.statistics = (*mapper)->Statistics();
+  result.graph = (*mapper)->Finish().graph;
+  OptimizerOptions final_options = params.optimizer;
+  final_options.max_iterations = 100;
+  const auto summary = Optimize(result.graph, final_options);
+  if (!summary.ok()) return summary.status();
+  result.final_chi2 = summary->final_chi2;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (std::size_t k = 0; k < accepted.size(); ++k) {
+    (accepted[k] ? result.accepted : result.rejected).push_back(run->observation_sources[k]);
+  }
+  return result;
+}
+
+}  // namespace slamcore

@@ -1,0 +1,51 @@
+// A hypothesis of the hypothesis filter (paper III-B): an EKF over G ≈ robot_T_ref (pose_gaussian.h) and
+// the observations that built it, kept so that accepting it can add one observation edge per observation
+// at the robot node where it was made.
+//
+// Thread safety: value types.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "pose_gaussian.h"
+#include "slamcore/mapper.h"
+
+namespace slamcore::internal {
+
+struct HypothesisObservation {
+  NodeId robot_node = -1;
+  ViewId view = -1;
+  NodeId view_node = -1;
+  PoseGaussian robot_T_view;  // z as observed, Σ_z
+  double time = 0.0;
+  double odometer = 0.0;
+};
+
+struct Hypothesis {
+  std::int64_t id = -1;
+  HypothesisKind kind = HypothesisKind::kRecovery;
+  ViewId ref_view = -1;  // the first observed view; G is robot_T_ref
+  NodeId ref_node = -1;  // the node of ref_view, which also names the target component
+  PoseGaussian state;
+  std::vector<HypothesisObservation> observations;
+  double last_time = 0.0;      // of the last observation, for expiry
+  double last_odometer = 0.0;  // likewise
+  bool conditional = false;    // a merge hypothesis that is conditionally accepted (IV-B)
+};
+
+/// Observations and distinct views that count toward acceptance. With `discount_ambiguous`, observations of
+/// views for which `is_ambiguous` holds do not count (IV-A).
+struct EvidenceCount {
+  int observations = 0;
+  int views = 0;
+};
+EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguous,
+                            const std::function<bool(ViewId)>& is_ambiguous);
+
+inline bool Meets(const EvidenceCount& count, const AcceptanceCriteria& criteria) {
+  return count.observations >= criteria.min_observations && count.views >= criteria.min_views;
+}
+
+}  // namespace slamcore::internal

@@ -1,0 +1,217 @@
+// Mapper: public API, event dispatch and the parts of a run that are not decisions (nodes, views, local
+// maps, kidnap, expiry, the decision log). See mapper_impl.h for the design choices.
+#include "slamcore/mapper.h"
+
+#include <algorithm>
+#include <sstream>
+
+#include "mapper_impl.h"
+
+namespace slamcore {
+
+using internal::Hypothesis;
+
+const char* DecisionKindName(DecisionKind kind) {
+  switch (kind) {
+    case DecisionKind::kDirectEdge: return "direct_edge";
+    case DecisionKind::kHypothesisCreated: return "hypothesis_created";
+    case DecisionKind::kHypothesisUpdated: return "hypothesis_updated";
+    case DecisionKind::kConditionallyAccepted: return "conditionally_accepted";
+    case DecisionKind::kAccepted: return "accepted";
+    case DecisionKind::kRejected: return "rejected";
+    case DecisionKind::kExpired: return "expired";
+    case DecisionKind::kViewMarkedAmbiguous: return "view_marked_ambiguous";
+    case DecisionKind::kComponentCreated: return "component_created";
+    case DecisionKind::kComponentsMerged: return "components_merged";
+  }
+  return "unknown";
+}
+
+// ---- Impl: construction and dispatch -------------------------------------------------------------------
+
+Mapper::Impl::Impl(const MapperParams& params, Map parent)
+    : params_(params),
+      map_(std::move(parent)),
+      ambiguity_(params.ambiguity_window_distance, params.ambiguity_min_rejections) {
+  for (const Node& node : map_.graph.nodes()) {
+    next_node_id_ = std::max(next_node_id_, node.id + 1);
+    odometer_ = std::max(odometer_, node.odometer);
+  }
+  for (const View& view : map_.graph.views()) view_creation_order_.emplace(view.id, view_creation_order_.size());
+}
+
+Status Mapper::Impl::Process(const Event& event) {
+  SLAMCORE_RETURN_IF_ERROR(std::visit([this](const auto& e) { return Validate(e); }, event));
+  // From here on nothing can fail on data.
+  std::visit(
+      [this](const auto& e) {
+        time_ = e.time;
+        if constexpr (std::is_same_v<std::decay_t<decltype(e)>, OdometryEvent>) {
+          Apply(e);  // moves the robot first, so that expiry sees the distance of this step
+          ExpireHypotheses();
+        } else {
+          ExpireHypotheses();  // before a new observation could join an expired hypothesis
+          Apply(e);
+        }
+      },
+      event);
+  RefreshOverlay();
+  return Status::Ok();
+}
+
+// ---- Impl: events --------------------------------------------------------------------------------------
+
+void Mapper::Impl::Apply(const OdometryEvent& event) {
+  Node node;
+  node.id = next_node_id_++;
+  node.time = event.time;
+  const bool new_component = start_new_component_ || !current_node_;
+  if (new_component) {
+    node.pose = SE2::Identity();
+    node.odometer = odometer_;
+  } else {
+    odometer_ += event.increment.translation().norm();
+    node.pose = map_.graph.node(*current_node_).pose * event.increment;
+    node.odometer = odometer_;
+  }
+  // Both cannot fail: the id is fresh, and the event was validated (finite pose, positive definite
+  // information) before we got here.
+  (void)map_.graph.AddNode(node);
+  if (new_component) {
+    robot_relative_covariance_.setZero();
+    start_new_component_ = false;
+    current_node_ = node.id;
+    Log(DecisionKind::kComponentCreated, -1, nullptr, new_component_reason_);
+  } else {
+    Edge edge;
+    edge.from = *current_node_;
+    edge.to = node.id;
+    edge.measurement = event.increment;
+    edge.information = EdgeInformationFromLeftCovariance(event.increment, event.covariance);
+    edge.kind = EdgeKind::kMotion;
+    (void)map_.graph.AddEdge(edge);
+    current_node_ = node.id;
+    // Eq. (3) for every hypothesis, and for the robot's own relative uncertainty.
+    const internal::PoseGaussian motion = internal::MotionFromIncrement(event.increment, event.covariance);
+    for (Hypothesis& hypothesis : hypotheses_) hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
+    robot_relative_covariance_ =
+        internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
+  }
+  if (latest_ground_truth_) ground_truth_[node.id] = latest_ground_truth_->world_T_robot;
+  ambiguity_.Forget(odometer_);
+}
+
+void Mapper::Impl::Apply(const ViewCreatedEvent& event) {
+  (void)map_.graph.AddView(View{.id = event.view, .node = *current_node_, .ambiguous = false});
+  view_creation_order_.emplace(event.view, view_creation_order_.size());
+}
+
+void Mapper::Impl::Apply(const ViewObservedEvent& event) { DecideObservation(event); }
+
+void Mapper::Impl::Apply(const LocalMapEvent& event) { map_.local_maps[*current_node_] = event; }
+
+void Mapper::Impl::Apply(const KidnapEvent& event) {
+  const std::string cause = event.cause == KidnapEvent::Cause::kReboot ? "reboot" : "kidnap";
+  // Every hypothesis state robot_T_ref assumed continuous odometry; after a kidnap it means nothing.
+  std::vector<std::int64_t> open;
+  for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);
+  for (const std::int64_t id : open) DropHypothesis(id, DecisionKind::kRejected, "robot lost its position (" + cause + ")");
+  ambiguity_.ForgetAccepted();
+  start_new_component_ = true;
+  new_component_reason_ = "first node after a " + cause;
+}
+
+void Mapper::Impl::Apply(const GroundTruthEvent& event) {
+  latest_ground_truth_ = event;
+  // "At or before the node's creation": an entry with the node's own time still belongs to it.
+  if (current_node_ && map_.graph.node(*current_node_).time == event.time) {
+    ground_truth_[*current_node_] = event.world_T_robot;
+  }
+}
+
+void Mapper::Impl::ExpireHypotheses() {
+  std::vector<std::pair<std::int64_t, std::string>> expired;
+  for (const Hypothesis& hypothesis : hypotheses_) {
+    std::ostringstream reason;
+    if (time_ - hypothesis.last_time > params_.hypothesis_expiry_seconds) {
+      reason << "no observation for " << time_ - hypothesis.last_time << " s";
+    } else if (odometer_ - hypothesis.last_odometer > params_.hypothesis_expiry_distance) {
+      reason << "no observation for " << odometer_ - hypothesis.last_odometer << " m";
+    } else {
+      continue;
+    }
+    expired.emplace_back(hypothesis.id, reason.str());
+  }
+  for (const auto& [id, reason] : expired) DropHypothesis(id, DecisionKind::kExpired, reason);
+}
+
+void Mapper::Impl::Log(DecisionKind kind, ViewId view, const Hypothesis* hypothesis, std::string reason) {
+  Decision decision;
+  decision.time = time_;
+  decision.kind = kind;
+  decision.node = current_node_.value_or(-1);
+  decision.view = view;
+  if (hypothesis) {
+    decision.hypothesis = hypothesis->id;
+    decision.hypothesis_kind = hypothesis->kind;
+  }
+  decision.reason = std::move(reason);
+  decisions_.push_back(std::move(decision));
+}
+
+Map Mapper::Impl::Finish() {
+  std::vector<std::int64_t> open;
+  for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);
+  for (const std::int64_t id : open) DropHypothesis(id, DecisionKind::kExpired, "run ended");
+  return std::move(map_);
+}
+
+// ---- Impl: reads through G′ ----------------------------------------------------------------------------
+
+std::optional<SE2> Mapper::Impl::CurrentPose() const {
+  if (!current_node_) return std::nullopt;
+  return PoseOf(*current_node_);
+}
+
+SE2 Mapper::Impl::PoseOf(NodeId node) const {
+  if (!map_.graph.HasNode(node)) return SE2::Identity();  // documented in mapper.h
+  return overlay_ ? overlay_->PoseOf(node) : map_.graph.node(node).pose;
+}
+
+bool Mapper::Impl::SameComponentInView(NodeId a, NodeId b) const {
+  if (!map_.graph.HasNode(a) || !map_.graph.HasNode(b)) return false;
+  return overlay_ ? overlay_->SameComponent(a, b) : map_.graph.SameComponent(a, b);
+}
+
+// ---- Mapper --------------------------------------------------------------------------------------------
+
+Result<std::unique_ptr<Mapper>> Mapper::Create(const MapperParams& params, Map parent) {
+  SLAMCORE_RETURN_IF_ERROR(params.Validate());
+  for (const auto& [node, local_map] : parent.local_maps) {
+    if (!parent.graph.HasNode(node)) {
+      return InvalidArgument("parent map: local map at node " + std::to_string(node) + ", which does not exist");
+    }
+  }
+  return std::unique_ptr<Mapper>(new Mapper(std::make_unique<Impl>(params, std::move(parent))));
+}
+
+Mapper::Mapper(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Mapper::~Mapper() = default;
+
+Status Mapper::Process(const Event& event) { return impl_->Process(event); }
+std::optional<NodeId> Mapper::CurrentNode() const { return impl_->CurrentNode(); }
+std::optional<SE2> Mapper::CurrentPose() const { return impl_->CurrentPose(); }
+SE2 Mapper::PoseOf(NodeId node) const { return impl_->PoseOf(node); }
+bool Mapper::SameComponentInView(NodeId a, NodeId b) const { return impl_->SameComponentInView(a, b); }
+bool Mapper::HasConditionalMerge() const { return impl_->HasConditionalMerge(); }
+const Map& Mapper::map() const { return impl_->map(); }
+const std::vector<Decision>& Mapper::decisions() const { return impl_->decisions(); }
+const std::vector<AcceptedObservation>& Mapper::accepted_observations() const {
+  return impl_->accepted_observations();
+}
+const std::unordered_map<NodeId, SE2>& Mapper::ground_truth() const { return impl_->ground_truth(); }
+Map Mapper::Finish() { return impl_->Finish(); }
+
+MapperStatistics Mapper::Statistics() const { return ComputeStatistics(impl_->decisions()); }
+
+}  // namespace slamcore

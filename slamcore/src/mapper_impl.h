@@ -1,0 +1,158 @@
+// Mapper::Impl: the state of one run and the decisions of paper III-B, IV-A and IV-B. Split over
+//   mapper.cc               public API, event dispatch, nodes/views/local maps, kidnap, expiry, log;
+//   mapper_validation.cc    checks of every event before anything changes (the error contract);
+//   mapper_observations.cc  direct gate, hypothesis filter, acceptance, ambiguity marks;
+//   mapper_merge.cc         conditional and full merges (G′ as a MergeOverlay).
+//
+// Design choices the paper leaves open (PAPER.md asks us to write them down):
+//  * Gate covariance for direct observations. The prediction ẑ = robot_T_viewnode comes from G; its
+//    uncertainty is the robot's relative uncertainty Σ_rel: odometry covariance accumulated through the
+//    Adjoint exactly as eq. (3) since the robot was last anchored. Anchoring = an accepted observation
+//    (Σ_rel ← Σ_z of that observation, or Σ_G of an accepted hypothesis; both live in the robot frame like
+//    Σ_rel) or the start of a component (Σ_rel ← 0). The map itself is treated as certain here. The test is
+//    eq. (4): R = z·ẑ⁻¹, Σ_R = Adj_R Σ_rel Adj_Rᵀ + Σ_z, ln(R)ᵀ Σ_R⁻¹ ln(R) ≤ gate_chi2.
+//    Since Σ_rel is reset on acceptance, G must reflect the accepted edge: with optimize_after_accept a
+//    direct edge re-optimises a local window (the robot's last `local_window_nodes` nodes, everything
+//    older held), so the recent trajectory agrees with it at O(window) cost; every
+//    `full_optimization_every` direct edges, and after every accepted hypothesis, the whole component
+//    is optimised.
+//  * "Rejected observation" for the ambiguity tracker (IV-A): an observation that failed the direct gate
+//    (counted at once, at the odometer where it was made), and every observation of a merge hypothesis
+//    that is rejected or expires (counted when it is dropped, stamped with the odometer where it was made,
+//    so old ones fall outside the window). Recovery observations are not counted twice, and are taken
+//    back out of the rejected tracker when their recovery hypothesis is accepted (they were right after all;
+//    otherwise a correct recovery would mark its own newer views ambiguous).
+//    "Accepted observation": a direct edge, or an observation of an accepted hypothesis.
+//  * Other views of the target component are expressed in the ref frame with v_T_ref from G; G's
+//    relative uncertainty is approximated as growing linearly with the distance between the two view nodes
+//    (kMapVariancePerMetre), propagated by Compose (pose_gaussian.h).
+//  * Competitors: accepting a hypothesis rejects every other open hypothesis of the same kind (they are
+//    alternative explanations of where the robot is); hypotheses of the other kind stay, since their
+//    state robot_T_ref does not depend on the accepted edges.
+//  * Kidnap/reboot: every open hypothesis is rejected and a conditional merge undone, since their states
+//    assume continuous odometry; the accepted-observation tracker is cleared (the robot is no longer
+//    certain where it is). Events that need a node (views, observations, local maps) between a
+//    KidnapEvent and the next OdometryEvent are refused: the robot has no node in its new component yet.
+//  * Lifelong mapping: the first node of a run starts a NEW component even on a parent map; the robot
+//    becomes localised in the parent's components only through merge hypotheses.
+//  * Node ids continue after the parent's largest; the first node of a component sits at the identity
+//    (the increment of its OdometryEvent is relative to nothing known); the odometer continues the
+//    parent's largest.
+//
+// Thread safety: as Mapper (not thread-safe).
+#pragma once
+
+#include <Eigen/LU>
+#include <limits>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "ambiguity_tracker.h"
+#include "hypothesis.h"
+#include "merge_overlay.h"
+#include "slamcore/mapper.h"
+
+namespace slamcore {
+
+class Mapper::Impl {
+ public:
+  Impl(const MapperParams& params, Map parent);
+
+  Status Process(const Event& event);
+
+  std::optional<NodeId> CurrentNode() const { return current_node_; }
+  std::optional<SE2> CurrentPose() const;
+  SE2 PoseOf(NodeId node) const;
+  bool SameComponentInView(NodeId a, NodeId b) const;
+  bool HasConditionalMerge() const { return overlay_.has_value(); }
+
+  const Map& map() const { return map_; }
+  const std::vector<Decision>& decisions() const { return decisions_; }
+  const std::vector<AcceptedObservation>& accepted_observations() const { return accepted_; }
+  const std::unordered_map<NodeId, SE2>& ground_truth() const { return ground_truth_; }
+  Map Finish();
+
+ private:
+  // mapper_validation.cc: return an error naming the event, or Ok; never change anything.
+  Status Validate(const OdometryEvent& event) const;
+  Status Validate(const ViewCreatedEvent& event) const;
+  Status Validate(const ViewObservedEvent& event) const;
+  Status Validate(const LocalMapEvent& event) const;
+  Status Validate(const KidnapEvent& event) const;
+  Status Validate(const GroundTruthEvent& event) const;
+  Status CheckTime(const char* name, double time) const;
+  Status CheckHasNode(const char* name, double time) const;
+
+  // mapper.cc
+  void Apply(const OdometryEvent& event);
+  void Apply(const ViewCreatedEvent& event);
+  void Apply(const ViewObservedEvent& event);
+  void Apply(const LocalMapEvent& event);
+  void Apply(const KidnapEvent& event);
+  void Apply(const GroundTruthEvent& event);
+  void ExpireHypotheses();
+  void Log(DecisionKind kind, ViewId view, const internal::Hypothesis* hypothesis, std::string reason);
+
+  // mapper_observations.cc
+  void DecideObservation(const ViewObservedEvent& event);
+  void RouteToFilter(HypothesisKind kind, const ViewObservedEvent& event, NodeId view_node, std::string why);
+  internal::PoseGaussian ExpressInRefFrame(const internal::PoseGaussian& robot_T_view, NodeId view_node,
+                                           NodeId ref_node) const;
+  void EvaluateAcceptance(std::int64_t hypothesis_id);
+  void AcceptRecovery(std::int64_t hypothesis_id);
+  void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id);
+  void RejectCompetitors(const internal::Hypothesis& accepted);
+  /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional
+  /// merge, which is then undone — and feeding a merge hypothesis's observations to the rejected tracker.
+  void DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind, const std::string& reason);
+  void UpdateAmbiguityMarks();
+  bool IsAmbiguous(ViewId view) const { return map_.graph.view(view).ambiguous; }
+  void OptimizeComponentOf(NodeId node, std::string* note);
+  /// After a direct edge: a local window, or the component every full_optimization_every edges.
+  void OptimizeAfterDirectEdge(NodeId robot, std::string* note);
+  internal::Hypothesis* FindHypothesis(std::int64_t id);
+  /// Removes an open hypothesis and returns it; nullopt when there is none with that id.
+  std::optional<internal::Hypothesis> TakeHypothesis(std::int64_t id);
+
+  // mapper_merge.cc
+  SE2 TargetFromSource(const internal::Hypothesis& hypothesis) const;
+  void ConditionallyAccept(std::int64_t hypothesis_id);
+  void AcceptMerge(std::int64_t hypothesis_id);
+  void RefreshOverlay();
+
+  MapperParams params_;
+  Map map_;
+  std::optional<NodeId> current_node_;
+  NodeId next_node_id_ = 0;
+  double odometer_ = 0.0;
+  double time_ = -std::numeric_limits<double>::infinity();  // of the last event processed
+  /// Set at the start and by a KidnapEvent: the next OdometryEvent starts a new component.
+  bool start_new_component_ = true;
+  std::string new_component_reason_ = "first node of the run";
+  Matrix3 robot_relative_covariance_ = Matrix3::Zero();  // Σ_rel, see the top of this file
+  int direct_edges_since_full_optimization_ = 0;
+
+  std::vector<internal::Hypothesis> hypotheses_;  // open ones, in creation order
+  std::int64_t next_hypothesis_id_ = 0;
+  std::optional<internal::MergeOverlay> overlay_;  // G′ while a merge is conditionally accepted
+  std::int64_t conditional_hypothesis_ = -1;
+
+  internal::AmbiguityTracker ambiguity_;
+  std::unordered_map<ViewId, std::size_t> view_creation_order_;
+
+  std::vector<Decision> decisions_;
+  std::vector<AcceptedObservation> accepted_;
+  std::unordered_map<NodeId, SE2> ground_truth_;
+  std::optional<GroundTruthEvent> latest_ground_truth_;
+};
+
+namespace internal {
+/// Variance per metre of distance between two view nodes of the map's relative pose (x, y, θ), for
+/// expressing an observation of one view in another view's frame (see the top of this file). 1 cm² and
+/// 0.0003 rad² (≈ 1°²) per metre: the drift of good wheel odometry, an upper bound for an optimised map.
+inline const Vector3 kMapVariancePerMetre{1e-4, 1e-4, 3e-4};
+}  // namespace internal
+
+}  // namespace slamcore

@@ -1,0 +1,259 @@
+// The decision for each view observation (paper III-B), acceptance of recovery hypotheses, and the
+// ambiguity marks (IV-A). Design choices: mapper_impl.h.
+#include <algorithm>
+#include <limits>
+#include <sstream>
+
+#include "mapper_impl.h"
+#include "slamcore/optimizer.h"
+
+namespace slamcore {
+
+using internal::Hypothesis;
+using internal::HypothesisObservation;
+using internal::PoseGaussian;
+
+namespace {
+
+std::string Chi2Text(double mahalanobis2) {
+  std::ostringstream text;
+  text.precision(4);
+  text << "d²=" << mahalanobis2;
+  return text.str();
+}
+
+std::string EvidenceText(const internal::EvidenceCount& count) {
+  return std::to_string(count.observations) + " observations of " + std::to_string(count.views) + " views";
+}
+
+}  // namespace
+
+void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
+  const NodeId view_node = map_.graph.view(event.view).node;
+  const NodeId robot = *current_node_;
+  if (!map_.graph.SameComponent(view_node, robot)) {
+    RouteToFilter(HypothesisKind::kMerge, event, view_node, "view in another component");
+    UpdateAmbiguityMarks();
+    return;
+  }
+  // Direct gate, eq. (4) with the prediction from G and Σ_rel (mapper_impl.h).
+  const PoseGaussian predicted{map_.graph.node(robot).pose.inverse() * map_.graph.node(view_node).pose,
+                               robot_relative_covariance_};
+  const internal::Innovation innovation = internal::ComputeInnovation(predicted, {event.robot_T_view, event.covariance});
+  if (innovation.mahalanobis2 <= params_.gate_chi2) {
+    HypothesisObservation observation{.robot_node = robot, .view = event.view, .view_node = view_node,
+                                      .robot_T_view = {event.robot_T_view, event.covariance},
+                                      .time = event.time, .odometer = odometer_};
+    AddObservationEdge(observation, -1);
+    robot_relative_covariance_ = event.covariance;
+    std::string note;
+    if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, &note);
+    Log(DecisionKind::kDirectEdge, event.view, nullptr, Chi2Text(innovation.mahalanobis2) + " within the gate" + note);
+    UpdateAmbiguityMarks();
+    return;
+  }
+  ambiguity_.AddRejected(event.view, odometer_);
+  UpdateAmbiguityMarks();  // before the recovery filter, so a freshly ambiguous view does not count
+  RouteToFilter(HypothesisKind::kRecovery, event, view_node,
+                "failed the direct gate with " + Chi2Text(innovation.mahalanobis2));
+}
+
+PoseGaussian Mapper::Impl::ExpressInRefFrame(const PoseGaussian& robot_T_view, NodeId view_node,
+                                             NodeId ref_node) const {
+  if (view_node == ref_node) return robot_T_view;
+  const SE2 view_T_ref = map_.graph.node(view_node).pose.inverse() * map_.graph.node(ref_node).pose;
+  const double distance = view_T_ref.translation().norm();
+  const PoseGaussian map_relative{view_T_ref, (internal::kMapVariancePerMetre * distance).asDiagonal()};
+  return internal::Compose(robot_T_view, map_relative);
+}
+
+void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& event, NodeId view_node,
+                                 std::string why) {
+  const PoseGaussian z{event.robot_T_view, event.covariance};
+  HypothesisObservation observation{.robot_node = *current_node_, .view = event.view, .view_node = view_node,
+                                    .robot_T_view = z, .time = event.time, .odometer = odometer_};
+  // Join the hypothesis of the same kind and target component with the smallest residual under the gate.
+  Hypothesis* best = nullptr;
+  double best_mahalanobis2 = std::numeric_limits<double>::infinity();
+  PoseGaussian best_in_ref;
+  for (Hypothesis& hypothesis : hypotheses_) {
+    if (hypothesis.kind != kind || !map_.graph.SameComponent(hypothesis.ref_node, view_node)) continue;
+    const PoseGaussian in_ref = ExpressInRefFrame(z, view_node, hypothesis.ref_node);
+    const double mahalanobis2 = internal::ComputeInnovation(hypothesis.state, in_ref).mahalanobis2;
+    if (mahalanobis2 <= params_.gate_chi2 && mahalanobis2 < best_mahalanobis2) {
+      best = &hypothesis;
+      best_mahalanobis2 = mahalanobis2;
+      best_in_ref = in_ref;
+    }
+  }
+  std::int64_t id;
+  if (best) {
+    best->state = internal::UpdateWithObservation(best->state, best_in_ref);  // eqs. (5)–(6)
+    best->observations.push_back(observation);
+    best->last_time = event.time;
+    best->last_odometer = odometer_;
+    if (best->conditional && overlay_) {
+      Edge edge;
+      edge.from = observation.robot_node;
+      edge.to = view_node;
+      edge.measurement = z.mean;
+      edge.information = EdgeInformationFromLeftCovariance(z.mean, z.covariance);
+      edge.kind = EdgeKind::kObservation;
+      edge.view = event.view;
+      overlay_->AddEdge(edge);
+    }
+    id = best->id;
+    Log(DecisionKind::kHypothesisUpdated, event.view, best, why + "; joined with " + Chi2Text(best_mahalanobis2));
+  } else {
+    Hypothesis hypothesis;  // eq. (2): G = z, Σ_G = Σ_z
+    hypothesis.id = next_hypothesis_id_++;
+    hypothesis.kind = kind;
+    hypothesis.ref_view = event.view;
+    hypothesis.ref_node = view_node;
+    hypothesis.state = z;
+    hypothesis.observations.push_back(observation);
+    hypothesis.last_time = event.time;
+    hypothesis.last_odometer = odometer_;
+    hypotheses_.push_back(std::move(hypothesis));
+    id = hypotheses_.back().id;
+    Log(DecisionKind::kHypothesisCreated, event.view, &hypotheses_.back(), why);
+  }
+  EvaluateAcceptance(id);
+}
+
+void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
+  const Hypothesis* hypothesis = FindHypothesis(hypothesis_id);
+  if (!hypothesis) return;
+  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
+  if (hypothesis->kind == HypothesisKind::kRecovery) {
+    // IV-A: ambiguous views never count toward recovery.
+    if (Meets(internal::CountEvidence(*hypothesis, true, is_ambiguous), params_.recovery)) {
+      AcceptRecovery(hypothesis_id);
+    }
+    return;
+  }
+  const internal::EvidenceCount count =
+      internal::CountEvidence(*hypothesis, params_.discount_ambiguous_in_merge, is_ambiguous);
+  if (Meets(count, params_.merge_full)) {
+    AcceptMerge(hypothesis_id);
+  } else if (params_.conditional_merge && !hypothesis->conditional && !overlay_ &&
+             Meets(count, params_.merge_conditional)) {
+    ConditionallyAccept(hypothesis_id);  // at most one conditional merge at a time (IV-B)
+  }
+}
+
+void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id) {
+  const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
+  if (!taken) return;
+  const Hypothesis& accepted = *taken;
+  for (const HypothesisObservation& observation : accepted.observations) {
+    // They failed the direct gate, but the evidence says they were right: no longer rejected (IV-A).
+    ambiguity_.RemoveRejected(observation.view, observation.odometer);
+    AddObservationEdge(observation, accepted.id);
+  }
+  robot_relative_covariance_ = accepted.state.covariance;
+  std::string note;
+  if (params_.optimize_after_accept) OptimizeComponentOf(*current_node_, &note);
+  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
+  Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
+      EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) + note);
+  RejectCompetitors(accepted);
+}
+
+void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id) {
+  Edge edge;
+  edge.from = observation.robot_node;
+  edge.to = observation.view_node;
+  edge.measurement = observation.robot_T_view.mean;
+  edge.information =
+      EdgeInformationFromLeftCovariance(observation.robot_T_view.mean, observation.robot_T_view.covariance);
+  edge.kind = EdgeKind::kObservation;
+  edge.view = observation.view;
+  // Cannot fail: both nodes and the view exist, and the covariance passed validation.
+  if (map_.graph.AddEdge(edge).ok()) {
+    accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});
+    ambiguity_.AddAccepted(observation.view, observation.odometer);
+  }
+}
+
+void Mapper::Impl::RejectCompetitors(const Hypothesis& accepted) {
+  std::vector<std::int64_t> competitors;
+  for (const Hypothesis& hypothesis : hypotheses_) {
+    if (hypothesis.kind == accepted.kind) competitors.push_back(hypothesis.id);
+  }
+  for (const std::int64_t id : competitors) {
+    DropHypothesis(id, DecisionKind::kRejected, "competitor " + std::to_string(accepted.id) + " was accepted");
+  }
+}
+
+void Mapper::Impl::DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind, const std::string& reason) {
+  const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
+  if (!taken) return;
+  const Hypothesis& dropped = *taken;
+  if (dropped.conditional) {
+    overlay_.reset();  // G′ is simply dropped: G never saw the edges (IV-B)
+    conditional_hypothesis_ = -1;
+    Log(DecisionKind::kRejected, dropped.ref_view, &dropped, "conditional merge undone: " + reason);
+  } else {
+    Log(kind, dropped.ref_view, &dropped, reason);
+  }
+  if (dropped.kind == HypothesisKind::kMerge) {
+    for (const HypothesisObservation& observation : dropped.observations) {
+      ambiguity_.AddRejected(observation.view, observation.odometer);
+    }
+    ambiguity_.Forget(odometer_);
+    UpdateAmbiguityMarks();
+  }
+}
+
+void Mapper::Impl::UpdateAmbiguityMarks() {
+  const auto creation_order = [this](ViewId view) { return view_creation_order_.at(view); };
+  const auto marked = [this](ViewId view) { return IsAmbiguous(view); };
+  for (const ViewId view : ambiguity_.FindAmbiguous(creation_order, marked)) {
+    map_.graph.mutable_view(view).ambiguous = true;
+    Log(DecisionKind::kViewMarkedAmbiguous, view, nullptr,
+        std::to_string(ambiguity_.RejectionsInWindow(view)) +
+            " rejected observations while an older view was accepted within " +
+            std::to_string(params_.ambiguity_window_distance) + " m");
+  }
+}
+
+void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
+  direct_edges_since_full_optimization_ = 0;
+  OptimizerOptions options = params_.optimizer;
+  options.component = node;
+  const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
+  // Optimisation cannot fail on validated data; if Ceres does, G keeps its poses and the log says so.
+  if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
+}
+
+void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, std::string* note) {
+  if (++direct_edges_since_full_optimization_ >= params_.full_optimization_every) {
+    OptimizeComponentOf(robot, note);
+    return;
+  }
+  // Nodes are numbered in creation order, so the robot's last nodes in its component are the window.
+  OptimizerOptions options = params_.optimizer;
+  for (NodeId id = robot; id > robot - params_.local_window_nodes; --id) {
+    if (map_.graph.HasNode(id) && map_.graph.SameComponent(id, robot)) options.variable_nodes.push_back(id);
+  }
+  const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
+  if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
+}
+
+std::optional<Hypothesis> Mapper::Impl::TakeHypothesis(std::int64_t id) {
+  const auto it = std::find_if(hypotheses_.begin(), hypotheses_.end(), [&](const Hypothesis& h) { return h.id == id; });
+  if (it == hypotheses_.end()) return std::nullopt;
+  std::optional<Hypothesis> taken(std::move(*it));
+  hypotheses_.erase(it);
+  return taken;
+}
+
+Hypothesis* Mapper::Impl::FindHypothesis(std::int64_t id) {
+  for (Hypothesis& hypothesis : hypotheses_) {
+    if (hypothesis.id == id) return &hypothesis;
+  }
+  return nullptr;
+}
+
+}  // namespace slamcore

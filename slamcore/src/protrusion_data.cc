@@ -1,0 +1,392 @@
+// The seeded generator of labelled protrusion / new-space pairs from real maps (physics in
+// protrusion_data.h and docs/protrusion-data.md).
+#include "slamcore/protrusion_data.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <numbers>
+#include <random>
+
+namespace slamcore {
+namespace {
+
+constexpr std::int8_t kFree = static_cast<std::int8_t>(CellState::kFree);
+constexpr std::int8_t kOccupied = static_cast<std::int8_t>(CellState::kOccupied);
+constexpr std::int8_t kUnknown = static_cast<std::int8_t>(CellState::kUnknown);
+constexpr int kAttempts = 80;
+
+class Generator {
+ public:
+  Generator(const OccupancyGrid& base, std::uint64_t seed, const GeneratorOptions& options)
+      : base_(base), options_(options), random_(seed), parent_(base), child_(base),
+        truth_(base.cells.size(), 0), reserved_(base.height, base.width, CV_8U, cv::Scalar(0)) {
+    cv::Mat free_mask(base.height, base.width, CV_8U);
+    for (int row = 0; row < base.height; ++row) {
+      for (int col = 0; col < base.width; ++col) free_mask.at<std::uint8_t>(row, col) = base.at(col, row) == kFree;
+    }
+    cv::distanceTransform(free_mask, clearance_, cv::DIST_L2, cv::DIST_MASK_5);  // cells to nearest non-free
+    for (int row = 0; row < base.height; ++row) {
+      for (int col = 0; col < base.width; ++col) {
+        if (base.at(col, row) == kFree) free_cells_.push_back(Index(col, row));
+        if (base.at(col, row) != kUnknown && HasNeighbour(col, row, kUnknown)) edge_cells_.push_back(Index(col, row));
+      }
+    }
+  }
+
+  Result<GeneratedPair> Run() {
+    if (free_cells_.size() < 2000) return InvalidArgument("generator: the map has too little free space (< 5 m^2)");
+    GeneratedPair pair;
+    const int new_spaces = Uniform(options_.min_new_spaces, options_.max_new_spaces);
+    for (int i = 0; i < new_spaces; ++i) pair.new_spaces += AddNewSpace();
+    const int protrusions = Uniform(options_.min_protrusions, options_.max_protrusions);
+    for (int i = 0; i < protrusions; ++i) pair.protrusions += AddProtrusion();
+    AddSpeckle();
+    pair.child = std::move(child_);
+    pair.truth = std::move(truth_);
+    pair.parent = CropToKnown(parent_);
+    return pair;
+  }
+
+ private:
+  int Index(int col, int row) const { return row * base_.width + col; }
+  int Uniform(int low, int high) { return std::uniform_int_distribution<int>(low, std::max(low, high))(random_); }
+  double Uniform(double low, double high) { return std::uniform_real_distribution<double>(low, high)(random_); }
+  bool Chance(double p) { return Uniform(0.0, 1.0) < p; }
+  double Cells(double metres) const { return metres / base_.resolution; }
+
+  bool HasNeighbour(int col, int row, std::int8_t value) const {
+    for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      if (base_.InBounds(col + dc, row + dr) && base_.at(col + dc, row + dr) == value) return true;
+    }
+    return false;
+  }
+  bool Reserved(int index) const { return reserved_.data[index] != 0; }
+
+  /// Keeps later changes ≥ 0.5 m away from this one, so that regions never merge and labels stay clean.
+  void Reserve(const std::vector<int>& cells) {
+    cv::Mat mask(reserved_.size(), CV_8U, cv::Scalar(0));
+    for (const int cell : cells) mask.data[cell] = 1;
+    const int radius = static_cast<int>(std::ceil(Cells(0.5)));
+    cv::dilate(mask, mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * radius + 1, 2 * radius + 1}));
+    reserved_ |= mask;
+  }
+
+  int RandomCell(const std::vector<int>& cells) {
+    return cells[std::uniform_int_distribution<std::size_t>(0, cells.size() - 1)(random_)];
+  }
+
+  /// Drops a few edge cells of a change in the child: the sensor never sees every cell of a new area.
+  void DropEdges(const std::vector<int>& cells, double probability) {
+    for (const int cell : cells) {
+      const int col = cell % base_.width, row = cell / base_.width;
+      bool edge = false;
+      for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        edge |= !base_.InBounds(col + dc, row + dr) || truth_[static_cast<std::size_t>(Index(col + dc, row + dr))] == 0;
+      }
+      if (edge && Chance(probability)) {
+        child_.cells[static_cast<std::size_t>(cell)] = parent_.cells[static_cast<std::size_t>(cell)];
+        truth_[static_cast<std::size_t>(cell)] = 0;
+      }
+    }
+  }
+
+  int AddNewSpace() {
+    for (int attempt = 0; attempt < kAttempts; ++attempt) {
+      const int kind = Uniform(0, 2);
+      if (kind == 2 ? AddMovedFurniture() : AddRoom(kind == 1)) return 1;
+    }
+    return 0;
+  }
+
+  /// (a)/(b): a room seen for the first time, or behind a door that was closed in the parent.
+  bool AddRoom(bool door) {
+    const int seed = RandomCell(free_cells_);
+    if (clearance_.at<float>(seed / base_.width, seed % base_.width) < Cells(0.4) || Reserved(seed)) return false;
+    const double radius = Cells(Uniform(1.0, 3.5));
+    std::vector<int> distance(base_.cells.size(), -1);
+    std::vector<int> room{seed};
+    std::deque<int> queue{seed};
+    distance[static_cast<std::size_t>(seed)] = 0;
+    while (!queue.empty()) {
+      const int cell = queue.front();
+      queue.pop_front();
+      if (distance[static_cast<std::size_t>(cell)] >= radius) continue;
+      const int col = cell % base_.width, row = cell / base_.width;
+      for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        if (!base_.InBounds(col + dc, row + dr)) continue;
+        const int next = Index(col + dc, row + dr);
+        if (distance[static_cast<std::size_t>(next)] >= 0 || base_.cells[static_cast<std::size_t>(next)] != kFree ||
+            Reserved(next)) {
+          continue;
+        }
+        distance[static_cast<std::size_t>(next)] = distance[static_cast<std::size_t>(cell)] + 1;
+        room.push_back(next);
+        queue.push_back(next);
+      }
+    }
+    const double area = static_cast<double>(room.size()) * base_.resolution * base_.resolution;
+    if (area < 1.0 || room.size() > free_cells_.size() * 2 / 5) return false;
+    // Walls that belong to the room only, and the cut between the room and the rest of the free space.
+    std::vector<int> walls, cut;
+    for (const int cell : room) {
+      const int col = cell % base_.width, row = cell / base_.width;
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          if (!base_.InBounds(col + dc, row + dr)) continue;
+          const int next = Index(col + dc, row + dr);
+          const std::int8_t value = base_.cells[static_cast<std::size_t>(next)];
+          if (distance[static_cast<std::size_t>(next)] >= 0) continue;
+          if (value == kOccupied && !TouchesOutsideFree(next, distance)) walls.push_back(next);
+          if (value == kFree && (dr == 0 || dc == 0)) cut.push_back(next);
+        }
+      }
+    }
+    std::sort(walls.begin(), walls.end());
+    walls.erase(std::unique(walls.begin(), walls.end()), walls.end());
+    std::sort(cut.begin(), cut.end());
+    cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
+    for (const int cell : cut) {
+      if (Reserved(cell)) return false;
+    }
+    std::vector<int> changed = room;
+    changed.insert(changed.end(), walls.begin(), walls.end());
+    for (const int cell : changed) parent_.cells[static_cast<std::size_t>(cell)] = kUnknown;
+    if (door && static_cast<double>(cut.size()) * base_.resolution <= 1.5) {
+      for (const int cell : cut) parent_.cells[static_cast<std::size_t>(cell)] = kOccupied;  // the closed door
+      changed.insert(changed.end(), cut.begin(), cut.end());
+    }
+    for (const int cell : changed) truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
+    DropEdges(changed, 0.1);
+    Reserve(changed);
+    return true;
+  }
+
+  bool TouchesOutsideFree(int cell, const std::vector<int>& distance) const {
+    const int col = cell % base_.width, row = cell / base_.width;
+    for (int dr = -1; dr <= 1; ++dr) {
+      for (int dc = -1; dc <= 1; ++dc) {
+        if (!base_.InBounds(col + dc, row + dr)) continue;
+        const int next = Index(col + dc, row + dr);
+        if (base_.cells[static_cast<std::size_t>(next)] == kFree && distance[static_cast<std::size_t>(next)] < 0) {
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  /// (c): a sofa or bed moved away: the parent saw its outline (unknown inside), the child sees floor.
+  bool AddMovedFurniture() {
+    const int centre = RandomCell(free_cells_);
+    const double width = Cells(Uniform(0.6, 1.6)), length = Cells(Uniform(1.2, 2.4));
+    const double angle = Uniform(0.0, std::numbers::pi);
+    const double c = std::cos(angle), s = std::sin(angle);
+    const int reach = static_cast<int>(std::ceil(0.5 * std::hypot(width, length))) + 1;
+    const int centre_col = centre % base_.width, centre_row = centre / base_.width;
+    std::vector<int> cells;
+    std::vector<bool> outline;
+    for (int dr = -reach; dr <= reach; ++dr) {
+      for (int dc = -reach; dc <= reach; ++dc) {
+        const double u = c * dc + s * dr, v = -s * dc + c * dr;
+        if (std::abs(u) > 0.5 * length || std::abs(v) > 0.5 * width) continue;
+        const int col = centre_col + dc, row = centre_row + dr;
+        if (!base_.InBounds(col, row)) return false;
+        const int index = Index(col, row);
+        if (base_.cells[static_cast<std::size_t>(index)] != kFree || Reserved(index)) return false;
+        cells.push_back(index);
+        outline.push_back(std::abs(u) > 0.5 * length - 1.0 || std::abs(v) > 0.5 * width - 1.0);
+      }
+    }
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      parent_.cells[static_cast<std::size_t>(cells[i])] = outline[i] ? kOccupied : kUnknown;
+      truth_[static_cast<std::size_t>(cells[i])] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
+    }
+    Reserve(cells);
+    return true;
+  }
+
+  int AddProtrusion() {
+    for (int attempt = 0; attempt < kAttempts; ++attempt) {
+      if (TryProtrusion()) return 1;
+    }
+    return 0;
+  }
+
+  /// A slip corridor: the false path the odometry integrated while the wheels spun (see the header).
+  bool TryProtrusion() {
+    const int start = RandomCell(free_cells_);
+    if (clearance_.at<float>(start / base_.width, start % base_.width) < Cells(0.15) || Reserved(start)) return false;
+    double x = start % base_.width + 0.5, y = start / base_.width + 0.5;
+    double heading = Uniform(-std::numbers::pi, std::numbers::pi);
+    const double curvature = Uniform(-0.12, 0.12) * base_.resolution;  // per cell, gently curved
+    const double robot_width = Cells(Uniform(options_.min_robot_width_m, options_.max_robot_width_m));
+    const double wobble = Cells(0.015), wavelength = Cells(Uniform(1.0, 2.0)), phase = Uniform(0.0, 6.28);
+    const double outside_length = Cells(Uniform(options_.min_protrusion_length_m, options_.max_protrusion_length_m));
+    const int edge_thickness = Chance(0.7) ? 1 : 2;
+    const double step = 0.25;
+    double travelled = 0.0, outside = 0.0;
+    bool left_known = false;
+    struct Point {
+      double x, y, half_width;
+    };
+    std::vector<Point> path;
+    while (outside < outside_length) {
+      const int col = static_cast<int>(std::floor(x)), row = static_cast<int>(std::floor(y));
+      if (!base_.InBounds(col, row)) return false;
+      const int index = Index(col, row);
+      const std::int8_t value = base_.cells[static_cast<std::size_t>(index)];
+      if (value != kFree) left_known = true;
+      if (left_known) {
+        if (value == kFree || Reserved(index)) return false;  // must end in unknown space, not another room
+        outside += step;
+      } else if (travelled > Cells(2.0)) {
+        return false;  // the robot was not near the edge of known space
+      }
+      path.push_back({x, y, 0.5 * robot_width + wobble * std::sin(travelled / wavelength * 6.2832 + phase)});
+      x += step * std::cos(heading);
+      y += step * std::sin(heading);
+      heading += curvature * step;
+      travelled += step;
+    }
+    // Rasterise: corridor cells free, a 1–2-cell rim of smeared wall hits where the map knew nothing.
+    std::vector<int> corridor, rim;
+    std::vector<std::uint8_t> mark(base_.cells.size(), 0);
+    for (const Point& point : path) {
+      const double outer = point.half_width + edge_thickness;
+      const int reach = static_cast<int>(std::ceil(outer)) + 1;
+      for (int dr = -reach; dr <= reach; ++dr) {
+        for (int dc = -reach; dc <= reach; ++dc) {
+          const int col = static_cast<int>(std::floor(point.x)) + dc, row = static_cast<int>(std::floor(point.y)) + dr;
+          if (!base_.InBounds(col, row)) return false;
+          const double distance = std::hypot(col + 0.5 - point.x, row + 0.5 - point.y);
+          const int index = Index(col, row);
+          std::uint8_t& m = mark[static_cast<std::size_t>(index)];
+          if (distance <= point.half_width && m != 1) {
+            corridor.push_back(index);  // also when an earlier point had marked it as rim
+            m = 1;
+          } else if (distance <= outer && m == 0) {
+            m = 2;
+            rim.push_back(index);
+          }
+        }
+      }
+    }
+    std::vector<int> changed;
+    for (const int cell : corridor) {
+      if (mark[static_cast<std::size_t>(cell)] == 1 && base_.cells[static_cast<std::size_t>(cell)] != kFree) {
+        if (Reserved(cell)) return false;
+        changed.push_back(cell);
+      }
+    }
+    for (const int cell : rim) {
+      if (mark[static_cast<std::size_t>(cell)] == 2 && base_.cells[static_cast<std::size_t>(cell)] == kUnknown) {
+        if (Reserved(cell)) return false;
+        if (Chance(0.85)) changed.push_back(cell);  // some hits never land: gaps in the rim
+      }
+    }
+    if (static_cast<double>(changed.size()) < 0.5 * Cells(options_.min_protrusion_length_m) * robot_width) return false;
+    for (const int cell : changed) {
+      child_.cells[static_cast<std::size_t>(cell)] = mark[static_cast<std::size_t>(cell)] == 1 ? kFree : kOccupied;
+      truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kProtrusion);
+    }
+    Reserve(changed);
+    return true;
+  }
+
+  /// Sensor speckle and re-scan fringes along known edges: differences the clean-up must remove.
+  void AddSpeckle() {
+    if (edge_cells_.empty()) return;
+    const int speckles = Uniform(0, options_.max_speckles);
+    for (int i = 0; i < speckles; ++i) {
+      const int cell = RandomCell(edge_cells_);
+      const int size = Uniform(1, 2);
+      const std::int8_t value = Chance(0.5) ? kFree : kOccupied;
+      for (int dr = 0; dr < size; ++dr) {
+        for (int dc = 0; dc < size; ++dc) Speck(cell % base_.width + dc, cell / base_.width + dr, value);
+      }
+    }
+    const int fringes = Uniform(0, 3);
+    for (int i = 0; i < fringes; ++i) {
+      const int cell = RandomCell(edge_cells_);
+      const bool along_x = Chance(0.5);
+      const int length = Uniform(5, 20);
+      for (int k = 0; k < length; ++k) {
+        Speck(cell % base_.width + (along_x ? k : 0), cell / base_.width + (along_x ? 0 : k), kFree);
+      }
+    }
+  }
+
+  void Speck(int col, int row, std::int8_t value) {
+    if (!base_.InBounds(col, row)) return;
+    const auto index = static_cast<std::size_t>(Index(col, row));
+    if (Reserved(static_cast<int>(index)) || child_.cells[index] != kUnknown || parent_.cells[index] != kUnknown) return;
+    child_.cells[index] = value;
+  }
+
+  /// The parent as a robot would have saved it: cropped to its known cells plus a margin.
+  static OccupancyGrid CropToKnown(const OccupancyGrid& grid) {
+    int min_col = grid.width, min_row = grid.height, max_col = -1, max_row = -1;
+    for (int row = 0; row < grid.height; ++row) {
+      for (int col = 0; col < grid.width; ++col) {
+        if (grid.at(col, row) == kUnknown) continue;
+        min_col = std::min(min_col, col);
+        max_col = std::max(max_col, col);
+        min_row = std::min(min_row, row);
+        max_row = std::max(max_row, row);
+      }
+    }
+    const int margin = 10;
+    min_col = std::max(0, min_col - margin);
+    min_row = std::max(0, min_row - margin);
+    max_col = std::min(grid.width - 1, max_col + margin);
+    max_row = std::min(grid.height - 1, max_row + margin);
+    OccupancyGrid cropped = *OccupancyGrid::Create(max_col - min_col + 1, max_row - min_row + 1, grid.resolution,
+                                                   grid.origin_x + min_col * grid.resolution,
+                                                   grid.origin_y + min_row * grid.resolution);
+    for (int row = 0; row < cropped.height; ++row) {
+      for (int col = 0; col < cropped.width; ++col) cropped.at(col, row) = grid.at(col + min_col, row + min_row);
+    }
+    return cropped;
+  }
+
+  const OccupancyGrid& base_;
+  GeneratorOptions options_;
+  std::mt19937_64 random_;
+  OccupancyGrid parent_, child_;
+  std::vector<std::uint8_t> truth_;
+  cv::Mat reserved_;
+  cv::Mat clearance_;
+  std::vector<int> free_cells_, edge_cells_;
+};
+
+}  // namespace
+
+Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t seed, const GeneratorOptions& options) {
+  if (real_map.width <= 0 || real_map.height <= 0 ||
+      real_map.cells.size() != static_cast<std::size_t>(real_map.width) * real_map.height) {
+    return InvalidArgument("generator: the real map is empty or malformed");
+  }
+  if (options.min_protrusions < 0 || options.max_protrusions > 20 || options.min_new_spaces < 0 ||
+      options.max_new_spaces > 20 || !(options.min_robot_width_m > 0.0) ||
+      options.max_robot_width_m < options.min_robot_width_m || !(options.min_protrusion_length_m > 0.0) ||
+      options.max_protrusion_length_m < options.min_protrusion_length_m || options.max_protrusion_length_m > 20.0) {
+    return InvalidArgument("generator: options out of range");
+  }
+  // Pad by the longest protrusion so that a slip out of the map's edge stays inside the child's image.
+  const int pad = static_cast<int>(std::ceil((options.max_protrusion_length_m + 1.0) / real_map.resolution));
+  auto base = OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad, real_map.resolution,
+                                    real_map.origin_x - pad * real_map.resolution,
+                                    real_map.origin_y - pad * real_map.resolution);
+  if (!base.ok()) return base.status();
+  base->origin_yaw = real_map.origin_yaw;
+  for (int row = 0; row < real_map.height; ++row) {
+    for (int col = 0; col < real_map.width; ++col) base->at(col + pad, row + pad) = real_map.at(col, row);
+  }
+  return Generator(*base, seed, options).Run();
+}
+
+}  // namespace slamcore

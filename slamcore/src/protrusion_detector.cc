@@ -1,0 +1,236 @@
+// Erroneous-protrusion detection: difference, clean-up, regions and features (paper IV-C; see the header).
+#include "slamcore/protrusion_detector.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace slamcore {
+namespace {
+
+constexpr std::int8_t kFree = static_cast<std::int8_t>(CellState::kFree);
+constexpr std::int8_t kOccupied = static_cast<std::int8_t>(CellState::kOccupied);
+constexpr std::int8_t kUnknown = static_cast<std::int8_t>(CellState::kUnknown);
+
+Status CheckGrid(const OccupancyGrid& grid, const char* which) {
+  const std::string name(which);
+  if (grid.width <= 0 || grid.height <= 0) return InvalidArgument(name + " map is empty");
+  if (grid.width > kMaxGridSide || grid.height > kMaxGridSide ||
+      static_cast<std::int64_t>(grid.width) * grid.height > kMaxGridCells) {
+    return InvalidArgument(name + " map has an absurd size");
+  }
+  if (grid.cells.size() != static_cast<std::size_t>(grid.width) * grid.height) {
+    return InvalidArgument(name + " map: cells do not match width x height");
+  }
+  if (!(grid.resolution > 0.0) || !std::isfinite(grid.resolution)) {
+    return InvalidArgument(name + " map: bad resolution");
+  }
+  return Status::Ok();
+}
+
+/// The features of one region, `mask` being its cleaned cells inside `roi` (1 inside, 0 outside) with at
+/// least one cell of margin on every side.
+std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi, const cv::Mat& parent_roi,
+                                   double resolution) {
+  const double r = resolution, r2 = resolution * resolution;
+  const double area = cv::countNonZero(mask);
+  const cv::Rect box = cv::boundingRect(mask);
+  const double bbox_area = static_cast<double>(box.area());
+
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  double perimeter = 0.0;
+  std::vector<cv::Point> all_points;
+  for (const auto& contour : contours) {
+    perimeter += cv::arcLength(contour, true);
+    all_points.insert(all_points.end(), contour.begin(), contour.end());
+  }
+  std::vector<cv::Point> hull;
+  if (!all_points.empty()) cv::convexHull(all_points, hull);
+  // Hull polygons pass through pixel centres; half the hull's perimeter plus one restores the pixel area.
+  const double hull_area = hull.size() >= 3 ? cv::contourArea(hull) + 0.5 * cv::arcLength(hull, true) + 1.0 : area;
+  const double solidity = std::min(1.0, area / std::max(hull_area, 1.0));
+
+  // Second moments as regionprops does: the ellipse with the region's normalised central moments.
+  const cv::Moments moments = cv::moments(mask, true);
+  const double mu20 = moments.mu20 / area + 1.0 / 12.0, mu02 = moments.mu02 / area + 1.0 / 12.0;
+  const double mu11 = moments.mu11 / area;
+  const double common = std::sqrt((mu20 - mu02) * (mu20 - mu02) + 4.0 * mu11 * mu11);
+  const double major = 2.0 * std::sqrt(2.0) * std::sqrt(std::max(0.0, mu20 + mu02 + common));
+  const double minor = 2.0 * std::sqrt(2.0) * std::sqrt(std::max(0.0, mu20 + mu02 - common));
+
+  // Distance transform inside the region: half the local width. A slip corridor is one robot wide
+  // everywhere; a room or a revealed floor patch is wide somewhere (the paper's strongest feature).
+  cv::Mat distance;
+  cv::distanceTransform(mask, distance, cv::DIST_L2, cv::DIST_MASK_5);
+  double max_distance = 0.0;
+  cv::minMaxLoc(distance, nullptr, &max_distance, nullptr, nullptr, mask);
+  const double mean_distance = cv::mean(distance, mask)[0];
+
+  // Contact with the parent: region boundary cells next to cells the parent knew to be free. A slip
+  // corridor touches known space only where the robot got stuck, one robot-width wide.
+  cv::Mat eroded, boundary, parent_free, near_parent_free, contact;
+  cv::erode(mask, eroded, cv::getStructuringElement(cv::MORPH_CROSS, {3, 3}));
+  cv::subtract(mask, eroded, boundary);
+  cv::compare(parent_roi, kFree, parent_free, cv::CMP_EQ);
+  cv::dilate(parent_free, near_parent_free, cv::Mat::ones(3, 3, CV_8U));
+  cv::bitwise_and(boundary, near_parent_free, contact);
+  const double boundary_cells = std::max(1, cv::countNonZero(boundary));
+  const double contact_cells = cv::countNonZero(contact);
+
+  cv::Mat child_walls, parent_walls;
+  cv::compare(child_roi, kOccupied, child_walls, cv::CMP_EQ);
+  cv::compare(parent_roi, kOccupied, parent_walls, cv::CMP_EQ);
+  cv::bitwise_and(child_walls, mask, child_walls);
+  cv::bitwise_and(parent_walls, mask, parent_walls);
+
+  return {area * r2,
+          bbox_area * r2,
+          perimeter * r,
+          major * r,
+          minor * r,
+          mean_distance * r,
+          max_distance * r,
+          major / std::max(minor, 1e-9),
+          solidity,
+          area / std::max(bbox_area, 1.0),
+          contact_cells * r,
+          contact_cells / boundary_cells,
+          cv::countNonZero(child_walls) / area,
+          cv::countNonZero(parent_walls) / area};
+}
+
+}  // namespace
+
+const std::vector<std::string>& ProtrusionFeatureNames() {
+  static const std::vector<std::string> kNames = {
+      "area_m2",          "bbox_area_m2",      "perimeter_m",   "major_axis_m",  "minor_axis_m",
+      "mean_distance_m",  "max_distance_m",    "elongation",    "solidity",      "extent",
+      "contact_length_m", "contact_fraction",  "wall_fraction", "parent_wall_fraction"};
+  return kNames;
+}
+
+Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const OccupancyGrid& child) {
+  SLAMCORE_RETURN_IF_ERROR(CheckGrid(parent, "parent"));
+  SLAMCORE_RETURN_IF_ERROR(CheckGrid(child, "child"));
+  const double resolution = child.resolution;
+  if (std::abs(parent.resolution - resolution) > 1e-9 * resolution) {
+    return InvalidArgument("parent and child maps have different resolutions (" + std::to_string(parent.resolution) +
+                           " vs " + std::to_string(resolution) + " m/cell); re-save one at the other's resolution");
+  }
+  if (std::abs(WrapAngle(parent.origin_yaw - child.origin_yaw)) > 1e-9) {
+    return InvalidArgument("parent and child maps have different origin yaws; they cannot be aligned cell to cell");
+  }
+  const double dx = (parent.origin_x - child.origin_x) / resolution;
+  const double dy = (parent.origin_y - child.origin_y) / resolution;
+  if (std::abs(dx - std::round(dx)) > 1e-3 || std::abs(dy - std::round(dy)) > 1e-3) {
+    return InvalidArgument("parent and child origins are not a whole number of cells apart (" + std::to_string(dx) +
+                           ", " + std::to_string(dy) + " cells); the maps are not on the same grid");
+  }
+  if (std::abs(dx) > 4.0 * kMaxGridSide || std::abs(dy) > 4.0 * kMaxGridSide) {
+    return InvalidArgument("parent and child origins are absurdly far apart");
+  }
+  const int shift_x = static_cast<int>(std::lround(dx)), shift_y = static_cast<int>(std::lround(dy));
+  auto aligned = OccupancyGrid::Create(child.width, child.height, resolution, child.origin_x, child.origin_y);
+  if (!aligned.ok()) return aligned.status();
+  aligned->origin_yaw = child.origin_yaw;
+  const int col_begin = std::max(0, shift_x), col_end = std::min(child.width, shift_x + parent.width);
+  for (int row = std::max(0, shift_y); row < std::min(child.height, shift_y + parent.height); ++row) {
+    for (int col = col_begin; col < col_end; ++col) aligned->at(col, row) = parent.at(col - shift_x, row - shift_y);
+  }
+  return aligned;
+}
+
+std::vector<std::uint8_t> DifferenceMask(const OccupancyGrid& aligned_parent, const OccupancyGrid& child) {
+  std::vector<std::uint8_t> mask(child.cells.size(), 0);
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    const std::int8_t before = aligned_parent.cells[i], now = child.cells[i];
+    mask[i] = (now != kUnknown && before == kUnknown) || (now == kFree && before == kOccupied) ? 1 : 0;
+  }
+  return mask;
+}
+
+Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent, const OccupancyGrid& child,
+                                                     const DetectorOptions& options) {
+  auto aligned = AlignParentToChild(parent, child);
+  if (!aligned.ok()) return aligned.status();
+  if (!(options.clean_up_size_m >= 0.0) || !(options.min_region_area_m2 >= 0.0)) {
+    return InvalidArgument("detector options must be non-negative");
+  }
+  const double r = child.resolution;
+  std::vector<std::uint8_t> difference = DifferenceMask(*aligned, child);
+  const cv::Mat raw(child.height, child.width, CV_8U, difference.data());
+  // The grids' int8 cells viewed as images, without copies (OpenCV only reads them).
+  const cv::Mat child_cells(child.height, child.width, CV_8S, const_cast<std::int8_t*>(child.cells.data()));
+  const cv::Mat parent_cells(child.height, child.width, CV_8S, aligned->cells.data());
+
+  // An odd kernel, so that the opening is centred and does not shift regions by half a cell.
+  const int kernel = static_cast<int>(std::lround(options.clean_up_size_m / r)) | 1;
+  cv::Mat clean;
+  if (kernel >= 2) {
+    cv::morphologyEx(raw, clean, cv::MORPH_OPEN, cv::Mat::ones(kernel, kernel, CV_8U));
+  } else {
+    clean = raw;
+  }
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(clean, labels, stats, centroids, 8, CV_32S);
+  const double min_cells = options.min_region_area_m2 / (r * r);
+  const cv::Mat dilation_kernel = cv::Mat::ones(2 * kernel + 1, 2 * kernel + 1, CV_8U);
+
+  std::vector<ProtrusionRegion> regions;
+  for (int label = 1; label < count; ++label) {
+    const int area = stats.at<int>(label, cv::CC_STAT_AREA);
+    if (area < min_cells || area == 0) continue;
+    const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
+    const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
+    const int pad = kernel + 1;
+    const cv::Rect inner(x, y, w, h);
+    const cv::Rect roi = cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & cv::Rect(0, 0, child.width, child.height);
+    // A padded copy so that the distance transform and contours see background around the region.
+    cv::Mat mask = cv::Mat::zeros(roi.height + 2, roi.width + 2, CV_8U);
+    cv::Mat mask_inner = mask(cv::Rect(1, 1, roi.width, roi.height));
+    cv::compare(labels(roi), label, mask_inner, cv::CMP_EQ);
+    cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S), parent_roi = cv::Mat(mask.size(), CV_8S, cv::Scalar(-1));
+    child_cells(roi).copyTo(child_roi(cv::Rect(1, 1, roi.width, roi.height)));
+    parent_cells(roi).copyTo(parent_roi(cv::Rect(1, 1, roi.width, roi.height)));
+
+    ProtrusionRegion region;
+    region.id = static_cast<int>(regions.size());
+    region.clean_area_cells = area;
+    // Grid rows grow upwards, image rows downwards.
+    region.bbox = {inner.x, child.height - (inner.y + inner.height), inner.width, inner.height};
+    region.features = RegionFeatures(mask, child_roi, parent_roi, r);
+    // The cells to revert on repair: the raw difference near the region, so that the 1-cell walls the
+    // clean-up shaved off the corridor's edges go too.
+    cv::Mat near;
+    cv::dilate(mask_inner, near, dilation_kernel);
+    for (int row = 0; row < roi.height; ++row) {
+      const std::uint8_t* near_row = near.ptr<std::uint8_t>(row);
+      const std::uint8_t* raw_row = raw.ptr<std::uint8_t>(roi.y + row);
+      for (int col = 0; col < roi.width; ++col) {
+        if (near_row[col] && raw_row[roi.x + col]) {
+          region.cells.push_back((roi.y + row) * child.width + roi.x + col);
+        }
+      }
+    }
+    regions.push_back(std::move(region));
+  }
+  return regions;
+}
+
+OccupancyGrid RepairChild(const OccupancyGrid& aligned_parent, const OccupancyGrid& child,
+                          const std::vector<const ProtrusionRegion*>& protrusions, RepairMode mode) {
+  if (mode == RepairMode::kFallBackToParent) return aligned_parent;
+  OccupancyGrid repaired = child;
+  for (const ProtrusionRegion* region : protrusions) {
+    for (const std::int32_t cell : region->cells) {
+      const auto index = static_cast<std::size_t>(cell);
+      if (index < repaired.cells.size()) repaired.cells[index] = aligned_parent.cells[index];
+    }
+  }
+  return repaired;
+}
+
+}  // namespace slamcore

@@ -1,0 +1,117 @@
+// A simulated robot for Mapper tests: it knows its true pose in a world frame, drives with exact
+// odometry unless told otherwise, and observes views exactly (z = robot_T_view from the truth), so that
+// tests can state expected numbers independently of the code under test.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "slamcore/graph_io.h"
+#include "slamcore/mapper.h"
+
+namespace slamcore::testing {
+
+inline std::unique_ptr<Mapper> MakeMapper(const MapperParams& params = {}, Map parent = {}) {
+  auto mapper = Mapper::Create(params, std::move(parent));
+  EXPECT_TRUE(mapper.ok()) << mapper.status().ToString();
+  return mapper.ok() ? std::move(mapper).value() : nullptr;
+}
+
+class SimulatedRobot {
+ public:
+  explicit SimulatedRobot(Mapper& mapper, const SE2& world_T_robot = SE2::Identity())
+      : mapper_(&mapper), truth_(world_T_robot) {}
+
+  /// True motion `truth_increment`, reported by odometry as `reported` (default: the truth).
+  void Drive(const SE2& truth_increment, std::optional<SE2> reported = std::nullopt, double variance = 1e-4) {
+    time_ += 1.0;
+    truth_ = truth_ * truth_increment;
+    Process(OdometryEvent{.time = time_, .increment = reported.value_or(truth_increment),
+                          .covariance = Matrix3::Identity() * variance});
+  }
+  void CreateView(ViewId view) {
+    world_T_view_[view] = truth_;
+    Process(ViewCreatedEvent{.time = time_, .view = view});
+  }
+  /// An exact observation; `view_T_seen` distorts it on the view side (e.g. a 180° flip).
+  void Observe(ViewId view, const SE2& view_T_seen = SE2::Identity(), double variance = 1e-2) {
+    ObserveRaw(view, truth_.inverse() * world_T_view_.at(view) * view_T_seen, variance);
+  }
+  void ObserveRaw(ViewId view, const SE2& robot_T_view, double variance = 1e-2) {
+    Process(ViewObservedEvent{.time = time_, .view = view, .robot_T_view = robot_T_view,
+                              .covariance = Matrix3::Identity() * variance});
+  }
+  void Kidnap(const SE2& new_world_T_robot) {
+    Process(KidnapEvent{.time = time_, .cause = KidnapEvent::Cause::kKidnap});
+    truth_ = new_world_T_robot;
+  }
+  void Wait(double seconds) { time_ += seconds; }
+  /// Views of a parent map: their world poses, where the parent's frame is the world frame.
+  void KnowView(ViewId view, const SE2& world_T_view) { world_T_view_[view] = world_T_view; }
+
+  const SE2& truth() const { return truth_; }
+  double time() const { return time_; }
+
+ private:
+  void Process(const Event& event) {
+    const Status status = mapper_->Process(event);
+    EXPECT_TRUE(status.ok()) << status.ToString();
+  }
+
+  Mapper* mapper_;
+  SE2 truth_;
+  double time_ = 0.0;
+  std::map<ViewId, SE2> world_T_view_;
+};
+
+inline int CountDecisions(const Mapper& mapper, DecisionKind kind,
+                          std::optional<HypothesisKind> hypothesis_kind = std::nullopt) {
+  return static_cast<int>(std::count_if(mapper.decisions().begin(), mapper.decisions().end(), [&](const Decision& d) {
+    return d.kind == kind && (!hypothesis_kind || d.hypothesis_kind == hypothesis_kind);
+  }));
+}
+
+inline const Decision* LastDecision(const Mapper& mapper, DecisionKind kind) {
+  for (auto it = mapper.decisions().rbegin(); it != mapper.decisions().rend(); ++it) {
+    if (it->kind == kind) return &*it;
+  }
+  return nullptr;
+}
+
+/// Everything observable about a graph, as text: nodes, edges (g2o, full precision), views and marks.
+inline std::string Describe(const PoseGraph& graph) {
+  std::ostringstream text;
+  WritePoseGraph(graph, text, GraphFormat::kG2o);
+  for (const Node& node : graph.nodes()) {
+    text << "node " << node.id << " t=" << node.time << " odo=" << node.odometer << " component "
+         << graph.ComponentOf(node.id) << "\n";
+  }
+  for (const Edge& edge : graph.edges()) {
+    text << "edge kind " << static_cast<int>(edge.kind) << " view " << edge.view.value_or(-1) << "\n";
+  }
+  for (const View& view : graph.views()) {
+    text << "view " << view.id << " at " << view.node << (view.ambiguous ? " ambiguous" : "") << "\n";
+  }
+  return text.str();
+}
+
+/// A parent map: a straight corridor along the world x axis with nodes 0..count-1 one metre apart and
+/// view k+1 created at node k (so view v sits at world (v−1, 0, 0)).
+inline Map CorridorParentMap(int count) {
+  auto mapper = MakeMapper();
+  SimulatedRobot robot(*mapper);
+  robot.Drive(SE2::Identity());
+  robot.CreateView(1);
+  for (int k = 1; k < count; ++k) {
+    robot.Drive(SE2(1.0, 0.0, 0.0));
+    robot.CreateView(k + 1);
+  }
+  return mapper->Finish();
+}
+
+}  // namespace slamcore::testing

@@ -1,0 +1,209 @@
+// Occupancy grids: map_server PGM/YAML and PNG round trips on the real maps, refusal of bad files, and
+// the incremental renderer equal to a render from scratch.
+#include "slamcore/occupancy_grid.h"
+
+#include "slamcore/mapper.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+namespace slamcore {
+namespace {
+
+const std::filesystem::path kMaps = std::filesystem::path(SHARED_DATA_DIR) / "maps";
+
+std::filesystem::path TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("slamcore_occ_" + name + "_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+TEST(OccupancyGridIo, ReadsEveryRealMapWithTheirPixelConvention) {
+  int maps = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kMaps)) {
+    if (entry.path().extension() != ".yaml") continue;
+    auto grid = ReadMapServerYaml(entry.path().string());
+    ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+    EXPECT_DOUBLE_EQ(grid->resolution, 0.05);
+    EXPECT_GT(grid->CountCells(CellState::kFree), 1000) << entry.path();
+    EXPECT_GT(grid->CountCells(CellState::kOccupied), 100) << entry.path();
+    ++maps;
+  }
+  EXPECT_EQ(maps, 11);
+}
+
+TEST(OccupancyGridIo, LowerLeftOriginMeansImageRowsAreFlipped) {
+  auto grid = OccupancyGrid::Create(3, 2, 0.1, 1.0, 2.0);
+  ASSERT_TRUE(grid.ok());
+  grid->at(0, 0) = static_cast<std::int8_t>(CellState::kOccupied);  // lowest y: the image's bottom row
+  const std::string pgm = EncodePgm(*grid);
+  // Header then 6 pixels: the occupied one is the first pixel of the LAST image row.
+  const std::string pixels = pgm.substr(pgm.size() - 6);
+  EXPECT_EQ(static_cast<unsigned char>(pixels[3]), 0);
+  EXPECT_EQ(static_cast<unsigned char>(pixels[0]), 205);
+}
+
+TEST(OccupancyGridIo, PgmAndPngRoundTripTheRealMaps) {
+  const auto dir = TempDir("roundtrip");
+  auto original = ReadMapServerYaml((kMaps / "aws_small_house.yaml").string());
+  ASSERT_TRUE(original.ok());
+  for (const bool png : {false, true}) {
+    const auto yaml = dir / (png ? "png_map.yaml" : "pgm_map.yaml");
+    ASSERT_TRUE(WriteMapServerYaml(*original, yaml.string(), png).ok());
+    auto back = ReadMapServerYaml(yaml.string());
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    EXPECT_EQ(back->cells, original->cells);
+    EXPECT_EQ(back->width, original->width);
+    EXPECT_DOUBLE_EQ(back->origin_x, original->origin_x);
+    EXPECT_DOUBLE_EQ(back->origin_y, original->origin_y);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(OccupancyGridIo, RefusesCorruptPgmWithClearErrors) {
+  auto check = [](const std::string& bytes, const std::string& expected) {
+    auto grid = DecodePgm(bytes, 0.05, 0, 0);
+    ASSERT_FALSE(grid.ok()) << "accepted: " << bytes.substr(0, 20);
+    EXPECT_NE(grid.status().message().find(expected), std::string::npos) << grid.status().ToString();
+  };
+  check("", "magic");
+  check("P6\n2 2\n255\n0000", "magic");
+  check("P5\n2 x\n255\n0000", "height");
+  check("P5\n2 2\n255\n00", "truncated");
+  check("P5\n0 0\n255\n", "empty map");
+  check("P5\n100000 100000\n255\n", "absurd");
+  check("P5\n2 2\n65535\n00000000", "maxval");
+  check("P2\n2 2\n255\n1 2 3\n", "ASCII pixel 3");
+  EXPECT_TRUE(DecodePgm("P2\n# comment\n2 1\n255\n254 0\n", 0.05, 0, 0).ok());
+}
+
+TEST(OccupancyGridIo, RefusesCorruptPngAndYamlWithClearErrors) {
+  EXPECT_FALSE(DecodePng("not a png", 0.05, 0, 0).ok());
+  auto grid = OccupancyGrid::Create(20, 10, 0.05);
+  ASSERT_TRUE(grid.ok());
+  auto png = EncodePng(*grid);
+  ASSERT_TRUE(png.ok());
+  std::string truncated = png->substr(0, png->size() / 2);
+  auto decoded = DecodePng(truncated, 0.05, 0, 0);
+  ASSERT_FALSE(decoded.ok());
+  EXPECT_NE(decoded.status().message().find("corrupt"), std::string::npos) << decoded.status().ToString();
+  std::string absurd = *png;
+  absurd[16] = '\x7f';  // width 2^30: refused from the header, before any allocation
+  decoded = DecodePng(absurd, 0.05, 0, 0);
+  ASSERT_FALSE(decoded.ok());
+  EXPECT_NE(decoded.status().message().find("absurd"), std::string::npos) << decoded.status().ToString();
+
+  const auto dir = TempDir("yaml");
+  auto write_yaml = [&](const std::string& text) {
+    EXPECT_TRUE(WriteFileBytes((dir / "m.yaml").string(), text).ok());
+    return ReadMapServerYaml((dir / "m.yaml").string());
+  };
+  const std::string pgm("P5\n2 2\n255\n\xfe\xfe\x00\xcd", 15);
+  ASSERT_TRUE(WriteFileBytes((dir / "m.pgm").string(), pgm).ok());
+  EXPECT_TRUE(write_yaml("image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n").ok());
+  EXPECT_NE(write_yaml("resolution: 0.05\norigin: [0, 0, 0]\n").status().message().find("missing key 'image'"),
+            std::string::npos);
+  EXPECT_NE(write_yaml("image: m.pgm\nresolution: abc\norigin: [0, 0, 0]\n").status().message().find("resolution"),
+            std::string::npos);
+  EXPECT_NE(write_yaml("image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\n").status().message().find("resolution"),
+            std::string::npos);
+  EXPECT_NE(write_yaml("image: m.pgm\nresolution: 0.05\norigin: [0, 0]\n").status().message().find("origin"),
+            std::string::npos);
+  EXPECT_EQ(write_yaml("image: nope.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n").status().code(),
+            StatusCode::kNotFound);
+  std::filesystem::remove_all(dir);
+}
+
+/// A map of `nodes` nodes on a line, each with a 40×40 patch: free inside, a wall on one side.
+Map MakeMap(int nodes) {
+  Map map;
+  for (int i = 0; i < nodes; ++i) {
+    Node node;
+    node.id = i;
+    node.pose = SE2(0.5 * i, 0.1 * std::sin(i), 0.05 * i);
+    EXPECT_TRUE(map.graph.AddNode(node).ok());
+    LocalMapEvent patch;
+    patch.width = 40;
+    patch.height = 40;
+    patch.node_T_origin = SE2(-1.0, -1.0, 0.0);
+    patch.cells.assign(40 * 40, 0);
+    for (int col = 0; col < 40; ++col) patch.cells[static_cast<std::size_t>(39 * 40 + col)] = 100;
+    for (int col = 0; col < 5; ++col) patch.cells[static_cast<std::size_t>(col)] = -1;
+    map.local_maps.emplace(i, std::move(patch));
+  }
+  return map;
+}
+
+/// Whether two grids hold the same cells at the same world positions (bounds may differ; a cell outside
+/// one grid counts as unknown).
+void ExpectSameWorldCells(const OccupancyGrid& a, const OccupancyGrid& b) {
+  ASSERT_DOUBLE_EQ(a.resolution, b.resolution);
+  const long dx = std::lround((b.origin_x - a.origin_x) / a.resolution);
+  const long dy = std::lround((b.origin_y - a.origin_y) / a.resolution);
+  int differences = 0;
+  for (int row = 0; row < a.height; ++row) {
+    for (int col = 0; col < a.width; ++col) {
+      const int bc = static_cast<int>(col - dx), br = static_cast<int>(row - dy);
+      const std::int8_t other = b.InBounds(bc, br) ? b.at(bc, br) : std::int8_t{-1};
+      differences += a.at(col, row) != other;
+    }
+  }
+  EXPECT_EQ(differences, 0);
+  EXPECT_EQ(a.CountCells(CellState::kOccupied), b.CountCells(CellState::kOccupied));
+  EXPECT_EQ(a.CountCells(CellState::kFree), b.CountCells(CellState::kFree));
+}
+
+TEST(OccupancyGridRender, IncrementalUpdateEqualsRenderFromScratch) {
+  Map map = MakeMap(30);
+  GlobalGridRenderer incremental;
+  ASSERT_TRUE(incremental.RenderAll(map).ok());
+  EXPECT_GT(incremental.grid().CountCells(CellState::kOccupied), 0);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  for (int step = 0; step < 10; ++step) {
+    const NodeId moved = static_cast<NodeId>(random() % 30);
+    const SE2 old = map.graph.node(moved).pose;
+    map.graph.mutable_node(moved).pose = SE2(old.x() + jitter(random), old.y() + jitter(random), old.theta() + 0.2);
+    int rerendered = 0;
+    ASSERT_TRUE(incremental.Update(map, &rerendered).ok());
+    EXPECT_EQ(rerendered, 1);
+    GlobalGridRenderer scratch;
+    ASSERT_TRUE(scratch.RenderAll(map).ok());
+    SCOPED_TRACE(step);
+    ExpectSameWorldCells(incremental.grid(), scratch.grid());
+  }
+}
+
+TEST(OccupancyGridRender, GrowsBoundsAndDropsRemovedPatches) {
+  Map map = MakeMap(5);
+  GlobalGridRenderer renderer;
+  ASSERT_TRUE(renderer.RenderAll(map).ok());
+  map.graph.mutable_node(2).pose = SE2(40.0, -30.0, 1.0);  // far outside: the bounds must grow
+  ASSERT_TRUE(renderer.Update(map).ok());
+  GlobalGridRenderer scratch;
+  ASSERT_TRUE(scratch.RenderAll(map).ok());
+  ExpectSameWorldCells(renderer.grid(), scratch.grid());
+  map.local_maps.erase(3);
+  ASSERT_TRUE(renderer.Update(map).ok());
+  ASSERT_TRUE(scratch.RenderAll(map).ok());
+  ExpectSameWorldCells(renderer.grid(), scratch.grid());
+}
+
+TEST(OccupancyGridRender, RefusesBadPatchesAndAbsurdExtents) {
+  Map map = MakeMap(2);
+  map.local_maps[1].cells.pop_back();
+  GlobalGridRenderer renderer;
+  EXPECT_FALSE(renderer.RenderAll(map).ok());
+  map = MakeMap(2);
+  map.graph.mutable_node(1).pose = SE2(1e7, 0, 0);
+  const Status status = renderer.RenderAll(map);
+  ASSERT_FALSE(status.ok());
+  EXPECT_NE(status.message().find("absurd"), std::string::npos);
+  EXPECT_FALSE(renderer.RenderAll(Map{}).ok());
+}
+
+}  // namespace
+}  // namespace slamcore

@@ -1,0 +1,199 @@
+// Plain records that storage keeps. No protobuf here: the analyzer and server translate at their boundary.
+// Byte payloads (telemetry, snapshots, reports, parameter sets, models) are std::string used as a byte
+// string, so serialized protos pass straight through. Times are milliseconds since the Unix epoch (UTC).
+//
+// Thread safety: value types.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace storage {
+
+struct RobotRecord {
+  std::string robot_id;
+  std::string robot_model;
+  std::string firmware;
+  std::int64_t registered_at_ms = 0;
+};
+
+/// One uploaded run. Identity is run_id; storing the same run twice keeps one.
+struct RunRecord {
+  std::string run_id;
+  std::string robot_id;  // must name a stored robot
+  std::string firmware;
+  std::string robot_model;
+  std::int64_t started_at_ms = 0;
+  std::int64_t ended_at_ms = 0;
+  std::optional<std::string> parent_snapshot_id;  // must name a stored snapshot when set
+  std::optional<std::string> child_snapshot_id;   // must name a stored snapshot when set
+  std::string telemetry;  // raw event stream; ListRuns leaves it empty (see telemetry_size)
+  std::int64_t telemetry_size = 0;  // filled on read: uncompressed size in bytes
+};
+
+/// A map snapshot, content-addressed: snapshot_id is the lowercase hex SHA-256 of bytes.
+struct SnapshotRecord {
+  std::string snapshot_id;
+  std::string bytes;
+};
+
+/// The summary of one run analysed with one parameter set: (run_id, parameter_set) is the key, so
+/// reprocessing results sit beside the originals. The counters are columns so that fleet statistics
+/// aggregate in the database; `report` is the full report, opaque to storage.
+struct ReportRecord {
+  std::string run_id;
+  std::string parameter_set;  // must name a stored parameter set
+  std::int64_t recovery_created = 0;
+  std::int64_t recovery_accepted = 0;
+  std::int64_t merge_created = 0;
+  std::int64_t merge_conditionally_accepted = 0;
+  std::int64_t merge_conditional_then_rejected = 0;
+  std::int64_t views_total = 0;
+  std::int64_t views_ambiguous = 0;
+  bool started_localized = false;
+  std::int64_t protrusions_found = 0;
+  std::string report;
+};
+
+/// One hypothesis decision of a report, in decision order.
+struct DecisionRecord {
+  std::int64_t sequence = 0;  // unique within the report
+  double time_s = 0.0;        // run time of the decision
+  std::string kind;           // e.g. "recovery", "merge"
+  std::string outcome;        // e.g. "created", "accepted", "conditionally_accepted", "rejected"
+  std::int64_t subject_id = 0;
+  double score = 0.0;
+  std::string detail;
+};
+
+/// A view the ambiguity tracker flagged.
+struct AmbiguousViewRecord {
+  std::int64_t view_id = 0;  // unique within the report
+  double time_s = 0.0;
+  std::int64_t candidate_count = 0;
+  double ambiguity = 0.0;
+  std::string detail;
+};
+
+struct BoundingBox {
+  double min_x = 0.0, min_y = 0.0, max_x = 0.0, max_y = 0.0;
+};
+
+/// A protrusion region found in a run with a parameter set, with its features, the classifier's guess and,
+/// once an engineer looked at it, a label.
+struct ProtrusionRegionRecord {
+  std::string run_id;         // filled on read; taken from the report on write
+  std::string parameter_set;  // filled on read; taken from the report on write
+  std::int64_t region_id = 0;  // unique within the report
+  BoundingBox bbox;
+  std::string features_json;
+  std::string predicted_class;
+  double probability = 0.0;
+  std::optional<std::string> label;
+  std::optional<std::string> labelled_by;
+};
+
+/// Everything one analysis writes, stored in one transaction.
+struct ReportBundle {
+  ReportRecord report;
+  std::vector<DecisionRecord> decisions;
+  std::vector<AmbiguousViewRecord> ambiguous_views;
+  std::vector<ProtrusionRegionRecord> protrusion_regions;
+};
+
+struct ParameterSetRecord {
+  std::string name;
+  std::string serialized;
+};
+
+struct ModelRecord {
+  std::string name;
+  std::int64_t version = 0;
+  std::string bytes;
+  bool active = false;
+};
+
+enum class JobState { kQueued, kLeased, kDone, kFailed, kCancelled };
+const char* JobStateName(JobState state);  // "queued", "leased", ...
+
+struct NewJob {
+  std::string kind;     // e.g. "analyze_run", "reprocess"
+  std::string payload;  // opaque to storage
+  std::int64_t max_attempts = 3;
+  std::optional<std::int64_t> parent_job_id;  // a reprocessing job's per-run tasks point at it
+  std::int64_t progress_total = 0;
+};
+
+struct JobRecord {
+  std::int64_t job_id = 0;
+  std::string kind;
+  std::string payload;
+  JobState state = JobState::kQueued;
+  std::int64_t attempts = 0;  // how many times it was leased
+  std::int64_t max_attempts = 0;
+  std::optional<std::int64_t> parent_job_id;
+  std::optional<std::string> lease_owner;  // the worker holding (or that last held) the lease
+  std::optional<std::int64_t> lease_expires_at_ms;
+  std::string last_error;
+  std::int64_t progress_done = 0;
+  std::int64_t progress_total = 0;
+  std::int64_t created_at_ms = 0;
+  std::int64_t updated_at_ms = 0;
+};
+
+/// A held lease: the token proves ownership to Heartbeat/Complete/Fail/UpdateProgress.
+struct JobLease {
+  JobRecord job;
+  std::string lease_token;
+};
+
+/// Filters for fleet queries. Empty strings and absent times mean "any".
+struct RunFilter {
+  std::string robot_id;
+  std::string firmware;
+  std::string robot_model;
+  // Statistics: only reports of this set (empty: all sets, a run counting once per set). ListRuns: only
+  // runs that have a report for this set.
+  std::string parameter_set;
+  std::optional<std::int64_t> started_from_ms;    // inclusive
+  std::optional<std::int64_t> started_before_ms;  // exclusive
+};
+
+/// Keyset pagination position: the last run of the previous page.
+struct RunCursor {
+  std::int64_t started_at_ms = 0;
+  std::string run_id;
+};
+
+struct RunPage {
+  std::vector<RunRecord> runs;  // ordered by (started_at_ms, run_id); telemetry not loaded
+  std::optional<RunCursor> next;  // absent on the last page
+};
+
+/// Sums over the reports that match a filter.
+struct FleetStatistics {
+  std::int64_t reports = 0;  // (run, parameter set) pairs
+  std::int64_t robots = 0;   // distinct robots
+  std::int64_t recovery_created = 0;
+  std::int64_t recovery_accepted = 0;
+  std::int64_t merge_created = 0;
+  std::int64_t merge_conditionally_accepted = 0;
+  std::int64_t merge_conditional_then_rejected = 0;
+  std::int64_t views_total = 0;
+  std::int64_t views_ambiguous = 0;
+  std::int64_t started_localized = 0;  // reports whose run started localized
+  std::int64_t protrusions_found = 0;
+};
+
+enum class GroupBy { kRobot, kFirmware, kRobotModel, kParameterSet, kDay };
+
+struct GroupStatistics {
+  std::string key;  // the robot id, firmware, ...; for kDay the day number since the epoch (UTC)
+  FleetStatistics statistics;
+};
+
+enum class InsertOutcome { kInserted, kAlreadyPresent };
+
+}  // namespace storage

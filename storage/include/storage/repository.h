@@ -1,0 +1,143 @@
+// Repository: the one interface to everything the fleet service keeps (robots, credentials, runs, map
+// snapshots, reports with their rows, parameter sets, classifier models, the job queue), with two
+// back-ends: an embedded SQLite file (default) and PostgreSQL (scale-out). One contract test suite
+// (storage/tests/repository_contract_test.cc) runs against both. Schema: storage/docs/schema.md.
+//
+// Thread safety: a Repository is safe to use from many threads at once. Every method is one database
+// transaction: either all of its writes are stored or none (also when the process is killed). Several
+// processes may open the same database (SQLite file or PostgreSQL server); the job queue hands each job to
+// at most one live lease across all of them.
+//
+// Errors: every method returns a Status or Result. Corrupt stored bytes (checksum mismatch) are DATA_LOSS
+// and are never returned as data; a busy or unreachable database is UNAVAILABLE; a record referring to a
+// missing robot, snapshot or parameter set is FAILED_PRECONDITION; a different payload under an existing
+// key is ALREADY_EXISTS. Filter values are always bound as statement parameters, never spliced into SQL.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "storage/records.h"
+#include "storage/status.h"
+
+namespace storage {
+
+class Repository {
+ public:
+  virtual ~Repository() = default;
+
+  /// The schema version of the open database (== LatestSchemaVersion() after a successful open).
+  virtual Result<std::int64_t> SchemaVersion() = 0;
+
+  // ---- Robots and credentials ----
+  /// Inserts or updates (model, firmware) of a robot; registered_at_ms keeps its first value.
+  virtual Status PutRobot(const RobotRecord& robot) = 0;
+  /// NOT_FOUND when no such robot.
+  virtual Result<RobotRecord> GetRobot(const std::string& robot_id) = 0;
+  virtual Result<std::vector<RobotRecord>> ListRobots() = 0;
+  /// Stores a salted PBKDF2-HMAC-SHA256 hash of `secret` for `principal` (a robot or a user), replacing
+  /// the previous one. The secret itself is never stored.
+  virtual Status SetCredential(const std::string& principal, const std::string& secret) = 0;
+  /// True when `secret` matches; false when it does not or the principal has no credential.
+  virtual Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) = 0;
+
+  // ---- Map snapshots (content-addressed) ----
+  /// Stores the bytes once and returns their id (hex SHA-256); storing the same bytes again is a no-op.
+  virtual Result<std::string> PutSnapshot(const std::string& bytes) = 0;
+  /// NOT_FOUND, or DATA_LOSS when the stored bytes no longer match their checksum or id.
+  virtual Result<SnapshotRecord> GetSnapshot(const std::string& snapshot_id) = 0;
+
+  // ---- Runs ----
+  /// Idempotent: the same run twice stores one (kAlreadyPresent); a different payload under the same
+  /// run_id is ALREADY_EXISTS. The robot and snapshots it names must be stored (FAILED_PRECONDITION).
+  virtual Result<InsertOutcome> InsertRun(const RunRecord& run) = 0;
+  /// The run with its telemetry; NOT_FOUND or DATA_LOSS.
+  virtual Result<RunRecord> GetRun(const std::string& run_id) = 0;
+  /// Runs matching the filter ordered by (started_at_ms, run_id), at most page_size (1..1000), after
+  /// `after` (keyset pagination: stable while runs are added). Telemetry is not loaded.
+  virtual Result<RunPage> ListRuns(const RunFilter& filter, int page_size,
+                                   const std::optional<RunCursor>& after) = 0;
+
+  // ---- Parameter sets and classifier models (immutable once stored) ----
+  /// Idempotent like InsertRun: same bytes under the same name is fine, different bytes ALREADY_EXISTS.
+  virtual Result<InsertOutcome> PutParameterSet(const ParameterSetRecord& parameter_set) = 0;
+  virtual Result<ParameterSetRecord> GetParameterSet(const std::string& name) = 0;
+  virtual Result<std::vector<std::string>> ListParameterSetNames() = 0;
+  /// Idempotent per (name, version); when model.active the model becomes the only active one of its name.
+  virtual Result<InsertOutcome> PutModel(const ModelRecord& model) = 0;
+  virtual Result<ModelRecord> GetModel(const std::string& name, std::int64_t version) = 0;
+  /// NOT_FOUND when no version of `name` is active.
+  virtual Result<ModelRecord> GetActiveModel(const std::string& name) = 0;
+  /// Makes (name, version) the only active version of `name`.
+  virtual Status ActivateModel(const std::string& name, std::int64_t version) = 0;
+
+  // ---- Reports (one per run and parameter set) ----
+  /// Stores or replaces the report with its decisions, ambiguous views and protrusion regions, all in one
+  /// transaction. Labels already given to a region id survive a replacement (a retried analysis).
+  virtual Status PutReport(const ReportBundle& bundle) = 0;
+  virtual Result<ReportRecord> GetReport(const std::string& run_id, const std::string& parameter_set) = 0;
+  /// Parameter sets that have a report for this run, sorted.
+  virtual Result<std::vector<std::string>> ListReportParameterSets(const std::string& run_id) = 0;
+  virtual Result<std::vector<DecisionRecord>> ListDecisions(const std::string& run_id,
+                                                            const std::string& parameter_set) = 0;
+  virtual Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const std::string& run_id,
+                                                                      const std::string& parameter_set) = 0;
+  virtual Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(
+      const std::string& run_id, const std::string& parameter_set) = 0;
+  /// Sets the label of one region; NOT_FOUND when the region does not exist.
+  virtual Status LabelProtrusionRegion(const std::string& run_id, const std::string& parameter_set,
+                                       std::int64_t region_id, const std::string& label,
+                                       const std::string& labelled_by) = 0;
+  /// Labelled regions of a parameter set (empty: all) for classifier training, at most `limit`.
+  virtual Result<std::vector<ProtrusionRegionRecord>> ListLabelledRegions(const std::string& parameter_set,
+                                                                          int limit) = 0;
+
+  // ---- Fleet statistics (aggregated by the database) ----
+  virtual Result<FleetStatistics> Aggregate(const RunFilter& filter) = 0;
+  /// One row per group, ordered by key.
+  virtual Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) = 0;
+
+  // ---- Job queue ----
+  /// Returns the new job id.
+  virtual Result<std::int64_t> EnqueueJob(const NewJob& job) = 0;
+  /// Atomically takes the oldest queued job (of `kind`; empty: any kind) or a job whose lease expired, for
+  /// `lease_duration`. Empty optional when there is none. A job whose lease expired on its last attempt
+  /// becomes failed instead. Lease expiry compares clocks of the workers: keep them NTP-synchronised.
+  virtual Result<std::optional<JobLease>> LeaseJob(const std::string& worker,
+                                                   std::chrono::milliseconds lease_duration,
+                                                   const std::string& kind) = 0;
+  /// Extends a held lease; FAILED_PRECONDITION when the lease was lost (expired and retaken, cancelled).
+  virtual Status HeartbeatJob(const JobLease& lease, std::chrono::milliseconds lease_duration) = 0;
+  virtual Status UpdateJobProgress(const JobLease& lease, std::int64_t done, std::int64_t total) = 0;
+  /// Marks the job done; FAILED_PRECONDITION when the lease was lost, so a job completes exactly once.
+  virtual Status CompleteJob(const JobLease& lease) = 0;
+  /// Requeues the job, or marks it failed once it used max_attempts; FAILED_PRECONDITION if lease lost.
+  virtual Status FailJob(const JobLease& lease, const std::string& error) = 0;
+  /// Cancels a queued or leased job; FAILED_PRECONDITION when it already finished, NOT_FOUND if unknown.
+  virtual Status CancelJob(std::int64_t job_id) = 0;
+  virtual Result<JobRecord> GetJob(std::int64_t job_id) = 0;
+  /// Jobs ordered by id, optionally only those in `state`, at most `limit`.
+  virtual Result<std::vector<JobRecord>> ListJobs(std::optional<JobState> state, int limit) = 0;
+};
+
+struct OpenOptions {
+  int postgres_pool_size = 4;  // connections kept per Repository (PostgreSQL only)
+  std::chrono::milliseconds sqlite_busy_timeout{10000};
+};
+
+/// The schema version this program writes and understands.
+std::int64_t LatestSchemaVersion();
+
+/// Opens (creating when needed) and migrates a database:
+///   "sqlite:/path/to/fleet.db"                              embedded file
+///   "postgresql://user@host:port/dbname?..." or "postgres://..."   a libpq connection URL from config
+/// Fails with FAILED_PRECONDITION when the database's schema is newer than this program, DATA_LOSS when
+/// the file is not a database or is corrupt, UNAVAILABLE when the server cannot be reached,
+/// INVALID_ARGUMENT for an unknown URL scheme.
+Result<std::unique_ptr<Repository>> OpenRepository(const std::string& url, const OpenOptions& options = {});
+
+}  // namespace storage

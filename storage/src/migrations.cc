@@ -1,0 +1,218 @@
+#include "migrations.h"
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+namespace storage::internal {
+namespace {
+
+// Each entry is migration N+1. The SQL is written once for both back-ends; the tokens below expand to each
+// dialect's spelling. Never edit a shipped migration: append a new one.
+//   ${BLOB} binary column     ${ID} auto-increment 64-bit primary key
+const std::vector<std::string>& Migrations() {
+  static const std::vector<std::string> kMigrations = {
+      // 1: the initial schema.
+      R"sql(
+CREATE TABLE robots (
+  robot_id TEXT PRIMARY KEY,
+  robot_model TEXT NOT NULL,
+  firmware TEXT NOT NULL,
+  registered_at_ms BIGINT NOT NULL
+);
+CREATE TABLE credentials (
+  principal TEXT PRIMARY KEY,
+  algorithm TEXT NOT NULL,
+  iterations BIGINT NOT NULL,
+  salt ${BLOB} NOT NULL,
+  hash ${BLOB} NOT NULL,
+  updated_at_ms BIGINT NOT NULL
+);
+CREATE TABLE snapshots (
+  snapshot_id TEXT PRIMARY KEY,
+  data ${BLOB} NOT NULL,
+  data_crc32 BIGINT NOT NULL,
+  data_size BIGINT NOT NULL,
+  created_at_ms BIGINT NOT NULL
+);
+CREATE TABLE runs (
+  run_id TEXT PRIMARY KEY,
+  robot_id TEXT NOT NULL REFERENCES robots(robot_id),
+  firmware TEXT NOT NULL,
+  robot_model TEXT NOT NULL,
+  started_at_ms BIGINT NOT NULL,
+  ended_at_ms BIGINT NOT NULL,
+  parent_snapshot_id TEXT REFERENCES snapshots(snapshot_id),
+  child_snapshot_id TEXT REFERENCES snapshots(snapshot_id),
+  telemetry ${BLOB} NOT NULL,
+  telemetry_crc32 BIGINT NOT NULL,
+  telemetry_size BIGINT NOT NULL,
+  payload_sha256 TEXT NOT NULL,
+  uploaded_at_ms BIGINT NOT NULL
+);
+CREATE INDEX runs_by_start ON runs (started_at_ms, run_id);
+CREATE INDEX runs_by_robot ON runs (robot_id, started_at_ms);
+CREATE INDEX runs_by_firmware ON runs (firmware, started_at_ms);
+CREATE TABLE parameter_sets (
+  name TEXT PRIMARY KEY,
+  data ${BLOB} NOT NULL,
+  data_crc32 BIGINT NOT NULL,
+  data_size BIGINT NOT NULL,
+  data_sha256 TEXT NOT NULL,
+  created_at_ms BIGINT NOT NULL
+);
+CREATE TABLE reports (
+  run_id TEXT NOT NULL REFERENCES runs(run_id),
+  parameter_set TEXT NOT NULL REFERENCES parameter_sets(name),
+  recovery_created BIGINT NOT NULL,
+  recovery_accepted BIGINT NOT NULL,
+  merge_created BIGINT NOT NULL,
+  merge_conditionally_accepted BIGINT NOT NULL,
+  merge_conditional_then_rejected BIGINT NOT NULL,
+  views_total BIGINT NOT NULL,
+  views_ambiguous BIGINT NOT NULL,
+  started_localized BIGINT NOT NULL,
+  protrusions_found BIGINT NOT NULL,
+  data ${BLOB} NOT NULL,
+  data_crc32 BIGINT NOT NULL,
+  data_size BIGINT NOT NULL,
+  created_at_ms BIGINT NOT NULL,
+  PRIMARY KEY (run_id, parameter_set)
+);
+CREATE INDEX reports_by_parameter_set ON reports (parameter_set, run_id);
+CREATE TABLE decisions (
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL,
+  sequence BIGINT NOT NULL,
+  time_s DOUBLE PRECISION NOT NULL,
+  kind TEXT NOT NULL,
+  outcome TEXT NOT NULL,
+  subject_id BIGINT NOT NULL,
+  score DOUBLE PRECISION NOT NULL,
+  detail TEXT NOT NULL,
+  PRIMARY KEY (run_id, parameter_set, sequence),
+  FOREIGN KEY (run_id, parameter_set) REFERENCES reports(run_id, parameter_set) ON DELETE CASCADE
+);
+CREATE TABLE ambiguous_views (
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL,
+  view_id BIGINT NOT NULL,
+  time_s DOUBLE PRECISION NOT NULL,
+  candidate_count BIGINT NOT NULL,
+  ambiguity DOUBLE PRECISION NOT NULL,
+  detail TEXT NOT NULL,
+  PRIMARY KEY (run_id, parameter_set, view_id),
+  FOREIGN KEY (run_id, parameter_set) REFERENCES reports(run_id, parameter_set) ON DELETE CASCADE
+);
+CREATE TABLE protrusion_regions (
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL,
+  region_id BIGINT NOT NULL,
+  min_x DOUBLE PRECISION NOT NULL,
+  min_y DOUBLE PRECISION NOT NULL,
+  max_x DOUBLE PRECISION NOT NULL,
+  max_y DOUBLE PRECISION NOT NULL,
+  features_json TEXT NOT NULL,
+  predicted_class TEXT NOT NULL,
+  probability DOUBLE PRECISION NOT NULL,
+  label TEXT,
+  labelled_by TEXT,
+  PRIMARY KEY (run_id, parameter_set, region_id),
+  FOREIGN KEY (run_id, parameter_set) REFERENCES reports(run_id, parameter_set) ON DELETE CASCADE
+);
+CREATE INDEX labelled_regions ON protrusion_regions (parameter_set, label);
+CREATE TABLE models (
+  name TEXT NOT NULL,
+  version BIGINT NOT NULL,
+  data ${BLOB} NOT NULL,
+  data_crc32 BIGINT NOT NULL,
+  data_size BIGINT NOT NULL,
+  data_sha256 TEXT NOT NULL,
+  active BIGINT NOT NULL,
+  created_at_ms BIGINT NOT NULL,
+  PRIMARY KEY (name, version)
+);
+CREATE TABLE jobs (
+  job_id ${ID},
+  kind TEXT NOT NULL,
+  payload ${BLOB} NOT NULL,
+  state TEXT NOT NULL,
+  attempts BIGINT NOT NULL,
+  max_attempts BIGINT NOT NULL,
+  parent_job_id BIGINT REFERENCES jobs(job_id),
+  lease_owner TEXT,
+  lease_token TEXT,
+  lease_expires_at_ms BIGINT,
+  last_error TEXT NOT NULL,
+  progress_done BIGINT NOT NULL,
+  progress_total BIGINT NOT NULL,
+  created_at_ms BIGINT NOT NULL,
+  updated_at_ms BIGINT NOT NULL
+);
+CREATE INDEX jobs_by_state ON jobs (state, job_id);
+CREATE INDEX jobs_by_parent ON jobs (parent_job_id);
+)sql",
+  };
+  return kMigrations;
+}
+
+std::string ReplaceAll(std::string text, const std::string& token, const std::string& value) {
+  for (std::size_t at = text.find(token); at != std::string::npos; at = text.find(token, at + value.size())) {
+    text.replace(at, token.size(), value);
+  }
+  return text;
+}
+
+std::string ForDialect(const std::string& sql, Dialect dialect) {
+  const bool sqlite = dialect == Dialect::kSqlite;
+  std::string out = ReplaceAll(sql, "${BLOB}", sqlite ? "BLOB" : "BYTEA");
+  return ReplaceAll(out, "${ID}",
+                    sqlite ? "INTEGER PRIMARY KEY AUTOINCREMENT" : "BIGINT GENERATED BY DEFAULT AS IDENTITY PRIMARY KEY");
+}
+
+std::int64_t NowMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+std::int64_t LatestSchemaVersionInternal() { return static_cast<std::int64_t>(Migrations().size()); }
+
+Result<std::int64_t> ReadSchemaVersion(SqlTransaction& transaction) {
+  auto rows = transaction.Query("SELECT MAX(version) FROM schema_version", {});
+  if (!rows.ok()) return rows.status();
+  if (rows->empty() || rows->front().IsNull(0)) return std::int64_t{0};
+  return rows->front().Int(0);
+}
+
+Status MigrateToLatest(SqlDatabase& database) {
+  return database.InTransaction(TransactionMode::kWrite, [&](SqlTransaction& transaction) -> Status {
+    if (database.dialect() == Dialect::kPostgres) {
+      // Several servers may start at once against one PostgreSQL: let one migrate, the others wait.
+      STORAGE_RETURN_IF_ERROR(transaction.Exec("SELECT pg_advisory_xact_lock(7140424601)", {}));
+    }
+    STORAGE_RETURN_IF_ERROR(transaction.ExecScript(
+        "CREATE TABLE IF NOT EXISTS schema_version (version BIGINT PRIMARY KEY, applied_at_ms BIGINT NOT NULL)"));
+    auto current = ReadSchemaVersion(transaction);
+    if (!current.ok()) return current.status();
+    const std::int64_t latest = LatestSchemaVersionInternal();
+    if (*current > latest) {
+      return FailedPrecondition("database schema version " + std::to_string(*current) +
+                                " is newer than this program's " + std::to_string(latest) +
+                                "; upgrade the program");
+    }
+    for (std::int64_t version = *current + 1; version <= latest; ++version) {
+      const std::string& sql = Migrations()[static_cast<std::size_t>(version - 1)];
+      Status applied = transaction.ExecScript(ForDialect(sql, database.dialect()));
+      if (!applied.ok()) {
+        return Status(applied.code(), "schema migration " + std::to_string(version) + " failed: " + applied.message());
+      }
+      STORAGE_RETURN_IF_ERROR(transaction.Exec("INSERT INTO schema_version (version, applied_at_ms) VALUES ($1, $2)",
+                                               {SqlValue{version}, SqlValue{NowMs()}}));
+    }
+    return Status::Ok();
+  });
+}
+
+}  // namespace storage::internal

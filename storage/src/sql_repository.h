@@ -1,0 +1,104 @@
+// SqlRepository: the Repository written once over SqlDatabase, for both SQLite and PostgreSQL. The SQL uses
+// the subset both databases share (ON CONFLICT, RETURNING, CAST, CASE); the one dialect difference in a
+// statement is the job lease's FOR UPDATE SKIP LOCKED (SQLite's write lock already serialises leases).
+//
+// Thread safety: as Repository; all state is in the database. The fault hook is set before sharing.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "sql_database.h"
+#include "storage/repository.h"
+
+namespace storage::internal {
+
+class SqlRepository final : public Repository {
+ public:
+  /// Takes a database that MigrateToLatest already brought to the latest schema.
+  explicit SqlRepository(std::unique_ptr<SqlDatabase> database) : database_(std::move(database)) {}
+
+  /// Tests only: called at named points inside write transactions (e.g. "insert_run:before_commit") so a
+  /// test can kill the process mid-transaction.
+  void SetFaultHookForTesting(std::function<void(const std::string& point)> hook) { fault_hook_ = std::move(hook); }
+  SqlDatabase& database() { return *database_; }
+
+  Result<std::int64_t> SchemaVersion() override;
+
+  Status PutRobot(const RobotRecord& robot) override;
+  Result<RobotRecord> GetRobot(const std::string& robot_id) override;
+  Result<std::vector<RobotRecord>> ListRobots() override;
+  Status SetCredential(const std::string& principal, const std::string& secret) override;
+  Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) override;
+
+  Result<std::string> PutSnapshot(const std::string& bytes) override;
+  Result<SnapshotRecord> GetSnapshot(const std::string& snapshot_id) override;
+
+  Result<InsertOutcome> InsertRun(const RunRecord& run) override;
+  Result<RunRecord> GetRun(const std::string& run_id) override;
+  Result<RunPage> ListRuns(const RunFilter& filter, int page_size, const std::optional<RunCursor>& after) override;
+
+  Result<InsertOutcome> PutParameterSet(const ParameterSetRecord& parameter_set) override;
+  Result<ParameterSetRecord> GetParameterSet(const std::string& name) override;
+  Result<std::vector<std::string>> ListParameterSetNames() override;
+  Result<InsertOutcome> PutModel(const ModelRecord& model) override;
+  Result<ModelRecord> GetModel(const std::string& name, std::int64_t version) override;
+  Result<ModelRecord> GetActiveModel(const std::string& name) override;
+  Status ActivateModel(const std::string& name, std::int64_t version) override;
+
+  Status PutReport(const ReportBundle& bundle) override;
+  Result<ReportRecord> GetReport(const std::string& run_id, const std::string& parameter_set) override;
+  Result<std::vector<std::string>> ListReportParameterSets(const std::string& run_id) override;
+  Result<std::vector<DecisionRecord>> ListDecisions(const std::string& run_id,
+                                                    const std::string& parameter_set) override;
+  Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const std::string& run_id,
+                                                              const std::string& parameter_set) override;
+  Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(const std::string& run_id,
+                                                                    const std::string& parameter_set) override;
+  Status LabelProtrusionRegion(const std::string& run_id, const std::string& parameter_set, std::int64_t region_id,
+                               const std::string& label, const std::string& labelled_by) override;
+  Result<std::vector<ProtrusionRegionRecord>> ListLabelledRegions(const std::string& parameter_set,
+                                                                  int limit) override;
+
+  Result<FleetStatistics> Aggregate(const RunFilter& filter) override;
+  Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) override;
+
+  Result<std::int64_t> EnqueueJob(const NewJob& job) override;
+  Result<std::optional<JobLease>> LeaseJob(const std::string& worker, std::chrono::milliseconds lease_duration,
+                                           const std::string& kind) override;
+  Status HeartbeatJob(const JobLease& lease, std::chrono::milliseconds lease_duration) override;
+  Status UpdateJobProgress(const JobLease& lease, std::int64_t done, std::int64_t total) override;
+  Status CompleteJob(const JobLease& lease) override;
+  Status FailJob(const JobLease& lease, const std::string& error) override;
+  Status CancelJob(std::int64_t job_id) override;
+  Result<JobRecord> GetJob(std::int64_t job_id) override;
+  Result<std::vector<JobRecord>> ListJobs(std::optional<JobState> state, int limit) override;
+
+ private:
+  Status Write(const std::function<Status(SqlTransaction&)>& body) {
+    return database_->InTransaction(TransactionMode::kWrite, body);
+  }
+  Status Read(const std::function<Status(SqlTransaction&)>& body) {
+    return database_->InTransaction(TransactionMode::kRead, body);
+  }
+  void Fault(const std::string& point) const {
+    if (fault_hook_) fault_hook_(point);
+  }
+  /// Inserts a payload-bearing row unless the key exists; returns kAlreadyPresent when the stored digest
+  /// equals `sha256`, ALREADY_EXISTS when it differs.
+  Result<InsertOutcome> CompareExisting(SqlTransaction& transaction, const std::string& select_digest_sql,
+                                        const std::vector<SqlValue>& key, const std::string& sha256,
+                                        const std::string& what);
+
+  std::unique_ptr<SqlDatabase> database_;
+  std::function<void(const std::string&)> fault_hook_;
+};
+
+/// Milliseconds since the Unix epoch, from the system clock.
+std::int64_t NowMs();
+
+/// Rejects strings the databases cannot store as TEXT (NUL bytes) or that exceed `max_bytes`.
+Status CheckText(const std::string& value, const std::string& field, std::size_t max_bytes = 1024);
+
+}  // namespace storage::internal

@@ -1,0 +1,259 @@
+// SqlRepository: reports with their decisions, ambiguous views and protrusion regions.
+#include <map>
+
+#include "blob_codec.h"
+#include "sql_repository.h"
+
+namespace storage::internal {
+namespace {
+
+constexpr std::size_t kMaxDetailBytes = 1 << 20;
+
+Status CheckBundle(const ReportBundle& bundle) {
+  const ReportRecord& report = bundle.report;
+  if (report.run_id.empty()) return InvalidArgument("report run_id is empty");
+  if (report.parameter_set.empty()) return InvalidArgument("report parameter_set is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(report.run_id, "report run_id", 128));
+  STORAGE_RETURN_IF_ERROR(CheckText(report.parameter_set, "report parameter_set", 128));
+  for (const DecisionRecord& decision : bundle.decisions) {
+    STORAGE_RETURN_IF_ERROR(CheckText(decision.kind, "decision kind"));
+    STORAGE_RETURN_IF_ERROR(CheckText(decision.outcome, "decision outcome"));
+    STORAGE_RETURN_IF_ERROR(CheckText(decision.detail, "decision detail", kMaxDetailBytes));
+  }
+  for (const AmbiguousViewRecord& view : bundle.ambiguous_views) {
+    STORAGE_RETURN_IF_ERROR(CheckText(view.detail, "ambiguous view detail", kMaxDetailBytes));
+  }
+  for (const ProtrusionRegionRecord& region : bundle.protrusion_regions) {
+    STORAGE_RETURN_IF_ERROR(CheckText(region.features_json, "region features_json", kMaxDetailBytes));
+    STORAGE_RETURN_IF_ERROR(CheckText(region.predicted_class, "region predicted_class"));
+  }
+  return Status::Ok();
+}
+
+struct Label {
+  std::string label;
+  std::string labelled_by;
+};
+
+constexpr const char* kRegionColumns =
+    "SELECT run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, features_json, predicted_class, "
+    "probability, label, labelled_by FROM protrusion_regions ";
+
+ProtrusionRegionRecord RegionFromRow(const SqlRow& row) {
+  ProtrusionRegionRecord region;
+  region.run_id = row.Text(0);
+  region.parameter_set = row.Text(1);
+  region.region_id = row.Int(2);
+  region.bbox = BoundingBox{row.Real(3), row.Real(4), row.Real(5), row.Real(6)};
+  region.features_json = row.Text(7);
+  region.predicted_class = row.Text(8);
+  region.probability = row.Real(9);
+  if (!row.IsNull(10)) region.label = row.Text(10);
+  if (!row.IsNull(11)) region.labelled_by = row.Text(11);
+  return region;
+}
+
+}  // namespace
+
+Status SqlRepository::PutReport(const ReportBundle& bundle) {
+  STORAGE_RETURN_IF_ERROR(CheckBundle(bundle));
+  const ReportRecord& report = bundle.report;
+  const EncodedBlob blob = EncodeBlob(report.report);
+  const std::vector<SqlValue> key = {report.run_id, report.parameter_set};
+  return Write([&](SqlTransaction& transaction) -> Status {
+    // The upsert comes first: it locks the report row, so concurrent writers of one key take turns.
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO reports (run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
+        "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
+        "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms) "
+        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15) "
+        "ON CONFLICT (run_id, parameter_set) DO UPDATE SET recovery_created = excluded.recovery_created, "
+        "recovery_accepted = excluded.recovery_accepted, merge_created = excluded.merge_created, "
+        "merge_conditionally_accepted = excluded.merge_conditionally_accepted, "
+        "merge_conditional_then_rejected = excluded.merge_conditional_then_rejected, "
+        "views_total = excluded.views_total, views_ambiguous = excluded.views_ambiguous, "
+        "started_localized = excluded.started_localized, protrusions_found = excluded.protrusions_found, "
+        "data = excluded.data, data_crc32 = excluded.data_crc32, data_size = excluded.data_size, "
+        "created_at_ms = excluded.created_at_ms",
+        {report.run_id, report.parameter_set, report.recovery_created, report.recovery_accepted, report.merge_created,
+         report.merge_conditionally_accepted, report.merge_conditional_then_rejected, report.views_total,
+         report.views_ambiguous, std::int64_t{report.started_localized ? 1 : 0}, report.protrusions_found,
+         SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs()}));
+
+    // Labels are an engineer's work: carry them over to the replacement rows of the same region ids.
+    std::map<std::int64_t, Label> labels;
+    auto labelled = transaction.Query(
+        "SELECT region_id, label, labelled_by FROM protrusion_regions WHERE run_id = $1 AND parameter_set = $2 "
+        "AND label IS NOT NULL",
+        key);
+    if (!labelled.ok()) return labelled.status();
+    for (const SqlRow& row : *labelled) labels[row.Int(0)] = Label{row.Text(1), row.Text(2)};
+
+    for (const char* table : {"decisions", "ambiguous_views", "protrusion_regions"}) {
+      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+          std::string("DELETE FROM ") + table + " WHERE run_id = $1 AND parameter_set = $2", key));
+    }
+    for (const DecisionRecord& d : bundle.decisions) {
+      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+          "INSERT INTO decisions (run_id, parameter_set, sequence, time_s, kind, outcome, subject_id, score, detail) "
+          "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+          {report.run_id, report.parameter_set, d.sequence, d.time_s, d.kind, d.outcome, d.subject_id, d.score,
+           d.detail}));
+    }
+    for (const AmbiguousViewRecord& v : bundle.ambiguous_views) {
+      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+          "INSERT INTO ambiguous_views (run_id, parameter_set, view_id, time_s, candidate_count, ambiguity, detail) "
+          "VALUES ($1, $2, $3, $4, $5, $6, $7)",
+          {report.run_id, report.parameter_set, v.view_id, v.time_s, v.candidate_count, v.ambiguity, v.detail}));
+    }
+    for (const ProtrusionRegionRecord& r : bundle.protrusion_regions) {
+      SqlValue label = SqlNull{}, labelled_by = SqlNull{};
+      if (auto it = labels.find(r.region_id); it != labels.end()) {
+        label = it->second.label;
+        labelled_by = it->second.labelled_by;
+      } else if (r.label) {
+        label = *r.label;
+        labelled_by = r.labelled_by.value_or("");
+      }
+      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+          "INSERT INTO protrusion_regions (run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
+          "features_json, predicted_class, probability, label, labelled_by) "
+          "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+          {report.run_id, report.parameter_set, r.region_id, r.bbox.min_x, r.bbox.min_y, r.bbox.max_x, r.bbox.max_y,
+           r.features_json, r.predicted_class, r.probability, label, labelled_by}));
+    }
+    Fault("put_report:before_commit");
+    return Status::Ok();
+  });
+}
+
+Result<ReportRecord> SqlRepository::GetReport(const std::string& run_id, const std::string& parameter_set) {
+  std::optional<SqlRow> row;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "SELECT recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, "
+        "merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, "
+        "data, data_crc32, data_size FROM reports WHERE run_id = $1 AND parameter_set = $2",
+        {run_id, parameter_set});
+    if (!rows.ok()) return rows.status();
+    if (!rows->empty()) row = rows->front();
+    return Status::Ok();
+  }));
+  if (!row) return NotFound("no report for run " + run_id + " with parameter set " + parameter_set);
+  ReportRecord report;
+  report.run_id = run_id;
+  report.parameter_set = parameter_set;
+  report.recovery_created = row->Int(0);
+  report.recovery_accepted = row->Int(1);
+  report.merge_created = row->Int(2);
+  report.merge_conditionally_accepted = row->Int(3);
+  report.merge_conditional_then_rejected = row->Int(4);
+  report.views_total = row->Int(5);
+  report.views_ambiguous = row->Int(6);
+  report.started_localized = row->Int(7) != 0;
+  report.protrusions_found = row->Int(8);
+  auto bytes = DecodeBlob(row->Text(9), row->Int(10), row->Int(11),
+                          "report of run " + run_id + " with parameter set " + parameter_set);
+  if (!bytes.ok()) return bytes.status();
+  report.report = std::move(bytes).value();
+  return report;
+}
+
+Result<std::vector<std::string>> SqlRepository::ListReportParameterSets(const std::string& run_id) {
+  std::vector<std::string> names;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query("SELECT parameter_set FROM reports WHERE run_id = $1 ORDER BY parameter_set",
+                                  {run_id});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) names.push_back(row.Text(0));
+    return Status::Ok();
+  }));
+  return names;
+}
+
+Result<std::vector<DecisionRecord>> SqlRepository::ListDecisions(const std::string& run_id,
+                                                                 const std::string& parameter_set) {
+  std::vector<DecisionRecord> decisions;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "SELECT sequence, time_s, kind, outcome, subject_id, score, detail FROM decisions "
+        "WHERE run_id = $1 AND parameter_set = $2 ORDER BY sequence",
+        {run_id, parameter_set});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) {
+      decisions.push_back(DecisionRecord{row.Int(0), row.Real(1), row.Text(2), row.Text(3), row.Int(4), row.Real(5),
+                                         row.Text(6)});
+    }
+    return Status::Ok();
+  }));
+  return decisions;
+}
+
+Result<std::vector<AmbiguousViewRecord>> SqlRepository::ListAmbiguousViews(const std::string& run_id,
+                                                                           const std::string& parameter_set) {
+  std::vector<AmbiguousViewRecord> views;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "SELECT view_id, time_s, candidate_count, ambiguity, detail FROM ambiguous_views "
+        "WHERE run_id = $1 AND parameter_set = $2 ORDER BY view_id",
+        {run_id, parameter_set});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) {
+      views.push_back(AmbiguousViewRecord{row.Int(0), row.Real(1), row.Int(2), row.Real(3), row.Text(4)});
+    }
+    return Status::Ok();
+  }));
+  return views;
+}
+
+Result<std::vector<ProtrusionRegionRecord>> SqlRepository::ListProtrusionRegions(const std::string& run_id,
+                                                                                 const std::string& parameter_set) {
+  std::vector<ProtrusionRegionRecord> regions;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(std::string(kRegionColumns) +
+                                      "WHERE run_id = $1 AND parameter_set = $2 ORDER BY region_id",
+                                  {run_id, parameter_set});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) regions.push_back(RegionFromRow(row));
+    return Status::Ok();
+  }));
+  return regions;
+}
+
+Status SqlRepository::LabelProtrusionRegion(const std::string& run_id, const std::string& parameter_set,
+                                            std::int64_t region_id, const std::string& label,
+                                            const std::string& labelled_by) {
+  if (label.empty()) return InvalidArgument("label is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(label, "label", 128));
+  STORAGE_RETURN_IF_ERROR(CheckText(labelled_by, "labelled_by", 256));
+  return Write([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "UPDATE protrusion_regions SET label = $4, labelled_by = $5 "
+        "WHERE run_id = $1 AND parameter_set = $2 AND region_id = $3 RETURNING region_id",
+        {run_id, parameter_set, region_id, label, labelled_by});
+    if (!rows.ok()) return rows.status();
+    if (rows->empty()) {
+      return NotFound("no protrusion region " + std::to_string(region_id) + " in run " + run_id +
+                      " with parameter set " + parameter_set);
+    }
+    return Status::Ok();
+  });
+}
+
+Result<std::vector<ProtrusionRegionRecord>> SqlRepository::ListLabelledRegions(const std::string& parameter_set,
+                                                                               int limit) {
+  if (limit < 1) return InvalidArgument("limit must be positive");
+  std::vector<ProtrusionRegionRecord> regions;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(std::string(kRegionColumns) +
+                                      "WHERE label IS NOT NULL AND (CAST($1 AS TEXT) = '' OR parameter_set = $1) "
+                                      "ORDER BY run_id, parameter_set, region_id LIMIT $2",
+                                  {parameter_set, std::int64_t{limit}});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) regions.push_back(RegionFromRow(row));
+    return Status::Ok();
+  }));
+  return regions;
+}
+
+}  // namespace storage::internal

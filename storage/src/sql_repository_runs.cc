@@ -1,0 +1,226 @@
+// SqlRepository: runs, run listing and fleet statistics. Filters are fixed SQL with every value bound as a
+// parameter; an empty filter value disables its clause inside the SQL ("$1 = '' OR robot_id = $1"), so
+// no SQL text is ever built from a value.
+#include <limits>
+
+#include "blob_codec.h"
+#include "crypto.h"
+#include "sql_repository.h"
+
+namespace storage::internal {
+namespace {
+
+/// The digest that decides whether a re-sent run is the same run: every stored field, length-prefixed.
+std::string RunDigest(const RunRecord& run) {
+  std::string canonical;
+  auto add = [&canonical](const std::string& field) {
+    canonical += std::to_string(field.size());
+    canonical += ':';
+    canonical += field;
+  };
+  add(run.robot_id);
+  add(run.firmware);
+  add(run.robot_model);
+  add(std::to_string(run.started_at_ms));
+  add(std::to_string(run.ended_at_ms));
+  add(run.parent_snapshot_id.value_or("-"));
+  add(run.child_snapshot_id.value_or("-"));
+  add(Sha256Hex(run.telemetry));
+  return Sha256Hex(canonical);
+}
+
+SqlValue OptionalText(const std::optional<std::string>& value) {
+  if (value) return *value;
+  return SqlNull{};
+}
+
+Status CheckRun(const RunRecord& run) {
+  if (run.run_id.empty()) return InvalidArgument("run_id is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(run.run_id, "run_id", 128));
+  if (run.robot_id.empty()) return InvalidArgument("robot_id is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(run.robot_id, "robot_id", 128));
+  STORAGE_RETURN_IF_ERROR(CheckText(run.firmware, "firmware"));
+  STORAGE_RETURN_IF_ERROR(CheckText(run.robot_model, "robot_model"));
+  if (run.ended_at_ms < run.started_at_ms) return InvalidArgument("run " + run.run_id + " ends before it starts");
+  if (run.parent_snapshot_id) STORAGE_RETURN_IF_ERROR(CheckText(*run.parent_snapshot_id, "parent_snapshot_id", 64));
+  if (run.child_snapshot_id) STORAGE_RETURN_IF_ERROR(CheckText(*run.child_snapshot_id, "child_snapshot_id", 64));
+  return Status::Ok();
+}
+
+constexpr const char* kRunColumns =
+    "r.run_id, r.robot_id, r.firmware, r.robot_model, r.started_at_ms, r.ended_at_ms, r.parent_snapshot_id, "
+    "r.child_snapshot_id, r.telemetry_size";
+
+RunRecord RunFromRow(const SqlRow& row) {
+  RunRecord run;
+  run.run_id = row.Text(0);
+  run.robot_id = row.Text(1);
+  run.firmware = row.Text(2);
+  run.robot_model = row.Text(3);
+  run.started_at_ms = row.Int(4);
+  run.ended_at_ms = row.Int(5);
+  if (!row.IsNull(6)) run.parent_snapshot_id = row.Text(6);
+  if (!row.IsNull(7)) run.child_snapshot_id = row.Text(7);
+  run.telemetry_size = row.Int(8);
+  return run;
+}
+
+// The filter clause over runs r; parameters $1..$6 are FilterParams().
+constexpr const char* kRunFilterSql =
+    "(CAST($1 AS TEXT) = '' OR r.robot_id = $1) AND (CAST($2 AS TEXT) = '' OR r.firmware = $2) AND "
+    "(CAST($3 AS TEXT) = '' OR r.robot_model = $3) AND r.started_at_ms >= $5 AND r.started_at_ms < $6";
+
+std::vector<SqlValue> FilterParams(const RunFilter& filter) {
+  return {filter.robot_id,
+          filter.firmware,
+          filter.robot_model,
+          filter.parameter_set,
+          filter.started_from_ms.value_or(std::numeric_limits<std::int64_t>::min()),
+          filter.started_before_ms.value_or(std::numeric_limits<std::int64_t>::max())};
+}
+
+FleetStatistics StatisticsFromRow(const SqlRow& row, std::size_t first) {
+  FleetStatistics s;
+  s.reports = row.Int(first + 0);
+  s.robots = row.Int(first + 1);
+  s.recovery_created = row.Int(first + 2);
+  s.recovery_accepted = row.Int(first + 3);
+  s.merge_created = row.Int(first + 4);
+  s.merge_conditionally_accepted = row.Int(first + 5);
+  s.merge_conditional_then_rejected = row.Int(first + 6);
+  s.views_total = row.Int(first + 7);
+  s.views_ambiguous = row.Int(first + 8);
+  s.started_localized = row.Int(first + 9);
+  s.protrusions_found = row.Int(first + 10);
+  return s;
+}
+
+/// `key_sql` is one of a fixed set of column expressions chosen by enum, never caller text.
+std::string StatisticsSql(const std::string& key_sql, bool grouped) {
+  std::string sql = "SELECT " + key_sql +
+                    ", COUNT(*), COUNT(DISTINCT r.robot_id)"
+                    ", CAST(COALESCE(SUM(p.recovery_created), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.recovery_accepted), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.merge_created), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.merge_conditionally_accepted), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.merge_conditional_then_rejected), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.views_total), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.views_ambiguous), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.started_localized), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.protrusions_found), 0) AS BIGINT)"
+                    " FROM reports p JOIN runs r ON r.run_id = p.run_id WHERE " +
+                    std::string(kRunFilterSql) + " AND (CAST($4 AS TEXT) = '' OR p.parameter_set = $4)";
+  if (grouped) sql += " GROUP BY 1 ORDER BY 1";
+  return sql;
+}
+
+std::string GroupKeySql(GroupBy group_by) {
+  switch (group_by) {
+    case GroupBy::kRobot: return "r.robot_id";
+    case GroupBy::kFirmware: return "r.firmware";
+    case GroupBy::kRobotModel: return "r.robot_model";
+    case GroupBy::kParameterSet: return "p.parameter_set";
+    // Floor division for negative times too; integer arithmetic in both databases.
+    case GroupBy::kDay:
+      return "CAST(CASE WHEN r.started_at_ms >= 0 THEN r.started_at_ms / 86400000 "
+             "ELSE (r.started_at_ms - 86399999) / 86400000 END AS TEXT)";
+  }
+  return "''";
+}
+
+}  // namespace
+
+Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
+  STORAGE_RETURN_IF_ERROR(CheckRun(run));
+  // Hashing and compressing happen before the transaction so the write lock is held briefly.
+  const std::string digest = RunDigest(run);
+  const EncodedBlob telemetry = EncodeBlob(run.telemetry);
+  InsertOutcome outcome = InsertOutcome::kInserted;
+  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    auto inserted = transaction.Query(
+        "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id, "
+        "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
+        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (run_id) DO NOTHING "
+        "RETURNING run_id",
+        {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
+         OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id), SqlBlob{telemetry.compressed},
+         telemetry.crc32, telemetry.raw_size, digest, NowMs()});
+    if (!inserted.ok()) return inserted.status();
+    if (inserted->empty()) {
+      auto existing = CompareExisting(transaction, "SELECT payload_sha256 FROM runs WHERE run_id = $1", {run.run_id},
+                                      digest, "run " + run.run_id);
+      if (!existing.ok()) return existing.status();
+      outcome = *existing;
+    }
+    Fault("insert_run:before_commit");
+    return Status::Ok();
+  }));
+  return outcome;
+}
+
+Result<RunRecord> SqlRepository::GetRun(const std::string& run_id) {
+  std::optional<SqlRow> row;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(std::string("SELECT ") + kRunColumns +
+                                      ", r.telemetry, r.telemetry_crc32 FROM runs r WHERE r.run_id = $1",
+                                  {run_id});
+    if (!rows.ok()) return rows.status();
+    if (!rows->empty()) row = rows->front();
+    return Status::Ok();
+  }));
+  if (!row) return NotFound("no run " + run_id);
+  RunRecord run = RunFromRow(*row);
+  auto telemetry = DecodeBlob(row->Text(9), row->Int(10), run.telemetry_size, "telemetry of run " + run_id);
+  if (!telemetry.ok()) return telemetry.status();
+  run.telemetry = std::move(telemetry).value();
+  return run;
+}
+
+Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, const std::optional<RunCursor>& after) {
+  if (page_size < 1 || page_size > 1000) return InvalidArgument("page_size must be in 1..1000");
+  std::vector<SqlValue> params = FilterParams(filter);
+  params.emplace_back(after ? after->started_at_ms : std::numeric_limits<std::int64_t>::min());  // $7
+  params.emplace_back(after ? after->run_id : std::string());                                    // $8
+  params.emplace_back(std::int64_t{page_size} + 1);  // $9: one extra row tells whether a next page exists
+  const std::string sql = std::string("SELECT ") + kRunColumns + " FROM runs r WHERE " + kRunFilterSql +
+                          " AND (CAST($4 AS TEXT) = '' OR EXISTS (SELECT 1 FROM reports p WHERE p.run_id = r.run_id"
+                          " AND p.parameter_set = $4))"
+                          " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND r.run_id > $8))"
+                          " ORDER BY r.started_at_ms, r.run_id LIMIT $9";
+  RunPage page;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(sql, params);
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) page.runs.push_back(RunFromRow(row));
+    return Status::Ok();
+  }));
+  if (page.runs.size() > static_cast<std::size_t>(page_size)) {
+    page.runs.resize(static_cast<std::size_t>(page_size));
+    page.next = RunCursor{page.runs.back().started_at_ms, page.runs.back().run_id};
+  }
+  return page;
+}
+
+Result<FleetStatistics> SqlRepository::Aggregate(const RunFilter& filter) {
+  FleetStatistics statistics;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(StatisticsSql("''", /*grouped=*/false), FilterParams(filter));
+    if (!rows.ok()) return rows.status();
+    if (!rows->empty()) statistics = StatisticsFromRow(rows->front(), 1);
+    return Status::Ok();
+  }));
+  return statistics;
+}
+
+Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter, GroupBy group_by) {
+  std::vector<GroupStatistics> groups;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(StatisticsSql(GroupKeySql(group_by), /*grouped=*/true), FilterParams(filter));
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) groups.push_back(GroupStatistics{row.Text(0), StatisticsFromRow(row, 1)});
+    return Status::Ok();
+  }));
+  return groups;
+}
+
+}  // namespace storage::internal

@@ -1,0 +1,367 @@
+// The Repository contract, run against both back-ends: everything but the job queue (job_queue_contract_test)
+// and crash behaviour (crash_consistency_test).
+#include <gtest/gtest.h>
+
+#include "test_databases.h"
+
+namespace storage::testing {
+namespace {
+
+using internal::SqlBlob;
+using internal::SqlValue;
+
+class RepositoryContractTest : public BackendTest {
+ protected:
+  void SetUp() override {
+    BackendTest::SetUp();
+    if (HasFatalFailure()) return;
+    for (const char* robot : {"robot-1", "robot-2"}) {
+      ASSERT_TRUE(repo().PutRobot(RobotRecord{robot, "vac-s", "fw-1.2", 1000}).ok());
+    }
+    ASSERT_TRUE(repo().PutParameterSet({"default", "params-a"}).ok());
+    ASSERT_TRUE(repo().PutParameterSet({"tuned", "params-b"}).ok());
+  }
+
+  static ReportBundle MakeReport(const std::string& run_id, const std::string& parameter_set, std::int64_t scale) {
+    ReportBundle bundle;
+    ReportRecord& r = bundle.report;
+    r.run_id = run_id;
+    r.parameter_set = parameter_set;
+    r.recovery_created = 2 * scale;
+    r.recovery_accepted = scale;
+    r.merge_created = 3 * scale;
+    r.merge_conditionally_accepted = 2 * scale;
+    r.merge_conditional_then_rejected = scale;
+    r.views_total = 100 * scale;
+    r.views_ambiguous = 7 * scale;
+    r.started_localized = scale % 2 == 1;
+    r.protrusions_found = 4 * scale;
+    r.report = "full report of " + run_id + "/" + parameter_set + std::string(3, '\0');
+    bundle.decisions = {{1, 1.5, "recovery", "created", 11, 0.9, "d1"}, {2, 2.5, "merge", "accepted", 12, 0.8, ""}};
+    bundle.ambiguous_views = {{5, 3.0, 3, 0.4, "corridor"}};
+    ProtrusionRegionRecord region;
+    region.region_id = 1;
+    region.bbox = {0.0, 0.5, 1.0, 1.5};
+    region.features_json = R"({"height":0.12})";
+    region.predicted_class = "cable";
+    region.probability = 0.75;
+    bundle.protrusion_regions = {region};
+    region.region_id = 2;
+    region.predicted_class = "sock";
+    bundle.protrusion_regions.push_back(region);
+    return bundle;
+  }
+};
+
+TEST_P(RepositoryContractTest, OpensAtTheLatestSchemaVersion) {
+  auto version = repo().SchemaVersion();
+  ASSERT_TRUE(version.ok()) << version.status().ToString();
+  EXPECT_EQ(*version, LatestSchemaVersion());
+  Reopen();  // migrating an up-to-date database is a no-op
+  EXPECT_EQ(*repo().SchemaVersion(), LatestSchemaVersion());
+}
+
+TEST_P(RepositoryContractTest, RobotsUpsertKeepingRegistrationTime) {
+  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-1", "vac-m", "fw-2.0", 5000}).ok());
+  auto robot = repo().GetRobot("robot-1");
+  ASSERT_TRUE(robot.ok());
+  EXPECT_EQ(robot->robot_model, "vac-m");
+  EXPECT_EQ(robot->firmware, "fw-2.0");
+  EXPECT_EQ(robot->registered_at_ms, 1000);
+  EXPECT_EQ(repo().GetRobot("nobody").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().ListRobots()->size(), 2u);
+}
+
+TEST_P(RepositoryContractTest, CredentialsKeepOnlyASaltedHash) {
+  ASSERT_TRUE(repo().SetCredential("robot-1", "s3cret").ok());
+  ASSERT_TRUE(repo().SetCredential("robot-2", "s3cret").ok());
+  EXPECT_TRUE(*repo().VerifyCredential("robot-1", "s3cret"));
+  EXPECT_FALSE(*repo().VerifyCredential("robot-1", "wrong"));
+  EXPECT_FALSE(*repo().VerifyCredential("stranger", "s3cret"));
+  auto rows = RawQuery("SELECT salt, hash FROM credentials ORDER BY principal");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_NE(rows[0].Text(0), rows[1].Text(0)) << "each credential has its own salt";
+  EXPECT_NE(rows[0].Text(1), rows[1].Text(1)) << "same secret, different hashes";
+  EXPECT_EQ(rows[0].Text(1).find("s3cret"), std::string::npos);
+}
+
+TEST_P(RepositoryContractTest, SnapshotsAreContentAddressedAndStoredOnce) {
+  const std::string bytes = std::string("map\0bytes", 9) + std::string(5000, 'x');
+  auto first = repo().PutSnapshot(bytes);
+  auto second = repo().PutSnapshot(bytes);
+  ASSERT_TRUE(first.ok() && second.ok());
+  EXPECT_EQ(*first, *second);
+  EXPECT_EQ(first->size(), 64u);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM snapshots")[0].Int(0), 1);
+  auto read = repo().GetSnapshot(*first);
+  ASSERT_TRUE(read.ok());
+  EXPECT_EQ(read->bytes, bytes);
+  EXPECT_EQ(repo().GetSnapshot(std::string(64, '0')).status().code(), StatusCode::kNotFound);
+}
+
+TEST_P(RepositoryContractTest, RunRoundTripsWithItsTelemetry) {
+  RunRecord run = MakeRun("run-1", 10000, 200000);
+  run.parent_snapshot_id = *repo().PutSnapshot("parent map");
+  run.child_snapshot_id = *repo().PutSnapshot("child map");
+  ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
+  auto read = repo().GetRun("run-1");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->telemetry, run.telemetry);
+  EXPECT_EQ(read->telemetry_size, 200000);
+  EXPECT_EQ(read->parent_snapshot_id, run.parent_snapshot_id);
+  EXPECT_EQ(read->child_snapshot_id, run.child_snapshot_id);
+  EXPECT_EQ(read->robot_model, "vac-s");
+  EXPECT_LT(RawQuery("SELECT LENGTH(telemetry) FROM runs")[0].Int(0), 200000) << "stored compressed";
+  EXPECT_EQ(repo().GetRun("run-2").status().code(), StatusCode::kNotFound);
+}
+
+TEST_P(RepositoryContractTest, SameRunTwiceStoresOneRun) {
+  const RunRecord run = MakeRun("run-1", 10000);
+  EXPECT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
+  EXPECT_EQ(*repo().InsertRun(run), InsertOutcome::kAlreadyPresent);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 1);
+}
+
+TEST_P(RepositoryContractTest, DifferentPayloadUnderTheSameRunIdIsAConflict) {
+  RunRecord run = MakeRun("run-1", 10000);
+  ASSERT_TRUE(repo().InsertRun(run).ok());
+  run.telemetry[10] ^= 1;
+  EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kAlreadyExists);
+  run = MakeRun("run-1", 10001);
+  EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kAlreadyExists);
+  EXPECT_EQ(repo().GetRun("run-1")->started_at_ms, 10000) << "the first payload stays";
+}
+
+TEST_P(RepositoryContractTest, RunMustNameStoredRobotAndSnapshots) {
+  EXPECT_EQ(repo().InsertRun(MakeRun("run-1", 0, 10, "unregistered")).status().code(),
+            StatusCode::kFailedPrecondition);
+  RunRecord run = MakeRun("run-2", 0);
+  run.parent_snapshot_id = std::string(64, 'a');
+  EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 0);
+}
+
+TEST_P(RepositoryContractTest, CorruptBlobsAreDataLossNeverData) {
+  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0, 5000)).ok());
+  const std::string snapshot = *repo().PutSnapshot("a map snapshot");
+  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
+  // Flip one stored byte of each blob behind the repository's back.
+  auto flip = [&](const std::string& table, const std::string& column, const std::string& key_column,
+                  const std::string& key) {
+    auto rows = RawQuery("SELECT " + column + " FROM " + table + " WHERE " + key_column + " = $1", {key});
+    ASSERT_EQ(rows.size(), 1u);
+    std::string bytes = rows[0].Text(0);
+    bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5A);
+    RawQuery("UPDATE " + table + " SET " + column + " = $2 WHERE " + key_column + " = $1", {key, SqlBlob{bytes}});
+  };
+  flip("runs", "telemetry", "run_id", "run-1");
+  flip("snapshots", "data", "snapshot_id", snapshot);
+  flip("reports", "data", "run_id", "run-1");
+  auto run = repo().GetRun("run-1");
+  EXPECT_EQ(run.status().code(), StatusCode::kDataLoss) << run.status().ToString();
+  EXPECT_NE(run.status().message().find("run-1"), std::string::npos);
+  EXPECT_EQ(repo().GetSnapshot(snapshot).status().code(), StatusCode::kDataLoss);
+  EXPECT_EQ(repo().GetReport("run-1", "default").status().code(), StatusCode::kDataLoss);
+  // A checksum that no longer matches is caught too, even when the bytes themselves are intact.
+  ASSERT_TRUE(repo().PutParameterSet({"third", "params-c"}).ok());
+  RawQuery("UPDATE parameter_sets SET data_crc32 = data_crc32 + 1 WHERE name = 'third'");
+  EXPECT_EQ(repo().GetParameterSet("third").status().code(), StatusCode::kDataLoss);
+}
+
+TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
+  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "tuned", 2)).ok());
+  EXPECT_EQ(*repo().ListReportParameterSets("run-1"), (std::vector<std::string>{"default", "tuned"}));
+  auto tuned = repo().GetReport("run-1", "tuned");
+  ASSERT_TRUE(tuned.ok()) << tuned.status().ToString();
+  EXPECT_EQ(tuned->merge_created, 6);
+  EXPECT_FALSE(tuned->started_localized);
+  EXPECT_EQ(tuned->report, MakeReport("run-1", "tuned", 2).report.report);
+  auto decisions = repo().ListDecisions("run-1", "default");
+  ASSERT_EQ(decisions->size(), 2u);
+  EXPECT_EQ((*decisions)[1].outcome, "accepted");
+  EXPECT_DOUBLE_EQ((*decisions)[0].score, 0.9);
+  ASSERT_EQ(repo().ListAmbiguousViews("run-1", "default")->size(), 1u);
+  EXPECT_EQ((*repo().ListAmbiguousViews("run-1", "default"))[0].detail, "corridor");
+  auto regions = repo().ListProtrusionRegions("run-1", "tuned");
+  ASSERT_EQ(regions->size(), 2u);
+  EXPECT_EQ((*regions)[0].features_json, R"({"height":0.12})");
+  EXPECT_DOUBLE_EQ((*regions)[0].bbox.max_y, 1.5);
+  EXPECT_EQ(repo().GetReport("run-1", "other").status().code(), StatusCode::kNotFound);
+}
+
+TEST_P(RepositoryContractTest, ReportNeedsAStoredRunAndParameterSet) {
+  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
+  EXPECT_EQ(repo().PutReport(MakeReport("run-1", "unknown", 1)).code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo().PutReport(MakeReport("run-9", "default", 1)).code(), StatusCode::kFailedPrecondition);
+}
+
+TEST_P(RepositoryContractTest, ReplacingAReportKeepsEngineersLabels) {
+  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
+  ASSERT_TRUE(repo().LabelProtrusionRegion("run-1", "default", 2, "shoe", "alice").ok());
+  EXPECT_EQ(repo().LabelProtrusionRegion("run-1", "default", 9, "shoe", "alice").code(), StatusCode::kNotFound);
+  ReportBundle retried = MakeReport("run-1", "default", 3);
+  retried.decisions.pop_back();
+  ASSERT_TRUE(repo().PutReport(retried).ok());
+  EXPECT_EQ(repo().GetReport("run-1", "default")->merge_created, 9);
+  EXPECT_EQ(repo().ListDecisions("run-1", "default")->size(), 1u);
+  auto labelled = repo().ListLabelledRegions("default", 10);
+  ASSERT_EQ(labelled->size(), 1u);
+  EXPECT_EQ((*labelled)[0].region_id, 2);
+  EXPECT_EQ((*labelled)[0].label, "shoe");
+  EXPECT_EQ((*labelled)[0].labelled_by, "alice");
+  EXPECT_EQ((*labelled)[0].run_id, "run-1");
+  EXPECT_TRUE(repo().ListLabelledRegions("tuned", 10)->empty());
+}
+
+TEST_P(RepositoryContractTest, ParameterSetsAndModelsAreImmutableOnceStored) {
+  EXPECT_EQ(*repo().PutParameterSet({"default", "params-a"}), InsertOutcome::kAlreadyPresent);
+  EXPECT_EQ(repo().PutParameterSet({"default", "changed"}).status().code(), StatusCode::kAlreadyExists);
+  EXPECT_EQ(repo().GetParameterSet("default")->serialized, "params-a");
+  EXPECT_EQ(*repo().ListParameterSetNames(), (std::vector<std::string>{"default", "tuned"}));
+
+  ASSERT_EQ(*repo().PutModel({"protrusion", 1, "weights-1", true}), InsertOutcome::kInserted);
+  ASSERT_EQ(*repo().PutModel({"protrusion", 2, "weights-2", false}), InsertOutcome::kInserted);
+  EXPECT_EQ(repo().PutModel({"protrusion", 2, "other", false}).status().code(), StatusCode::kAlreadyExists);
+  EXPECT_EQ(repo().GetActiveModel("protrusion")->version, 1);
+  ASSERT_TRUE(repo().ActivateModel("protrusion", 2).ok());
+  auto active = repo().GetActiveModel("protrusion");
+  EXPECT_EQ(active->version, 2);
+  EXPECT_EQ(active->bytes, "weights-2");
+  EXPECT_FALSE(repo().GetModel("protrusion", 1)->active);
+  EXPECT_EQ(repo().ActivateModel("protrusion", 7).code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().GetActiveModel("other").status().code(), StatusCode::kNotFound);
+}
+
+TEST_P(RepositoryContractTest, ListRunsPagesByStartTimeThenRunId) {
+  // Ties on started_at_ms are broken by run_id, so no run is skipped or repeated across pages.
+  for (int i = 0; i < 7; ++i) {
+    ASSERT_TRUE(repo().InsertRun(MakeRun("run-" + std::to_string(i), 1000 * (i / 2), 10, i % 3 == 0 ? "robot-2" : "robot-1")).ok());
+  }
+  std::vector<std::string> seen;
+  std::optional<RunCursor> cursor;
+  int pages = 0;
+  do {
+    auto page = repo().ListRuns(RunFilter{}, 3, cursor);
+    ASSERT_TRUE(page.ok()) << page.status().ToString();
+    for (const RunRecord& run : page->runs) {
+      seen.push_back(run.run_id);
+      EXPECT_TRUE(run.telemetry.empty());
+      EXPECT_EQ(run.telemetry_size, 10);
+    }
+    cursor = page->next;
+    ++pages;
+  } while (cursor && pages < 10);
+  EXPECT_EQ(pages, 3);
+  EXPECT_EQ(seen, (std::vector<std::string>{"run-0", "run-1", "run-2", "run-3", "run-4", "run-5", "run-6"}));
+
+  RunFilter by_robot;
+  by_robot.robot_id = "robot-2";
+  by_robot.started_from_ms = 1;
+  auto page = repo().ListRuns(by_robot, 10, std::nullopt);
+  ASSERT_EQ(page->runs.size(), 2u);  // run-3 (t=1000) and run-6 (t=3000); run-0 starts at 0
+  EXPECT_EQ(page->runs[0].run_id, "run-3");
+  EXPECT_FALSE(page->next);
+  EXPECT_EQ(repo().ListRuns(RunFilter{}, 0, std::nullopt).status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST_P(RepositoryContractTest, AggregatesFleetStatisticsInTheDatabase) {
+  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-3", "vac-m", "fw-2.0", 0}).ok());
+  const std::int64_t day = 86400000;
+  ASSERT_TRUE(repo().InsertRun(MakeRun("a", 0 * day + 5)).ok());
+  ASSERT_TRUE(repo().InsertRun(MakeRun("b", 1 * day + 5, 10, "robot-2")).ok());
+  RunRecord c = MakeRun("c", 1 * day + 9, 10, "robot-3");
+  c.firmware = "fw-2.0";
+  ASSERT_TRUE(repo().InsertRun(c).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("a", "default", 1)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("b", "default", 2)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("c", "default", 3)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("a", "tuned", 10)).ok());
+
+  RunFilter defaults;
+  defaults.parameter_set = "default";
+  auto all = repo().Aggregate(defaults);
+  ASSERT_TRUE(all.ok()) << all.status().ToString();
+  EXPECT_EQ(all->reports, 3);
+  EXPECT_EQ(all->robots, 3);
+  EXPECT_EQ(all->merge_created, 3 * (1 + 2 + 3));
+  EXPECT_EQ(all->views_total, 600);
+  EXPECT_EQ(all->started_localized, 2);  // scales 1 and 3
+  EXPECT_EQ(all->protrusions_found, 24);
+
+  RunFilter narrow = defaults;
+  narrow.firmware = "fw-1.2";
+  narrow.started_from_ms = day;
+  narrow.started_before_ms = 2 * day;
+  auto one = repo().Aggregate(narrow);
+  EXPECT_EQ(one->reports, 1);
+  EXPECT_EQ(one->recovery_accepted, 2);
+
+  EXPECT_EQ(repo().Aggregate(RunFilter{})->reports, 4) << "no parameter set: every report counts";
+  RunFilter nothing;
+  nothing.robot_id = "robot-9";
+  EXPECT_EQ(repo().Aggregate(nothing)->reports, 0);
+
+  auto by_day = repo().AggregateBy(defaults, GroupBy::kDay);
+  ASSERT_EQ(by_day->size(), 2u);
+  EXPECT_EQ((*by_day)[0].key, "0");
+  EXPECT_EQ((*by_day)[1].key, "1");
+  EXPECT_EQ((*by_day)[1].statistics.reports, 2);
+  auto by_set = repo().AggregateBy(RunFilter{}, GroupBy::kParameterSet);
+  ASSERT_EQ(by_set->size(), 2u);
+  EXPECT_EQ((*by_set)[1].key, "tuned");
+  EXPECT_EQ((*by_set)[1].statistics.merge_created, 30);
+  auto by_firmware = repo().AggregateBy(defaults, GroupBy::kFirmware);
+  ASSERT_EQ(by_firmware->size(), 2u);
+  EXPECT_EQ((*by_firmware)[1].key, "fw-2.0");
+  EXPECT_EQ(repo().AggregateBy(defaults, GroupBy::kRobot)->size(), 3u);
+  EXPECT_EQ(repo().AggregateBy(defaults, GroupBy::kRobotModel)->size(), 1u);
+}
+
+TEST_P(RepositoryContractTest, InjectionAttemptsInValuesAreHarmless) {
+  const std::string attacks[] = {"x'; DROP TABLE runs; --", "' OR '1'='1", "robot-1' --", "\"; DELETE FROM robots; --",
+                                 "$1", "robot-1%"};
+  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
+  for (const std::string& attack : attacks) {
+    RunFilter filter;
+    filter.robot_id = attack;
+    EXPECT_TRUE(repo().ListRuns(filter, 10, std::nullopt)->runs.empty()) << attack;
+    EXPECT_EQ(repo().Aggregate(filter)->reports, 0) << attack;
+    filter = RunFilter{};
+    filter.firmware = attack;
+    filter.parameter_set = attack;
+    EXPECT_EQ(repo().Aggregate(filter)->reports, 0) << attack;
+    EXPECT_EQ(repo().GetRun(attack).status().code(), StatusCode::kNotFound) << attack;
+    EXPECT_FALSE(*repo().VerifyCredential(attack, attack));
+  }
+  // The same strings are stored and returned verbatim as data.
+  ASSERT_TRUE(repo().PutRobot(RobotRecord{attacks[0], attacks[1], attacks[2], 1}).ok());
+  ASSERT_TRUE(repo().InsertRun(MakeRun(attacks[1], 5, 10, attacks[0])).ok());
+  EXPECT_EQ(repo().GetRun(attacks[1])->robot_id, attacks[0]);
+  RunFilter exact;
+  exact.robot_id = attacks[0];
+  EXPECT_EQ(repo().ListRuns(exact, 10, std::nullopt)->runs.size(), 1u);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 2) << "the runs table survived";
+  EXPECT_EQ(repo().ListRobots()->size(), 3u);
+}
+
+TEST_P(RepositoryContractTest, RejectsMalformedInputWithAStatus) {
+  EXPECT_EQ(repo().PutRobot(RobotRecord{}).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().InsertRun(MakeRun("", 0)).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().InsertRun(MakeRun(std::string("nul\0id", 6), 0)).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().InsertRun(MakeRun(std::string(500, 'r'), 0)).status().code(), StatusCode::kInvalidArgument);
+  RunRecord backwards = MakeRun("run-1", 100);
+  backwards.ended_at_ms = 50;
+  EXPECT_EQ(repo().InsertRun(backwards).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().SetCredential("robot-1", "").code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().ListLabelledRegions("", 0).status().code(), StatusCode::kInvalidArgument);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, RepositoryContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
+                         BackendName);
+
+}  // namespace
+}  // namespace storage::testing
