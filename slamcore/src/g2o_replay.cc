@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <set>
 
 #include "slamcore/optimizer.h"
 
@@ -107,6 +108,36 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
     (accepted[k] ? result.accepted : result.rejected).push_back(run->observation_sources[k]);
   }
   return result;
+}
+
+double FilterScore::Precision() const {
+  const int accepted = true_accepted + wrong_accepted;
+  return accepted == 0 ? 1.0 : static_cast<double>(true_accepted) / accepted;
+}
+
+double FilterScore::Recall() const {
+  return true_total == 0 ? 1.0 : static_cast<double>(true_accepted) / true_total;
+}
+
+FilterScore ScoreReplay(const ReplayResult& result, const std::vector<VertexPair>& wrong) {
+  // A wrong pair may coincide with a true one (the generator draws vertex pairs at random): such a pair
+  // is counted by how many of each were written.
+  std::multiset<VertexPair> remaining_wrong(wrong.begin(), wrong.end());
+  FilterScore score;
+  auto classify = [&](const VertexPair& pair, bool accepted) {
+    const auto it = remaining_wrong.find(pair);
+    if (it != remaining_wrong.end()) {
+      remaining_wrong.erase(it);
+      ++score.wrong_total;
+      if (accepted) ++score.wrong_accepted;
+    } else {
+      ++score.true_total;
+      if (accepted) ++score.true_accepted;
+    }
+  };
+  for (const VertexPair& pair : result.accepted) classify(pair, true);
+  for (const VertexPair& pair : result.rejected) classify(pair, false);
+  return score;
 }
 
 }  // namespace slamcore

@@ -4,6 +4,8 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
 #include "mapper_impl.h"
 #include "slamcore/optimizer.h"
 
@@ -34,6 +36,16 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
   if (!map_.graph.SameComponent(view_node, robot)) {
     RouteToFilter(HypothesisKind::kMerge, event, view_node, "view in another component");
     UpdateAmbiguityMarks();
+    return;
+  }
+  // A robot that has driven far since it was last anchored is too uncertain for one observation to be
+  // trusted: a wide gate would let any wrong match through. Such observations must gather support as a
+  // recovery hypothesis (III-B); they say nothing about the view being ambiguous.
+  const double position_sigma =
+      std::sqrt(robot_relative_covariance_.topLeftCorner<2, 2>().selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff());
+  if (position_sigma > params_.direct_max_position_sigma) {
+    RouteToFilter(HypothesisKind::kRecovery, event, view_node,
+                  "robot too uncertain for a direct edge (position sigma " + std::to_string(position_sigma) + " m)");
     return;
   }
   // Direct gate, eq. (4) with the prediction from G and Σ_rel (mapper_impl.h).

@@ -42,6 +42,7 @@ Status CheckCriteria(const std::string& name, const AcceptanceCriteria& criteria
 
 Status MapperParams::Validate() const {
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("gate_chi2", gate_chi2));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma));
   SLAMCORE_RETURN_IF_ERROR(CheckCriteria("recovery", recovery));
   SLAMCORE_RETURN_IF_ERROR(CheckCriteria("merge_conditional", merge_conditional));
   SLAMCORE_RETURN_IF_ERROR(CheckCriteria("merge_full", merge_full));

@@ -182,7 +182,10 @@ class Generator {
   /// (c): a sofa or bed moved away: the parent saw its outline (unknown inside), the child sees floor.
   bool AddMovedFurniture() {
     const int centre = RandomCell(free_cells_);
-    const double width = Cells(Uniform(0.6, 1.6)), length = Cells(Uniform(1.2, 2.4));
+    // Half are small (a chair, a box, a bin: 0.3–0.6 m), half large (a sofa or bed: 0.6–1.6 × 1.2–2.4 m).
+    const bool small = Chance(0.5);
+    const double width = Cells(small ? Uniform(0.3, 0.6) : Uniform(0.6, 1.6));
+    const double length = Cells(small ? Uniform(0.3, 0.8) : Uniform(1.2, 2.4));
     const double angle = Uniform(0.0, std::numbers::pi);
     const double c = std::cos(angle), s = std::sin(angle);
     const int reach = static_cast<int>(std::ceil(0.5 * std::hypot(width, length))) + 1;

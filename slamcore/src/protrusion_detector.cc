@@ -174,24 +174,30 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   } else {
     clean = raw;
   }
+  // Regions are the connected components of the RAW difference, described by their cells that survive
+  // the clean-up: an opening cuts a room at a narrow neck, but the pieces are still one change.
   cv::Mat labels, stats, centroids;
-  const int count = cv::connectedComponentsWithStats(clean, labels, stats, centroids, 8, CV_32S);
-  const double min_cells = options.min_region_area_m2 / (r * r);
+  const int count = cv::connectedComponentsWithStats(raw, labels, stats, centroids, 8, CV_32S);
+  const double min_cells = std::max(1.0, options.min_region_area_m2 / (r * r));
   const cv::Mat dilation_kernel = cv::Mat::ones(2 * kernel + 1, 2 * kernel + 1, CV_8U);
 
   std::vector<ProtrusionRegion> regions;
   for (int label = 1; label < count; ++label) {
-    const int area = stats.at<int>(label, cv::CC_STAT_AREA);
-    if (area < min_cells || area == 0) continue;
+    if (stats.at<int>(label, cv::CC_STAT_AREA) < min_cells) continue;  // too small even before clean-up
     const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
     const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
     const int pad = kernel + 1;
-    const cv::Rect inner(x, y, w, h);
-    const cv::Rect roi = cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & cv::Rect(0, 0, child.width, child.height);
+    const cv::Rect roi =
+        cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & cv::Rect(0, 0, child.width, child.height);
     // A padded copy so that the distance transform and contours see background around the region.
     cv::Mat mask = cv::Mat::zeros(roi.height + 2, roi.width + 2, CV_8U);
     cv::Mat mask_inner = mask(cv::Rect(1, 1, roi.width, roi.height));
     cv::compare(labels(roi), label, mask_inner, cv::CMP_EQ);
+    mask_inner.setTo(0, clean(roi) == 0);
+    const int area = cv::countNonZero(mask_inner);
+    if (area < min_cells) continue;
+    const cv::Rect local = cv::boundingRect(mask_inner);
+    const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
     cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S), parent_roi = cv::Mat(mask.size(), CV_8S, cv::Scalar(-1));
     child_cells(roi).copyTo(child_roi(cv::Rect(1, 1, roi.width, roi.height)));
     parent_cells(roi).copyTo(parent_roi(cv::Rect(1, 1, roi.width, roi.height)));

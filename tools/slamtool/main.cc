@@ -3,6 +3,7 @@
 //   slamtool optimize FILE [--out FILE.g2o] [--json] [--init linear|warm] [--robust-loss none|huber|cauchy]
 //   slamtool replay-g2o FILE [--params FILE] [--json]
 //   slamtool corrupt-g2o FILE --out FILE [--count N] [--mode random|local] [--group G] [--seed S]
+//   slamtool protrusions | make-protrusion-data | train-protrusions | eval-protrusions (protrusion_commands.h)
 //
 // Exit status: 0 on success, 1 when the input is refused (the message names file, line and reason),
 // 2 on a usage error.
@@ -13,7 +14,8 @@
 #include <iostream>
 #include <string>
 
-#include "mapper_params_file.h"
+#include "analyzer/parameters.h"
+#include "protrusion_commands.h"
 #include "slamcore/g2o_replay.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/loop_closure_outliers.h"
@@ -87,7 +89,9 @@ int RunReplay(const ReplayArguments& arguments) {
   if (!graph.ok()) return Fail(graph.status());
   slamcore::MapperParams params;
   if (!arguments.params_file.empty()) {
-    const auto loaded = slamtool::ReadMapperParams(arguments.params_file);
+    const auto set = analyzer::ReadParameterSetFile(arguments.params_file);
+    if (!set.ok()) return Fail(set.status());
+    const auto loaded = analyzer::FromProto(set->mapper());
     if (!loaded.ok()) return Fail(loaded.status());
     params = *loaded;
   }
@@ -171,7 +175,7 @@ int main(int argc, char** argv) {
   CLI::App* replay_command =
       app.add_subcommand("replay-g2o", "replay a g2o graph through the Mapper online, as a robot would see it");
   replay_command->add_option("FILE", replay.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
-  replay_command->add_option("--params", replay.params_file, "Mapper parameters (key = value lines)")
+  replay_command->add_option("--params", replay.params_file, "Mapper parameter set (JSON, fleet.v1.ParameterSet)")
       ->check(CLI::ExistingFile);
   replay_command->add_flag("--json", replay.json, "print one JSON object on stdout");
 
@@ -184,6 +188,8 @@ int main(int argc, char** argv) {
   corrupt_command->add_option("--group", corrupt.group, "consecutive pairs per group")->check(CLI::PositiveNumber);
   corrupt_command->add_option("--mode", corrupt.mode, "random or local")->check(CLI::IsMember({"random", "local"}));
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
+
+  AddProtrusionCommands(app);
 
   CLI11_PARSE(app, argc, argv);
   if (optimize_command->parsed()) return RunOptimize(optimize);

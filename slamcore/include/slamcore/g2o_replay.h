@@ -45,4 +45,13 @@ struct ReplayResult {
 /// Replays `graph` through a Mapper with `params`, then optimises the resulting graph once more.
 Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams& params);
 
+/// How well the filter separated true loop closures from known wrong ones.
+struct FilterScore {
+  int true_accepted = 0, true_total = 0;
+  int wrong_accepted = 0, wrong_total = 0;
+  double Precision() const;  // true accepted / all accepted (1 when nothing was accepted)
+  double Recall() const;     // true accepted / all true (1 when there were none)
+};
+FilterScore ScoreReplay(const ReplayResult& result, const std::vector<VertexPair>& wrong);
+
 }  // namespace slamcore

@@ -26,6 +26,10 @@ struct MapperParams {
   /// Mahalanobis gate, χ² with 3 degrees of freedom: 11.34 is the 99 % quantile. Used both for direct
   /// observation edges against the current estimate and for joining an observation to a hypothesis.
   double gate_chi2 = 11.34;
+  /// A direct edge also needs the robot to be sure of its position relative to where it was last anchored:
+  /// above this standard deviation (metres, largest axis of Σ_rel) observations go to the recovery filter
+  /// and need the support of several views, since a wide gate would pass wrong matches.
+  double direct_max_position_sigma = 0.5;
 
   /// Recovery hypotheses (observations in the current component that failed the gate).
   AcceptanceCriteria recovery{.min_observations = 3, .min_views = 2};

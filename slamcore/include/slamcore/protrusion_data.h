@@ -11,7 +11,8 @@
 //  * New space. (a) A room explored for the first time: a geodesic ball of the real map's free space around
 //    a seed with ≥ 0.4 m clearance is removed from the parent (with its walls), so the child reveals it;
 //    (b) an opened door: the same, with the parent holding the closed door (the cut between the ball and
-//    the rest) as a wall; (c) a moved sofa/bed: a rectangle 0.6–1.6 × 1.2–2.4 m in open floor that the
+//    the rest) as a wall; (c) moved furniture: a rectangle in open floor, half small (0.3–0.6 × 0.3–0.8 m, a chair or box),
+//    half large (0.6–1.6 × 1.2–2.4 m, a sofa or bed), that the
 //    parent shows as an outlined obstacle with unknown inside and the child as free floor.
 //  * Realism. Edge cells of every change drop out at random (the sensor misses some), the child gains
 //    speckle (1–4-cell blobs) and 1-cell fringes along known edges that the detector's clean-up must remove,

@@ -1,0 +1,34 @@
+// Analysis of one stored run (ARCHITECTURE "Data flow of one run", step 2): the run's telemetry is replayed
+// by slamcore's Mapper from its parent snapshot with a parameter set, and the report says what the
+// back-end decided (hypotheses, relocalization times, ambiguous views), what protrusions appeared in the
+// occupancy map, how the rerun differs from the map the robot uploaded, and, when the run carries ground
+// truth, how right it was.
+//
+// Thread safety: AnalyzeRun is a pure function of its inputs; call it from any number of threads.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "fleet/v1/report.pb.h"
+#include "fleet/v1/telemetry.pb.h"
+#include "slamcore/mapper_params.h"
+#include "slamcore/protrusion_classifier.h"
+
+namespace analyzer {
+
+struct AnalysisOptions {
+  std::string parameter_set_name = "default";
+  slamcore::MapperParams mapper;
+  /// Classifies protrusion regions when set; without a model regions are reported unclassified
+  /// (predicted_class "unclassified", probability −1).
+  const slamcore::ProtrusionClassifier* classifier = nullptr;
+  /// Keep the rerun's child map in the report (for map pages and reprocessing comparisons).
+  bool keep_rerun_child = true;
+};
+
+/// Fails (INVALID_ARGUMENT naming the field) when the run's telemetry is malformed, e.g. an event the
+/// Mapper refuses: "events[12]: ViewObservedEvent at t=3.5: view 7 does not exist".
+slamcore::Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options);
+
+}  // namespace analyzer

@@ -1,0 +1,279 @@
+#include "analyzer/run_analysis.h"
+
+#include <chrono>
+#include <map>
+#include <set>
+#include <unordered_map>
+
+#include "analyzer/telemetry_codec.h"
+#include "slamcore/mapper.h"
+#include "slamcore/occupancy_grid.h"
+#include "slamcore/protrusion_detector.h"
+#include "slamcore/trajectory_error.h"
+
+namespace analyzer {
+namespace {
+
+using slamcore::Decision;
+using slamcore::DecisionKind;
+using slamcore::HypothesisKind;
+using slamcore::NodeId;
+using slamcore::Result;
+using slamcore::ViewId;
+
+/// An observation as the robot reported it, with the simulator's truth flag when there is one.
+struct ReportedObservation {
+  NodeId robot_node = -1;
+  ViewId view = -1;
+  std::optional<bool> truth_wrong;
+};
+
+double Seconds(std::chrono::steady_clock::duration duration) { return std::chrono::duration<double>(duration).count(); }
+
+fleet::v1::MapperCounts CountsToProto(const slamcore::MapperStatistics& stats) {
+  fleet::v1::MapperCounts counts;
+  counts.set_direct_edges(stats.direct_edges);
+  counts.set_recovery_created(stats.recovery_created);
+  counts.set_recovery_accepted(stats.recovery_accepted);
+  counts.set_recovery_expired(stats.recovery_expired);
+  counts.set_recovery_rejected(stats.recovery_rejected);
+  counts.set_merge_created(stats.merge_created);
+  counts.set_merge_conditionally_accepted(stats.merge_conditionally_accepted);
+  counts.set_merge_accepted(stats.merge_accepted);
+  counts.set_merge_expired(stats.merge_expired);
+  counts.set_merge_rejected(stats.merge_rejected);
+  counts.set_merge_conditional_then_rejected(stats.merge_conditional_then_rejected);
+  counts.set_views_marked_ambiguous(stats.views_marked_ambiguous);
+  counts.set_components_created(stats.components_created);
+  return counts;
+}
+
+fleet::v1::Decision DecisionToProto(const Decision& decision) {
+  fleet::v1::Decision proto;
+  proto.set_time(decision.time);
+  proto.set_kind(slamcore::DecisionKindName(decision.kind));
+  proto.set_node(decision.node);
+  proto.set_view(decision.view);
+  proto.set_hypothesis(decision.hypothesis);
+  if (decision.hypothesis_kind) {
+    proto.set_hypothesis_kind(*decision.hypothesis_kind == HypothesisKind::kMerge ? "merge" : "recovery");
+  }
+  proto.set_reason(decision.reason);
+  return proto;
+}
+
+/// Seconds from the first event to the first merge decision of `kind`, or −1.
+double SecondsToMerge(const std::vector<Decision>& decisions, DecisionKind kind, double start) {
+  for (const Decision& decision : decisions) {
+    if (decision.kind == kind && decision.hypothesis_kind == HypothesisKind::kMerge) return decision.time - start;
+  }
+  return -1.0;
+}
+
+/// RMS position error of `graph` against `truth`, each component aligned on its own (components have
+/// independent frames); nullopt when fewer than two nodes carry truth.
+std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
+                                        const std::unordered_map<NodeId, slamcore::SE2>& truth, int* count) {
+  std::map<slamcore::ComponentId, std::pair<std::vector<slamcore::Vector2>, std::vector<slamcore::Vector2>>> pairs;
+  for (const auto& [node, pose] : truth) {
+    if (!graph.HasNode(node)) continue;
+    auto& [estimate, reference] = pairs[graph.ComponentOf(node)];
+    estimate.push_back(graph.node(node).pose.translation());
+    reference.push_back(pose.translation());
+  }
+  double sum = 0.0;
+  *count = 0;
+  for (const auto& [component, points] : pairs) {
+    const auto rmse = slamcore::AlignedRmse(points.first, points.second);
+    if (!rmse.ok()) continue;  // a single-node component carries no trajectory error
+    sum += *rmse * *rmse * static_cast<double>(points.first.size());
+    *count += static_cast<int>(points.first.size());
+  }
+  if (*count < 2) return std::nullopt;
+  return std::sqrt(sum / *count);
+}
+
+/// The part of a map that lies in one component, for rendering that component's occupancy grid.
+slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nodes) {
+  slamcore::Map part;
+  for (const NodeId node : nodes) {
+    if (!map.graph.HasNode(node)) continue;
+    (void)part.graph.AddNode(map.graph.node(node));
+    if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
+  }
+  return part;
+}
+
+/// Protrusion regions between the parent map and the rerun child, in the frame of the parent's largest
+/// component (the robot's home map); new space outside it is not comparable with the parent.
+slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::Map& child, bool has_ground_truth,
+                                   const std::set<NodeId>& slipping_nodes, const AnalysisOptions& options,
+                                   fleet::v1::RunReport* report) {
+  for (const std::string& name : slamcore::ProtrusionFeatureNames()) report->add_feature_names(name);
+  if (parent.local_maps.empty() || parent.graph.num_nodes() == 0) return slamcore::Status::Ok();
+  NodeId home = parent.graph.nodes().front().id;
+  for (const slamcore::ComponentId component : parent.graph.Components()) {
+    if (parent.graph.ComponentSize(component) > parent.graph.ComponentSize(home)) home = component;
+  }
+  std::set<NodeId> parent_nodes, child_nodes, slip_nodes;
+  for (const NodeId node : parent.graph.NodesOf(parent.graph.ComponentOf(home))) parent_nodes.insert(node);
+  for (const NodeId node : child.graph.NodesOf(child.graph.ComponentOf(home))) {
+    child_nodes.insert(node);
+    if (slipping_nodes.contains(node)) slip_nodes.insert(node);
+  }
+  slamcore::GlobalGridRenderer parent_renderer, child_renderer;
+  SLAMCORE_RETURN_IF_ERROR(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)));
+  SLAMCORE_RETURN_IF_ERROR(child_renderer.RenderAll(ComponentMap(child, child_nodes)));
+  const auto regions = slamcore::ExtractRegions(parent_renderer.grid(), child_renderer.grid());
+  if (!regions.ok()) return regions.status();
+
+  // Ground truth, when the run carries it: a region is a slip artefact when most of its cells are
+  // covered by patches of nodes made while the robot was stuck.
+  std::optional<slamcore::OccupancyGrid> slip_cover;
+  if (!slip_nodes.empty()) {
+    slamcore::GlobalGridRenderer slip_renderer;
+    SLAMCORE_RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
+    slip_cover = slip_renderer.grid();
+  }
+  const slamcore::OccupancyGrid& child_grid = child_renderer.grid();
+  for (const slamcore::ProtrusionRegion& region : *regions) {
+    fleet::v1::ProtrusionRegion* proto = report->add_protrusion_regions();
+    proto->set_id(region.id);
+    for (const int value : {region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height}) proto->add_bbox(value);
+    for (const double feature : region.features) proto->add_features(feature);
+    if (options.classifier) {
+      const auto probability = options.classifier->Probability(region.features);
+      if (!probability.ok()) return probability.status();
+      const bool protrusion = options.classifier->IsProtrusion(*probability);
+      proto->set_predicted_class(protrusion ? "protrusion" : "new_space");
+      proto->set_probability(*probability);
+      if (protrusion) report->set_protrusions_found(report->protrusions_found() + 1);
+    } else {
+      proto->set_predicted_class("unclassified");
+      proto->set_probability(-1.0);
+    }
+    if (has_ground_truth) {
+      int covered = 0;
+      for (const std::int32_t cell : region.cells) {
+        if (!slip_cover) break;
+        const int col = cell % child_grid.width, row = cell / child_grid.width;
+        const double x = child_grid.origin_x + (col + 0.5) * child_grid.resolution;
+        const double y = child_grid.origin_y + (row + 0.5) * child_grid.resolution;
+        const int slip_col = static_cast<int>(std::floor((x - slip_cover->origin_x) / slip_cover->resolution));
+        const int slip_row = static_cast<int>(std::floor((y - slip_cover->origin_y) / slip_cover->resolution));
+        if (slip_cover->InBounds(slip_col, slip_row) && slip_cover->at(slip_col, slip_row) != -1) ++covered;
+      }
+      proto->set_truth_protrusion(!region.cells.empty() && 2 * covered >= static_cast<int>(region.cells.size()));
+    }
+  }
+  return slamcore::Status::Ok();
+}
+
+}  // namespace
+
+Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options) {
+  SLAMCORE_RETURN_IF_ERROR(Validate(run.header()));
+  auto parent = FromProto(run.parent_snapshot(), "parent_snapshot");
+  if (!parent.ok()) return parent.status();
+  auto uploaded_child = FromProto(run.child_snapshot(), "child_snapshot");
+  if (!uploaded_child.ok()) return uploaded_child.status();
+
+  const auto replay_start = std::chrono::steady_clock::now();
+  auto mapper = slamcore::Mapper::Create(options.mapper, *parent);
+  if (!mapper.ok()) return mapper.status();
+  std::vector<ReportedObservation> observations;
+  std::set<NodeId> slipping_nodes;
+  bool has_ground_truth = false;
+  const double first_time = run.events_size() > 0 ? run.events(0).time() : 0.0;
+  for (int k = 0; k < run.events_size(); ++k) {
+    const fleet::v1::Event& proto = run.events(k);
+    const std::string field = "events[" + std::to_string(k) + "]";
+    const auto event = FromProto(proto, field);
+    if (!event.ok()) return event.status();
+    if (const slamcore::Status status = (*mapper)->Process(*event); !status.ok()) {
+      return slamcore::InvalidArgument(field + ": " + status.message());
+    }
+    if (proto.has_view_observed()) {
+      ReportedObservation observation{*(*mapper)->CurrentNode(), proto.view_observed().view(), std::nullopt};
+      if (proto.view_observed().has_truth_wrong()) observation.truth_wrong = proto.view_observed().truth_wrong();
+      observations.push_back(observation);
+    }
+    if (proto.has_ground_truth()) {
+      has_ground_truth = true;
+      if (proto.ground_truth().slipping() && (*mapper)->CurrentNode()) slipping_nodes.insert(*(*mapper)->CurrentNode());
+    }
+  }
+  const std::vector<Decision> decisions = (*mapper)->decisions();
+  const slamcore::MapperStatistics statistics = (*mapper)->Statistics();
+  const std::vector<slamcore::AcceptedObservation> accepted = (*mapper)->accepted_observations();
+  const std::unordered_map<NodeId, slamcore::SE2> truth = (*mapper)->ground_truth();
+  const slamcore::Map child = (*mapper)->Finish();
+
+  fleet::v1::RunReport report;
+  report.set_format_version(1);
+  report.set_run_id(run.header().run_id());
+  report.set_robot_id(run.header().robot_id());
+  report.set_parameter_set(options.parameter_set_name);
+  report.set_firmware(run.header().firmware());
+  report.set_started_at(run.header().started_at());
+  *report.mutable_counts() = CountsToProto(statistics);
+  for (const Decision& decision : decisions) *report.add_decisions() = DecisionToProto(decision);
+  const double to_conditional = SecondsToMerge(decisions, DecisionKind::kConditionallyAccepted, first_time);
+  const double to_full = SecondsToMerge(decisions, DecisionKind::kAccepted, first_time);
+  report.set_seconds_to_conditional_relocalization(to_conditional);
+  report.set_seconds_to_full_relocalization(to_full);
+  // "Started localized" (paper Fig. 7): on an existing map, joined it within the first minute.
+  const double first_join = to_conditional >= 0 ? to_conditional : to_full;
+  report.set_started_localized(parent->graph.num_nodes() > 0 && first_join >= 0 && first_join <= 60.0);
+  for (const slamcore::View& view : child.graph.views()) {
+    if (view.ambiguous) report.add_ambiguous_views(view.id);
+  }
+  report.set_views_total(static_cast<int>(child.graph.views().size()));
+  report.set_replay_seconds(Seconds(std::chrono::steady_clock::now() - replay_start));
+
+  const auto detection_start = std::chrono::steady_clock::now();
+  SLAMCORE_RETURN_IF_ERROR(DetectProtrusions(*parent, child, has_ground_truth, slipping_nodes, options, &report));
+  report.set_detection_seconds(Seconds(std::chrono::steady_clock::now() - detection_start));
+
+  // Divergence from the map the robot uploaded: sizes, and node positions over the nodes both hold.
+  fleet::v1::Divergence& divergence = *report.mutable_divergence();
+  auto observation_edges = [](const slamcore::PoseGraph& graph) {
+    return static_cast<int>(std::count_if(graph.edges().begin(), graph.edges().end(), [](const slamcore::Edge& edge) {
+      return edge.kind == slamcore::EdgeKind::kObservation;
+    }));
+  };
+  divergence.set_robot_nodes(static_cast<int>(uploaded_child->graph.num_nodes()));
+  divergence.set_rerun_nodes(static_cast<int>(child.graph.num_nodes()));
+  divergence.set_robot_observation_edges(observation_edges(uploaded_child->graph));
+  divergence.set_rerun_observation_edges(observation_edges(child.graph));
+  std::unordered_map<NodeId, slamcore::SE2> uploaded_poses;
+  for (const slamcore::Node& node : uploaded_child->graph.nodes()) uploaded_poses.emplace(node.id, node.pose);
+  int common = 0;
+  divergence.set_node_position_rms(ComponentwiseRmse(child.graph, uploaded_poses, &common).value_or(0.0));
+
+  if (has_ground_truth) {
+    fleet::v1::GroundTruthErrors& errors = *report.mutable_ground_truth();
+    int with_truth = 0;
+    errors.set_trajectory_rmse(ComponentwiseRmse(child.graph, truth, &with_truth).value_or(0.0));
+    errors.set_nodes_with_truth(with_truth);
+    std::multiset<std::pair<NodeId, ViewId>> accepted_pairs;
+    for (const auto& edge : accepted) accepted_pairs.emplace(edge.robot_node, edge.view);
+    for (const ReportedObservation& observation : observations) {
+      if (!observation.truth_wrong) continue;
+      const auto it = accepted_pairs.find({observation.robot_node, observation.view});
+      const bool was_accepted = it != accepted_pairs.end();
+      if (was_accepted) accepted_pairs.erase(it);
+      if (*observation.truth_wrong) {
+        errors.set_wrong_observations(errors.wrong_observations() + 1);
+        if (was_accepted) errors.set_wrong_observations_accepted(errors.wrong_observations_accepted() + 1);
+      } else {
+        errors.set_correct_observations(errors.correct_observations() + 1);
+        if (was_accepted) errors.set_correct_observations_accepted(errors.correct_observations_accepted() + 1);
+      }
+    }
+  }
+  if (options.keep_rerun_child) *report.mutable_rerun_child() = ToProto(child);
+  return report;
+}
+
+}  // namespace analyzer

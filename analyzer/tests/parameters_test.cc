@@ -1,0 +1,57 @@
+#include "analyzer/parameters.h"
+
+#include <gtest/gtest.h>
+
+namespace analyzer {
+namespace {
+
+TEST(ParametersTest, DefaultsRoundTrip) {
+  const slamcore::MapperParams defaults;
+  const auto back = FromProto(ToProto(defaults));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->gate_chi2, defaults.gate_chi2);
+  EXPECT_EQ(back->merge_full.min_views, defaults.merge_full.min_views);
+  EXPECT_EQ(back->conditional_merge, defaults.conditional_merge);
+  EXPECT_EQ(back->local_window_nodes, defaults.local_window_nodes);
+}
+
+TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
+  const auto set = ParseParameterSetJson(
+      R"({"name": "strict", "mapper": {"gateChi2": 7.8, "mergeFull": {"minViews": 3}, "conditionalMerge": false}})",
+      "strict.json");
+  ASSERT_TRUE(set.ok()) << set.status().ToString();
+  EXPECT_EQ(set->name(), "strict");
+  const auto params = FromProto(set->mapper());
+  ASSERT_TRUE(params.ok());
+  EXPECT_EQ(params->gate_chi2, 7.8);
+  EXPECT_EQ(params->merge_full.min_views, 3);
+  EXPECT_EQ(params->merge_full.min_observations, slamcore::MapperParams().merge_full.min_observations);
+  EXPECT_FALSE(params->conditional_merge);
+  EXPECT_EQ(params->recovery.min_views, slamcore::MapperParams().recovery.min_views);
+}
+
+TEST(ParametersTest, BareMapperObjectIsAccepted) {
+  const auto set = ParseParameterSetJson(R"({"gate_chi2": 9.0})", "bare.json");
+  ASSERT_TRUE(set.ok()) << set.status().ToString();
+  EXPECT_EQ(set->mapper().gate_chi2(), 9.0);
+}
+
+TEST(ParametersTest, UnknownKeysAndBadValuesAreRefusedNamingThem) {
+  auto set = ParseParameterSetJson(R"({"gate_chi": 9.0})", "typo.json");
+  ASSERT_FALSE(set.ok());
+  EXPECT_NE(set.status().message().find("typo.json"), std::string::npos);
+  EXPECT_NE(set.status().message().find("gate_chi"), std::string::npos) << set.status().message();
+
+  set = ParseParameterSetJson(R"({"mapper": {"gateChi2": -1}})", "negative.json");
+  ASSERT_FALSE(set.ok());
+  EXPECT_NE(set.status().message().find("gate_chi2"), std::string::npos) << set.status().message();
+
+  set = ParseParameterSetJson(R"({"mergeConditional": {"minViews": 5}})", "views.json");
+  ASSERT_FALSE(set.ok());
+  EXPECT_NE(set.status().message().find("merge_conditional.min_views"), std::string::npos) << set.status().message();
+
+  EXPECT_EQ(ReadParameterSetFile("/nonexistent.json").status().code(), slamcore::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace analyzer

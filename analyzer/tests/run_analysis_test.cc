@@ -1,0 +1,94 @@
+#include "analyzer/run_analysis.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "sim/run_simulator.h"
+#include "slamcore/protrusion_detector.h"
+
+namespace analyzer {
+namespace {
+
+/// Two simulated runs of one robot in a real floor plan: the second starts on the first's map.
+std::vector<fleet::v1::RunFile> SimulatedRuns() {
+  const auto worlds = sim::ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+  EXPECT_TRUE(worlds.ok());
+  static const auto world = sim::LoadWorld(worlds->front(), 11);
+  EXPECT_TRUE(world.ok()) << world.status().ToString();
+  sim::SimParams params;
+  params.run_minutes = 4.0;
+  params.slip_episodes_per_hour = 30.0;  // make sure the second run slips
+  sim::RobotSimulator robot(*world, params, "robot-test", "1.0.0", 5);
+  std::vector<fleet::v1::RunFile> runs;
+  for (int k = 0; k < 2; ++k) {
+    auto outcome = robot.SimulateRun("run-" + std::to_string(k), 1.7e9 + 86400.0 * k);
+    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    runs.push_back(outcome->run);
+  }
+  return runs;
+}
+
+TEST(RunAnalysisTest, RerunWithTheRobotsParametersReproducesTheRobotsMap) {
+  const auto runs = SimulatedRuns();
+  const auto report = AnalyzeRun(runs[1], {});
+  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  EXPECT_EQ(report->run_id(), "run-1");
+  EXPECT_EQ(report->parameter_set(), "default");
+  EXPECT_FALSE(report->decisions().empty());
+  EXPECT_GE(report->counts().components_created(), 1);
+  // The robot ran the same Mapper with the same parameters: the rerun is the same map.
+  EXPECT_EQ(report->divergence().robot_nodes(), report->divergence().rerun_nodes());
+  EXPECT_EQ(report->divergence().robot_observation_edges(), report->divergence().rerun_observation_edges());
+  EXPECT_LT(report->divergence().node_position_rms(), 1e-9);
+  ASSERT_TRUE(report->has_ground_truth());
+  EXPECT_GT(report->ground_truth().nodes_with_truth(), 100);
+  EXPECT_GT(report->ground_truth().correct_observations(), 0);
+  EXPECT_LE(report->ground_truth().wrong_observations_accepted(), report->ground_truth().wrong_observations());
+  EXPECT_EQ(report->feature_names_size(), static_cast<int>(slamcore::ProtrusionFeatureNames().size()));
+  for (const auto& region : report->protrusion_regions()) {
+    EXPECT_EQ(region.predicted_class(), "unclassified");
+    EXPECT_EQ(region.bbox_size(), 4);
+    EXPECT_TRUE(region.has_truth_protrusion());
+  }
+  EXPECT_GT(report->rerun_child().nodes_size(), 0);
+}
+
+TEST(RunAnalysisTest, StricterParametersChangeTheDecisions) {
+  const auto runs = SimulatedRuns();
+  AnalysisOptions strict;
+  strict.parameter_set_name = "strict";
+  strict.mapper.recovery.min_observations = 50;
+  strict.mapper.recovery.min_views = 20;
+  const auto report = AnalyzeRun(runs[1], strict);
+  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  EXPECT_EQ(report->parameter_set(), "strict");
+  EXPECT_EQ(report->counts().recovery_accepted(), 0);
+}
+
+TEST(RunAnalysisTest, MalformedTelemetryIsRefusedNamingTheEvent) {
+  auto runs = SimulatedRuns();
+  fleet::v1::RunFile broken = runs[1];
+  int index = -1;
+  for (int k = 0; k < broken.events_size(); ++k) {
+    if (broken.events(k).has_view_observed()) {
+      broken.mutable_events(k)->mutable_view_observed()->set_view(987654321);
+      index = k;
+      break;
+    }
+  }
+  ASSERT_GE(index, 0);
+  const auto report = AnalyzeRun(broken, {});
+  ASSERT_FALSE(report.ok());
+  EXPECT_EQ(report.status().code(), slamcore::StatusCode::kInvalidArgument);
+  EXPECT_NE(report.status().message().find("events[" + std::to_string(index) + "]"), std::string::npos)
+      << report.status().message();
+  EXPECT_NE(report.status().message().find("987654321"), std::string::npos) << report.status().message();
+
+  broken = runs[1];
+  broken.mutable_header()->set_run_id("");
+  EXPECT_EQ(AnalyzeRun(broken, {}).status().message(), "header.run_id: missing");
+}
+
+}  // namespace
+}  // namespace analyzer

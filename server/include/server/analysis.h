@@ -1,0 +1,53 @@
+// Analysis of stored runs (ARCHITECTURE "Data flow of one run", step 2) on top of analyzer::AnalyzeRun:
+// load the run and its snapshots from storage, replay with a stored parameter set, store the report.
+//
+// Thread safety: AnalyzeStoredRun and ToReportBundle are free of shared state; ClassifierCache is safe
+// from many threads (one mutex).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "fleet/v1/report.pb.h"
+#include "slamcore/protrusion_classifier.h"
+#include "storage/repository.h"
+
+namespace server {
+
+/// The rows storage keeps for a report (counters, decisions, ambiguous views, regions) plus the report.
+storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report);
+
+/// A classifier model from storage (bytes = the model file) loaded through a temporary file.
+storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes);
+
+/// The active version of one model, reloaded when the active version changes (checked every few seconds).
+class ClassifierCache {
+ public:
+  ClassifierCache(storage::Repository& repository, std::string model_name);
+  /// The active classifier, or null when none is active (regions stay unclassified).
+  std::shared_ptr<const slamcore::ProtrusionClassifier> Get();
+
+ private:
+  storage::Repository& repository_;
+  const std::string model_name_;
+  std::mutex mutex_;  // guards the members below
+  std::int64_t version_ = 0;
+  std::shared_ptr<const slamcore::ProtrusionClassifier> classifier_;
+  std::chrono::steady_clock::time_point checked_{};
+};
+
+struct AnalysisResult {
+  double seconds = 0.0;
+  std::int64_t regions = 0;
+};
+
+/// NOT_FOUND when the run or parameter set is missing, INVALID_ARGUMENT when the telemetry is refused by
+/// the replay, DATA_LOSS when stored bytes do not parse.
+storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const std::string& run_id,
+                                                 const std::string& parameter_set,
+                                                 const slamcore::ProtrusionClassifier* classifier);
+
+}  // namespace server

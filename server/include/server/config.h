@@ -1,0 +1,44 @@
+// fleetd's configuration: defaults here, then a JSON config file (--config), then command-line flags, each
+// overriding the one before. docs/fleetd.md lists the keys; the JSON keys are the flag names with '_' for
+// '-' (e.g. "max_events_per_run"). Unknown keys and wrongly typed values are refused, naming the key.
+//
+// Thread safety: value type.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "storage/status.h"
+
+namespace server {
+
+struct FleetdConfig {
+  std::string db = "sqlite:fleet.db";      // storage URL: sqlite:PATH or postgresql://...
+  std::string listen = "127.0.0.1:50051";  // gRPC; port 0 picks a free port
+  std::string http = "127.0.0.1:8080";     // /metrics, /healthz; empty disables
+  std::string role = "all";                // "all", "server" (API only), "worker" (workers only)
+  int workers = 0;                          // analysis threads; 0: one per core (at least 1)
+  std::string tls_cert;                     // PEM files; both set: the gRPC port speaks TLS only
+  std::string tls_key;
+  std::string bootstrap_admin_token;        // "<admin:name>.<secret>", also env FLEETD_BOOTSTRAP_ADMIN_TOKEN
+  std::int64_t max_message_bytes = 16 << 20;       // one gRPC message
+  std::int64_t max_events_per_run = 2'000'000;
+  std::int64_t max_run_bytes = 512LL << 20;        // one whole upload stream
+  double rate_limit_per_second = 100.0;     // per principal; 0: unlimited
+  double rate_limit_burst = 200.0;
+  double shutdown_grace_seconds = 20.0;     // SIGTERM: in-flight RPCs and jobs get this long
+  std::string default_parameter_set = "default";  // what every upload is analysed with
+  std::string model_name = "protrusion";    // the active version of this model classifies regions
+  int lease_seconds = 120;                  // job lease; heartbeats renew it every lease/4
+  int auth_cache_seconds = 60;
+  std::string log_level = "info";
+  std::string log_format = "json";          // "json" or "text"
+
+  /// Checks ranges and enumerations, naming the key.
+  storage::Status Validate() const;
+};
+
+/// Reads a JSON object of config keys over `config`.
+storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config);
+
+}  // namespace server

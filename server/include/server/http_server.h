@@ -1,0 +1,68 @@
+// fleetd's HTTP side: /metrics (Prometheus text), /healthz, and whatever else registers a route (the
+// dashboard adds /api/... and static files). Boost.Beast stays inside http_server.cc.
+//
+// Routing: AddRoute(method, path_prefix, handler); the longest matching prefix wins ("/api/" matches
+// "/api/runs"; "/healthz" matches only paths starting with it). Unknown paths are 404, a known path with
+// another method 405. Handlers run on the connection's thread and must be thread-safe.
+//
+// Thread safety: register routes before Start(); after that the router is read-only. Stop() is safe from
+// any thread and waits for open connections to finish their current request.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace server {
+
+struct HttpRequest {
+  std::string method;  // "GET", "POST", ...
+  std::string target;  // path and query, as sent
+  std::string path;    // target without the query
+  std::string query;   // after '?', undecoded
+  std::map<std::string, std::string> headers;  // lowercase names
+  std::string body;
+};
+
+struct HttpResponse {
+  int status = 200;
+  std::string content_type = "text/plain; charset=utf-8";
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;
+};
+
+using HttpHandler = std::function<HttpResponse(const HttpRequest&)>;
+
+class HttpRouter {
+ public:
+  void AddRoute(const std::string& method, const std::string& path_prefix, HttpHandler handler);
+  HttpResponse Handle(const HttpRequest& request) const;
+
+ private:
+  struct Route {
+    std::string method, prefix;
+    HttpHandler handler;
+  };
+  std::vector<Route> routes_;
+};
+
+class HttpServer {
+ public:
+  /// Binds `address` ("host:port", port 0 = any free port) at once; fails with a message when it cannot.
+  static std::unique_ptr<HttpServer> Create(const std::string& address, const HttpRouter& router,
+                                            std::string* error);
+  ~HttpServer();
+  /// "127.0.0.1:41235": the bound address.
+  std::string BoundAddress() const;
+  void Start();
+  void Stop();
+
+ private:
+  class Impl;
+  explicit HttpServer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace server

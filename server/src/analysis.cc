@@ -1,0 +1,191 @@
+#include "server/analysis.h"
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <unistd.h>
+
+#include "analyzer/parameters.h"
+#include "analyzer/run_analysis.h"
+#include "fleet/v1/telemetry.pb.h"
+
+namespace server {
+namespace {
+
+storage::Status FromSlamcore(const slamcore::Status& status) {
+  switch (status.code()) {
+    case slamcore::StatusCode::kOk: return storage::Status::Ok();
+    case slamcore::StatusCode::kInvalidArgument: return storage::InvalidArgument(status.message());
+    case slamcore::StatusCode::kNotFound: return storage::NotFound(status.message());
+    case slamcore::StatusCode::kFailedPrecondition: return storage::FailedPrecondition(status.message());
+    case slamcore::StatusCode::kDataLoss: return storage::DataLoss(status.message());
+    case slamcore::StatusCode::kInternal: return storage::Internal(status.message());
+  }
+  return storage::Internal(status.message());
+}
+
+// A unique file in the temp directory, removed when this goes out of scope.
+class TempFile {
+ public:
+  TempFile() {
+    static std::atomic<long> counter{0};
+    path_ = std::filesystem::temp_directory_path() /
+            ("fleetd-model-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".yaml");
+  }
+  ~TempFile() {
+    std::error_code ignored;
+    std::filesystem::remove(path_, ignored);
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace
+
+storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
+  storage::ReportBundle bundle;
+  storage::ReportRecord& record = bundle.report;
+  record.run_id = report.run_id();
+  record.parameter_set = report.parameter_set();
+  record.recovery_created = report.counts().recovery_created();
+  record.recovery_accepted = report.counts().recovery_accepted();
+  record.merge_created = report.counts().merge_created();
+  record.merge_conditionally_accepted = report.counts().merge_conditionally_accepted();
+  record.merge_conditional_then_rejected = report.counts().merge_conditional_then_rejected();
+  record.views_total = report.views_total();
+  record.views_ambiguous = report.ambiguous_views_size();
+  record.started_localized = report.started_localized();
+  record.protrusions_found = report.protrusions_found();
+  record.report = report.SerializeAsString();
+
+  // Rows for hypothesis-level decisions only; every direct edge stays in the report blob.
+  std::int64_t sequence = 0;
+  for (const auto& decision : report.decisions()) {
+    ++sequence;
+    if (decision.kind() == "direct_edge" || decision.kind() == "hypothesis_updated") continue;
+    storage::DecisionRecord row;
+    row.sequence = sequence;
+    row.time_s = decision.time();
+    row.kind = decision.hypothesis_kind().empty() ? "map" : decision.hypothesis_kind();
+    row.outcome = decision.kind();
+    row.subject_id = decision.hypothesis() >= 0 ? decision.hypothesis() : decision.view();
+    row.detail = decision.reason();
+    bundle.decisions.push_back(std::move(row));
+  }
+  for (std::int64_t view : report.ambiguous_views()) {
+    storage::AmbiguousViewRecord row;
+    row.view_id = view;
+    bundle.ambiguous_views.push_back(row);
+  }
+  for (const auto& region : report.protrusion_regions()) {
+    storage::ProtrusionRegionRecord row;
+    row.region_id = region.id();
+    if (region.bbox_size() == 4) {
+      row.bbox = {static_cast<double>(region.bbox(0)), static_cast<double>(region.bbox(1)),
+                  static_cast<double>(region.bbox(0) + region.bbox(2)), static_cast<double>(region.bbox(1) + region.bbox(3))};
+    }
+    nlohmann::json features = nlohmann::json::object();
+    for (int i = 0; i < region.features_size() && i < report.feature_names_size(); ++i) {
+      features[report.feature_names(i)] = region.features(i);
+    }
+    row.features_json = features.dump();
+    row.predicted_class = region.predicted_class();
+    row.probability = region.probability();
+    bundle.protrusion_regions.push_back(std::move(row));
+  }
+  return bundle;
+}
+
+storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes) {
+  TempFile file;
+  {
+    std::ofstream out(file.path(), std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (!out) return storage::Internal("cannot write " + file.path().string());
+  }
+  auto loaded = slamcore::ProtrusionClassifier::Load(file.path().string());
+  if (!loaded.ok()) return FromSlamcore(loaded.status());
+  return std::move(loaded).value();
+}
+
+ClassifierCache::ClassifierCache(storage::Repository& repository, std::string model_name)
+    : repository_(repository), model_name_(std::move(model_name)) {}
+
+std::shared_ptr<const slamcore::ProtrusionClassifier> ClassifierCache::Get() {
+  std::lock_guard lock(mutex_);
+  const auto now = std::chrono::steady_clock::now();
+  if (now - checked_ < std::chrono::seconds(3)) return classifier_;
+  checked_ = now;
+  auto active = repository_.GetActiveModel(model_name_);
+  if (!active.ok()) {
+    classifier_.reset();
+    version_ = 0;
+    return classifier_;
+  }
+  if (active->version == version_ && classifier_) return classifier_;
+  auto loaded = LoadClassifier(active->bytes);
+  if (!loaded.ok()) {
+    std::fprintf(stderr, "fleetd: model %s v%lld does not load: %s\n", model_name_.c_str(),
+                 static_cast<long long>(active->version), loaded.status().ToString().c_str());
+    classifier_.reset();
+    return classifier_;
+  }
+  version_ = active->version;
+  classifier_ = std::shared_ptr<const slamcore::ProtrusionClassifier>(std::move(loaded).value());
+  return classifier_;
+}
+
+storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const std::string& run_id,
+                                                 const std::string& parameter_set,
+                                                 const slamcore::ProtrusionClassifier* classifier) {
+  const auto started = std::chrono::steady_clock::now();
+  auto run = repository.GetRun(run_id);
+  if (!run.ok()) return run.status();
+  fleet::v1::RunFile file;
+  if (!file.ParseFromString(run->telemetry)) return storage::DataLoss("run " + run_id + ": telemetry does not parse");
+  if (run->parent_snapshot_id) {
+    auto snapshot = repository.GetSnapshot(*run->parent_snapshot_id);
+    if (!snapshot.ok()) return snapshot.status();
+    if (!file.mutable_parent_snapshot()->ParseFromString(snapshot->bytes)) {
+      return storage::DataLoss("snapshot " + *run->parent_snapshot_id + " does not parse");
+    }
+  }
+  if (run->child_snapshot_id) {
+    auto snapshot = repository.GetSnapshot(*run->child_snapshot_id);
+    if (!snapshot.ok()) return snapshot.status();
+    if (!file.mutable_child_snapshot()->ParseFromString(snapshot->bytes)) {
+      return storage::DataLoss("snapshot " + *run->child_snapshot_id + " does not parse");
+    }
+  }
+  auto stored_set = repository.GetParameterSet(parameter_set);
+  if (!stored_set.ok()) return stored_set.status();
+  fleet::v1::ParameterSet set;
+  if (!set.ParseFromString(stored_set->serialized)) {
+    return storage::DataLoss("parameter set " + parameter_set + " does not parse");
+  }
+  auto mapper = analyzer::FromProto(set.mapper());
+  if (!mapper.ok()) return FromSlamcore(mapper.status());
+
+  analyzer::AnalysisOptions options;
+  options.parameter_set_name = parameter_set;
+  options.mapper = *mapper;
+  options.classifier = classifier;
+  options.keep_rerun_child = true;
+  auto report = analyzer::AnalyzeRun(file, options);
+  if (!report.ok()) return FromSlamcore(report.status());
+  report->set_parameter_set(parameter_set);
+  const storage::ReportBundle bundle = ToReportBundle(*report);
+  STORAGE_RETURN_IF_ERROR(repository.PutReport(bundle));
+  AnalysisResult result;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  result.regions = static_cast<std::int64_t>(bundle.protrusion_regions.size());
+  return result;
+}
+
+}  // namespace server

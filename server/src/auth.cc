@@ -1,0 +1,205 @@
+#include "server/auth.h"
+
+#include <openssl/rand.h>
+#include <openssl/sha.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace server {
+namespace {
+
+std::string Hex(const unsigned char* data, std::size_t size) {
+  static const char* kDigits = "0123456789abcdef";
+  std::string out;
+  out.reserve(size * 2);
+  for (std::size_t i = 0; i < size; ++i) {
+    out.push_back(kDigits[data[i] >> 4]);
+    out.push_back(kDigits[data[i] & 15]);
+  }
+  return out;
+}
+
+bool ValidId(const std::string& id) {
+  if (id.empty() || id.size() > 128) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
+           c == '.';
+  });
+}
+
+}  // namespace
+
+const char* RoleName(Role role) {
+  switch (role) {
+    case Role::kRobot: return "robot";
+    case Role::kEngineer: return "engineer";
+    case Role::kAdmin: return "admin";
+  }
+  return "unknown";
+}
+
+const char* PermissionName(Permission permission) {
+  switch (permission) {
+    case Permission::kUpload: return "upload";
+    case Permission::kRead: return "read";
+    case Permission::kReprocess: return "reprocess";
+    case Permission::kLabel: return "label";
+    case Permission::kModels: return "models";
+    case Permission::kAdmin: return "admin";
+  }
+  return "unknown";
+}
+
+bool Allows(Role role, Permission permission) {
+  switch (role) {
+    case Role::kAdmin: return true;
+    case Role::kEngineer: return permission != Permission::kModels && permission != Permission::kAdmin;
+    case Role::kRobot: return permission == Permission::kUpload;
+  }
+  return false;
+}
+
+storage::Result<Principal> ParsePrincipal(const std::string& name) {
+  const std::size_t colon = name.find(':');
+  if (colon == std::string::npos) {
+    return storage::InvalidArgument("principal: expected \"robot:<id>\", \"engineer:<name>\" or \"admin:<name>\"");
+  }
+  const std::string kind = name.substr(0, colon), id = name.substr(colon + 1);
+  Principal principal;
+  principal.name = name;
+  principal.id = id;
+  if (kind == "robot") {
+    principal.role = Role::kRobot;
+  } else if (kind == "engineer") {
+    principal.role = Role::kEngineer;
+  } else if (kind == "admin") {
+    principal.role = Role::kAdmin;
+  } else {
+    return storage::InvalidArgument("principal: unknown role \"" + kind + "\" (robot, engineer or admin)");
+  }
+  if (!ValidId(id)) return storage::InvalidArgument("principal: id must be 1-128 characters of [A-Za-z0-9_.-]");
+  return principal;
+}
+
+std::string GenerateSecret() {
+  unsigned char bytes[32];
+  if (RAND_bytes(bytes, sizeof bytes) != 1) {
+    // RAND_bytes only fails when the OS has no entropy source; refuse to mint a weak secret.
+    std::fprintf(stderr, "fleetd: RAND_bytes failed\n");
+    std::abort();
+  }
+  return Hex(bytes, sizeof bytes);
+}
+
+std::string MakeToken(const std::string& principal, const std::string& secret) { return principal + "." + secret; }
+
+std::string Sha256Hex(const std::string& bytes) {
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), digest);
+  return Hex(digest, sizeof digest);
+}
+
+Authenticator::Authenticator(storage::Repository& repository, std::chrono::seconds cache_ttl)
+    : repository_(repository), cache_ttl_(cache_ttl) {}
+
+Authenticator::Verdict Authenticator::Authenticate(const std::string& authorization) {
+  Verdict verdict;
+  static const std::string kBearer = "Bearer ";
+  if (authorization.empty()) {
+    verdict.message = "authorization: missing; send metadata \"authorization: Bearer <token>\"";
+    return verdict;
+  }
+  if (authorization.rfind(kBearer, 0) != 0) {
+    verdict.message = "authorization: expected \"Bearer <token>\"";
+    return verdict;
+  }
+  const std::string token = authorization.substr(kBearer.size());
+  const std::size_t dot = token.rfind('.');
+  if (dot == std::string::npos || dot == 0 || dot + 1 == token.size()) {
+    verdict.message = "authorization: malformed token (expected <principal>.<secret>)";
+    return verdict;
+  }
+  const std::string key = Sha256Hex(token);
+  const auto now = std::chrono::steady_clock::now();
+  {
+    std::lock_guard lock(mutex_);
+    auto it = cache_.find(key);
+    if (it != cache_.end()) {
+      if (it->second.expires > now) {
+        verdict.outcome = Outcome::kOk;
+        verdict.principal = it->second.principal;
+        return verdict;
+      }
+      cache_.erase(it);
+    }
+  }
+  auto principal = ParsePrincipal(token.substr(0, dot));
+  if (!principal.ok()) {
+    verdict.message = "authorization: token names an invalid principal";
+    return verdict;
+  }
+  auto verified = repository_.VerifyCredential(principal->name, token.substr(dot + 1));
+  if (!verified.ok()) {
+    verdict.outcome = Outcome::kUnavailable;
+    verdict.message = "credential store: " + verified.status().message();
+    return verdict;
+  }
+  if (!*verified) {
+    verdict.message = "authorization: invalid token for " + principal->name;
+    return verdict;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (cache_.size() > 100000) cache_.clear();  // bound memory against token spraying
+    cache_[key] = CacheEntry{*principal, now + cache_ttl_};
+  }
+  verdict.outcome = Outcome::kOk;
+  verdict.principal = std::move(principal).value();
+  return verdict;
+}
+
+storage::Result<std::string> Authenticator::IssueToken(const Principal& principal) {
+  const std::string secret = GenerateSecret();
+  STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal.name, secret));
+  std::lock_guard lock(mutex_);
+  for (auto it = cache_.begin(); it != cache_.end();) {
+    if (it->second.principal.name == principal.name) {
+      it = cache_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return MakeToken(principal.name, secret);
+}
+
+storage::Status Authenticator::InstallToken(const std::string& token) {
+  const std::size_t dot = token.rfind('.');
+  if (dot == std::string::npos) return storage::InvalidArgument("bootstrap token: expected <principal>.<secret>");
+  auto principal = ParsePrincipal(token.substr(0, dot));
+  if (!principal.ok()) return principal.status();
+  if (token.size() - dot - 1 < 32) return storage::InvalidArgument("bootstrap token: secret shorter than 32 characters");
+  auto verified = repository_.VerifyCredential(principal->name, token.substr(dot + 1));
+  if (verified.ok() && *verified) return storage::Status::Ok();
+  return repository_.SetCredential(principal->name, token.substr(dot + 1));
+}
+
+bool RateLimiter::Allow(const std::string& key) {
+  if (rate_ <= 0) return true;
+  const auto now = std::chrono::steady_clock::now();
+  std::lock_guard lock(mutex_);
+  auto [it, inserted] = buckets_.try_emplace(key);
+  Bucket& bucket = it->second;
+  if (inserted) {
+    bucket.tokens = burst_;
+  } else {
+    const double elapsed = std::chrono::duration<double>(now - bucket.last).count();
+    bucket.tokens = std::min(burst_, bucket.tokens + elapsed * rate_);
+  }
+  bucket.last = now;
+  if (bucket.tokens < 1.0) return false;
+  bucket.tokens -= 1.0;
+  return true;
+}
+
+}  // namespace server

@@ -1,0 +1,83 @@
+#include "server/config.h"
+
+#include <fstream>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace server {
+
+storage::Status FleetdConfig::Validate() const {
+  if (db.empty()) return storage::InvalidArgument("db: required");
+  if (role != "all" && role != "server" && role != "worker") {
+    return storage::InvalidArgument("role: expected all, server or worker, got \"" + role + "\"");
+  }
+  if (role != "worker" && listen.empty()) return storage::InvalidArgument("listen: required");
+  if (workers < 0 || workers > 256) return storage::InvalidArgument("workers: expected 0..256");
+  if (tls_cert.empty() != tls_key.empty()) return storage::InvalidArgument("tls_cert, tls_key: set both or neither");
+  if (max_message_bytes < 1024 || max_message_bytes > (1LL << 30)) {
+    return storage::InvalidArgument("max_message_bytes: expected 1 KiB..1 GiB");
+  }
+  if (max_events_per_run < 1) return storage::InvalidArgument("max_events_per_run: must be positive");
+  if (max_run_bytes < max_message_bytes) return storage::InvalidArgument("max_run_bytes: below max_message_bytes");
+  if (rate_limit_per_second < 0 || rate_limit_burst < 1) {
+    return storage::InvalidArgument("rate_limit_per_second, rate_limit_burst: expected >= 0 and >= 1");
+  }
+  if (shutdown_grace_seconds < 0) return storage::InvalidArgument("shutdown_grace_seconds: must be >= 0");
+  if (default_parameter_set.empty()) return storage::InvalidArgument("default_parameter_set: required");
+  if (lease_seconds < 4) return storage::InvalidArgument("lease_seconds: at least 4");
+  if (auth_cache_seconds < 0) return storage::InvalidArgument("auth_cache_seconds: must be >= 0");
+  if (log_format != "json" && log_format != "text") return storage::InvalidArgument("log_format: json or text");
+  if (log_level != "debug" && log_level != "info" && log_level != "warn" && log_level != "error") {
+    return storage::InvalidArgument("log_level: debug, info, warn or error");
+  }
+  return storage::Status::Ok();
+}
+
+storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
+  std::ifstream in(path);
+  if (!in) return storage::NotFound("config: cannot read " + path);
+  nlohmann::json json;
+  try {
+    json = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    return storage::InvalidArgument("config " + path + ": " + e.what());
+  }
+  if (!json.is_object()) return storage::InvalidArgument("config " + path + ": expected a JSON object");
+  using Setter = std::function<void(const nlohmann::json&)>;
+  const std::map<std::string, Setter> setters = {
+      {"db", [&](const nlohmann::json& v) { config.db = v.get<std::string>(); }},
+      {"listen", [&](const nlohmann::json& v) { config.listen = v.get<std::string>(); }},
+      {"http", [&](const nlohmann::json& v) { config.http = v.get<std::string>(); }},
+      {"role", [&](const nlohmann::json& v) { config.role = v.get<std::string>(); }},
+      {"workers", [&](const nlohmann::json& v) { config.workers = v.get<int>(); }},
+      {"tls_cert", [&](const nlohmann::json& v) { config.tls_cert = v.get<std::string>(); }},
+      {"tls_key", [&](const nlohmann::json& v) { config.tls_key = v.get<std::string>(); }},
+      {"bootstrap_admin_token", [&](const nlohmann::json& v) { config.bootstrap_admin_token = v.get<std::string>(); }},
+      {"max_message_bytes", [&](const nlohmann::json& v) { config.max_message_bytes = v.get<std::int64_t>(); }},
+      {"max_events_per_run", [&](const nlohmann::json& v) { config.max_events_per_run = v.get<std::int64_t>(); }},
+      {"max_run_bytes", [&](const nlohmann::json& v) { config.max_run_bytes = v.get<std::int64_t>(); }},
+      {"rate_limit_per_second", [&](const nlohmann::json& v) { config.rate_limit_per_second = v.get<double>(); }},
+      {"rate_limit_burst", [&](const nlohmann::json& v) { config.rate_limit_burst = v.get<double>(); }},
+      {"shutdown_grace_seconds", [&](const nlohmann::json& v) { config.shutdown_grace_seconds = v.get<double>(); }},
+      {"default_parameter_set", [&](const nlohmann::json& v) { config.default_parameter_set = v.get<std::string>(); }},
+      {"model_name", [&](const nlohmann::json& v) { config.model_name = v.get<std::string>(); }},
+      {"lease_seconds", [&](const nlohmann::json& v) { config.lease_seconds = v.get<int>(); }},
+      {"auth_cache_seconds", [&](const nlohmann::json& v) { config.auth_cache_seconds = v.get<int>(); }},
+      {"log_level", [&](const nlohmann::json& v) { config.log_level = v.get<std::string>(); }},
+      {"log_format", [&](const nlohmann::json& v) { config.log_format = v.get<std::string>(); }},
+  };
+  for (const auto& [key, value] : json.items()) {
+    auto setter = setters.find(key);
+    if (setter == setters.end()) return storage::InvalidArgument("config " + path + ": unknown key \"" + key + "\"");
+    try {
+      setter->second(value);
+    } catch (const std::exception& e) {
+      return storage::InvalidArgument("config " + path + ": key \"" + key + "\": " + e.what());
+    }
+  }
+  return storage::Status::Ok();
+}
+
+}  // namespace server

@@ -1,0 +1,210 @@
+#include "ingest_handler.h"
+
+#include "analyzer/telemetry_codec.h"
+#include "server/jobs.h"
+#include "server/log.h"
+
+namespace server {
+namespace {
+
+std::string Serialize(const google::protobuf::Message& message) {
+  std::string bytes;
+  google::protobuf::io::StringOutputStream stream(&bytes);
+  google::protobuf::io::CodedOutputStream coded(&stream);
+  coded.SetSerializationDeterministic(true);
+  message.SerializeToCodedStream(&coded);
+  coded.Trim();
+  return bytes;
+}
+
+}  // namespace
+
+grpc::Status IngestHandler::UploadRun(grpc::ServerContext* call,
+                                      grpc::ServerReader<fleet::v1::UploadRunRequest>* reader,
+                                      fleet::v1::UploadRunResponse* response) {
+  RpcScope scope(context_.metrics, "Ingest/UploadRun");
+  grpc::Status status = Upload(call, reader, response);
+  if (!status.ok()) {
+    context_.metrics->Increment("fleetd_ingest_runs_total", "outcome=\"rejected\"");
+    log::Info("upload_rejected", {{"code", static_cast<int>(status.error_code())}, {"error", status.error_message()}});
+  }
+  return scope.Done(status);
+}
+
+grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader<fleet::v1::UploadRunRequest>* reader,
+                                   fleet::v1::UploadRunResponse* response) {
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kUpload, &principal); !denied.ok()) return denied;
+
+  fleet::v1::RunFile run;
+  bool have_header = false, have_parent = false, have_child = false;
+  std::int64_t bytes = 0, index = 0;
+  fleet::v1::UploadRunRequest message;
+  for (; reader->Read(&message); ++index) {
+    const std::string where = "message[" + std::to_string(index) + "]";
+    bytes += static_cast<std::int64_t>(message.ByteSizeLong());
+    if (bytes > context_.limits.max_run_bytes) {
+      return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+              where + ": upload exceeds max_run_bytes (" + std::to_string(context_.limits.max_run_bytes) + ")"};
+    }
+    if (have_child) return InvalidArgument(where + ": nothing may follow child_snapshot");
+    if (!have_header && message.part_case() != fleet::v1::UploadRunRequest::kHeader) {
+      return InvalidArgument(where + ": the first message must be a header");
+    }
+    switch (message.part_case()) {
+      case fleet::v1::UploadRunRequest::kHeader: {
+        if (have_header) return InvalidArgument(where + ".header: a second header");
+        if (slamcore::Status valid = analyzer::Validate(message.header()); !valid.ok()) {
+          return InvalidArgument(valid.message());
+        }
+        if (principal.role == Role::kRobot && message.header().robot_id() != principal.id) {
+          return {grpc::StatusCode::PERMISSION_DENIED,
+                  "header.robot_id: " + principal.name + " may upload only its own runs, not robot \"" +
+                      message.header().robot_id() + "\""};
+        }
+        if (message.header().event_count() > static_cast<std::uint64_t>(context_.limits.max_events_per_run)) {
+          return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+                  "header.event_count: " + std::to_string(message.header().event_count()) +
+                      " events exceed max_events_per_run (" + std::to_string(context_.limits.max_events_per_run) + ")"};
+        }
+        *run.mutable_header() = std::move(*message.mutable_header());
+        have_header = true;
+        break;
+      }
+      case fleet::v1::UploadRunRequest::kEvents: {
+        if (have_parent) return InvalidArgument(where + ".events: events must come before the snapshots");
+        if (run.events_size() + message.events().events_size() > context_.limits.max_events_per_run) {
+          return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+                  where + ".events: the run exceeds max_events_per_run (" +
+                      std::to_string(context_.limits.max_events_per_run) + ")"};
+        }
+        for (auto& event : *message.mutable_events()->mutable_events()) *run.add_events() = std::move(event);
+        break;
+      }
+      case fleet::v1::UploadRunRequest::kParentSnapshot:
+        if (have_parent) return InvalidArgument(where + ".parent_snapshot: a second parent snapshot");
+        *run.mutable_parent_snapshot() = std::move(*message.mutable_parent_snapshot());
+        have_parent = true;
+        break;
+      case fleet::v1::UploadRunRequest::kChildSnapshot:
+        *run.mutable_child_snapshot() = std::move(*message.mutable_child_snapshot());
+        have_child = true;
+        break;
+      case fleet::v1::UploadRunRequest::PART_NOT_SET:
+        return InvalidArgument(where + ": empty message (no header, events or snapshot set)");
+    }
+  }
+  if (call->IsCancelled()) return {grpc::StatusCode::CANCELLED, "upload cancelled by the client; nothing stored"};
+  if (!have_header) return InvalidArgument("header: the stream carried no messages");
+  if (!have_child) return InvalidArgument("child_snapshot: missing; the stream ended without it and nothing was stored");
+
+  // Validate everything before storing anything.
+  fleet::v1::RunHeader& header = *run.mutable_header();
+  if (header.event_count() != static_cast<std::uint64_t>(run.events_size())) {
+    return InvalidArgument("header.event_count: the header announces " + std::to_string(header.event_count()) +
+                           " events, the stream carried " + std::to_string(run.events_size()));
+  }
+  if (auto events = analyzer::FromProto(run.events(), "events"); !events.ok()) {
+    return InvalidArgument(events.status().message());
+  }
+  if (have_parent) {
+    if (auto parsed = analyzer::FromProto(run.parent_snapshot(), "parent_snapshot"); !parsed.ok()) {
+      return InvalidArgument(parsed.status().message());
+    }
+  }
+  if (auto parsed = analyzer::FromProto(run.child_snapshot(), "child_snapshot"); !parsed.ok()) {
+    return InvalidArgument(parsed.status().message());
+  }
+  if (run.child_snapshot().nodes_size() == 0) return InvalidArgument("child_snapshot: has no nodes");
+
+  // The parent map: sent (an empty one means "first run"), or named by id and already stored.
+  std::string parent_bytes, parent_id;
+  if (have_parent && run.parent_snapshot().nodes_size() > 0) {
+    parent_bytes = Serialize(run.parent_snapshot());
+    parent_id = Sha256Hex(parent_bytes);
+    if (!header.parent_snapshot_id().empty() && header.parent_snapshot_id() != parent_id) {
+      return InvalidArgument("parent_snapshot: its SHA-256 " + parent_id + " differs from header.parent_snapshot_id " +
+                             header.parent_snapshot_id());
+    }
+  } else if (!header.parent_snapshot_id().empty()) {
+    parent_id = header.parent_snapshot_id();
+    auto stored = context_.repository->GetSnapshot(parent_id);
+    if (!stored.ok()) {
+      if (stored.status().code() == storage::StatusCode::kNotFound) {
+        return {grpc::StatusCode::FAILED_PRECONDITION, "header.parent_snapshot_id: snapshot " + parent_id +
+                                                           " is not stored; send parent_snapshot in the stream"};
+      }
+      return ToGrpc(stored.status());
+    }
+  }
+  header.set_parent_snapshot_id(parent_id);  // the stored run names its parent the same way on every retry
+  const std::string child_bytes = Serialize(run.child_snapshot());
+
+  // Enqueue first, store second: a stored run always has its analysis job (a job whose store failed finds no
+  // run and completes as a no-op); a duplicate upload cancels its job again.
+  fleet::v1::RunFile telemetry;
+  *telemetry.mutable_header() = header;
+  *telemetry.mutable_events() = std::move(*run.mutable_events());
+  storage::RunRecord record;
+  record.run_id = header.run_id();
+  record.robot_id = header.robot_id();
+  record.firmware = header.firmware();
+  record.robot_model = header.robot_model();
+  record.started_at_ms = ToMillis(header.started_at());
+  record.ended_at_ms = ToMillis(header.ended_at());
+  if (!parent_id.empty()) record.parent_snapshot_id = parent_id;
+  record.telemetry = Serialize(telemetry);
+
+  storage::RobotRecord robot;
+  robot.robot_id = header.robot_id();
+  robot.robot_model = header.robot_model();
+  robot.firmware = header.firmware();
+  if (storage::Status put = context_.repository->PutRobot(robot); !put.ok()) return ToGrpc(put);
+  if (!parent_bytes.empty()) {
+    auto stored = context_.repository->PutSnapshot(parent_bytes);
+    if (!stored.ok()) return ToGrpc(stored.status());
+  }
+  auto child_id = context_.repository->PutSnapshot(child_bytes);
+  if (!child_id.ok()) return ToGrpc(child_id.status());
+  record.child_snapshot_id = *child_id;
+
+  storage::NewJob job;
+  job.kind = kAnalyzeRunJob;
+  job.payload = EncodeAnalyzePayload({record.run_id, context_.default_parameter_set});
+  auto job_id = context_.repository->EnqueueJob(job);
+  if (!job_id.ok()) return ToGrpc(job_id.status());
+
+  auto inserted = context_.repository->InsertRun(record);
+  if (!inserted.ok() || *inserted == storage::InsertOutcome::kAlreadyPresent) {
+    (void)context_.repository->CancelJob(*job_id);
+  }
+  if (!inserted.ok()) {
+    if (inserted.status().code() == storage::StatusCode::kAlreadyExists) {
+      return {grpc::StatusCode::ALREADY_EXISTS,
+              "header.run_id: run \"" + record.run_id + "\" is stored with a different payload"};
+    }
+    return ToGrpc(inserted.status());
+  }
+  const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
+  response->set_run_id(record.run_id);
+  response->set_already_present(already);
+  response->set_parent_snapshot_id(parent_id);
+  response->set_child_snapshot_id(*child_id);
+  response->set_events_stored(static_cast<std::uint64_t>(telemetry.events_size()));
+  response->set_analysis_job_id(already ? 0 : *job_id);
+  context_.metrics->Increment("fleetd_ingest_runs_total", already ? "outcome=\"already_present\"" : "outcome=\"stored\"");
+  context_.metrics->Increment("fleetd_ingest_bytes_total", "", static_cast<double>(bytes));
+  if (!already) {
+    context_.metrics->Increment("fleetd_ingest_events_total", "", telemetry.events_size());
+    if (context_.job_enqueued) context_.job_enqueued();
+  }
+  log::Info("run_uploaded", {{"run_id", record.run_id},
+                             {"robot_id", record.robot_id},
+                             {"principal", principal.name},
+                             {"events", telemetry.events_size()},
+                             {"bytes", static_cast<long long>(bytes)},
+                             {"already_present", already}});
+  return grpc::Status::OK;
+}
+
+}  // namespace server

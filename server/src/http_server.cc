@@ -1,0 +1,211 @@
+#include "server/http_server.h"
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+namespace server {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+using tcp = asio::ip::tcp;
+
+void HttpRouter::AddRoute(const std::string& method, const std::string& path_prefix, HttpHandler handler) {
+  routes_.push_back(Route{method, path_prefix, std::move(handler)});
+}
+
+HttpResponse HttpRouter::Handle(const HttpRequest& request) const {
+  const Route* best = nullptr;
+  bool path_known = false;
+  for (const Route& route : routes_) {
+    if (request.path.rfind(route.prefix, 0) != 0) continue;
+    path_known = true;
+    if (route.method != request.method && !(route.method == "GET" && request.method == "HEAD")) continue;
+    if (best == nullptr || route.prefix.size() > best->prefix.size()) best = &route;
+  }
+  if (best == nullptr) {
+    HttpResponse response;
+    response.status = path_known ? 405 : 404;
+    response.body = path_known ? "method not allowed\n" : "not found\n";
+    return response;
+  }
+  try {
+    return best->handler(request);
+  } catch (const std::exception& e) {
+    HttpResponse response;
+    response.status = 500;
+    response.body = std::string("internal error: ") + e.what() + "\n";
+    return response;
+  }
+}
+
+class HttpServer::Impl {
+ public:
+  Impl(const HttpRouter& router) : router_(router), acceptor_(io_) {}
+
+  bool Bind(const std::string& address, std::string* error) {
+    const std::size_t colon = address.rfind(':');
+    if (colon == std::string::npos) {
+      *error = "http address: expected host:port, got \"" + address + "\"";
+      return false;
+    }
+    beast::error_code ec;
+    std::string host = address.substr(0, colon);
+    if (host.size() > 2 && host.front() == '[') host = host.substr(1, host.size() - 2);
+    const auto ip = asio::ip::make_address(host.empty() ? "0.0.0.0" : host, ec);
+    if (ec) {
+      *error = "http address: bad host \"" + host + "\": " + ec.message();
+      return false;
+    }
+    int port = 0;
+    try {
+      port = std::stoi(address.substr(colon + 1));
+    } catch (...) {
+      port = -1;
+    }
+    if (port < 0 || port > 65535) {
+      *error = "http address: bad port in \"" + address + "\"";
+      return false;
+    }
+    const tcp::endpoint endpoint(ip, static_cast<unsigned short>(port));
+    acceptor_.open(endpoint.protocol(), ec);
+    if (!ec) acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) acceptor_.bind(endpoint, ec);
+    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec) {
+      *error = "http: cannot listen on " + address + ": " + ec.message();
+      return false;
+    }
+    return true;
+  }
+
+  std::string BoundAddress() const {
+    const auto endpoint = acceptor_.local_endpoint();
+    return endpoint.address().to_string() + ":" + std::to_string(endpoint.port());
+  }
+
+  void Start() {
+    accept_thread_ = std::thread([this] { AcceptLoop(); });
+  }
+
+  void Stop() {
+    if (stopping_.exchange(true)) return;
+    beast::error_code ec;
+    if (accept_thread_.joinable()) {
+      // A blocking accept() is not woken by close() on Linux: connect to ourselves instead.
+      auto endpoint = acceptor_.local_endpoint(ec);
+      if (!ec) {
+        if (endpoint.address().is_unspecified()) {
+          endpoint.address(endpoint.protocol() == tcp::v6() ? asio::ip::address(asio::ip::address_v6::loopback())
+                                                            : asio::ip::address(asio::ip::address_v4::loopback()));
+        }
+        tcp::socket waker(io_);
+        waker.connect(endpoint, ec);
+      }
+      accept_thread_.join();
+    }
+    acceptor_.close(ec);
+    {
+      std::lock_guard lock(mutex_);
+      for (auto* socket : sockets_) {
+        beast::error_code ignored;
+        socket->shutdown(tcp::socket::shutdown_receive, ignored);
+      }
+    }
+    std::unique_lock lock(mutex_);
+    idle_.wait(lock, [this] { return connections_ == 0; });
+  }
+
+ private:
+  void AcceptLoop() {
+    while (!stopping_) {
+      beast::error_code ec;
+      tcp::socket socket(io_);
+      acceptor_.accept(socket, ec);
+      if (ec) {
+        if (stopping_) return;
+        continue;
+      }
+      std::lock_guard lock(mutex_);
+      ++connections_;
+      std::thread([this, s = std::move(socket)]() mutable { Serve(std::move(s)); }).detach();
+    }
+  }
+
+  void Serve(tcp::socket socket) {
+    {
+      std::lock_guard lock(mutex_);
+      sockets_.push_back(&socket);
+    }
+    beast::flat_buffer buffer;
+    while (!stopping_) {
+      http::request_parser<http::string_body> parser;
+      parser.body_limit(1 << 20);
+      beast::error_code ec;
+      http::read(socket, buffer, parser, ec);
+      if (ec) break;
+      const auto& message = parser.get();
+      HttpRequest request;
+      request.method = std::string(message.method_string());
+      request.target = std::string(message.target());
+      const std::size_t question = request.target.find('?');
+      request.path = request.target.substr(0, question);
+      request.query = question == std::string::npos ? "" : request.target.substr(question + 1);
+      for (const auto& field : message) {
+        std::string name(field.name_string());
+        std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+        request.headers[name] = std::string(field.value());
+      }
+      request.body = message.body();
+      const HttpResponse handled = router_.Handle(request);
+      http::response<http::string_body> response{static_cast<http::status>(handled.status), message.version()};
+      response.set(http::field::server, "fleetd");
+      response.set(http::field::content_type, handled.content_type);
+      for (const auto& [name, value] : handled.headers) response.set(name, value);
+      response.keep_alive(message.keep_alive() && !stopping_);
+      if (request.method != "HEAD") response.body() = handled.body;
+      response.prepare_payload();
+      if (request.method == "HEAD") response.body().clear();
+      http::write(socket, response, ec);
+      if (ec || !response.keep_alive()) break;
+    }
+    beast::error_code ignored;
+    socket.shutdown(tcp::socket::shutdown_both, ignored);
+    std::lock_guard lock(mutex_);
+    sockets_.erase(std::remove(sockets_.begin(), sockets_.end(), &socket), sockets_.end());
+    --connections_;
+    idle_.notify_all();
+  }
+
+  const HttpRouter router_;
+  asio::io_context io_;
+  tcp::acceptor acceptor_;
+  std::thread accept_thread_;
+  std::atomic<bool> stopping_{false};
+  std::mutex mutex_;  // guards connections_, sockets_
+  std::condition_variable idle_;
+  int connections_ = 0;
+  std::vector<tcp::socket*> sockets_;
+};
+
+std::unique_ptr<HttpServer> HttpServer::Create(const std::string& address, const HttpRouter& router,
+                                               std::string* error) {
+  auto impl = std::make_unique<Impl>(router);
+  if (!impl->Bind(address, error)) return nullptr;
+  return std::unique_ptr<HttpServer>(new HttpServer(std::move(impl)));
+}
+
+HttpServer::HttpServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+HttpServer::~HttpServer() { Stop(); }
+std::string HttpServer::BoundAddress() const { return impl_->BoundAddress(); }
+void HttpServer::Start() { impl_->Start(); }
+void HttpServer::Stop() { impl_->Stop(); }
+
+}  // namespace server
