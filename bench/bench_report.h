@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace bench {
 
@@ -24,6 +25,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
       Entry& entry = entries_[name.substr(0, slash)];
       const std::string variant = name.substr(slash + 1);
       const double seconds = run.GetAdjustedRealTime();
+      times_[name] = seconds;
       const auto counter = run.counters.find("chi2");
       const double value = counter == run.counters.end() ? 0.0 : counter->second.value;
       if (variant == baseline_) entry.baseline = {seconds, value};
@@ -44,6 +46,9 @@ class RatioReporter : public benchmark::ConsoleReporter {
     std::printf("(%s; times in the benchmark's unit)\n", title);
   }
 
+  /// Every run's time by benchmark name, in the benchmark's unit.
+  const std::map<std::string, double>& Times() const { return times_; }
+
  private:
   struct Measurement {
     double time = 0.0;
@@ -54,6 +59,19 @@ class RatioReporter : public benchmark::ConsoleReporter {
   };
   std::string baseline_, candidate_;
   std::map<std::string, Entry> entries_;
+  std::map<std::string, double> times_;
 };
+
+/// How each variant's time grows from a small to a large problem: time(large/VARIANT) / time(small/VARIANT).
+inline void PrintScaling(const std::map<std::string, double>& times, const std::string& small,
+                         const std::string& large, const std::vector<std::string>& variants) {
+  std::printf("\n%-14s %14s %14s %10s   (%s -> %s)\n", "variant", "small", "large", "growth", small.c_str(),
+              large.c_str());
+  for (const std::string& variant : variants) {
+    const auto a = times.find(small + "/" + variant), b = times.find(large + "/" + variant);
+    if (a == times.end() || b == times.end() || a->second <= 0) continue;
+    std::printf("%-14s %14.3f %14.3f %10.2f\n", variant.c_str(), a->second, b->second, b->second / a->second);
+  }
+}
 
 }  // namespace bench

@@ -28,8 +28,10 @@ struct FilterOutcome {
   slamcore::FilterScore score;
   double seconds = 0.0;
   double final_chi2 = 0.0;
-  /// With ground truth: trajectory RMSE of the replay and of the outlier-free batch optimum.
-  std::optional<double> replay_rmse, clean_rmse;
+  /// With ground truth: trajectory RMSE of the replay, of the replay of the outlier-free graph (what the
+  /// filter would give without outliers: the outliers' effect is the difference), and of the outlier-free
+  /// batch optimum (all true loop closures, offline).
+  std::optional<double> replay_rmse, clean_replay_rmse, clean_rmse;
   /// Without: RMS distance of the replay from the outlier-free batch optimum, after alignment.
   double deviation_from_clean = 0.0;
 };
@@ -76,12 +78,17 @@ inline slamcore::Result<FilterOutcome> EvaluateFilter(const std::filesystem::pat
     return slamcore::Internal("replay and graph differ in node count");
   }
   if (!test_case.truth.empty()) {
+    const auto clean_replay = slamcore::ReplayPoseGraph(*clean, params);
+    if (!clean_replay.ok()) return clean_replay.status();
     const auto truth = ReadTruth(graphs / test_case.truth);
     const auto replay_rmse = slamcore::AlignedRmse(replay_positions, truth);
+    const auto clean_replay_rmse = slamcore::AlignedRmse(Positions(clean_replay->graph), truth);
     const auto clean_rmse = slamcore::AlignedRmse(clean_positions, truth);
     if (!replay_rmse.ok()) return replay_rmse.status();
+    if (!clean_replay_rmse.ok()) return clean_replay_rmse.status();
     if (!clean_rmse.ok()) return clean_rmse.status();
     outcome.replay_rmse = *replay_rmse;
+    outcome.clean_replay_rmse = *clean_replay_rmse;
     outcome.clean_rmse = *clean_rmse;
   }
   const auto deviation = slamcore::AlignedRmse(replay_positions, clean_positions);

@@ -10,6 +10,7 @@ namespace analyzer {
 fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   fleet::v1::MapperParameters proto;
   proto.set_gate_chi2(params.gate_chi2);
+  proto.set_direct_max_position_sigma(params.direct_max_position_sigma);
   auto criteria = [](const slamcore::AcceptanceCriteria& from, fleet::v1::AcceptanceCriteria* to) {
     to->set_min_observations(from.min_observations);
     to->set_min_views(from.min_views);
@@ -32,6 +33,7 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
 slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParameters& proto) {
   slamcore::MapperParams params;
   if (proto.has_gate_chi2()) params.gate_chi2 = proto.gate_chi2();
+  if (proto.has_direct_max_position_sigma()) params.direct_max_position_sigma = proto.direct_max_position_sigma();
   auto criteria = [](const fleet::v1::AcceptanceCriteria& from, slamcore::AcceptanceCriteria* to) {
     if (from.has_min_observations()) to->min_observations = from.min_observations();
     if (from.has_min_views()) to->min_views = from.min_views();

@@ -23,9 +23,9 @@ inline OptimizerOptions DefaultOptimizerOptions() {
 }
 
 struct MapperParams {
-  /// Mahalanobis gate, χ² with 3 degrees of freedom: 11.34 is the 99 % quantile. Used both for direct
+  /// Mahalanobis gate, χ² with 3 degrees of freedom: 7.81 is the 95 % quantile. Used both for direct
   /// observation edges against the current estimate and for joining an observation to a hypothesis.
-  double gate_chi2 = 11.34;
+  double gate_chi2 = 7.81;
   /// A direct edge also needs the robot to be sure of its position relative to where it was last anchored:
   /// above this standard deviation (metres, largest axis of Σ_rel) observations go to the recovery filter
   /// and need the support of several views, since a wide gate would pass wrong matches.

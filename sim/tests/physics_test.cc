@@ -1,0 +1,162 @@
+// The simulated physics is right: odometry follows its noise model, slip moves the wheels and not the
+// robot, and a symmetric object seen from the other side gives observations turned by π. Checked from the
+// telemetry a run produces, against its ground truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <unordered_map>
+
+#include "sim/run_simulator.h"
+
+namespace sim {
+namespace {
+
+struct NodeTruth {
+  SE2 measured_increment;
+  SE2 true_pose;
+  bool slipping = false;
+};
+
+/// Per node: the odometry increment and the true pose that followed it.
+std::vector<NodeTruth> NodesOf(const fleet::v1::RunFile& run) {
+  std::vector<NodeTruth> nodes;
+  for (const fleet::v1::Event& event : run.events()) {
+    if (event.has_odometry()) {
+      const auto& increment = event.odometry().increment();
+      nodes.push_back({SE2(increment.x(), increment.y(), increment.theta()), SE2(), false});
+    } else if (event.has_ground_truth() && !nodes.empty()) {
+      const auto& pose = event.ground_truth().world_t_robot();
+      nodes.back().true_pose = SE2(pose.x(), pose.y(), pose.theta());
+      nodes.back().slipping = event.ground_truth().slipping();
+    } else if (event.has_kidnap()) {
+      nodes.clear();  // keep the test to one continuous stretch
+    }
+  }
+  return nodes;
+}
+
+World FirstWorld() {
+  const auto worlds = ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+  EXPECT_TRUE(worlds.ok());
+  auto world = LoadWorld(worlds->front(), 3);
+  EXPECT_TRUE(world.ok()) << world.status().ToString();
+  return std::move(world).value();
+}
+
+TEST(PhysicsTest, OdometryFollowsTheConfiguredNoiseModel) {
+  const World world = FirstWorld();
+  SimParams params;
+  params.run_minutes = 30.0;
+  params.slip_episodes_per_hour = 0.0;
+  params.kidnap_probability = 0.0;
+  params.reboot_probability = 0.0;
+  RobotSimulator robot(world, params, "robot", "fw", 21);
+  const auto outcome = robot.SimulateRun("run", 0.0);
+  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  const std::vector<NodeTruth> nodes = NodesOf(outcome->run);
+  ASSERT_GT(nodes.size(), 500u);
+
+  // Straight-driving nodes: measured distance = scale · true distance + N(0, σ²·d).
+  double sum_measured = 0, sum_true = 0;
+  std::vector<std::pair<double, double>> samples;  // (true distance, measured distance)
+  for (std::size_t k = 1; k < nodes.size(); ++k) {
+    const SE2 truth = nodes[k - 1].true_pose.inverse() * nodes[k].true_pose;
+    const double true_distance = truth.translation().norm();
+    if (true_distance < 0.2 || std::abs(truth.theta()) > 0.05) continue;
+    samples.emplace_back(true_distance, nodes[k].measured_increment.translation().norm());
+    sum_true += true_distance;
+    sum_measured += samples.back().second;
+  }
+  ASSERT_GT(samples.size(), 100u);
+  const double scale = sum_measured / sum_true;
+  EXPECT_LT(std::abs(scale - 1.0), 5 * params.odometry_scale_error) << "wheel scale " << scale;
+  double normalised_variance = 0;
+  for (const auto& [true_distance, measured] : samples) {
+    normalised_variance += std::pow(measured - scale * true_distance, 2) / true_distance;
+  }
+  normalised_variance /= static_cast<double>(samples.size());
+  const double expected = std::pow(params.odometry_noise_per_metre, 2);
+  EXPECT_GT(normalised_variance, 0.6 * expected);
+  EXPECT_LT(normalised_variance, 1.6 * expected);
+}
+
+TEST(PhysicsTest, SlipTurnsTheWheelsButNotTheRobot) {
+  const World world = FirstWorld();
+  SimParams params;
+  params.run_minutes = 30.0;
+  params.slip_episodes_per_hour = 20.0;
+  params.kidnap_probability = 0.0;
+  params.reboot_probability = 0.0;
+  RobotSimulator robot(world, params, "robot", "fw", 8);
+  const auto outcome = robot.SimulateRun("run", 0.0);
+  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_GT(outcome->slip_episodes, 0);
+  const std::vector<NodeTruth> nodes = NodesOf(outcome->run);
+  int stuck_nodes = 0, moving_nodes = 0;
+  for (std::size_t k = 1; k + 1 < nodes.size(); ++k) {
+    const double moved = (nodes[k].true_pose.translation() - nodes[k - 1].true_pose.translation()).norm();
+    const double claimed = nodes[k].measured_increment.translation().norm();
+    if (claimed < 0.2) continue;  // turning in place
+    if (nodes[k - 1].slipping && nodes[k].slipping && nodes[k + 1].slipping) {
+      // Inside an episode (stuck before, during and after this node): the wheels claim ≥ 0.2 m, the
+      // robot did not move at all.
+      ++stuck_nodes;
+      EXPECT_LT(moved, 1e-9);
+    } else if (!nodes[k].slipping) {
+      ++moving_nodes;
+      EXPECT_NEAR(moved, claimed, 0.15 * claimed + 0.05);
+    }
+  }
+  EXPECT_GT(stuck_nodes, 5);
+  EXPECT_GT(moving_nodes, 100);
+}
+
+TEST(PhysicsTest, WrongMatchesAreFlippedSymmetricObjectsOrLookAlikes) {
+  const World world = FirstWorld();
+  SimParams params;
+  params.run_minutes = 30.0;
+  params.kidnap_probability = 0.0;
+  params.reboot_probability = 0.0;
+  params.slip_episodes_per_hour = 0.0;
+  params.recognition_failure_probability = 0.0;
+  params.lookalike_probability = 0.0;  // only the symmetric flips remain as wrong matches
+  params.observation_sigma_theta = 0.01;
+  RobotSimulator robot(world, params, "robot", "fw", 4);
+  const auto outcome = robot.SimulateRun("run", 0.0);
+  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+
+  // The true relative pose of each observation, from the ground truth at the view's node and now.
+  std::unordered_map<std::int64_t, SE2> view_truth;
+  SE2 robot_truth;
+  SE2 pending_view_pose;
+  int flipped = 0, wrong = 0, right = 0;
+  std::vector<std::int64_t> views_at_node;
+  for (const fleet::v1::Event& event : outcome->run.events()) {
+    if (event.has_ground_truth()) {
+      const auto& pose = event.ground_truth().world_t_robot();
+      robot_truth = SE2(pose.x(), pose.y(), pose.theta());
+    } else if (event.has_view_created()) {
+      view_truth[event.view_created().view()] = robot_truth;
+    } else if (event.has_view_observed()) {
+      const auto& observed = event.view_observed();
+      const SE2 truth = robot_truth.inverse() * view_truth.at(observed.view());
+      const double heading_error =
+          std::abs(slamcore::WrapAngle(observed.robot_t_view().theta() - truth.theta()));
+      if (observed.truth_wrong()) {
+        ++wrong;
+        if (std::abs(heading_error - std::numbers::pi) < 0.1) ++flipped;
+      } else {
+        ++right;
+        EXPECT_LT(heading_error, 0.1);
+      }
+    }
+  }
+  EXPECT_GT(right, 50);
+  EXPECT_GT(wrong, 0);
+  EXPECT_EQ(flipped, wrong) << "every wrong match is a symmetric object seen from the other side";
+}
+
+}  // namespace
+}  // namespace sim
