@@ -100,6 +100,7 @@ class Run {
   double behaviour_until_ = 0.0;
   int nodes_ = 0;
   double first_merge_time_ = -1.0;
+  std::size_t decisions_seen_ = 0;
 };
 
 slamcore::Status Run::Emit(const slamcore::Event& event, const std::function<void(fleet::v1::Event&)>& annotate) {
@@ -199,8 +200,15 @@ slamcore::Status Run::Keyframe() {
   ++nodes_;
   SLAMCORE_RETURN_IF_ERROR(ObserveLandmarks());
   if (nodes_ % p_.patch_every_nodes == 0) SLAMCORE_RETURN_IF_ERROR(EmitPatch());
-  if (first_merge_time_ < 0.0 && mapper_->Statistics().merge_accepted + mapper_->Statistics().merge_conditionally_accepted > 0) {
-    first_merge_time_ = time_;
+  // The first merge into the parent map: look only at the decisions made since the last node.
+  const std::vector<slamcore::Decision>& decisions = mapper_->decisions();
+  for (; first_merge_time_ < 0.0 && decisions_seen_ < decisions.size(); ++decisions_seen_) {
+    const slamcore::Decision& decision = decisions[decisions_seen_];
+    if (decision.kind == slamcore::DecisionKind::kConditionallyAccepted ||
+        (decision.kind == slamcore::DecisionKind::kAccepted &&
+         decision.hypothesis_kind == slamcore::HypothesisKind::kMerge)) {
+      first_merge_time_ = time_;
+    }
   }
   return slamcore::Status::Ok();
 }

@@ -111,7 +111,7 @@ class Mapper::Impl {
   bool IsAmbiguous(ViewId view) const { return map_.graph.view(view).ambiguous; }
   void OptimizeComponentOf(NodeId node, std::string* note);
   /// After a direct edge: a local window, or the component every full_optimization_every edges.
-  void OptimizeAfterDirectEdge(NodeId robot, std::string* note);
+  void OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2, std::string* note);
   internal::Hypothesis* FindHypothesis(std::int64_t id);
   /// Removes an open hypothesis and returns it; nullopt when there is none with that id.
   std::optional<internal::Hypothesis> TakeHypothesis(std::int64_t id);

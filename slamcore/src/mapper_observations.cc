@@ -59,7 +59,7 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
     AddObservationEdge(observation, -1);
     robot_relative_covariance_ = event.covariance;
     std::string note;
-    if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, &note);
+    if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, innovation.mahalanobis2, &note);
     Log(DecisionKind::kDirectEdge, event.view, nullptr, Chi2Text(innovation.mahalanobis2) + " within the gate" + note);
     UpdateAmbiguityMarks();
     return;
@@ -239,11 +239,17 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
 }
 
-void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, std::string* note) {
+// Below this innovation (Mahalanobis², 3 dof: about 0.6 σ per degree of freedom) a direct edge is not worth a
+// local re-optimisation; the periodic full optimisation still takes it in.
+constexpr double kLocalOptimizationMinChi2 = 1.0;
+
+void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2, std::string* note) {
   if (++direct_edges_since_full_optimization_ >= params_.full_optimization_every) {
     OptimizeComponentOf(robot, note);
     return;
   }
+  // An edge that agrees with the estimate this well would move the window by a fraction of its noise.
+  if (innovation_chi2 < kLocalOptimizationMinChi2) return;
   // Nodes are numbered in creation order, so the robot's last nodes in its component are the window.
   OptimizerOptions options = params_.optimizer;
   for (NodeId id = robot; id > robot - params_.local_window_nodes; --id) {

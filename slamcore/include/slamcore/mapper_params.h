@@ -57,7 +57,7 @@ struct MapperParams {
   /// accepted hypothesis always re-optimises the whole component.
   bool optimize_after_accept = true;
   int local_window_nodes = 30;
-  int full_optimization_every = 25;
+  int full_optimization_every = 100;
   OptimizerOptions optimizer = DefaultOptimizerOptions();
 
   /// Checks every field; the message names the first bad one and its value.
