@@ -222,9 +222,9 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
   const double to_full = SecondsToMerge(decisions, DecisionKind::kAccepted, first_time);
   report.set_seconds_to_conditional_relocalization(to_conditional);
   report.set_seconds_to_full_relocalization(to_full);
-  // "Started localized" (paper Fig. 7): on an existing map, joined it within the first minute.
   const double first_join = to_conditional >= 0 ? to_conditional : to_full;
-  report.set_started_localized(parent->graph.num_nodes() > 0 && first_join >= 0 && first_join <= 60.0);
+  report.set_started_localized(parent->graph.num_nodes() > 0 && first_join >= 0 &&
+                               first_join <= kStartedLocalizedSeconds);
   for (const slamcore::View& view : child.graph.views()) {
     if (view.ambiguous) report.add_ambiguous_views(view.id);
   }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "analyzer/run_analysis.h"
 #include "analyzer/telemetry_codec.h"
 
 namespace sim {
@@ -363,8 +364,12 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   outcome_.had_parent = s_.map.graph.num_nodes() > 0;
   *outcome_.run.mutable_parent_snapshot() = analyzer::ToProto(s_.map);
 
-  // Start on the dock, give or take a few centimetres.
+  // Start on the dock, give or take a few centimetres, or where a person put the robot down.
   truth_ = s_.world.dock * SE2(s_.Gaussian(0.02), s_.Gaussian(0.02), s_.Gaussian(0.03));
+  if (s_.Chance(p_.start_off_dock_probability)) {
+    const std::vector<Vector2> spots = s_.world.FreeSpots(p_.robot_radius + 0.05, 1, s_.random);
+    if (!spots.empty()) truth_ = SE2(spots.front(), s_.Uniform(-kPi, kPi));
+  }
   const double duration = p_.run_minutes * 60.0;
   const double kidnap_at = s_.Chance(p_.kidnap_probability) ? s_.Uniform(0.2, 0.8) * duration : -1.0;
   const double reboot_at = s_.Chance(p_.reboot_probability) ? s_.Uniform(0.2, 0.8) * duration : -1.0;
@@ -388,7 +393,8 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   }
 
   outcome_.statistics = mapper_->Statistics();
-  outcome_.started_localized = outcome_.had_parent && first_merge_time_ >= 0.0 && first_merge_time_ <= 60.0;
+  outcome_.started_localized =
+      outcome_.had_parent && first_merge_time_ >= 0.0 && first_merge_time_ <= analyzer::kStartedLocalizedSeconds;
   outcome_.simulated_seconds = time_;
   s_.map = mapper_->Finish();
   for (const slamcore::View& view : s_.map.graph.views()) {

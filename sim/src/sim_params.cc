@@ -31,6 +31,7 @@ slamcore::Status SimParams::Validate() const {
   SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_theta, "observation_sigma_theta"));
   SLAMCORE_RETURN_IF_ERROR(positive(patch_range, "patch_range"));
   SLAMCORE_RETURN_IF_ERROR(probability(wall_follow_share, "wall_follow_share"));
+  SLAMCORE_RETURN_IF_ERROR(probability(start_off_dock_probability, "start_off_dock_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(kidnap_probability, "kidnap_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(reboot_probability, "reboot_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));

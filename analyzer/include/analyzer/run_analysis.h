@@ -17,6 +17,10 @@
 
 namespace analyzer {
 
+/// A run on an existing map "started localized" (paper Fig. 7) when it joined that map, conditionally or
+/// fully, within this many seconds of its first event: before it had driven far from where it started.
+inline constexpr double kStartedLocalizedSeconds = 15.0;
+
 struct AnalysisOptions {
   std::string parameter_set_name = "default";
   slamcore::MapperParams mapper;

@@ -31,7 +31,7 @@ struct FleetOptions {
 struct FleetStatistics {
   int runs = 0;
   int runs_with_parent = 0;                    // runs on top of an existing map: need relocalization
-  int runs_started_localized = 0;              // of those, joined the parent map within a minute
+  int runs_started_localized = 0;              // of those, joined the parent map at once (analyzer/run_analysis.h)
   int runs_with_recovery = 0;                  // ≥ 1 recovery hypothesis
   long recovery_created = 0, recovery_accepted = 0;
   long merge_created = 0, merge_conditionally_accepted = 0, merge_conditional_then_rejected = 0, merge_accepted = 0;

@@ -25,7 +25,7 @@ namespace sim {
 struct RunOutcome {
   fleet::v1::RunFile run;                 // header, events (with ground truth), parent and child snapshots
   slamcore::MapperStatistics statistics;  // the robot's own decisions
-  bool started_localized = false;         // joined the parent map within the first minute
+  bool started_localized = false;         // joined the parent map within analyzer::kStartedLocalizedSeconds
   bool had_parent = false;
   int kidnaps = 0, reboots = 0, slip_episodes = 0;
   int wrong_observations = 0, observations = 0;

@@ -28,15 +28,17 @@ struct SimParams {
   // Slip and stasis: stuck on a rug edge or under furniture, wheels turning
   double slip_episodes_per_hour = 1.5;
   double slip_min_seconds = 4.0, slip_max_seconds = 20.0;
+  // Where a run starts: on the dock, or wherever a person put the robot down and pressed start
+  double start_off_dock_probability = 0.7;
   // Kidnaps (carried to another room) and reboots, per run
   double kidnap_probability = 0.25;
   double reboot_probability = 0.08;
   // Camera front-end
   double view_range = 3.0;            // metres
   double view_field_of_view = 2.0;    // radians, centred ahead
-  double recognition_probability = 0.35;  // per node and visible view
-  double recognition_failure_probability = 0.05;  // a recognised view gets a grossly wrong pose
-  double lookalike_probability = 0.3; // a look-alike view is matched instead, when one exists
+  double recognition_probability = 0.2;  // per node and visible view
+  double recognition_failure_probability = 0.02;  // a recognised view gets a grossly wrong pose
+  double lookalike_probability = 0.15; // a look-alike view is matched instead, when one exists
   double observation_sigma_xy = 0.04; // metres
   double observation_sigma_theta = 0.03;  // radians
   // Local occupancy patches from a short-range sensor
