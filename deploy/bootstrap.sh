@@ -12,6 +12,8 @@ packages=(
   libsqlite3-dev sqlite3 libpqxx-dev postgresql zlib1g-dev libssl-dev
   libspdlog-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  nodejs npm chromium chromium-driver
+  python3-grpcio python3-grpc-tools
 )
 
 missing=()

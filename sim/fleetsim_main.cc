@@ -5,12 +5,20 @@
 // DIR holds floor plans (.txt) and/or map_server maps (.yaml); a single file works too. With --out, each
 // run's telemetry is written as OUT/<robot>/<run_id>.runpb (fleet.v1.RunFile). With --json, the last line of
 // stdout is one JSON object. Progress goes to stderr.
+//
+//   fleetsim ... --upload HOST:PORT --token T [--upload-threads K]
+//
+// also uploads every run to fleetd like a robot (sim/uploader.h: retries with backoff; runs of one robot in
+// order, robots in parallel); the token comes from --token or FLEET_TOKEN.
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <cstdlib>
+#include <unistd.h>
 #include <iostream>
 
 #include "sim/fleet.h"
+#include "sim/upload_files.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"fleetsim: a simulated fleet of real homes and robots, with ground truth"};
@@ -27,6 +35,10 @@ int main(int argc, char** argv) {
   app.add_option("--minutes", options.params.run_minutes, "simulated minutes per run")->check(CLI::PositiveNumber);
   app.add_option("--threads", options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
   app.add_flag("--json", json, "print the statistics as one JSON object on the last line");
+  sim::UploadFilesOptions upload;
+  app.add_option("--upload", upload.uploader.server, "also upload every run to this fleetd (host:port)");
+  app.add_option("--token", upload.uploader.token, "token for --upload (default: $FLEET_TOKEN)");
+  app.add_option("--upload-threads", upload.threads, "parallel upload streams")->check(CLI::Range(1, 256));
   CLI11_PARSE(app, argc, argv);
 
   if (std::filesystem::is_directory(world)) {
@@ -38,6 +50,10 @@ int main(int argc, char** argv) {
     options.worlds = std::move(worlds).value();
   } else {
     options.worlds = {world};
+  }
+  if (!upload.uploader.server.empty()) {
+    if (upload.uploader.token.empty() && std::getenv("FLEET_TOKEN") != nullptr) upload.uploader.token = std::getenv("FLEET_TOKEN");
+    if (out.empty()) out = (std::filesystem::temp_directory_path() / ("fleetsim-" + std::to_string(getpid()))).string();
   }
   options.out = out;
   const bool interactive = isatty(fileno(stderr));
@@ -54,6 +70,11 @@ int main(int argc, char** argv) {
   if (!statistics.ok()) {
     std::cerr << "fleetsim: " << statistics.status().ToString() << "\n";
     return 1;
+  }
+  if (!upload.uploader.server.empty()) {
+    const auto uploaded = sim::UploadFiles({out}, upload);
+    std::fprintf(stderr, "fleetsim: %s\n", uploaded.Summary().c_str());
+    if (uploaded.failed > 0) return 1;
   }
   if (json) {
     std::cout << statistics->ToJson() << "\n";

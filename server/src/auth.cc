@@ -139,6 +139,28 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
     verdict.message = "authorization: token names an invalid principal";
     return verdict;
   }
+  // Single flight: concurrent calls with the same token (a robot's first parallel streams) wait for one
+  // PBKDF2 verification instead of each paying for it.
+  {
+    std::unique_lock lock(mutex_);
+    verifying_cv_.wait(lock, [&] { return !verifying_.contains(key); });
+    auto it = cache_.find(key);
+    if (it != cache_.end() && it->second.expires > now) {
+      verdict.outcome = Outcome::kOk;
+      verdict.principal = it->second.principal;
+      return verdict;
+    }
+    verifying_.insert(key);
+  }
+  struct Done {
+    Authenticator* self;
+    const std::string& key;
+    ~Done() {
+      std::lock_guard lock(self->mutex_);
+      self->verifying_.erase(key);
+      self->verifying_cv_.notify_all();
+    }
+  } done{this, key};
   auto verified = repository_.VerifyCredential(principal->name, token.substr(dot + 1));
   if (!verified.ok()) {
     verdict.outcome = Outcome::kUnavailable;

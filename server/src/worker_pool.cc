@@ -1,6 +1,8 @@
 #include "server/worker_pool.h"
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 
 #include "server/jobs.h"
 #include "server/log.h"
@@ -124,8 +126,11 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
     } else if (analysed.status().code() == storage::StatusCode::kNotFound &&
                analysed.status().message().find("run") != std::string::npos &&
                repository_.GetRun(payload->run_id).status().code() == storage::StatusCode::kNotFound) {
-      // Ingest enqueues before it stores (so a stored run always has its job); the store failed.
-      outcome = "no_run";
+      // Ingest enqueues before it stores (so a stored run always has its job): the store may still be under
+      // way, or it failed. Give it time, then hand the job back; after max_attempts the queue drops it.
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      outcome = "no_run_yet";
+      status = storage::NotFound("run " + payload->run_id + " is not stored (yet)");
     } else {
       status = analysed.status();
     }

@@ -12,10 +12,12 @@
 
 #include <chrono>
 #include <cstdint>
+#include <condition_variable>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "storage/repository.h"
 
@@ -78,8 +80,10 @@ class Authenticator {
   };
   storage::Repository& repository_;
   const std::chrono::seconds cache_ttl_;
-  std::mutex mutex_;  // guards cache_
+  std::mutex mutex_;  // guards cache_ and verifying_
+  std::condition_variable verifying_cv_;
   std::unordered_map<std::string, CacheEntry> cache_;  // key: SHA-256 of the token
+  std::unordered_set<std::string> verifying_;          // keys being verified right now
 };
 
 /// Per-principal token buckets: `rate` requests per second with bursts of `burst`. rate <= 0: unlimited.

@@ -19,15 +19,15 @@ void Configure(const std::string& level, const std::string& format);
 
 /// A field value, already rendered: strings are quoted and escaped, numbers are not.
 struct Field {
-  Field(std::string_view key, std::string_view value);
-  Field(std::string_view key, const std::string& value) : Field(key, std::string_view(value)) {}
-  Field(std::string_view key, const char* value) : Field(key, std::string_view(value)) {}
-  Field(std::string_view key, long long value);
-  Field(std::string_view key, long value) : Field(key, static_cast<long long>(value)) {}
-  Field(std::string_view key, int value) : Field(key, static_cast<long long>(value)) {}
-  Field(std::string_view key, unsigned long value) : Field(key, static_cast<long long>(value)) {}
-  Field(std::string_view key, double value);
-  Field(std::string_view key, bool value);
+  Field(std::string_view name, std::string_view value);
+  Field(std::string_view name, const std::string& value) : Field(name, std::string_view(value)) {}
+  Field(std::string_view name, const char* value) : Field(name, std::string_view(value)) {}
+  Field(std::string_view name, long long value);
+  Field(std::string_view name, long value) : Field(name, static_cast<long long>(value)) {}
+  Field(std::string_view name, int value) : Field(name, static_cast<long long>(value)) {}
+  Field(std::string_view name, unsigned long value) : Field(name, static_cast<long long>(value)) {}
+  Field(std::string_view name, double value);
+  Field(std::string_view name, bool value);
   std::string key, json, text;
 };
 

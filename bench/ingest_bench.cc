@@ -1,0 +1,262 @@
+// Ingest and analysis throughput of fleetd against baselines measured in the same run.
+//
+//   ingest_bench [--benchmark_...]
+//
+// Pairs (RatioReporter: ratio = baseline time / candidate time, so < 1 means the candidate is slower):
+//   Ingest/baseline   the same runs stored straight into a Repository (PutRobot, PutSnapshot×2, InsertRun) —
+//                     no gRPC, no validation
+//   Ingest/candidate  the runs uploaded to a real fleetd over loopback gRPC (4 parallel streams, analysis
+//                     workers off so only ingest is measured)
+//   Analysis/baseline analyzer::AnalyzeRun on in-memory runs (no storage)
+//   Analysis/candidate the stored-run analysis a worker does (load from storage, analyse, PutReport)
+// Counters: runs/s and events/s; after the table, p50/p99 upload latency of the candidate.
+#include <benchmark/benchmark.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "analyzer/run_analysis.h"
+#include "bench_report.h"
+#include "server/analysis.h"
+#include "server/fleet_server.h"
+#include "sim/run_simulator.h"
+#include "sim/uploader.h"
+#include "sim/world.h"
+#include "storage/repository.h"
+
+namespace {
+
+const std::string kAdmin = "admin:bench." + std::string(64, 'c');
+
+std::vector<fleet::v1::RunFile>& Runs() {
+  static std::vector<fleet::v1::RunFile> runs = [] {
+    std::vector<fleet::v1::RunFile> out;
+    auto worlds = sim::ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+    if (!worlds.ok()) return out;
+    sim::SimParams params;
+    params.run_minutes = 2.0;
+    for (int robot = 0; robot < 8; ++robot) {
+      auto world = sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot)], 3 + static_cast<std::uint64_t>(robot));
+      if (!world.ok()) continue;
+      sim::RobotSimulator simulator(*world, params, "bench-" + std::to_string(robot), "1.0", 5 + robot);
+      for (int run = 0; run < 3; ++run) {
+        auto outcome = simulator.SimulateRun("bench-" + std::to_string(robot) + "-" + std::to_string(run),
+                                             1767225600.0 + 86400.0 * run);
+        if (outcome.ok()) out.push_back(outcome->run);
+      }
+    }
+    return out;
+  }();
+  return runs;
+}
+
+std::int64_t EventCount() {
+  std::int64_t events = 0;
+  for (const auto& run : Runs()) events += run.events_size();
+  return events;
+}
+
+std::filesystem::path TempDirectory() {
+  char pattern[] = "/tmp/ingest-bench-XXXXXX";
+  return mkdtemp(pattern);
+}
+
+// A fleetd process with analysis workers off (role=server).
+struct Fleetd {
+  int pid = -1;
+  std::string grpc;
+  explicit Fleetd(const std::filesystem::path& directory) {
+    int out[2];
+    if (pipe(out) != 0) return;
+    pid = fork();
+    if (pid == 0) {
+      dup2(out[1], 1);
+      const std::string log = (directory / "fleetd.log").string();
+      if (freopen(log.c_str(), "w", stderr) == nullptr) _exit(126);
+      setenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN", kAdmin.c_str(), 1);
+      const std::string db = "sqlite:" + (directory / "fleet.db").string();
+      execl(FLEETD_BINARY, FLEETD_BINARY, "--db", db.c_str(), "--listen", "127.0.0.1:0", "--http", "",
+            "--role", "server", "--rate-limit", "0", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(out[1]);
+    std::string line;
+    char c;
+    while (read(out[0], &c, 1) == 1 && c != '\n') line += c;
+    close(out[0]);
+    try {
+      grpc = nlohmann::json::parse(line).at("grpc").get<std::string>();
+    } catch (const std::exception&) {
+    }
+  }
+  ~Fleetd() {
+    if (pid > 0) {
+      kill(pid, SIGTERM);
+      waitpid(pid, nullptr, 0);
+    }
+  }
+};
+
+std::mutex g_latency_mutex;
+std::vector<double> g_latencies;
+
+void SetCounters(benchmark::State& state, std::int64_t runs, std::int64_t events) {
+  state.counters["runs/s"] = benchmark::Counter(static_cast<double>(runs), benchmark::Counter::kIsRate);
+  state.counters["events/s"] = benchmark::Counter(static_cast<double>(events), benchmark::Counter::kIsRate);
+}
+
+void Ingest_baseline(benchmark::State& state) {
+  std::int64_t runs = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const auto directory = TempDirectory();
+    auto repository = storage::OpenRepository("sqlite:" + (directory / "fleet.db").string());
+    state.ResumeTiming();
+    for (const auto& run : Runs()) {
+      storage::RobotRecord robot{run.header().robot_id(), run.header().robot_model(), run.header().firmware(), 0};
+      (void)(*repository)->PutRobot(robot);
+      storage::RunRecord record;
+      record.run_id = run.header().run_id();
+      record.robot_id = run.header().robot_id();
+      if (run.parent_snapshot().nodes_size() > 0) {
+        auto id = (*repository)->PutSnapshot(run.parent_snapshot().SerializeAsString());
+        if (id.ok()) record.parent_snapshot_id = *id;
+      }
+      auto child = (*repository)->PutSnapshot(run.child_snapshot().SerializeAsString());
+      if (child.ok()) record.child_snapshot_id = *child;
+      fleet::v1::RunFile telemetry;
+      *telemetry.mutable_header() = run.header();
+      *telemetry.mutable_events() = run.events();
+      record.telemetry = telemetry.SerializeAsString();
+      if (!(*repository)->InsertRun(record).ok()) state.SkipWithError("InsertRun failed");
+      ++runs;
+    }
+    state.PauseTiming();
+    repository = storage::Result<std::unique_ptr<storage::Repository>>(storage::Internal("closed"));
+    std::filesystem::remove_all(directory);
+    state.ResumeTiming();
+  }
+  SetCounters(state, runs, runs / static_cast<std::int64_t>(Runs().size()) * EventCount());
+}
+
+void Ingest_candidate(benchmark::State& state) {
+  std::int64_t runs = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const auto directory = TempDirectory();
+    auto server = std::make_unique<Fleetd>(directory);
+    if (server->grpc.empty()) {
+      state.SkipWithError("fleetd did not start");
+      return;
+    }
+    sim::UploaderOptions options;
+    options.server = server->grpc;
+    options.token = kAdmin;
+    sim::Uploader uploader(options);
+    state.ResumeTiming();
+    std::atomic<std::size_t> next{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t) {
+      threads.emplace_back([&] {
+        // One robot's runs in order (parents first), robots in parallel.
+        for (std::size_t robot = next++; robot < 8; robot = next++) {
+          for (const auto& run : Runs()) {
+            if (run.header().robot_id() != "bench-" + std::to_string(robot)) continue;
+            const auto outcome = uploader.Upload(run);
+            std::lock_guard lock(g_latency_mutex);
+            if (outcome.ok) g_latencies.push_back(outcome.seconds);
+          }
+        }
+      });
+    }
+    for (auto& thread : threads) thread.join();
+    runs += static_cast<std::int64_t>(Runs().size());
+    state.PauseTiming();
+    server.reset();
+    std::filesystem::remove_all(directory);
+    state.ResumeTiming();
+  }
+  SetCounters(state, runs, runs / static_cast<std::int64_t>(Runs().size()) * EventCount());
+}
+
+void Analysis_baseline(benchmark::State& state) {
+  std::int64_t runs = 0, events = 0;
+  analyzer::AnalysisOptions options;
+  for (auto _ : state) {
+    for (const auto& run : Runs()) {
+      auto report = analyzer::AnalyzeRun(run, options);
+      if (!report.ok()) state.SkipWithError(report.status().ToString().c_str());
+      ++runs;
+      events += run.events_size();
+    }
+  }
+  SetCounters(state, runs, events);
+}
+
+void Analysis_candidate(benchmark::State& state) {
+  const auto directory = TempDirectory();
+  auto repository = storage::OpenRepository("sqlite:" + (directory / "fleet.db").string());
+  if (!repository.ok() || !server::EnsureDefaultParameterSet(**repository, "default").ok()) {
+    state.SkipWithError("storage");
+    return;
+  }
+  for (const auto& run : Runs()) {
+    (void)(*repository)->PutRobot({run.header().robot_id(), run.header().robot_model(), run.header().firmware(), 0});
+    storage::RunRecord record;
+    record.run_id = run.header().run_id();
+    record.robot_id = run.header().robot_id();
+    if (run.parent_snapshot().nodes_size() > 0) record.parent_snapshot_id = *(*repository)->PutSnapshot(run.parent_snapshot().SerializeAsString());
+    record.child_snapshot_id = *(*repository)->PutSnapshot(run.child_snapshot().SerializeAsString());
+    fleet::v1::RunFile telemetry;
+    *telemetry.mutable_header() = run.header();
+    *telemetry.mutable_events() = run.events();
+    record.telemetry = telemetry.SerializeAsString();
+    (void)(*repository)->InsertRun(record);
+  }
+  std::int64_t runs = 0, events = 0;
+  for (auto _ : state) {
+    for (const auto& run : Runs()) {
+      auto analysed = server::AnalyzeStoredRun(**repository, run.header().run_id(), "default", nullptr);
+      if (!analysed.ok()) state.SkipWithError(analysed.status().ToString().c_str());
+      ++runs;
+      events += run.events_size();
+    }
+  }
+  SetCounters(state, runs, events);
+  repository = storage::Result<std::unique_ptr<storage::Repository>>(storage::Internal("closed"));
+  std::filesystem::remove_all(directory);
+}
+
+BENCHMARK(Ingest_baseline)->Name("Ingest/baseline")->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+BENCHMARK(Ingest_candidate)->Name("Ingest/candidate")->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+BENCHMARK(Analysis_baseline)->Name("Analysis/baseline")->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+BENCHMARK(Analysis_candidate)->Name("Analysis/candidate")->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  std::printf("%zu runs, %lld events (8 robots x 3 runs of 2 simulated minutes)\n", Runs().size(),
+              static_cast<long long>(EventCount()));
+  bench::RatioReporter reporter("baseline", "candidate");
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  reporter.PrintRatios("ingest: repository vs fleetd over gRPC; analysis: in memory vs from storage");
+  std::sort(g_latencies.begin(), g_latencies.end());
+  if (!g_latencies.empty()) {
+    auto percentile = [](double p) {
+      return g_latencies[std::min(g_latencies.size() - 1, static_cast<std::size_t>(p / 100.0 * static_cast<double>(g_latencies.size())))];
+    };
+    std::printf("upload latency over %zu uploads (4 parallel streams): p50 %.1f ms, p99 %.1f ms\n", g_latencies.size(),
+                1000 * percentile(50), 1000 * percentile(99));
+  }
+  return 0;
+}

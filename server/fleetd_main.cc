@@ -1,0 +1,202 @@
+// fleetd: the fleet telemetry analysis server (gRPC API, analysis workers, /metrics and /healthz).
+//
+//   fleetd [--config FILE] [--db URL] [--listen ADDR] [--http ADDR] [--role all|server|worker] [--workers N] ...
+//
+// The first line on stdout is one JSON object with the bound addresses, e.g.
+// {"grpc": "127.0.0.1:41234", "http": "127.0.0.1:41235"} (port 0 in a flag picks a free port). Logs are
+// JSON lines on stderr. SIGTERM/SIGINT: graceful shutdown, exit 0. docs/fleetd.md describes the options.
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <thread>
+#include <unistd.h>
+
+#include "server/auth.h"
+#include "server/config.h"
+#include "server/dashboard_routes.h"
+#include "server/fleet_server.h"
+#include "server/http_server.h"
+#include "server/log.h"
+#include "server/metrics.h"
+#include "server/worker_pool.h"
+
+namespace {
+
+std::string JsonQuoted(const std::string& value) {
+  std::string out = "\"";
+  for (char c : value) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  server::FleetdConfig config;
+  // The config file comes first so that flags override it.
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "--config") {
+      if (storage::Status loaded = server::LoadConfigFile(argv[i + 1], config); !loaded.ok()) {
+        std::cerr << "fleetd: " << loaded.ToString() << "\n";
+        return 2;
+      }
+    }
+  }
+  if (const char* token = std::getenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN"); token != nullptr && *token != '\0') {
+    config.bootstrap_admin_token = token;
+  }
+
+  CLI::App app{"fleetd: fleet telemetry analysis server"};
+  std::string config_path;
+  app.add_option("--config", config_path, "JSON config file (flags override it)");
+  app.add_option("--db", config.db, "storage URL: sqlite:PATH or postgresql://...")->capture_default_str();
+  app.add_option("--listen", config.listen, "gRPC address host:port (port 0: any free port)")->capture_default_str();
+  app.add_option("--http", config.http, "HTTP address for /metrics and /healthz (empty: off)")->capture_default_str();
+  app.add_option("--role", config.role, "all, server (API only) or worker (workers only)")->capture_default_str();
+  app.add_option("--workers", config.workers, "analysis worker threads (0: one per core)")->capture_default_str();
+  app.add_option("--tls-cert", config.tls_cert, "PEM certificate chain: serve gRPC over TLS");
+  app.add_option("--tls-key", config.tls_key, "PEM private key for --tls-cert");
+  app.add_option("--bootstrap-admin-token", config.bootstrap_admin_token,
+                 "install this admin token (admin:<name>.<secret>) at start; also FLEETD_BOOTSTRAP_ADMIN_TOKEN");
+  app.add_option("--max-message-bytes", config.max_message_bytes, "largest gRPC message")->capture_default_str();
+  app.add_option("--max-events-per-run", config.max_events_per_run, "largest run, in events")->capture_default_str();
+  app.add_option("--max-run-bytes", config.max_run_bytes, "largest upload stream, in bytes")->capture_default_str();
+  app.add_option("--rate-limit", config.rate_limit_per_second, "requests per second per principal (0: off)")
+      ->capture_default_str();
+  app.add_option("--rate-burst", config.rate_limit_burst, "burst size of the rate limit")->capture_default_str();
+  app.add_option("--shutdown-grace", config.shutdown_grace_seconds, "seconds in-flight work gets on SIGTERM")
+      ->capture_default_str();
+  app.add_option("--default-parameter-set", config.default_parameter_set, "set every upload is analysed with")
+      ->capture_default_str();
+  app.add_option("--model-name", config.model_name, "classifier model whose active version labels regions")
+      ->capture_default_str();
+  app.add_option("--lease-seconds", config.lease_seconds, "job lease duration")->capture_default_str();
+  app.add_option("--auth-cache-seconds", config.auth_cache_seconds, "verified tokens are cached this long")
+      ->capture_default_str();
+  app.add_option("--log-level", config.log_level, "debug, info, warn, error")->capture_default_str();
+  app.add_option("--log-format", config.log_format, "json or text")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  if (storage::Status valid = config.Validate(); !valid.ok()) {
+    std::cerr << "fleetd: " << valid.ToString() << "\n";
+    return 2;
+  }
+  server::log::Configure(config.log_level, config.log_format);
+
+  // Signals are taken by sigwait in main; every thread started below inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  auto repository = storage::OpenRepository(config.db);
+  if (!repository.ok()) {
+    server::log::Error("open_failed", {{"db", config.db}, {"error", repository.status().ToString()}});
+    return 1;
+  }
+  storage::Repository& repo = **repository;
+  if (storage::Status ensured = server::EnsureDefaultParameterSet(repo, config.default_parameter_set); !ensured.ok()) {
+    server::log::Error("default_parameter_set_failed", {{"error", ensured.ToString()}});
+    return 1;
+  }
+  server::Authenticator authenticator(repo, std::chrono::seconds(config.auth_cache_seconds));
+  if (!config.bootstrap_admin_token.empty()) {
+    if (storage::Status installed = authenticator.InstallToken(config.bootstrap_admin_token); !installed.ok()) {
+      server::log::Error("bootstrap_token_failed", {{"error", installed.ToString()}});
+      return 2;
+    }
+    if (config.bootstrap_admin_token.rfind("admin:", 0) != 0) {
+      server::log::Warn("bootstrap_token_not_admin", {{"hint", "the bootstrap token should name an admin principal"}});
+    }
+  }
+
+  server::Metrics metrics;
+  metrics.AddCollector([&repo](server::Metrics& m) {
+    for (auto state : {storage::JobState::kQueued, storage::JobState::kLeased}) {
+      auto jobs = repo.ListJobs(state, 1000000);
+      if (jobs.ok()) {
+        m.SetGauge("fleetd_job_queue_depth", std::string("state=\"") + storage::JobStateName(state) + "\"",
+                   static_cast<double>(jobs->size()));
+      }
+    }
+  });
+
+  std::unique_ptr<server::WorkerPool> workers;
+  if (config.role != "server") {
+    server::WorkerOptions options;
+    options.threads = config.workers > 0 ? config.workers : std::max(1u, std::thread::hardware_concurrency());
+    char host[256] = "fleetd";
+    gethostname(host, sizeof host - 1);
+    options.name = std::string(host) + ":" + std::to_string(::getpid());
+    options.lease = std::chrono::seconds(config.lease_seconds);
+    options.model_name = config.model_name;
+    workers = std::make_unique<server::WorkerPool>(repo, metrics, options);
+    workers->Start();
+  }
+
+  std::unique_ptr<server::FleetServer> grpc_server;
+  if (config.role != "worker") {
+    server::WorkerPool* local = workers.get();
+    auto created = server::FleetServer::Create(config, repo, metrics, authenticator, [local] {
+      if (local != nullptr) local->Wake();
+    });
+    if (!created.ok()) {
+      server::log::Error("grpc_failed", {{"error", created.status().ToString()}});
+      if (workers) workers->Stop();
+      return 1;
+    }
+    grpc_server = std::move(created).value();
+  }
+
+  server::HttpRouter router;
+  router.AddRoute("GET", "/metrics", [&metrics](const server::HttpRequest&) {
+    server::HttpResponse response;
+    response.content_type = "text/plain; version=0.0.4; charset=utf-8";
+    response.body = metrics.Render();
+    return response;
+  });
+  router.AddRoute("GET", "/healthz", [&repo](const server::HttpRequest&) {
+    server::HttpResponse response;
+    auto version = repo.SchemaVersion();
+    response.status = version.ok() ? 200 : 503;
+    response.body = version.ok() ? "ok\n" : "storage: " + version.status().ToString() + "\n";
+    return response;
+  });
+  server::RegisterDashboardRoutes(router, repo, authenticator, config);
+  std::unique_ptr<server::HttpServer> http;
+  if (!config.http.empty()) {
+    std::string error;
+    http = server::HttpServer::Create(config.http, router, &error);
+    if (!http) {
+      server::log::Error("http_failed", {{"error", error}});
+      if (grpc_server) grpc_server->Shutdown(std::chrono::system_clock::now());
+      if (workers) workers->Stop();
+      return 1;
+    }
+    http->Start();
+  }
+
+  std::string line = "{\"grpc\": " + (grpc_server ? JsonQuoted(grpc_server->BoundAddress()) : std::string("null")) +
+                     ", \"http\": " + (http ? JsonQuoted(http->BoundAddress()) : std::string("null")) + "}";
+  std::cout << line << std::endl;
+  server::log::Info("started", {{"grpc", grpc_server ? grpc_server->BoundAddress() : ""},
+                                {"http", http ? http->BoundAddress() : ""},
+                                {"role", config.role},
+                                {"db", config.db.substr(0, config.db.find('@') == std::string::npos ? config.db.size() : 0)}});
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  server::log::Info("shutting_down", {{"signal", signal_number}});
+  const auto deadline = std::chrono::system_clock::now() +
+                        std::chrono::milliseconds(static_cast<long long>(config.shutdown_grace_seconds * 1000));
+  if (grpc_server) grpc_server->Shutdown(deadline);
+  if (workers) workers->Stop();
+  if (http) http->Stop();
+  server::log::Info("stopped");
+  return 0;
+}

@@ -1,0 +1,40 @@
+// The dashboard's HTTP side: static assets (web/) and the JSON and PNG endpoints its pages read.
+//
+//   GET  /                        web/index.html (the single-page dashboard)
+//   GET  /static/<file>           web/<file>; /static/vendor/chart.js/<file> from web/node_modules/chart.js/dist
+//   GET  /api/meta                parameter sets, firmware versions, default set
+//   GET  /api/stats               fleet figures (paper Fig. 6, 7, 8, 12) for a filter, by day and by firmware
+//   GET  /api/runs                runs, keyset-paginated (?after_ms=&after_id=), with report counters
+//   GET  /api/runs/<id>           one run: report summary, decisions, ambiguous views, regions
+//   GET  /api/runs/<id>/graph     the rerun child's pose graph: nodes, edges by kind, components, views,
+//                                 hypothesis edges and conditional merges from the decisions
+//   GET  /api/runs/<id>/map/{parent,child,difference}.png   the grids the protrusion detector compared
+//   POST /api/runs/<id>/regions/<region>/label   {"label": "protrusion"|"new_space", "parameter_set": ...}
+//   GET  /api/labels              labelled regions
+//   GET  /api/compare?a=&b=       two parameter sets: fleet-wide deltas and the runs that changed most
+//   GET  /api/jobs                reprocessing jobs with progress, newest first
+//
+// Everything is read-only for anyone who reaches the HTTP port except the label POST, which needs a
+// bearer token whose role may label (engineer or admin; server/auth.h). Statistics are aggregated by the
+// database (storage::Repository::Aggregate/AggregateBy); lists are paginated, so pages stay fast at 100k runs.
+// Errors are JSON {"error": "..."} with an HTTP status that matches storage's Status code.
+//
+// The web directory: $FLEETD_WEB_DIR when set, else the source tree's web/ as configured at build time,
+// else "web" next to the fleetd binary.
+//
+// Thread safety: the handlers are safe from many connection threads (storage and the authenticator are;
+// the PNG cache has its own mutex).
+#pragma once
+
+#include "server/auth.h"
+#include "server/config.h"
+#include "server/http_server.h"
+#include "storage/repository.h"
+
+namespace server {
+
+/// Adds the routes above to `router`. `repository` and `authenticator` must outlive the HTTP server.
+void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
+                             const FleetdConfig& config);
+
+}  // namespace server

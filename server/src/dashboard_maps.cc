@@ -1,0 +1,122 @@
+#include "dashboard_maps.h"
+
+#include <set>
+
+#include "analyzer/telemetry_codec.h"
+#include "fleet/v1/report.pb.h"
+#include "slamcore/mapper.h"
+#include "slamcore/occupancy_grid.h"
+#include "slamcore/protrusion_detector.h"
+
+namespace server::dashboard {
+namespace {
+
+using slamcore::NodeId;
+
+storage::Status FromSlamcore(const slamcore::Status& status, const std::string& what) {
+  if (status.ok()) return storage::Status::Ok();
+  if (status.code() == slamcore::StatusCode::kDataLoss) return storage::DataLoss(what + ": " + status.message());
+  return storage::FailedPrecondition(what + ": " + status.message());
+}
+
+// The same cut as analyzer/run_analysis.cc's ComponentMap: the nodes of one component with their patches.
+slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nodes) {
+  slamcore::Map part;
+  for (const NodeId node : nodes) {
+    if (!map.graph.HasNode(node)) continue;
+    (void)part.graph.AddNode(map.graph.node(node));
+    if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
+  }
+  return part;
+}
+
+storage::Result<std::string> Png(const slamcore::OccupancyGrid& grid, const std::string& what) {
+  auto png = slamcore::EncodePng(grid);
+  if (!png.ok()) return FromSlamcore(png.status(), what);
+  return std::move(png).value();
+}
+
+}  // namespace
+
+storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const std::string& run_id,
+                                       const std::string& parameter_set) {
+  auto run = repository.GetRun(run_id);
+  if (!run.ok()) return run.status();
+  auto stored = repository.GetReport(run_id, parameter_set);
+  if (!stored.ok()) return stored.status();
+  fleet::v1::RunReport report;
+  if (!report.ParseFromString(stored->report)) return storage::DataLoss("report of run " + run_id + " does not parse");
+  if (!report.has_rerun_child()) return storage::FailedPrecondition("report of run " + run_id + " keeps no child map");
+  auto child = analyzer::FromProto(report.rerun_child(), "rerun_child");
+  if (!child.ok()) return FromSlamcore(child.status(), "rerun_child");
+
+  slamcore::Map parent;
+  if (run->parent_snapshot_id) {
+    auto snapshot = repository.GetSnapshot(*run->parent_snapshot_id);
+    if (!snapshot.ok()) return snapshot.status();
+    fleet::v1::MapSnapshot proto;
+    if (!proto.ParseFromString(snapshot->bytes)) return storage::DataLoss("parent snapshot does not parse");
+    auto decoded = analyzer::FromProto(proto, "parent_snapshot");
+    if (!decoded.ok()) return FromSlamcore(decoded.status(), "parent_snapshot");
+    parent = std::move(decoded).value();
+  }
+
+  slamcore::GlobalGridRenderer parent_renderer, child_renderer;
+  if (parent.graph.num_nodes() > 0 && !parent.local_maps.empty()) {
+    // The home component: the parent's largest (ties: the first), as the detector chose it.
+    NodeId home = parent.graph.nodes().front().id;
+    for (const slamcore::ComponentId component : parent.graph.Components()) {
+      if (parent.graph.ComponentSize(component) > parent.graph.ComponentSize(home)) home = component;
+    }
+    std::set<NodeId> parent_nodes, child_nodes;
+    for (const NodeId node : parent.graph.NodesOf(parent.graph.ComponentOf(home))) parent_nodes.insert(node);
+    if (child->graph.HasNode(home)) {
+      for (const NodeId node : child->graph.NodesOf(child->graph.ComponentOf(home))) child_nodes.insert(node);
+    }
+    STORAGE_RETURN_IF_ERROR(FromSlamcore(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)), "parent map"));
+    STORAGE_RETURN_IF_ERROR(FromSlamcore(child_renderer.RenderAll(ComponentMap(*child, child_nodes)), "child map"));
+  } else {
+    // A first run: no parent to compare with, the whole child is new.
+    STORAGE_RETURN_IF_ERROR(FromSlamcore(child_renderer.RenderAll(*child), "child map"));
+  }
+  const slamcore::OccupancyGrid& child_grid = child_renderer.grid();
+  if (child_grid.width <= 0 || child_grid.height <= 0) {
+    return storage::FailedPrecondition("run " + run_id + ": the child map has no local maps to render");
+  }
+  slamcore::OccupancyGrid aligned;
+  if (parent_renderer.grid().width > 0) {
+    auto shifted = slamcore::AlignParentToChild(parent_renderer.grid(), child_grid);
+    if (!shifted.ok()) return FromSlamcore(shifted.status(), "aligning parent to child");
+    aligned = std::move(shifted).value();
+  } else {
+    auto empty = slamcore::OccupancyGrid::Create(child_grid.width, child_grid.height, child_grid.resolution,
+                                                 child_grid.origin_x, child_grid.origin_y);
+    if (!empty.ok()) return FromSlamcore(empty.status(), "parent map");
+    aligned = std::move(empty).value();
+  }
+  const std::vector<std::uint8_t> mask = slamcore::DifferenceMask(aligned, child_grid);
+  slamcore::OccupancyGrid difference = child_grid;
+  for (std::size_t i = 0; i < difference.cells.size(); ++i) {
+    const bool known = child_grid.cells[i] != static_cast<std::int8_t>(slamcore::CellState::kUnknown);
+    difference.cells[i] = static_cast<std::int8_t>(i < mask.size() && mask[i] != 0 ? slamcore::CellState::kOccupied
+                                                   : known                          ? slamcore::CellState::kFree
+                                                                                    : slamcore::CellState::kUnknown);
+  }
+
+  RunMaps maps;
+  maps.width = child_grid.width;
+  maps.height = child_grid.height;
+  maps.resolution = child_grid.resolution;
+  auto parent_png = Png(aligned, "parent map");
+  if (!parent_png.ok()) return parent_png.status();
+  auto child_png = Png(child_grid, "child map");
+  if (!child_png.ok()) return child_png.status();
+  auto difference_png = Png(difference, "difference map");
+  if (!difference_png.ok()) return difference_png.status();
+  maps.parent_png = std::move(parent_png).value();
+  maps.child_png = std::move(child_png).value();
+  maps.difference_png = std::move(difference_png).value();
+  return maps;
+}
+
+}  // namespace server::dashboard

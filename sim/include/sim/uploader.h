@@ -1,0 +1,55 @@
+// Uploads runs to fleetd like a robot: one client stream per run (header, event chunks, parent snapshot
+// unless the server already holds it, child snapshot), retried with exponential backoff on UNAVAILABLE,
+// DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED and ABORTED — safe because ingest is idempotent by run id. gRPC
+// stays in uploader.cc.
+//
+// Thread safety: an Uploader may be used from several threads at once (the gRPC stub is thread-safe; the
+// set of snapshot ids the server holds has its own mutex).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "fleet/v1/telemetry.pb.h"
+
+namespace sim {
+
+struct UploaderOptions {
+  std::string server;                 // host:port
+  std::string token;                  // "<principal>.<secret>"
+  std::string tls_ca;                 // PEM file: use TLS, trusting this CA; empty: plaintext
+  int max_attempts = 6;
+  std::chrono::milliseconds initial_backoff{200};
+  int events_per_chunk = 1000;
+  double deadline_seconds = 120.0;    // per attempt
+};
+
+struct UploadOutcome {
+  bool ok = false;
+  int code = 0;                       // grpc::StatusCode of the last attempt
+  std::string message;                // "UNAVAILABLE: ..." when !ok
+  std::string run_id;
+  bool already_present = false;
+  std::string child_snapshot_id;
+  std::uint64_t events = 0;
+  int attempts = 0;
+  double seconds = 0.0;               // wall time including retries
+};
+
+class Uploader {
+ public:
+  explicit Uploader(const UploaderOptions& options);
+  ~Uploader();
+  UploadOutcome Upload(const fleet::v1::RunFile& run);
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Hex SHA-256 of the deterministic serialization: the id fleetd gives a snapshot.
+std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot);
+
+}  // namespace sim

@@ -1,0 +1,158 @@
+#include "sim/uploader.h"
+
+#include <grpcpp/grpcpp.h>
+#include <openssl/sha.h>
+
+#include <fstream>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <thread>
+#include <unordered_set>
+
+#include "fleet/v1/service.grpc.pb.h"
+
+namespace sim {
+namespace {
+
+const char* CodeName(grpc::StatusCode code) {
+  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
+                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
+  const int index = static_cast<int>(code);
+  return index >= 0 && index <= 16 ? kNames[index] : "UNKNOWN";
+}
+
+bool Retryable(grpc::StatusCode code) {
+  return code == grpc::StatusCode::UNAVAILABLE || code == grpc::StatusCode::DEADLINE_EXCEEDED ||
+         code == grpc::StatusCode::RESOURCE_EXHAUSTED || code == grpc::StatusCode::ABORTED;
+}
+
+}  // namespace
+
+std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
+  std::string bytes;
+  {
+    google::protobuf::io::StringOutputStream stream(&bytes);
+    google::protobuf::io::CodedOutputStream coded(&stream);
+    coded.SetSerializationDeterministic(true);
+    snapshot.SerializeToCodedStream(&coded);
+  }
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), digest);
+  static const char* kDigits = "0123456789abcdef";
+  std::string hex;
+  for (unsigned char byte : digest) {
+    hex.push_back(kDigits[byte >> 4]);
+    hex.push_back(kDigits[byte & 15]);
+  }
+  return hex;
+}
+
+class Uploader::Impl {
+ public:
+  explicit Impl(const UploaderOptions& options) : options_(options) {
+    std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+    if (!options.tls_ca.empty()) {
+      std::ifstream in(options.tls_ca);
+      std::ostringstream pem;
+      pem << in.rdbuf();
+      grpc::SslCredentialsOptions ssl;
+      ssl.pem_root_certs = pem.str();
+      credentials = grpc::SslCredentials(ssl);
+    }
+    grpc::ChannelArguments arguments;
+    arguments.SetMaxSendMessageSize(64 << 20);
+    stub_ = fleet::v1::Ingest::NewStub(grpc::CreateCustomChannel(options.server, credentials, arguments));
+  }
+
+  UploadOutcome Upload(const fleet::v1::RunFile& run) {
+    UploadOutcome outcome;
+    outcome.run_id = run.header().run_id();
+    const auto started = std::chrono::steady_clock::now();
+    // Name the parent by id when the server holds it (it was our previous run's child): no need to send it.
+    std::string parent_id;
+    bool parent_known = false;
+    if (run.parent_snapshot().nodes_size() > 0) {
+      parent_id = SnapshotId(run.parent_snapshot());
+      std::lock_guard lock(mutex_);
+      parent_known = known_.contains(parent_id);
+    }
+    std::chrono::milliseconds backoff = options_.initial_backoff;
+    std::mt19937 random(std::random_device{}());
+    for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
+      outcome.attempts = attempt;
+      fleet::v1::UploadRunResponse response;
+      grpc::Status status = Attempt(run, parent_id, parent_known, &response);
+      if (status.error_code() == grpc::StatusCode::FAILED_PRECONDITION && parent_known) {
+        parent_known = false;  // the server lost (or never had) it: send it
+        status = Attempt(run, parent_id, false, &response);
+      }
+      outcome.code = static_cast<int>(status.error_code());
+      if (status.ok()) {
+        outcome.ok = true;
+        outcome.already_present = response.already_present();
+        outcome.child_snapshot_id = response.child_snapshot_id();
+        outcome.events = response.events_stored();
+        std::lock_guard lock(mutex_);
+        known_.insert(response.child_snapshot_id());
+        if (!response.parent_snapshot_id().empty()) known_.insert(response.parent_snapshot_id());
+        break;
+      }
+      outcome.message = std::string(CodeName(status.error_code())) + ": " + status.error_message();
+      if (!Retryable(status.error_code()) || attempt == options_.max_attempts) break;
+      std::uniform_int_distribution<long> jitter(0, backoff.count() / 2);
+      std::this_thread::sleep_for(backoff + std::chrono::milliseconds(jitter(random)));
+      backoff = std::min(backoff * 2, std::chrono::milliseconds(10000));
+    }
+    outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    return outcome;
+  }
+
+ private:
+  grpc::Status Attempt(const fleet::v1::RunFile& run, const std::string& parent_id, bool parent_known,
+                       fleet::v1::UploadRunResponse* response) {
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", "Bearer " + options_.token);
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::milliseconds(static_cast<long long>(options_.deadline_seconds * 1000)));
+    auto writer = stub_->UploadRun(&context, response);
+    fleet::v1::UploadRunRequest message;
+    *message.mutable_header() = run.header();
+    if (!parent_id.empty()) message.mutable_header()->set_parent_snapshot_id(parent_id);
+    bool open = writer->Write(message);
+    const int chunk = std::max(1, options_.events_per_chunk);
+    for (int i = 0; open && i < run.events_size(); i += chunk) {
+      message.Clear();
+      auto* events = message.mutable_events()->mutable_events();
+      const int end = std::min(run.events_size(), i + chunk);
+      events->Reserve(end - i);
+      for (int j = i; j < end; ++j) *events->Add() = run.events(j);
+      open = writer->Write(message);
+    }
+    if (open && !parent_known && run.parent_snapshot().nodes_size() > 0) {
+      message.Clear();
+      *message.mutable_parent_snapshot() = run.parent_snapshot();
+      open = writer->Write(message);
+    }
+    if (open) {
+      message.Clear();
+      *message.mutable_child_snapshot() = run.child_snapshot();
+      open = writer->Write(message);
+    }
+    if (open) writer->WritesDone();
+    return writer->Finish();
+  }
+
+  const UploaderOptions options_;
+  std::unique_ptr<fleet::v1::Ingest::Stub> stub_;
+  std::mutex mutex_;  // guards known_
+  std::unordered_set<std::string> known_;  // snapshot ids the server confirmed
+};
+
+Uploader::Uploader(const UploaderOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+Uploader::~Uploader() = default;
+UploadOutcome Uploader::Upload(const fleet::v1::RunFile& run) { return impl_->Upload(run); }
+
+}  // namespace sim

