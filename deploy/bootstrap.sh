@@ -12,9 +12,13 @@ packages=(
   libsqlite3-dev sqlite3 libpqxx-dev postgresql zlib1g-dev libssl-dev
   libspdlog-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  nodejs npm chromium chromium-driver
+  chromium chromium-driver
   python3-grpcio python3-grpc-tools
 )
+
+# Node.js and npm (dashboard assets, browser tests): Debian's packages only where no node/npm is installed;
+# a machine that ships its own Node.js (with npm inside) conflicts with Debian's separate npm package.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 
 missing=()
 for package in "${packages[@]}"; do

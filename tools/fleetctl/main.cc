@@ -241,6 +241,10 @@ int main(int argc, char** argv) {
   label->add_option("label", label_value, "protrusion or new_space")->required();
   label->add_option("--parameter-set", parameter_set, "parameter set");
 
+  auto* label_from_truth = app.add_subcommand(
+      "label-from-truth", "label every region whose run carries simulator ground truth (fleetsim) with that truth");
+  label_from_truth->add_option("--parameter-set", parameter_set, "parameter set");
+
   auto* models = app.add_subcommand("models", "protrusion classifier models");
   models->require_subcommand(1);
   std::string model_name, classifier;
@@ -555,6 +559,52 @@ int main(int argc, char** argv) {
     } else {
       std::cout << "region " << region_id << " of " << run_id << " labelled " << label_value << "\n";
     }
+    return 0;
+  }
+  if (*label_from_truth) {
+    // Runs page by page; each report says which regions are slip artefacts by the simulator's truth.
+    int labelled = 0, runs_seen = 0;
+    std::string token;
+    do {
+      fleet::v1::ListRunsRequest list;
+      *list.mutable_filter() = filter.Proto();
+      list.set_page_size(500);
+      list.set_page_token(token);
+      fleet::v1::ListRunsResponse page;
+      auto list_context = client.Context();
+      if (grpc::Status status = client.queries->ListRuns(list_context.get(), list, &page); !status.ok()) {
+        return Fail(status);
+      }
+      for (const auto& run : page.runs()) {
+        ++runs_seen;
+        fleet::v1::GetRunReportRequest request;
+        request.set_run_id(run.run_id());
+        request.set_parameter_set(parameter_set);
+        fleet::v1::GetRunReportResponse response;
+        auto context = client.Context();
+        if (grpc::Status status = client.queries->GetRunReport(context.get(), request, &response); !status.ok()) {
+          if (status.error_code() == grpc::StatusCode::NOT_FOUND) continue;  // not analysed yet
+          return Fail(status);
+        }
+        for (const auto& region : response.report().protrusion_regions()) {
+          if (!region.has_truth_protrusion()) continue;
+          fleet::v1::LabelRegionRequest label_request;
+          label_request.set_run_id(run.run_id());
+          label_request.set_parameter_set(parameter_set);
+          label_request.set_region_id(region.id());
+          label_request.set_label(region.truth_protrusion() ? "protrusion" : "new_space");
+          fleet::v1::LabelRegionResponse label_response;
+          auto label_context = client.Context();
+          if (grpc::Status status = client.labels->LabelRegion(label_context.get(), label_request, &label_response);
+              !status.ok()) {
+            return Fail(status);
+          }
+          ++labelled;
+        }
+      }
+      token = page.next_page_token();
+    } while (!token.empty());
+    std::cout << labelled << " regions of " << runs_seen << " runs labelled from ground truth\n";
     return 0;
   }
   if (*train) {
