@@ -104,28 +104,20 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
   return part;
 }
 
-/// Protrusion regions between the parent map and the rerun child, in the frame of the parent's largest
-/// component (the robot's home map); new space outside it is not comparable with the parent.
+/// Protrusion regions between the parent map and the rerun child (RenderComparedGrids).
 slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::Map& child, bool has_ground_truth,
                                    const std::set<NodeId>& slipping_nodes, const AnalysisOptions& options,
                                    fleet::v1::RunReport* report) {
   for (const std::string& name : slamcore::ProtrusionFeatureNames()) report->add_feature_names(name);
   if (parent.local_maps.empty() || parent.graph.num_nodes() == 0) return slamcore::Status::Ok();
-  NodeId home = parent.graph.nodes().front().id;
-  for (const slamcore::ComponentId component : parent.graph.Components()) {
-    if (parent.graph.ComponentSize(component) > parent.graph.ComponentSize(home)) home = component;
-  }
-  std::set<NodeId> parent_nodes, child_nodes, slip_nodes;
-  for (const NodeId node : parent.graph.NodesOf(parent.graph.ComponentOf(home))) parent_nodes.insert(node);
-  for (const NodeId node : child.graph.NodesOf(child.graph.ComponentOf(home))) {
-    child_nodes.insert(node);
+  const auto grids = RenderComparedGrids(parent, child);
+  if (!grids.ok()) return grids.status();
+  const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
+  if (!regions.ok()) return regions.status();
+  std::set<NodeId> slip_nodes;
+  for (const NodeId node : grids->child_nodes) {
     if (slipping_nodes.contains(node)) slip_nodes.insert(node);
   }
-  slamcore::GlobalGridRenderer parent_renderer, child_renderer;
-  SLAMCORE_RETURN_IF_ERROR(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)));
-  SLAMCORE_RETURN_IF_ERROR(child_renderer.RenderAll(ComponentMap(child, child_nodes)));
-  const auto regions = slamcore::ExtractRegions(parent_renderer.grid(), child_renderer.grid());
-  if (!regions.ok()) return regions.status();
 
   // Ground truth, when the run carries it: a region is a slip artefact when most of its cells are
   // covered by patches of nodes made while the robot was stuck.
@@ -135,7 +127,7 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
     SLAMCORE_RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
     slip_cover = slip_renderer.grid();
   }
-  const slamcore::OccupancyGrid& child_grid = child_renderer.grid();
+  const slamcore::OccupancyGrid& child_grid = grids->child;
   for (const slamcore::ProtrusionRegion& region : *regions) {
     fleet::v1::ProtrusionRegion* proto = report->add_protrusion_regions();
     proto->set_id(region.id);
@@ -170,6 +162,32 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
 }
 
 }  // namespace
+
+Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child) {
+  ComparedGrids grids;
+  slamcore::GlobalGridRenderer parent_renderer, child_renderer;
+  if (parent.graph.num_nodes() == 0 || parent.local_maps.empty()) {
+    SLAMCORE_RETURN_IF_ERROR(child_renderer.RenderAll(child));
+    for (const slamcore::Node& node : child.graph.nodes()) grids.child_nodes.push_back(node.id);
+    grids.child = child_renderer.grid();
+    return grids;
+  }
+  NodeId home = parent.graph.nodes().front().id;  // the largest component; ties: the first
+  for (const slamcore::ComponentId component : parent.graph.Components()) {
+    if (parent.graph.ComponentSize(component) > parent.graph.ComponentSize(home)) home = component;
+  }
+  std::set<NodeId> parent_nodes, child_nodes;
+  for (const NodeId node : parent.graph.NodesOf(parent.graph.ComponentOf(home))) parent_nodes.insert(node);
+  if (child.graph.HasNode(home)) {
+    for (const NodeId node : child.graph.NodesOf(child.graph.ComponentOf(home))) child_nodes.insert(node);
+  }
+  SLAMCORE_RETURN_IF_ERROR(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)));
+  SLAMCORE_RETURN_IF_ERROR(child_renderer.RenderAll(ComponentMap(child, child_nodes)));
+  grids.parent = parent_renderer.grid();
+  grids.child = child_renderer.grid();
+  grids.child_nodes.assign(child_nodes.begin(), child_nodes.end());
+  return grids;
+}
 
 Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options) {
   SLAMCORE_RETURN_IF_ERROR(Validate(run.header()));

@@ -2,6 +2,7 @@
 
 #include <set>
 
+#include "analyzer/run_analysis.h"
 #include "analyzer/telemetry_codec.h"
 #include "fleet/v1/report.pb.h"
 #include "slamcore/mapper.h"
@@ -17,17 +18,6 @@ storage::Status FromSlamcore(const slamcore::Status& status, const std::string& 
   if (status.ok()) return storage::Status::Ok();
   if (status.code() == slamcore::StatusCode::kDataLoss) return storage::DataLoss(what + ": " + status.message());
   return storage::FailedPrecondition(what + ": " + status.message());
-}
-
-// The same cut as analyzer/run_analysis.cc's ComponentMap: the nodes of one component with their patches.
-slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nodes) {
-  slamcore::Map part;
-  for (const NodeId node : nodes) {
-    if (!map.graph.HasNode(node)) continue;
-    (void)part.graph.AddNode(map.graph.node(node));
-    if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
-  }
-  return part;
 }
 
 storage::Result<std::string> Png(const slamcore::OccupancyGrid& grid, const std::string& what) {
@@ -61,31 +51,15 @@ storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const st
     parent = std::move(decoded).value();
   }
 
-  slamcore::GlobalGridRenderer parent_renderer, child_renderer;
-  if (parent.graph.num_nodes() > 0 && !parent.local_maps.empty()) {
-    // The home component: the parent's largest (ties: the first), as the detector chose it.
-    NodeId home = parent.graph.nodes().front().id;
-    for (const slamcore::ComponentId component : parent.graph.Components()) {
-      if (parent.graph.ComponentSize(component) > parent.graph.ComponentSize(home)) home = component;
-    }
-    std::set<NodeId> parent_nodes, child_nodes;
-    for (const NodeId node : parent.graph.NodesOf(parent.graph.ComponentOf(home))) parent_nodes.insert(node);
-    if (child->graph.HasNode(home)) {
-      for (const NodeId node : child->graph.NodesOf(child->graph.ComponentOf(home))) child_nodes.insert(node);
-    }
-    STORAGE_RETURN_IF_ERROR(FromSlamcore(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)), "parent map"));
-    STORAGE_RETURN_IF_ERROR(FromSlamcore(child_renderer.RenderAll(ComponentMap(*child, child_nodes)), "child map"));
-  } else {
-    // A first run: no parent to compare with, the whole child is new.
-    STORAGE_RETURN_IF_ERROR(FromSlamcore(child_renderer.RenderAll(*child), "child map"));
-  }
-  const slamcore::OccupancyGrid& child_grid = child_renderer.grid();
+  auto grids = analyzer::RenderComparedGrids(parent, *child);
+  if (!grids.ok()) return FromSlamcore(grids.status(), "maps");
+  const slamcore::OccupancyGrid& child_grid = grids->child;
   if (child_grid.width <= 0 || child_grid.height <= 0) {
     return storage::FailedPrecondition("run " + run_id + ": the child map has no local maps to render");
   }
   slamcore::OccupancyGrid aligned;
-  if (parent_renderer.grid().width > 0) {
-    auto shifted = slamcore::AlignParentToChild(parent_renderer.grid(), child_grid);
+  if (grids->parent.width > 0) {
+    auto shifted = slamcore::AlignParentToChild(grids->parent, child_grid);
     if (!shifted.ok()) return FromSlamcore(shifted.status(), "aligning parent to child");
     aligned = std::move(shifted).value();
   } else {

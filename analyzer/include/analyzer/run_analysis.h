@@ -12,7 +12,9 @@
 
 #include "fleet/v1/report.pb.h"
 #include "fleet/v1/telemetry.pb.h"
+#include "slamcore/mapper.h"
 #include "slamcore/mapper_params.h"
+#include "slamcore/occupancy_grid.h"
 #include "slamcore/protrusion_classifier.h"
 
 namespace analyzer {
@@ -30,6 +32,16 @@ struct AnalysisOptions {
   /// Keep the rerun's child map in the report (for map pages and reprocessing comparisons).
   bool keep_rerun_child = true;
 };
+
+/// The occupancy grids the protrusion detector compares (paper IV-C): the parent's largest component (the
+/// robot's home map) and the same component in the child, each rendered from its nodes' local patches.
+/// New space outside the home component has no parent to compare with. `parent` is empty (width 0) when the
+/// parent map has no local maps; then `child` is the whole child map, all of it new.
+struct ComparedGrids {
+  slamcore::OccupancyGrid parent, child;
+  std::vector<slamcore::NodeId> child_nodes;  // the child nodes rendered
+};
+slamcore::Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child);
 
 /// Fails (INVALID_ARGUMENT naming the field) when the run's telemetry is malformed, e.g. an event the
 /// Mapper refuses: "events[12]: ViewObservedEvent at t=3.5: view 7 does not exist".
