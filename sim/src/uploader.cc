@@ -50,21 +50,27 @@ std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
   return hex;
 }
 
+std::shared_ptr<grpc::Channel> CreateFleetChannel(const std::string& server, const std::string& tls_ca,
+                                                  int max_message_bytes) {
+  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (!tls_ca.empty()) {
+    std::ifstream in(tls_ca);
+    std::ostringstream pem;
+    pem << in.rdbuf();
+    grpc::SslCredentialsOptions ssl;
+    ssl.pem_root_certs = pem.str();
+    credentials = grpc::SslCredentials(ssl);
+  }
+  grpc::ChannelArguments arguments;
+  arguments.SetMaxSendMessageSize(max_message_bytes);
+  arguments.SetMaxReceiveMessageSize(max_message_bytes);
+  return grpc::CreateCustomChannel(server, credentials, arguments);
+}
+
 class Uploader::Impl {
  public:
   explicit Impl(const UploaderOptions& options) : options_(options) {
-    std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
-    if (!options.tls_ca.empty()) {
-      std::ifstream in(options.tls_ca);
-      std::ostringstream pem;
-      pem << in.rdbuf();
-      grpc::SslCredentialsOptions ssl;
-      ssl.pem_root_certs = pem.str();
-      credentials = grpc::SslCredentials(ssl);
-    }
-    grpc::ChannelArguments arguments;
-    arguments.SetMaxSendMessageSize(64 << 20);
-    stub_ = fleet::v1::Ingest::NewStub(grpc::CreateCustomChannel(options.server, credentials, arguments));
+    stub_ = fleet::v1::Ingest::NewStub(CreateFleetChannel(options.server, options.tls_ca, 64 << 20));
   }
 
   UploadOutcome Upload(const fleet::v1::RunFile& run) {

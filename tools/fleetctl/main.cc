@@ -28,6 +28,7 @@
 #include "analyzer/parameters.h"
 #include "fleet/v1/service.grpc.pb.h"
 #include "sim/upload_files.h"
+#include "sim/uploader.h"
 
 namespace {
 
@@ -73,18 +74,7 @@ const char* CodeName(grpc::StatusCode code) {
 class Client {
  public:
   explicit Client(const Global& global) : global_(global) {
-    std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
-    if (!global.tls_ca.empty()) {
-      std::ifstream in(global.tls_ca);
-      std::ostringstream pem;
-      pem << in.rdbuf();
-      grpc::SslCredentialsOptions ssl;
-      ssl.pem_root_certs = pem.str();
-      credentials = grpc::SslCredentials(ssl);
-    }
-    grpc::ChannelArguments arguments;
-    arguments.SetMaxReceiveMessageSize(256 << 20);
-    channel_ = grpc::CreateCustomChannel(global.server, credentials, arguments);
+    channel_ = sim::CreateFleetChannel(global.server, global.tls_ca, 256 << 20);
     queries = fleet::v1::Queries::NewStub(channel_);
     reprocessing = fleet::v1::Reprocessing::NewStub(channel_);
     labels = fleet::v1::Labels::NewStub(channel_);

@@ -14,7 +14,16 @@
 
 #include "fleet/v1/telemetry.pb.h"
 
+namespace grpc {
+class Channel;
+}  // namespace grpc
+
 namespace sim {
+
+/// A channel to fleetd: plaintext, or TLS trusting the CA in `tls_ca` (a PEM file) when it is not empty.
+/// Messages up to `max_message_bytes` both ways.
+std::shared_ptr<grpc::Channel> CreateFleetChannel(const std::string& server, const std::string& tls_ca,
+                                                  int max_message_bytes);
 
 struct UploaderOptions {
   std::string server;                 // host:port
