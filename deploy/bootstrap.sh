@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium chromium-driver
   python3-grpcio python3-grpc-tools
+  yamllint python3-yaml python3-jsonschema
 )
 
 # Node.js and npm (dashboard assets, browser tests): Debian's packages only where no node/npm is installed;
