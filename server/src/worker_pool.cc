@@ -127,10 +127,15 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
                analysed.status().message().find("run") != std::string::npos &&
                repository_.GetRun(payload->run_id).status().code() == storage::StatusCode::kNotFound) {
       // Ingest enqueues before it stores (so a stored run always has its job): the store may still be under
-      // way, or it failed. Give it time, then hand the job back; after max_attempts the queue drops it.
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
-      outcome = "no_run_yet";
-      status = storage::NotFound("run " + payload->run_id + " is not stored (yet)");
+      // way, or it never happened (the upload was cut, and its retry brings a job of its own). Give it time
+      // and hand the job back; on the last attempt the job is done: there is nothing to analyse.
+      if (lease.job.attempts >= lease.job.max_attempts) {
+        outcome = "no_run";
+      } else {
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        outcome = "no_run_yet";
+        status = storage::NotFound("run " + payload->run_id + " is not stored (yet)");
+      }
     } else {
       status = analysed.status();
     }

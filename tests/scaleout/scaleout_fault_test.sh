@@ -164,22 +164,12 @@ runs=$(FLEET_SERVER=$s1 "$bin/fleetctl" runs --json --limit 1000 | json 'len(d["
 [[ "$runs" == "18 18" ]] || fail "runs listed (all, distinct): $runs, expected 18 once each"
 [[ $(sql "SELECT count(*), count(DISTINCT payload_sha256) FROM runs") == "18|18" ]] || fail "runs table: $(sql "SELECT count(*), count(DISTINCT payload_sha256) FROM runs")"
 [[ $(sql "SELECT count(*) FROM reports") == 18 ]] || fail "reports: $(sql "SELECT count(*) FROM reports"), expected 18"
-# Every job completed: none is queued or leased. The server enqueues before it stores, so a duplicate
-# upload's job is cancelled again (at most one cancelled job per "already present" answer), and the job of an upload
-# the killed server had enqueued but not stored finds no run and is dropped as failed after its attempts
-# ("not stored (yet)"): at most one per stream in flight on server 2, and that run was then stored and
-# analysed through the re-upload's own job.
-unfinished=$(sql "SELECT count(*) FROM jobs WHERE state IN ('queued', 'leased')")
-[[ $unfinished == 0 ]] || fail "jobs not completed: $(sql "SELECT job_id, kind, state FROM jobs WHERE state IN ('queued', 'leased')")"
-orphans=0
-while IFS='|' read -r job_id error; do
-  [[ -z "$job_id" ]] && continue
-  [[ $error =~ ^NOT_FOUND:\ run\ ([^ ]+)\ is\ not\ stored\ \(yet\)$ ]] || fail "job $job_id failed: $error"
-  [[ $(sql "SELECT count(*) FROM reports WHERE run_id = '${BASH_REMATCH[1]}'") == 1 ]] ||
-    fail "job $job_id was orphaned and its run ${BASH_REMATCH[1]} has no report"
-  orphans=$((orphans + 1))
-done < <(sql "SELECT job_id, last_error FROM jobs WHERE state = 'failed'")
-((orphans <= 3)) || fail "$orphans orphaned jobs, more than the 3 uploads in flight on server 2"
+# Every job completed: none is queued, leased or failed. The server enqueues before it stores, so a duplicate
+# upload's job is cancelled again (at most one cancelled job per "already present" answer), and the job of an
+# upload the killed server had enqueued but never stored finds no run, is retried, and is done on its last
+# attempt (there is nothing to analyse; the run came back through the re-upload with a job of its own).
+unfinished=$(sql "SELECT count(*) FROM jobs WHERE state IN ('queued', 'leased', 'failed')")
+[[ $unfinished == 0 ]] || fail "jobs not completed: $(sql "SELECT job_id, kind, state, last_error FROM jobs WHERE state IN ('queued', 'leased', 'failed')")"
 duplicates=$(cat "$work/upload1.json" "$work/upload2.json" "$work/reupload.json" | "$py" -c '
 import json, sys
 print(sum(json.loads(line)["already_present"] for line in sys.stdin if line.strip()))')
@@ -217,4 +207,4 @@ while IFS=$'\t' read -r title query; do
 done <"$work/panels.tsv"
 [[ $(wc -l <"$work/panels.tsv") -ge 10 ]] || fail "dashboard panels not read"
 
-echo "scale-out under faults: 18 runs stored once, $(sql "SELECT count(*) FROM jobs WHERE state = 'done'") jobs done and $cancelled duplicates cancelled, $orphans orphaned by the killed server (job $killed_job: $retaken), statistics equal the single process, $(wc -l <"$work/panels.tsv") dashboard queries ran ($(( $(date +%s) - started )) s)"
+echo "scale-out under faults: 18 runs stored once, $(sql "SELECT count(*) FROM jobs WHERE state = 'done'") jobs done and $cancelled duplicates cancelled, none failed (job $killed_job: $retaken), statistics equal the single process, $(wc -l <"$work/panels.tsv") dashboard queries ran ($(( $(date +%s) - started )) s)"
