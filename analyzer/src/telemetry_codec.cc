@@ -1,5 +1,8 @@
 #include "analyzer/telemetry_codec.h"
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+
 #include <cmath>
 
 namespace analyzer {
@@ -270,6 +273,16 @@ fleet::v1::MapSnapshot ToProto(const slamcore::Map& map) {
     *proto->mutable_local_map() = LocalMapToProto(it->second);
   }
   return snapshot;
+}
+
+std::string SerializeDeterministic(const google::protobuf::Message& message) {
+  std::string bytes;
+  google::protobuf::io::StringOutputStream stream(&bytes);
+  google::protobuf::io::CodedOutputStream coded(&stream);
+  coded.SetSerializationDeterministic(true);
+  message.SerializeToCodedStream(&coded);
+  coded.Trim();
+  return bytes;
 }
 
 Status Validate(const fleet::v1::RunHeader& header) {

@@ -1,5 +1,7 @@
 #include "sim/uploader.h"
 
+#include "analyzer/telemetry_codec.h"
+
 #include <grpcpp/grpcpp.h>
 #include <openssl/sha.h>
 
@@ -32,13 +34,7 @@ bool Retryable(grpc::StatusCode code) {
 }  // namespace
 
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
-  std::string bytes;
-  {
-    google::protobuf::io::StringOutputStream stream(&bytes);
-    google::protobuf::io::CodedOutputStream coded(&stream);
-    coded.SetSerializationDeterministic(true);
-    snapshot.SerializeToCodedStream(&coded);
-  }
+  const std::string bytes = analyzer::SerializeDeterministic(snapshot);
   unsigned char digest[SHA256_DIGEST_LENGTH];
   SHA256(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), digest);
   static const char* kDigits = "0123456789abcdef";

@@ -5,20 +5,6 @@
 #include "server/log.h"
 
 namespace server {
-namespace {
-
-std::string Serialize(const google::protobuf::Message& message) {
-  std::string bytes;
-  google::protobuf::io::StringOutputStream stream(&bytes);
-  google::protobuf::io::CodedOutputStream coded(&stream);
-  coded.SetSerializationDeterministic(true);
-  message.SerializeToCodedStream(&coded);
-  coded.Trim();
-  return bytes;
-}
-
-}  // namespace
-
 grpc::Status IngestHandler::UploadRun(grpc::ServerContext* call,
                                       grpc::ServerReader<fleet::v1::UploadRunRequest>* reader,
                                       fleet::v1::UploadRunResponse* response) {
@@ -120,7 +106,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   // The parent map: sent (an empty one means "first run"), or named by id and already stored.
   std::string parent_bytes, parent_id;
   if (have_parent && run.parent_snapshot().nodes_size() > 0) {
-    parent_bytes = Serialize(run.parent_snapshot());
+    parent_bytes = analyzer::SerializeDeterministic(run.parent_snapshot());
     parent_id = Sha256Hex(parent_bytes);
     if (!header.parent_snapshot_id().empty() && header.parent_snapshot_id() != parent_id) {
       return InvalidArgument("parent_snapshot: its SHA-256 " + parent_id + " differs from header.parent_snapshot_id " +
@@ -138,7 +124,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
     }
   }
   header.set_parent_snapshot_id(parent_id);  // the stored run names its parent the same way on every retry
-  const std::string child_bytes = Serialize(run.child_snapshot());
+  const std::string child_bytes = analyzer::SerializeDeterministic(run.child_snapshot());
 
   // Enqueue first, store second: a stored run always has its analysis job (a job whose store failed finds no
   // run and completes as a no-op); a duplicate upload cancels its job again.
@@ -153,7 +139,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   record.started_at_ms = ToMillis(header.started_at());
   record.ended_at_ms = ToMillis(header.ended_at());
   if (!parent_id.empty()) record.parent_snapshot_id = parent_id;
-  record.telemetry = Serialize(telemetry);
+  record.telemetry = analyzer::SerializeDeterministic(telemetry);
 
   storage::RobotRecord robot;
   robot.robot_id = header.robot_id();

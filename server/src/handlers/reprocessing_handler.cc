@@ -5,6 +5,7 @@
 
 #include "analyzer/parameters.h"
 #include "convert.h"
+#include "analyzer/telemetry_codec.h"
 #include "server/jobs.h"
 #include "server/log.h"
 
@@ -20,16 +21,6 @@ bool ValidName(const std::string& name) {
 
 bool Terminal(const std::string& state) { return state == "done" || state == "failed" || state == "cancelled"; }
 
-std::string Serialize(const google::protobuf::Message& message) {
-  std::string bytes;
-  google::protobuf::io::StringOutputStream stream(&bytes);
-  google::protobuf::io::CodedOutputStream coded(&stream);
-  coded.SetSerializationDeterministic(true);
-  message.SerializeToCodedStream(&coded);
-  coded.Trim();
-  return bytes;
-}
-
 }  // namespace
 
 grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& repository, const fleet::v1::ParameterSet& set,
@@ -42,7 +33,7 @@ grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& reposit
   }
   storage::ParameterSetRecord record;
   record.name = set.name();
-  record.serialized = Serialize(set);
+  record.serialized = analyzer::SerializeDeterministic(set);
   auto stored = repository.PutParameterSet(record);
   if (!stored.ok()) {
     if (stored.status().code() == storage::StatusCode::kAlreadyExists) {
