@@ -1,6 +1,9 @@
 #include "analyzer/run_analysis.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <unordered_map>
@@ -70,40 +73,6 @@ double SecondsToMerge(const std::vector<Decision>& decisions, DecisionKind kind,
   return -1.0;
 }
 
-/// RMS position error of `graph` against `truth`, each component aligned on its own (components have
-/// independent frames); nullopt when fewer than two nodes carry truth.
-std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
-                                        const std::unordered_map<NodeId, slamcore::SE2>& truth, int* count) {
-  std::map<slamcore::ComponentId, std::pair<std::vector<slamcore::Vector2>, std::vector<slamcore::Vector2>>> pairs;
-  for (const auto& [node, pose] : truth) {
-    if (!graph.HasNode(node)) continue;
-    auto& [estimate, reference] = pairs[graph.ComponentOf(node)];
-    estimate.push_back(graph.node(node).pose.translation());
-    reference.push_back(pose.translation());
-  }
-  double sum = 0.0;
-  *count = 0;
-  for (const auto& [component, points] : pairs) {
-    const auto rmse = slamcore::AlignedRmse(points.first, points.second);
-    if (!rmse.ok()) continue;  // a single-node component carries no trajectory error
-    sum += *rmse * *rmse * static_cast<double>(points.first.size());
-    *count += static_cast<int>(points.first.size());
-  }
-  if (*count < 2) return std::nullopt;
-  return std::sqrt(sum / *count);
-}
-
-/// The part of a map that lies in one component, for rendering that component's occupancy grid.
-slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nodes) {
-  slamcore::Map part;
-  for (const NodeId node : nodes) {
-    if (!map.graph.HasNode(node)) continue;
-    (void)part.graph.AddNode(map.graph.node(node));
-    if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
-  }
-  return part;
-}
-
 /// Protrusion regions between the parent map and the rerun child (RenderComparedGrids).
 slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::Map& child, bool has_ground_truth,
                                    const std::set<NodeId>& slipping_nodes, const AnalysisOptions& options,
@@ -133,6 +102,16 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
     proto->set_id(region.id);
     for (const int value : {region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height}) proto->add_bbox(value);
     for (const double feature : region.features) proto->add_features(feature);
+    if (!region.cells.empty()) {
+      double min_x = std::numeric_limits<double>::max(), min_y = min_x, max_x = -min_x, max_y = -min_x;
+      for (const std::int32_t cell : region.cells) {
+        const double x = child_grid.origin_x + (cell % child_grid.width) * child_grid.resolution;
+        const double y = child_grid.origin_y + (cell / child_grid.width) * child_grid.resolution;
+        min_x = std::min(min_x, x), max_x = std::max(max_x, x + child_grid.resolution);
+        min_y = std::min(min_y, y), max_y = std::max(max_y, y + child_grid.resolution);
+      }
+      for (const double value : {min_x, min_y, max_x, max_y}) proto->add_world_bbox(value);
+    }
     if (options.classifier) {
       const auto probability = options.classifier->Probability(region.features);
       if (!probability.ok()) return probability.status();
@@ -162,6 +141,37 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
 }
 
 }  // namespace
+
+std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
+                                        const std::unordered_map<NodeId, slamcore::SE2>& truth, int* count) {
+  std::map<slamcore::ComponentId, std::pair<std::vector<slamcore::Vector2>, std::vector<slamcore::Vector2>>> pairs;
+  for (const auto& [node, pose] : truth) {
+    if (!graph.HasNode(node)) continue;
+    auto& [estimate, reference] = pairs[graph.ComponentOf(node)];
+    estimate.push_back(graph.node(node).pose.translation());
+    reference.push_back(pose.translation());
+  }
+  double sum = 0.0;
+  *count = 0;
+  for (const auto& [component, points] : pairs) {
+    const auto rmse = slamcore::AlignedRmse(points.first, points.second);
+    if (!rmse.ok()) continue;  // a single-node component carries no trajectory error
+    sum += *rmse * *rmse * static_cast<double>(points.first.size());
+    *count += static_cast<int>(points.first.size());
+  }
+  if (*count < 2) return std::nullopt;
+  return std::sqrt(sum / *count);
+}
+
+slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nodes) {
+  slamcore::Map part;
+  for (const NodeId node : nodes) {
+    if (!map.graph.HasNode(node)) continue;
+    (void)part.graph.AddNode(map.graph.node(node));
+    if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
+  }
+  return part;
+}
 
 Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child) {
   ComparedGrids grids;

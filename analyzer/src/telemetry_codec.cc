@@ -221,6 +221,7 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
     edge.kind = proto.kind() == fleet::v1::Edge::KIND_MOTION ? slamcore::EdgeKind::kMotion
                                                               : slamcore::EdgeKind::kObservation;
     if (proto.has_view()) edge.view = proto.view();
+    if (proto.has_hypothesis()) edge.hypothesis = proto.hypothesis();
     if (const auto added = map.graph.AddEdge(edge); !added.ok()) {
       return InvalidArgument(edge_field + ": " + added.status().message());
     }
@@ -263,6 +264,7 @@ fleet::v1::MapSnapshot ToProto(const slamcore::Map& map) {
     proto->set_kind(edge.kind == slamcore::EdgeKind::kMotion ? fleet::v1::Edge::KIND_MOTION
                                                              : fleet::v1::Edge::KIND_OBSERVATION);
     if (edge.view) proto->set_view(*edge.view);
+    if (edge.hypothesis) proto->set_hypothesis(*edge.hypothesis);
   }
   // Local maps in node order, so equal maps serialise to equal bytes (snapshots are content-addressed).
   for (const slamcore::Node& node : map.graph.nodes()) {

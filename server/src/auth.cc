@@ -45,6 +45,8 @@ const char* PermissionName(Permission permission) {
     case Permission::kRead: return "read";
     case Permission::kReprocess: return "reprocess";
     case Permission::kLabel: return "label";
+    case Permission::kFetchMap: return "fetch_map";
+    case Permission::kRepairMap: return "repair_map";
     case Permission::kModels: return "models";
     case Permission::kAdmin: return "admin";
   }
@@ -55,7 +57,7 @@ bool Allows(Role role, Permission permission) {
   switch (role) {
     case Role::kAdmin: return true;
     case Role::kEngineer: return permission != Permission::kModels && permission != Permission::kAdmin;
-    case Role::kRobot: return permission == Permission::kUpload;
+    case Role::kRobot: return permission == Permission::kUpload || permission == Permission::kFetchMap;
   }
   return false;
 }

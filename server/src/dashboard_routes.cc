@@ -55,7 +55,8 @@ int HttpStatusOf(const storage::Status& status) {
     case storage::StatusCode::kInvalidArgument: return 400;
     case storage::StatusCode::kNotFound: return 404;
     case storage::StatusCode::kAlreadyExists:
-    case storage::StatusCode::kFailedPrecondition: return 409;
+    case storage::StatusCode::kFailedPrecondition:
+    case storage::StatusCode::kAborted: return 409;
     case storage::StatusCode::kUnavailable: return 503;
     case storage::StatusCode::kDataLoss:
     case storage::StatusCode::kInternal: return 500;

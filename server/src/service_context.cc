@@ -10,6 +10,7 @@ grpc::Status ToGrpc(const storage::Status& status) {
     case StatusCode::kNotFound: return {grpc::StatusCode::NOT_FOUND, status.message()};
     case StatusCode::kAlreadyExists: return {grpc::StatusCode::ALREADY_EXISTS, status.message()};
     case StatusCode::kFailedPrecondition: return {grpc::StatusCode::FAILED_PRECONDITION, status.message()};
+    case StatusCode::kAborted: return {grpc::StatusCode::ABORTED, status.message()};
     case StatusCode::kDataLoss: return {grpc::StatusCode::DATA_LOSS, status.message()};
     case StatusCode::kUnavailable: return {grpc::StatusCode::UNAVAILABLE, status.message()};
     case StatusCode::kInternal: return {grpc::StatusCode::INTERNAL, status.message()};

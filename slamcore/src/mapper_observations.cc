@@ -181,6 +181,7 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
       EdgeInformationFromLeftCovariance(observation.robot_T_view.mean, observation.robot_T_view.covariance);
   edge.kind = EdgeKind::kObservation;
   edge.view = observation.view;
+  if (hypothesis_id >= 0) edge.hypothesis = hypothesis_id;
   // Cannot fail: both nodes and the view exist, and the covariance passed validation.
   if (map_.graph.AddEdge(edge).ok()) {
     accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});

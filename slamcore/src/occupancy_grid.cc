@@ -296,12 +296,16 @@ Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_pat
     bytes = EncodePgm(grid);
   }
   SLAMCORE_RETURN_IF_ERROR(WriteFileBytes(image.string(), bytes));
-  char yaml[512];
+  return WriteFileBytes(yaml_path, MapServerYaml(grid, image.filename().string()));
+}
+
+std::string MapServerYaml(const OccupancyGrid& grid, const std::string& image_file) {
+  char yaml[256];
   std::snprintf(yaml, sizeof(yaml),
-                "image: %s\nresolution: %.6f\norigin: [%.6f, %.6f, %.6f]\nnegate: 0\noccupied_thresh: 0.65\n"
-                "free_thresh: 0.196\n",
-                image.filename().string().c_str(), grid.resolution, grid.origin_x, grid.origin_y, grid.origin_yaw);
-  return WriteFileBytes(yaml_path, yaml);
+                "resolution: %.6f\norigin: [%.6f, %.6f, %.6f]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+                grid.resolution, grid.origin_x, grid.origin_y, grid.origin_yaw);
+  // The file name goes in unformatted: it may be longer than any fixed buffer.
+  return "image: " + image_file + "\n" + yaml;
 }
 
 }  // namespace slamcore

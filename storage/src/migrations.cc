@@ -152,6 +152,47 @@ CREATE TABLE jobs (
 CREATE INDEX jobs_by_state ON jobs (state, job_id);
 CREATE INDEX jobs_by_parent ON jobs (parent_job_id);
 )sql",
+      // 2: map history per robot, with findings.
+      R"sql(
+CREATE TABLE map_versions (
+  robot_id TEXT NOT NULL REFERENCES robots(robot_id),
+  version BIGINT NOT NULL,
+  parent_version BIGINT,
+  snapshot_id TEXT NOT NULL REFERENCES snapshots(snapshot_id),
+  origin TEXT NOT NULL,
+  run_id TEXT,
+  action TEXT NOT NULL,
+  action_detail TEXT NOT NULL,
+  created_by TEXT NOT NULL,
+  reason TEXT NOT NULL,
+  created_at_ms BIGINT NOT NULL,
+  approval TEXT NOT NULL,
+  approved_by TEXT NOT NULL,
+  approved_at_ms BIGINT NOT NULL,
+  nodes BIGINT NOT NULL,
+  edges BIGINT NOT NULL,
+  observation_edges BIGINT NOT NULL,
+  views BIGINT NOT NULL,
+  components BIGINT NOT NULL,
+  known_area_m2 DOUBLE PRECISION NOT NULL,
+  chi2 DOUBLE PRECISION NOT NULL,
+  open_findings BIGINT NOT NULL,
+  PRIMARY KEY (robot_id, version)
+);
+CREATE UNIQUE INDEX map_versions_by_upload ON map_versions (run_id) WHERE origin = 'upload';
+CREATE TABLE map_findings (
+  robot_id TEXT NOT NULL,
+  version BIGINT NOT NULL,
+  finding_id BIGINT NOT NULL,
+  kind TEXT NOT NULL,
+  severity DOUBLE PRECISION NOT NULL,
+  summary TEXT NOT NULL,
+  state TEXT NOT NULL,
+  detail_json TEXT NOT NULL,
+  PRIMARY KEY (robot_id, version, finding_id),
+  FOREIGN KEY (robot_id, version) REFERENCES map_versions(robot_id, version)
+);
+)sql",
   };
   return kMigrations;
 }

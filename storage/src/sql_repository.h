@@ -64,6 +64,17 @@ class SqlRepository final : public Repository {
   Result<FleetStatistics> Aggregate(const RunFilter& filter) override;
   Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) override;
 
+  Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version, std::optional<std::int64_t> expected_head,
+                                            const std::vector<MapFindingRecord>& findings) override;
+  Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) override;
+  Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) override;
+  Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) override;
+  Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id, std::int64_t version) override;
+  Status PutMapFindings(const std::string& robot_id, std::int64_t version,
+                        const std::vector<MapFindingRecord>& findings) override;
+  Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
+                                            const std::string& reviewed_by) override;
+
   Result<std::int64_t> EnqueueJob(const NewJob& job) override;
   Result<std::optional<JobLease>> LeaseJob(const std::string& worker, std::chrono::milliseconds lease_duration,
                                            const std::string& kind) override;

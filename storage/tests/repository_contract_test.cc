@@ -2,6 +2,9 @@
 // and crash behaviour (crash_consistency_test).
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <thread>
+
 #include "test_databases.h"
 
 namespace storage::testing {
@@ -358,6 +361,133 @@ TEST_P(RepositoryContractTest, RejectsMalformedInputWithAStatus) {
   EXPECT_EQ(repo().InsertRun(backwards).status().code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(repo().SetCredential("robot-1", "").code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(repo().ListLabelledRegions("", 0).status().code(), StatusCode::kInvalidArgument);
+}
+
+
+static MapVersionRecord MakeVersion(const std::string& robot, const std::string& snapshot, const std::string& origin,
+                             const std::string& run_id = "") {
+  MapVersionRecord version;
+  version.robot_id = robot;
+  version.snapshot_id = snapshot;
+  version.origin = origin;
+  version.run_id = run_id;
+  version.approval = origin == "upload" ? "approved" : "pending";
+  version.created_by = origin == "upload" ? "robot:" + robot : "engineer:ana";
+  version.nodes = 10;
+  version.known_area_m2 = 12.5;
+  return version;
+}
+
+TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) {
+  const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
+  ASSERT_EQ(*repo().InsertRun(MakeRun("run-1", 1000, 10)), InsertOutcome::kInserted);
+  auto first = repo().AppendMapVersion(MakeVersion("robot-1", a, "upload", "run-1"), std::nullopt,
+                                       {{1, "protrusion", 0.8, "region 3", "open", R"({"x":1})"},
+                                        {2, "ambiguous_view", 0.1, "4 views", "info", "{}"}});
+  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  EXPECT_EQ(first->version, 1);
+  EXPECT_EQ(first->open_findings, 1) << "info findings are not open";
+  // Retrying the upload's version returns the one already made.
+  auto retried = repo().AppendMapVersion(MakeVersion("robot-1", b, "upload", "run-1"), std::nullopt, {});
+  ASSERT_TRUE(retried.ok());
+  EXPECT_EQ(retried->version, 1);
+  EXPECT_EQ(retried->snapshot_id, a);
+
+  MapVersionRecord repair = MakeVersion("robot-1", b, "repair", "run-1");
+  repair.parent_version = 1;
+  repair.action = "cut_region";
+  auto second = repo().AppendMapVersion(repair, 1, {});
+  ASSERT_TRUE(second.ok()) << second.status().ToString();
+  EXPECT_EQ(second->version, 2);
+  // Another robot counts from 1.
+  auto other = repo().AppendMapVersion(MakeVersion("robot-2", b, "rollback"), std::nullopt, {});
+  ASSERT_TRUE(other.ok());
+  EXPECT_EQ(other->version, 1);
+
+  auto versions = repo().ListMapVersions("robot-1");
+  ASSERT_TRUE(versions.ok());
+  ASSERT_EQ(versions->size(), 2u);
+  EXPECT_EQ((*versions)[1].parent_version, 1);
+  EXPECT_EQ((*versions)[1].action, "cut_region");
+  EXPECT_DOUBLE_EQ((*versions)[0].known_area_m2, 12.5);
+  EXPECT_EQ(repo().GetMapVersionOfRun("run-1")->version, 1);
+  EXPECT_EQ(repo().GetMapVersionOfRun("run-9").status().code(), StatusCode::kNotFound);
+  auto findings = repo().ListMapFindings("robot-1", 1);
+  ASSERT_TRUE(findings.ok());
+  ASSERT_EQ(findings->size(), 2u);
+  EXPECT_EQ((*findings)[0].detail_json, R"({"x":1})");
+
+  // Findings of a version are replaced as a whole, with its open count.
+  ASSERT_TRUE(repo().PutMapFindings("robot-1", 2, {{1, "high_residual_edge", 0.7, "edge 3→9", "open", "{}"},
+                                                   {2, "protrusion", 0.6, "region", "open", "{}"}}).ok());
+  EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 2);
+  ASSERT_TRUE(repo().PutMapFindings("robot-1", 2, {}).ok());
+  EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 0);
+  EXPECT_TRUE(repo().ListMapFindings("robot-1", 2)->empty());
+  EXPECT_EQ(repo().PutMapFindings("robot-1", 7, {}).code(), StatusCode::kNotFound);
+}
+
+TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
+  const std::string a = *repo().PutSnapshot("map a");
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {}).ok());
+  auto stale = repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {});
+  EXPECT_EQ(stale.status().code(), StatusCode::kAborted) << stale.status().ToString();
+  EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 2u) << "nothing written";
+  // References are checked.
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("nobody", a, "rollback"), std::nullopt, {}).status().code(),
+            StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", std::string(64, 'f'), "rollback"), std::nullopt, {}).status().code(),
+            StatusCode::kFailedPrecondition);
+  MapVersionRecord orphan = MakeVersion("robot-1", a, "repair");
+  orphan.parent_version = 9;
+  EXPECT_EQ(repo().AppendMapVersion(orphan, std::nullopt, {}).status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "magic"), std::nullopt, {}).status().code(),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "upload"), std::nullopt, {}).status().code(),
+            StatusCode::kInvalidArgument) << "an upload version names its run";
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt,
+                                    {{1, "protrusion", 0.5, "x", "closed", "{}"}}).status().code(),
+            StatusCode::kInvalidArgument);
+}
+
+TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
+  const std::string a = *repo().PutSnapshot("map a");
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());
+  // Eight writers, each with its own connection, all read head 1 and try to append on it: one wins.
+  constexpr int kWriters = 8;
+  std::atomic<int> won{0}, aborted{0};
+  std::vector<std::thread> writers;
+  for (int i = 0; i < kWriters; ++i) {
+    writers.emplace_back([&] {
+      auto own = OpenRepository(url_);
+      if (!own.ok()) return;
+      auto appended = (*own)->AppendMapVersion(MakeVersion("robot-1", a, "repair"), 1,
+                                               {{1, "protrusion", 0.5, "x", "open", "{}"}});
+      if (appended.ok()) ++won;
+      if (appended.status().code() == StatusCode::kAborted) ++aborted;
+    });
+  }
+  for (auto& writer : writers) writer.join();
+  EXPECT_EQ(won.load(), 1);
+  EXPECT_EQ(aborted.load(), kWriters - 1);
+  EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 2u);
+  EXPECT_EQ(repo().ListMapFindings("robot-1", 2)->size(), 1u);
+}
+
+TEST_P(RepositoryContractTest, OnlyPendingVersionsAreReviewed) {
+  const std::string a = *repo().PutSnapshot("map a");
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}).ok());
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}).ok());
+  auto approved = repo().ReviewMapVersion("robot-1", 1, true, "engineer:ana");
+  ASSERT_TRUE(approved.ok()) << approved.status().ToString();
+  EXPECT_EQ(approved->approval, "approved");
+  EXPECT_EQ(approved->approved_by, "engineer:ana");
+  EXPECT_GT(approved->approved_at_ms, 0);
+  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 1, false, "engineer:bo").status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo().GetMapVersion("robot-1", 1)->approval, "approved") << "a refused review changes nothing";
+  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 2, false, "engineer:bo")->approval, "rejected");
+  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 3, true, "engineer:bo").status().code(), StatusCode::kNotFound);
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, RepositoryContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),

@@ -24,7 +24,7 @@ ADMIN = "admin:root." + "ab" * 32
 import grpc  # noqa: E402
 
 STUBS = tempfile.mkdtemp(prefix="fleet-py-stubs-")
-PROTOS = ["fleet/v1/telemetry.proto", "fleet/v1/report.proto", "fleet/v1/service.proto"]
+PROTOS = ["fleet/v1/telemetry.proto", "fleet/v1/report.proto", "fleet/v1/maps.proto", "fleet/v1/service.proto"]
 if os.path.exists(PROTOC) and os.path.exists("/usr/bin/grpc_python_plugin"):
     subprocess.run([PROTOC, "-I" + PROTO_DIR, "--python_out=" + STUBS, "--grpc_python_out=" + STUBS,
                     "--plugin=protoc-gen-grpc_python=/usr/bin/grpc_python_plugin"] + PROTOS, check=True)

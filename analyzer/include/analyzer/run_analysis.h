@@ -8,6 +8,9 @@
 #pragma once
 
 #include <memory>
+#include <optional>
+#include <set>
+#include <unordered_map>
 #include <string>
 
 #include "fleet/v1/report.pb.h"
@@ -42,6 +45,14 @@ struct ComparedGrids {
   std::vector<slamcore::NodeId> child_nodes;  // the child nodes rendered
 };
 slamcore::Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child);
+
+/// RMS position error of `graph` against `truth`, each component aligned on its own (components have
+/// independent frames); nullopt when fewer than two nodes carry truth. `count`: the nodes compared.
+std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
+                                        const std::unordered_map<slamcore::NodeId, slamcore::SE2>& truth, int* count);
+
+/// The nodes of `map` in `nodes` with their local maps (no edges), for rendering part of a map.
+slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<slamcore::NodeId>& nodes);
 
 /// Fails (INVALID_ARGUMENT naming the field) when the run's telemetry is malformed, e.g. an event the
 /// Mapper refuses: "events[12]: ViewObservedEvent at t=3.5: view 7 does not exist".

@@ -32,6 +32,8 @@ enum class Permission {
   kRead,       // engineers, admins
   kReprocess,  // engineers, admins
   kLabel,      // engineers, admins
+  kFetchMap,   // robots (own map only), engineers, admins: Maps.GetMap
+  kRepairMap,  // engineers, admins: repair, approve and reject map versions
   kModels,     // admins: train and activate classifier models
   kAdmin,      // admins: credentials
 };

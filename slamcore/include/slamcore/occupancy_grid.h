@@ -60,6 +60,8 @@ struct OccupancyGrid {
 Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path);
 /// Writes `yaml_path` and an image beside it (same stem, .pgm, or .png when `png` is true).
 Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_path, bool png = false);
+/// The YAML text map_server reads for `grid` stored in `image_file` (a name relative to the YAML).
+std::string MapServerYaml(const OccupancyGrid& grid, const std::string& image_file);
 
 /// Decodes an 8-bit PGM (P5 binary or P2 ASCII, maxval ≤ 255) into a grid with map_server thresholds.
 Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, double origin_x, double origin_y,

@@ -49,6 +49,9 @@ struct Edge {
   Matrix3 information = Matrix3::Identity();
   EdgeKind kind = EdgeKind::kMotion;
   std::optional<ViewId> view;  // the observed view, for observation edges
+  /// Observation edges: the Mapper hypothesis whose acceptance added the edge (ids restart every run);
+  /// absent for direct edges and edges read from files. Lets a repair reject a whole hypothesis.
+  std::optional<std::int64_t> hypothesis;
 };
 
 /// Checks that a 3×3 information or covariance matrix is finite, symmetric and positive definite.

@@ -194,6 +194,41 @@ struct GroupStatistics {
   FleetStatistics statistics;
 };
 
+/// One version of a robot's map (docs/formats/map-versions.md). Versions are numbered 1, 2, … per robot and
+/// never change except for their approval (pending → approved/rejected) and their open_findings count.
+struct MapVersionRecord {
+  std::string robot_id;
+  std::int64_t version = 0;  // assigned by AppendMapVersion
+  std::optional<std::int64_t> parent_version;
+  std::string snapshot_id;   // must name a stored snapshot
+  std::string origin;        // "upload", "repair", "rollback", "undo"
+  std::string run_id;        // uploads: their run (one version per run); repairs: the run their chain started from
+  std::string action;        // repairs: what was done ("reject_edge", ...); empty for uploads
+  std::string action_detail;
+  std::string created_by;
+  std::string reason;
+  std::int64_t created_at_ms = 0;
+  std::string approval;      // "approved", "pending", "rejected", "stale"
+  std::string approved_by;
+  std::int64_t approved_at_ms = 0;
+  // Size and health figures, computed when the version is made.
+  std::int64_t nodes = 0, edges = 0, observation_edges = 0, views = 0, components = 0;
+  double known_area_m2 = 0.0;
+  double chi2 = 0.0;
+  std::int64_t open_findings = 0;  // kept equal to the version's findings in state "open"
+};
+
+/// Something the analysis flags on one map version; `detail_json` is the whole finding as the server
+/// describes it (evidence, what a repair would act on), opaque to storage.
+struct MapFindingRecord {
+  std::int64_t finding_id = 0;  // unique within the version
+  std::string kind;
+  double severity = 0.0;
+  std::string summary;
+  std::string state;            // "open", "resolved" or "info" (evidence, nothing to repair)
+  std::string detail_json;
+};
+
 enum class InsertOutcome { kInserted, kAlreadyPresent };
 
 }  // namespace storage

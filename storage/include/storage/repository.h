@@ -1,7 +1,7 @@
 // Repository: the one interface to everything the fleet service keeps (robots, credentials, runs, map
-// snapshots, reports with their rows, parameter sets, classifier models, the job queue), with two
-// back-ends: an embedded SQLite file (default) and PostgreSQL (scale-out). One contract test suite
-// (storage/tests/repository_contract_test.cc) runs against both. Schema: storage/docs/schema.md.
+// snapshots, reports with their rows, parameter sets, classifier models, map versions with their findings,
+// the job queue), with two back-ends: an embedded SQLite file (default) and PostgreSQL (scale-out). One
+// contract test suite (storage/tests/repository_contract_test.cc) runs against both. Schema: storage/docs/schema.md.
 //
 // Thread safety: a Repository is safe to use from many threads at once. Every method is one database
 // transaction: either all of its writes are stored or none (also when the process is killed). Several
@@ -100,6 +100,29 @@ class Repository {
   virtual Result<FleetStatistics> Aggregate(const RunFilter& filter) = 0;
   /// One row per group, ordered by key.
   virtual Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) = 0;
+
+  // ---- Map history (per robot) ----
+  /// Appends `version` (its `version` field is ignored) as the robot's newest version, number head + 1, with
+  /// its findings, in one transaction that holds the robot's row lock, so concurrent appends for one robot
+  /// never interleave. With `expected_head` set (the version a repair started from), ABORTED when the newest
+  /// version is another one. A version naming a run_id that already has an upload version returns that one
+  /// unchanged (uploads are retried). The robot and snapshot must be stored (FAILED_PRECONDITION).
+  virtual Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version,
+                                                    std::optional<std::int64_t> expected_head,
+                                                    const std::vector<MapFindingRecord>& findings) = 0;
+  /// The robot's versions, oldest first (empty when it has none).
+  virtual Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) = 0;
+  virtual Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) = 0;
+  /// The upload version made from `run_id`; NOT_FOUND when there is none.
+  virtual Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) = 0;
+  virtual Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id,
+                                                                std::int64_t version) = 0;
+  /// Replaces a version's findings (its run's analysis computes them after the upload) and its open count.
+  virtual Status PutMapFindings(const std::string& robot_id, std::int64_t version,
+                                const std::vector<MapFindingRecord>& findings) = 0;
+  /// A pending version becomes "approved" or "rejected"; FAILED_PRECONDITION when it is not pending.
+  virtual Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
+                                                    const std::string& reviewed_by) = 0;
 
   // ---- Job queue ----
   /// Returns the new job id.

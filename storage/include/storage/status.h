@@ -18,6 +18,7 @@ enum class StatusCode {
   kNotFound,            // the requested record does not exist
   kAlreadyExists,       // a record with this key exists with different content (a conflict)
   kFailedPrecondition,  // valid request, wrong state (lease lost, schema too new, missing referenced record)
+  kAborted,             // a concurrent change came first (e.g. a map's newest version moved); read again, retry
   kDataLoss,            // stored data is corrupt (checksum mismatch, not a database)
   kUnavailable,         // the database is busy or unreachable; retrying may help
   kInternal,            // a dependency failed unexpectedly
@@ -48,6 +49,7 @@ inline Status AlreadyExists(std::string message) { return {StatusCode::kAlreadyE
 inline Status FailedPrecondition(std::string message) {
   return {StatusCode::kFailedPrecondition, std::move(message)};
 }
+inline Status Aborted(std::string message) { return {StatusCode::kAborted, std::move(message)}; }
 inline Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message)}; }
 inline Status Unavailable(std::string message) { return {StatusCode::kUnavailable, std::move(message)}; }
 inline Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message)}; }

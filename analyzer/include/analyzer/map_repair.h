@@ -1,0 +1,88 @@
+// Map health and repair (docs/formats/map-versions.md): the figures and findings of one version of a
+// robot's map, the repairs that make a new version from it, and its export as ROS map_server files and g2o.
+//
+// A version's map is a slamcore::Map. The run that a version's chain started from matters for two things:
+// its parent map tells which nodes (and so which edges, hypotheses and occupancy patches) the run added, and
+// the server's rerun of that run (its RunReport, made with the fleet's default parameters) is the second
+// opinion that findings compare the robot's own decisions with.
+//
+// Thread safety: pure functions of their inputs.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "fleet/v1/report.pb.h"
+#include "fleet/v1/maps.pb.h"
+#include "slamcore/mapper.h"
+#include "slamcore/occupancy_grid.h"
+
+namespace analyzer {
+
+/// Size and health figures of a map (MapVersion fields).
+struct MapFigures {
+  std::int64_t nodes = 0, edges = 0, observation_edges = 0, views = 0, components = 0;
+  double known_area_m2 = 0.0;  // free or occupied cells of the home component's grid
+  double chi2 = 0.0;
+};
+slamcore::Result<MapFigures> ComputeFigures(const slamcore::Map& map);
+
+/// The home component (the largest; ties: the one of the first node) rendered as an occupancy grid, as the
+/// dashboard shows a version and map_server export writes it. An empty grid (width 0) for an empty map.
+slamcore::Result<slamcore::OccupancyGrid> RenderHomeGrid(const slamcore::Map& map);
+
+/// The nodes `map` has and `run_parent` has not: those the run added.
+std::set<slamcore::NodeId> NodesAddedByRun(const slamcore::Map& map, const slamcore::Map& run_parent);
+
+struct FindingOptions {
+  /// An observation edge is a residual outlier when its χ² exceeds this (χ²(3) at 99.9 %) ...
+  double residual_chi2 = 16.27;
+  /// ... and this many times the median χ² of the map's observation edges.
+  double residual_peer_factor = 5.0;
+  /// Regions the classifier calls protrusion with at least this probability.
+  double protrusion_probability = 0.5;
+};
+
+/// What FindMapFindings looks at. `report` and `run_parent` may be null (not analysed yet, or a version
+/// without a run); then only the findings on the map itself are made.
+struct FindingInputs {
+  const slamcore::Map* map = nullptr;
+  const slamcore::Map* run_parent = nullptr;
+  const fleet::v1::RunReport* report = nullptr;
+};
+
+/// The findings, ordered by severity (highest first) and numbered from 1 in that order:
+///   high_residual_edge      observation edges far above their peers after optimisation (grouped by hypothesis)
+///   unconfirmed_hypothesis  edges the robot added by accepting a hypothesis that the server's rerun did not add
+///   protrusion              regions the classifier called protrusion; resolved once the run's cells are cut
+///   undone_merge            conditional merges the rerun undid (state "info": evidence, nothing to repair)
+///   ambiguous_view          views marked ambiguous in the map, one finding for all (state "info")
+std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, const FindingOptions& options = {});
+
+/// Re-optimises every component from a linear initialisation (repairs can move a component far).
+slamcore::Status Reoptimize(slamcore::Map& map);
+
+/// Repairs: each returns the repaired copy and describes what it did in `detail`. INVALID_ARGUMENT (naming
+/// what is missing) when there is nothing to repair, so a repair never makes a version equal to its base.
+///
+/// Removes one observation edge (`view` disambiguates parallel edges) and re-optimises.
+slamcore::Result<slamcore::Map> RejectEdge(const slamcore::Map& map, slamcore::NodeId from, slamcore::NodeId to,
+                                           std::optional<slamcore::ViewId> view, std::string* detail);
+/// Removes every edge that hypothesis `hypothesis` of the run added (edges from `run_nodes` carrying that
+/// hypothesis id), splitting components again when it was a merge, and re-optimises.
+slamcore::Result<slamcore::Map> RejectHypothesis(const slamcore::Map& map, const std::set<slamcore::NodeId>& run_nodes,
+                                                 std::int64_t hypothesis, std::string* detail);
+/// Marks unknown every cell the run's nodes' patches put inside `world_bbox` (min_x, min_y, max_x, max_y in
+/// the home frame), so the map there is what it was before the run.
+slamcore::Result<slamcore::Map> CutRegion(const slamcore::Map& map, const std::set<slamcore::NodeId>& run_nodes,
+                                          const std::array<double, 4>& world_bbox, std::string* detail);
+
+/// Export: ROS map_server files of the home grid ("<stem>.pgm", "<stem>.yaml") or the pose graph as g2o
+/// ("<stem>.g2o"). INVALID_ARGUMENT for another format or an empty map.
+slamcore::Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const slamcore::Map& map, const std::string& format,
+                                                                 const std::string& stem);
+
+}  // namespace analyzer

@@ -1,0 +1,429 @@
+#include "analyzer/map_repair.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analyzer/run_analysis.h"
+#include "slamcore/graph_io.h"
+#include "slamcore/linear_initialization.h"
+#include "slamcore/optimizer.h"
+
+namespace analyzer {
+namespace {
+
+using nlohmann::json;
+using slamcore::Edge;
+using slamcore::EdgeKind;
+using slamcore::Map;
+using slamcore::NodeId;
+using slamcore::Result;
+using slamcore::Status;
+
+double EdgeChi2(const slamcore::PoseGraph& graph, const Edge& edge) {
+  const slamcore::Vector3 error =
+      slamcore::EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement);
+  return error.dot(edge.information * error);
+}
+
+NodeId HomeComponent(const slamcore::PoseGraph& graph) {
+  NodeId home = graph.nodes().front().id;
+  for (const slamcore::ComponentId component : graph.Components()) {
+    if (graph.ComponentSize(component) > graph.ComponentSize(home)) home = component;
+  }
+  return graph.ComponentOf(home);
+}
+
+json EdgeJson(const Edge& edge, double chi2) {
+  json out = {{"from", edge.from}, {"to", edge.to}, {"chi2", chi2}};
+  if (edge.view) out["view"] = *edge.view;
+  if (edge.hypothesis) out["hypothesis"] = *edge.hypothesis;
+  return out;
+}
+
+json DecisionJson(const fleet::v1::Decision& decision) {
+  return {{"time", decision.time()},        {"kind", decision.kind()}, {"node", decision.node()},
+          {"view", decision.view()},        {"hypothesis", decision.hypothesis()},
+          {"hypothesis_kind", decision.hypothesis_kind()}, {"reason", decision.reason()}};
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(digits);
+  out << value;
+  return out.str();
+}
+
+/// Whether removing `removed` (indices into graph.edges()) leaves the two ends of the first one apart.
+bool SplitsComponents(const slamcore::PoseGraph& graph, const std::set<std::size_t>& removed) {
+  if (removed.empty()) return false;
+  const Edge& first = graph.edges()[*removed.begin()];
+  slamcore::PoseGraph without = graph;
+  std::size_t index = 0;
+  without.RemoveEdgesIf([&](const Edge&) { return removed.contains(index++); });
+  return !without.SameComponent(first.from, first.to);
+}
+
+/// Calls `visit(node, cell_index, world_centre)` for every known cell of the patches of `nodes` that lie in
+/// the component `component`, with the cell's centre in that component's frame.
+template <typename Visit>
+void ForEachKnownPatchCell(const Map& map, const std::set<NodeId>& nodes, slamcore::ComponentId component, Visit visit) {
+  for (const NodeId node : nodes) {
+    const auto patch = map.local_maps.find(node);
+    if (patch == map.local_maps.end() || !map.graph.HasNode(node) || map.graph.ComponentOf(node) != component) continue;
+    const slamcore::SE2 world_T_patch = map.graph.node(node).pose * patch->second.node_T_origin;
+    const slamcore::LocalMapEvent& cells = patch->second;
+    for (int row = 0; row < cells.height; ++row) {
+      for (int col = 0; col < cells.width; ++col) {
+        const std::size_t index = static_cast<std::size_t>(row) * cells.width + col;
+        if (cells.cells[index] < 0) continue;
+        visit(node, index, world_T_patch * slamcore::Vector2((col + 0.5) * cells.resolution, (row + 0.5) * cells.resolution));
+      }
+    }
+  }
+}
+
+bool Inside(const slamcore::Vector2& point, const std::array<double, 4>& box, double margin) {
+  return point.x() >= box[0] - margin && point.y() >= box[1] - margin && point.x() <= box[2] + margin &&
+         point.y() <= box[3] + margin;
+}
+
+std::int64_t RunCellsInside(const Map& map, const std::set<NodeId>& run_nodes, const std::array<double, 4>& box) {
+  if (map.graph.num_nodes() == 0) return 0;
+  std::int64_t count = 0;
+  ForEachKnownPatchCell(map, run_nodes, HomeComponent(map.graph),
+                        [&](NodeId, std::size_t, const slamcore::Vector2& centre) { count += Inside(centre, box, 0.0); });
+  return count;
+}
+
+void ResidualFindings(const Map& map, const std::set<NodeId>& run_nodes, const FindingOptions& options,
+                      std::vector<fleet::v1::MapFinding>* findings) {
+  const slamcore::PoseGraph& graph = map.graph;
+  std::vector<double> chi2(graph.num_edges(), 0.0);
+  std::vector<double> observation_chi2;
+  for (std::size_t i = 0; i < graph.num_edges(); ++i) {
+    if (graph.edges()[i].kind != EdgeKind::kObservation) continue;
+    chi2[i] = EdgeChi2(graph, graph.edges()[i]);
+    observation_chi2.push_back(chi2[i]);
+  }
+  if (observation_chi2.empty()) return;
+  std::nth_element(observation_chi2.begin(), observation_chi2.begin() + observation_chi2.size() / 2, observation_chi2.end());
+  const double median = observation_chi2[observation_chi2.size() / 2];
+  const double threshold = std::max(options.residual_chi2, options.residual_peer_factor * median);
+  // One finding per hypothesis of the run (its edges stand or fall together), else one per edge.
+  std::map<std::pair<std::int64_t, std::size_t>, std::vector<std::size_t>> groups;
+  for (std::size_t i = 0; i < graph.num_edges(); ++i) {
+    const Edge& edge = graph.edges()[i];
+    if (edge.kind != EdgeKind::kObservation || chi2[i] <= threshold) continue;
+    const bool of_run_hypothesis = edge.hypothesis && run_nodes.contains(edge.from);
+    groups[of_run_hypothesis ? std::pair{*edge.hypothesis, std::size_t{0}} : std::pair{std::int64_t{-1}, i}].push_back(i);
+  }
+  for (const auto& [key, members] : groups) {
+    std::size_t worst = members.front();
+    json edges = json::array();
+    for (const std::size_t i : members) {
+      if (chi2[i] > chi2[worst]) worst = i;
+      edges.push_back(EdgeJson(graph.edges()[i], chi2[i]));
+    }
+    const Edge& edge = graph.edges()[worst];
+    fleet::v1::MapFinding finding;
+    finding.set_kind("high_residual_edge");
+    finding.set_severity(std::clamp(0.5 + 0.1 * std::log2(chi2[worst] / threshold), 0.5, 0.95));
+    finding.set_state("open");
+    const std::string subject = key.first >= 0 ? std::to_string(members.size()) + " edge(s) of hypothesis " +
+                                                     std::to_string(key.first)
+                                               : "edge " + std::to_string(edge.from) + "→" + std::to_string(edge.to);
+    finding.set_summary(subject + ": χ² up to " + Fixed(chi2[worst], 1) + " after optimisation (observation edges' median " +
+                        Fixed(median, 2) + ")");
+    if (key.first >= 0) finding.set_hypothesis(key.first);
+    finding.set_edge_from(edge.from);
+    finding.set_edge_to(edge.to);
+    finding.set_evidence_json(json{{"edges", edges}, {"median_chi2", median}, {"threshold", threshold}}.dump());
+    findings->push_back(std::move(finding));
+  }
+}
+
+void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_nodes, const fleet::v1::RunReport& report,
+                                   std::vector<fleet::v1::MapFinding>* findings) {
+  std::set<std::pair<NodeId, std::int64_t>> rerun_edges;  // (robot node, view) of the rerun's observation edges
+  for (const fleet::v1::Edge& edge : report.rerun_child().edges()) {
+    if (edge.kind() == fleet::v1::Edge::KIND_OBSERVATION && edge.has_view()) rerun_edges.emplace(edge.from(), edge.view());
+  }
+  std::map<std::int64_t, std::set<std::size_t>> by_hypothesis;
+  for (std::size_t i = 0; i < map.graph.num_edges(); ++i) {
+    const Edge& edge = map.graph.edges()[i];
+    if (edge.kind == EdgeKind::kObservation && edge.hypothesis && run_nodes.contains(edge.from)) {
+      by_hypothesis[*edge.hypothesis].insert(i);
+    }
+  }
+  for (const auto& [hypothesis, members] : by_hypothesis) {
+    int confirmed = 0;
+    std::set<std::int64_t> views;
+    json edges = json::array();
+    for (const std::size_t i : members) {
+      const Edge& edge = map.graph.edges()[i];
+      if (edge.view) {
+        views.insert(*edge.view);
+        confirmed += rerun_edges.contains({edge.from, *edge.view}) ? 1 : 0;
+      }
+      edges.push_back(EdgeJson(edge, EdgeChi2(map.graph, edge)));
+    }
+    if (2 * confirmed >= static_cast<int>(members.size())) continue;
+    json decisions = json::array();
+    for (const fleet::v1::Decision& decision : report.decisions()) {
+      if (views.contains(decision.view()) && decision.kind() != "direct_edge" && decisions.size() < 40) {
+        decisions.push_back(DecisionJson(decision));
+      }
+    }
+    const bool merge = SplitsComponents(map.graph, members);
+    const Edge& first = map.graph.edges()[*members.begin()];
+    fleet::v1::MapFinding finding;
+    finding.set_kind("unconfirmed_hypothesis");
+    finding.set_severity(merge ? 0.8 : 0.7);
+    finding.set_state("open");
+    finding.set_summary(std::string(merge ? "merge" : "loop closure") + " by hypothesis " + std::to_string(hypothesis) +
+                        " (" + std::to_string(members.size()) + " edges, " + std::to_string(confirmed) +
+                        " confirmed): the robot accepted it, the server's rerun with '" + report.parameter_set() +
+                        "' did not");
+    finding.set_hypothesis(hypothesis);
+    finding.set_edge_from(first.from);
+    finding.set_edge_to(first.to);
+    finding.set_evidence_json(json{{"edges", edges},
+                                   {"joins_components", merge},
+                                   {"confirmed_edges", confirmed},
+                                   {"parameter_set", report.parameter_set()},
+                                   {"rerun_decisions", decisions}}
+                                  .dump());
+    findings->push_back(std::move(finding));
+  }
+}
+
+void ProtrusionFindings(const Map& map, const std::set<NodeId>& run_nodes, const fleet::v1::RunReport& report,
+                        const FindingOptions& options, std::vector<fleet::v1::MapFinding>* findings) {
+  for (const fleet::v1::ProtrusionRegion& region : report.protrusion_regions()) {
+    if (region.predicted_class() != "protrusion" || region.probability() < options.protrusion_probability ||
+        region.world_bbox_size() != 4) {
+      continue;
+    }
+    const std::array<double, 4> box = {region.world_bbox(0), region.world_bbox(1), region.world_bbox(2), region.world_bbox(3)};
+    const std::int64_t cells = RunCellsInside(map, run_nodes, box);
+    fleet::v1::MapFinding finding;
+    finding.set_kind("protrusion");
+    finding.set_severity(0.9 * region.probability());
+    finding.set_state(cells > 0 ? "open" : "resolved");
+    finding.set_summary("protrusion region " + std::to_string(region.id()) + " (" +
+                        Fixed((box[2] - box[0]) * (box[3] - box[1]), 2) + " m², probability " +
+                        Fixed(region.probability(), 2) + ")" + (cells > 0 ? "" : ": cut out"));
+    for (const double value : box) finding.add_world_bbox(value);
+    finding.set_evidence_json(json{{"region_id", region.id()},
+                                   {"probability", region.probability()},
+                                   {"run_cells_inside", cells},
+                                   {"image_bbox", std::vector<int>(region.bbox().begin(), region.bbox().end())}}
+                                  .dump());
+    findings->push_back(std::move(finding));
+  }
+}
+
+void UndoneMergeFindings(const fleet::v1::RunReport& report, std::vector<fleet::v1::MapFinding>* findings) {
+  std::map<std::int64_t, json> conditional;  // hypothesis → its decisions, once conditionally accepted
+  for (const fleet::v1::Decision& decision : report.decisions()) {
+    if (decision.hypothesis_kind() != "merge") continue;
+    if (decision.kind() == "conditionally_accepted") conditional[decision.hypothesis()] = json::array();
+    const auto it = conditional.find(decision.hypothesis());
+    if (it == conditional.end()) continue;
+    it->second.push_back(DecisionJson(decision));
+    if (decision.kind() != "rejected") continue;
+    const double accepted_at = it->second.front()["time"].get<double>();
+    fleet::v1::MapFinding finding;
+    finding.set_kind("undone_merge");
+    finding.set_severity(0.3);
+    finding.set_state("info");
+    finding.set_summary("the rerun merged conditionally at t=" + Fixed(accepted_at, 1) + " s and undid it at t=" +
+                        Fixed(decision.time(), 1) + " s (" + decision.reason() + ")");
+    finding.set_evidence_json(json{{"rerun_hypothesis", decision.hypothesis()}, {"rerun_decisions", it->second}}.dump());
+    findings->push_back(std::move(finding));
+    conditional.erase(it);
+  }
+}
+
+void AmbiguousViewFinding(const Map& map, std::vector<fleet::v1::MapFinding>* findings) {
+  json views = json::array();
+  for (const slamcore::View& view : map.graph.views()) {
+    if (view.ambiguous) views.push_back(view.id);
+  }
+  if (views.empty()) return;
+  fleet::v1::MapFinding finding;
+  finding.set_kind("ambiguous_view");
+  finding.set_severity(0.1);
+  finding.set_state("info");
+  finding.set_summary(std::to_string(views.size()) + " of " + std::to_string(map.graph.views().size()) +
+                      " views are marked ambiguous (discounted as merge evidence)");
+  finding.set_evidence_json(json{{"views", views}}.dump());
+  findings->push_back(std::move(finding));
+}
+
+}  // namespace
+
+Result<slamcore::OccupancyGrid> RenderHomeGrid(const Map& map) {
+  if (map.graph.num_nodes() == 0) return slamcore::OccupancyGrid{};
+  std::set<NodeId> home;
+  for (const NodeId node : map.graph.NodesOf(HomeComponent(map.graph))) home.insert(node);
+  const Map part = ComponentMap(map, home);
+  if (part.local_maps.empty()) return slamcore::OccupancyGrid{};
+  slamcore::GlobalGridRenderer renderer;
+  SLAMCORE_RETURN_IF_ERROR(renderer.RenderAll(part));
+  return renderer.grid();
+}
+
+Result<MapFigures> ComputeFigures(const Map& map) {
+  MapFigures figures;
+  figures.nodes = static_cast<std::int64_t>(map.graph.num_nodes());
+  figures.edges = static_cast<std::int64_t>(map.graph.num_edges());
+  for (const Edge& edge : map.graph.edges()) figures.observation_edges += edge.kind == EdgeKind::kObservation ? 1 : 0;
+  figures.views = static_cast<std::int64_t>(map.graph.views().size());
+  figures.components = static_cast<std::int64_t>(map.graph.NumComponents());
+  figures.chi2 = slamcore::Chi2(map.graph);
+  auto grid = RenderHomeGrid(map);
+  if (!grid.ok()) return grid.status();
+  const std::int64_t known = static_cast<std::int64_t>(grid->cells.size()) - grid->CountCells(slamcore::CellState::kUnknown);
+  figures.known_area_m2 = static_cast<double>(known) * grid->resolution * grid->resolution;
+  return figures;
+}
+
+std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {
+  std::set<NodeId> added;
+  for (const slamcore::Node& node : map.graph.nodes()) {
+    if (!run_parent.graph.HasNode(node.id)) added.insert(node.id);
+  }
+  return added;
+}
+
+std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, const FindingOptions& options) {
+  std::vector<fleet::v1::MapFinding> findings;
+  if (!inputs.map || inputs.map->graph.num_nodes() == 0) return findings;
+  const Map& map = *inputs.map;
+  std::set<NodeId> run_nodes;
+  if (inputs.run_parent) run_nodes = NodesAddedByRun(map, *inputs.run_parent);
+  ResidualFindings(map, run_nodes, options, &findings);
+  if (inputs.report && inputs.run_parent) {
+    UnconfirmedHypothesisFindings(map, run_nodes, *inputs.report, &findings);
+    ProtrusionFindings(map, run_nodes, *inputs.report, options, &findings);
+  }
+  if (inputs.report) UndoneMergeFindings(*inputs.report, &findings);
+  AmbiguousViewFinding(map, &findings);
+  std::stable_sort(findings.begin(), findings.end(),
+                   [](const auto& a, const auto& b) { return a.severity() > b.severity(); });
+  for (std::size_t i = 0; i < findings.size(); ++i) findings[i].set_finding_id(static_cast<std::int64_t>(i + 1));
+  return findings;
+}
+
+Status Reoptimize(Map& map) {
+  if (map.graph.num_nodes() == 0) return Status::Ok();
+  SLAMCORE_RETURN_IF_ERROR(slamcore::InitializeLinear(map.graph));
+  slamcore::OptimizerOptions options;
+  options.max_iterations = 50;
+  auto summary = slamcore::Optimize(map.graph, options);
+  return summary.ok() ? Status::Ok() : summary.status();
+}
+
+Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<slamcore::ViewId> view, std::string* detail) {
+  bool motion_only = false;
+  std::optional<std::size_t> target;
+  for (std::size_t i = 0; i < map.graph.num_edges() && !target; ++i) {
+    const Edge& edge = map.graph.edges()[i];
+    if (edge.from != from || edge.to != to || (view && edge.view != view)) continue;
+    if (edge.kind == EdgeKind::kMotion) {
+      motion_only = true;
+      continue;
+    }
+    target = i;
+  }
+  const std::string name = "edge " + std::to_string(from) + "→" + std::to_string(to) +
+                           (view ? " (view " + std::to_string(*view) + ")" : "");
+  if (!target) {
+    return slamcore::InvalidArgument(motion_only ? name + " is a motion (odometry) edge; only observation edges can be rejected"
+                                                 : "the map has no observation " + name);
+  }
+  Map repaired = map;
+  const std::size_t components_before = repaired.graph.NumComponents();
+  std::size_t index = 0;
+  repaired.graph.RemoveEdgesIf([&](const Edge&) { return index++ == *target; });
+  SLAMCORE_RETURN_IF_ERROR(Reoptimize(repaired));
+  *detail = "rejected observation " + name + "; components " + std::to_string(components_before) + " → " +
+            std::to_string(repaired.graph.NumComponents());
+  return repaired;
+}
+
+Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, std::int64_t hypothesis, std::string* detail) {
+  Map repaired = map;
+  const std::size_t components_before = repaired.graph.NumComponents();
+  const std::size_t removed = repaired.graph.RemoveEdgesIf([&](const Edge& edge) {
+    return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis && run_nodes.contains(edge.from);
+  });
+  if (removed == 0) {
+    return slamcore::InvalidArgument("the map has no edge that hypothesis " + std::to_string(hypothesis) +
+                                     " of its run added (already rejected, or a hypothesis of another run)");
+  }
+  SLAMCORE_RETURN_IF_ERROR(Reoptimize(repaired));
+  *detail = "rejected hypothesis " + std::to_string(hypothesis) + ": " + std::to_string(removed) +
+            " edge(s) removed; components " + std::to_string(components_before) + " → " +
+            std::to_string(repaired.graph.NumComponents());
+  return repaired;
+}
+
+Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes, const std::array<double, 4>& world_bbox,
+                      std::string* detail) {
+  if (!(world_bbox[0] < world_bbox[2] && world_bbox[1] < world_bbox[3])) {
+    return slamcore::InvalidArgument("region: min_x < max_x and min_y < max_y are required");
+  }
+  if (map.graph.num_nodes() == 0) return slamcore::InvalidArgument("the map is empty");
+  Map repaired = map;
+  std::int64_t cleared = 0;
+  std::set<NodeId> touched;
+  // Half a patch cell of margin: the renderer samples patches at grid cell centres, so a patch cell whose
+  // centre lies just outside the box still paints cells inside it.
+  ForEachKnownPatchCell(map, run_nodes, HomeComponent(map.graph),
+                        [&](NodeId node, std::size_t index, const slamcore::Vector2& centre) {
+                          const double margin = 0.5 * map.local_maps.at(node).resolution;
+                          if (!Inside(centre, world_bbox, margin)) return;
+                          repaired.local_maps.at(node).cells[index] = -1;
+                          ++cleared;
+                          touched.insert(node);
+                        });
+  if (cleared == 0) return slamcore::InvalidArgument("the run's occupancy patches have no known cells in the region");
+  *detail = "cut region [" + Fixed(world_bbox[0], 2) + ", " + Fixed(world_bbox[1], 2) + "] – [" + Fixed(world_bbox[2], 2) +
+            ", " + Fixed(world_bbox[3], 2) + "]: " + std::to_string(cleared) + " cells of " + std::to_string(touched.size()) +
+            " patches made unknown";
+  return repaired;
+}
+
+Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format, const std::string& stem) {
+  if (map.graph.num_nodes() == 0) return slamcore::InvalidArgument("the map is empty: nothing to export");
+  std::vector<fleet::v1::ExportedFile> files;
+  if (format == "g2o") {
+    std::ostringstream out;
+    slamcore::WritePoseGraph(map.graph, out, slamcore::GraphFormat::kG2o);
+    fleet::v1::ExportedFile& file = files.emplace_back();
+    file.set_name(stem + ".g2o");
+    file.set_content(out.str());
+    return files;
+  }
+  if (format != "map_server") {
+    return slamcore::InvalidArgument("format \"" + format + "\": expected \"map_server\" (PGM + YAML) or \"g2o\"");
+  }
+  auto grid = RenderHomeGrid(map);
+  if (!grid.ok()) return grid.status();
+  if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no map_server image");
+  fleet::v1::ExportedFile& image = files.emplace_back();
+  image.set_name(stem + ".pgm");
+  image.set_content(slamcore::EncodePgm(*grid));
+  fleet::v1::ExportedFile& yaml = files.emplace_back();
+  yaml.set_name(stem + ".yaml");
+  yaml.set_content(slamcore::MapServerYaml(*grid, stem + ".pgm"));
+  return files;
+}
+
+}  // namespace analyzer

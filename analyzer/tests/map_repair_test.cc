@@ -1,0 +1,254 @@
+#include "analyzer/map_repair.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analyzer/telemetry_codec.h"
+#include "slamcore/graph_io.h"
+
+namespace analyzer {
+namespace {
+
+using slamcore::Edge;
+using slamcore::EdgeKind;
+using slamcore::Map;
+using slamcore::NodeId;
+using slamcore::SE2;
+
+constexpr int kChain = 12;  // nodes per component
+
+/// A 1 m × 1 m free patch with an occupied border, 0.05 m cells, centred on its node.
+slamcore::LocalMapEvent Patch() {
+  slamcore::LocalMapEvent patch;
+  patch.resolution = 0.05;
+  patch.width = patch.height = 20;
+  patch.node_T_origin = SE2(-0.5, -0.5, 0.0);
+  patch.cells.assign(400, 0);
+  for (int i = 0; i < 20; ++i) patch.cells[static_cast<std::size_t>(i)] = 100;
+  return patch;
+}
+
+void AddMotion(Map& map, NodeId from, NodeId to) {
+  Edge edge;
+  edge.from = from;
+  edge.to = to;
+  edge.measurement = map.graph.node(from).pose.inverse() * map.graph.node(to).pose;
+  edge.information = slamcore::Matrix3::Identity() * 100.0;
+  ASSERT_TRUE(map.graph.AddEdge(edge).ok());
+}
+
+/// Home: nodes 0..11 along y = 0 with patches and views 100..111, the robot's earlier map. The run added
+/// nodes 20..31 along y = 3 in a component of its own (with patches), joined to home by `merge_edges`
+/// observation edges of hypothesis 4 that are consistent with where the nodes are.
+struct Scenario {
+  Map parent, child;
+};
+
+Scenario MakeScenario(int merge_edges = 2) {
+  Scenario s;
+  for (int i = 0; i < kChain; ++i) {
+    EXPECT_TRUE(s.parent.graph.AddNode({.id = i, .pose = SE2(0.5 * i, 0.0, 0.0)}).ok());
+    EXPECT_TRUE(s.parent.graph.AddView({.id = 100 + i, .node = i}).ok());
+    s.parent.local_maps[i] = Patch();
+    if (i > 0) AddMotion(s.parent, i - 1, i);
+  }
+  s.child = s.parent;
+  for (int i = 0; i < kChain; ++i) {
+    const NodeId id = 20 + i;
+    (void)s.child.graph.AddNode({.id = id, .pose = SE2(0.5 * i, 3.0, 0.0)});
+    s.child.local_maps[id] = Patch();
+    if (i > 0) AddMotion(s.child, id - 1, id);
+  }
+  for (int k = 0; k < merge_edges; ++k) {
+    Edge edge;
+    edge.from = 22 + 3 * k;
+    edge.to = 2 + 3 * k;
+    edge.measurement = s.child.graph.node(edge.from).pose.inverse() * s.child.graph.node(edge.to).pose;
+    edge.kind = EdgeKind::kObservation;
+    edge.view = 102 + 3 * k;
+    edge.hypothesis = 4;
+    edge.information = slamcore::Matrix3::Identity() * 50.0;
+    EXPECT_TRUE(s.child.graph.AddEdge(edge).ok());
+  }
+  return s;
+}
+
+fleet::v1::RunReport ReportWithRerun(const Map& rerun_child) {
+  fleet::v1::RunReport report;
+  report.set_parameter_set("default");
+  *report.mutable_rerun_child() = ToProto(rerun_child);
+  return report;
+}
+
+const fleet::v1::MapFinding* FindKind(const std::vector<fleet::v1::MapFinding>& findings, const std::string& kind) {
+  for (const auto& finding : findings) {
+    if (finding.kind() == kind) return &finding;
+  }
+  return nullptr;
+}
+
+TEST(MapRepairTest, FiguresCountTheMapAndItsKnownArea) {
+  const Scenario s = MakeScenario();
+  const auto figures = ComputeFigures(s.child);
+  ASSERT_TRUE(figures.ok()) << figures.status().ToString();
+  EXPECT_EQ(figures->nodes, 2 * kChain);
+  EXPECT_EQ(figures->edges, 2 * (kChain - 1) + 2);
+  EXPECT_EQ(figures->observation_edges, 2);
+  EXPECT_EQ(figures->views, kChain);
+  EXPECT_EQ(figures->components, 1);
+  EXPECT_NEAR(figures->chi2, 0.0, 1e-9);
+  // Two strips of patches 1 m tall, 6.5 m long, 2 m apart (the grid's cells are 0.05 m like the patches).
+  EXPECT_NEAR(figures->known_area_m2, 2 * 6.5, 0.6);
+}
+
+TEST(MapRepairTest, RejectingAMergeHypothesisSplitsTheComponentsAgain) {
+  const Scenario s = MakeScenario();
+  const auto run_nodes = NodesAddedByRun(s.child, s.parent);
+  EXPECT_EQ(run_nodes.size(), static_cast<std::size_t>(kChain));
+  std::string detail;
+  const auto repaired = RejectHypothesis(s.child, run_nodes, 4, &detail);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  EXPECT_EQ(repaired->graph.NumComponents(), 2u);
+  EXPECT_EQ(repaired->graph.num_edges(), s.child.graph.num_edges() - 2);
+  EXPECT_NE(detail.find("2 edge(s) removed; components 1 → 2"), std::string::npos) << detail;
+  // The home component stays where it was (its anchor is its first node) and keeps its shape.
+  for (int i = 0; i < kChain; ++i) {
+    EXPECT_NEAR(repaired->graph.node(i).pose.translation().x(), 0.5 * i, 1e-6);
+    EXPECT_NEAR(repaired->graph.node(i).pose.translation().y(), 0.0, 1e-6);
+  }
+  // A hypothesis that added nothing (already rejected, or of another run) is an error, not an empty repair.
+  const auto again = RejectHypothesis(*repaired, run_nodes, 4, &detail);
+  EXPECT_EQ(again.status().code(), slamcore::StatusCode::kInvalidArgument);
+  EXPECT_EQ(RejectHypothesis(s.child, {}, 4, &detail).status().code(), slamcore::StatusCode::kInvalidArgument);
+}
+
+TEST(MapRepairTest, RejectEdgeRemovesOneObservationEdgeAndRefusesMotionEdges) {
+  const Scenario s = MakeScenario();
+  std::string detail;
+  const auto repaired = RejectEdge(s.child, 22, 2, 102, &detail);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  EXPECT_EQ(repaired->graph.num_edges(), s.child.graph.num_edges() - 1);
+  EXPECT_EQ(repaired->graph.NumComponents(), 1u);  // the other merge edge still joins them
+  const auto motion = RejectEdge(s.child, 0, 1, std::nullopt, &detail);
+  ASSERT_FALSE(motion.ok());
+  EXPECT_NE(motion.status().message().find("motion"), std::string::npos) << motion.status().message();
+  EXPECT_EQ(RejectEdge(s.child, 3, 7, std::nullopt, &detail).status().code(), slamcore::StatusCode::kInvalidArgument);
+}
+
+TEST(MapRepairTest, AnEdgeThatContradictsItsPeersIsAResidualFinding) {
+  Scenario s = MakeScenario(3);
+  // A loop closure inside home that claims node 10 sits 1.5 m from where odometry and the views put it.
+  Edge wrong;
+  wrong.from = 10;
+  wrong.to = 1;
+  wrong.measurement = SE2(-7.5, 1.5, 0.0);
+  wrong.kind = EdgeKind::kObservation;
+  wrong.view = 101;
+  wrong.information = slamcore::Matrix3::Identity() * 50.0;
+  ASSERT_TRUE(s.child.graph.AddEdge(wrong).ok());
+  ASSERT_TRUE(Reoptimize(s.child).ok());
+  const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent});
+  const auto* residual = FindKind(findings, "high_residual_edge");
+  ASSERT_NE(residual, nullptr);
+  EXPECT_EQ(residual->edge_from(), 10);
+  EXPECT_EQ(residual->edge_to(), 1);
+  EXPECT_EQ(residual->state(), "open");
+  EXPECT_EQ(residual->finding_id(), 1);  // the most severe first
+  int residual_findings = 0;
+  for (const auto& finding : findings) residual_findings += finding.kind() == "high_residual_edge";
+  EXPECT_EQ(residual_findings, 1) << "the consistent merge edges are not outliers";
+}
+
+TEST(MapRepairTest, AHypothesisTheRerunDidNotAcceptIsUnconfirmed) {
+  const Scenario s = MakeScenario();
+  // The server's rerun kept the run in its own component: it accepted neither merge edge.
+  Map rerun = s.parent;
+  for (int i = 0; i < kChain; ++i) (void)rerun.graph.AddNode({.id = 20 + i, .pose = SE2(0.5 * i, 3.0, 0.0)});
+  const fleet::v1::RunReport report = ReportWithRerun(rerun);
+  const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
+  const auto* unconfirmed = FindKind(findings, "unconfirmed_hypothesis");
+  ASSERT_NE(unconfirmed, nullptr);
+  EXPECT_EQ(unconfirmed->hypothesis(), 4);
+  const auto evidence = nlohmann::json::parse(unconfirmed->evidence_json());
+  EXPECT_TRUE(evidence["joins_components"].get<bool>());
+  EXPECT_EQ(evidence["edges"].size(), 2u);
+  EXPECT_NE(unconfirmed->summary().find("merge"), std::string::npos);
+
+  // When the rerun made the same edges, the hypothesis is confirmed: no finding.
+  const fleet::v1::RunReport agreeing = ReportWithRerun(s.child);
+  const auto confirmed = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &agreeing});
+  EXPECT_EQ(FindKind(confirmed, "unconfirmed_hypothesis"), nullptr);
+}
+
+TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFinding) {
+  const Scenario s = MakeScenario();
+  fleet::v1::RunReport report = ReportWithRerun(s.child);
+  fleet::v1::ProtrusionRegion* region = report.add_protrusion_regions();
+  region->set_id(7);
+  region->set_predicted_class("protrusion");
+  region->set_probability(0.9);
+  // Around run nodes 24..26 (x 2.0..3.0 at y = 3), far from home's patches.
+  for (const double value : {1.8, 2.6, 3.2, 3.4}) region->add_world_bbox(value);
+  const auto before = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
+  const auto* open = FindKind(before, "protrusion");
+  ASSERT_NE(open, nullptr);
+  EXPECT_EQ(open->state(), "open");
+  ASSERT_EQ(open->world_bbox_size(), 4);
+
+  std::string detail;
+  const auto cut = CutRegion(s.child, NodesAddedByRun(s.child, s.parent),
+                             {open->world_bbox(0), open->world_bbox(1), open->world_bbox(2), open->world_bbox(3)}, &detail);
+  ASSERT_TRUE(cut.ok()) << cut.status().ToString();
+  for (int i = 0; i < kChain; ++i) EXPECT_EQ(cut->local_maps.at(i).cells, s.child.local_maps.at(i).cells) << "home node " << i;
+  const auto after = FindMapFindings({.map = &*cut, .run_parent = &s.parent, .report = &report});
+  const auto* resolved = FindKind(after, "protrusion");
+  ASSERT_NE(resolved, nullptr);
+  EXPECT_EQ(resolved->state(), "resolved");
+  const auto figures_before = ComputeFigures(s.child), figures_after = ComputeFigures(*cut);
+  ASSERT_TRUE(figures_before.ok() && figures_after.ok());
+  EXPECT_LT(figures_after->known_area_m2, figures_before->known_area_m2 - 0.5);
+  // Nothing of the run's left in the box: a second cut is refused.
+  EXPECT_EQ(CutRegion(*cut, NodesAddedByRun(s.child, s.parent), {1.8, 2.6, 3.2, 3.4}, &detail).status().code(),
+            slamcore::StatusCode::kInvalidArgument);
+  EXPECT_EQ(CutRegion(s.child, {}, {1.0, 1.0, 0.0, 2.0}, &detail).status().code(), slamcore::StatusCode::kInvalidArgument);
+}
+
+TEST(MapRepairTest, ExportWritesMapServerFilesAndG2oThatReadBack) {
+  const Scenario s = MakeScenario();
+  const auto map_server = ExportMap(s.child, "map_server", "robot-1-v3");
+  ASSERT_TRUE(map_server.ok()) << map_server.status().ToString();
+  ASSERT_EQ(map_server->size(), 2u);
+  EXPECT_EQ((*map_server)[0].name(), "robot-1-v3.pgm");
+  EXPECT_EQ((*map_server)[1].name(), "robot-1-v3.yaml");
+  EXPECT_EQ((*map_server)[1].content().rfind("image: robot-1-v3.pgm\n", 0), 0u);
+  const auto grid = RenderHomeGrid(s.child);
+  ASSERT_TRUE(grid.ok());
+  const auto decoded = slamcore::DecodePgm((*map_server)[0].content(), grid->resolution, grid->origin_x, grid->origin_y);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  EXPECT_EQ(decoded->cells, grid->cells);
+
+  const auto g2o = ExportMap(s.child, "g2o", "robot-1-v3");
+  ASSERT_TRUE(g2o.ok());
+  std::istringstream in((*g2o)[0].content());
+  const auto graph = slamcore::ReadPoseGraph(in, "export");
+  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  EXPECT_EQ(graph->num_nodes(), s.child.graph.num_nodes());
+  EXPECT_EQ(graph->num_edges(), s.child.graph.num_edges());
+
+  EXPECT_EQ(ExportMap(s.child, "png", "x").status().code(), slamcore::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ExportMap(Map{}, "g2o", "x").status().code(), slamcore::StatusCode::kInvalidArgument);
+}
+
+TEST(MapRepairTest, EdgeHypothesisSurvivesTheWireFormat) {
+  const Scenario s = MakeScenario();
+  const auto back = FromProto(ToProto(s.child), "snapshot");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  int with_hypothesis = 0;
+  for (const Edge& edge : back->graph.edges()) with_hypothesis += edge.hypothesis == 4 ? 1 : 0;
+  EXPECT_EQ(with_hypothesis, 2);
+}
+
+}  // namespace
+}  // namespace analyzer

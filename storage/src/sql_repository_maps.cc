@@ -1,0 +1,249 @@
+// SqlRepository: map versions per robot and their findings.
+#include "sql_repository.h"
+
+namespace storage::internal {
+namespace {
+
+constexpr const char* kVersionColumns =
+    "SELECT robot_id, version, parent_version, snapshot_id, origin, run_id, action, action_detail, created_by, "
+    "reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, observation_edges, views, "
+    "components, known_area_m2, chi2, open_findings FROM map_versions ";
+
+MapVersionRecord VersionFromRow(const SqlRow& row) {
+  MapVersionRecord version;
+  version.robot_id = row.Text(0);
+  version.version = row.Int(1);
+  if (!row.IsNull(2)) version.parent_version = row.Int(2);
+  version.snapshot_id = row.Text(3);
+  version.origin = row.Text(4);
+  if (!row.IsNull(5)) version.run_id = row.Text(5);
+  version.action = row.Text(6);
+  version.action_detail = row.Text(7);
+  version.created_by = row.Text(8);
+  version.reason = row.Text(9);
+  version.created_at_ms = row.Int(10);
+  version.approval = row.Text(11);
+  version.approved_by = row.Text(12);
+  version.approved_at_ms = row.Int(13);
+  version.nodes = row.Int(14);
+  version.edges = row.Int(15);
+  version.observation_edges = row.Int(16);
+  version.views = row.Int(17);
+  version.components = row.Int(18);
+  version.known_area_m2 = row.Real(19);
+  version.chi2 = row.Real(20);
+  version.open_findings = row.Int(21);
+  return version;
+}
+
+bool IsOneOf(const std::string& value, std::initializer_list<const char*> allowed) {
+  for (const char* candidate : allowed) {
+    if (value == candidate) return true;
+  }
+  return false;
+}
+
+Status CheckVersion(const MapVersionRecord& version) {
+  if (version.robot_id.empty()) return InvalidArgument("map version robot_id is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(version.robot_id, "map version robot_id", 128));
+  if (version.snapshot_id.empty()) return InvalidArgument("map version snapshot_id is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(version.snapshot_id, "map version snapshot_id", 64));
+  if (!IsOneOf(version.origin, {"upload", "repair", "rollback", "undo"})) {
+    return InvalidArgument("map version origin \"" + version.origin + "\" is not upload, repair, rollback or undo");
+  }
+  if (version.origin == "upload" && version.run_id.empty()) return InvalidArgument("an upload map version needs run_id");
+  if (!IsOneOf(version.approval, {"approved", "pending", "rejected", "stale"})) {
+    return InvalidArgument("map version approval \"" + version.approval + "\" is not approved, pending, rejected or stale");
+  }
+  STORAGE_RETURN_IF_ERROR(CheckText(version.run_id, "map version run_id", 128));
+  STORAGE_RETURN_IF_ERROR(CheckText(version.action, "map version action"));
+  STORAGE_RETURN_IF_ERROR(CheckText(version.action_detail, "map version action_detail", 4096));
+  STORAGE_RETURN_IF_ERROR(CheckText(version.created_by, "map version created_by"));
+  STORAGE_RETURN_IF_ERROR(CheckText(version.reason, "map version reason", 4096));
+  STORAGE_RETURN_IF_ERROR(CheckText(version.approved_by, "map version approved_by"));
+  return Status::Ok();
+}
+
+Status CheckFindings(const std::vector<MapFindingRecord>& findings) {
+  for (const MapFindingRecord& finding : findings) {
+    STORAGE_RETURN_IF_ERROR(CheckText(finding.kind, "finding kind"));
+    STORAGE_RETURN_IF_ERROR(CheckText(finding.summary, "finding summary", 4096));
+    if (!IsOneOf(finding.state, {"open", "resolved", "info"})) {
+      return InvalidArgument("finding state \"" + finding.state + "\" is not open, resolved or info");
+    }
+    STORAGE_RETURN_IF_ERROR(CheckText(finding.detail_json, "finding detail_json", 1 << 20));
+  }
+  return Status::Ok();
+}
+
+std::int64_t OpenCount(const std::vector<MapFindingRecord>& findings) {
+  std::int64_t open = 0;
+  for (const MapFindingRecord& finding : findings) open += finding.state == "open" ? 1 : 0;
+  return open;
+}
+
+Status InsertFindings(SqlTransaction& transaction, const std::string& robot_id, std::int64_t version,
+                      const std::vector<MapFindingRecord>& findings) {
+  for (const MapFindingRecord& finding : findings) {
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO map_findings (robot_id, version, finding_id, kind, severity, summary, state, detail_json) "
+        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+        {robot_id, version, finding.finding_id, finding.kind, finding.severity, finding.summary, finding.state,
+         finding.detail_json}));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord& version,
+                                                         std::optional<std::int64_t> expected_head,
+                                                         const std::vector<MapFindingRecord>& findings) {
+  STORAGE_RETURN_IF_ERROR(CheckVersion(version));
+  STORAGE_RETURN_IF_ERROR(CheckFindings(findings));
+  MapVersionRecord stored = version;
+  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    // The robot's row lock serialises appends for one robot across connections and processes (SQLite
+    // serialises every write transaction anyway).
+    auto locked = transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
+                                    {version.robot_id});
+    if (!locked.ok()) return locked.status();
+    if (locked->empty()) return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
+    if (version.origin == "upload") {
+      auto existing = transaction.Query(std::string(kVersionColumns) + "WHERE run_id = $1 AND origin = 'upload'",
+                                        {version.run_id});
+      if (!existing.ok()) return existing.status();
+      if (!existing->empty()) {
+        stored = VersionFromRow(existing->front());
+        return Status::Ok();
+      }
+    }
+    auto head = transaction.Query("SELECT MAX(version) FROM map_versions WHERE robot_id = $1", {version.robot_id});
+    if (!head.ok()) return head.status();
+    const std::int64_t newest = head->empty() || head->front().IsNull(0) ? 0 : head->front().Int(0);
+    if (expected_head && *expected_head != newest) {
+      return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(newest) +
+                     ", not " + std::to_string(*expected_head) + ": it changed meanwhile; look again and retry");
+    }
+    if (version.parent_version && (*version.parent_version < 1 || *version.parent_version > newest)) {
+      return FailedPrecondition("parent version " + std::to_string(*version.parent_version) + " of robot " +
+                                version.robot_id + " does not exist");
+    }
+    auto snapshot = transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {version.snapshot_id});
+    if (!snapshot.ok()) return snapshot.status();
+    if (snapshot->empty()) return FailedPrecondition("map version names snapshot " + version.snapshot_id + ", which is not stored");
+    stored.version = newest + 1;
+    stored.open_findings = OpenCount(findings);
+    if (stored.created_at_ms == 0) stored.created_at_ms = NowMs();
+    SqlValue parent = SqlNull{};
+    if (stored.parent_version) parent = *stored.parent_version;
+    SqlValue run = SqlNull{};
+    if (!stored.run_id.empty()) run = stored.run_id;
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO map_versions (robot_id, version, parent_version, snapshot_id, origin, run_id, action, "
+        "action_detail, created_by, reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, "
+        "observation_edges, views, components, known_area_m2, chi2, open_findings) VALUES ($1, $2, $3, $4, $5, $6, "
+        "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22)",
+        {stored.robot_id, stored.version, parent, stored.snapshot_id, stored.origin, run, stored.action,
+         stored.action_detail, stored.created_by, stored.reason, stored.created_at_ms, stored.approval,
+         stored.approved_by, stored.approved_at_ms, stored.nodes, stored.edges, stored.observation_edges, stored.views,
+         stored.components, stored.known_area_m2, stored.chi2, stored.open_findings}));
+    STORAGE_RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
+    Fault("append_map_version:before_commit");
+    return Status::Ok();
+  }));
+  return stored;
+}
+
+Result<std::vector<MapVersionRecord>> SqlRepository::ListMapVersions(const std::string& robot_id) {
+  std::vector<MapVersionRecord> versions;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 ORDER BY version", {robot_id});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) versions.push_back(VersionFromRow(row));
+    return Status::Ok();
+  }));
+  return versions;
+}
+
+Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_id, std::int64_t version) {
+  std::optional<MapVersionRecord> found;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2", {robot_id, version});
+    if (!rows.ok()) return rows.status();
+    if (!rows->empty()) found = VersionFromRow(rows->front());
+    return Status::Ok();
+  }));
+  if (!found) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
+  return *found;
+}
+
+Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const std::string& run_id) {
+  std::optional<MapVersionRecord> found;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(std::string(kVersionColumns) + "WHERE run_id = $1 AND origin = 'upload'", {run_id});
+    if (!rows.ok()) return rows.status();
+    if (!rows->empty()) found = VersionFromRow(rows->front());
+    return Status::Ok();
+  }));
+  if (!found) return NotFound("run " + run_id + " made no map version");
+  return *found;
+}
+
+Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::string& robot_id, std::int64_t version) {
+  std::vector<MapFindingRecord> findings;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "SELECT finding_id, kind, severity, summary, state, detail_json FROM map_findings "
+        "WHERE robot_id = $1 AND version = $2 ORDER BY finding_id",
+        {robot_id, version});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) {
+      findings.push_back({.finding_id = row.Int(0), .kind = row.Text(1), .severity = row.Real(2),
+                          .summary = row.Text(3), .state = row.Text(4), .detail_json = row.Text(5)});
+    }
+    return Status::Ok();
+  }));
+  return findings;
+}
+
+Status SqlRepository::PutMapFindings(const std::string& robot_id, std::int64_t version,
+                                     const std::vector<MapFindingRecord>& findings) {
+  STORAGE_RETURN_IF_ERROR(CheckFindings(findings));
+  return Write([&](SqlTransaction& transaction) -> Status {
+    auto updated = transaction.Query(
+        "UPDATE map_versions SET open_findings = $3 WHERE robot_id = $1 AND version = $2 RETURNING version",
+        {robot_id, version, OpenCount(findings)});
+    if (!updated.ok()) return updated.status();
+    if (updated->empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
+    STORAGE_RETURN_IF_ERROR(
+        transaction.Exec("DELETE FROM map_findings WHERE robot_id = $1 AND version = $2", {robot_id, version}));
+    return InsertFindings(transaction, robot_id, version, findings);
+  });
+}
+
+Result<MapVersionRecord> SqlRepository::ReviewMapVersion(const std::string& robot_id, std::int64_t version,
+                                                         bool approve, const std::string& reviewed_by) {
+  STORAGE_RETURN_IF_ERROR(CheckText(reviewed_by, "reviewed_by"));
+  std::optional<MapVersionRecord> reviewed;
+  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "UPDATE map_versions SET approval = $3, approved_by = $4, approved_at_ms = $5 "
+        "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
+        {robot_id, version, std::string(approve ? "approved" : "rejected"), reviewed_by, NowMs()});
+    if (!rows.ok()) return rows.status();
+    auto current = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
+                                     {robot_id, version});
+    if (!current.ok()) return current.status();
+    if (current->empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
+    reviewed = VersionFromRow(current->front());
+    if (rows->empty()) {
+      return FailedPrecondition("map version " + std::to_string(version) + " of robot " + robot_id + " is " +
+                                reviewed->approval + ", not pending: only pending versions are reviewed");
+    }
+    return Status::Ok();
+  }));
+  return *reviewed;
+}
+
+}  // namespace storage::internal
