@@ -80,6 +80,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--log-level", config.log_level, "debug, info, warn, error")->capture_default_str();
   app.add_option("--log-format", config.log_format, "json or text")->capture_default_str();
+  app.add_option("--auto-repair", config.auto_repair, "none, or cut_protrusions: cut protrusions out of maps after analysis")
+      ->capture_default_str();
+  app.add_flag("--auto-approve", config.auto_approve, "policy repairs reach robots without an engineer's review");
   CLI11_PARSE(app, argc, argv);
   if (storage::Status valid = config.Validate(); !valid.ok()) {
     std::cerr << "fleetd: " << valid.ToString() << "\n";
@@ -135,6 +138,7 @@ int main(int argc, char** argv) {
     options.name = std::string(host) + ":" + std::to_string(::getpid());
     options.lease = std::chrono::seconds(config.lease_seconds);
     options.model_name = config.model_name;
+    options.map_policy = server::MapPolicyOf(config);
     workers = std::make_unique<server::WorkerPool>(repo, metrics, options);
     workers->Start();
   }
@@ -168,6 +172,7 @@ int main(int argc, char** argv) {
     return response;
   });
   server::RegisterDashboardRoutes(router, repo, authenticator, config);
+  server::RegisterMapRoutes(router, repo, authenticator, config);
   std::unique_ptr<server::HttpServer> http;
   if (!config.http.empty()) {
     std::string error;

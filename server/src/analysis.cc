@@ -16,18 +16,6 @@
 namespace server {
 namespace {
 
-storage::Status FromSlamcore(const slamcore::Status& status) {
-  switch (status.code()) {
-    case slamcore::StatusCode::kOk: return storage::Status::Ok();
-    case slamcore::StatusCode::kInvalidArgument: return storage::InvalidArgument(status.message());
-    case slamcore::StatusCode::kNotFound: return storage::NotFound(status.message());
-    case slamcore::StatusCode::kFailedPrecondition: return storage::FailedPrecondition(status.message());
-    case slamcore::StatusCode::kDataLoss: return storage::DataLoss(status.message());
-    case slamcore::StatusCode::kInternal: return storage::Internal(status.message());
-  }
-  return storage::Internal(status.message());
-}
-
 // A unique file in the temp directory, removed when this goes out of scope.
 class TempFile {
  public:
@@ -47,6 +35,18 @@ class TempFile {
 };
 
 }  // namespace
+
+storage::Status FromSlamcore(const slamcore::Status& status) {
+  switch (status.code()) {
+    case slamcore::StatusCode::kOk: return storage::Status::Ok();
+    case slamcore::StatusCode::kInvalidArgument: return storage::InvalidArgument(status.message());
+    case slamcore::StatusCode::kNotFound: return storage::NotFound(status.message());
+    case slamcore::StatusCode::kFailedPrecondition: return storage::FailedPrecondition(status.message());
+    case slamcore::StatusCode::kDataLoss: return storage::DataLoss(status.message());
+    case slamcore::StatusCode::kInternal: return storage::Internal(status.message());
+  }
+  return storage::Internal(status.message());
+}
 
 storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
   storage::ReportBundle bundle;
@@ -185,6 +185,7 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   AnalysisResult result;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   result.regions = static_cast<std::int64_t>(bundle.protrusion_regions.size());
+  result.report = std::move(report).value();
   return result;
 }
 

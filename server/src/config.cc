@@ -29,6 +29,9 @@ storage::Status FleetdConfig::Validate() const {
   if (lease_seconds < 4) return storage::InvalidArgument("lease_seconds: at least 4");
   if (auth_cache_seconds < 0) return storage::InvalidArgument("auth_cache_seconds: must be >= 0");
   if (log_format != "json" && log_format != "text") return storage::InvalidArgument("log_format: json or text");
+  if (auto_repair != "none" && auto_repair != "cut_protrusions") {
+    return storage::InvalidArgument("auto_repair: expected none or cut_protrusions, got \"" + auto_repair + "\"");
+  }
   if (log_level != "debug" && log_level != "info" && log_level != "warn" && log_level != "error") {
     return storage::InvalidArgument("log_level: debug, info, warn or error");
   }
@@ -67,6 +70,8 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"auth_cache_seconds", [&](const nlohmann::json& v) { config.auth_cache_seconds = v.get<int>(); }},
       {"log_level", [&](const nlohmann::json& v) { config.log_level = v.get<std::string>(); }},
       {"log_format", [&](const nlohmann::json& v) { config.log_format = v.get<std::string>(); }},
+      {"auto_repair", [&](const nlohmann::json& v) { config.auto_repair = v.get<std::string>(); }},
+      {"auto_approve", [&](const nlohmann::json& v) { config.auto_approve = v.get<bool>(); }},
   };
   for (const auto& [key, value] : json.items()) {
     auto setter = setters.find(key);

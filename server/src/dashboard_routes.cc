@@ -19,6 +19,7 @@
 #include <unordered_map>
 
 #include "dashboard_maps.h"
+#include "http_helpers.h"
 #include "fleet/v1/report.pb.h"
 #include "server/jobs.h"
 #include "server/log.h"
@@ -31,96 +32,17 @@ namespace server {
 namespace {
 
 using json = nlohmann::json;
+using http::Error;
+using http::Json;
+using http::ParseInt;
+using http::ParseQuery;
+using http::SplitPath;
 
 constexpr int kMaxPageSize = 200;
 constexpr int kCompareScanLimit = 2000;  // runs compared one by one for "changed most"
 constexpr int kConfusionRegionLimit = 200000;
 
 // ---- HTTP helpers ---------------------------------------------------------------------------------------
-
-HttpResponse Json(const json& body, int status = 200) {
-  HttpResponse response;
-  response.status = status;
-  response.content_type = "application/json";
-  response.body = body.dump(-1, ' ', false, json::error_handler_t::replace);
-  response.headers.emplace_back("Cache-Control", "no-store");
-  return response;
-}
-
-HttpResponse Error(int status, const std::string& message) { return Json(json{{"error", message}}, status); }
-
-int HttpStatusOf(const storage::Status& status) {
-  switch (status.code()) {
-    case storage::StatusCode::kOk: return 200;
-    case storage::StatusCode::kInvalidArgument: return 400;
-    case storage::StatusCode::kNotFound: return 404;
-    case storage::StatusCode::kAlreadyExists:
-    case storage::StatusCode::kFailedPrecondition:
-    case storage::StatusCode::kAborted: return 409;
-    case storage::StatusCode::kUnavailable: return 503;
-    case storage::StatusCode::kDataLoss:
-    case storage::StatusCode::kInternal: return 500;
-  }
-  return 500;
-}
-
-HttpResponse Error(const storage::Status& status) { return Error(HttpStatusOf(status), status.message()); }
-
-int HexValue(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-std::string UrlDecode(const std::string& text) {
-  std::string out;
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    if (text[i] == '+') {
-      out += ' ';
-    } else if (text[i] == '%' && i + 2 < text.size() && HexValue(text[i + 1]) >= 0 && HexValue(text[i + 2]) >= 0) {
-      out += static_cast<char>(HexValue(text[i + 1]) * 16 + HexValue(text[i + 2]));
-      i += 2;
-    } else {
-      out += text[i];
-    }
-  }
-  return out;
-}
-
-std::map<std::string, std::string> ParseQuery(const std::string& query) {
-  std::map<std::string, std::string> params;
-  std::size_t start = 0;
-  while (start <= query.size()) {
-    const std::size_t end = std::min(query.find('&', start), query.size());
-    const std::string pair = query.substr(start, end - start);
-    if (!pair.empty()) {
-      const std::size_t equals = pair.find('=');
-      params[UrlDecode(pair.substr(0, equals))] = equals == std::string::npos ? "" : UrlDecode(pair.substr(equals + 1));
-    }
-    start = end + 1;
-  }
-  return params;
-}
-
-std::vector<std::string> SplitPath(const std::string& path) {
-  std::vector<std::string> parts;
-  std::size_t start = 0;
-  while (start < path.size()) {
-    const std::size_t end = std::min(path.find('/', start), path.size());
-    if (end > start) parts.push_back(UrlDecode(path.substr(start, end - start)));
-    start = end + 1;
-  }
-  return parts;
-}
-
-std::optional<std::int64_t> ParseInt(const std::string& text) {
-  if (text.empty()) return std::nullopt;
-  char* end = nullptr;
-  const long long value = std::strtoll(text.c_str(), &end, 10);
-  if (end == nullptr || *end != '\0') return std::nullopt;
-  return value;
-}
 
 /// Reads an integer parameter; `error` gets a message naming it when it is malformed or out of range.
 std::optional<std::int64_t> IntParam(const std::map<std::string, std::string>& params, const std::string& name,
@@ -352,18 +274,11 @@ class Dashboard {
     if (parts.size() != 6 || parts[1] != "runs" || parts[3] != "regions" || parts[5] != "label") {
       return Error(404, "no such endpoint: POST " + request.path);
     }
-    const auto header = request.headers.find("authorization");
-    Authenticator::Verdict verdict = authenticator_.Authenticate(header == request.headers.end() ? "" : header->second);
-    if (verdict.outcome == Authenticator::Outcome::kUnavailable) return Error(503, verdict.message);
-    if (verdict.outcome != Authenticator::Outcome::kOk) {
-      HttpResponse response = Error(401, "labelling needs an engineer token (Authorization: Bearer ...): " + verdict.message);
-      response.headers.emplace_back("WWW-Authenticate", "Bearer");
-      return response;
-    }
-    if (!Allows(verdict.principal.role, Permission::kLabel)) {
-      return Error(403, verdict.principal.name + " (role " + RoleName(verdict.principal.role) + ") may not label");
-    }
-    if (!label_limiter_.Allow(verdict.principal.name)) return Error(429, "rate limit exceeded; retry later");
+    HttpResponse refusal;
+    const std::optional<Principal> principal =
+        http::AuthorizeRequest(authenticator_, request, Permission::kLabel, "labelling", &refusal);
+    if (!principal) return refusal;
+    if (!label_limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
     const auto region_id = ParseInt(parts[4]);
     if (!region_id || *region_id < 0) return Error(400, "region: expected a non-negative integer, got \"" + parts[4] + "\"");
     const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
@@ -375,7 +290,7 @@ class Dashboard {
     std::string set = body.value("parameter_set", "");
     if (set.empty()) set = default_set_;
     storage::Status labelled =
-        repository_.LabelProtrusionRegion(parts[2], set, *region_id, label, verdict.principal.name);
+        repository_.LabelProtrusionRegion(parts[2], set, *region_id, label, principal->name);
     if (!labelled.ok()) {
       if (labelled.code() == storage::StatusCode::kNotFound) {
         return Error(404, "run \"" + parts[2] + "\" has no region " + parts[4] + " with parameter set \"" + set + "\"");
@@ -385,7 +300,7 @@ class Dashboard {
     log::Info("region_labelled", {{"run_id", parts[2]},
                                   {"region", static_cast<long long>(*region_id)},
                                   {"label", label},
-                                  {"principal", verdict.principal.name},
+                                  {"principal", principal->name},
                                   {"via", "dashboard"}});
     auto regions = repository_.ListProtrusionRegions(parts[2], set);
     if (!regions.ok()) return Error(regions.status());

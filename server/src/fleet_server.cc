@@ -10,6 +10,7 @@
 #include "handlers/admin_handler.h"
 #include "handlers/ingest_handler.h"
 #include "handlers/labels_handler.h"
+#include "handlers/maps_handler.h"
 #include "handlers/models_handler.h"
 #include "handlers/queries_handler.h"
 #include "handlers/reprocessing_handler.h"
@@ -37,6 +38,7 @@ class FleetServer::Impl {
   std::unique_ptr<LabelsHandler> labels;
   std::unique_ptr<ModelsHandler> models;
   std::unique_ptr<AdminHandler> admin;
+  std::unique_ptr<MapsHandler> maps;
   std::unique_ptr<grpc::Server> server;
   std::string bound;
 };
@@ -72,6 +74,7 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
   context.limits.max_run_bytes = config.max_run_bytes;
   context.default_parameter_set = config.default_parameter_set;
   context.model_name = config.model_name;
+  context.map_policy = MapPolicyOf(config);
   context.job_enqueued = std::move(job_enqueued);
   impl->ingest = std::make_unique<IngestHandler>(context);
   impl->queries = std::make_unique<QueriesHandler>(context);
@@ -79,6 +82,7 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
   impl->labels = std::make_unique<LabelsHandler>(context);
   impl->models = std::make_unique<ModelsHandler>(context);
   impl->admin = std::make_unique<AdminHandler>(context);
+  impl->maps = std::make_unique<MapsHandler>(context);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -103,6 +107,7 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
   builder.RegisterService(impl->labels.get());
   builder.RegisterService(impl->models.get());
   builder.RegisterService(impl->admin.get());
+  builder.RegisterService(impl->maps.get());
   impl->server = builder.BuildAndStart();
   if (!impl->server || port == 0) return storage::Unavailable("listen: cannot bind gRPC to " + config.listen);
   const std::size_t colon = config.listen.rfind(':');

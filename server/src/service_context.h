@@ -13,6 +13,7 @@
 #include <string>
 
 #include "server/auth.h"
+#include "server/map_history.h"
 #include "server/metrics.h"
 #include "slamcore/status.h"
 #include "storage/repository.h"
@@ -32,6 +33,7 @@ struct ServiceContext {
   Limits limits;
   std::string default_parameter_set = "default";
   std::string model_name = "protrusion";
+  MapPolicy map_policy;
   std::function<void()> job_enqueued;  // wakes in-process workers; may be empty
 };
 

@@ -123,6 +123,8 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
                                  {"parameter_set", payload->parameter_set},
                                  {"seconds", analysed->seconds},
                                  {"regions", static_cast<long long>(analysed->regions)}});
+      // The upload's map version gets its findings (and the repair policy its say); a failure retries the job.
+      status = MapHistory(repository_, options_.map_policy).OnRunAnalysed(payload->run_id, analysed->report);
     } else if (analysed.status().code() == storage::StatusCode::kNotFound &&
                analysed.status().message().find("run") != std::string::npos &&
                repository_.GetRun(payload->run_id).status().code() == storage::StatusCode::kNotFound) {

@@ -20,6 +20,9 @@ namespace server {
 /// The rows storage keeps for a report (counters, decisions, ambiguous views, regions) plus the report.
 storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report);
 
+/// slamcore's Status as storage's (same code names; slamcore has no ALREADY_EXISTS, UNAVAILABLE or ABORTED).
+storage::Status FromSlamcore(const slamcore::Status& status);
+
 /// A classifier model from storage (bytes = the model file) loaded through a temporary file.
 storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes);
 
@@ -42,6 +45,7 @@ class ClassifierCache {
 struct AnalysisResult {
   double seconds = 0.0;
   std::int64_t regions = 0;
+  fleet::v1::RunReport report;  // as stored
 };
 
 /// NOT_FOUND when the run or parameter set is missing, INVALID_ARGUMENT when the telemetry is refused by

@@ -33,6 +33,8 @@ struct FleetdConfig {
   int auth_cache_seconds = 60;
   std::string log_level = "info";
   std::string log_format = "json";          // "json" or "text"
+  std::string auto_repair = "none";         // "none" or "cut_protrusions": repair maps after analysis
+  bool auto_approve = false;                // policy repairs reach robots without an engineer's review
 
   /// Checks ranges and enumerations, naming the key.
   storage::Status Validate() const;

@@ -13,9 +13,20 @@
 //   GET  /api/labels              labelled regions
 //   GET  /api/compare?a=&b=       two parameter sets: fleet-wide deltas and the runs that changed most
 //   GET  /api/jobs                reprocessing jobs with progress, newest first
+//   GET  /api/robots              robots with their map history summary (current, newest, pending, findings)
+//   GET  /api/robots/<id>/maps    the robot's map versions, oldest first
+//   GET  /api/robots/<id>/maps/<v>            one version (<v> a number or "current") with its findings
+//   GET  /api/robots/<id>/maps/<v>/graph      its pose graph: nodes, edges with χ² and hypothesis, components,
+//                                             and the frame of map.png
+//   GET  /api/robots/<id>/maps/<v>/map.png    its home component's occupancy grid
+//   GET  /api/robots/<id>/maps/<v>/export/{map.pgm,map.yaml,map.g2o}   downloads (ROS map_server, g2o)
+//   POST /api/robots/<id>/maps/<v>/repair     {"action": "reject_edge", "from", "to", "view"} | {"action":
+//                                             "reject_hypothesis", "hypothesis"} | {"action": "cut_finding",
+//                                             "finding_id"} | {"action": "rollback"|"undo"}, "reason", "approve"
+//   POST /api/robots/<id>/maps/<v>/review     {"approve": true|false}
 //
-// Everything is read-only for anyone who reaches the HTTP port except the label POST, which needs a
-// bearer token whose role may label (engineer or admin; server/auth.h). Statistics are aggregated by the
+// Everything is read-only for anyone who reaches the HTTP port except the POSTs (label, repair, review),
+// which need a bearer token whose role may do them (engineer or admin; server/auth.h). Statistics are aggregated by the
 // database (storage::Repository::Aggregate/AggregateBy); lists are paginated, so pages stay fast at 100k runs.
 // Errors are JSON {"error": "..."} with an HTTP status that matches storage's Status code.
 //
@@ -36,5 +47,8 @@ namespace server {
 /// Adds the routes above to `router`. `repository` and `authenticator` must outlive the HTTP server.
 void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
                              const FleetdConfig& config);
+/// The /api/robots routes (server/src/dashboard_map_routes.cc).
+void RegisterMapRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
+                       const FleetdConfig& config);
 
 }  // namespace server

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "server/analysis.h"
+#include "server/map_history.h"
 #include "server/metrics.h"
 #include "storage/repository.h"
 
@@ -32,6 +33,7 @@ struct WorkerOptions {
   std::string name = "fleetd";     // lease owner prefix: "<name>/<thread>"
   std::chrono::milliseconds lease{120000};
   std::string model_name = "protrusion";
+  MapPolicy map_policy;            // what happens to a robot's map after its run is analysed
 };
 
 class WorkerPool {

@@ -172,12 +172,19 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
     return ToGrpc(inserted.status());
   }
   const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
+  // The child map becomes a version of the robot's map; also on a retry, in case the first attempt stored the
+  // run but failed before this (RecordUpload is idempotent by run id).
+  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, run.child_snapshot());
+  if (!map.ok()) return ToGrpc(map.status());
   response->set_run_id(record.run_id);
   response->set_already_present(already);
   response->set_parent_snapshot_id(parent_id);
   response->set_child_snapshot_id(*child_id);
   response->set_events_stored(static_cast<std::uint64_t>(telemetry.events_size()));
   response->set_analysis_job_id(already ? 0 : *job_id);
+  response->set_map_version(map->version);
+  response->set_current_map_version(map->current_version);
+  response->set_map_outdated(map->outdated);
   context_.metrics->Increment("fleetd_ingest_runs_total", already ? "outcome=\"already_present\"" : "outcome=\"stored\"");
   context_.metrics->Increment("fleetd_ingest_bytes_total", "", static_cast<double>(bytes));
   if (!already) {

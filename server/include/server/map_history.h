@@ -1,0 +1,98 @@
+// Each robot's map history (docs/formats/map-versions.md): what ingest, the analysis workers, the Maps gRPC
+// service and the dashboard do with map versions, in one place.
+//
+//   upload      → RecordUpload: the run's child map becomes the robot's newest version; approved when it was
+//                 built on the current approved map, "stale" when on an older one (the robot is told)
+//   analysis    → OnRunAnalysed: findings from the default set's report; the repair policy may act on them
+//   engineers   → Repair (reject an edge or hypothesis, cut a protrusion, roll back, undo), Review (approve or
+//                 reject a pending version), Export (map_server PGM + YAML, g2o)
+//   robots      → Fetch: the current approved version, or "up to date"
+//
+// Every new version is appended with its findings in one transaction that checks the robot's newest version
+// (storage::Repository::AppendMapVersion), so concurrent repairs of one map never interleave: the later one
+// gets ABORTED and must look again. Versions never change; undo makes a new version holding the earlier
+// map's very bytes (the same content-addressed snapshot).
+//
+// Thread safety: stateless apart from the repository (thread-safe); use from any thread.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "fleet/v1/maps.pb.h"
+#include "fleet/v1/report.pb.h"
+#include "fleet/v1/telemetry.pb.h"
+#include "server/config.h"
+#include "storage/repository.h"
+
+namespace server {
+
+struct MapPolicy {
+  /// "none", or "cut_protrusions": after analysis, cut open protrusion findings out of the newest version.
+  std::string auto_repair = "none";
+  /// Policy repairs are approved at once (robots get them on their next GetMap) instead of waiting for review.
+  bool auto_approve = false;
+  std::string default_parameter_set = "default";
+};
+
+MapPolicy MapPolicyOf(const FleetdConfig& config);
+
+struct UploadMapOutcome {
+  std::int64_t version = 0;          // the version the run's child map became
+  std::int64_t current_version = 0;  // the robot's current approved version after the upload
+  bool outdated = false;             // the run was built on a map older than the current one
+};
+
+struct RepairRequest {
+  std::string robot_id;
+  std::int64_t base_version = 0;
+  std::string action;  // "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"
+  std::int64_t from = 0, to = 0;
+  std::optional<std::int64_t> view;
+  std::int64_t hypothesis = 0;
+  std::int64_t finding_id = 0;
+  std::string reason;
+  bool approve = false;
+  std::string requested_by;  // principal name or "policy:<name>"
+};
+
+struct MapVersionDetail {
+  fleet::v1::MapVersion version;
+  std::vector<fleet::v1::MapFinding> findings;
+};
+
+class MapHistory {
+ public:
+  MapHistory(storage::Repository& repository, MapPolicy policy);
+
+  /// Called by ingest once the run is stored; idempotent by run id (a retried upload gets the same version).
+  storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const fleet::v1::MapSnapshot& child);
+  /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
+  storage::Status OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report);
+
+  /// Versions oldest first, `current` marked; current_version 0 when none is approved.
+  storage::Result<std::vector<fleet::v1::MapVersion>> List(const std::string& robot_id, std::int64_t* current_version);
+  /// `version` 0: the current one. With the snapshot when `snapshot` is not null.
+  storage::Result<MapVersionDetail> Get(const std::string& robot_id, std::int64_t version,
+                                        fleet::v1::MapSnapshot* snapshot = nullptr);
+  /// INVALID_ARGUMENT for a repair that changes nothing, ABORTED when base_version is not the newest.
+  storage::Result<MapVersionDetail> Repair(const RepairRequest& request);
+  storage::Result<fleet::v1::MapVersion> Review(const std::string& robot_id, std::int64_t version, bool approve,
+                                                const std::string& reviewed_by);
+  /// NOT_FOUND when the robot has no approved map. `snapshot` is filled unless up to date.
+  storage::Result<fleet::v1::MapVersion> Fetch(const std::string& robot_id, std::int64_t held_version, bool* up_to_date,
+                                               fleet::v1::MapSnapshot* snapshot);
+  /// `format` "map_server" or "g2o"; files are named "<robot>-v<version>.<ext>".
+  storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id, std::int64_t version,
+                                                               const std::string& format);
+
+ private:
+  storage::Result<storage::MapVersionRecord> Resolve(const std::string& robot_id, std::int64_t version);
+
+  storage::Repository& repository_;
+  const MapPolicy policy_;
+};
+
+fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool current);
+
+}  // namespace server

@@ -1,0 +1,278 @@
+// The dashboard's map review endpoints (see dashboard_routes.h for the list). Reads are open to whoever
+// reaches the HTTP port, like the rest of the dashboard; repairs and reviews need an engineer's token.
+#include <nlohmann/json.hpp>
+
+#include "analyzer/map_repair.h"
+#include "analyzer/telemetry_codec.h"
+#include "http_helpers.h"
+#include "server/analysis.h"
+#include "server/dashboard_routes.h"
+#include "server/map_history.h"
+#include "slamcore/optimizer.h"
+
+namespace server {
+namespace {
+
+using json = nlohmann::json;
+using http::Error;
+using http::Json;
+
+json VersionJson(const fleet::v1::MapVersion& version) {
+  return {{"robot_id", version.robot_id()},
+          {"version", version.version()},
+          {"parent_version", version.parent_version()},
+          {"snapshot_id", version.snapshot_id()},
+          {"origin", version.origin()},
+          {"run_id", version.run_id()},
+          {"action", version.action()},
+          {"action_detail", version.action_detail()},
+          {"created_by", version.created_by()},
+          {"reason", version.reason()},
+          {"created_at", version.created_at()},
+          {"approval", version.approval()},
+          {"approved_by", version.approved_by()},
+          {"approved_at", version.approved_at()},
+          {"nodes", version.nodes()},
+          {"edges", version.edges()},
+          {"observation_edges", version.observation_edges()},
+          {"views", version.views()},
+          {"components", version.components()},
+          {"known_area_m2", version.known_area_m2()},
+          {"chi2", version.chi2()},
+          {"open_findings", version.open_findings()},
+          {"current", version.current()}};
+}
+
+json FindingJson(const fleet::v1::MapFinding& finding) {
+  json evidence = json::parse(finding.evidence_json(), nullptr, /*allow_exceptions=*/false);
+  if (evidence.is_discarded()) evidence = json::object();
+  json out = {{"finding_id", finding.finding_id()}, {"kind", finding.kind()},         {"severity", finding.severity()},
+              {"summary", finding.summary()},       {"state", finding.state()},       {"evidence", evidence},
+              {"hypothesis", finding.hypothesis()}, {"edge_from", finding.edge_from()}, {"edge_to", finding.edge_to()}};
+  if (finding.world_bbox_size() == 4) {
+    out["world_bbox"] = {finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2), finding.world_bbox(3)};
+  }
+  return out;
+}
+
+class MapRoutes {
+ public:
+  MapRoutes(storage::Repository& repository, Authenticator& authenticator, const FleetdConfig& config)
+      : repository_(repository),
+        authenticator_(authenticator),
+        history_(repository, MapPolicyOf(config)),
+        limiter_(config.rate_limit_per_second, config.rate_limit_burst) {}
+
+  HttpResponse Get(const HttpRequest& request) {
+    const std::vector<std::string> parts = http::SplitPath(request.path);  // api robots <id> maps <v> ...
+    if (parts.size() == 2) return Robots();
+    if (parts.size() < 4 || parts[3] != "maps") return Error(404, "no such endpoint: " + request.path);
+    const std::string& robot = parts[2];
+    if (parts.size() == 4) return Versions(robot);
+    const auto version = VersionOf(parts[4]);
+    if (!version) return Error(400, "version: expected a positive integer or \"current\", got \"" + parts[4] + "\"");
+    if (parts.size() == 5) return Version(robot, *version);
+    if (parts.size() == 6 && parts[5] == "graph") return Graph(robot, *version);
+    if (parts.size() == 6 && parts[5] == "map.png") return Picture(robot, *version);
+    if (parts.size() == 7 && parts[5] == "export") return Export(robot, *version, parts[6]);
+    return Error(404, "no such endpoint: " + request.path);
+  }
+
+  HttpResponse Post(const HttpRequest& request) {
+    const std::vector<std::string> parts = http::SplitPath(request.path);
+    if (parts.size() != 6 || parts[3] != "maps" || (parts[5] != "repair" && parts[5] != "review")) {
+      return Error(404, "no such endpoint: POST " + request.path);
+    }
+    HttpResponse refusal;
+    const auto principal = http::AuthorizeRequest(authenticator_, request, Permission::kRepairMap, "repairing maps", &refusal);
+    if (!principal) return refusal;
+    if (!limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
+    const auto version = http::ParseInt(parts[4]);
+    if (!version || *version <= 0) return Error(400, "version: expected a positive integer, got \"" + parts[4] + "\"");
+    const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
+    if (body.is_discarded() || !body.is_object()) return Error(400, "body: expected a JSON object");
+    try {
+      if (parts[5] == "review") {
+        if (!body.contains("approve") || !body["approve"].is_boolean()) return Error(400, "approve: expected true or false");
+        auto reviewed = history_.Review(parts[2], *version, body["approve"].get<bool>(), principal->name);
+        if (!reviewed.ok()) return Error(reviewed.status());
+        return Json(VersionJson(*reviewed));
+      }
+      RepairRequest repair;
+      repair.robot_id = parts[2];
+      repair.base_version = *version;
+      repair.action = body.value("action", "");
+      repair.from = body.value("from", std::int64_t{0});
+      repair.to = body.value("to", std::int64_t{0});
+      if (body.contains("view") && !body["view"].is_null()) repair.view = body["view"].get<std::int64_t>();
+      repair.hypothesis = body.value("hypothesis", std::int64_t{0});
+      repair.finding_id = body.value("finding_id", std::int64_t{0});
+      repair.reason = body.value("reason", "");
+      repair.approve = body.value("approve", false);
+      repair.requested_by = principal->name;
+      auto repaired = history_.Repair(repair);
+      if (!repaired.ok()) return Error(repaired.status());
+      json findings = json::array();
+      for (const auto& finding : repaired->findings) findings.push_back(FindingJson(finding));
+      return Json({{"version", VersionJson(repaired->version)}, {"findings", findings}});
+    } catch (const json::exception& error) {
+      return Error(400, std::string("body: a field has the wrong type (") + error.what() + ")");
+    }
+  }
+
+ private:
+  /// "current" is 0 (MapHistory's "the current version").
+  static std::optional<std::int64_t> VersionOf(const std::string& text) {
+    if (text == "current") return 0;
+    const auto value = http::ParseInt(text);
+    if (!value || *value <= 0) return std::nullopt;
+    return value;
+  }
+
+  HttpResponse Robots() {
+    auto robots = repository_.ListRobots();
+    if (!robots.ok()) return Error(robots.status());
+    json out = json::array();
+    for (const storage::RobotRecord& robot : *robots) {
+      std::int64_t current = 0;
+      auto versions = history_.List(robot.robot_id, &current);
+      if (!versions.ok()) return Error(versions.status());
+      std::int64_t pending = 0;
+      for (const auto& version : *versions) pending += version.approval() == "pending" ? 1 : 0;
+      json row = {{"robot_id", robot.robot_id}, {"robot_model", robot.robot_model}, {"firmware", robot.firmware},
+                  {"versions", versions->size()}, {"current_version", current}, {"pending", pending}};
+      if (!versions->empty()) {
+        row["head_version"] = versions->back().version();
+        row["head_approval"] = versions->back().approval();
+        row["open_findings"] = versions->back().open_findings();
+      }
+      out.push_back(row);
+    }
+    return Json({{"robots", out}});
+  }
+
+  HttpResponse Versions(const std::string& robot) {
+    std::int64_t current = 0;
+    auto versions = history_.List(robot, &current);
+    if (!versions.ok()) return Error(versions.status());
+    if (versions->empty() && repository_.GetRobot(robot).status().code() == storage::StatusCode::kNotFound) {
+      return Error(404, "no robot \"" + robot + "\"");
+    }
+    json out = json::array();
+    for (const auto& version : *versions) out.push_back(VersionJson(version));
+    return Json({{"robot_id", robot}, {"current_version", current}, {"versions", out}});
+  }
+
+  HttpResponse Version(const std::string& robot, std::int64_t version) {
+    auto detail = history_.Get(robot, version);
+    if (!detail.ok()) return Error(detail.status());
+    json findings = json::array();
+    for (const auto& finding : detail->findings) findings.push_back(FindingJson(finding));
+    return Json({{"version", VersionJson(detail->version)}, {"findings", findings}});
+  }
+
+  storage::Result<slamcore::Map> LoadMap(const std::string& robot, std::int64_t version, std::int64_t* resolved) {
+    fleet::v1::MapSnapshot snapshot;
+    auto detail = history_.Get(robot, version, &snapshot);
+    if (!detail.ok()) return detail.status();
+    *resolved = detail->version.version();
+    auto map = analyzer::FromProto(snapshot, "snapshot");
+    if (!map.ok()) return FromSlamcore(map.status());
+    return std::move(map).value();
+  }
+
+  /// The pose graph with every edge's χ² and source, and the home grid's frame so that the page can draw
+  /// the graph over map.png.
+  HttpResponse Graph(const std::string& robot, std::int64_t version) {
+    std::int64_t resolved = 0;
+    auto map = LoadMap(robot, version, &resolved);
+    if (!map.ok()) return Error(map.status());
+    const slamcore::PoseGraph& graph = map->graph;
+    json nodes = json::array(), edges = json::array(), components = json::array();
+    for (const slamcore::Node& node : graph.nodes()) {
+      nodes.push_back(json::array({node.id, node.pose.x(), node.pose.y(), node.pose.theta(), graph.ComponentOf(node.id)}));
+    }
+    for (const slamcore::Edge& edge : graph.edges()) {
+      const slamcore::Vector3 error =
+          slamcore::EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement);
+      json row = {{"from", edge.from},
+                  {"to", edge.to},
+                  {"kind", edge.kind == slamcore::EdgeKind::kMotion ? "motion" : "observation"},
+                  {"chi2", error.dot(edge.information * error)}};
+      if (edge.view) row["view"] = *edge.view;
+      if (edge.hypothesis) row["hypothesis"] = *edge.hypothesis;
+      edges.push_back(row);
+    }
+    for (const slamcore::ComponentId component : graph.Components()) {
+      components.push_back({{"id", component}, {"nodes", graph.ComponentSize(component)}});
+    }
+    json ambiguous = json::array();
+    for (const slamcore::View& view : graph.views()) {
+      if (view.ambiguous) ambiguous.push_back(view.id);
+    }
+    auto grid = analyzer::RenderHomeGrid(*map);
+    if (!grid.ok()) return Error(FromSlamcore(grid.status()));
+    return Json({{"robot_id", robot},
+                 {"version", resolved},
+                 {"nodes", nodes},
+                 {"edges", edges},
+                 {"components", components},
+                 {"ambiguous_views", ambiguous},
+                 {"grid",
+                  {{"width", grid->width},
+                   {"height", grid->height},
+                   {"resolution", grid->resolution},
+                   {"origin_x", grid->origin_x},
+                   {"origin_y", grid->origin_y}}}});
+  }
+
+  HttpResponse Picture(const std::string& robot, std::int64_t version) {
+    std::int64_t resolved = 0;
+    auto map = LoadMap(robot, version, &resolved);
+    if (!map.ok()) return Error(map.status());
+    auto grid = analyzer::RenderHomeGrid(*map);
+    if (!grid.ok()) return Error(FromSlamcore(grid.status()));
+    if (grid->width == 0) return Error(409, "version " + std::to_string(resolved) + " has no occupancy patches to draw");
+    auto png = slamcore::EncodePng(*grid);
+    if (!png.ok()) return Error(FromSlamcore(png.status()));
+    HttpResponse response;
+    response.content_type = "image/png";
+    response.body = std::move(png).value();
+    // A version never changes: its picture may be cached (unless asked for as "current").
+    response.headers.emplace_back("Cache-Control", version > 0 ? "max-age=86400, immutable" : "no-cache");
+    return response;
+  }
+
+  HttpResponse Export(const std::string& robot, std::int64_t version, const std::string& file) {
+    const std::string format = file == "map.g2o" ? "g2o" : (file == "map.pgm" || file == "map.yaml") ? "map_server" : "";
+    if (format.empty()) return Error(404, "export: expected map.pgm, map.yaml or map.g2o, got \"" + file + "\"");
+    auto files = history_.Export(robot, version, format);
+    if (!files.ok()) return Error(files.status());
+    const std::string extension = file.substr(file.rfind('.'));
+    for (const fleet::v1::ExportedFile& exported : *files) {
+      if (!exported.name().ends_with(extension)) continue;
+      HttpResponse response;
+      response.content_type = extension == ".pgm" ? "image/x-portable-graymap" : "text/plain; charset=utf-8";
+      response.body = exported.content();
+      response.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + exported.name() + "\"");
+      return response;
+    }
+    return Error(500, "export made no " + extension + " file");
+  }
+
+  storage::Repository& repository_;
+  Authenticator& authenticator_;
+  MapHistory history_;
+  RateLimiter limiter_;
+};
+
+}  // namespace
+
+void RegisterMapRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
+                       const FleetdConfig& config) {
+  auto routes = std::make_shared<MapRoutes>(repository, authenticator, config);
+  router.AddRoute("GET", "/api/robots", [routes](const HttpRequest& request) { return routes->Get(request); });
+  router.AddRoute("POST", "/api/robots/", [routes](const HttpRequest& request) { return routes->Post(request); });
+}
+
+}  // namespace server

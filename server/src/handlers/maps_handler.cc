@@ -1,0 +1,122 @@
+#include "maps_handler.h"
+
+namespace server {
+
+grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call, const fleet::v1::ListMapVersionsRequest* request,
+                                          fleet::v1::ListMapVersionsResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/ListMapVersions");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  std::int64_t current = 0;
+  auto versions = history_.List(request->robot_id(), &current);
+  if (!versions.ok()) return scope.Done(ToGrpc(versions.status()));
+  for (auto& version : *versions) *response->add_versions() = std::move(version);
+  response->set_current_version(current);
+  return scope.Done(grpc::Status::OK);
+}
+
+grpc::Status MapsHandler::GetMapVersion(grpc::ServerContext* call, const fleet::v1::GetMapVersionRequest* request,
+                                        fleet::v1::GetMapVersionResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/GetMapVersion");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  auto detail = history_.Get(request->robot_id(), request->version(),
+                             request->include_snapshot() ? response->mutable_snapshot() : nullptr);
+  if (!detail.ok()) return scope.Done(ToGrpc(detail.status()));
+  *response->mutable_version() = std::move(detail->version);
+  for (auto& finding : detail->findings) *response->add_findings() = std::move(finding);
+  return scope.Done(grpc::Status::OK);
+}
+
+grpc::Status MapsHandler::RepairMap(grpc::ServerContext* call, const fleet::v1::RepairMapRequest* request,
+                                    fleet::v1::RepairMapResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/RepairMap");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRepairMap, &principal); !denied.ok()) {
+    return scope.Done(denied);
+  }
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (request->base_version() <= 0) return scope.Done(InvalidArgument("base_version: required (the version repaired)"));
+  RepairRequest repair;
+  repair.robot_id = request->robot_id();
+  repair.base_version = request->base_version();
+  repair.reason = request->reason();
+  repair.approve = request->approve();
+  repair.requested_by = principal.name;
+  switch (request->action_case()) {
+    case fleet::v1::RepairMapRequest::kRejectEdge:
+      repair.action = "reject_edge";
+      repair.from = request->reject_edge().from();
+      repair.to = request->reject_edge().to();
+      if (request->reject_edge().has_view()) repair.view = request->reject_edge().view();
+      break;
+    case fleet::v1::RepairMapRequest::kRejectHypothesis:
+      repair.action = "reject_hypothesis";
+      repair.hypothesis = request->reject_hypothesis();
+      break;
+    case fleet::v1::RepairMapRequest::kCutFinding:
+      repair.action = "cut_finding";
+      repair.finding_id = request->cut_finding();
+      break;
+    case fleet::v1::RepairMapRequest::kRollback: repair.action = "rollback"; break;
+    case fleet::v1::RepairMapRequest::kUndo: repair.action = "undo"; break;
+    case fleet::v1::RepairMapRequest::ACTION_NOT_SET:
+      return scope.Done(InvalidArgument("action: set one of reject_edge, reject_hypothesis, cut_finding, rollback, undo"));
+  }
+  auto repaired = history_.Repair(repair);
+  if (!repaired.ok()) return scope.Done(ToGrpc(repaired.status()));
+  *response->mutable_version() = std::move(repaired->version);
+  for (auto& finding : repaired->findings) *response->add_findings() = std::move(finding);
+  return scope.Done(grpc::Status::OK);
+}
+
+grpc::Status MapsHandler::ReviewMapVersion(grpc::ServerContext* call, const fleet::v1::ReviewMapVersionRequest* request,
+                                           fleet::v1::MapVersion* response) {
+  RpcScope scope(context_.metrics, "Maps/ReviewMapVersion");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRepairMap, &principal); !denied.ok()) {
+    return scope.Done(denied);
+  }
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (request->version() <= 0) return scope.Done(InvalidArgument("version: required"));
+  auto reviewed = history_.Review(request->robot_id(), request->version(), request->approve(), principal.name);
+  if (!reviewed.ok()) return scope.Done(ToGrpc(reviewed.status()));
+  *response = std::move(reviewed).value();
+  return scope.Done(grpc::Status::OK);
+}
+
+grpc::Status MapsHandler::GetMap(grpc::ServerContext* call, const fleet::v1::GetMapRequest* request,
+                                 fleet::v1::GetMapResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/GetMap");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kFetchMap, &principal); !denied.ok()) {
+    return scope.Done(denied);
+  }
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (principal.role == Role::kRobot && principal.id != request->robot_id()) {
+    return scope.Done({grpc::StatusCode::PERMISSION_DENIED,
+                       principal.name + " may fetch only its own map, not robot " + request->robot_id() + "'s"});
+  }
+  bool up_to_date = false;
+  auto current = history_.Fetch(request->robot_id(), request->held_version(), &up_to_date, response->mutable_snapshot());
+  if (!current.ok()) return scope.Done(ToGrpc(current.status()));
+  response->set_up_to_date(up_to_date);
+  *response->mutable_version() = std::move(current).value();
+  return scope.Done(grpc::Status::OK);
+}
+
+grpc::Status MapsHandler::ExportMap(grpc::ServerContext* call, const fleet::v1::ExportMapRequest* request,
+                                    fleet::v1::ExportMapResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/ExportMap");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  auto files = history_.Export(request->robot_id(), request->version(), request->format());
+  if (!files.ok()) return scope.Done(ToGrpc(files.status()));
+  for (auto& file : *files) *response->add_files() = std::move(file);
+  return scope.Done(grpc::Status::OK);
+}
+
+}  // namespace server

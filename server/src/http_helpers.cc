@@ -1,0 +1,123 @@
+#include "http_helpers.h"
+
+#include <algorithm>
+#include <cstdlib>
+
+namespace server::http {
+
+using json = nlohmann::json;
+
+HttpResponse Json(const json& body, int status) {
+  HttpResponse response;
+  response.status = status;
+  response.content_type = "application/json";
+  response.body = body.dump(-1, ' ', false, json::error_handler_t::replace);
+  response.headers.emplace_back("Cache-Control", "no-store");
+  return response;
+}
+
+HttpResponse Error(int status, const std::string& message) { return Json(json{{"error", message}}, status); }
+
+namespace {
+
+int HttpStatusOf(const storage::Status& status) {
+  switch (status.code()) {
+    case storage::StatusCode::kOk: return 200;
+    case storage::StatusCode::kInvalidArgument: return 400;
+    case storage::StatusCode::kNotFound: return 404;
+    case storage::StatusCode::kAlreadyExists:
+    case storage::StatusCode::kFailedPrecondition:
+    case storage::StatusCode::kAborted: return 409;
+    case storage::StatusCode::kUnavailable: return 503;
+    case storage::StatusCode::kDataLoss:
+    case storage::StatusCode::kInternal: return 500;
+  }
+  return 500;
+}
+
+}  // namespace
+
+HttpResponse Error(const storage::Status& status) { return Error(HttpStatusOf(status), status.message()); }
+
+namespace {
+
+int HexValue(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+}  // namespace
+
+std::string UrlDecode(const std::string& text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '+') {
+      out += ' ';
+    } else if (text[i] == '%' && i + 2 < text.size() && HexValue(text[i + 1]) >= 0 && HexValue(text[i + 2]) >= 0) {
+      out += static_cast<char>(HexValue(text[i + 1]) * 16 + HexValue(text[i + 2]));
+      i += 2;
+    } else {
+      out += text[i];
+    }
+  }
+  return out;
+}
+
+std::map<std::string, std::string> ParseQuery(const std::string& query) {
+  std::map<std::string, std::string> params;
+  std::size_t start = 0;
+  while (start <= query.size()) {
+    const std::size_t end = std::min(query.find('&', start), query.size());
+    const std::string pair = query.substr(start, end - start);
+    if (!pair.empty()) {
+      const std::size_t equals = pair.find('=');
+      params[UrlDecode(pair.substr(0, equals))] = equals == std::string::npos ? "" : UrlDecode(pair.substr(equals + 1));
+    }
+    start = end + 1;
+  }
+  return params;
+}
+
+std::vector<std::string> SplitPath(const std::string& path) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (start < path.size()) {
+    const std::size_t end = std::min(path.find('/', start), path.size());
+    if (end > start) parts.push_back(UrlDecode(path.substr(start, end - start)));
+    start = end + 1;
+  }
+  return parts;
+}
+
+std::optional<std::int64_t> ParseInt(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  char* end = nullptr;
+  const long long value = std::strtoll(text.c_str(), &end, 10);
+  if (end == nullptr || *end != '\0') return std::nullopt;
+  return value;
+}
+
+
+std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const HttpRequest& request,
+                                          Permission permission, const std::string& what, HttpResponse* refusal) {
+  const auto header = request.headers.find("authorization");
+  Authenticator::Verdict verdict = authenticator.Authenticate(header == request.headers.end() ? "" : header->second);
+  if (verdict.outcome == Authenticator::Outcome::kUnavailable) {
+    *refusal = Error(503, verdict.message);
+    return std::nullopt;
+  }
+  if (verdict.outcome != Authenticator::Outcome::kOk) {
+    *refusal = Error(401, what + " needs an engineer token (Authorization: Bearer ...): " + verdict.message);
+    refusal->headers.emplace_back("WWW-Authenticate", "Bearer");
+    return std::nullopt;
+  }
+  if (!Allows(verdict.principal.role, permission)) {
+    *refusal = Error(403, verdict.principal.name + " (role " + RoleName(verdict.principal.role) + ") may not do " + what);
+    return std::nullopt;
+  }
+  return verdict.principal;
+}
+
+}  // namespace server::http

@@ -1,0 +1,39 @@
+// Helpers the dashboard's HTTP handlers share: JSON responses and errors (HTTP status from storage's Status
+// code), path and query parsing, and bearer-token authorisation for the few POST endpoints. Internal to
+// server/.
+//
+// Thread safety: free functions without shared state.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "server/auth.h"
+#include "server/http_server.h"
+#include "storage/status.h"
+
+namespace server::http {
+
+HttpResponse Json(const nlohmann::json& body, int status = 200);
+/// {"error": message} with `status`.
+HttpResponse Error(int status, const std::string& message);
+/// The HTTP status matching the Status code (NOT_FOUND 404, ABORTED and FAILED_PRECONDITION 409, ...).
+HttpResponse Error(const storage::Status& status);
+
+std::string UrlDecode(const std::string& text);
+std::map<std::string, std::string> ParseQuery(const std::string& query);
+/// "/api/runs/a%20b" → {"api", "runs", "a b"}.
+std::vector<std::string> SplitPath(const std::string& path);
+/// A whole decimal integer, or nullopt.
+std::optional<std::int64_t> ParseInt(const std::string& text);
+
+/// Authenticates the request's bearer token and checks `permission`; on failure `*refusal` is the 401/403/503
+/// response, naming `what` the caller tried ("labelling", "repairing maps").
+std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const HttpRequest& request,
+                                          Permission permission, const std::string& what, HttpResponse* refusal);
+
+}  // namespace server::http

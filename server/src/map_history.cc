@@ -1,0 +1,427 @@
+#include "server/map_history.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <chrono>
+
+#include "analyzer/map_repair.h"
+#include "analyzer/telemetry_codec.h"
+#include "server/analysis.h"
+#include "server/auth.h"
+#include "server/log.h"
+
+namespace server {
+namespace {
+
+constexpr const char* kPolicyCut = "policy:cut_protrusions";
+
+/// A stored map as both its wire form and slamcore's.
+struct LoadedMap {
+  fleet::v1::MapSnapshot snapshot;
+  slamcore::Map map;
+};
+
+storage::Result<LoadedMap> LoadMap(storage::Repository& repository, const std::string& snapshot_id) {
+  auto stored = repository.GetSnapshot(snapshot_id);
+  if (!stored.ok()) return stored.status();
+  LoadedMap loaded;
+  if (!loaded.snapshot.ParseFromString(stored->bytes)) return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
+  auto map = analyzer::FromProto(loaded.snapshot, "snapshot " + snapshot_id);
+  if (!map.ok()) return storage::DataLoss(map.status().message());
+  loaded.map = std::move(map).value();
+  return loaded;
+}
+
+/// What findings compare a version with: the map before the version's run, and the server's rerun of it.
+struct RunContext {
+  slamcore::Map parent;  // empty for a robot's first run
+  std::optional<fleet::v1::RunReport> report;
+};
+
+storage::Result<RunContext> LoadRunContext(storage::Repository& repository, const std::string& run_id,
+                                           const std::string& parameter_set) {
+  RunContext context;
+  if (run_id.empty()) return context;
+  auto run = repository.GetRun(run_id);
+  if (!run.ok()) return run.status();
+  if (run->parent_snapshot_id) {
+    auto parent = LoadMap(repository, *run->parent_snapshot_id);
+    if (!parent.ok()) return parent.status();
+    context.parent = std::move(parent->map);
+  }
+  auto report = repository.GetReport(run_id, parameter_set);
+  if (report.ok()) {
+    fleet::v1::RunReport parsed;
+    if (!parsed.ParseFromString(report->report)) return storage::DataLoss("report of run " + run_id + " does not parse");
+    context.report = std::move(parsed);
+  } else if (report.status().code() != storage::StatusCode::kNotFound) {
+    return report.status();
+  }
+  return context;
+}
+
+std::vector<fleet::v1::MapFinding> Findings(const slamcore::Map& map, const RunContext& context) {
+  return analyzer::FindMapFindings(
+      {.map = &map, .run_parent = &context.parent, .report = context.report ? &*context.report : nullptr});
+}
+
+std::vector<storage::MapFindingRecord> ToRecords(const std::vector<fleet::v1::MapFinding>& findings) {
+  std::vector<storage::MapFindingRecord> records;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  for (const fleet::v1::MapFinding& finding : findings) {
+    storage::MapFindingRecord& record = records.emplace_back();
+    record.finding_id = finding.finding_id();
+    record.kind = finding.kind();
+    record.severity = finding.severity();
+    record.summary = finding.summary();
+    record.state = finding.state();
+    (void)google::protobuf::util::MessageToJsonString(finding, &record.detail_json, options);
+  }
+  return records;
+}
+
+storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(const std::vector<storage::MapFindingRecord>& records) {
+  std::vector<fleet::v1::MapFinding> findings;
+  for (const storage::MapFindingRecord& record : records) {
+    fleet::v1::MapFinding& finding = findings.emplace_back();
+    if (!google::protobuf::util::JsonStringToMessage(record.detail_json, &finding).ok()) {
+      return storage::DataLoss("finding " + std::to_string(record.finding_id) + " does not parse");
+    }
+    finding.set_state(record.state);
+  }
+  return findings;
+}
+
+/// A new version's record: its map's figures, its lineage and who made it.
+storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, const std::string& snapshot_id) {
+  auto figures = analyzer::ComputeFigures(map);
+  if (!figures.ok()) return FromSlamcore(figures.status());
+  storage::MapVersionRecord record;
+  record.snapshot_id = snapshot_id;
+  record.nodes = figures->nodes;
+  record.edges = figures->edges;
+  record.observation_edges = figures->observation_edges;
+  record.views = figures->views;
+  record.components = figures->components;
+  record.known_area_m2 = figures->known_area_m2;
+  record.chi2 = figures->chi2;
+  return record;
+}
+
+std::int64_t NowMillis() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRecord>& versions) {
+  for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
+    if (it->approval == "approved") return &*it;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool current) {
+  fleet::v1::MapVersion proto;
+  proto.set_robot_id(record.robot_id);
+  proto.set_version(record.version);
+  proto.set_parent_version(record.parent_version.value_or(0));
+  proto.set_snapshot_id(record.snapshot_id);
+  proto.set_origin(record.origin);
+  proto.set_run_id(record.run_id);
+  proto.set_action(record.action);
+  proto.set_action_detail(record.action_detail);
+  proto.set_created_by(record.created_by);
+  proto.set_reason(record.reason);
+  proto.set_created_at(static_cast<double>(record.created_at_ms) / 1000.0);
+  proto.set_approval(record.approval);
+  proto.set_approved_by(record.approved_by);
+  proto.set_approved_at(static_cast<double>(record.approved_at_ms) / 1000.0);
+  proto.set_nodes(record.nodes);
+  proto.set_edges(record.edges);
+  proto.set_observation_edges(record.observation_edges);
+  proto.set_views(record.views);
+  proto.set_components(record.components);
+  proto.set_known_area_m2(record.known_area_m2);
+  proto.set_open_findings(record.open_findings);
+  proto.set_current(current);
+  proto.set_chi2(record.chi2);
+  return proto;
+}
+
+MapPolicy MapPolicyOf(const FleetdConfig& config) {
+  return {.auto_repair = config.auto_repair,
+          .auto_approve = config.auto_approve,
+          .default_parameter_set = config.default_parameter_set};
+}
+
+MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
+    : repository_(repository), policy_(std::move(policy)) {}
+
+storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run,
+                                                           const fleet::v1::MapSnapshot& child) {
+  if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
+  auto versions = repository_.ListMapVersions(run.robot_id);
+  if (!versions.ok()) return versions.status();
+  const storage::MapVersionRecord* current = Current(*versions);
+  auto map = analyzer::FromProto(child, "child_snapshot");
+  if (!map.ok()) return storage::InvalidArgument(map.status().message());
+  auto record = NewVersion(*map, *run.child_snapshot_id);
+  if (!record.ok()) return record.status();
+  record->robot_id = run.robot_id;
+  record->origin = "upload";
+  record->run_id = run.run_id;
+  record->created_by = "robot:" + run.robot_id;
+  const std::string parent = run.parent_snapshot_id.value_or("");
+  for (auto it = versions->rbegin(); it != versions->rend() && !parent.empty(); ++it) {
+    if (it->snapshot_id == parent) {
+      record->parent_version = it->version;
+      break;
+    }
+  }
+  // Built on the current map (or there is none yet): this is the robot's map now. Built on an older one: kept
+  // in the history, but the robot should take the current version instead.
+  const bool outdated = current != nullptr && current->snapshot_id != parent;
+  record->approval = outdated ? "stale" : "approved";
+  if (!outdated) {
+    record->approved_by = record->created_by;
+    record->approved_at_ms = run.ended_at_ms;
+  }
+  // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
+  auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &*map})));
+  if (!appended.ok()) return appended.status();
+  UploadMapOutcome outcome;
+  outcome.version = appended->version;
+  outcome.outdated = appended->approval == "stale";
+  outcome.current_version = outcome.outdated ? current->version : appended->version;
+  return outcome;
+}
+
+storage::Status MapHistory::OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report) {
+  if (report.parameter_set() != policy_.default_parameter_set) return storage::Status::Ok();
+  auto version = repository_.GetMapVersionOfRun(run_id);
+  if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
+  if (!version.ok()) return version.status();
+  auto loaded = LoadMap(repository_, version->snapshot_id);
+  if (!loaded.ok()) return loaded.status();
+  auto context = LoadRunContext(repository_, run_id, report.parameter_set());
+  if (!context.ok()) return context.status();
+  context->report = report;
+  const std::vector<fleet::v1::MapFinding> findings = Findings(loaded->map, *context);
+  STORAGE_RETURN_IF_ERROR(repository_.PutMapFindings(version->robot_id, version->version, ToRecords(findings)));
+
+  if (policy_.auto_repair != "cut_protrusions") return storage::Status::Ok();
+  std::int64_t base = version->version;
+  for (const fleet::v1::MapFinding& finding : findings) {
+    if (finding.kind() != "protrusion" || finding.state() != "open") continue;
+    RepairRequest cut;
+    cut.robot_id = version->robot_id;
+    cut.base_version = base;
+    cut.action = "cut_finding";
+    cut.finding_id = finding.finding_id();
+    cut.reason = "protrusion policy: " + finding.summary();
+    cut.approve = policy_.auto_approve;
+    cut.requested_by = kPolicyCut;
+    auto repaired = Repair(cut);
+    // The robot's map moved on meanwhile (ABORTED): the newer version gets its own analysis.
+    if (!repaired.ok()) {
+      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(finding.finding_id())},
+                                        {"error", repaired.status().ToString()}});
+      break;
+    }
+    // A cut changes no finding's severity, so the next finding keeps its id in the repaired version.
+    base = repaired->version.version();
+  }
+  return storage::Status::Ok();
+}
+
+storage::Result<std::vector<fleet::v1::MapVersion>> MapHistory::List(const std::string& robot_id,
+                                                                     std::int64_t* current_version) {
+  auto versions = repository_.ListMapVersions(robot_id);
+  if (!versions.ok()) return versions.status();
+  const storage::MapVersionRecord* current = Current(*versions);
+  *current_version = current ? current->version : 0;
+  std::vector<fleet::v1::MapVersion> out;
+  for (const storage::MapVersionRecord& record : *versions) out.push_back(ToProto(record, &record == current));
+  return out;
+}
+
+storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id, std::int64_t version) {
+  if (version > 0) return repository_.GetMapVersion(robot_id, version);
+  if (version < 0) return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
+  auto versions = repository_.ListMapVersions(robot_id);
+  if (!versions.ok()) return versions.status();
+  const storage::MapVersionRecord* current = Current(*versions);
+  if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
+  return *current;
+}
+
+storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, std::int64_t version,
+                                                  fleet::v1::MapSnapshot* snapshot) {
+  auto record = Resolve(robot_id, version);
+  if (!record.ok()) return record.status();
+  auto versions = repository_.ListMapVersions(robot_id);
+  if (!versions.ok()) return versions.status();
+  const storage::MapVersionRecord* current = Current(*versions);
+  MapVersionDetail detail;
+  detail.version = ToProto(*record, current && current->version == record->version);
+  auto findings = repository_.ListMapFindings(robot_id, record->version);
+  if (!findings.ok()) return findings.status();
+  auto parsed = FromRecords(*findings);
+  if (!parsed.ok()) return parsed.status();
+  detail.findings = std::move(parsed).value();
+  if (snapshot) {
+    auto loaded = LoadMap(repository_, record->snapshot_id);
+    if (!loaded.ok()) return loaded.status();
+    *snapshot = std::move(loaded->snapshot);
+  }
+  return detail;
+}
+
+storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
+  auto base = repository_.GetMapVersion(request.robot_id, request.base_version);
+  if (!base.ok()) return base.status();
+  auto loaded = LoadMap(repository_, base->snapshot_id);
+  if (!loaded.ok()) return loaded.status();
+  auto context = LoadRunContext(repository_, base->run_id, policy_.default_parameter_set);
+  if (!context.ok()) return context.status();
+  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(loaded->map, context->parent);
+
+  // The repaired map: computed for edits, an earlier stored map for rollback and undo.
+  std::optional<slamcore::Map> repaired;
+  std::string snapshot_id, detail, origin = "repair";
+  if (request.action == "reject_edge" || request.action == "reject_hypothesis" || request.action == "cut_finding") {
+    slamcore::Result<slamcore::Map> edited = slamcore::InvalidArgument("");
+    if (request.action == "reject_edge") {
+      edited = analyzer::RejectEdge(loaded->map, request.from, request.to, request.view, &detail);
+    } else if (request.action == "reject_hypothesis") {
+      edited = analyzer::RejectHypothesis(loaded->map, run_nodes, request.hypothesis, &detail);
+    } else {
+      auto findings = Get(request.robot_id, request.base_version);
+      if (!findings.ok()) return findings.status();
+      const fleet::v1::MapFinding* target = nullptr;
+      for (const auto& finding : findings->findings) {
+        if (finding.finding_id() == request.finding_id) target = &finding;
+      }
+      if (!target) {
+        return storage::NotFound("version " + std::to_string(request.base_version) + " has no finding " +
+                                 std::to_string(request.finding_id));
+      }
+      if (target->world_bbox_size() != 4) {
+        return storage::InvalidArgument("finding " + std::to_string(request.finding_id) + " is a " + target->kind() +
+                                        ", not a region that can be cut");
+      }
+      edited = analyzer::CutRegion(loaded->map, run_nodes,
+                                   {target->world_bbox(0), target->world_bbox(1), target->world_bbox(2), target->world_bbox(3)},
+                                   &detail);
+    }
+    if (!edited.ok()) return FromSlamcore(edited.status());
+    repaired = std::move(edited).value();
+    auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired)));
+    if (!stored.ok()) return stored.status();
+    snapshot_id = *stored;
+  } else if (request.action == "rollback") {
+    auto run = base->run_id.empty() ? storage::Result<storage::RunRecord>(storage::NotFound("")) : repository_.GetRun(base->run_id);
+    if (!run.ok() || !run->parent_snapshot_id) {
+      return storage::FailedPrecondition("version " + std::to_string(base->version) +
+                                         " was made by the robot's first run: there is no parent map to roll back to");
+    }
+    origin = "rollback";
+    snapshot_id = *run->parent_snapshot_id;
+    detail = "back to the map before run " + base->run_id;
+  } else if (request.action == "undo") {
+    if (base->origin == "upload" || !base->parent_version) {
+      return storage::FailedPrecondition("version " + std::to_string(base->version) + " is an upload, not a repair: " +
+                                         "nothing to undo (roll back instead)");
+    }
+    auto earlier = repository_.GetMapVersion(request.robot_id, *base->parent_version);
+    if (!earlier.ok()) return earlier.status();
+    origin = "undo";
+    snapshot_id = earlier->snapshot_id;
+    detail = "undid version " + std::to_string(base->version) + " (" + base->action + "): the map of version " +
+             std::to_string(earlier->version) + " again";
+  } else {
+    return storage::InvalidArgument("action \"" + request.action +
+                                    "\": expected reject_edge, reject_hypothesis, cut_finding, rollback or undo");
+  }
+  if (!repaired) {
+    auto restored = LoadMap(repository_, snapshot_id);
+    if (!restored.ok()) return restored.status();
+    repaired = std::move(restored->map);
+  }
+
+  auto record = NewVersion(*repaired, snapshot_id);
+  if (!record.ok()) return record.status();
+  record->robot_id = request.robot_id;
+  record->parent_version = base->version;
+  record->origin = origin;
+  record->run_id = base->run_id;
+  record->action = request.action == "cut_finding" ? "cut_region" : request.action;
+  record->action_detail = detail;
+  record->created_by = request.requested_by;
+  record->reason = request.reason;
+  record->approval = request.approve ? "approved" : "pending";
+  if (request.approve) {
+    record->approved_by = request.requested_by;
+    record->approved_at_ms = NowMillis();
+  }
+  // Rolling back leaves the run's nodes behind: its findings no longer apply.
+  RunContext findings_context = origin == "rollback" ? RunContext{} : std::move(context).value();
+  if (origin == "rollback") findings_context.parent = *repaired;
+  const std::vector<fleet::v1::MapFinding> findings = Findings(*repaired, findings_context);
+  auto appended = repository_.AppendMapVersion(*record, request.base_version, ToRecords(findings));
+  if (!appended.ok()) return appended.status();
+  log::Info("map_repaired", {{"robot_id", request.robot_id},
+                             {"base_version", static_cast<long long>(request.base_version)},
+                             {"version", static_cast<long long>(appended->version)},
+                             {"action", record->action},
+                             {"detail", detail},
+                             {"by", request.requested_by},
+                             {"approved", request.approve}});
+  MapVersionDetail result;
+  result.version = ToProto(*appended, request.approve);
+  result.findings = findings;
+  return result;
+}
+
+storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version, bool approve,
+                                                          const std::string& reviewed_by) {
+  auto reviewed = repository_.ReviewMapVersion(robot_id, version, approve, reviewed_by);
+  if (!reviewed.ok()) return reviewed.status();
+  log::Info("map_reviewed", {{"robot_id", robot_id},
+                             {"version", static_cast<long long>(version)},
+                             {"approved", approve},
+                             {"by", reviewed_by}});
+  auto versions = repository_.ListMapVersions(robot_id);
+  if (!versions.ok()) return versions.status();
+  const storage::MapVersionRecord* current = Current(*versions);
+  return ToProto(*reviewed, current && current->version == version);
+}
+
+storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id, std::int64_t held_version,
+                                                         bool* up_to_date, fleet::v1::MapSnapshot* snapshot) {
+  auto current = Resolve(robot_id, 0);
+  if (!current.ok()) return current.status();
+  *up_to_date = held_version == current->version;
+  if (!*up_to_date) {
+    auto loaded = LoadMap(repository_, current->snapshot_id);
+    if (!loaded.ok()) return loaded.status();
+    *snapshot = std::move(loaded->snapshot);
+  }
+  return ToProto(*current, true);
+}
+
+storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
+                                                                         const std::string& format) {
+  auto record = Resolve(robot_id, version);
+  if (!record.ok()) return record.status();
+  auto loaded = LoadMap(repository_, record->snapshot_id);
+  if (!loaded.ok()) return loaded.status();
+  auto files = analyzer::ExportMap(loaded->map, format, robot_id + "-v" + std::to_string(record->version));
+  if (!files.ok()) return FromSlamcore(files.status());
+  return std::move(files).value();
+}
+
+}  // namespace server
