@@ -12,6 +12,7 @@
 //     regions RUN | label RUN REGION LABEL
 //     models train NAME [--classifier K] | models eval NAME [--version V] | models activate NAME V | models list NAME
 //     credentials PRINCIPAL          mint a token (admins)
+//     maps list|show|repair|approve|reject|get|export   map history (map_commands.h)
 // Every command takes --json: one JSON object on stdout instead of a table. Exit status 0 on success, 1 on
 // an RPC error (printed as "fleetctl: CODE: message"), 2 on usage errors.
 #include <CLI/CLI.hpp>
@@ -26,18 +27,18 @@
 #include <unistd.h>
 
 #include "analyzer/parameters.h"
+#include "client.h"
 #include "fleet/v1/service.grpc.pb.h"
+#include "map_commands.h"
 #include "sim/upload_files.h"
 #include "sim/uploader.h"
 
 namespace {
 
-struct Global {
-  std::string server = "127.0.0.1:50051";
-  std::string token;
-  std::string tls_ca;
-  bool json = false;
-};
+using fleetctl::Client;
+using fleetctl::Fail;
+using fleetctl::Global;
+using fleetctl::PrintJson;
 
 struct Filter {
   std::string robot, firmware, model, parameter_set;
@@ -61,56 +62,6 @@ struct Filter {
     return filter;
   }
 };
-
-const char* CodeName(grpc::StatusCode code) {
-  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
-                                 "UNAUTHENTICATED"};
-  const int index = static_cast<int>(code);
-  return index >= 0 && index <= 16 ? kNames[index] : "UNKNOWN";
-}
-
-class Client {
- public:
-  explicit Client(const Global& global) : global_(global) {
-    channel_ = sim::CreateFleetChannel(global.server, global.tls_ca, 256 << 20);
-    queries = fleet::v1::Queries::NewStub(channel_);
-    reprocessing = fleet::v1::Reprocessing::NewStub(channel_);
-    labels = fleet::v1::Labels::NewStub(channel_);
-    models = fleet::v1::Models::NewStub(channel_);
-    admin = fleet::v1::Admin::NewStub(channel_);
-  }
-  std::unique_ptr<grpc::ClientContext> Context(int seconds = 60) const {
-    auto context = std::make_unique<grpc::ClientContext>();
-    if (!global_.token.empty()) context->AddMetadata("authorization", "Bearer " + global_.token);
-    context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
-    return context;
-  }
-  std::unique_ptr<fleet::v1::Queries::Stub> queries;
-  std::unique_ptr<fleet::v1::Reprocessing::Stub> reprocessing;
-  std::unique_ptr<fleet::v1::Labels::Stub> labels;
-  std::unique_ptr<fleet::v1::Models::Stub> models;
-  std::unique_ptr<fleet::v1::Admin::Stub> admin;
-
- private:
-  const Global& global_;
-  std::shared_ptr<grpc::Channel> channel_;
-};
-
-int Fail(const grpc::Status& status) {
-  std::cerr << "fleetctl: " << CodeName(status.error_code()) << ": " << status.error_message() << "\n";
-  return 1;
-}
-
-void PrintJson(const google::protobuf::Message& message) {
-  std::string json;
-  google::protobuf::util::JsonPrintOptions options;
-  options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
-  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
-  std::cout << json << "\n";
-}
 
 std::string Percent(double share) {
   char buffer[32];
@@ -257,8 +208,11 @@ int main(int argc, char** argv) {
   auto* credentials = app.add_subcommand("credentials", "mint a token for a principal (admins)");
   credentials->add_option("principal", principal, "robot:<id>, engineer:<name> or admin:<name>")->required();
 
+  fleetctl::MapCommands map_commands(app);
+
   CLI11_PARSE(app, argc, argv);
   Client client(global);
+  if (const std::optional<int> status = map_commands.Run(client, global)) return *status;
 
   if (*upload) {
     sim::UploadFilesOptions options;

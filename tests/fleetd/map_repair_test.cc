@@ -1,0 +1,416 @@
+// The map repair loop end to end, against a real fleetd on loopback: a robot whose own back-end runs with
+// permissive parameters accepts a wrong merge (a look-alike seen as the real thing); the run's upload becomes
+// a map version, the server's analysis finds the merge (its rerun with the fleet's default parameters does not
+// accept it), an engineer rejects the merge, approves the repaired version, the robot downloads it, and the
+// repaired map's error against the simulator's ground truth is back to where it was before the wrong merge.
+// Also: undo restores the earlier map byte for byte, concurrent repairs of one map never interleave, a robot
+// uploading on an outdated map is told the current version, and exports read back.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <future>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "analyzer/run_analysis.h"
+#include "analyzer/telemetry_codec.h"
+#include "fleetd_process.h"
+#include "sim/run_simulator.h"
+#include "slamcore/graph_io.h"
+
+namespace fleetd_test {
+namespace {
+
+using fleet::v1::RunFile;
+using NodeTruth = std::unordered_map<slamcore::NodeId, slamcore::SE2>;
+
+constexpr const char* kRobot = "repair-robot";
+
+/// The robot's own back-end: a merge on a single observation, no conditional stage.
+slamcore::MapperParams PermissiveParameters() {
+  slamcore::MapperParams params;
+  params.conditional_merge = false;
+  params.merge_conditional = {.min_observations = 1, .min_views = 1};
+  params.merge_full = {.min_observations = 1, .min_views = 1};
+  params.recovery = {.min_observations = 1, .min_views = 1};
+  return params;
+}
+
+/// (robot node, view) of every observation the simulator marks wrong, by the node current at its time.
+std::set<std::pair<slamcore::NodeId, std::int64_t>> WrongObservations(const RunFile& run) {
+  std::vector<std::pair<double, slamcore::NodeId>> node_times;
+  for (const auto& node : run.child_snapshot().nodes()) node_times.emplace_back(node.time(), node.id());
+  std::sort(node_times.begin(), node_times.end());
+  std::set<std::pair<slamcore::NodeId, std::int64_t>> wrong;
+  for (const auto& event : run.events()) {
+    if (!event.has_view_observed() || !event.view_observed().truth_wrong()) continue;
+    auto after = std::upper_bound(node_times.begin(), node_times.end(),
+                                  std::pair{event.time(), std::numeric_limits<slamcore::NodeId>::max()});
+    if (after != node_times.begin()) wrong.emplace(std::prev(after)->second, event.view_observed().view());
+  }
+  return wrong;
+}
+
+/// Ground truth of the run's nodes, from a replay with the robot's parameters (the same map, node for node).
+NodeTruth TruthOf(const RunFile& run, const slamcore::MapperParams& params) {
+  auto parent = analyzer::FromProto(run.parent_snapshot(), "parent");
+  EXPECT_TRUE(parent.ok());
+  auto mapper = slamcore::Mapper::Create(params, *parent);
+  EXPECT_TRUE(mapper.ok());
+  auto events = analyzer::FromProto(run.events(), "events");
+  EXPECT_TRUE(events.ok());
+  for (const auto& event : *events) EXPECT_TRUE((*mapper)->Process(event).ok());
+  return (*mapper)->ground_truth();
+}
+
+double Rmse(const fleet::v1::MapSnapshot& snapshot, const NodeTruth& truth) {
+  auto map = analyzer::FromProto(snapshot, "map");
+  EXPECT_TRUE(map.ok());
+  int count = 0;
+  return analyzer::ComponentwiseRmse(map->graph, truth, &count).value_or(-1.0);
+}
+
+struct Scenario {
+  std::vector<RunFile> runs;     // the robot's runs up to and including the wrong merge
+  std::int64_t wrong_hypothesis = -1;
+  std::size_t wrong_edges = 0;
+  NodeTruth truth;               // every node of every run
+};
+
+/// Simulates one robot run by run until a run's child map holds exactly one wrong hypothesis that joined
+/// two components (a wrong merge). Deterministic: the same seeds find the same run every time.
+Scenario FindWrongMerge() {
+  const auto worlds = sim::ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+  EXPECT_TRUE(worlds.ok());
+  sim::SimParams params;
+  params.run_minutes = 6.0;
+  params.start_off_dock_probability = 1.0;  // every run has to merge into the home map
+  params.lookalike_probability = 0.6;
+  params.recognition_failure_probability = 0.0;
+  params.kidnap_probability = 0.0;
+  params.reboot_probability = 0.0;
+  params.slip_episodes_per_hour = 0.0;
+  params.mapper = PermissiveParameters();
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    auto world = sim::LoadWorld((*worlds)[seed % worlds->size()], seed);
+    EXPECT_TRUE(world.ok());
+    sim::RobotSimulator robot(*world, params, kRobot, "fw-repair", seed);
+    Scenario scenario;
+    for (int k = 0; k < 6; ++k) {
+      auto outcome = robot.SimulateRun("repair-run-" + std::to_string(seed) + "-" + std::to_string(k), 1.76e9 + 3600.0 * k);
+      if (!outcome.ok()) {
+        ADD_FAILURE() << outcome.status().ToString();
+        return {};
+      }
+      const RunFile& run = outcome->run;
+      scenario.runs.push_back(run);
+      for (const auto& [node, pose] : TruthOf(run, params.mapper)) scenario.truth[node] = pose;
+      if (k == 0) continue;
+      const auto wrong = WrongObservations(run);
+      std::map<std::int64_t, std::size_t> wrong_by_hypothesis;
+      std::set<slamcore::NodeId> parent_nodes;
+      for (const auto& node : run.parent_snapshot().nodes()) parent_nodes.insert(node.id());
+      for (const auto& edge : run.child_snapshot().edges()) {
+        if (edge.has_hypothesis() && edge.has_view() && wrong.contains({edge.from(), edge.view()})) {
+          ++wrong_by_hypothesis[edge.hypothesis()];
+        }
+      }
+      if (wrong_by_hypothesis.size() != 1) {
+        if (!wrong_by_hypothesis.empty()) break;  // several wrong hypotheses: try another robot
+        continue;
+      }
+      // A merge: without the hypothesis's edges the run's first node is not connected to the home map.
+      auto child = analyzer::FromProto(run.child_snapshot(), "child");
+      EXPECT_TRUE(child.ok());
+      const std::int64_t hypothesis = wrong_by_hypothesis.begin()->first;
+      slamcore::PoseGraph without = child->graph;
+      without.RemoveEdgesIf(
+          [&](const slamcore::Edge& edge) { return edge.hypothesis == hypothesis && !parent_nodes.contains(edge.from); });
+      const slamcore::NodeId home = run.parent_snapshot().nodes(0).id();
+      slamcore::NodeId first_new = -1;
+      for (const auto& node : run.child_snapshot().nodes()) {
+        if (!parent_nodes.contains(node.id())) {
+          first_new = node.id();
+          break;
+        }
+      }
+      if (first_new < 0 || without.SameComponent(home, first_new)) break;
+      scenario.wrong_hypothesis = hypothesis;
+      scenario.wrong_edges = wrong_by_hypothesis.begin()->second;
+      std::printf("wrong merge: seed %llu, run %d, hypothesis %lld with %zu wrong edge(s)\n",
+                  static_cast<unsigned long long>(seed), k, static_cast<long long>(hypothesis), scenario.wrong_edges);
+      return scenario;
+    }
+  }
+  return {};
+}
+
+class MapRepairTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(server_.ok());
+    auto channel = server_.Channel();
+    ingest_ = fleet::v1::Ingest::NewStub(channel);
+    maps_ = fleet::v1::Maps::NewStub(channel);
+    admin_ = fleet::v1::Admin::NewStub(channel);
+    engineer_ = Token("engineer:erin");
+    robot_ = Token(std::string("robot:") + kRobot);
+  }
+
+  std::string Token(const std::string& principal) {
+    fleet::v1::SetCredentialRequest request;
+    request.set_principal(principal);
+    fleet::v1::SetCredentialResponse response;
+    auto context = Context(FleetdProcess::AdminToken());
+    EXPECT_TRUE(admin_->SetCredential(context.get(), request, &response).ok());
+    return response.token();
+  }
+
+  grpc::Status Repair(fleet::v1::RepairMapRequest request, fleet::v1::RepairMapResponse* response) {
+    request.set_robot_id(kRobot);
+    auto context = Context(engineer_, 120);
+    return maps_->RepairMap(context.get(), request, response);
+  }
+
+  fleet::v1::GetMapVersionResponse Version(std::int64_t version) {
+    fleet::v1::GetMapVersionRequest request;
+    request.set_robot_id(kRobot);
+    request.set_version(version);
+    request.set_include_snapshot(true);
+    fleet::v1::GetMapVersionResponse response;
+    auto context = Context(engineer_);
+    const grpc::Status status = maps_->GetMapVersion(context.get(), request, &response);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return response;
+  }
+
+  FleetdProcess server_;
+  std::unique_ptr<fleet::v1::Ingest::Stub> ingest_;
+  std::unique_ptr<fleet::v1::Maps::Stub> maps_;
+  std::unique_ptr<fleet::v1::Admin::Stub> admin_;
+  std::string engineer_, robot_;
+};
+
+TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
+  const Scenario scenario = FindWrongMerge();
+  ASSERT_GE(scenario.wrong_hypothesis, 0) << "no simulated run accepted exactly one wrong merge";
+  const RunFile& merged_run = scenario.runs.back();
+
+  // The robot uploads its runs in order; each child map becomes the robot's current version.
+  std::int64_t merged_version = 0;
+  for (const RunFile& run : scenario.runs) {
+    fleet::v1::UploadRunResponse response;
+    const grpc::Status status = Upload(*ingest_, robot_, run, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_FALSE(response.map_outdated());
+    EXPECT_EQ(response.current_map_version(), response.map_version());
+    merged_version = response.map_version();
+  }
+  ASSERT_EQ(merged_version, static_cast<std::int64_t>(scenario.runs.size()));
+
+  // The analysis finds the merge: the server's rerun with the default parameters did not accept it.
+  fleet::v1::GetMapVersionResponse merged;
+  const fleet::v1::MapFinding* finding = nullptr;
+  for (int attempt = 0; attempt < 240 && !finding; ++attempt) {
+    merged = Version(merged_version);
+    for (const auto& candidate : merged.findings()) {
+      if (candidate.kind() == "unconfirmed_hypothesis" && candidate.hypothesis() == scenario.wrong_hypothesis) {
+        finding = &candidate;
+      }
+    }
+    if (!finding) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  ASSERT_NE(finding, nullptr) << "no finding names hypothesis " << scenario.wrong_hypothesis;
+  EXPECT_EQ(finding->state(), "open");
+  EXPECT_NE(finding->evidence_json().find("\"joins_components\":true"), std::string::npos) << finding->evidence_json();
+  EXPECT_GE(merged.version().open_findings(), 1);
+
+  // The engineer rejects the merge: a pending version, not yet the robot's.
+  fleet::v1::RepairMapRequest reject;
+  reject.set_base_version(merged_version);
+  reject.set_reject_hypothesis(finding->hypothesis());
+  reject.set_reason("look-alike merged the run into the wrong room");
+  fleet::v1::RepairMapResponse repaired;
+  grpc::Status status = Repair(reject, &repaired);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const std::int64_t repaired_version = repaired.version().version();
+  EXPECT_EQ(repaired_version, merged_version + 1);
+  EXPECT_EQ(repaired.version().approval(), "pending");
+  EXPECT_EQ(repaired.version().parent_version(), merged_version);
+  EXPECT_EQ(repaired.version().created_by(), "engineer:erin");
+  EXPECT_EQ(repaired.version().observation_edges(),
+            merged.version().observation_edges() - static_cast<std::int64_t>(scenario.wrong_edges));
+  for (const auto& after : repaired.findings()) {
+    EXPECT_FALSE(after.kind() == "unconfirmed_hypothesis" && after.hypothesis() == scenario.wrong_hypothesis);
+  }
+
+  fleet::v1::GetMapRequest fetch;
+  fetch.set_robot_id(kRobot);
+  fetch.set_held_version(merged_version);
+  fleet::v1::GetMapResponse held;
+  auto context = Context(robot_);
+  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &held).ok());
+  EXPECT_TRUE(held.up_to_date()) << "a pending repair is not handed to the robot";
+
+  fleet::v1::ReviewMapVersionRequest approve;
+  approve.set_robot_id(kRobot);
+  approve.set_version(repaired_version);
+  approve.set_approve(true);
+  fleet::v1::MapVersion approved;
+  context = Context(engineer_);
+  ASSERT_TRUE(maps_->ReviewMapVersion(context.get(), approve, &approved).ok());
+  EXPECT_EQ(approved.approval(), "approved");
+  EXPECT_TRUE(approved.current());
+
+  fleet::v1::GetMapResponse downloaded;
+  context = Context(robot_);
+  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &downloaded).ok());
+  ASSERT_FALSE(downloaded.up_to_date());
+  EXPECT_EQ(downloaded.version().version(), repaired_version);
+  EXPECT_EQ(analyzer::SerializeDeterministic(downloaded.snapshot()).size(),
+            analyzer::SerializeDeterministic(Version(repaired_version).snapshot()).size());
+
+  // Error against ground truth: before the wrong merge (the parent map), with it, after the repair, and the
+  // same run mapped by the default parameters (no wrong merge at all).
+  const double before = Rmse(merged_run.parent_snapshot(), scenario.truth);
+  const double wrong = Rmse(merged_run.child_snapshot(), scenario.truth);
+  const double after = Rmse(downloaded.snapshot(), scenario.truth);
+  auto default_report = analyzer::AnalyzeRun(merged_run, {});
+  ASSERT_TRUE(default_report.ok());
+  const double default_rerun = Rmse(default_report->rerun_child(), scenario.truth);
+  std::printf("trajectory RMSE vs ground truth (m): parent %.3f, with the wrong merge %.3f, repaired %.3f, "
+              "default-parameter rerun %.3f\n", before, wrong, after, default_rerun);
+  RecordProperty("rmse_parent", std::to_string(before));
+  RecordProperty("rmse_wrong_merge", std::to_string(wrong));
+  RecordProperty("rmse_repaired", std::to_string(after));
+  RecordProperty("rmse_default_rerun", std::to_string(default_rerun));
+  ASSERT_GT(before, 0.0);
+  EXPECT_GT(wrong, 2.0 * after) << "the wrong merge made the map worse and the repair undid that";
+  EXPECT_LE(after, std::max(before, default_rerun) * 1.25 + 0.02) << "back to the level before the wrong merge";
+
+  // Undo restores the earlier version exactly: the very same content-addressed map.
+  fleet::v1::RepairMapRequest undo;
+  undo.set_base_version(repaired_version);
+  undo.set_undo(true);
+  fleet::v1::RepairMapResponse undone;
+  ASSERT_TRUE(Repair(undo, &undone).ok());
+  EXPECT_EQ(undone.version().snapshot_id(), merged.version().snapshot_id());
+  EXPECT_EQ(undone.version().origin(), "undo");
+  EXPECT_EQ(analyzer::SerializeDeterministic(Version(undone.version().version()).snapshot()),
+            analyzer::SerializeDeterministic(merged.snapshot()));
+
+  // Concurrent repairs of one map: all start from the same newest version; exactly one is appended.
+  const std::int64_t head = undone.version().version();
+  std::vector<std::future<grpc::StatusCode>> racers;
+  for (int i = 0; i < 4; ++i) {
+    racers.push_back(std::async(std::launch::async, [&] {
+      fleet::v1::RepairMapRequest rollback;
+      rollback.set_base_version(head);
+      rollback.set_rollback(true);
+      fleet::v1::RepairMapResponse ignored;
+      return Repair(rollback, &ignored).error_code();
+    }));
+  }
+  std::map<grpc::StatusCode, int> outcomes;
+  for (auto& racer : racers) ++outcomes[racer.get()];
+  EXPECT_EQ(outcomes[grpc::StatusCode::OK], 1);
+  EXPECT_EQ(outcomes[grpc::StatusCode::ABORTED], 3);
+
+  // The robot's next run was built on the map it had before the repair: it is told the current version.
+  // (Its upload is kept, as a "stale" version.)
+  RunFile next = merged_run;
+  next.mutable_header()->set_run_id("repair-run-after");
+  next.mutable_header()->set_parent_snapshot_id(merged.version().snapshot_id());
+  *next.mutable_parent_snapshot() = merged_run.child_snapshot();
+  fleet::v1::UploadRunResponse outdated;
+  status = Upload(*ingest_, robot_, next, &outdated);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_TRUE(outdated.map_outdated());
+  EXPECT_EQ(outdated.current_map_version(), repaired_version);
+
+  // Export: map_server files and a g2o graph that reads back.
+  for (const std::string format : {"map_server", "g2o"}) {
+    fleet::v1::ExportMapRequest request;
+    request.set_robot_id(kRobot);
+    request.set_version(repaired_version);
+    request.set_format(format);
+    fleet::v1::ExportMapResponse exported;
+    context = Context(engineer_);
+    ASSERT_TRUE(maps_->ExportMap(context.get(), request, &exported).ok());
+    ASSERT_EQ(exported.files_size(), format == "g2o" ? 1 : 2);
+    for (const auto& file : exported.files()) EXPECT_FALSE(file.content().empty()) << file.name();
+    if (format == "g2o") {
+      std::istringstream in(exported.files(0).content());
+      auto graph = slamcore::ReadPoseGraph(in, "export");
+      ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+      EXPECT_EQ(static_cast<std::int64_t>(graph->num_nodes()), repaired.version().nodes());
+    }
+  }
+}
+
+TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
+  const auto& runs = SimulatedRuns();
+  ASSERT_FALSE(runs.empty());
+  const RunFile& run = runs.front();
+  const std::string owner = Token("robot:" + run.header().robot_id());
+  fleet::v1::UploadRunResponse uploaded;
+  ASSERT_TRUE(Upload(*ingest_, owner, run, &uploaded).ok());
+  ASSERT_EQ(uploaded.map_version(), 1);
+
+  fleet::v1::GetMapRequest fetch;
+  fetch.set_robot_id(run.header().robot_id());
+  fleet::v1::GetMapResponse response;
+  auto context = Context(robot_);  // another robot's token
+  EXPECT_EQ(maps_->GetMap(context.get(), fetch, &response).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  context = Context(owner);
+  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &response).ok());
+  EXPECT_FALSE(response.up_to_date());
+  EXPECT_EQ(response.snapshot().nodes_size(), run.child_snapshot().nodes_size());
+
+  fleet::v1::RepairMapRequest request;
+  request.set_robot_id(run.header().robot_id());
+  request.set_base_version(1);
+  fleet::v1::RepairMapResponse repaired;
+  // Robots may not repair; engineers must name an action, a real edge, and a repair that exists.
+  context = Context(owner);
+  request.set_rollback(true);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  context = Context(engineer_);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+      << "a first run has no parent to roll back to";
+  request.set_undo(true);
+  context = Context(engineer_);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+      << "an upload is not a repair";
+  for (const auto& edge : run.child_snapshot().edges()) {
+    if (edge.kind() != fleet::v1::Edge::KIND_MOTION) continue;
+    request.mutable_reject_edge()->set_from(edge.from());
+    request.mutable_reject_edge()->set_to(edge.to());
+    break;
+  }
+  context = Context(engineer_);
+  const grpc::Status motion = maps_->RepairMap(context.get(), request, &repaired);
+  EXPECT_EQ(motion.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(motion.error_message().find("motion"), std::string::npos) << motion.error_message();
+  request.set_base_version(9);
+  context = Context(engineer_);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::NOT_FOUND);
+  request.clear_action();
+  context = Context(engineer_);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+
+  fleet::v1::ReviewMapVersionRequest review;
+  review.set_robot_id(run.header().robot_id());
+  review.set_version(1);
+  review.set_approve(true);
+  fleet::v1::MapVersion reviewed;
+  context = Context(engineer_);
+  EXPECT_EQ(maps_->ReviewMapVersion(context.get(), review, &reviewed).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+      << "only pending versions are reviewed";
+}
+
+}  // namespace
+}  // namespace fleetd_test

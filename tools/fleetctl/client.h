@@ -1,0 +1,76 @@
+// What every fleetctl command shares: global options, the gRPC client with its stubs, error and JSON output.
+#pragma once
+
+#include <google/protobuf/util/json_util.h>
+#include <grpcpp/grpcpp.h>
+
+#include <chrono>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "fleet/v1/service.grpc.pb.h"
+#include "sim/uploader.h"
+
+namespace fleetctl {
+
+struct Global {
+  std::string server = "127.0.0.1:50051";
+  std::string token;
+  std::string tls_ca;
+  bool json = false;
+};
+
+inline const char* CodeName(grpc::StatusCode code) {
+  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
+                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
+  const int index = static_cast<int>(code);
+  return index >= 0 && index <= 16 ? kNames[index] : "UNKNOWN";
+}
+
+class Client {
+ public:
+  explicit Client(const Global& global) : global_(global) {
+    channel_ = sim::CreateFleetChannel(global.server, global.tls_ca, 256 << 20);
+    queries = fleet::v1::Queries::NewStub(channel_);
+    reprocessing = fleet::v1::Reprocessing::NewStub(channel_);
+    labels = fleet::v1::Labels::NewStub(channel_);
+    models = fleet::v1::Models::NewStub(channel_);
+    admin = fleet::v1::Admin::NewStub(channel_);
+    maps = fleet::v1::Maps::NewStub(channel_);
+  }
+  std::unique_ptr<grpc::ClientContext> Context(int seconds = 60) const {
+    auto context = std::make_unique<grpc::ClientContext>();
+    if (!global_.token.empty()) context->AddMetadata("authorization", "Bearer " + global_.token);
+    context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+    return context;
+  }
+  std::unique_ptr<fleet::v1::Queries::Stub> queries;
+  std::unique_ptr<fleet::v1::Reprocessing::Stub> reprocessing;
+  std::unique_ptr<fleet::v1::Labels::Stub> labels;
+  std::unique_ptr<fleet::v1::Models::Stub> models;
+  std::unique_ptr<fleet::v1::Admin::Stub> admin;
+  std::unique_ptr<fleet::v1::Maps::Stub> maps;
+
+ private:
+  const Global& global_;
+  std::shared_ptr<grpc::Channel> channel_;
+};
+
+inline int Fail(const grpc::Status& status) {
+  std::cerr << "fleetctl: " << CodeName(status.error_code()) << ": " << status.error_message() << "\n";
+  return 1;
+}
+
+inline void PrintJson(const google::protobuf::Message& message) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
+  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+  std::cout << json << "\n";
+}
+
+}  // namespace fleetctl
