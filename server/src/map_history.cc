@@ -283,6 +283,14 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
 storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
   auto base = repository_.GetMapVersion(request.robot_id, request.base_version);
   if (!base.ok()) return base.status();
+  // Fail fast on a base that is already outdated; AppendMapVersion checks again, atomically, at the end.
+  auto versions = repository_.ListMapVersions(request.robot_id);
+  if (!versions.ok()) return versions.status();
+  if (versions->back().version != base->version) {
+    return storage::Aborted("version " + std::to_string(base->version) + " of robot " + request.robot_id +
+                            " is not the newest (" + std::to_string(versions->back().version) +
+                            " is): repair the newest version");
+  }
   auto loaded = LoadMap(repository_, base->snapshot_id);
   if (!loaded.ok()) return loaded.status();
   auto context = LoadRunContext(repository_, base->run_id, policy_.default_parameter_set);

@@ -49,4 +49,30 @@ assert "ground_truth" in report, "no ground-truth errors"'
 robot_token=$("$bin/fleetctl" credentials robot:robot-0000 --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["token"])')
 if FLEET_TOKEN=$robot_token "$bin/fleetctl" runs 2>"$work/err"; then fail "a robot token read runs"; fi
 grep -q PERMISSION_DENIED "$work/err" || fail "no PERMISSION_DENIED: $(cat "$work/err")"
+
+# Map history: each robot's two runs made versions 1 and 2; a repair from the CLI, review, hand-back, export.
+robot=robot-0000
+"$bin/fleetctl" maps list "$robot" | grep -q "current version: 2" || fail "maps list: $("$bin/fleetctl" maps list "$robot")"
+"$bin/fleetctl" maps show "$robot" --json | python3 -c '
+import json, sys
+shown = json.load(sys.stdin)
+assert shown["version"]["version"] == "2" and shown["version"]["origin"] == "upload", shown["version"]'
+"$bin/fleetctl" maps repair "$robot" --base 2 --rollback --reason "cli test" --json >"$work/repair.json"
+python3 -c '
+import json, sys
+v = json.load(open(sys.argv[1]))["version"]
+assert v["version"] == "3" and v["approval"] == "pending" and v["origin"] == "rollback", v' "$work/repair.json"
+if "$bin/fleetctl" maps repair "$robot" --base 2 --undo 2>"$work/err"; then fail "a repair of an old version succeeded"; fi
+grep -q ABORTED "$work/err" || fail "no ABORTED for a stale base: $(cat "$work/err")"
+if "$bin/fleetctl" maps repair "$robot" --base 3 --reject-edge 1-2 2>"$work/err"; then fail "a malformed edge was accepted"; fi
+"$bin/fleetctl" maps approve "$robot" 3 | grep -q approved || fail "maps approve"
+FLEET_TOKEN=$robot_token "$bin/fleetctl" maps get "$robot" --held 2 --out "$work/handed.map" | grep -q "^version 3" ||
+  fail "the robot did not get version 3"
+[[ -s "$work/handed.map" ]] || fail "maps get wrote no map"
+FLEET_TOKEN=$robot_token "$bin/fleetctl" maps get "$robot" --held 3 | grep -q "up to date" || fail "maps get --held 3"
+"$bin/fleetctl" maps export "$robot" 3 --format map_server --out "$work/export" >/dev/null
+grep -q "^image: $robot-v3.pgm" "$work/export/$robot-v3.yaml" || fail "export: yaml does not name its image"
+[[ -s "$work/export/$robot-v3.pgm" ]] || fail "export: no pgm"
+"$bin/fleetctl" maps export "$robot" 3 --format g2o --out "$work/export" >/dev/null
+grep -q "^VERTEX_SE2" "$work/export/$robot-v3.g2o" || fail "export: g2o has no vertices"
 echo "fleetctl against fleetd: all checks passed"
