@@ -1,0 +1,171 @@
+// MapHistory on a real SQLite file: versions from uploads, findings from the analysis, and the repair policy
+// that cuts protrusions out of a robot's map after its run is analysed, with and without automatic approval.
+#include "server/map_history.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "analyzer/telemetry_codec.h"
+#include "server/analysis.h"
+
+namespace server {
+namespace {
+
+using slamcore::SE2;
+
+/// A 1 m square patch of free cells with one occupied row, centred on its node.
+slamcore::LocalMapEvent Patch() {
+  slamcore::LocalMapEvent patch;
+  patch.resolution = 0.05;
+  patch.width = patch.height = 20;
+  patch.node_T_origin = SE2(-0.5, -0.5, 0.0);
+  patch.cells.assign(400, 0);
+  for (int i = 0; i < 20; ++i) patch.cells[static_cast<std::size_t>(i)] = 100;
+  return patch;
+}
+
+/// A chain of `count` nodes from `first`, 0.5 m apart along the x axis from `x0`, with patches, joined to the
+/// node before `first` when `join` (so the run's nodes are in the home component).
+void AddChain(slamcore::Map& map, slamcore::NodeId first, int count, double x0, bool join) {
+  for (int i = 0; i < count; ++i) {
+    const slamcore::NodeId id = first + i;
+    ASSERT_TRUE(map.graph.AddNode({.id = id, .pose = SE2(x0 + 0.5 * i, 0.0, 0.0)}).ok());
+    map.local_maps[id] = Patch();
+    if (i == 0 && !join) continue;
+    const slamcore::NodeId previous = id - 1;
+    slamcore::Edge edge;
+    edge.from = previous;
+    edge.to = id;
+    edge.measurement = map.graph.node(previous).pose.inverse() * map.graph.node(id).pose;
+    edge.information = slamcore::Matrix3::Identity() * 100.0;
+    ASSERT_TRUE(map.graph.AddEdge(edge).ok());
+  }
+}
+
+class MapHistoryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    directory_ = std::filesystem::temp_directory_path() / ("map-history-" + std::to_string(::getpid()) + "-" +
+                                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(directory_);
+    std::filesystem::create_directories(directory_);
+    auto opened = storage::OpenRepository("sqlite:" + (directory_ / "fleet.db").string());
+    ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+    repository_ = std::move(opened).value();
+    ASSERT_TRUE(repository_->PutRobot({"r1", "vac", "fw", 0}).ok());
+    ASSERT_TRUE(repository_->PutParameterSet({"default", "-"}).ok());
+
+    AddChain(parent_, 0, 10, 0.0, false);
+    child_ = parent_;
+    AddChain(child_, 10, 10, 5.0, true);  // the run drove on past the end of the home map
+  }
+  void TearDown() override {
+    repository_.reset();
+    std::filesystem::remove_all(directory_);
+  }
+
+  /// Stores a run whose parent and child maps are given; returns its record.
+  storage::RunRecord StoreRun(const std::string& run_id, const slamcore::Map* parent, const slamcore::Map& child) {
+    storage::RunRecord run;
+    run.run_id = run_id;
+    run.robot_id = "r1";
+    if (parent) run.parent_snapshot_id = *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*parent)));
+    run.child_snapshot_id = *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(child)));
+    run.telemetry = "telemetry of " + run_id;
+    EXPECT_TRUE(repository_->InsertRun(run).ok());
+    return run;
+  }
+
+  /// The default set's report of the second run, stored as a worker stores it: the rerun agrees with the
+  /// robot, one protrusion region around run nodes 13..16 (x 6.5..8.0), clear of the home map (x up to 5.0).
+  fleet::v1::RunReport Report() {
+    fleet::v1::RunReport report;
+    report.set_run_id("run-1");
+    report.set_parameter_set("default");
+    *report.mutable_rerun_child() = analyzer::ToProto(child_);
+    fleet::v1::ProtrusionRegion* region = report.add_protrusion_regions();
+    region->set_id(1);
+    region->set_predicted_class("protrusion");
+    region->set_probability(0.93);
+    for (const double value : {6.4, -0.4, 8.1, 0.4}) region->add_world_bbox(value);
+    EXPECT_TRUE(repository_->PutReport(ToReportBundle(report)).ok());
+    return report;
+  }
+
+  void UploadBoth(MapHistory& history) {
+    const storage::RunRecord first = StoreRun("run-0", nullptr, parent_);
+    auto v1 = history.RecordUpload(first, analyzer::ToProto(parent_));
+    ASSERT_TRUE(v1.ok()) << v1.status().ToString();
+    const storage::RunRecord second = StoreRun("run-1", &parent_, child_);
+    auto v2 = history.RecordUpload(second, analyzer::ToProto(child_));
+    ASSERT_TRUE(v2.ok()) << v2.status().ToString();
+    EXPECT_EQ(v2->version, 2);
+    EXPECT_EQ(v2->current_version, 2);
+    EXPECT_FALSE(v2->outdated);
+    // A retried upload gets the same version.
+    EXPECT_EQ(history.RecordUpload(second, analyzer::ToProto(child_))->version, 2);
+  }
+
+  std::filesystem::path directory_;
+  std::unique_ptr<storage::Repository> repository_;
+  slamcore::Map parent_, child_;
+};
+
+TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
+  MapHistory history(*repository_, {});
+  UploadBoth(history);
+  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  auto detail = history.Get("r1", 2);
+  ASSERT_TRUE(detail.ok());
+  ASSERT_EQ(detail->findings.size(), 1u);
+  EXPECT_EQ(detail->findings[0].kind(), "protrusion");
+  EXPECT_EQ(detail->findings[0].state(), "open");
+  EXPECT_EQ(detail->version.open_findings(), 1);
+  std::int64_t current = 0;
+  EXPECT_EQ(history.List("r1", &current)->size(), 2u);
+  EXPECT_EQ(current, 2);
+}
+
+TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
+  UploadBoth(history);
+  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  auto repaired = history.Get("r1", 3);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  EXPECT_EQ(repaired->version.action(), "cut_region");
+  EXPECT_EQ(repaired->version.created_by(), "policy:cut_protrusions");
+  EXPECT_EQ(repaired->version.approval(), "pending");
+  EXPECT_EQ(repaired->version.parent_version(), 2);
+  ASSERT_EQ(repaired->findings.size(), 1u);
+  EXPECT_EQ(repaired->findings[0].state(), "resolved");
+  EXPECT_EQ(repaired->version.open_findings(), 0);
+  EXPECT_LT(repaired->version.known_area_m2(), history.Get("r1", 2)->version.known_area_m2());
+  // Pending: the robot keeps version 2 until an engineer approves.
+  bool up_to_date = false;
+  fleet::v1::MapSnapshot snapshot;
+  EXPECT_EQ(history.Fetch("r1", 2, &up_to_date, &snapshot)->version(), 2);
+  EXPECT_TRUE(up_to_date);
+  // The worker may analyse the run again (a retry): the policy does not cut twice.
+  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  std::int64_t current = 0;
+  EXPECT_EQ(history.List("r1", &current)->size(), 3u);
+}
+
+TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .auto_approve = true});
+  UploadBoth(history);
+  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  bool up_to_date = true;
+  fleet::v1::MapSnapshot snapshot;
+  auto current = history.Fetch("r1", 2, &up_to_date, &snapshot);
+  ASSERT_TRUE(current.ok());
+  EXPECT_FALSE(up_to_date);
+  EXPECT_EQ(current->version(), 3);
+  EXPECT_EQ(current->approved_by(), "policy:cut_protrusions");
+  EXPECT_EQ(snapshot.nodes_size(), 20);
+}
+
+}  // namespace
+}  // namespace server
