@@ -278,7 +278,7 @@ Result<slamcore::OccupancyGrid> RenderHomeGrid(const Map& map) {
   return renderer.grid();
 }
 
-Result<MapFigures> ComputeFigures(const Map& map) {
+MapFigures ComputeFigures(const Map& map) {
   MapFigures figures;
   figures.nodes = static_cast<std::int64_t>(map.graph.num_nodes());
   figures.edges = static_cast<std::int64_t>(map.graph.num_edges());
@@ -286,11 +286,14 @@ Result<MapFigures> ComputeFigures(const Map& map) {
   figures.views = static_cast<std::int64_t>(map.graph.views().size());
   figures.components = static_cast<std::int64_t>(map.graph.NumComponents());
   figures.chi2 = slamcore::Chi2(map.graph);
+  return figures;
+}
+
+Result<double> KnownArea(const Map& map) {
   auto grid = RenderHomeGrid(map);
   if (!grid.ok()) return grid.status();
   const std::int64_t known = static_cast<std::int64_t>(grid->cells.size()) - grid->CountCells(slamcore::CellState::kUnknown);
-  figures.known_area_m2 = static_cast<double>(known) * grid->resolution * grid->resolution;
-  return figures;
+  return static_cast<double>(known) * grid->resolution * grid->resolution;
 }
 
 std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {

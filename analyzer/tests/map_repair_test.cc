@@ -91,16 +91,17 @@ const fleet::v1::MapFinding* FindKind(const std::vector<fleet::v1::MapFinding>& 
 
 TEST(MapRepairTest, FiguresCountTheMapAndItsKnownArea) {
   const Scenario s = MakeScenario();
-  const auto figures = ComputeFigures(s.child);
-  ASSERT_TRUE(figures.ok()) << figures.status().ToString();
-  EXPECT_EQ(figures->nodes, 2 * kChain);
-  EXPECT_EQ(figures->edges, 2 * (kChain - 1) + 2);
-  EXPECT_EQ(figures->observation_edges, 2);
-  EXPECT_EQ(figures->views, kChain);
-  EXPECT_EQ(figures->components, 1);
-  EXPECT_NEAR(figures->chi2, 0.0, 1e-9);
+  const MapFigures figures = ComputeFigures(s.child);
+  const auto known_area = KnownArea(s.child);
+  ASSERT_TRUE(known_area.ok()) << known_area.status().ToString();
+  EXPECT_EQ(figures.nodes, 2 * kChain);
+  EXPECT_EQ(figures.edges, 2 * (kChain - 1) + 2);
+  EXPECT_EQ(figures.observation_edges, 2);
+  EXPECT_EQ(figures.views, kChain);
+  EXPECT_EQ(figures.components, 1);
+  EXPECT_NEAR(figures.chi2, 0.0, 1e-9);
   // Two strips of patches 1 m tall, 6.5 m long, 2 m apart (the grid's cells are 0.05 m like the patches).
-  EXPECT_NEAR(figures->known_area_m2, 2 * 6.5, 0.6);
+  EXPECT_NEAR(*known_area, 2 * 6.5, 0.6);
 }
 
 TEST(MapRepairTest, RejectingAMergeHypothesisSplitsTheComponentsAgain) {
@@ -206,9 +207,9 @@ TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFindin
   const auto* resolved = FindKind(after, "protrusion");
   ASSERT_NE(resolved, nullptr);
   EXPECT_EQ(resolved->state(), "resolved");
-  const auto figures_before = ComputeFigures(s.child), figures_after = ComputeFigures(*cut);
-  ASSERT_TRUE(figures_before.ok() && figures_after.ok());
-  EXPECT_LT(figures_after->known_area_m2, figures_before->known_area_m2 - 0.5);
+  const auto area_before = KnownArea(s.child), area_after = KnownArea(*cut);
+  ASSERT_TRUE(area_before.ok() && area_after.ok());
+  EXPECT_LT(*area_after, *area_before - 0.5);
   // Nothing of the run's left in the box: a second cut is refused.
   EXPECT_EQ(CutRegion(*cut, NodesAddedByRun(s.child, s.parent), {1.8, 2.6, 3.2, 3.4}, &detail).status().code(),
             slamcore::StatusCode::kInvalidArgument);

@@ -93,19 +93,24 @@ storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(const std::vecto
   return findings;
 }
 
-/// A new version's record: its map's figures, its lineage and who made it.
-storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, const std::string& snapshot_id) {
-  auto figures = analyzer::ComputeFigures(map);
-  if (!figures.ok()) return FromSlamcore(figures.status());
+/// A new version's record with its map's figures. The known area needs a rendering: uploads leave it to
+/// the run's analysis (OnRunAnalysed) to keep ingest fast.
+storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, const std::string& snapshot_id,
+                                                      bool with_known_area) {
+  const analyzer::MapFigures figures = analyzer::ComputeFigures(map);
   storage::MapVersionRecord record;
   record.snapshot_id = snapshot_id;
-  record.nodes = figures->nodes;
-  record.edges = figures->edges;
-  record.observation_edges = figures->observation_edges;
-  record.views = figures->views;
-  record.components = figures->components;
-  record.known_area_m2 = figures->known_area_m2;
-  record.chi2 = figures->chi2;
+  record.nodes = figures.nodes;
+  record.edges = figures.edges;
+  record.observation_edges = figures.observation_edges;
+  record.views = figures.views;
+  record.components = figures.components;
+  record.chi2 = figures.chi2;
+  if (with_known_area) {
+    auto area = analyzer::KnownArea(map);
+    if (!area.ok()) return FromSlamcore(area.status());
+    record.known_area_m2 = *area;
+  }
   return record;
 }
 
@@ -168,7 +173,7 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   const storage::MapVersionRecord* current = Current(*versions);
   auto map = analyzer::FromProto(child, "child_snapshot");
   if (!map.ok()) return storage::InvalidArgument(map.status().message());
-  auto record = NewVersion(*map, *run.child_snapshot_id);
+  auto record = NewVersion(*map, *run.child_snapshot_id, /*with_known_area=*/false);
   if (!record.ok()) return record.status();
   record->robot_id = run.robot_id;
   record->origin = "upload";
@@ -210,7 +215,10 @@ storage::Status MapHistory::OnRunAnalysed(const std::string& run_id, const fleet
   if (!context.ok()) return context.status();
   context->report = report;
   const std::vector<fleet::v1::MapFinding> findings = Findings(loaded->map, *context);
-  STORAGE_RETURN_IF_ERROR(repository_.PutMapFindings(version->robot_id, version->version, ToRecords(findings)));
+  auto known_area = analyzer::KnownArea(loaded->map);
+  if (!known_area.ok()) return FromSlamcore(known_area.status());
+  STORAGE_RETURN_IF_ERROR(
+      repository_.UpdateMapVersionHealth(version->robot_id, version->version, *known_area, ToRecords(findings)));
 
   if (policy_.auto_repair != "cut_protrusions") return storage::Status::Ok();
   std::int64_t base = version->version;
@@ -360,7 +368,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
     repaired = std::move(restored->map);
   }
 
-  auto record = NewVersion(*repaired, snapshot_id);
+  auto record = NewVersion(*repaired, snapshot_id, /*with_known_area=*/true);
   if (!record.ok()) return record.status();
   record->robot_id = request.robot_id;
   record->parent_version = base->version;

@@ -70,8 +70,8 @@ class SqlRepository final : public Repository {
   Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) override;
   Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id, std::int64_t version) override;
-  Status PutMapFindings(const std::string& robot_id, std::int64_t version,
-                        const std::vector<MapFindingRecord>& findings) override;
+  Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
+                                const std::vector<MapFindingRecord>& findings) override;
   Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
                                             const std::string& reviewed_by) override;
 

@@ -207,13 +207,14 @@ Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::
   return findings;
 }
 
-Status SqlRepository::PutMapFindings(const std::string& robot_id, std::int64_t version,
-                                     const std::vector<MapFindingRecord>& findings) {
+Status SqlRepository::UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
+                                             const std::vector<MapFindingRecord>& findings) {
   STORAGE_RETURN_IF_ERROR(CheckFindings(findings));
   return Write([&](SqlTransaction& transaction) -> Status {
     auto updated = transaction.Query(
-        "UPDATE map_versions SET open_findings = $3 WHERE robot_id = $1 AND version = $2 RETURNING version",
-        {robot_id, version, OpenCount(findings)});
+        "UPDATE map_versions SET open_findings = $3, known_area_m2 = $4 WHERE robot_id = $1 AND version = $2 "
+        "RETURNING version",
+        {robot_id, version, OpenCount(findings), known_area_m2});
     if (!updated.ok()) return updated.status();
     if (updated->empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
     STORAGE_RETURN_IF_ERROR(

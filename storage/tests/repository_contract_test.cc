@@ -417,14 +417,16 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   ASSERT_EQ(findings->size(), 2u);
   EXPECT_EQ((*findings)[0].detail_json, R"({"x":1})");
 
-  // Findings of a version are replaced as a whole, with its open count.
-  ASSERT_TRUE(repo().PutMapFindings("robot-1", 2, {{1, "high_residual_edge", 0.7, "edge 3→9", "open", "{}"},
-                                                   {2, "protrusion", 0.6, "region", "open", "{}"}}).ok());
+  // Findings of a version are replaced as a whole, with its open count and known area.
+  ASSERT_TRUE(repo().UpdateMapVersionHealth("robot-1", 2, 40.25,
+                                            {{1, "high_residual_edge", 0.7, "edge 3→9", "open", "{}"},
+                                             {2, "protrusion", 0.6, "region", "open", "{}"}}).ok());
   EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 2);
-  ASSERT_TRUE(repo().PutMapFindings("robot-1", 2, {}).ok());
+  EXPECT_DOUBLE_EQ(repo().GetMapVersion("robot-1", 2)->known_area_m2, 40.25);
+  ASSERT_TRUE(repo().UpdateMapVersionHealth("robot-1", 2, 40.25, {}).ok());
   EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 0);
   EXPECT_TRUE(repo().ListMapFindings("robot-1", 2)->empty());
-  EXPECT_EQ(repo().PutMapFindings("robot-1", 7, {}).code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().UpdateMapVersionHealth("robot-1", 7, 0.0, {}).code(), StatusCode::kNotFound);
 }
 
 TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {

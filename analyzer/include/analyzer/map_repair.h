@@ -22,13 +22,15 @@
 
 namespace analyzer {
 
-/// Size and health figures of a map (MapVersion fields).
+/// Size and health figures of a map (MapVersion fields), all cheap: linear in nodes and edges.
 struct MapFigures {
   std::int64_t nodes = 0, edges = 0, observation_edges = 0, views = 0, components = 0;
-  double known_area_m2 = 0.0;  // free or occupied cells of the home component's grid
   double chi2 = 0.0;
 };
-slamcore::Result<MapFigures> ComputeFigures(const slamcore::Map& map);
+MapFigures ComputeFigures(const slamcore::Map& map);
+
+/// Free or occupied area (m²) of the home component's grid (RenderHomeGrid): renders the map.
+slamcore::Result<double> KnownArea(const slamcore::Map& map);
 
 /// The home component (the largest; ties: the one of the first node) rendered as an occupancy grid, as the
 /// dashboard shows a version and map_server export writes it. An empty grid (width 0) for an empty map.

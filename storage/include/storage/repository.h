@@ -117,9 +117,10 @@ class Repository {
   virtual Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) = 0;
   virtual Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id,
                                                                 std::int64_t version) = 0;
-  /// Replaces a version's findings (its run's analysis computes them after the upload) and its open count.
-  virtual Status PutMapFindings(const std::string& robot_id, std::int64_t version,
-                                const std::vector<MapFindingRecord>& findings) = 0;
+  /// Replaces a version's findings and its open count, and sets its known area: its run's analysis computes
+  /// them after the upload (rendering the map would slow ingest down).
+  virtual Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
+                                        const std::vector<MapFindingRecord>& findings) = 0;
   /// A pending version becomes "approved" or "rejected"; FAILED_PRECONDITION when it is not pending.
   virtual Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
                                                     const std::string& reviewed_by) = 0;
