@@ -2,7 +2,7 @@
 # The README's main job: installs dependencies, builds, runs the shared SLAM core on real public pose graphs,
 # starts fleetd on its embedded SQLite default, drives it with a simulated fleet in real homes, labels the
 # regions from the simulator's ground truth, trains and activates the protrusion classifier, reprocesses the
-# fleet with it, and prints the fleet statistics and the dashboard URL. fleetd keeps running afterwards so
+# fleet with it, and prints the fleet statistics, each robot's map health and the dashboard URL. fleetd keeps running afterwards so
 # the dashboard can be opened; the last lines say how to stop it.
 #
 # Knobs (environment): FLEET_ROBOTS (12), FLEET_RUNS (4), FLEET_MINUTES (10), FLEET_SEED (1),
@@ -77,6 +77,17 @@ fi
 echo
 echo "== Fleet statistics (the paper's Fig. 6, 7, 8, 12) =="
 "$bin/fleetctl" stats
+echo
+echo "== Map health: each robot's map versions and open findings (review and repair at #/maps) =="
+python3 - "$http" <<'PY'
+import json, sys, urllib.request
+robots = json.load(urllib.request.urlopen(f"http://{sys.argv[1]}/api/robots"))["robots"]
+print(f"{'robot':<14} {'versions':>8} {'current':>8} {'open findings':>14}")
+for robot in robots:
+    print(f"{robot['robot_id']:<14} {robot['versions']:>8} {robot['current_version']:>8} {robot.get('open_findings', 0):>14}")
+PY
+first_robot=$("$bin/fleetctl" runs --limit 1 --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["runs"][0]["robot_id"])')
+"$bin/fleetctl" maps show "$first_robot"
 echo
 echo "Dashboard: http://$http/"
 echo "Engineer token for labelling in the dashboard: $engineer_token"
