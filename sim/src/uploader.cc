@@ -17,21 +17,20 @@
 namespace sim {
 namespace {
 
-const char* CodeName(grpc::StatusCode code) {
-  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
-                                 "UNAUTHENTICATED"};
-  const int index = static_cast<int>(code);
-  return index >= 0 && index <= 16 ? kNames[index] : "UNKNOWN";
-}
-
 bool Retryable(grpc::StatusCode code) {
   return code == grpc::StatusCode::UNAVAILABLE || code == grpc::StatusCode::DEADLINE_EXCEEDED ||
          code == grpc::StatusCode::RESOURCE_EXHAUSTED || code == grpc::StatusCode::ABORTED;
 }
 
 }  // namespace
+
+const char* StatusCodeName(int code) {
+  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
+                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
+  return code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
+}
 
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
   const std::string bytes = analyzer::SerializeDeterministic(snapshot);
@@ -102,7 +101,7 @@ class Uploader::Impl {
         if (!response.parent_snapshot_id().empty()) known_.insert(response.parent_snapshot_id());
         break;
       }
-      outcome.message = std::string(CodeName(status.error_code())) + ": " + status.error_message();
+      outcome.message = std::string(StatusCodeName(status.error_code())) + ": " + status.error_message();
       if (!Retryable(status.error_code()) || attempt == options_.max_attempts) break;
       std::uniform_int_distribution<long> jitter(0, backoff.count() / 2);
       std::this_thread::sleep_for(backoff + std::chrono::milliseconds(jitter(random)));

@@ -21,15 +21,6 @@ struct Global {
   bool json = false;
 };
 
-inline const char* CodeName(grpc::StatusCode code) {
-  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
-                                 "UNAUTHENTICATED"};
-  const int index = static_cast<int>(code);
-  return index >= 0 && index <= 16 ? kNames[index] : "UNKNOWN";
-}
-
 class Client {
  public:
   explicit Client(const Global& global) : global_(global) {
@@ -60,7 +51,7 @@ class Client {
 };
 
 inline int Fail(const grpc::Status& status) {
-  std::cerr << "fleetctl: " << CodeName(status.error_code()) << ": " << status.error_message() << "\n";
+  std::cerr << "fleetctl: " << sim::StatusCodeName(status.error_code()) << ": " << status.error_message() << "\n";
   return 1;
 }
 

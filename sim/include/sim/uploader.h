@@ -58,6 +58,9 @@ class Uploader {
   std::unique_ptr<Impl> impl_;
 };
 
+/// "UNAVAILABLE" for grpc::StatusCode 14, … (the names gRPC's documentation uses).
+const char* StatusCodeName(int code);
+
 /// Hex SHA-256 of the deterministic serialization: the id fleetd gives a snapshot.
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot);
 
