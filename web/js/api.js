@@ -38,7 +38,7 @@ async function parse(response) {
   return body;
 }
 
-// ---- Engineer token for labelling: asked for once, kept for the browser session only. ----
+// ---- Engineer token for labelling and map repairs: asked for once, kept for the browser session only. ----
 const TOKEN_KEY = 'fleetd.token';
 export function getToken() { return sessionStorage.getItem(TOKEN_KEY) || ''; }
 export function setToken(token) {
@@ -54,5 +54,18 @@ export function updateTokenStatus() {
   const element = document.getElementById('token-status');
   if (!element) return;
   const token = getToken();
-  element.textContent = token ? `signed in as ${token.split('.')[0]}` : 'read-only (labelling asks for a token)';
+  element.textContent = token ? `signed in as ${token.split('.')[0]}` : 'read-only (labelling and repairs ask for a token)';
+}
+
+/// POSTs with the engineer token, asking for it once when there is none; a token the server refuses is
+/// forgotten, so the next attempt asks again.
+export async function postAsEngineer(path, body, why) {
+  const token = getToken() || askToken(why);
+  if (!token) throw new ApiError(401, 'no engineer token given');
+  try {
+    return await postJson(path, body, token);
+  } catch (error) {
+    if (error instanceof ApiError && (error.status === 401 || error.status === 403)) setToken('');
+    throw error;
+  }
 }

@@ -9,6 +9,9 @@ import * as run from './pages/run.js';
 import * as experiments from './pages/experiments.js';
 import * as labelling from './pages/labelling.js';
 import * as jobs from './pages/jobs.js';
+import * as maps from './pages/maps.js';
+import * as mapHistory from './pages/maphistory.js';
+import * as mapVersion from './pages/mapversion.js';
 
 const routes = [
   { pattern: /^\/overview$/, page: overview, nav: 'overview' },
@@ -17,6 +20,9 @@ const routes = [
   { pattern: /^\/experiments$/, page: experiments, nav: 'experiments' },
   { pattern: /^\/labelling$/, page: labelling, nav: 'labelling' },
   { pattern: /^\/jobs$/, page: jobs, nav: 'jobs' },
+  { pattern: /^\/maps$/, page: maps, nav: 'maps' },
+  { pattern: /^\/robots\/([^/]+)\/maps$/, page: mapHistory, nav: 'maps' },
+  { pattern: /^\/robots\/([^/]+)\/maps\/([^/]+)$/, page: mapVersion, nav: 'maps' },
 ];
 
 let current = null;   // the page module rendered now (its stop() ends timers)

@@ -1,0 +1,46 @@
+// One robot's map history: the lineage timeline (parent → child, coloured by review state) and every version's
+// figures; a version opens its review page.
+import { getJson } from '../api.js';
+import { card, emptyState, h, num, setState, time } from '../ui.js';
+import { approvalBadge, lineageLegend, lineageTimeline, originLabel, robotMapsPath, sameMapAs, versionHash } from '../maphistory.js';
+
+export async function render(main, { args, isCurrent }) {
+  const robotId = args[0];
+  const [history, { robots }] = await Promise.all([getJson(robotMapsPath(robotId)), getJson('/api/robots')]);
+  if (!isCurrent()) return;
+  const robot = robots.find((r) => r.robot_id === robotId);
+  const versions = history.versions;
+  const open = (version) => { location.hash = versionHash(robotId, version.version); };
+  main.append(h('p', { class: 'muted' }, h('a', { href: '#/maps' }, '← Maps')),
+    h('h1', {}, `Map history — ${robotId}`),
+    h('p', { class: 'muted' }, robot ? `${robot.robot_model} · firmware ${robot.firmware} · ` : '',
+      `${versions.length} versions · current `, history.current_version ? h('a', { href: versionHash(robotId, history.current_version) }, `v${history.current_version}`) : 'none'));
+  if (versions.length === 0) {
+    main.append(emptyState('This robot has no map version yet.', 'A version is recorded when one of its runs is uploaded with a child map.'));
+    setState(main, 'empty');
+    return;
+  }
+
+  main.append(card('Timeline (click a version to review it)', h('div', { class: 'lineage-scroll' }, lineageTimeline(versions, { onOpen: open })), lineageLegend()));
+
+  const newestFirst = [...versions].reverse();
+  main.append(card('Versions, newest first', h('div', { class: 'table-scroll' }, h('table', { 'data-testid': 'versions-table' },
+    h('tr', {}, ['version', 'what', 'by (UTC)', 'reason', 'review', 'nodes', 'edges (obs.)', 'components', 'known area m²', 'χ²', 'open findings']
+      .map((t, i) => h('th', { class: i >= 5 ? 'num' : undefined }, t))),
+    newestFirst.map((v) => {
+      const same = sameMapAs(v, versions);
+      return h('tr', { class: 'clickable', 'data-testid': 'version-row', 'data-version': v.version, onclick: () => open(v) },
+        h('td', {}, h('a', { href: versionHash(robotId, v.version) }, `v${v.version}`), v.parent_version ? h('div', { class: 'muted' }, `from v${v.parent_version}`) : null),
+        h('td', { class: 'wrap' }, h('strong', {}, originLabel(v)),
+          v.origin === 'upload' && v.run_id ? [' · ', h('a', { href: `#/runs/${encodeURIComponent(v.run_id)}`, onclick: (e) => e.stopPropagation() }, 'run')] : null,
+          v.action_detail ? h('div', { class: 'muted' }, v.action_detail) : null,
+          same && v.origin !== 'undo' ? h('div', { class: 'muted' }, `the map of v${same.version} again`) : null),
+        h('td', {}, v.created_by, h('div', { class: 'muted' }, time(v.created_at * 1000))),
+        h('td', { class: 'wrap' }, v.reason || ''),
+        h('td', {}, approvalBadge(v, 'version-approval'), v.approved_by && v.approval !== 'pending' && !v.approved_by.startsWith('robot:') ? h('div', { class: 'muted' }, `by ${v.approved_by}`) : null),
+        h('td', { class: 'num' }, num(v.nodes)), h('td', { class: 'num' }, `${num(v.edges)} (${num(v.observation_edges)})`),
+        h('td', { class: 'num' }, num(v.components)), h('td', { class: 'num' }, num(v.known_area_m2, 1)),
+        h('td', { class: 'num' }, num(v.chi2, 1)), h('td', { class: 'num' }, num(v.open_findings)));
+    })))));
+  setState(main, 'ready');
+}
