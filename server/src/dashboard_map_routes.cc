@@ -1,5 +1,8 @@
 // The dashboard's map review endpoints (see dashboard_routes.h for the list). Reads are open to whoever
 // reaches the HTTP port, like the rest of the dashboard; repairs and reviews need an engineer's token.
+#include <list>
+#include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "analyzer/map_repair.h"
@@ -46,9 +49,10 @@ json VersionJson(const fleet::v1::MapVersion& version) {
 json FindingJson(const fleet::v1::MapFinding& finding) {
   json evidence = json::parse(finding.evidence_json(), nullptr, /*allow_exceptions=*/false);
   if (evidence.is_discarded()) evidence = json::object();
-  json out = {{"finding_id", finding.finding_id()}, {"kind", finding.kind()},         {"severity", finding.severity()},
-              {"summary", finding.summary()},       {"state", finding.state()},       {"evidence", evidence},
-              {"hypothesis", finding.hypothesis()}, {"edge_from", finding.edge_from()}, {"edge_to", finding.edge_to()}};
+  json out = {{"finding_id", finding.finding_id()}, {"kind", finding.kind()},           {"severity", finding.severity()},
+              {"summary", finding.summary()},       {"state", finding.state()},         {"evidence", evidence},
+              {"edge_from", finding.edge_from()},   {"edge_to", finding.edge_to()}};
+  if (finding.has_hypothesis()) out["hypothesis"] = finding.hypothesis();
   if (finding.world_bbox_size() == 4) {
     out["world_bbox"] = {finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2), finding.world_bbox(3)};
   }
@@ -134,13 +138,14 @@ class MapRoutes {
     if (!robots.ok()) return Error(robots.status());
     json out = json::array();
     for (const storage::RobotRecord& robot : *robots) {
-      std::int64_t current = 0;
-      auto versions = history_.List(robot.robot_id, &current);
+      std::int64_t current = 0, head = 0;
+      auto versions = history_.List(robot.robot_id, &current, &head);
       if (!versions.ok()) return Error(versions.status());
       std::int64_t pending = 0;
       for (const auto& version : *versions) pending += version.approval() == "pending" ? 1 : 0;
       json row = {{"robot_id", robot.robot_id}, {"robot_model", robot.robot_model}, {"firmware", robot.firmware},
-                  {"versions", versions->size()}, {"current_version", current}, {"pending", pending}};
+                  {"versions", versions->size()}, {"current_version", current}, {"head_version", head},
+                  {"pending", pending}};
       if (!versions->empty()) {
         row["head_version"] = versions->back().version();
         row["head_approval"] = versions->back().approval();
@@ -152,15 +157,15 @@ class MapRoutes {
   }
 
   HttpResponse Versions(const std::string& robot) {
-    std::int64_t current = 0;
-    auto versions = history_.List(robot, &current);
+    std::int64_t current = 0, head = 0;
+    auto versions = history_.List(robot, &current, &head);
     if (!versions.ok()) return Error(versions.status());
     if (versions->empty() && repository_.GetRobot(robot).status().code() == storage::StatusCode::kNotFound) {
       return Error(404, "no robot \"" + robot + "\"");
     }
     json out = json::array();
     for (const auto& version : *versions) out.push_back(VersionJson(version));
-    return Json({{"robot_id", robot}, {"current_version", current}, {"versions", out}});
+    return Json({{"robot_id", robot}, {"current_version", current}, {"head_version", head}, {"versions", out}});
   }
 
   HttpResponse Version(const std::string& robot, std::int64_t version) {
@@ -171,26 +176,53 @@ class MapRoutes {
     return Json({{"version", VersionJson(detail->version)}, {"findings", findings}});
   }
 
-  storage::Result<slamcore::Map> LoadMap(const std::string& robot, std::int64_t version, std::int64_t* resolved) {
+  storage::Result<slamcore::Map> LoadMap(const std::string& robot, std::int64_t version, std::int64_t* resolved,
+                                         std::string* snapshot_id) {
     fleet::v1::MapSnapshot snapshot;
     auto detail = history_.Get(robot, version, &snapshot);
     if (!detail.ok()) return detail.status();
     *resolved = detail->version.version();
+    *snapshot_id = detail->version.snapshot_id();
     auto map = analyzer::FromProto(snapshot, "snapshot");
     if (!map.ok()) return FromSlamcore(map.status());
     return std::move(map).value();
+  }
+
+  /// The home grid of a map, rendered once per snapshot (a version page asks for it several times: its
+  /// picture and the graph's frame, its parent's for before/after).
+  storage::Result<std::shared_ptr<const slamcore::OccupancyGrid>> HomeGrid(const std::string& snapshot_id,
+                                                                           const slamcore::Map& map) {
+    {
+      std::lock_guard<std::mutex> lock(cache_mutex_);
+      for (auto it = grid_cache_.begin(); it != grid_cache_.end(); ++it) {
+        if (it->first != snapshot_id) continue;
+        grid_cache_.splice(grid_cache_.begin(), grid_cache_, it);
+        return grid_cache_.front().second;
+      }
+    }
+    auto grid = analyzer::RenderHomeGrid(map);
+    if (!grid.ok()) return FromSlamcore(grid.status());
+    auto shared = std::make_shared<const slamcore::OccupancyGrid>(std::move(grid).value());
+    std::lock_guard<std::mutex> lock(cache_mutex_);
+    grid_cache_.emplace_front(snapshot_id, shared);
+    if (grid_cache_.size() > kGridCacheSize) grid_cache_.pop_back();
+    return shared;
   }
 
   /// The pose graph with every edge's χ² and source, and the home grid's frame so that the page can draw
   /// the graph over map.png.
   HttpResponse Graph(const std::string& robot, std::int64_t version) {
     std::int64_t resolved = 0;
-    auto map = LoadMap(robot, version, &resolved);
+    std::string snapshot_id;
+    auto map = LoadMap(robot, version, &resolved, &snapshot_id);
     if (!map.ok()) return Error(map.status());
+    auto run_nodes = history_.NodesAddedByRun(robot, resolved);
+    if (!run_nodes.ok()) return Error(run_nodes.status());
     const slamcore::PoseGraph& graph = map->graph;
     json nodes = json::array(), edges = json::array(), components = json::array();
     for (const slamcore::Node& node : graph.nodes()) {
-      nodes.push_back(json::array({node.id, node.pose.x(), node.pose.y(), node.pose.theta(), graph.ComponentOf(node.id)}));
+      nodes.push_back(json::array({node.id, node.pose.x(), node.pose.y(), node.pose.theta(), graph.ComponentOf(node.id),
+                                   run_nodes->contains(node.id) ? 1 : 0}));
     }
     for (const slamcore::Edge& edge : graph.edges()) {
       const slamcore::Vector3 error =
@@ -210,8 +242,8 @@ class MapRoutes {
     for (const slamcore::View& view : graph.views()) {
       if (view.ambiguous) ambiguous.push_back(view.id);
     }
-    auto grid = analyzer::RenderHomeGrid(*map);
-    if (!grid.ok()) return Error(FromSlamcore(grid.status()));
+    auto grid = HomeGrid(snapshot_id, *map);
+    if (!grid.ok()) return Error(grid.status());
     return Json({{"robot_id", robot},
                  {"version", resolved},
                  {"nodes", nodes},
@@ -219,21 +251,22 @@ class MapRoutes {
                  {"components", components},
                  {"ambiguous_views", ambiguous},
                  {"grid",
-                  {{"width", grid->width},
-                   {"height", grid->height},
-                   {"resolution", grid->resolution},
-                   {"origin_x", grid->origin_x},
-                   {"origin_y", grid->origin_y}}}});
+                  {{"width", (*grid)->width},
+                   {"height", (*grid)->height},
+                   {"resolution", (*grid)->resolution},
+                   {"origin_x", (*grid)->origin_x},
+                   {"origin_y", (*grid)->origin_y}}}});
   }
 
   HttpResponse Picture(const std::string& robot, std::int64_t version) {
     std::int64_t resolved = 0;
-    auto map = LoadMap(robot, version, &resolved);
+    std::string snapshot_id;
+    auto map = LoadMap(robot, version, &resolved, &snapshot_id);
     if (!map.ok()) return Error(map.status());
-    auto grid = analyzer::RenderHomeGrid(*map);
-    if (!grid.ok()) return Error(FromSlamcore(grid.status()));
-    if (grid->width == 0) return Error(409, "version " + std::to_string(resolved) + " has no occupancy patches to draw");
-    auto png = slamcore::EncodePng(*grid);
+    auto grid = HomeGrid(snapshot_id, *map);
+    if (!grid.ok()) return Error(grid.status());
+    if ((*grid)->width == 0) return Error(409, "version " + std::to_string(resolved) + " has no occupancy patches to draw");
+    auto png = slamcore::EncodePng(**grid);
     if (!png.ok()) return Error(FromSlamcore(png.status()));
     HttpResponse response;
     response.content_type = "image/png";
@@ -260,10 +293,14 @@ class MapRoutes {
     return Error(500, "export made no " + extension + " file");
   }
 
+  static constexpr std::size_t kGridCacheSize = 16;
+
   storage::Repository& repository_;
   Authenticator& authenticator_;
   MapHistory history_;
   RateLimiter limiter_;
+  std::mutex cache_mutex_;  // guards grid_cache_
+  std::list<std::pair<std::string, std::shared_ptr<const slamcore::OccupancyGrid>>> grid_cache_;  // most recent first
 };
 
 }  // namespace

@@ -37,7 +37,10 @@ int HttpStatusOf(const storage::Status& status) {
 
 }  // namespace
 
-HttpResponse Error(const storage::Status& status) { return Error(HttpStatusOf(status), status.message()); }
+HttpResponse Error(const storage::Status& status) {
+  // The code tells apart what shares an HTTP status (409: ABORTED — the map moved on — or FAILED_PRECONDITION).
+  return Json(json{{"error", status.message()}, {"code", storage::StatusCodeName(status.code())}}, HttpStatusOf(status));
+}
 
 namespace {
 

@@ -21,7 +21,8 @@ namespace server::http {
 HttpResponse Json(const nlohmann::json& body, int status = 200);
 /// {"error": message} with `status`.
 HttpResponse Error(int status, const std::string& message);
-/// The HTTP status matching the Status code (NOT_FOUND 404, ABORTED and FAILED_PRECONDITION 409, ...).
+/// {"error": message, "code": "ABORTED"} with the HTTP status matching the code (NOT_FOUND 404, ABORTED and
+/// FAILED_PRECONDITION 409, ...).
 HttpResponse Error(const storage::Status& status);
 
 std::string UrlDecode(const std::string& text);

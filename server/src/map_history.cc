@@ -38,17 +38,24 @@ struct RunContext {
   std::optional<fleet::v1::RunReport> report;
 };
 
+/// The map the run started from; empty for a robot's first run (or a version without a run).
+storage::Result<slamcore::Map> LoadRunParent(storage::Repository& repository, const std::string& run_id) {
+  if (run_id.empty()) return slamcore::Map{};
+  auto run = repository.GetRun(run_id);
+  if (!run.ok()) return run.status();
+  if (!run->parent_snapshot_id) return slamcore::Map{};
+  auto parent = LoadMap(repository, *run->parent_snapshot_id);
+  if (!parent.ok()) return parent.status();
+  return std::move(parent->map);
+}
+
 storage::Result<RunContext> LoadRunContext(storage::Repository& repository, const std::string& run_id,
                                            const std::string& parameter_set) {
   RunContext context;
   if (run_id.empty()) return context;
-  auto run = repository.GetRun(run_id);
-  if (!run.ok()) return run.status();
-  if (run->parent_snapshot_id) {
-    auto parent = LoadMap(repository, *run->parent_snapshot_id);
-    if (!parent.ok()) return parent.status();
-    context.parent = std::move(parent->map);
-  }
+  auto parent = LoadRunParent(repository, run_id);
+  if (!parent.ok()) return parent.status();
+  context.parent = std::move(parent).value();
   auto report = repository.GetReport(run_id, parameter_set);
   if (report.ok()) {
     fleet::v1::RunReport parsed;
@@ -122,6 +129,14 @@ std::int64_t NowMillis() {
 const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRecord>& versions) {
   for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
     if (it->approval == "approved") return &*it;
+  }
+  return nullptr;
+}
+
+/// What repairs continue: the newest approved or pending version (rejected and stale ones are side branches).
+const storage::MapVersionRecord* Head(const std::vector<storage::MapVersionRecord>& versions) {
+  for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
+    if (it->approval == "approved" || it->approval == "pending") return &*it;
   }
   return nullptr;
 }
@@ -246,11 +261,14 @@ storage::Status MapHistory::OnRunAnalysed(const std::string& run_id, const fleet
 }
 
 storage::Result<std::vector<fleet::v1::MapVersion>> MapHistory::List(const std::string& robot_id,
-                                                                     std::int64_t* current_version) {
+                                                                     std::int64_t* current_version,
+                                                                     std::int64_t* head_version) {
   auto versions = repository_.ListMapVersions(robot_id);
   if (!versions.ok()) return versions.status();
   const storage::MapVersionRecord* current = Current(*versions);
   *current_version = current ? current->version : 0;
+  const storage::MapVersionRecord* head = Head(*versions);
+  *head_version = head ? head->version : 0;
   std::vector<fleet::v1::MapVersion> out;
   for (const storage::MapVersionRecord& record : *versions) out.push_back(ToProto(record, &record == current));
   return out;
@@ -291,13 +309,15 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
 storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
   auto base = repository_.GetMapVersion(request.robot_id, request.base_version);
   if (!base.ok()) return base.status();
-  // Fail fast on a base that is already outdated; AppendMapVersion checks again, atomically, at the end.
+  // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   auto versions = repository_.ListMapVersions(request.robot_id);
   if (!versions.ok()) return versions.status();
-  if (versions->back().version != base->version) {
-    return storage::Aborted("version " + std::to_string(base->version) + " of robot " + request.robot_id +
-                            " is not the newest (" + std::to_string(versions->back().version) +
-                            " is): repair the newest version");
+  const storage::MapVersionRecord* head = Head(*versions);
+  if (head == nullptr || head->version != base->version) {
+    return storage::Aborted("version " + std::to_string(base->version) + " of robot " + request.robot_id + " is " +
+                            (base->approval == "rejected" || base->approval == "stale" ? base->approval + ", not" : "not") +
+                            " the version repairs start from" +
+                            (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
   }
   auto loaded = LoadMap(repository_, base->snapshot_id);
   if (!loaded.ok()) return loaded.status();
@@ -427,6 +447,17 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robo
     *snapshot = std::move(loaded->snapshot);
   }
   return ToProto(*current, true);
+}
+
+storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const std::string& robot_id,
+                                                                       std::int64_t version) {
+  auto record = Resolve(robot_id, version);
+  if (!record.ok()) return record.status();
+  auto loaded = LoadMap(repository_, record->snapshot_id);
+  if (!loaded.ok()) return loaded.status();
+  auto parent = LoadRunParent(repository_, record->run_id);
+  if (!parent.ok()) return parent.status();
+  return analyzer::NodesAddedByRun(loaded->map, *parent);
 }
 
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,

@@ -123,9 +123,10 @@ TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
   EXPECT_EQ(detail->findings[0].kind(), "protrusion");
   EXPECT_EQ(detail->findings[0].state(), "open");
   EXPECT_EQ(detail->version.open_findings(), 1);
-  std::int64_t current = 0;
-  EXPECT_EQ(history.List("r1", &current)->size(), 2u);
+  std::int64_t current = 0, head = 0;
+  EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u);
   EXPECT_EQ(current, 2);
+  EXPECT_EQ(head, 2);
 }
 
 TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
@@ -149,8 +150,39 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   EXPECT_TRUE(up_to_date);
   // The worker may analyse the run again (a retry): the policy does not cut twice.
   ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
-  std::int64_t current = 0;
-  EXPECT_EQ(history.List("r1", &current)->size(), 3u);
+  std::int64_t current = 0, head = 0;
+  EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
+  EXPECT_EQ(current, 2);
+  EXPECT_EQ(head, 3) << "the pending repair is what further repairs start from";
+}
+
+TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase) {
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
+  UploadBoth(history);
+  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  ASSERT_TRUE(history.Review("r1", 3, /*approve=*/false, "engineer:ana").ok());
+  std::int64_t current = 0, head = 0;
+  ASSERT_TRUE(history.List("r1", &current, &head).ok());
+  EXPECT_EQ(head, 2);
+  // The rejected version cannot be continued; its base can.
+  RepairRequest rollback;
+  rollback.robot_id = "r1";
+  rollback.base_version = 3;
+  rollback.action = "rollback";
+  rollback.requested_by = "engineer:ana";
+  EXPECT_EQ(history.Repair(rollback).status().code(), storage::StatusCode::kAborted);
+  rollback.base_version = 2;
+  auto rolled_back = history.Repair(rollback);
+  ASSERT_TRUE(rolled_back.ok()) << rolled_back.status().ToString();
+  EXPECT_EQ(rolled_back->version.version(), 4);
+  EXPECT_EQ(rolled_back->version.parent_version(), 2);
+  // Approving it makes it current; an older pending version could then no longer become current.
+  RepairRequest undo = rollback;
+  undo.base_version = 4;
+  undo.action = "undo";
+  ASSERT_TRUE(history.Repair(undo).ok());                       // version 5, pending
+  ASSERT_TRUE(history.Review("r1", 5, true, "engineer:ana").ok());  // current: 5
+  EXPECT_EQ(history.Review("r1", 4, true, "engineer:ana").status().code(), storage::StatusCode::kFailedPrecondition);
 }
 
 TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {

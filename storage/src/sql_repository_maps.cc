@@ -118,11 +118,15 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
         return Status::Ok();
       }
     }
-    auto head = transaction.Query("SELECT MAX(version) FROM map_versions WHERE robot_id = $1", {version.robot_id});
+    auto head = transaction.Query(
+        "SELECT MAX(version), MAX(CASE WHEN approval IN ('approved', 'pending') THEN version END) FROM map_versions "
+        "WHERE robot_id = $1",
+        {version.robot_id});
     if (!head.ok()) return head.status();
     const std::int64_t newest = head->empty() || head->front().IsNull(0) ? 0 : head->front().Int(0);
-    if (expected_head && *expected_head != newest) {
-      return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(newest) +
+    const std::int64_t head_version = head->empty() || head->front().IsNull(1) ? 0 : head->front().Int(1);
+    if (expected_head && *expected_head != head_version) {
+      return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(head_version) +
                      ", not " + std::to_string(*expected_head) + ": it changed meanwhile; look again and retry");
     }
     if (version.parent_version && (*version.parent_version < 1 || *version.parent_version > newest)) {
@@ -228,6 +232,20 @@ Result<MapVersionRecord> SqlRepository::ReviewMapVersion(const std::string& robo
   STORAGE_RETURN_IF_ERROR(CheckText(reviewed_by, "reviewed_by"));
   std::optional<MapVersionRecord> reviewed;
   STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    // Under the robot's row lock, like appends: a review and a repair of one map never interleave.
+    STORAGE_RETURN_IF_ERROR(
+        transaction.Exec("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1", {robot_id}));
+    if (approve) {
+      auto newer = transaction.Query(
+          "SELECT MAX(version) FROM map_versions WHERE robot_id = $1 AND approval = 'approved' AND version > $2",
+          {robot_id, version});
+      if (!newer.ok()) return newer.status();
+      if (!newer->empty() && !newer->front().IsNull(0)) {
+        return FailedPrecondition("version " + std::to_string(newer->front().Int(0)) + " of robot " + robot_id +
+                                  " is approved and newer than " + std::to_string(version) +
+                                  ": approving it would not make it the robot's map; repair the current version instead");
+      }
+    }
     auto rows = transaction.Query(
         "UPDATE map_versions SET approval = $3, approved_by = $4, approved_at_ms = $5 "
         "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",

@@ -436,6 +436,17 @@ TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
   auto stale = repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {});
   EXPECT_EQ(stale.status().code(), StatusCode::kAborted) << stale.status().ToString();
   EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 2u) << "nothing written";
+  // Rejected and stale versions are side branches: the head stays at the newest approved or pending one.
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {}).ok());  // 3, pending
+  ASSERT_TRUE(repo().ReviewMapVersion("robot-1", 3, false, "engineer:ana").ok());
+  MapVersionRecord outdated_upload = MakeVersion("robot-1", a, "upload", "run-x");
+  outdated_upload.approval = "stale";
+  ASSERT_EQ(*repo().InsertRun(MakeRun("run-x", 5000, 10)), InsertOutcome::kInserted);
+  ASSERT_EQ(repo().AppendMapVersion(outdated_upload, std::nullopt, {})->version, 4);
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 3, {}).status().code(), StatusCode::kAborted);
+  auto continued = repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {});
+  ASSERT_TRUE(continued.ok()) << continued.status().ToString();
+  EXPECT_EQ(continued->version, 5);
   // References are checked.
   EXPECT_EQ(repo().AppendMapVersion(MakeVersion("nobody", a, "rollback"), std::nullopt, {}).status().code(),
             StatusCode::kFailedPrecondition);

@@ -1,6 +1,7 @@
 // Fetch helpers: JSON from /api, errors as exceptions carrying the server's {"error": ...} message.
 export class ApiError extends Error {
-  constructor(status, message) { super(message); this.status = status; }
+  /// `code`: fleetd's status name ("ABORTED", "FAILED_PRECONDITION", …) when the error body carries one.
+  constructor(status, message, code = '') { super(message); this.status = status; this.code = code; }
 }
 
 export async function getJson(path, params = {}) {
@@ -34,7 +35,7 @@ async function parse(response) {
   const text = await response.text();
   let body = null;
   try { body = text ? JSON.parse(text) : null; } catch { body = null; }
-  if (!response.ok) throw new ApiError(response.status, (body && body.error) || text || response.statusText);
+  if (!response.ok) throw new ApiError(response.status, (body && body.error) || text || response.statusText, (body && body.code) || '');
   return body;
 }
 

@@ -6,7 +6,7 @@ import { edgeKey, flaggedEdges } from './mapoverlay.js';
 
 const FIRST_ROWS = 100;
 
-/// `runNodes`: the nodes the version's run added (a Set), or null when unknown; only hypotheses of that run
+/// `runNodes`: the nodes the version's run added (a Set, from /graph's flags); only hypotheses of that run
 /// can be rejected as a whole (the server keys hypotheses by run). `repairBlocked`: why repairs are off, or ''.
 export function constraintTable(graph, findings, { runNodes, repairBlocked, onRejectEdge, onRejectHypothesis, onHover }) {
   const flagged = flaggedEdges(findings);
@@ -21,7 +21,7 @@ export function constraintTable(graph, findings, { runNodes, repairBlocked, onRe
 
   const sourceOf = (edge) => {
     if (edge.hypothesis === undefined) return { text: 'direct', ofRun: false };
-    const ofRun = !runNodes || runNodes.has(edge.from);
+    const ofRun = runNodes.has(edge.from);
     return { text: `hypothesis ${edge.hypothesis}${ofRun ? '' : ' (earlier run)'}`, ofRun };
   };
 

@@ -14,9 +14,11 @@
 //   GET  /api/compare?a=&b=       two parameter sets: fleet-wide deltas and the runs that changed most
 //   GET  /api/jobs                reprocessing jobs with progress, newest first
 //   GET  /api/robots              robots with their map history summary (current, newest, pending, findings)
-//   GET  /api/robots/<id>/maps    the robot's map versions, oldest first
+//   GET  /api/robots/<id>/maps    the robot's map versions, oldest first, with current_version and
+//                                 head_version (what repairs start from)
 //   GET  /api/robots/<id>/maps/<v>            one version (<v> a number or "current") with its findings
-//   GET  /api/robots/<id>/maps/<v>/graph      its pose graph: nodes, edges with χ² and hypothesis, components,
+//   GET  /api/robots/<id>/maps/<v>/graph      its pose graph: nodes [id, x, y, θ, component, added by the
+//                                             version's run 0/1], edges with χ² and hypothesis, components,
 //                                             and the frame of map.png
 //   GET  /api/robots/<id>/maps/<v>/map.png    its home component's occupancy grid
 //   GET  /api/robots/<id>/maps/<v>/export/{map.pgm,map.yaml,map.g2o}   downloads (ROS map_server, g2o)

@@ -16,6 +16,7 @@
 // Thread safety: stateless apart from the repository (thread-safe); use from any thread.
 #pragma once
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "fleet/v1/report.pb.h"
 #include "fleet/v1/telemetry.pb.h"
 #include "server/config.h"
+#include "slamcore/pose_graph.h"
 #include "storage/repository.h"
 
 namespace server {
@@ -70,18 +72,23 @@ class MapHistory {
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
   storage::Status OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report);
 
-  /// Versions oldest first, `current` marked; current_version 0 when none is approved.
-  storage::Result<std::vector<fleet::v1::MapVersion>> List(const std::string& robot_id, std::int64_t* current_version);
+  /// Versions oldest first, `current` marked; current_version 0 when none is approved; head_version: what
+  /// repairs start from (the newest approved or pending version), 0 when none.
+  storage::Result<std::vector<fleet::v1::MapVersion>> List(const std::string& robot_id, std::int64_t* current_version,
+                                                           std::int64_t* head_version);
   /// `version` 0: the current one. With the snapshot when `snapshot` is not null.
   storage::Result<MapVersionDetail> Get(const std::string& robot_id, std::int64_t version,
                                         fleet::v1::MapSnapshot* snapshot = nullptr);
-  /// INVALID_ARGUMENT for a repair that changes nothing, ABORTED when base_version is not the newest.
+  /// INVALID_ARGUMENT for a repair that changes nothing, ABORTED when base_version is not the head.
   storage::Result<MapVersionDetail> Repair(const RepairRequest& request);
   storage::Result<fleet::v1::MapVersion> Review(const std::string& robot_id, std::int64_t version, bool approve,
                                                 const std::string& reviewed_by);
   /// NOT_FOUND when the robot has no approved map. `snapshot` is filled unless up to date.
   storage::Result<fleet::v1::MapVersion> Fetch(const std::string& robot_id, std::int64_t held_version, bool* up_to_date,
                                                fleet::v1::MapSnapshot* snapshot);
+  /// The nodes of the version's map that the run its chain started from added: only hypotheses of that run
+  /// can be rejected as a whole.
+  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& robot_id, std::int64_t version);
   /// `format` "map_server" or "g2o"; files are named "<robot>-v<version>.<ext>".
   storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id, std::int64_t version,
                                                                const std::string& format);

@@ -8,11 +8,12 @@ grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call, const fleet
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
   if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
-  std::int64_t current = 0;
-  auto versions = history_.List(request->robot_id(), &current);
+  std::int64_t current = 0, head = 0;
+  auto versions = history_.List(request->robot_id(), &current, &head);
   if (!versions.ok()) return scope.Done(ToGrpc(versions.status()));
   for (auto& version : *versions) *response->add_versions() = std::move(version);
   response->set_current_version(current);
+  response->set_head_version(head);
   return scope.Done(grpc::Status::OK);
 }
 

@@ -102,10 +102,11 @@ class Repository {
   virtual Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) = 0;
 
   // ---- Map history (per robot) ----
-  /// Appends `version` (its `version` field is ignored) as the robot's newest version, number head + 1, with
-  /// its findings, in one transaction that holds the robot's row lock, so concurrent appends for one robot
-  /// never interleave. With `expected_head` set (the version a repair started from), ABORTED when the newest
-  /// version is another one. A version naming a run_id that already has an upload version returns that one
+  /// Appends `version` (its `version` field is ignored) as the robot's newest version, number newest + 1,
+  /// with its findings, in one transaction that holds the robot's row lock, so concurrent appends for one
+  /// robot never interleave. With `expected_head` set (the version a repair started from), ABORTED unless it
+  /// is the robot's head: its newest version that is approved or pending (rejected and stale versions are
+  /// side branches that repairs do not continue). A version naming a run_id that already has an upload version returns that one
   /// unchanged (uploads are retried). The robot and snapshot must be stored (FAILED_PRECONDITION).
   virtual Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version,
                                                     std::optional<std::int64_t> expected_head,
@@ -121,7 +122,8 @@ class Repository {
   /// them after the upload (rendering the map would slow ingest down).
   virtual Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
                                         const std::vector<MapFindingRecord>& findings) = 0;
-  /// A pending version becomes "approved" or "rejected"; FAILED_PRECONDITION when it is not pending.
+  /// A pending version becomes "approved" or "rejected"; FAILED_PRECONDITION when it is not pending, or when
+  /// approving it would not make it current (a newer version is approved already).
   virtual Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
                                                     const std::string& reviewed_by) = 0;
 

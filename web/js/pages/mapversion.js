@@ -16,22 +16,20 @@ export async function render(main, { args, query, isCurrent }) {
   const [detail, history] = await Promise.all([getJson(`${base}/${encodeURIComponent(requested)}`), getJson(base)]);
   const version = detail.version, v = version.version, versionBase = `${base}/${v}`;
   const byVersion = new Map(history.versions.map((x) => [x.version, x]));
-  const newest = history.versions[history.versions.length - 1];
+  const head = byVersion.get(history.head_version) || null;  // what repairs start from
   const parent = byVersion.get(version.parent_version) || null;
   const compare = version.approval === 'pending' && parent;
-  const upload = chainUpload(version, byVersion);
 
   const graphs = new Map();
   const graphOf = (n) => { if (!graphs.has(n)) graphs.set(n, getJson(`${base}/${n}/graph`)); return graphs.get(n); };
-  const [graph, parentGraph, parentDetail, runParentGraph] = await Promise.all([
+  const [graph, parentGraph, parentDetail] = await Promise.all([
     graphOf(v),
     compare ? graphOf(parent.version) : null,
     compare ? getJson(`${base}/${parent.version}`) : null,
-    // Optional: without it every hypothesis is offered and the server says which are not of this run.
-    upload && upload.parent_version ? graphOf(upload.parent_version).catch(() => null) : null,
   ]);
   if (!isCurrent()) return;
-  const runNodes = nodesAddedByRun(graph, upload, runParentGraph);
+  // The nodes the version's run added (the server flags them): only that run's hypotheses can be rejected.
+  const runNodes = new Set(graph.nodes.filter((n) => n[5] === 1).map(nodeId));
 
   // ---- Actions: each posts, then opens the version it made (or this one again, reviewed). ----
   const status = h('div', { class: 'status', 'data-testid': 'repair-status', role: 'status', hidden: true });
@@ -47,8 +45,9 @@ export async function render(main, { args, query, isCurrent }) {
     busy = value;
     for (const button of main.querySelectorAll('button[data-repair]')) button.classList.toggle('busy', value);
   };
-  const repairBlocked = v === newest.version ? ''
-    : `Repairs start from the newest version (v${newest.version}); v${v} is older.`;
+  const repairBlocked = head && v === head.version ? ''
+    : head ? `Repairs start from v${head.version}, the newest approved or pending version; v${v} is ${['rejected', 'stale'].includes(version.approval) ? version.approval : 'older'}.`
+      : 'This robot has no approved or pending version to repair.';
 
   async function repair(body, what) {
     if (busy) return;
@@ -81,16 +80,16 @@ export async function render(main, { args, query, isCurrent }) {
     }
   }
 
-  /// 409: the map moved on (another repair or upload made a newer version), or the version is no longer
-  /// pending; either way the page is out of date, so say which version is the newest and offer a reload.
+  /// 409 ABORTED: the map moved on (another repair or upload made a newer head); 409 FAILED_PRECONDITION:
+  /// the version is no longer pending, or the repair does not apply. Say which and offer a reload.
   async function explain(error, what) {
     const reload = h('button', { class: 'secondary', 'data-testid': 'reload', onclick: () => window.dispatchEvent(new HashChangeEvent('hashchange')) }, 'Reload');
     if (error instanceof ApiError && error.status === 409) {
-      const latest = await getJson(base).catch(() => null);
-      const head = latest && latest.versions[latest.versions.length - 1];
-      if (head && head.version !== newest.version) {
-        show('error', `${what} not done: the map changed meanwhile — v${head.version} (${originLabel(head)}, by ${head.created_by}) is the newest version now, so v${v} can no longer be repaired. Reload and look again: `,
-          h('a', { href: versionHash(robotId, head.version), 'data-testid': 'open-newest' }, `open v${head.version}`), ' ', reload);
+      const latest = error.code === 'ABORTED' ? await getJson(base).catch(() => null) : null;
+      const moved = latest && latest.versions.find((x) => x.version === latest.head_version);
+      if (moved && moved.version !== v) {
+        show('error', `${what} not done: the map changed meanwhile — v${moved.version} (${originLabel(moved)}, by ${moved.created_by}) is the newest version now, so v${v} can no longer be repaired. Reload and look again: `,
+          h('a', { href: versionHash(robotId, moved.version), 'data-testid': 'open-newest' }, `open v${moved.version}`), ' ', reload);
         return;
       }
       show('error', `${what} not done: ${error.message} (HTTP 409). This page may be out of date: `, reload);
@@ -146,7 +145,7 @@ export async function render(main, { args, query, isCurrent }) {
   const rollbackTitle = version.origin === 'upload' && !version.parent_version
     ? 'the robot\'s first map: there is no parent map' : `a new version holding the map from before run ${version.run_id}`;
   const repairCard = card('Repair',
-    h('p', { class: 'muted' }, repairBlocked ? [repairBlocked, ' ', h('a', { href: versionHash(robotId, newest.version) }, `Open v${newest.version}`), '.']
+    h('p', { class: 'muted' }, repairBlocked ? [repairBlocked, ...(head ? [' ', h('a', { href: versionHash(robotId, head.version) }, `Open v${head.version}`), '.'] : [])]
       : 'Each repair makes a new pending version from this one, re-optimised; review it before robots get it.'),
     h('label', { class: 'field' }, 'Reason ', reason),
     h('div', { class: 'pager' },
@@ -165,23 +164,6 @@ export async function render(main, { args, query, isCurrent }) {
     constraintTable(graph, detail.findings, { runNodes, repairBlocked, onRejectEdge: rejectEdge, onRejectHypothesis: rejectHypothesis,
       onHover: (key) => { after.highlight(key); if (before) before.highlight(key); } })));
   setState(main, 'ready');
-}
-
-/// The upload this version's chain of repairs started from: its run decides which nodes "the run" added.
-function chainUpload(version, byVersion) {
-  let upload = version;
-  while (upload && upload.origin !== 'upload') upload = byVersion.get(upload.parent_version);
-  return upload || null;
-}
-
-/// The nodes the version's run added (the server's rule: nodes its map has and the run's parent map has
-/// not); null when unknown.
-function nodesAddedByRun(graph, upload, runParentGraph) {
-  if (!upload) return null;
-  if (!upload.parent_version) return new Set(graph.nodes.map(nodeId));  // the robot's first run
-  if (!runParentGraph) return null;
-  const before = new Set(runParentGraph.nodes.map(nodeId));
-  return new Set(graph.nodes.map(nodeId).filter((id) => !before.has(id)));
 }
 
 function describe(version, parent, versions, robotId) {
@@ -221,7 +203,7 @@ function findingsList(findings, { runNodes, repairBlocked, rejectEdge, rejectHyp
       disabled: Boolean(repairBlocked), title: repairBlocked || title, onclick }, label);
     if (finding.state === 'open') {
       const hypothesis = edges.length > 0 && edges[0].hypothesis !== undefined ? edges[0].hypothesis : null;
-      const ofRun = hypothesis !== null && (!runNodes || runNodes.has(edges[0].from));
+      const ofRun = hypothesis !== null && runNodes.has(edges[0].from);
       if (finding.kind === 'protrusion') {
         actions.push(action('Cut region', 'cut-region', () => cut(finding), 'make the run\'s cells inside the box unknown again'));
       } else if (ofRun && (finding.kind === 'unconfirmed_hypothesis' || edges.length > 1)) {
