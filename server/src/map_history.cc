@@ -212,10 +212,14 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
   auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &*map})));
   if (!appended.ok()) return appended.status();
+  // Read the history again: a retried upload returns its earlier version, and the robot may have moved on since.
+  auto after = repository_.ListMapVersions(run.robot_id);
+  if (!after.ok()) return after.status();
+  const storage::MapVersionRecord* now_current = Current(*after);
   UploadMapOutcome outcome;
   outcome.version = appended->version;
-  outcome.outdated = appended->approval == "stale";
-  outcome.current_version = outcome.outdated ? current->version : appended->version;
+  outcome.current_version = now_current ? now_current->version : 0;
+  outcome.outdated = outcome.current_version != appended->version;
   return outcome;
 }
 
