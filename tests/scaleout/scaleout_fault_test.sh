@@ -118,9 +118,18 @@ upload1=$!
 killed_job=
 deadline=$((SECONDS + 90))
 while ((SECONDS < deadline)); do
-  # Worker lease owners are host:pid/thread.
-  killed_job=$(sql "SELECT job_id FROM jobs WHERE state = 'leased' AND lease_owner LIKE '%:$worker1/%' LIMIT 1")
-  [[ -n "$killed_job" ]] && break
+  # Worker lease owners are host:pid/thread. A job seen leased may finish before a kill lands: freeze the
+  # worker first, let statements it already sent settle, and look again.
+  candidate=$(sql "SELECT job_id FROM jobs WHERE state = 'leased' AND lease_owner LIKE '%:$worker1/%' LIMIT 1")
+  if [[ -n "$candidate" ]]; then
+    kill -STOP "$worker1"
+    sleep 0.3
+    if [[ $(sql "SELECT state = 'leased' AND lease_owner LIKE '%:$worker1/%' FROM jobs WHERE job_id = $candidate") == t ]]; then
+      killed_job=$candidate
+      break
+    fi
+    kill -CONT "$worker1"
+  fi
   # Worker 2 may have drained the queue before a poll saw worker 1 holding a lease: queue more analysis
   # (reprocessing with the same parameter set rewrites identical reports).
   if ! kill -0 "$upload1" 2>/dev/null && [[ $(sql "SELECT count(*) FROM jobs WHERE state IN ('queued', 'leased')") == 0 ]]; then
