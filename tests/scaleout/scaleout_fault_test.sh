@@ -9,62 +9,19 @@
 set -euo pipefail
 bin=$(realpath "$1")
 data=$(realpath "$2")
-pgbin=/usr/lib/postgresql/15/bin
-py=/usr/bin/python3; [[ -x $py ]] || py=python3
-work=$(mktemp -d /tmp/scaleout.XXXXXX)
-chmod 755 "$work"
-pids=()
-pg_started=
-as_postgres() { if ((EUID == 0)); then runuser -u postgres -- "$@"; else "$@"; fi; }
-cleanup() {
-  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-  [[ -n "$pg_started" ]] && as_postgres "$pgbin/pg_ctl" -D "$work/pg/data" -m immediate -w stop >/dev/null 2>&1 || true
-  rm -rf "$work"
-}
-trap cleanup EXIT
+source "$(dirname "$0")/loopback_topology.sh"
+topology_init scaleout
 fail() {
   echo "FAIL: $*" >&2
   for log in "$work"/*.log; do echo "--- $log (tail)" >&2; tail -5 "$log" >&2; done
   exit 1
 }
-json() { "$py" -c "import json,sys; d=json.load(sys.stdin); print($1)"; }
-free_port() { "$py" -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 started=$(date +%s)
 
-# ---- PostgreSQL, as storage/tests/test_databases.cc starts it -------------------------------------------
-[[ -x $pgbin/initdb ]] || fail "no $pgbin/initdb: run deploy/bootstrap.sh (package postgresql)"
-mkdir -p "$work/pg"
-((EUID == 0)) && chown postgres:postgres "$work/pg"
-as_postgres "$pgbin/initdb" -D "$work/pg/data" -U postgres -A trust -E UTF8 --no-locale --no-sync >"$work/pg/initdb.out" 2>&1 ||
-  fail "initdb: $(tail -3 "$work/pg/initdb.out")"
-port=$(free_port)
-as_postgres "$pgbin/pg_ctl" -D "$work/pg/data" -l "$work/pg/server.log" -w -t 30 start \
-  -o "-c listen_addresses=127.0.0.1 -p $port -k $work/pg -c fsync=off -c max_connections=200" >/dev/null ||
-  fail "pg_ctl start: $(tail -3 "$work/pg/server.log")"
-pg_started=1
-as_postgres "$pgbin/createdb" -h 127.0.0.1 -p "$port" -U postgres fleet
-db="postgresql://postgres@127.0.0.1:$port/fleet"
-sql() { psql -h 127.0.0.1 -p "$port" -U postgres -d fleet -XAtq -c "$1"; }
-
+# ---- PostgreSQL and the fleetd processes ------------------------------------------------------------------
+start_postgres
 admin="admin:scaleout.$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
 export FLEET_TOKEN=$admin
-
-# start_fleetd NAME ARGS...: starts fleetd in the background, waits for its address line, sets $last_pid.
-start_fleetd() {
-  local name=$1; shift
-  FLEETD_BOOTSTRAP_ADMIN_TOKEN=$admin "$bin/fleetd" --http 127.0.0.1:0 --log-format text "$@" \
-    >"$work/$name.out" 2>"$work/$name.log" &
-  last_pid=$!
-  pids+=("$last_pid")
-  for _ in $(seq 300); do
-    [[ -s "$work/$name.out" ]] && return 0
-    kill -0 "$last_pid" 2>/dev/null || fail "$name exited at start"
-    sleep 0.1
-  done
-  fail "$name did not start"
-}
-grpc_of() { head -1 "$work/$1.out" | json 'd["grpc"]'; }
 
 # wait_jobs_done SERVER: until no job is queued or leased (3 minutes at most).
 wait_jobs_done() {
