@@ -278,6 +278,22 @@ storage::Result<std::vector<fleet::v1::MapVersion>> MapHistory::List(const std::
   return out;
 }
 
+storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& robot_id, std::int64_t version,
+                                                          std::int64_t finding_id) {
+  auto detail = Get(robot_id, version);
+  if (!detail.ok()) return detail.status();
+  for (const fleet::v1::MapFinding& finding : detail->findings) {
+    if (finding.finding_id() != finding_id) continue;
+    if (finding.world_bbox_size() != 4) {
+      return storage::InvalidArgument("finding " + std::to_string(finding_id) + " is a " + finding.kind() +
+                                      ", not a region that can be cut");
+    }
+    return std::array<double, 4>{finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2),
+                                 finding.world_bbox(3)};
+  }
+  return storage::NotFound("version " + std::to_string(version) + " has no finding " + std::to_string(finding_id));
+}
+
 storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id, std::int64_t version) {
   if (version > 0) return repository_.GetMapVersion(robot_id, version);
   if (version < 0) return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
@@ -333,38 +349,26 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   std::optional<slamcore::Map> repaired;
   std::string snapshot_id, detail, origin = "repair";
   if (request.action == "reject_edge" || request.action == "reject_hypothesis" || request.action == "cut_finding") {
-    slamcore::Result<slamcore::Map> edited = slamcore::InvalidArgument("");
-    if (request.action == "reject_edge") {
-      edited = analyzer::RejectEdge(loaded->map, request.from, request.to, request.view, &detail);
-    } else if (request.action == "reject_hypothesis") {
-      edited = analyzer::RejectHypothesis(loaded->map, run_nodes, request.hypothesis, &detail);
-    } else {
-      auto findings = Get(request.robot_id, request.base_version);
-      if (!findings.ok()) return findings.status();
-      const fleet::v1::MapFinding* target = nullptr;
-      for (const auto& finding : findings->findings) {
-        if (finding.finding_id() == request.finding_id) target = &finding;
-      }
-      if (!target) {
-        return storage::NotFound("version " + std::to_string(request.base_version) + " has no finding " +
-                                 std::to_string(request.finding_id));
-      }
-      if (target->world_bbox_size() != 4) {
-        return storage::InvalidArgument("finding " + std::to_string(request.finding_id) + " is a " + target->kind() +
-                                        ", not a region that can be cut");
-      }
-      edited = analyzer::CutRegion(loaded->map, run_nodes,
-                                   {target->world_bbox(0), target->world_bbox(1), target->world_bbox(2), target->world_bbox(3)},
-                                   &detail);
+    std::array<double, 4> cut_box{};
+    if (request.action == "cut_finding") {
+      auto box = CutBox(request.robot_id, request.base_version, request.finding_id);
+      if (!box.ok()) return box.status();
+      cut_box = *box;
     }
+    auto edited = request.action == "reject_edge"
+                      ? analyzer::RejectEdge(loaded->map, request.from, request.to, request.view, &detail)
+                  : request.action == "reject_hypothesis"
+                      ? analyzer::RejectHypothesis(loaded->map, run_nodes, request.hypothesis, &detail)
+                      : analyzer::CutRegion(loaded->map, run_nodes, cut_box, &detail);
     if (!edited.ok()) return FromSlamcore(edited.status());
     repaired = std::move(edited).value();
     auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired)));
     if (!stored.ok()) return stored.status();
     snapshot_id = *stored;
   } else if (request.action == "rollback") {
-    auto run = base->run_id.empty() ? storage::Result<storage::RunRecord>(storage::NotFound("")) : repository_.GetRun(base->run_id);
-    if (!run.ok() || !run->parent_snapshot_id) {
+    auto run = repository_.GetRun(base->run_id);
+    if (!run.ok()) return run.status();
+    if (!run->parent_snapshot_id) {
       return storage::FailedPrecondition("version " + std::to_string(base->version) +
                                          " was made by the robot's first run: there is no parent map to roll back to");
     }

@@ -16,6 +16,7 @@
 // Thread safety: stateless apart from the repository (thread-safe); use from any thread.
 #pragma once
 
+#include <array>
 #include <set>
 #include <string>
 #include <vector>
@@ -95,6 +96,9 @@ class MapHistory {
 
  private:
   storage::Result<storage::MapVersionRecord> Resolve(const std::string& robot_id, std::int64_t version);
+  /// The box of a version's finding that a cut removes; INVALID_ARGUMENT when the finding has none.
+  storage::Result<std::array<double, 4>> CutBox(const std::string& robot_id, std::int64_t version,
+                                                std::int64_t finding_id);
 
   storage::Repository& repository_;
   const MapPolicy policy_;
