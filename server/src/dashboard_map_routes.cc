@@ -1,13 +1,12 @@
 // The dashboard's map review endpoints (see dashboard_routes.h for the list). Reads are open to whoever
 // reaches the HTTP port, like the rest of the dashboard; repairs and reviews need an engineer's token.
-#include <list>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
 #include "http_helpers.h"
+#include "render_cache.h"
 #include "server/analysis.h"
 #include "server/dashboard_routes.h"
 #include "server/map_history.h"
@@ -192,21 +191,11 @@ class MapRoutes {
   /// picture and the graph's frame, its parent's for before/after).
   storage::Result<std::shared_ptr<const slamcore::OccupancyGrid>> HomeGrid(const std::string& snapshot_id,
                                                                            const slamcore::Map& map) {
-    {
-      std::lock_guard<std::mutex> lock(cache_mutex_);
-      for (auto it = grid_cache_.begin(); it != grid_cache_.end(); ++it) {
-        if (it->first != snapshot_id) continue;
-        grid_cache_.splice(grid_cache_.begin(), grid_cache_, it);
-        return grid_cache_.front().second;
-      }
-    }
-    auto grid = analyzer::RenderHomeGrid(map);
-    if (!grid.ok()) return FromSlamcore(grid.status());
-    auto shared = std::make_shared<const slamcore::OccupancyGrid>(std::move(grid).value());
-    std::lock_guard<std::mutex> lock(cache_mutex_);
-    grid_cache_.emplace_front(snapshot_id, shared);
-    if (grid_cache_.size() > kGridCacheSize) grid_cache_.pop_back();
-    return shared;
+    return grid_cache_.Get(snapshot_id, [&]() -> storage::Result<slamcore::OccupancyGrid> {
+      auto grid = analyzer::RenderHomeGrid(map);
+      if (!grid.ok()) return FromSlamcore(grid.status());
+      return std::move(grid).value();
+    });
   }
 
   /// The pose graph with every edge's χ² and source, and the home grid's frame so that the page can draw
@@ -293,14 +282,11 @@ class MapRoutes {
     return Error(500, "export made no " + extension + " file");
   }
 
-  static constexpr std::size_t kGridCacheSize = 16;
-
   storage::Repository& repository_;
   Authenticator& authenticator_;
   MapHistory history_;
   RateLimiter limiter_;
-  std::mutex cache_mutex_;  // guards grid_cache_
-  std::list<std::pair<std::string, std::shared_ptr<const slamcore::OccupancyGrid>>> grid_cache_;  // most recent first
+  RenderCache<slamcore::OccupancyGrid> grid_cache_{16};  // by snapshot id
 };
 
 }  // namespace

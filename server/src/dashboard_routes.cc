@@ -20,6 +20,7 @@
 
 #include "dashboard_maps.h"
 #include "http_helpers.h"
+#include "render_cache.h"
 #include "fleet/v1/report.pb.h"
 #include "server/jobs.h"
 #include "server/log.h"
@@ -627,23 +628,7 @@ class Dashboard {
   /// Rendering costs tens of milliseconds; a run page asks for three images at once, so keep the last few.
   storage::Result<std::shared_ptr<const dashboard::RunMaps>> CachedMaps(const std::string& run_id,
                                                                         const std::string& set) {
-    const std::string key = run_id + '\n' + set;
-    {
-      std::lock_guard lock(cache_mutex_);
-      for (auto it = cache_.begin(); it != cache_.end(); ++it) {
-        if (it->first == key) {
-          cache_.splice(cache_.begin(), cache_, it);
-          return cache_.front().second;
-        }
-      }
-    }
-    auto rendered = dashboard::RenderRunMaps(repository_, run_id, set);
-    if (!rendered.ok()) return rendered.status();
-    auto shared = std::make_shared<const dashboard::RunMaps>(std::move(rendered).value());
-    std::lock_guard lock(cache_mutex_);
-    cache_.emplace_front(key, shared);
-    while (cache_.size() > 16) cache_.pop_back();
-    return shared;
+    return map_cache_.Get(run_id + '\n' + set, [&] { return dashboard::RenderRunMaps(repository_, run_id, set); });
   }
 
   HttpResponse Labels(const std::map<std::string, std::string>& params) {
@@ -762,8 +747,7 @@ class Dashboard {
   const std::string default_set_;
   const std::filesystem::path web_dir_;
   RateLimiter label_limiter_;
-  std::mutex cache_mutex_;  // guards cache_
-  std::list<std::pair<std::string, std::shared_ptr<const dashboard::RunMaps>>> cache_;  // most recent first
+  RenderCache<dashboard::RunMaps> map_cache_{16};
 };
 
 }  // namespace

@@ -7,7 +7,6 @@
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
 #include "server/analysis.h"
-#include "server/auth.h"
 #include "server/log.h"
 
 namespace server {
