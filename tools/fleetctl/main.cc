@@ -565,10 +565,15 @@ int main(int argc, char** argv) {
       PrintJson(response);
     } else {
       const auto& cv = response.cross_validation();
-      std::printf("model %s version %lld (%s) from %lld regions; %d-fold CV precision %.3f recall %.3f FPR %.3f\n",
-                  model_name.c_str(), static_cast<long long>(response.model().version()),
-                  response.model().classifier().c_str(), static_cast<long long>(response.training_regions()), cv.folds(),
-                  cv.precision(), cv.recall(), cv.false_positive_rate());
+      std::printf("model %s version %lld (%s) from %lld regions; ", model_name.c_str(),
+                  static_cast<long long>(response.model().version()), response.model().classifier().c_str(),
+                  static_cast<long long>(response.training_regions()));
+      if (cv.folds() >= 2) {
+        std::printf("%d-fold CV precision %.3f recall %.3f FPR %.3f\n", cv.folds(), cv.precision(), cv.recall(),
+                    cv.false_positive_rate());
+      } else {
+        std::printf("not cross-validated (fewer than 2 runs with labelled regions to hold out)\n");
+      }
     }
     return 0;
   }
