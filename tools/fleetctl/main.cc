@@ -572,7 +572,7 @@ int main(int argc, char** argv) {
         std::printf("%d-fold CV precision %.3f recall %.3f FPR %.3f\n", cv.folds(), cv.precision(), cv.recall(),
                     cv.false_positive_rate());
       } else {
-        std::printf("not cross-validated (fewer than 2 runs with labelled regions to hold out)\n");
+        std::printf("not cross-validated (too few labelled runs of each class to hold out)\n");
       }
     }
     return 0;
