@@ -10,7 +10,7 @@
 // 2. Baseline: one robot at a time uploads back to back for --baseline-seconds (default min(10 s,
 //    seconds / 4)), split evenly over the servers in turn (a robot stays with one server, as in the load). A
 //    server that acknowledges none of its uploads is named and the program exits 1.
-// 3. Load: --robots robots, one thread and one sim::Uploader each, spread round-robin over the servers,
+// 3. Load: --robots robots, one thread and one sim::Uploader (own connection) each, round-robin over the servers,
 //    upload back to back until --seconds have passed; uploads in flight at the deadline finish and count.
 //
 // Every upload is a distinct run: robot i replays pool run i mod pool (the same home every time) with its own

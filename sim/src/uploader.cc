@@ -59,6 +59,9 @@ std::shared_ptr<grpc::Channel> CreateFleetChannel(const std::string& server, con
   grpc::ChannelArguments arguments;
   arguments.SetMaxSendMessageSize(max_message_bytes);
   arguments.SetMaxReceiveMessageSize(max_message_bytes);
+  // A channel of its own connection, as each robot has: gRPC would otherwise share one connection between
+  // all channels to the same server in a process (a load test's 500 robots would be one TCP stream).
+  arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   return grpc::CreateCustomChannel(server, credentials, arguments);
 }
 
