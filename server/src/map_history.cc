@@ -179,15 +179,12 @@ MapPolicy MapPolicyOf(const FleetdConfig& config) {
 MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
     : repository_(repository), policy_(std::move(policy)) {}
 
-storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run,
-                                                           const fleet::v1::MapSnapshot& child) {
+storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run, const slamcore::Map& child) {
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   auto versions = repository_.ListMapVersions(run.robot_id);
   if (!versions.ok()) return versions.status();
   const storage::MapVersionRecord* current = Current(*versions);
-  auto map = analyzer::FromProto(child, "child_snapshot");
-  if (!map.ok()) return storage::InvalidArgument(map.status().message());
-  auto record = NewVersion(*map, *run.child_snapshot_id, /*with_known_area=*/false);
+  auto record = NewVersion(child, *run.child_snapshot_id, /*with_known_area=*/false);
   if (!record.ok()) return record.status();
   record->robot_id = run.robot_id;
   record->origin = "upload";
@@ -209,7 +206,7 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
     record->approved_at_ms = run.ended_at_ms;
   }
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
-  auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &*map})));
+  auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &child})));
   if (!appended.ok()) return appended.status();
   // Read the history again: a retried upload returns its earlier version, and the robot may have moved on since.
   auto after = repository_.ListMapVersions(run.robot_id);

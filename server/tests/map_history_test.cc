@@ -96,16 +96,16 @@ class MapHistoryTest : public ::testing::Test {
 
   void UploadBoth(MapHistory& history) {
     const storage::RunRecord first = StoreRun("run-0", nullptr, parent_);
-    auto v1 = history.RecordUpload(first, analyzer::ToProto(parent_));
+    auto v1 = history.RecordUpload(first, parent_);
     ASSERT_TRUE(v1.ok()) << v1.status().ToString();
     const storage::RunRecord second = StoreRun("run-1", &parent_, child_);
-    auto v2 = history.RecordUpload(second, analyzer::ToProto(child_));
+    auto v2 = history.RecordUpload(second, child_);
     ASSERT_TRUE(v2.ok()) << v2.status().ToString();
     EXPECT_EQ(v2->version, 2);
     EXPECT_EQ(v2->current_version, 2);
     EXPECT_FALSE(v2->outdated);
     // A retried upload gets the same version.
-    EXPECT_EQ(history.RecordUpload(second, analyzer::ToProto(child_))->version, 2);
+    EXPECT_EQ(history.RecordUpload(second, child_)->version, 2);
   }
 
   std::filesystem::path directory_;

@@ -25,7 +25,7 @@
 #include "fleet/v1/report.pb.h"
 #include "fleet/v1/telemetry.pb.h"
 #include "server/config.h"
-#include "slamcore/pose_graph.h"
+#include "slamcore/mapper.h"
 #include "storage/repository.h"
 
 namespace server {
@@ -69,7 +69,7 @@ class MapHistory {
   MapHistory(storage::Repository& repository, MapPolicy policy);
 
   /// Called by ingest once the run is stored; idempotent by run id (a retried upload gets the same version).
-  storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const fleet::v1::MapSnapshot& child);
+  storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const slamcore::Map& child);
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
   storage::Status OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report);
 

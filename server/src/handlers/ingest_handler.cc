@@ -98,9 +98,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
       return InvalidArgument(parsed.status().message());
     }
   }
-  if (auto parsed = analyzer::FromProto(run.child_snapshot(), "child_snapshot"); !parsed.ok()) {
-    return InvalidArgument(parsed.status().message());
-  }
+  auto child_map = analyzer::FromProto(run.child_snapshot(), "child_snapshot");
+  if (!child_map.ok()) return InvalidArgument(child_map.status().message());
   if (run.child_snapshot().nodes_size() == 0) return InvalidArgument("child_snapshot: has no nodes");
 
   // The parent map: sent (an empty one means "first run"), or named by id and already stored.
@@ -174,7 +173,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
   // The child map becomes a version of the robot's map; also on a retry, in case the first attempt stored the
   // run but failed before this (RecordUpload is idempotent by run id).
-  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, run.child_snapshot());
+  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map);
   if (!map.ok()) return ToGrpc(map.status());
   response->set_run_id(record.run_id);
   response->set_already_present(already);
