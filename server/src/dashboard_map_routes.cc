@@ -175,16 +175,20 @@ class MapRoutes {
     return Json({{"version", VersionJson(detail->version)}, {"findings", findings}});
   }
 
-  storage::Result<slamcore::Map> LoadMap(const std::string& robot, std::int64_t version, std::int64_t* resolved,
-                                         std::string* snapshot_id) {
+  /// A version's map with what names it.
+  struct VersionMap {
+    slamcore::Map map;
+    std::int64_t version = 0;
+    std::string snapshot_id, run_id;
+  };
+  storage::Result<VersionMap> LoadMap(const std::string& robot, std::int64_t version) {
     fleet::v1::MapSnapshot snapshot;
     auto detail = history_.Get(robot, version, &snapshot);
     if (!detail.ok()) return detail.status();
-    *resolved = detail->version.version();
-    *snapshot_id = detail->version.snapshot_id();
     auto map = analyzer::FromProto(snapshot, "snapshot");
     if (!map.ok()) return FromSlamcore(map.status());
-    return std::move(map).value();
+    return VersionMap{std::move(map).value(), detail->version.version(), detail->version.snapshot_id(),
+                      detail->version.run_id()};
   }
 
   /// The home grid of a map, rendered once per snapshot (a version page asks for it several times: its
@@ -201,13 +205,11 @@ class MapRoutes {
   /// The pose graph with every edge's χ² and source, and the home grid's frame so that the page can draw
   /// the graph over map.png.
   HttpResponse Graph(const std::string& robot, std::int64_t version) {
-    std::int64_t resolved = 0;
-    std::string snapshot_id;
-    auto map = LoadMap(robot, version, &resolved, &snapshot_id);
-    if (!map.ok()) return Error(map.status());
-    auto run_nodes = history_.NodesAddedByRun(robot, resolved);
+    auto loaded = LoadMap(robot, version);
+    if (!loaded.ok()) return Error(loaded.status());
+    auto run_nodes = history_.NodesAddedByRun(loaded->run_id, loaded->map);
     if (!run_nodes.ok()) return Error(run_nodes.status());
-    const slamcore::PoseGraph& graph = map->graph;
+    const slamcore::PoseGraph& graph = loaded->map.graph;
     json nodes = json::array(), edges = json::array(), components = json::array();
     for (const slamcore::Node& node : graph.nodes()) {
       nodes.push_back(json::array({node.id, node.pose.x(), node.pose.y(), node.pose.theta(), graph.ComponentOf(node.id),
@@ -231,10 +233,10 @@ class MapRoutes {
     for (const slamcore::View& view : graph.views()) {
       if (view.ambiguous) ambiguous.push_back(view.id);
     }
-    auto grid = HomeGrid(snapshot_id, *map);
+    auto grid = HomeGrid(loaded->snapshot_id, loaded->map);
     if (!grid.ok()) return Error(grid.status());
     return Json({{"robot_id", robot},
-                 {"version", resolved},
+                 {"version", loaded->version},
                  {"nodes", nodes},
                  {"edges", edges},
                  {"components", components},
@@ -248,13 +250,13 @@ class MapRoutes {
   }
 
   HttpResponse Picture(const std::string& robot, std::int64_t version) {
-    std::int64_t resolved = 0;
-    std::string snapshot_id;
-    auto map = LoadMap(robot, version, &resolved, &snapshot_id);
-    if (!map.ok()) return Error(map.status());
-    auto grid = HomeGrid(snapshot_id, *map);
+    auto loaded = LoadMap(robot, version);
+    if (!loaded.ok()) return Error(loaded.status());
+    auto grid = HomeGrid(loaded->snapshot_id, loaded->map);
     if (!grid.ok()) return Error(grid.status());
-    if ((*grid)->width == 0) return Error(409, "version " + std::to_string(resolved) + " has no occupancy patches to draw");
+    if ((*grid)->width == 0) {
+      return Error(409, "version " + std::to_string(loaded->version) + " has no occupancy patches to draw");
+    }
     auto png = slamcore::EncodePng(**grid);
     if (!png.ok()) return Error(FromSlamcore(png.status()));
     HttpResponse response;

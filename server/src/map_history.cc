@@ -14,21 +14,20 @@ namespace {
 
 constexpr const char* kPolicyCut = "policy:cut_protrusions";
 
-/// A stored map as both its wire form and slamcore's.
-struct LoadedMap {
-  fleet::v1::MapSnapshot snapshot;
-  slamcore::Map map;
-};
-
-storage::Result<LoadedMap> LoadMap(storage::Repository& repository, const std::string& snapshot_id) {
+storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository, const std::string& snapshot_id) {
   auto stored = repository.GetSnapshot(snapshot_id);
   if (!stored.ok()) return stored.status();
-  LoadedMap loaded;
-  if (!loaded.snapshot.ParseFromString(stored->bytes)) return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
-  auto map = analyzer::FromProto(loaded.snapshot, "snapshot " + snapshot_id);
+  fleet::v1::MapSnapshot snapshot;
+  if (!snapshot.ParseFromString(stored->bytes)) return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
+  return snapshot;
+}
+
+storage::Result<slamcore::Map> LoadMap(storage::Repository& repository, const std::string& snapshot_id) {
+  auto snapshot = LoadSnapshot(repository, snapshot_id);
+  if (!snapshot.ok()) return snapshot.status();
+  auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
   if (!map.ok()) return storage::DataLoss(map.status().message());
-  loaded.map = std::move(map).value();
-  return loaded;
+  return std::move(map).value();
 }
 
 /// What findings compare a version with: the map before the version's run, and the server's rerun of it.
@@ -43,9 +42,7 @@ storage::Result<slamcore::Map> LoadRunParent(storage::Repository& repository, co
   auto run = repository.GetRun(run_id);
   if (!run.ok()) return run.status();
   if (!run->parent_snapshot_id) return slamcore::Map{};
-  auto parent = LoadMap(repository, *run->parent_snapshot_id);
-  if (!parent.ok()) return parent.status();
-  return std::move(parent->map);
+  return LoadMap(repository, *run->parent_snapshot_id);
 }
 
 storage::Result<RunContext> LoadRunContext(storage::Repository& repository, const std::string& run_id,
@@ -130,6 +127,21 @@ const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRe
     if (it->approval == "approved") return &*it;
   }
   return nullptr;
+}
+
+/// `version` of a robot's versions, or its current one for 0.
+storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVersionRecord>& versions,
+                                                const std::string& robot_id, std::int64_t version) {
+  if (version < 0) return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
+  if (version == 0) {
+    const storage::MapVersionRecord* current = Current(versions);
+    if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
+    return *current;
+  }
+  for (const storage::MapVersionRecord& record : versions) {
+    if (record.version == version) return record;
+  }
+  return storage::NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
 }
 
 /// What repairs continue: the newest approved or pending version (rejected and stale ones are side branches).
@@ -229,8 +241,8 @@ storage::Status MapHistory::OnRunAnalysed(const std::string& run_id, const fleet
   auto context = LoadRunContext(repository_, run_id, report.parameter_set());
   if (!context.ok()) return context.status();
   context->report = report;
-  const std::vector<fleet::v1::MapFinding> findings = Findings(loaded->map, *context);
-  auto known_area = analyzer::KnownArea(loaded->map);
+  const std::vector<fleet::v1::MapFinding> findings = Findings(*loaded, *context);
+  auto known_area = analyzer::KnownArea(*loaded);
   if (!known_area.ok()) return FromSlamcore(known_area.status());
   STORAGE_RETURN_IF_ERROR(
       repository_.UpdateMapVersionHealth(version->robot_id, version->version, *known_area, ToRecords(findings)));
@@ -291,22 +303,18 @@ storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& rob
 }
 
 storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id, std::int64_t version) {
-  if (version > 0) return repository_.GetMapVersion(robot_id, version);
-  if (version < 0) return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
   auto versions = repository_.ListMapVersions(robot_id);
   if (!versions.ok()) return versions.status();
-  const storage::MapVersionRecord* current = Current(*versions);
-  if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
-  return *current;
+  return Find(*versions, robot_id, version);
 }
 
 storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, std::int64_t version,
                                                   fleet::v1::MapSnapshot* snapshot) {
-  auto record = Resolve(robot_id, version);
-  if (!record.ok()) return record.status();
   auto versions = repository_.ListMapVersions(robot_id);
   if (!versions.ok()) return versions.status();
   const storage::MapVersionRecord* current = Current(*versions);
+  auto record = Find(*versions, robot_id, version);
+  if (!record.ok()) return record.status();
   MapVersionDetail detail;
   detail.version = ToProto(*record, current && current->version == record->version);
   auto findings = repository_.ListMapFindings(robot_id, record->version);
@@ -315,19 +323,20 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
   if (!parsed.ok()) return parsed.status();
   detail.findings = std::move(parsed).value();
   if (snapshot) {
-    auto loaded = LoadMap(repository_, record->snapshot_id);
+    auto loaded = LoadSnapshot(repository_, record->snapshot_id);
     if (!loaded.ok()) return loaded.status();
-    *snapshot = std::move(loaded->snapshot);
+    *snapshot = std::move(loaded).value();
   }
   return detail;
 }
 
 storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
-  auto base = repository_.GetMapVersion(request.robot_id, request.base_version);
-  if (!base.ok()) return base.status();
-  // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   auto versions = repository_.ListMapVersions(request.robot_id);
   if (!versions.ok()) return versions.status();
+  if (request.base_version <= 0) return storage::InvalidArgument("base_version: the version repaired is required");
+  auto base = Find(*versions, request.robot_id, request.base_version);
+  if (!base.ok()) return base.status();
+  // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   const storage::MapVersionRecord* head = Head(*versions);
   if (head == nullptr || head->version != base->version) {
     return storage::Aborted("version " + std::to_string(base->version) + " of robot " + request.robot_id + " is " +
@@ -339,7 +348,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   if (!loaded.ok()) return loaded.status();
   auto context = LoadRunContext(repository_, base->run_id, policy_.default_parameter_set);
   if (!context.ok()) return context.status();
-  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(loaded->map, context->parent);
+  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(*loaded, context->parent);
 
   // The repaired map: computed for edits, an earlier stored map for rollback and undo.
   std::optional<slamcore::Map> repaired;
@@ -352,10 +361,10 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
       cut_box = *box;
     }
     auto edited = request.action == "reject_edge"
-                      ? analyzer::RejectEdge(loaded->map, request.from, request.to, request.view, &detail)
+                      ? analyzer::RejectEdge(*loaded, request.from, request.to, request.view, &detail)
                   : request.action == "reject_hypothesis"
-                      ? analyzer::RejectHypothesis(loaded->map, run_nodes, request.hypothesis, &detail)
-                      : analyzer::CutRegion(loaded->map, run_nodes, cut_box, &detail);
+                      ? analyzer::RejectHypothesis(*loaded, run_nodes, request.hypothesis, &detail)
+                      : analyzer::CutRegion(*loaded, run_nodes, cut_box, &detail);
     if (!edited.ok()) return FromSlamcore(edited.status());
     repaired = std::move(edited).value();
     auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired)));
@@ -389,7 +398,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   if (!repaired) {
     auto restored = LoadMap(repository_, snapshot_id);
     if (!restored.ok()) return restored.status();
-    repaired = std::move(restored->map);
+    repaired = std::move(restored).value();
   }
 
   auto record = NewVersion(*repaired, snapshot_id, /*with_known_area=*/true);
@@ -446,22 +455,18 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robo
   if (!current.ok()) return current.status();
   *up_to_date = held_version == current->version;
   if (!*up_to_date) {
-    auto loaded = LoadMap(repository_, current->snapshot_id);
+    auto loaded = LoadSnapshot(repository_, current->snapshot_id);
     if (!loaded.ok()) return loaded.status();
-    *snapshot = std::move(loaded->snapshot);
+    *snapshot = std::move(loaded).value();
   }
   return ToProto(*current, true);
 }
 
-storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const std::string& robot_id,
-                                                                       std::int64_t version) {
-  auto record = Resolve(robot_id, version);
-  if (!record.ok()) return record.status();
-  auto loaded = LoadMap(repository_, record->snapshot_id);
-  if (!loaded.ok()) return loaded.status();
-  auto parent = LoadRunParent(repository_, record->run_id);
+storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const std::string& run_id,
+                                                                       const slamcore::Map& map) {
+  auto parent = LoadRunParent(repository_, run_id);
   if (!parent.ok()) return parent.status();
-  return analyzer::NodesAddedByRun(loaded->map, *parent);
+  return analyzer::NodesAddedByRun(map, *parent);
 }
 
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
@@ -470,7 +475,7 @@ storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const s
   if (!record.ok()) return record.status();
   auto loaded = LoadMap(repository_, record->snapshot_id);
   if (!loaded.ok()) return loaded.status();
-  auto files = analyzer::ExportMap(loaded->map, format, robot_id + "-v" + std::to_string(record->version));
+  auto files = analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version));
   if (!files.ok()) return FromSlamcore(files.status());
   return std::move(files).value();
 }

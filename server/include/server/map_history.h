@@ -87,9 +87,9 @@ class MapHistory {
   /// NOT_FOUND when the robot has no approved map. `snapshot` is filled unless up to date.
   storage::Result<fleet::v1::MapVersion> Fetch(const std::string& robot_id, std::int64_t held_version, bool* up_to_date,
                                                fleet::v1::MapSnapshot* snapshot);
-  /// The nodes of the version's map that the run its chain started from added: only hypotheses of that run
-  /// can be rejected as a whole.
-  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& robot_id, std::int64_t version);
+  /// The nodes of a version's `map` that `run_id` (the run the version's chain started from) added: only
+  /// hypotheses of that run can be rejected as a whole.
+  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& run_id, const slamcore::Map& map);
   /// `format` "map_server" or "g2o"; files are named "<robot>-v<version>.<ext>".
   storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id, std::int64_t version,
                                                                const std::string& format);
