@@ -220,13 +220,17 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
   auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &child})));
   if (!appended.ok()) return appended.status();
-  // Read the history again: a retried upload returns its earlier version, and the robot may have moved on since.
-  auto after = repository_.ListMapVersions(run.robot_id);
-  if (!after.ok()) return after.status();
-  const storage::MapVersionRecord* now_current = Current(*after);
   UploadMapOutcome outcome;
   outcome.version = appended->version;
-  outcome.current_version = now_current ? now_current->version : 0;
+  if (appended->approval == "approved" && appended->version > (versions->empty() ? 0 : versions->back().version)) {
+    outcome.current_version = appended->version;  // just made, on the current map: it is the current one now
+  } else {
+    // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
+    auto after = repository_.ListMapVersions(run.robot_id);
+    if (!after.ok()) return after.status();
+    const storage::MapVersionRecord* now_current = Current(*after);
+    outcome.current_version = now_current ? now_current->version : 0;
+  }
   outcome.outdated = outcome.current_version != appended->version;
   return outcome;
 }
