@@ -22,12 +22,6 @@ using slamcore::NodeId;
 using slamcore::Result;
 using slamcore::Status;
 
-double EdgeChi2(const slamcore::PoseGraph& graph, const Edge& edge) {
-  const slamcore::Vector3 error =
-      slamcore::EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement);
-  return error.dot(edge.information * error);
-}
-
 NodeId HomeComponent(const slamcore::PoseGraph& graph) {
   NodeId home = graph.nodes().front().id;
   for (const slamcore::ComponentId component : graph.Components()) {
@@ -106,7 +100,7 @@ void ResidualFindings(const Map& map, const std::set<NodeId>& run_nodes, const F
   std::vector<double> observation_chi2;
   for (std::size_t i = 0; i < graph.num_edges(); ++i) {
     if (graph.edges()[i].kind != EdgeKind::kObservation) continue;
-    chi2[i] = EdgeChi2(graph, graph.edges()[i]);
+    chi2[i] = slamcore::EdgeChi2(graph, graph.edges()[i]);
     observation_chi2.push_back(chi2[i]);
   }
   if (observation_chi2.empty()) return;
@@ -169,7 +163,7 @@ void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_n
         views.insert(*edge.view);
         confirmed += rerun_edges.contains({edge.from, *edge.view}) ? 1 : 0;
       }
-      edges.push_back(EdgeJson(edge, EdgeChi2(map.graph, edge)));
+      edges.push_back(EdgeJson(edge, slamcore::EdgeChi2(map.graph, edge)));
     }
     if (2 * confirmed >= static_cast<int>(members.size())) continue;
     json decisions = json::array();

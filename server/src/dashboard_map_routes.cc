@@ -216,12 +216,10 @@ class MapRoutes {
                                    run_nodes->contains(node.id) ? 1 : 0}));
     }
     for (const slamcore::Edge& edge : graph.edges()) {
-      const slamcore::Vector3 error =
-          slamcore::EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement);
       json row = {{"from", edge.from},
                   {"to", edge.to},
                   {"kind", edge.kind == slamcore::EdgeKind::kMotion ? "motion" : "observation"},
-                  {"chi2", error.dot(edge.information * error)}};
+                  {"chi2", slamcore::EdgeChi2(graph, edge)}};
       if (edge.view) row["view"] = *edge.view;
       if (edge.hypothesis) row["hypothesis"] = *edge.hypothesis;
       edges.push_back(row);

@@ -82,12 +82,12 @@ Matrix3 SqrtInformation(const Matrix3& information) {
   return Eigen::LLT<Matrix3>(information).matrixU();
 }
 
+}  // namespace
+
 double EdgeChi2(const PoseGraph& graph, const Edge& edge) {
   const Vector3 error = EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement);
   return error.dot(edge.information * error);
 }
-
-}  // namespace
 
 Status Validate(const OptimizerOptions& options) {
   if (options.max_iterations < 1) return InvalidArgument("max_iterations must be at least 1");

@@ -67,6 +67,9 @@ Matrix3 EdgeInformationFromLeftCovariance(const SE2& measurement, const Matrix3&
 /// The inverse translation: the left-perturbation covariance of z from an edge's information.
 Matrix3 LeftCovarianceFromEdgeInformation(const SE2& measurement, const Matrix3& information);
 
+/// eᵀ Ω e of one edge at the graph's current poses (its residual).
+double EdgeChi2(const PoseGraph& graph, const Edge& edge);
+
 /// χ² = Σ eᵀ Ω e over all edges, or over the edges of one component.
 double Chi2(const PoseGraph& graph, std::optional<ComponentId> component = std::nullopt);
 
