@@ -22,14 +22,6 @@ using slamcore::NodeId;
 using slamcore::Result;
 using slamcore::Status;
 
-NodeId HomeComponent(const slamcore::PoseGraph& graph) {
-  NodeId home = graph.nodes().front().id;
-  for (const slamcore::ComponentId component : graph.Components()) {
-    if (graph.ComponentSize(component) > graph.ComponentSize(home)) home = component;
-  }
-  return graph.ComponentOf(home);
-}
-
 json EdgeJson(const Edge& edge, double chi2) {
   json out = {{"from", edge.from}, {"to", edge.to}, {"chi2", chi2}};
   if (edge.view) out["view"] = *edge.view;

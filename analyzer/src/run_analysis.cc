@@ -173,6 +173,14 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
   return part;
 }
 
+slamcore::ComponentId HomeComponent(const slamcore::PoseGraph& graph) {
+  NodeId home = graph.nodes().front().id;
+  for (const slamcore::ComponentId component : graph.Components()) {
+    if (graph.ComponentSize(component) > graph.ComponentSize(home)) home = component;
+  }
+  return graph.ComponentOf(home);
+}
+
 Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child) {
   ComparedGrids grids;
   slamcore::GlobalGridRenderer parent_renderer, child_renderer;
@@ -182,12 +190,9 @@ Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const sla
     grids.child = child_renderer.grid();
     return grids;
   }
-  NodeId home = parent.graph.nodes().front().id;  // the largest component; ties: the first
-  for (const slamcore::ComponentId component : parent.graph.Components()) {
-    if (parent.graph.ComponentSize(component) > parent.graph.ComponentSize(home)) home = component;
-  }
+  const slamcore::ComponentId home = HomeComponent(parent.graph);
   std::set<NodeId> parent_nodes, child_nodes;
-  for (const NodeId node : parent.graph.NodesOf(parent.graph.ComponentOf(home))) parent_nodes.insert(node);
+  for (const NodeId node : parent.graph.NodesOf(home)) parent_nodes.insert(node);
   if (child.graph.HasNode(home)) {
     for (const NodeId node : child.graph.NodesOf(child.graph.ComponentOf(home))) child_nodes.insert(node);
   }

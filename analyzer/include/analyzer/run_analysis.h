@@ -51,6 +51,10 @@ slamcore::Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent,
 std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
                                         const std::unordered_map<slamcore::NodeId, slamcore::SE2>& truth, int* count);
 
+/// A robot's home map in a graph of several components: the largest (ties: the one of the first node). The
+/// graph must have nodes.
+slamcore::ComponentId HomeComponent(const slamcore::PoseGraph& graph);
+
 /// The nodes of `map` in `nodes` with their local maps (no edges), for rendering part of a map.
 slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<slamcore::NodeId>& nodes);
 
