@@ -38,6 +38,7 @@ MapperStatistics ComputeStatistics(const std::vector<Decision>& decisions) {
       case DecisionKind::kViewMarkedAmbiguous: ++statistics.views_marked_ambiguous; break;
       case DecisionKind::kComponentCreated: ++statistics.components_created; break;
       case DecisionKind::kComponentsMerged: break;
+      case DecisionKind::kRetracted: statistics.recovery_retracted += recovery; break;
     }
   }
   return statistics;

@@ -1,5 +1,6 @@
 #include "hypothesis.h"
 
+#include <cmath>
 #include <unordered_set>
 
 namespace slamcore::internal {
@@ -15,6 +16,19 @@ EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguou
   }
   count.views = static_cast<int>(views.size());
   return count;
+}
+
+int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance) {
+  int passes = 0;
+  const HypothesisObservation* previous = nullptr;
+  for (const HypothesisObservation& observation : hypothesis.observations) {
+    if (!previous || observation.time - previous->time > gap_seconds ||
+        std::abs(observation.odometer - previous->odometer) > gap_distance) {
+      ++passes;
+    }
+    previous = &observation;
+  }
+  return passes;
 }
 
 }  // namespace slamcore::internal

@@ -33,6 +33,7 @@ struct Hypothesis {
   double last_time = 0.0;      // of the last observation, for expiry
   double last_odometer = 0.0;  // likewise
   bool conditional = false;    // a merge hypothesis that is conditionally accepted (IV-B)
+  int refused_at_passes = 0;   // passes when the optimised map last refused it (mapper_consistency.cc)
 };
 
 /// Observations and distinct views that count toward acceptance. With `discount_ambiguous`, observations of
@@ -43,6 +44,11 @@ struct EvidenceCount {
 };
 EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguous,
                             const std::function<bool(ViewId)>& is_ambiguous);
+
+/// Independent passes among the observations: a pass is a run of observations, each made within
+/// `gap_seconds` and `gap_distance` (robot odometer) of the previous one. One traversal past a look-alike is
+/// one pass however many views it matched (mapper_consistency.cc).
+int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance);
 
 inline bool Meets(const EvidenceCount& count, const AcceptanceCriteria& criteria) {
   return count.observations >= criteria.min_observations && count.views >= criteria.min_views;

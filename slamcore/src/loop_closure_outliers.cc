@@ -1,15 +1,54 @@
 #include "slamcore/loop_closure_outliers.h"
 
 #include <algorithm>
+#include <limits>
+#include <map>
 #include <numbers>
 #include <random>
 
 namespace slamcore {
+namespace {
+
+bool IsOdometry(const Edge& edge) { return edge.to == edge.from + 1 && edge.kind == EdgeKind::kMotion; }
+
+/// For kFirst: for every vertex index v, the robot end (the larger vertex) of the first true loop closure,
+/// in replay order, whose other end lies within `radius` vertices of v; INT64_MAX where there is none.
+std::vector<long> FirstClosureNear(const PoseGraph& graph, const std::vector<NodeId>& ids, long radius) {
+  std::map<NodeId, long> index;
+  for (std::size_t k = 0; k < ids.size(); ++k) index.emplace(ids[k], static_cast<long>(k));
+  std::vector<long> first(ids.size(), std::numeric_limits<long>::max());
+  for (const Edge& edge : graph.edges()) {
+    if (IsOdometry(edge) || edge.kind != EdgeKind::kObservation) continue;
+    const long a = index.at(std::min(edge.from, edge.to)), b = index.at(std::max(edge.from, edge.to));
+    for (long v = std::max(0L, a - radius); v <= std::min<long>(static_cast<long>(ids.size()) - 1, a + radius); ++v) {
+      first[static_cast<std::size_t>(v)] = std::min(first[static_cast<std::size_t>(v)], b);
+    }
+  }
+  return first;
+}
+
+}  // namespace
+
+Result<OutlierOptions::Mode> ParseOutlierMode(const std::string& name) {
+  if (name == "random") return OutlierOptions::Mode::kRandom;
+  if (name == "local") return OutlierOptions::Mode::kLocal;
+  if (name == "first") return OutlierOptions::Mode::kFirst;
+  return InvalidArgument("outlier mode '" + name + "': expected random, local or first");
+}
+
+int CountLoopClosures(const PoseGraph& graph) {
+  return static_cast<int>(std::count_if(graph.edges().begin(), graph.edges().end(),
+                                        [](const Edge& edge) { return !(edge.to == edge.from + 1); }));
+}
 
 Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const OutlierOptions& options) {
-  if (options.count < 0 || options.group_size < 1 || options.local_window < 2) {
-    return InvalidArgument("outlier options: count >= 0, group_size >= 1 and local_window >= 2 are required");
+  if (options.count < 0 || options.total_edges < 0 || options.group_size < 1 || options.local_window < 2 ||
+      !(options.single_fraction >= 0.0 && options.single_fraction <= 1.0)) {
+    return InvalidArgument("outlier options: count >= 0, total_edges >= 0, group_size >= 1, local_window >= 2 and "
+                           "single_fraction in [0, 1] are required");
   }
+  const int largest_group = std::max(options.group_size, options.max_group_size);
+  if (largest_group > 1000) return InvalidArgument("outlier options: groups of at most 1000 pairs");
   const auto first_loop_closure = std::find_if(graph.edges().begin(), graph.edges().end(),
                                                [](const Edge& edge) { return edge.kind == EdgeKind::kObservation; });
   if (first_loop_closure == graph.edges().end()) {
@@ -18,27 +57,60 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::vector<NodeId> ids;
   for (const Node& node : graph.nodes()) ids.push_back(node.id);
   std::sort(ids.begin(), ids.end());
-  const long last = static_cast<long>(ids.size()) - 1 - options.group_size;  // v + group_size stays inside
+  const long last = static_cast<long>(ids.size()) - 1 - largest_group;  // v + group size stays inside
   if (last < 3) return InvalidArgument("the graph has too few vertices for outlier groups of this size");
+  if (options.total_edges > 100 * static_cast<long>(ids.size())) {
+    return InvalidArgument("outlier options: total_edges is more than 100 per vertex");
+  }
 
   std::mt19937_64 random(options.seed);
   std::uniform_int_distribution<long> any_vertex(0, last);
   std::normal_distribution<double> translation(0.0, 0.3), rotation(0.0, 10.0 * std::numbers::pi / 180.0);
+  std::uniform_int_distribution<int> group_sizes(options.group_size, std::max(options.group_size, options.max_group_size));
+  std::bernoulli_distribution single(options.single_fraction);
+  const std::vector<long> first_closure =
+      options.mode == OutlierOptions::Mode::kFirst ? FirstClosureNear(graph, ids, largest_group) : std::vector<long>{};
 
   CorruptedGraph corrupted{graph, {}};
-  for (int group = 0; group < options.count; ++group) {
-    long v1 = any_vertex(random), v2;
-    if (options.mode == OutlierOptions::Mode::kRandom) {
-      do { v2 = any_vertex(random); } while (v2 == v1);
-    } else {
-      std::uniform_int_distribution<long> nearby(v1, std::min(last, v1 + options.local_window));
-      do { v2 = nearby(random); } while (v2 == v1 && v1 < last);
-      if (v2 == v1) v2 = v1 - 2;  // v1 is the last usable vertex: look back instead
+  const auto enough = [&](int groups) {
+    return options.total_edges > 0 ? static_cast<int>(corrupted.outliers.size()) >= options.total_edges
+                                   : groups >= options.count;
+  };
+  for (int group = 0; !enough(group); ++group) {
+    int size = single(random) ? 1 : group_sizes(random);
+    if (options.total_edges > 0) {
+      size = std::min(size, options.total_edges - static_cast<int>(corrupted.outliers.size()));
+    }
+    long v1 = any_vertex(random), v2 = v1;
+    switch (options.mode) {
+      case OutlierOptions::Mode::kRandom:
+        do { v2 = any_vertex(random); } while (v2 == v1);
+        break;
+      case OutlierOptions::Mode::kLocal: {
+        std::uniform_int_distribution<long> nearby(v1, std::min(last, v1 + options.local_window));
+        do { v2 = nearby(random); } while (v2 == v1 && v1 < last);
+        if (v2 == v1) v2 = v1 - 2;  // v1 is the last usable vertex: look back instead
+        break;
+      }
+      case OutlierOptions::Mode::kFirst: {
+        // The whole group's robot end before the first true closure near v1; retry v1 where there is no room.
+        for (int attempt = 0; attempt < 1000; ++attempt) {
+          const long deadline = std::min(last, first_closure[static_cast<std::size_t>(v1)] - size);
+          if (deadline >= v1 + 2) {
+            std::uniform_int_distribution<long> before(v1 + 2, deadline);
+            v2 = before(random);
+            break;
+          }
+          v1 = any_vertex(random);
+        }
+        if (v2 == v1) return InvalidArgument("no room to place a wrong group before a region's first loop closure");
+        break;
+      }
     }
     if (v2 < v1) std::swap(v1, v2);
     if (v2 == v1 + 1) v2 = v1 + 2;  // never an odometry pair
     const SE2 measurement(translation(random), translation(random), rotation(random));
-    for (int k = 0; k < options.group_size; ++k) {
+    for (int k = 0; k < size; ++k) {
       Edge edge;
       edge.from = ids[static_cast<std::size_t>(v1 + k)];
       edge.to = ids[static_cast<std::size_t>(v2 + k)];

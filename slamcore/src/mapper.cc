@@ -23,6 +23,7 @@ const char* DecisionKindName(DecisionKind kind) {
     case DecisionKind::kViewMarkedAmbiguous: return "view_marked_ambiguous";
     case DecisionKind::kComponentCreated: return "component_created";
     case DecisionKind::kComponentsMerged: return "components_merged";
+    case DecisionKind::kRetracted: return "retracted";
   }
   return "unknown";
 }
@@ -38,6 +39,7 @@ Mapper::Impl::Impl(const MapperParams& params, Map parent)
     odometer_ = std::max(odometer_, node.odometer);
   }
   for (const View& view : map_.graph.views()) view_creation_order_.emplace(view.id, view_creation_order_.size());
+  first_run_node_ = next_node_id_;
 }
 
 Status Mapper::Impl::Process(const Event& event) {
@@ -78,6 +80,7 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
   // information) before we got here.
   (void)map_.graph.AddNode(node);
   if (new_component) {
+    marginals_.reset();
     robot_relative_covariance_.setZero();
     start_new_component_ = false;
     current_node_ = node.id;
@@ -94,6 +97,7 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
     // Eq. (3) for every hypothesis, and for the robot's own relative uncertainty.
     const internal::PoseGaussian motion = internal::MotionFromIncrement(event.increment, event.covariance);
     for (Hypothesis& hypothesis : hypotheses_) hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
+    if (marginals_) robot_T_factorized_ = internal::PredictMotion(robot_T_factorized_, motion);
     robot_relative_covariance_ =
         internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
   }

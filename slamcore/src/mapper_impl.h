@@ -2,7 +2,9 @@
 //   mapper.cc               public API, event dispatch, nodes/views/local maps, kidnap, expiry, log;
 //   mapper_validation.cc    checks of every event before anything changes (the error contract);
 //   mapper_observations.cc  direct gate, hypothesis filter, acceptance, ambiguity marks;
-//   mapper_merge.cc         conditional and full merges (G′ as a MergeOverlay).
+//   mapper_merge.cc         conditional and full merges (G′ as a MergeOverlay);
+//   mapper_consistency.cc   correlated wrong observations: passes, the test against the map's marginal
+//                           covariance, retraction of accepted hypotheses.
 //
 // Design choices the paper leaves open (PAPER.md asks us to write them down):
 //  * Gate covariance for direct observations. The prediction ẑ = robot_T_viewnode comes from G; its
@@ -51,6 +53,7 @@
 
 #include "ambiguity_tracker.h"
 #include "hypothesis.h"
+#include "marginal_covariance.h"
 #include "merge_overlay.h"
 #include "slamcore/mapper.h"
 
@@ -101,7 +104,8 @@ class Mapper::Impl {
   internal::PoseGaussian ExpressInRefFrame(const internal::PoseGaussian& robot_T_view, NodeId view_node,
                                            NodeId ref_node) const;
   void EvaluateAcceptance(std::int64_t hypothesis_id);
-  void AcceptRecovery(std::int64_t hypothesis_id);
+  void AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, bool verify);
+  Edge MakeObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id) const;
   void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id);
   void RejectCompetitors(const internal::Hypothesis& accepted);
   /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional
@@ -115,6 +119,34 @@ class Mapper::Impl {
   internal::Hypothesis* FindHypothesis(std::int64_t id);
   /// Removes an open hypothesis and returns it; nullopt when there is none with that id.
   std::optional<internal::Hypothesis> TakeHypothesis(std::int64_t id);
+
+  // mapper_consistency.cc
+  /// kAccept: the map's informative test agreed. kAcceptAndVerify: accepted on passes or an uninformative
+  /// test, so the optimised map gets the last word (VerifyAcceptance).
+  enum class RecoveryVerdict { kAccept, kAcceptAndVerify, kWait };
+  /// What a recovery hypothesis that meets the counts gets: its passes against the outcome of the test
+  /// against the map. `why` says what decided.
+  RecoveryVerdict JudgeRecovery(const internal::Hypothesis& hypothesis, std::string* why);
+  /// robot_T_node from G with the map's marginal covariance between the two; nullopt when unavailable.
+  std::optional<internal::PoseGaussian> MapPrediction(NodeId node);
+  void RefactorizeMarginals();
+  void OptimizeAndFactorize();
+  /// After a recovery's edges joined G and the component was optimised: false when its own edges fail the
+  /// leave-one-out test (the caller restores G); else retracts the earlier acceptances that now fail it,
+  /// the worst first. Appends what it found to `note`.
+  bool VerifyAcceptance(std::int64_t hypothesis_id, std::string* note);
+  /// d² of a hypothesis's edges against the rest of G over its χ² quantile (> 1 fails); nullopt when
+  /// it has no edges in the factorised component.
+  std::optional<double> LeaveOneOutRatio(std::int64_t hypothesis_id) const;
+  bool IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_id) const;
+  /// Accepted recovery hypotheses of this run, the worst-fitting first (mean χ² per edge), at most `count`.
+  std::vector<std::int64_t> WorstFittingAccepted(int count) const;
+  void RemoveHypothesisEdges(std::int64_t hypothesis_id);
+  void LogRetractions(const std::vector<std::pair<std::int64_t, double>>& retracted, std::int64_t challenger);
+  /// The accepted hypothesis a direct edge continues (same pass), which then owns the edge.
+  std::optional<std::int64_t> AnchorForDirectEdge(const internal::HypothesisObservation& observation);
+  /// Drops the stalest open hypotheses beyond the cap.
+  void EnforceOpenHypothesisCap();
 
   // mapper_merge.cc
   SE2 TargetFromSource(const internal::Hypothesis& hypothesis) const;
@@ -141,6 +173,23 @@ class Mapper::Impl {
 
   internal::AmbiguityTracker ambiguity_;
   std::unordered_map<ViewId, std::size_t> view_creation_order_;
+
+  /// The map's marginal covariances, refactorised when observation edges changed since (map_revision_),
+  /// and the odometry chain from their newest node to the robot (robot_T_factorized_).
+  std::optional<internal::MarginalCovariances> marginals_;
+  std::uint64_t marginals_revision_ = 0, map_revision_ = 0;
+  internal::PoseGaussian robot_T_factorized_;
+  /// This run's first node: edges at or after it were added in this run (parent edges are never retracted).
+  NodeId first_run_node_ = 0;
+  /// Accepted recovery hypotheses of this run whose edges are in G, for retraction.
+  std::vector<std::int64_t> retractable_;
+  /// The last accepted recovery hypothesis while the robot is still in the pass that accepted it.
+  struct Anchor {
+    std::int64_t hypothesis = -1;
+    double time = 0.0, odometer = 0.0;  // of its last edge
+    int continuation_edges = 0;
+  };
+  std::optional<Anchor> anchor_;
 
   std::vector<Decision> decisions_;
   std::vector<AcceptedObservation> accepted_;

@@ -56,7 +56,7 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
     HypothesisObservation observation{.robot_node = robot, .view = event.view, .view_node = view_node,
                                       .robot_T_view = {event.robot_T_view, event.covariance},
                                       .time = event.time, .odometer = odometer_};
-    AddObservationEdge(observation, -1);
+    AddObservationEdge(observation, params_.consistency.enabled ? AnchorForDirectEdge(observation).value_or(-1) : -1);
     robot_relative_covariance_ = event.covariance;
     std::string note;
     if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, innovation.mahalanobis2, &note);
@@ -129,6 +129,7 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
     hypotheses_.push_back(std::move(hypothesis));
     id = hypotheses_.back().id;
     Log(DecisionKind::kHypothesisCreated, event.view, &hypotheses_.back(), why);
+    EnforceOpenHypothesisCap();
   }
   EvaluateAcceptance(id);
 }
@@ -139,8 +140,12 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   if (hypothesis->kind == HypothesisKind::kRecovery) {
     // IV-A: ambiguous views never count toward recovery.
-    if (Meets(internal::CountEvidence(*hypothesis, true, is_ambiguous), params_.recovery)) {
-      AcceptRecovery(hypothesis_id);
+    if (!Meets(internal::CountEvidence(*hypothesis, true, is_ambiguous), params_.recovery)) return;
+    std::string support;
+    switch (JudgeRecovery(*hypothesis, &support)) {
+      case RecoveryVerdict::kAccept: AcceptRecovery(hypothesis_id, support, false); break;
+      case RecoveryVerdict::kAcceptAndVerify: AcceptRecovery(hypothesis_id, support, true); break;
+      case RecoveryVerdict::kWait: break;
     }
     return;
   }
@@ -154,25 +159,66 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   }
 }
 
-void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id) {
-  const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
-  if (!taken) return;
-  const Hypothesis& accepted = *taken;
-  for (const HypothesisObservation& observation : accepted.observations) {
+void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, bool verify_requested) {
+  Hypothesis* candidate = FindHypothesis(hypothesis_id);
+  if (!candidate) return;
+  // What acceptance changes, to restore it exactly when the optimised map refuses the hypothesis.
+  struct Saved {
+    PoseGraph graph;
+    std::vector<AcceptedObservation> accepted;
+    std::vector<std::int64_t> retractable;
+    Matrix3 robot_relative_covariance;
+    std::optional<Anchor> anchor;
+    internal::AmbiguityTracker ambiguity;
+  };
+  const bool verify = verify_requested && params_.consistency.enabled &&
+                      params_.consistency.verify_after_optimization && params_.optimize_after_accept;
+  std::optional<Saved> saved;
+  if (verify) saved = Saved{map_.graph, accepted_, retractable_, robot_relative_covariance_, anchor_, ambiguity_};
+  for (const HypothesisObservation& observation : candidate->observations) {
     // They failed the direct gate, but the evidence says they were right: no longer rejected (IV-A).
     ambiguity_.RemoveRejected(observation.view, observation.odometer);
-    AddObservationEdge(observation, accepted.id);
+    AddObservationEdge(observation, hypothesis_id);
   }
-  robot_relative_covariance_ = accepted.state.covariance;
+  robot_relative_covariance_ = candidate->state.covariance;
+  anchor_ = Anchor{.hypothesis = hypothesis_id, .time = time_, .odometer = odometer_};
   std::string note;
   if (params_.optimize_after_accept) OptimizeComponentOf(*current_node_, &note);
+  if (verify && !VerifyAcceptance(hypothesis_id, &note)) {
+    map_.graph = std::move(saved->graph);
+    accepted_ = std::move(saved->accepted);
+    retractable_ = std::move(saved->retractable);
+    robot_relative_covariance_ = saved->robot_relative_covariance;
+    anchor_ = saved->anchor;
+    ambiguity_ = std::move(saved->ambiguity);
+    ++map_revision_;
+    candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
+                                                           params_.consistency.pass_gap_distance);
+    Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
+        "not accepted: " + support + note + "; it waits for another pass");
+    return;
+  }
+  const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
+  const Hypothesis& accepted = *taken;
+  retractable_.push_back(accepted.id);
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
-      EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) + note);
+      EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) + (support.empty() ? "" : "; " + support) +
+          note);
   RejectCompetitors(accepted);
 }
 
 void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id) {
+  const Edge edge = MakeObservationEdge(observation, hypothesis_id);
+  // Cannot fail: both nodes and the view exist, and the covariance passed validation.
+  if (map_.graph.AddEdge(edge).ok()) {
+    ++map_revision_;
+    accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});
+    ambiguity_.AddAccepted(observation.view, observation.odometer);
+  }
+}
+
+Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id) const {
   Edge edge;
   edge.from = observation.robot_node;
   edge.to = observation.view_node;
@@ -182,11 +228,7 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
   edge.kind = EdgeKind::kObservation;
   edge.view = observation.view;
   if (hypothesis_id >= 0) edge.hypothesis = hypothesis_id;
-  // Cannot fail: both nodes and the view exist, and the covariance passed validation.
-  if (map_.graph.AddEdge(edge).ok()) {
-    accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});
-    ambiguity_.AddAccepted(observation.view, observation.odometer);
-  }
+  return edge;
 }
 
 void Mapper::Impl::RejectCompetitors(const Hypothesis& accepted) {

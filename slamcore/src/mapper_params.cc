@@ -66,6 +66,23 @@ Status MapperParams::Validate() const {
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("ambiguity_min_rejections", ambiguity_min_rejections));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.pass_gap_seconds", consistency.pass_gap_seconds));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.pass_gap_distance", consistency.pass_gap_distance));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.map_gate_chi2", consistency.map_gate_chi2));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.aliasing_offset", consistency.aliasing_offset));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.min_passes_uninformative", consistency.min_passes_uninformative));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.min_passes_against_map", consistency.min_passes_against_map));
+  if (!(consistency.retraction_confidence > 0.5 && consistency.retraction_confidence < 1.0)) {
+    return InvalidArgument(Describe("consistency.retraction_confidence", consistency.retraction_confidence,
+                                    "must lie in (0.5, 1)"));
+  }
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.max_judged_per_trial", consistency.max_judged_per_trial));
+  if (consistency.max_continuation_edges < 0) {
+    return InvalidArgument(Describe("consistency.max_continuation_edges", consistency.max_continuation_edges,
+                                    "must not be negative"));
+  }
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.max_open_hypotheses", consistency.max_open_hypotheses));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.max_retractions_per_check", consistency.max_retractions_per_check));
   if (const Status status = slamcore::Validate(optimizer); !status.ok()) {
     return InvalidArgument("MapperParams.optimizer: " + status.message());
   }

@@ -24,6 +24,14 @@ inline MapperParams TestParams() {
   return params;
 }
 
+/// The paper's filter alone (III-B acceptance by counts), without the checks against the map's own
+/// uncertainty (mapper_consistency.cc): for tests of the counting rules themselves.
+inline MapperParams CountsOnlyParams() {
+  MapperParams params = TestParams();
+  params.consistency.enabled = false;
+  return params;
+}
+
 inline std::unique_ptr<Mapper> MakeMapper(const MapperParams& params = TestParams(), Map parent = {}) {
   auto mapper = Mapper::Create(params, std::move(parent));
   EXPECT_TRUE(mapper.ok()) << mapper.status().ToString();

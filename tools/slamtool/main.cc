@@ -2,7 +2,8 @@
 //
 //   slamtool optimize FILE [--out FILE.g2o] [--json] [--init linear|warm] [--robust-loss none|huber|cauchy]
 //   slamtool replay-g2o FILE [--params FILE] [--json]
-//   slamtool corrupt-g2o FILE --out FILE [--count N] [--mode random|local] [--group G] [--seed S]
+//   slamtool corrupt-g2o FILE --out FILE [--count N | --fraction F] [--mode random|local|first] [--group G]
+//            [--max-group G] [--single-fraction F] [--seed S]
 //   slamtool protrusions | make-protrusion-data | train-protrusions | eval-protrusions (protrusion_commands.h)
 //
 // Exit status: 0 on success, 1 when the input is refused (the message names file, line and reason),
@@ -10,6 +11,8 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -127,7 +130,10 @@ struct CorruptArguments {
   std::string output;
   std::string mode = "random";
   int count = 100;
+  double fraction = 0.0;
   int group = 1;
+  int max_group = 0;
+  double single_fraction = 0.0;
   std::uint64_t seed = 1;
 };
 
@@ -135,10 +141,16 @@ int RunCorrupt(const CorruptArguments& arguments) {
   const auto graph = slamcore::ReadPoseGraph(arguments.input);
   if (!graph.ok()) return Fail(graph.status());
   slamcore::OutlierOptions options;
-  options.mode = arguments.mode == "local" ? slamcore::OutlierOptions::Mode::kLocal
-                                           : slamcore::OutlierOptions::Mode::kRandom;
+  const auto mode = slamcore::ParseOutlierMode(arguments.mode);
+  if (!mode.ok()) return Fail(mode.status());
+  options.mode = *mode;
   options.count = arguments.count;
+  if (arguments.fraction > 0) {
+    options.total_edges = std::max(1, static_cast<int>(std::lround(arguments.fraction * slamcore::CountLoopClosures(*graph))));
+  }
   options.group_size = arguments.group;
+  options.max_group_size = arguments.max_group;
+  options.single_fraction = arguments.single_fraction;
   options.seed = arguments.seed;
   const auto corrupted = slamcore::AddLoopClosureOutliers(*graph, options);
   if (!corrupted.ok()) return Fail(corrupted.status());
@@ -185,8 +197,21 @@ int main(int argc, char** argv) {
   corrupt_command->add_option("FILE", corrupt.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
   corrupt_command->add_option("--out", corrupt.output, "output g2o file")->required();
   corrupt_command->add_option("--count", corrupt.count, "outlier groups")->check(CLI::NonNegativeNumber);
-  corrupt_command->add_option("--group", corrupt.group, "consecutive pairs per group")->check(CLI::PositiveNumber);
-  corrupt_command->add_option("--mode", corrupt.mode, "random or local")->check(CLI::IsMember({"random", "local"}));
+  corrupt_command
+      ->add_option("--fraction", corrupt.fraction,
+                   "write this many wrong edges per true loop closure of the file instead of --count groups")
+      ->check(CLI::Range(0.0, 10.0));
+  corrupt_command->add_option("--group", corrupt.group, "consecutive pairs per group (the smallest with --max-group)")
+      ->check(CLI::Range(1, 1000));
+  corrupt_command->add_option("--max-group", corrupt.max_group, "group sizes uniform in [--group, --max-group]")
+      ->check(CLI::Range(0, 1000));
+  corrupt_command->add_option("--single-fraction", corrupt.single_fraction, "share of groups that are single outliers")
+      ->check(CLI::Range(0.0, 1.0));
+  corrupt_command
+      ->add_option("--mode", corrupt.mode,
+                   "random: anywhere; local: second end within 20 vertices; first: before the region's first true "
+                   "loop closure")
+      ->check(CLI::IsMember({"random", "local", "first"}));
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
 
   AddProtrusionCommands(app);

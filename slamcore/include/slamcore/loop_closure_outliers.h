@@ -1,7 +1,11 @@
 // Wrong loop closures for testing the hypothesis filter, following the protocol most papers mean by
 // "Vertigo outliers" (Sünderhauf's generateDataset.py, re-implemented from its description):
 //  * random: both vertices uniform over the graph; local: the second within `local_window` after the first;
-//  * each outlier is repeated for `group_size` consecutive vertex pairs (v1+k, v2+k) with one measurement;
+//    first: the group's later end (where the robot makes the observations) lies before the first true loop
+//    closure that observes the region of its earlier end, so the wrong group arrives first;
+//  * each outlier is repeated for a group of consecutive vertex pairs (v1+k, v2+k) with one measurement:
+//    `group_size` pairs, or a size drawn uniformly from [group_size, max_group_size] per group, and with
+//    `single_fraction` of the groups single outliers (mixed single and grouped);
 //  * measurement dx, dy ~ N(0, 0.3²), dθ ~ N(0, (10°)²), information copied from the first loop closure.
 // One seed makes it deterministic.
 //
@@ -9,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "slamcore/g2o_replay.h"
@@ -17,13 +22,22 @@
 namespace slamcore {
 
 struct OutlierOptions {
-  enum class Mode : std::uint8_t { kRandom, kLocal };
+  enum class Mode : std::uint8_t { kRandom, kLocal, kFirst };
   Mode mode = Mode::kRandom;
-  int count = 100;         // outlier groups
-  int group_size = 1;      // consecutive pairs per group
+  int count = 100;         // outlier groups; ignored when total_edges > 0
+  int total_edges = 0;     // when > 0: groups are added until this many wrong edges are written
+  int group_size = 1;      // consecutive pairs per group (the smallest, with max_group_size)
+  int max_group_size = 0;  // when > group_size: each group's size is uniform in [group_size, max_group_size]
+  double single_fraction = 0.0;  // share of groups that are single outliers
   int local_window = 20;   // vertices, for kLocal
   std::uint64_t seed = 1;
 };
+
+/// Parses "random", "local" or "first".
+Result<OutlierOptions::Mode> ParseOutlierMode(const std::string& name);
+
+/// The number of loop closures (edges that are not odometry k → k+1) of a graph.
+int CountLoopClosures(const PoseGraph& graph);
 
 struct CorruptedGraph {
   PoseGraph graph;                  // the input with the outliers appended as observation edges

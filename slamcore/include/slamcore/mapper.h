@@ -45,6 +45,7 @@ enum class DecisionKind : std::uint8_t {
   kViewMarkedAmbiguous,
   kComponentCreated,         // first node, kidnap or reboot
   kComponentsMerged,
+  kRetracted,                // an accepted hypothesis's edges left G: later evidence contradicted them
 };
 
 const char* DecisionKindName(DecisionKind kind);
@@ -66,6 +67,7 @@ struct MapperStatistics {
   int merge_created = 0, merge_conditionally_accepted = 0, merge_accepted = 0, merge_expired = 0,
       merge_rejected = 0;
   int merge_conditional_then_rejected = 0;
+  int recovery_retracted = 0;  // accepted, later retracted (counted in recovery_accepted too)
   int views_marked_ambiguous = 0;
   int components_created = 0;
 };

@@ -22,6 +22,47 @@ inline OptimizerOptions DefaultOptimizerOptions() {
   return options;
 }
 
+/// Correlated wrong observations (one pass past a look-alike yields a run of wrong observations that agree
+/// with each other; ../shared/docs/CORRELATED-OUTLIERS.md): evidence is counted per independent pass, a
+/// recovery hypothesis is tested against the map's own uncertainty before it is accepted, and an accepted
+/// one that later contradicts better-supported evidence is retracted. Design: mapper_consistency.cc.
+struct ConsistencyParams {
+  bool enabled = true;
+  /// Observations of one hypothesis belong to one pass while each follows the previous one within this
+  /// time (seconds) and this distance (metres of the robot's odometer, and between the observed views' nodes).
+  double pass_gap_seconds = 20.0;
+  double pass_gap_distance = 2.0;
+  /// Joint test of a hypothesis against the map: χ² (3 dof) of its state against the map's prediction with
+  /// the marginal covariance between the two ends. 16.27 is the 99.9 % quantile.
+  double map_gate_chi2 = 16.27;
+  /// The map's covariance is scaled by the a-posteriori variance factor χ²/redundancy of its component
+  /// (never up, never below min_variance_factor) once the redundancy reaches this: declared odometry noise
+  /// is often far above the noise met, which would make every test uninformative.
+  int min_redundancy_for_scaling = 30;
+  double min_variance_factor = 0.01;
+  /// The test is informative when an aliasing offset of this size (metres, in the direction the map is least
+  /// sure of) would have failed it; an uninformative test confirms nothing.
+  double aliasing_offset = 1.0;
+  /// Passes a hypothesis needs when the test against the map was uninformative, or when it failed (the map
+  /// itself may be wrong: wheel slip, or an earlier wrong acceptance that later evidence retracts).
+  int min_passes_uninformative = 1;
+  int min_passes_against_map = 3;
+  /// After a recovery is accepted and the component optimised, the leave-one-out test of its edges against
+  /// the rest of G (refused and G restored when it fails) and of the worst-fitting earlier acceptances
+  /// (retracted when they fail).
+  bool verify_after_optimization = true;
+  /// Leave-one-out test: a hypothesis whose edges' leave-one-out χ² (against every other edge of G) exceeds
+  /// its quantile at this confidence does not fit: refused when it is the newcomer, else retracted.
+  double retraction_confidence = 0.999;
+  /// Bounds on the work per observation: open hypotheses kept (the stalest go first), hypotheses judged
+  /// per trial (the newcomer and the worst-fitting accepted ones) and retractions per trial.
+  int max_open_hypotheses = 64;
+  /// Direct edges that continue an accepted recovery in its pass and share its fate (at most this many).
+  int max_continuation_edges = 20;
+  int max_judged_per_trial = 8;
+  int max_retractions_per_check = 4;
+};
+
 struct MapperParams {
   /// Mahalanobis gate, χ² with 3 degrees of freedom: 7.81 is the 95 % quantile. Used both for direct
   /// observation edges against the current estimate and for joining an observation to a hypothesis.
@@ -59,6 +100,8 @@ struct MapperParams {
   int local_window_nodes = 30;
   int full_optimization_every = 100;
   OptimizerOptions optimizer = DefaultOptimizerOptions();
+
+  ConsistencyParams consistency;
 
   /// Checks every field; the message names the first bad one and its value.
   Status Validate() const;

@@ -1,0 +1,276 @@
+// Correlated wrong observations (../shared/docs/CORRELATED-OUTLIERS.md). One pass past a look-alike — the
+// bed frame from the wrong side, a second identical door — yields a run of wrong observations that agree
+// with each other, so a filter that counts consistent observations (paper III-B) counts one mistake many
+// times. Three mechanisms, after RRR (Latif, Cadena, Neira, "Robust loop closing over time for pose graph
+// SLAM", IJRR 2013) and PCM (Mangelson et al., ICRA 2018), sized for a robot:
+//
+//  * Evidence by passes. Observations made in one traversal (each within pass_gap_seconds and
+//    pass_gap_distance of the previous) are one piece of evidence, whatever the number of views. Direct
+//    edges that follow an accepted recovery in the same pass belong to it (they were only possible because
+//    the robot believed it), so they share its fate.
+//  * The joint test against the map. When a recovery hypothesis meets the counts, its state G ≈ robot_T_ref
+//    is tested against the map's own prediction with the marginal covariance of the relative pose between
+//    the robot and the reference node (marginal_covariance.h): χ² ≤ map_gate_chi2. Consistent: accepted.
+//    The test is *informative* when an aliasing offset of `aliasing_offset` metres, in the direction the
+//    combined uncertainty is largest, would have failed it; a consistent but uninformative hypothesis waits
+//    for min_passes_uninformative passes. An inconsistent one with min_passes_against_map passes is
+//    accepted (independent traversals overrule the map: a robot whose wheels slipped comes back again).
+//  * Conflict resolution and retraction. An inconsistent hypothesis with fewer passes is accepted on
+//    trial: its edges join G, the component is optimised, and the leave-one-out test below judges it and
+//    the accepted recovery hypotheses whose edges fit worst. While the worst fails, it is removed: when
+//    that is the newcomer, G is restored exactly (poses included) and the hypothesis stays open, waiting
+//    for another pass; when it is an earlier acceptance, that one is *retracted* — its edges leave G, the
+//    decision log records kRetracted with the reason, and the component is re-optimised.
+//
+// The leave-one-out test of a hypothesis W: with its stacked edge residuals r at the optimum, the joint
+// covariance P of the nodes they touch and the edges' Jacobians J, d² = rᵀ (Σ_z − J P Jᵀ)⁺ r is the χ² of
+// W's measurements against what every *other* edge of G predicts (the studentised residual of
+// regression diagnostics; directions in which nothing else constrains W are not testable and are
+// dropped). It sees what an edge's own χ² hides: a flexible map bends to fit every edge, moving the
+// conflict into the odometry between them. W fails when d² exceeds the χ² quantile at
+// retraction_confidence for the kept degrees of freedom.
+//
+// Costs: a factorisation of the component's information matrix when observation edges changed since the
+// last test; six sparse solves per map test; per trial one optimisation, one factorisation and 3 solves
+// per node of the judged hypotheses (at most max_judged_per_trial of them). Open hypotheses are capped.
+#include <algorithm>
+#include <sstream>
+#include <unordered_map>
+#include <unordered_set>
+
+#include <Eigen/Eigenvalues>
+#include <boost/math/distributions/chi_squared.hpp>
+
+#include "mapper_impl.h"
+#include "slamcore/optimizer.h"
+
+namespace slamcore {
+
+using internal::Hypothesis;
+using internal::HypothesisObservation;
+using internal::PoseGaussian;
+
+std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
+  const NodeId robot = *current_node_;
+  if (!map_.graph.SameComponent(node, robot)) return std::nullopt;
+  if (!marginals_ || marginals_revision_ != map_revision_ || !marginals_->Contains(node)) {
+    RefactorizeMarginals();
+    if (!marginals_) return std::nullopt;
+  }
+  // robot_T_node = robot_T_newest · newest_T_node: the chain since the factorisation, then the map.
+  PoseGaussian newest_T_node = marginals_->Relative(marginals_->newest_node(), node);
+  if (marginals_->redundancy() >= params_.consistency.min_redundancy_for_scaling) {
+    // The map's covariance as the noise met so far says, never above what was declared.
+    newest_T_node.covariance *= std::clamp(marginals_->variance_factor(), params_.consistency.min_variance_factor, 1.0);
+  }
+  const Matrix3 covariance = internal::Compose(robot_T_factorized_, newest_T_node).covariance;
+  return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
+}
+
+void Mapper::Impl::RefactorizeMarginals() {
+  marginals_ = internal::MarginalCovariances::Factorize(map_.graph, *current_node_);
+  marginals_revision_ = map_revision_;
+  robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
+}
+
+Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypothesis, std::string* why) {
+  const ConsistencyParams& consistency = params_.consistency;
+  if (!consistency.enabled) return RecoveryVerdict::kAccept;
+  const int passes = internal::CountPasses(hypothesis, consistency.pass_gap_seconds, consistency.pass_gap_distance);
+  std::ostringstream text;
+  text.precision(3);
+  const std::optional<PoseGaussian> prediction = MapPrediction(hypothesis.ref_node);
+  if (!prediction) {
+    text << "no map test, " << passes << " of " << consistency.min_passes_uninformative << " passes";
+    *why = text.str();
+    return passes >= consistency.min_passes_uninformative && passes > hypothesis.refused_at_passes
+               ? RecoveryVerdict::kAcceptAndVerify
+               : RecoveryVerdict::kWait;
+  }
+  const internal::Innovation innovation = internal::ComputeInnovation(*prediction, hypothesis.state);
+  const double largest_variance =
+      innovation.covariance.topLeftCorner<2, 2>().selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff();
+  const bool consistent = innovation.mahalanobis2 <= consistency.map_gate_chi2;
+  const bool informative = consistency.aliasing_offset * consistency.aliasing_offset / largest_variance >
+                           consistency.map_gate_chi2;
+  const int needed = consistent ? (informative ? 1 : consistency.min_passes_uninformative)
+                                : consistency.min_passes_against_map;
+  text << "map test d²=" << innovation.mahalanobis2 << " (σ " << std::sqrt(largest_variance) << " m, "
+       << (consistent ? "consistent" : "inconsistent") << ", " << (informative ? "informative" : "uninformative")
+       << "), " << passes << " of " << needed << " passes";
+  *why = text.str();
+  // A hypothesis the optimised map refused waits for a new pass before it is tried again.
+  if (passes < needed || passes <= hypothesis.refused_at_passes) return RecoveryVerdict::kWait;
+  return consistent && informative ? RecoveryVerdict::kAccept : RecoveryVerdict::kAcceptAndVerify;
+}
+
+bool Mapper::Impl::IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_id) const {
+  return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis_id && edge.from >= first_run_node_;
+}
+
+std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id) const {
+  std::vector<const Edge*> edges;
+  std::vector<NodeId> nodes;
+  std::unordered_map<NodeId, int> column;
+  for (const Edge& edge : map_.graph.edges()) {
+    if (!IsRetractableEdge(edge, hypothesis_id)) continue;
+    edges.push_back(&edge);
+    for (const NodeId node : {edge.from, edge.to}) {
+      if (column.emplace(node, static_cast<int>(nodes.size())).second) nodes.push_back(node);
+    }
+  }
+  if (edges.empty() || !marginals_) return std::nullopt;
+  for (const NodeId node : nodes) {
+    if (!marginals_->Contains(node)) return std::nullopt;
+  }
+  const Eigen::MatrixXd joint = marginals_->Joint(nodes);
+  const int rows = 3 * static_cast<int>(edges.size());
+  Eigen::VectorXd residual(rows);
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(rows, 3 * static_cast<int>(nodes.size()));
+  Eigen::MatrixXd measurement_covariance = Eigen::MatrixXd::Zero(rows, rows);
+  for (int k = 0; k < static_cast<int>(edges.size()); ++k) {
+    const Edge& edge = *edges[static_cast<std::size_t>(k)];
+    Matrix3 d_from, d_to;
+    residual.segment<3>(3 * k) =
+        EdgeError(map_.graph.node(edge.from).pose, map_.graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
+    jacobian.block<3, 3>(3 * k, 3 * column.at(edge.from)) += d_from;
+    jacobian.block<3, 3>(3 * k, 3 * column.at(edge.to)) += d_to;
+    measurement_covariance.block<3, 3>(3 * k, 3 * k) = edge.information.inverse();
+  }
+  const Eigen::MatrixXd residual_covariance = measurement_covariance - jacobian * joint * jacobian.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (residual_covariance + residual_covariance.transpose()));
+  // Directions nothing but W constrains have (numerically) no residual variance: not testable.
+  const double floor = 1e-4 * measurement_covariance.diagonal().minCoeff();
+  double chi2 = 0.0;
+  int dof = 0;
+  for (int i = 0; i < rows; ++i) {
+    if (eigen.eigenvalues()(i) <= floor) continue;
+    const double projection = eigen.eigenvectors().col(i).dot(residual);
+    chi2 += projection * projection / eigen.eigenvalues()(i);
+    ++dof;
+  }
+  if (dof == 0) return 0.0;
+  const boost::math::chi_squared_distribution<double> distribution(dof);
+  return chi2 / boost::math::quantile(distribution, params_.consistency.retraction_confidence);
+}
+
+void Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {
+  map_.graph.RemoveEdgesIf([&](const Edge& edge) { return IsRetractableEdge(edge, hypothesis_id); });
+  std::erase_if(accepted_, [&](const AcceptedObservation& edge) {
+    return edge.hypothesis == hypothesis_id && edge.robot_node >= first_run_node_;
+  });
+  ++map_revision_;
+  if (anchor_ && anchor_->hypothesis == hypothesis_id) anchor_.reset();
+}
+
+void Mapper::Impl::OptimizeAndFactorize() {
+  OptimizerOptions options = params_.optimizer;
+  options.component = *current_node_;
+  (void)Optimize(map_.graph, options);  // cannot fail on validated data; the test reads whatever G holds
+  RefactorizeMarginals();
+}
+
+bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, std::string* note) {
+  // RRR's rule at the optimum that took the newcomer in: while the newcomer or one of the accepted
+  // hypotheses that fit worst fails the leave-one-out test, the one with the largest ratio goes — the
+  // newcomer (refused; the caller restores G) or an earlier acceptance (retracted).
+  RefactorizeMarginals();
+  std::vector<std::pair<std::int64_t, double>> retracted;
+  bool refused = false;
+  for (int round = 0; round <= params_.consistency.max_retractions_per_check; ++round) {
+    std::int64_t worst = -1;
+    double worst_ratio = 1.0;
+    std::vector<std::int64_t> judged = WorstFittingAccepted(params_.consistency.max_judged_per_trial);
+    judged.push_back(hypothesis_id);
+    for (const std::int64_t id : judged) {
+      const std::optional<double> ratio = LeaveOneOutRatio(id);
+      if (ratio && *ratio > worst_ratio) worst = id, worst_ratio = *ratio;
+    }
+    if (worst < 0) break;
+    if (worst == hypothesis_id || round == params_.consistency.max_retractions_per_check) {
+      std::ostringstream text;
+      text.precision(3);
+      text << "; after optimisation " << (worst == hypothesis_id ? "its" : "the map's") << " edges' leave-one-out χ² is "
+           << worst_ratio << "× the " << 100 * params_.consistency.retraction_confidence << " % quantile";
+      *note += text.str();
+      refused = true;
+      break;
+    }
+    RemoveHypothesisEdges(worst);
+    std::erase(retractable_, worst);
+    retracted.emplace_back(worst, worst_ratio);
+    OptimizeAndFactorize();
+  }
+  if (refused) return false;  // the retractions go with the restored G: they were judged beside a newcomer that lost
+  LogRetractions(retracted, hypothesis_id);
+  if (!retracted.empty()) *note += "; retracted " + std::to_string(retracted.size()) + " earlier acceptance(s)";
+  return true;
+}
+
+std::vector<std::int64_t> Mapper::Impl::WorstFittingAccepted(int count) const {
+  std::unordered_map<std::int64_t, std::pair<double, int>> fit;  // hypothesis → (Σ χ², edges)
+  const std::unordered_set<std::int64_t> retractable(retractable_.begin(), retractable_.end());
+  for (const Edge& edge : map_.graph.edges()) {
+    if (!edge.hypothesis || !retractable.contains(*edge.hypothesis) || !IsRetractableEdge(edge, *edge.hypothesis)) {
+      continue;
+    }
+    auto& [sum, edges] = fit[*edge.hypothesis];
+    sum += EdgeChi2(map_.graph, edge);
+    ++edges;
+  }
+  std::vector<std::pair<double, std::int64_t>> by_fit;
+  for (const auto& [id, sum_edges] : fit) by_fit.emplace_back(sum_edges.first / sum_edges.second, id);
+  std::sort(by_fit.rbegin(), by_fit.rend());
+  std::vector<std::int64_t> worst;
+  for (std::size_t k = 0; k < by_fit.size() && worst.size() < static_cast<std::size_t>(count); ++k) {
+    worst.push_back(by_fit[k].second);
+  }
+  return worst;
+}
+
+void Mapper::Impl::LogRetractions(const std::vector<std::pair<std::int64_t, double>>& retracted,
+                                  std::int64_t challenger) {
+  for (const auto& [id, ratio] : retracted) {
+    std::ostringstream reason;
+    reason.precision(3);
+    reason << "contradicted by hypothesis " << challenger << ": leave-one-out χ² " << ratio
+           << "× its " << 100 * params_.consistency.retraction_confidence
+           << " % quantile; edges removed and the map re-optimised";
+    Decision decision;
+    decision.time = time_;
+    decision.kind = DecisionKind::kRetracted;
+    decision.node = current_node_.value_or(-1);
+    decision.hypothesis = id;
+    decision.hypothesis_kind = HypothesisKind::kRecovery;
+    decision.reason = reason.str();
+    decisions_.push_back(std::move(decision));
+  }
+}
+
+std::optional<std::int64_t> Mapper::Impl::AnchorForDirectEdge(const HypothesisObservation& observation) {
+  if (!anchor_) return std::nullopt;
+  const ConsistencyParams& consistency = params_.consistency;
+  if (observation.time - anchor_->time > consistency.pass_gap_seconds ||
+      observation.odometer - anchor_->odometer > consistency.pass_gap_distance ||
+      anchor_->continuation_edges >= consistency.max_continuation_edges) {
+    anchor_.reset();
+    return std::nullopt;
+  }
+  anchor_->time = observation.time;
+  anchor_->odometer = observation.odometer;
+  ++anchor_->continuation_edges;
+  return anchor_->hypothesis;
+}
+
+void Mapper::Impl::EnforceOpenHypothesisCap() {
+  const auto cap = static_cast<std::size_t>(params_.consistency.max_open_hypotheses);
+  while (hypotheses_.size() > cap) {
+    const auto stalest = std::min_element(hypotheses_.begin(), hypotheses_.end(), [](const Hypothesis& a, const Hypothesis& b) {
+      return a.last_time < b.last_time;
+    });
+    DropHypothesis(stalest->id, DecisionKind::kExpired,
+                   "more than " + std::to_string(cap) + " open hypotheses: the stalest goes first");
+  }
+}
+
+}  // namespace slamcore

@@ -1,0 +1,120 @@
+#include "marginal_covariance.h"
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+
+#include "slamcore/optimizer.h"
+
+namespace slamcore::internal {
+
+struct MarginalCovariances::Factor {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  int size = 0;
+};
+
+MarginalCovariances::~MarginalCovariances() = default;
+MarginalCovariances::MarginalCovariances(MarginalCovariances&&) noexcept = default;
+MarginalCovariances& MarginalCovariances::operator=(MarginalCovariances&&) noexcept = default;
+
+std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGraph& graph, NodeId node) {
+  MarginalCovariances result;
+  const std::vector<NodeId> nodes = graph.NodesOf(graph.ComponentOf(node));
+  const NodeId gauge = *std::min_element(nodes.begin(), nodes.end());
+  int columns = 0;
+  for (const NodeId id : nodes) {
+    result.index_.emplace(id, id == gauge ? -1 : 3 * columns++);
+    result.poses_.emplace(id, graph.node(id).pose);
+    result.newest_node_ = std::max(result.newest_node_, id);
+  }
+  result.num_edges_ = graph.num_edges();
+  if (columns == 0) return std::nullopt;
+
+  // H = Σ Jᵀ Ω J over the component's edges (lower triangle only, as the factorisation reads it).
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(graph.num_edges() * 27);
+  const auto add_block = [&](int row, int column, const Matrix3& block) {
+    if (row < 0 || column < 0) return;  // the gauge node is held
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) {
+        if (row + r >= column + c) triplets.emplace_back(row + r, column + c, block(r, c));
+      }
+    }
+  };
+  for (const Edge& edge : graph.edges()) {
+    const auto from = result.index_.find(edge.from);
+    if (from == result.index_.end()) continue;  // another component
+    const int a = from->second, b = result.index_.at(edge.to);
+    Matrix3 d_from, d_to;
+    EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
+    add_block(a, a, d_from.transpose() * edge.information * d_from);
+    add_block(b, b, d_to.transpose() * edge.information * d_to);
+    if (a >= b) {
+      add_block(a, b, d_from.transpose() * edge.information * d_to);
+    } else {
+      add_block(b, a, d_to.transpose() * edge.information * d_from);
+    }
+  }
+  // The a-posteriori variance factor σ̂₀² = χ² / redundancy (Förstner & Wrobel, Photogrammetric Computer
+  // Vision, 2016, §4.2.3): how far the declared covariances overstate the noise actually met.
+  double chi2 = 0.0;
+  std::size_t edges = 0;
+  for (const Edge& edge : graph.edges()) {
+    if (!result.index_.contains(edge.from)) continue;
+    chi2 += EdgeChi2(graph, edge);
+    ++edges;
+  }
+  const long redundancy = 3 * static_cast<long>(edges) - 3 * static_cast<long>(columns);
+  if (redundancy > 0) result.variance_factor_ = chi2 / static_cast<double>(redundancy);
+  result.redundancy_ = std::max(0L, redundancy);
+  Eigen::SparseMatrix<double> information(3 * columns, 3 * columns);
+  information.setFromTriplets(triplets.begin(), triplets.end());
+  result.factor_ = std::make_unique<Factor>();
+  result.factor_->size = 3 * columns;
+  result.factor_->ldlt.compute(information);
+  if (result.factor_->ldlt.info() != Eigen::Success) return std::nullopt;
+  return result;
+}
+
+Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) const {
+  const int k = static_cast<int>(nodes.size());
+  std::vector<int> index(nodes.size());
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(factor_->size, 3 * k);
+  for (int n = 0; n < k; ++n) {
+    index[static_cast<std::size_t>(n)] = index_.at(nodes[static_cast<std::size_t>(n)]);
+    if (index[static_cast<std::size_t>(n)] >= 0) rhs.block<3, 3>(index[static_cast<std::size_t>(n)], 3 * n).setIdentity();
+  }
+  const Eigen::MatrixXd solution = factor_->ldlt.solve(rhs);
+  Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(3 * k, 3 * k);
+  for (int n = 0; n < k; ++n) {
+    if (index[static_cast<std::size_t>(n)] >= 0) joint.middleRows(3 * n, 3) = solution.middleRows(index[static_cast<std::size_t>(n)], 3);
+  }
+  return 0.5 * (joint + joint.transpose());
+}
+
+PoseGaussian MarginalCovariances::Relative(NodeId a, NodeId b) const {
+  const Eigen::Matrix<double, 6, 6> joint = Joint({a, b});
+
+  // Left perturbation ε of a_T_b against the plain parameters of a and b, by central differences (the
+  // relative pose is smooth; six evaluations cost nothing next to the solves).
+  const SE2 pose_a = poses_.at(a), pose_b = poses_.at(b);
+  const SE2 relative = pose_a.inverse() * pose_b;
+  Eigen::Matrix<double, 3, 6> jacobian;
+  constexpr double kStep = 1e-6;
+  for (int k = 0; k < 6; ++k) {
+    Vector3 delta = Vector3::Zero();
+    delta(k % 3) = kStep;
+    const auto perturbed = [&](double sign) {
+      const Vector3 d = sign * delta;
+      const auto moved = [&](const SE2& pose) { return SE2(pose.x() + d.x(), pose.y() + d.y(), pose.theta() + d.z()); };
+      const SE2 a_moved = k < 3 ? moved(pose_a) : pose_a;
+      const SE2 b_moved = k < 3 ? pose_b : moved(pose_b);
+      return SE2::Log((a_moved.inverse() * b_moved) * relative.inverse());
+    };
+    jacobian.col(k) = (perturbed(1.0) - perturbed(-1.0)) / (2 * kStep);
+  }
+  Matrix3 covariance = jacobian * joint * jacobian.transpose();
+  return {relative, 0.5 * (covariance + covariance.transpose())};
+}
+
+}  // namespace slamcore::internal

@@ -1,0 +1,70 @@
+// The map's own uncertainty between two places: marginal covariances of relative poses from the pose
+// graph's information matrix, not from odometry alone (a loop closed elsewhere makes two places certain
+// of each other even when the odometry between them is long).
+//
+// Method: the Gauss–Newton information matrix H = Σ Jᵀ Ω J of one component at its current poses (the
+// error and Jacobians of optimizer.h over plain (x, y, θ) parameters), with the gauge fixed at the
+// component's first node, is factorised once by a sparse Cholesky (LDLᵀ, AMD ordering). The covariance of
+// a relative pose a_T_b needs only the 3×3 blocks Σ_aa, Σ_bb and Σ_ab of H⁻¹: six solves with the factor
+// (the recovery of selected marginals of Kaess & Dellaert, "Covariance recovery from a square root
+// information matrix for data association", RAS 2009, reduced to the columns needed).
+//
+// A factorisation describes the graph as it was; the Mapper reaches nodes added later by composing the
+// odometry chain from the newest factorised node (exact for a chain without loops, which is what new nodes
+// are until the next edge closes a loop).
+//
+// Thread safety: an immutable value after Factorize.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <unordered_map>
+
+#include "pose_gaussian.h"
+#include "slamcore/pose_graph.h"
+
+namespace slamcore::internal {
+
+class MarginalCovariances {
+ public:
+  /// Factorises the component of `node`. nullopt when the information matrix is singular (a component
+  /// with a node held by nothing, which the Mapper never builds).
+  static std::optional<MarginalCovariances> Factorize(const PoseGraph& graph, NodeId node);
+
+  ~MarginalCovariances();
+  MarginalCovariances(MarginalCovariances&&) noexcept;
+  MarginalCovariances& operator=(MarginalCovariances&&) noexcept;
+
+  bool Contains(NodeId node) const { return index_.contains(node); }
+  /// The newest (largest id) node of the factorised component.
+  NodeId newest_node() const { return newest_node_; }
+  std::size_t num_edges() const { return num_edges_; }
+  /// χ² / redundancy of the factorised component (1 when it has no redundancy), and the redundancy.
+  double variance_factor() const { return variance_factor_; }
+  long redundancy() const { return redundancy_; }
+
+  /// a_T_b at the factorised poses, with the covariance of its left perturbation (in a's frame).
+  /// Both nodes must be Contained.
+  PoseGaussian Relative(NodeId a, NodeId b) const;
+
+  /// The joint covariance (3k × 3k) of the plain (x, y, θ) parameters of k Contained nodes, in their order;
+  /// zero rows and columns for the gauge node, which is held.
+  Eigen::MatrixXd Joint(const std::vector<NodeId>& nodes) const;
+
+ private:
+  struct Factor;
+  MarginalCovariances() = default;
+
+  std::unordered_map<NodeId, int> index_;      // node → block column, −1 for the gauge node
+  std::unordered_map<NodeId, SE2> poses_;      // at factorisation
+  std::unique_ptr<Factor> factor_;
+  NodeId newest_node_ = -1;
+  std::size_t num_edges_ = 0;
+  double variance_factor_ = 1.0;
+  long redundancy_ = 0;
+};
+
+}  // namespace slamcore::internal
