@@ -101,7 +101,8 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
   *why = text.str();
   // A hypothesis the optimised map refused waits for a new pass before it is tried again.
   if (passes < needed || passes <= hypothesis.refused_at_passes) return RecoveryVerdict::kWait;
-  return consistent && informative ? RecoveryVerdict::kAccept : RecoveryVerdict::kAcceptAndVerify;
+  if (!consistent) return RecoveryVerdict::kAcceptOverMap;
+  return informative ? RecoveryVerdict::kAccept : RecoveryVerdict::kAcceptAndVerify;
 }
 
 bool Mapper::Impl::IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_id) const {
@@ -170,7 +171,7 @@ void Mapper::Impl::OptimizeAndFactorize() {
   RefactorizeMarginals();
 }
 
-bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, std::string* note) {
+bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, std::string* note) {
   // RRR's rule at the optimum that took the newcomer in: while the newcomer or one of the accepted
   // hypotheses that fit worst fails the leave-one-out test, the one with the largest ratio goes — the
   // newcomer (refused; the caller restores G) or an earlier acceptance (retracted).
@@ -181,7 +182,7 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, std::string* not
     std::int64_t worst = -1;
     double worst_ratio = 1.0;
     std::vector<std::int64_t> judged = WorstFittingAccepted(params_.consistency.max_judged_per_trial);
-    judged.push_back(hypothesis_id);
+    if (may_refuse) judged.push_back(hypothesis_id);
     for (const std::int64_t id : judged) {
       const std::optional<double> ratio = LeaveOneOutRatio(id);
       if (ratio && *ratio > worst_ratio) worst = id, worst_ratio = *ratio;

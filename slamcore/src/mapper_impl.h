@@ -78,6 +78,10 @@ class Mapper::Impl {
   Map Finish();
 
  private:
+  /// kAccept: the map's informative test agreed. kAcceptAndVerify: the test could not tell, so the optimised
+  /// map gets the last word (VerifyAcceptance). kAcceptOverMap: independent passes overrule the map; what
+  /// they contradict is retracted, they are not refused.
+  enum class RecoveryVerdict { kAccept, kAcceptAndVerify, kAcceptOverMap, kWait };
   // mapper_validation.cc: return an error naming the event, or Ok; never change anything.
   Status Validate(const OdometryEvent& event) const;
   Status Validate(const ViewCreatedEvent& event) const;
@@ -104,7 +108,7 @@ class Mapper::Impl {
   internal::PoseGaussian ExpressInRefFrame(const internal::PoseGaussian& robot_T_view, NodeId view_node,
                                            NodeId ref_node) const;
   void EvaluateAcceptance(std::int64_t hypothesis_id);
-  void AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, bool verify);
+  void AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict);
   Edge MakeObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id) const;
   void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id);
   void RejectCompetitors(const internal::Hypothesis& accepted);
@@ -121,9 +125,6 @@ class Mapper::Impl {
   std::optional<internal::Hypothesis> TakeHypothesis(std::int64_t id);
 
   // mapper_consistency.cc
-  /// kAccept: the map's informative test agreed. kAcceptAndVerify: accepted on passes or an uninformative
-  /// test, so the optimised map gets the last word (VerifyAcceptance).
-  enum class RecoveryVerdict { kAccept, kAcceptAndVerify, kWait };
   /// What a recovery hypothesis that meets the counts gets: its passes against the outcome of the test
   /// against the map. `why` says what decided.
   RecoveryVerdict JudgeRecovery(const internal::Hypothesis& hypothesis, std::string* why);
@@ -134,7 +135,7 @@ class Mapper::Impl {
   /// After a recovery's edges joined G and the component was optimised: false when its own edges fail the
   /// leave-one-out test (the caller restores G); else retracts the earlier acceptances that now fail it,
   /// the worst first. Appends what it found to `note`.
-  bool VerifyAcceptance(std::int64_t hypothesis_id, std::string* note);
+  bool VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, std::string* note);
   /// d² of a hypothesis's edges against the rest of G over its χ² quantile (> 1 fails); nullopt when
   /// it has no edges in the factorised component.
   std::optional<double> LeaveOneOutRatio(std::int64_t hypothesis_id) const;

@@ -142,11 +142,8 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
     // IV-A: ambiguous views never count toward recovery.
     if (!Meets(internal::CountEvidence(*hypothesis, true, is_ambiguous), params_.recovery)) return;
     std::string support;
-    switch (JudgeRecovery(*hypothesis, &support)) {
-      case RecoveryVerdict::kAccept: AcceptRecovery(hypothesis_id, support, false); break;
-      case RecoveryVerdict::kAcceptAndVerify: AcceptRecovery(hypothesis_id, support, true); break;
-      case RecoveryVerdict::kWait: break;
-    }
+    const RecoveryVerdict verdict = JudgeRecovery(*hypothesis, &support);
+    if (verdict != RecoveryVerdict::kWait) AcceptRecovery(hypothesis_id, support, verdict);
     return;
   }
   const internal::EvidenceCount count =
@@ -159,7 +156,7 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   }
 }
 
-void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, bool verify_requested) {
+void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict) {
   Hypothesis* candidate = FindHypothesis(hypothesis_id);
   if (!candidate) return;
   // What acceptance changes, to restore it exactly when the optimised map refuses the hypothesis.
@@ -171,7 +168,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     std::optional<Anchor> anchor;
     internal::AmbiguityTracker ambiguity;
   };
-  const bool verify = verify_requested && params_.consistency.enabled &&
+  const bool verify = verdict != RecoveryVerdict::kAccept && params_.consistency.enabled &&
                       params_.consistency.verify_after_optimization && params_.optimize_after_accept;
   std::optional<Saved> saved;
   if (verify) saved = Saved{map_.graph, accepted_, retractable_, robot_relative_covariance_, anchor_, ambiguity_};
@@ -184,7 +181,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   anchor_ = Anchor{.hypothesis = hypothesis_id, .time = time_, .odometer = odometer_};
   std::string note;
   if (params_.optimize_after_accept) OptimizeComponentOf(*current_node_, &note);
-  if (verify && !VerifyAcceptance(hypothesis_id, &note)) {
+  if (verify && !VerifyAcceptance(hypothesis_id, verdict == RecoveryVerdict::kAcceptAndVerify, &note)) {
     map_.graph = std::move(saved->graph);
     accepted_ = std::move(saved->accepted);
     retractable_ = std::move(saved->retractable);

@@ -64,8 +64,8 @@ TEST(MapperAmbiguityTest, WithoutATrustedObservationTheViewIsNotMarkedAndOnlyThe
   auto counts_only = BedFrame(/*localised=*/false, 2, /*map_checks=*/false);
   EXPECT_FALSE(counts_only->map().graph.view(2).ambiguous);
   EXPECT_EQ(counts_only->Statistics().recovery_accepted, 1);
-  // ... while the map, sure to 1 cm per metre that the bed frame is 1 m behind the robot, refuses a
-  // half-turn on one pass: d² ≈ π² / (2·1e-4 + 1e-2) ≫ 16.27.
+  // ... while the map test, sure of the robot's heading to 1e-4 rad² after one exact step, refuses a
+  // half-turn seen on one pass (d² ≈ π² / (1e-4 + 1e-2/2) ≈ 1900, against 16.27).
   auto checked = BedFrame(/*localised=*/false, 2);
   EXPECT_EQ(checked->Statistics().recovery_accepted, 0);
   EXPECT_TRUE(checked->accepted_observations().empty());

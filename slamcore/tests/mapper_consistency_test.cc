@@ -1,0 +1,275 @@
+// Correlated wrong observations (mapper_consistency.cc): passes, the map's marginal covariance, the joint
+// test against the map, and retraction, with numbers worked by hand.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+#include <tuple>
+
+#include <Eigen/LU>
+
+#include "hypothesis.h"
+#include "marginal_covariance.h"
+#include "mapper_test_util.h"
+#include "slamcore/optimizer.h"
+#include "test_matchers.h"
+
+namespace slamcore {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::CountDecisions;
+using testing::IsNearlyPose;
+using testing::LastDecision;
+using testing::MakeMapper;
+using testing::SimulatedRobot;
+
+internal::HypothesisObservation At(double time, double odometer) {
+  return {.robot_node = 0, .view = 1, .view_node = 0, .robot_T_view = {}, .time = time, .odometer = odometer};
+}
+
+TEST(PassesTest, ObservationsAreOnePassWhileEachFollowsThePreviousWithinBothGaps) {
+  internal::Hypothesis hypothesis;
+  // Gaps 20 s and 2 m: t = 0, 5, 24 (19 s after 5) stay one pass; 50 (26 s) starts a second; odometer
+  // 12 → 14.5 (2.5 m at t = 51) a third; a lone observation at t = 200 a fourth.
+  hypothesis.observations = {At(0, 10), At(5, 11), At(24, 12), At(50, 12), At(51, 14.5), At(200, 15)};
+  EXPECT_EQ(internal::CountPasses(hypothesis, 20.0, 2.0), 4);
+  // A group of ten consecutive observations, one per second and metre, is one pass however long.
+  hypothesis.observations.clear();
+  for (int k = 0; k < 10; ++k) hypothesis.observations.push_back(At(k, k));
+  EXPECT_EQ(internal::CountPasses(hypothesis, 20.0, 2.0), 1);
+  EXPECT_EQ(internal::CountPasses(hypothesis, 0.5, 2.0), 10);
+  hypothesis.observations.clear();
+  EXPECT_EQ(internal::CountPasses(hypothesis, 20.0, 2.0), 0);
+}
+
+/// Nodes 0 → 1 → 2 one metre apart along x, each motion edge with left covariance diag(a, a, b).
+PoseGraph Chain(double a, double b) {
+  PoseGraph graph;
+  for (int k = 0; k < 3; ++k) EXPECT_TRUE(graph.AddNode(Node{.id = k, .pose = SE2(k, 0, 0)}).ok());
+  for (int k = 0; k < 2; ++k) {
+    Edge edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, 0)};
+    edge.information = EdgeInformationFromLeftCovariance(edge.measurement, Vector3(a, a, b).asDiagonal());
+    EXPECT_TRUE(graph.AddEdge(edge).ok());
+  }
+  return graph;
+}
+
+TEST(MarginalCovariancesTest, AChainComposesItsEdgesThroughTheAdjoint) {
+  const double a = 0.01, b = 0.002;
+  const PoseGraph graph = Chain(a, b);
+  const auto marginals = internal::MarginalCovariances::Factorize(graph, 2);
+  ASSERT_TRUE(marginals.has_value());
+  EXPECT_EQ(marginals->newest_node(), 2);
+  // 0_T_2 = 0_T_1 · 1_T_2: Σ = Σ₁ + Adj Σ₂ Adjᵀ with Adj of (1, 0, 0) = [I, (0, −1)ᵀ; 0, 1], so
+  // Σ = [[2a, 0, 0], [0, 2a + b, −b], [0, −b, 2b]].
+  const internal::PoseGaussian relative = marginals->Relative(0, 2);
+  EXPECT_THAT(relative.mean, IsNearlyPose(SE2(2, 0, 0), 1e-12));
+  Matrix3 expected;
+  expected << 2 * a, 0, 0, 0, 2 * a + b, -b, 0, -b, 2 * b;
+  EXPECT_TRUE(relative.covariance.isApprox(expected, 1e-6)) << relative.covariance;
+  // From node 1, in its own frame: a single edge.
+  EXPECT_TRUE(marginals->Relative(1, 2).covariance.isApprox(Vector3(a, a, b).asDiagonal().toDenseMatrix(), 1e-6));
+}
+
+TEST(MarginalCovariancesTest, ALoopMakesTwoPlacesSurerOfEachOtherThanOdometry) {
+  const double a = 0.01, b = 0.002;
+  PoseGraph graph = Chain(a, b);
+  // A loop closure 0 → 2 with covariance C: in a linear problem the two paths combine as
+  // (Σ_chain⁻¹ + C⁻¹)⁻¹.
+  const Matrix3 closure_covariance = Vector3(0.004, 0.004, 0.001).asDiagonal();
+  Edge closure{.from = 0, .to = 2, .measurement = SE2(2, 0, 0), .kind = EdgeKind::kObservation};
+  closure.information = EdgeInformationFromLeftCovariance(closure.measurement, closure_covariance);
+  ASSERT_TRUE(graph.AddEdge(closure).ok());
+  const auto marginals = internal::MarginalCovariances::Factorize(graph, 0);
+  ASSERT_TRUE(marginals.has_value());
+  Matrix3 chain;
+  chain << 2 * a, 0, 0, 0, 2 * a + b, -b, 0, -b, 2 * b;
+  const Matrix3 expected = (chain.inverse() + closure_covariance.inverse()).inverse();
+  EXPECT_TRUE(marginals->Relative(0, 2).covariance.isApprox(expected, 1e-6)) << marginals->Relative(0, 2).covariance;
+}
+
+// Wheel stasis as in mapper_test.cc's RecoveryTest: the robot stands at x = 1 while odometry (σ² = 1e-2 per
+// axis and step) claims x = 2; exact observations (σ² = 1e-4) of views 1 (x = 0) and 2 (x = 1).
+class StasisTest : public ::testing::Test {
+ protected:
+  void Start(const MapperParams& params) {
+    mapper_ = MakeMapper(params);
+    robot_ = std::make_unique<SimulatedRobot>(*mapper_);
+    robot_->Drive(SE2::Identity(), std::nullopt, 1e-2);
+    robot_->CreateView(1);
+    robot_->Drive(SE2(1.0, 0.0, 0.0), std::nullopt, 1e-2);
+    robot_->CreateView(2);
+    robot_->Drive(SE2::Identity(), SE2(1.0, 0.0, 0.0), 1e-2);
+  }
+  void OnePass() {
+    robot_->Observe(1, SE2::Identity(), 1e-4);
+    robot_->Observe(2, SE2::Identity(), 1e-4);
+    robot_->Observe(1, SE2::Identity(), 1e-4);
+  }
+  std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<SimulatedRobot> robot_;
+};
+
+TEST_F(StasisTest, OnePassAgainstTheMapIsNotEnoughAndASecondPassIs) {
+  MapperParams params = testing::TestParams();
+  params.consistency.min_passes_against_map = 2;
+  Start(params);
+  OnePass();
+  // The map puts view 1 two metres behind the robot, sure to σ² = 2e-2 (two motion edges along x; the
+  // variance factor is not used without redundancy); the hypothesis says one metre, fused from three
+  // observations: d² ≈ 1² / (2e-2 + 1e-4/3 + …) ≈ 50 > 16.27 — inconsistent, so it waits for a pass.
+  EXPECT_EQ(mapper_->Statistics().recovery_accepted, 0);
+  EXPECT_TRUE(mapper_->accepted_observations().empty());
+  const Decision& last = mapper_->decisions().back();
+  EXPECT_EQ(last.kind, DecisionKind::kHypothesisUpdated);
+  // 25 s later (beyond the 20 s pass gap) the robot sees the views again: an independent pass.
+  robot_->Wait(25.0);
+  OnePass();
+  EXPECT_EQ(mapper_->Statistics().recovery_accepted, 1);
+  const Decision* accepted = LastDecision(*mapper_, DecisionKind::kAccepted);
+  ASSERT_NE(accepted, nullptr);
+  EXPECT_THAT(accepted->reason, HasSubstr("inconsistent"));
+  EXPECT_THAT(accepted->reason, HasSubstr("2 of 2 passes"));
+  EXPECT_NEAR(mapper_->map().graph.node(2).pose.x(), 1.0, 0.02);
+}
+
+TEST_F(StasisTest, TheMapTestReportsItsChi2) {
+  MapperParams params = testing::TestParams();
+  params.consistency.min_passes_against_map = 1;  // accepted at once, so the decision carries the test
+  params.consistency.verify_after_optimization = false;
+  Start(params);
+  OnePass();
+  const Decision* accepted = LastDecision(*mapper_, DecisionKind::kAccepted);
+  ASSERT_NE(accepted, nullptr);
+  // Hand-computed bound: d² = 1 / (2e-2 + Σ_G,xx) with Σ_G,xx ≤ 1e-4 ⇒ 49.5 ≤ d² ≤ 50.
+  const std::size_t at = accepted->reason.find("d²=");
+  ASSERT_NE(at, std::string::npos) << accepted->reason;
+  const double chi2 = std::stod(accepted->reason.substr(at + std::string("d²=").size()));
+  EXPECT_GE(chi2, 49.5);
+  EXPECT_LE(chi2, 50.0);
+}
+
+/// The edges of a graph as (from, to, measurement) triples, to compare graphs built in different orders.
+std::multiset<std::tuple<NodeId, NodeId, double, double, double>> EdgeSet(const PoseGraph& graph) {
+  std::multiset<std::tuple<NodeId, NodeId, double, double, double>> edges;
+  for (const Edge& edge : graph.edges()) {
+    edges.emplace(edge.from, edge.to, edge.measurement.x(), edge.measurement.y(), edge.measurement.theta());
+  }
+  return edges;
+}
+
+// A corridor out and back with loose odometry: views 1–3 at x = 0, 1, 2; the robot drives to x = 12 and
+// back to x = 2, and the map is unsure where by metres. One pass of wrong observations claims it stands
+// at x = 4.5 (a look-alike 2.5 m further): uninformative, accepted. Three later passes of true
+// observations contradict it; accepting them retracts the wrong one.
+void CorridorOutAndBack(Mapper& mapper, bool with_wrong_pass) {
+  SimulatedRobot robot(mapper);
+  constexpr double kOdometryVariance = 0.1;  // per axis and step: σ_x ≈ 1.5 m after 22 steps
+  robot.Drive(SE2::Identity(), std::nullopt, kOdometryVariance);
+  robot.CreateView(1);
+  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.CreateView(2);
+  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.CreateView(3);
+  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.Drive(SE2(0, 0, std::numbers::pi), std::nullopt, kOdometryVariance);
+  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  // Now at x = 2 facing −x. The look-alike: each view seen as if the robot stood 2.5 m further along +x.
+  if (with_wrong_pass) {
+    for (const ViewId view : {1, 2, 3}) {
+      const SE2 world_T_view(view - 1.0, 0, 0), wrong_world_T_robot(4.5, 0, std::numbers::pi);
+      robot.ObserveRaw(view, wrong_world_T_robot.inverse() * world_T_view, 1e-4);
+    }
+  }
+  for (int pass = 0; pass < 3; ++pass) {
+    robot.Wait(25.0);
+    for (const ViewId view : {1, 2, 3}) robot.Observe(view, SE2::Identity(), 1e-4);
+  }
+}
+
+MapperParams CorridorParams() {
+  MapperParams params = testing::TestParams();
+  params.ambiguity_min_rejections = 1000;  // the test is about the filter, not the ambiguity marks
+  return params;
+}
+
+TEST(RetractionTest, LaterPassesRetractAnAcceptedWrongPassAndGIsAsIfItNeverWasAccepted) {
+  auto with_wrong = MakeMapper(CorridorParams());
+  CorridorOutAndBack(*with_wrong, true);
+  auto without = MakeMapper(CorridorParams());
+  CorridorOutAndBack(*without, false);
+
+  const MapperStatistics statistics = with_wrong->Statistics();
+  EXPECT_EQ(statistics.recovery_accepted, 2);
+  EXPECT_EQ(statistics.recovery_retracted, 1);
+  const Decision* retracted = LastDecision(*with_wrong, DecisionKind::kRetracted);
+  ASSERT_NE(retracted, nullptr);
+  EXPECT_EQ(retracted->hypothesis_kind, HypothesisKind::kRecovery);
+  EXPECT_THAT(retracted->reason, HasSubstr("leave-one-out"));
+  // The wrong hypothesis was the first accepted one; its edges left G and accepted_observations().
+  const Decision* first_accepted = nullptr;
+  for (const Decision& decision : with_wrong->decisions()) {
+    if (decision.kind == DecisionKind::kAccepted) {
+      first_accepted = &decision;
+      break;
+    }
+  }
+  ASSERT_NE(first_accepted, nullptr);
+  EXPECT_EQ(retracted->hypothesis, first_accepted->hypothesis);
+  for (const AcceptedObservation& edge : with_wrong->accepted_observations()) {
+    EXPECT_NE(edge.hypothesis, retracted->hypothesis);
+  }
+
+  // G equals G never having accepted it: the same edges, and the same poses once both are optimised.
+  PoseGraph retracted_graph = with_wrong->map().graph, clean_graph = without->map().graph;
+  EXPECT_EQ(EdgeSet(retracted_graph), EdgeSet(clean_graph));
+  ASSERT_TRUE(Optimize(retracted_graph).ok());
+  ASSERT_TRUE(Optimize(clean_graph).ok());
+  ASSERT_EQ(retracted_graph.num_nodes(), clean_graph.num_nodes());
+  for (const Node& node : clean_graph.nodes()) {
+    EXPECT_THAT(retracted_graph.node(node.id).pose, IsNearlyPose(node.pose, 1e-6)) << "node " << node.id;
+  }
+  EXPECT_NEAR(clean_graph.node(clean_graph.num_nodes() - 1).pose.x(), 2.0, 0.05);
+}
+
+TEST(ConsistencyParamsTest, EveryNewFieldIsValidated) {
+  const auto refused = [](auto change) {
+    MapperParams params;
+    change(params);
+    return params.Validate();
+  };
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.pass_gap_seconds = 0; }).message(),
+              HasSubstr("consistency.pass_gap_seconds"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.map_gate_chi2 = std::nan(""); }).message(),
+              HasSubstr("consistency.map_gate_chi2"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.retraction_confidence = 1.0; }).message(),
+              HasSubstr("consistency.retraction_confidence"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_open_hypotheses = 0; }).message(),
+              HasSubstr("consistency.max_open_hypotheses"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_continuation_edges = -1; }).message(),
+              HasSubstr("consistency.max_continuation_edges"));
+  EXPECT_TRUE(MapperParams{}.Validate().ok());
+}
+
+TEST(ConsistencyParamsTest, OpenHypothesesAreCapped) {
+  MapperParams params = testing::TestParams();
+  params.consistency.max_open_hypotheses = 3;
+  auto mapper = MakeMapper(params);
+  SimulatedRobot robot(*mapper);
+  robot.Drive(SE2::Identity());
+  robot.CreateView(1);
+  robot.Drive(SE2(1, 0, 0));
+  // Five wild observations that agree with nothing: five hypotheses, of which the two stalest expire.
+  for (int k = 0; k < 5; ++k) {
+    robot.Wait(1.0);
+    robot.ObserveRaw(1, SE2(3.0 * k + 5, 0, 0), 1e-4);
+  }
+  EXPECT_EQ(mapper->Statistics().recovery_created, 5);
+  EXPECT_EQ(mapper->Statistics().recovery_expired, 2);
+  EXPECT_THAT(LastDecision(*mapper, DecisionKind::kExpired)->reason, HasSubstr("more than 3 open hypotheses"));
+}
+
+}  // namespace
+}  // namespace slamcore
