@@ -235,6 +235,31 @@ void UndoneMergeFindings(const fleet::v1::RunReport& report, std::vector<fleet::
   }
 }
 
+/// Recovery hypotheses the rerun accepted and later retracted when better-supported evidence contradicted
+/// them (correlated wrong observations: slamcore/src/mapper_consistency.cc). Informational: the rerun's map
+/// no longer holds them; where the robot's map still does, "unconfirmed_hypothesis" says so.
+void RetractedHypothesisFindings(const fleet::v1::RunReport& report, std::vector<fleet::v1::MapFinding>* findings) {
+  std::map<std::int64_t, json> accepted;  // hypothesis → its acceptance decision
+  for (const fleet::v1::Decision& decision : report.decisions()) {
+    if (decision.hypothesis_kind() != "recovery") continue;
+    if (decision.kind() == "accepted") accepted[decision.hypothesis()] = DecisionJson(decision);
+    if (decision.kind() != "retracted") continue;
+    fleet::v1::MapFinding finding;
+    finding.set_kind("retracted_hypothesis");
+    finding.set_severity(0.4);
+    finding.set_state("info");
+    const auto it = accepted.find(decision.hypothesis());
+    finding.set_summary("the rerun accepted recovery hypothesis " + std::to_string(decision.hypothesis()) +
+                        (it != accepted.end() ? " at t=" + Fixed(it->second["time"].get<double>(), 1) + " s" : "") +
+                        " and retracted it at t=" + Fixed(decision.time(), 1) + " s: " + decision.reason());
+    finding.set_evidence_json(json{{"rerun_hypothesis", decision.hypothesis()},
+                                   {"accepted", it != accepted.end() ? it->second : json(nullptr)},
+                                   {"retracted", DecisionJson(decision)}}
+                                  .dump());
+    findings->push_back(std::move(finding));
+  }
+}
+
 void AmbiguousViewFinding(const Map& map, std::vector<fleet::v1::MapFinding>* findings) {
   json views = json::array();
   for (const slamcore::View& view : map.graph.views()) {
@@ -302,6 +327,7 @@ std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, 
     ProtrusionFindings(map, run_nodes, *inputs.report, options, &findings);
   }
   if (inputs.report) UndoneMergeFindings(*inputs.report, &findings);
+  if (inputs.report) RetractedHypothesisFindings(*inputs.report, &findings);
   AmbiguousViewFinding(map, &findings);
   std::stable_sort(findings.begin(), findings.end(),
                    [](const auto& a, const auto& b) { return a.severity() > b.severity(); });

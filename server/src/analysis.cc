@@ -55,6 +55,7 @@ storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
   record.parameter_set = report.parameter_set();
   record.recovery_created = report.counts().recovery_created();
   record.recovery_accepted = report.counts().recovery_accepted();
+  record.recovery_retracted = report.counts().recovery_retracted();
   record.merge_created = report.counts().merge_created();
   record.merge_conditionally_accepted = report.counts().merge_conditionally_accepted();
   record.merge_conditional_then_rejected = report.counts().merge_conditional_then_rejected();

@@ -85,6 +85,7 @@ json StatisticsJson(const storage::FleetStatistics& s) {
       {"views_ambiguous", s.views_ambiguous},
       {"started_localized", s.started_localized},
       {"protrusions_found", s.protrusions_found},
+      {"recovery_retracted", s.recovery_retracted},
       // Fig. 6: recovery hypotheses per run and the share accepted.
       {"recovery_per_run", Ratio(s.recovery_created, s.reports)},
       {"recovery_accepted_share", Ratio(s.recovery_accepted, s.recovery_created)},
@@ -95,6 +96,8 @@ json StatisticsJson(const storage::FleetStatistics& s) {
       {"ambiguous_view_share", Ratio(s.views_ambiguous, s.views_total)},
       // Fig. 12: protrusions found per map (run).
       {"protrusions_per_run", Ratio(s.protrusions_found, s.reports)},
+      // Accepted recovery hypotheses the Mapper took back when later evidence contradicted them.
+      {"recovery_retracted_share", Ratio(s.recovery_retracted, s.recovery_accepted)},
   };
 }
 
@@ -125,6 +128,7 @@ json ReportCountersJson(const storage::ReportRecord& report) {
   return json{{"parameter_set", report.parameter_set},
               {"recovery_created", report.recovery_created},
               {"recovery_accepted", report.recovery_accepted},
+              {"recovery_retracted", report.recovery_retracted},
               {"merge_created", report.merge_created},
               {"merge_conditionally_accepted", report.merge_conditionally_accepted},
               {"merge_conditional_then_rejected", report.merge_conditional_then_rejected},
@@ -694,7 +698,7 @@ class Dashboard {
         double score = 0.0;
         for (const char* key : {"recovery_created", "recovery_accepted", "merge_created",
                                 "merge_conditionally_accepted", "merge_conditional_then_rejected", "views_ambiguous",
-                                "protrusions_found"}) {
+                                "protrusions_found", "recovery_retracted"}) {
           const std::int64_t difference = cb[key].get<std::int64_t>() - ca[key].get<std::int64_t>();
           delta[key] = difference;
           score += std::abs(static_cast<double>(difference));

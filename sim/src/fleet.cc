@@ -19,6 +19,7 @@ void FleetStatistics::Add(const RunOutcome& outcome) {
   if (stats.recovery_created > 0) ++runs_with_recovery;
   recovery_created += stats.recovery_created;
   recovery_accepted += stats.recovery_accepted;
+  recovery_retracted += stats.recovery_retracted;
   merge_created += stats.merge_created;
   merge_conditionally_accepted += stats.merge_conditionally_accepted;
   merge_conditional_then_rejected += stats.merge_conditional_then_rejected;
@@ -51,7 +52,7 @@ std::string FleetStatistics::ToText() const {
       "runs                                   %d (%.1f simulated hours, %.1f s wall)\n"
       "runs on an existing map                %d, started localized %.1f %%   (paper: 43.2 %%)\n"
       "runs with a recovery hypothesis        %.1f %%   (paper: most runs)\n"
-      "recovery hypotheses per run            %.2f, accepted %.1f %%   (paper: 1.1 %%)\n"
+      "recovery hypotheses per run            %.2f, accepted %.1f %%   (paper: 1.1 %%), later retracted %ld\n"
       "merge hypotheses                       %ld, conditionally accepted then rejected %.1f %%   (paper: 18.6 %%)\n"
       "maps with ambiguous views              %.1f %%   (paper: 90.7 %%)\n"
       "ambiguous share of views in those maps %.1f %%   (paper: 15-18 %%)\n"
@@ -59,8 +60,8 @@ std::string FleetStatistics::ToText() const {
       "kidnaps %d, reboots %d, slip episodes %d\n",
       runs, simulated_hours, wall_seconds, runs_with_parent, 100 * Share(runs_started_localized, runs_with_parent),
       100 * Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
-      100 * Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), merge_created,
-      100 * Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)),
+      100 * Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), recovery_retracted,
+      merge_created, 100 * Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)),
       100 * Share(maps_with_ambiguous_views, maps_with_views),
       100 * Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
       100 * Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), observations, kidnaps,
@@ -74,14 +75,14 @@ std::string FleetStatistics::ToJson() const {
       text, sizeof text,
       "{\"runs\":%d,\"simulated_hours\":%.3f,\"wall_seconds\":%.3f,\"runs_with_parent\":%d,"
       "\"started_localized_share\":%.4f,\"runs_with_recovery_share\":%.4f,\"recovery_per_run\":%.4f,"
-      "\"recovery_accepted_share\":%.4f,\"merge_created\":%ld,\"merge_conditionally_accepted\":%ld,"
+      "\"recovery_accepted_share\":%.4f,\"recovery_retracted\":%ld,\"merge_created\":%ld,\"merge_conditionally_accepted\":%ld,"
       "\"merge_conditional_then_rejected_share\":%.4f,\"merge_accepted\":%ld,"
       "\"maps_with_ambiguous_views_share\":%.4f,\"ambiguous_view_share\":%.4f,\"observations\":%ld,"
       "\"wrong_observation_share\":%.4f,\"kidnaps\":%d,\"reboots\":%d,\"slip_episodes\":%d}",
       runs, simulated_hours, wall_seconds, runs_with_parent, Share(runs_started_localized, runs_with_parent),
       Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
-      Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), merge_created,
-      merge_conditionally_accepted,
+      Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), recovery_retracted,
+      merge_created, merge_conditionally_accepted,
       Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)), merge_accepted,
       Share(maps_with_ambiguous_views, maps_with_views), Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
       observations, Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), kidnaps,

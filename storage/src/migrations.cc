@@ -193,6 +193,10 @@ CREATE TABLE map_findings (
   FOREIGN KEY (robot_id, version) REFERENCES map_versions(robot_id, version)
 );
 )sql",
+      // 3: accepted recovery hypotheses that the Mapper later retracted (correlated wrong observations).
+      R"sql(
+ALTER TABLE reports ADD COLUMN recovery_retracted BIGINT NOT NULL DEFAULT 0;
+)sql",
   };
   return kMigrations;
 }

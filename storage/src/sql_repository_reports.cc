@@ -65,10 +65,11 @@ Status SqlRepository::PutReport(const ReportBundle& bundle) {
     STORAGE_RETURN_IF_ERROR(transaction.Exec(
         "INSERT INTO reports (run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
         "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
-        "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms) "
-        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15) "
+        "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, recovery_retracted) "
+        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16) "
         "ON CONFLICT (run_id, parameter_set) DO UPDATE SET recovery_created = excluded.recovery_created, "
-        "recovery_accepted = excluded.recovery_accepted, merge_created = excluded.merge_created, "
+        "recovery_accepted = excluded.recovery_accepted, recovery_retracted = excluded.recovery_retracted, "
+        "merge_created = excluded.merge_created, "
         "merge_conditionally_accepted = excluded.merge_conditionally_accepted, "
         "merge_conditional_then_rejected = excluded.merge_conditional_then_rejected, "
         "views_total = excluded.views_total, views_ambiguous = excluded.views_ambiguous, "
@@ -78,7 +79,7 @@ Status SqlRepository::PutReport(const ReportBundle& bundle) {
         {report.run_id, report.parameter_set, report.recovery_created, report.recovery_accepted, report.merge_created,
          report.merge_conditionally_accepted, report.merge_conditional_then_rejected, report.views_total,
          report.views_ambiguous, std::int64_t{report.started_localized ? 1 : 0}, report.protrusions_found,
-         SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs()}));
+         SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs(), report.recovery_retracted}));
 
     // Labels are an engineer's work: carry them over to the replacement rows of the same region ids.
     std::map<std::int64_t, Label> labels;
@@ -133,7 +134,7 @@ Result<ReportRecord> SqlRepository::GetReport(const std::string& run_id, const s
     auto rows = transaction.Query(
         "SELECT recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, "
         "merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, "
-        "data, data_crc32, data_size FROM reports WHERE run_id = $1 AND parameter_set = $2",
+        "data, data_crc32, data_size, recovery_retracted FROM reports WHERE run_id = $1 AND parameter_set = $2",
         {run_id, parameter_set});
     if (!rows.ok()) return rows.status();
     if (!rows->empty()) row = rows->front();
@@ -152,6 +153,7 @@ Result<ReportRecord> SqlRepository::GetReport(const std::string& run_id, const s
   report.views_ambiguous = row->Int(6);
   report.started_localized = row->Int(7) != 0;
   report.protrusions_found = row->Int(8);
+  report.recovery_retracted = row->Int(12);
   auto bytes = DecodeBlob(row->Text(9), row->Int(10), row->Int(11),
                           "report of run " + run_id + " with parameter set " + parameter_set);
   if (!bytes.ok()) return bytes.status();

@@ -92,6 +92,7 @@ FleetStatistics StatisticsFromRow(const SqlRow& row, std::size_t first) {
   s.views_ambiguous = row.Int(first + 8);
   s.started_localized = row.Int(first + 9);
   s.protrusions_found = row.Int(first + 10);
+  s.recovery_retracted = row.Int(first + 11);
   return s;
 }
 
@@ -108,6 +109,7 @@ std::string StatisticsSql(const std::string& key_sql, bool grouped) {
                     ", CAST(COALESCE(SUM(p.views_ambiguous), 0) AS BIGINT)"
                     ", CAST(COALESCE(SUM(p.started_localized), 0) AS BIGINT)"
                     ", CAST(COALESCE(SUM(p.protrusions_found), 0) AS BIGINT)"
+                    ", CAST(COALESCE(SUM(p.recovery_retracted), 0) AS BIGINT)"
                     " FROM reports p JOIN runs r ON r.run_id = p.run_id WHERE " +
                     std::string(kRunFilterSql) + " AND (CAST($4 AS TEXT) = '' OR p.parameter_set = $4)";
   if (grouped) sql += " GROUP BY 1 ORDER BY 1";

@@ -32,6 +32,7 @@ class RepositoryContractTest : public BackendTest {
     r.parameter_set = parameter_set;
     r.recovery_created = 2 * scale;
     r.recovery_accepted = scale;
+    r.recovery_retracted = 5 * scale;
     r.merge_created = 3 * scale;
     r.merge_conditionally_accepted = 2 * scale;
     r.merge_conditional_then_rejected = scale;
@@ -179,6 +180,7 @@ TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
   auto tuned = repo().GetReport("run-1", "tuned");
   ASSERT_TRUE(tuned.ok()) << tuned.status().ToString();
   EXPECT_EQ(tuned->merge_created, 6);
+  EXPECT_EQ(tuned->recovery_retracted, 10);
   EXPECT_FALSE(tuned->started_localized);
   EXPECT_EQ(tuned->report, MakeReport("run-1", "tuned", 2).report.report);
   auto decisions = repo().ListDecisions("run-1", "default");
@@ -293,6 +295,7 @@ TEST_P(RepositoryContractTest, AggregatesFleetStatisticsInTheDatabase) {
   EXPECT_EQ(all->views_total, 600);
   EXPECT_EQ(all->started_localized, 2);  // scales 1 and 3
   EXPECT_EQ(all->protrusions_found, 24);
+  EXPECT_EQ(all->recovery_retracted, 5 * (1 + 2 + 3));
 
   RunFilter narrow = defaults;
   narrow.firmware = "fw-1.2";

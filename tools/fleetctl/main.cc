@@ -70,15 +70,16 @@ std::string Percent(double share) {
 }
 
 void PrintFiguresRow(const std::string& key, const fleet::v1::FleetFigures& f) {
-  std::printf("%-22s %8lld %6lld %9.2f %9s %9s %9s %9s %9.3f\n", key.c_str(), static_cast<long long>(f.reports()),
+  std::printf("%-22s %8lld %6lld %9.2f %9s %9lld %9s %9s %9s %9.3f\n", key.c_str(), static_cast<long long>(f.reports()),
               static_cast<long long>(f.robots()), f.recovery_per_run(), Percent(f.recovery_accepted_share()).c_str(),
-              Percent(f.started_localized_share()).c_str(), Percent(f.merge_conditional_then_rejected_share()).c_str(),
-              Percent(f.ambiguous_view_share()).c_str(), f.protrusions_per_run());
+              static_cast<long long>(f.recovery_retracted()), Percent(f.started_localized_share()).c_str(),
+              Percent(f.merge_conditional_then_rejected_share()).c_str(), Percent(f.ambiguous_view_share()).c_str(),
+              f.protrusions_per_run());
 }
 
 void PrintFiguresHeader() {
-  std::printf("%-22s %8s %6s %9s %9s %9s %9s %9s %9s\n", "group", "reports", "robots", "recov/run", "recov.acc",
-              "localized", "cond.rej", "ambig.vw", "protr/run");
+  std::printf("%-22s %8s %6s %9s %9s %9s %9s %9s %9s %9s\n", "group", "reports", "robots", "recov/run", "recov.acc",
+              "retracted", "localized", "cond.rej", "ambig.vw", "protr/run");
 }
 
 void ProgressBar(const fleet::v1::Job& job) {
@@ -280,8 +281,9 @@ int main(int argc, char** argv) {
     }
     std::printf("run %s  robot %s  firmware %s  parameter set %s\n", r.run_id().c_str(), r.robot_id().c_str(),
                 r.firmware().c_str(), r.parameter_set().c_str());
-    std::printf("recovery hypotheses: %d created, %d accepted, %d expired, %d rejected\n", r.counts().recovery_created(),
-                r.counts().recovery_accepted(), r.counts().recovery_expired(), r.counts().recovery_rejected());
+    std::printf("recovery hypotheses: %d created, %d accepted (%d later retracted), %d expired, %d rejected\n",
+                r.counts().recovery_created(), r.counts().recovery_accepted(), r.counts().recovery_retracted(),
+                r.counts().recovery_expired(), r.counts().recovery_rejected());
     std::printf("merge hypotheses:    %d created, %d conditionally accepted (%d later rejected), %d accepted\n",
                 r.counts().merge_created(), r.counts().merge_conditionally_accepted(),
                 r.counts().merge_conditional_then_rejected(), r.counts().merge_accepted());

@@ -63,6 +63,7 @@ fleet::v1::FleetFigures ToProto(const storage::FleetStatistics& s) {
   f.set_views_ambiguous(s.views_ambiguous);
   f.set_started_localized(s.started_localized);
   f.set_protrusions_found(s.protrusions_found);
+  f.set_recovery_retracted(s.recovery_retracted);
   const auto d = [](std::int64_t v) { return static_cast<double>(v); };
   f.set_recovery_per_run(Share(d(s.recovery_created), d(s.reports)));
   f.set_recovery_accepted_share(Share(d(s.recovery_accepted), d(s.recovery_created)));
@@ -70,6 +71,7 @@ fleet::v1::FleetFigures ToProto(const storage::FleetStatistics& s) {
   f.set_merge_conditional_then_rejected_share(Share(d(s.merge_conditional_then_rejected), d(s.merge_created)));
   f.set_ambiguous_view_share(Share(d(s.views_ambiguous), d(s.views_total)));
   f.set_protrusions_per_run(Share(d(s.protrusions_found), d(s.reports)));
+  f.set_recovery_retracted_share(Share(d(s.recovery_retracted), d(s.recovery_accepted)));
   return f;
 }
 
@@ -86,6 +88,7 @@ fleet::v1::FleetFigures Delta(const fleet::v1::FleetFigures& a, const fleet::v1:
   f.set_views_ambiguous(b.views_ambiguous() - a.views_ambiguous());
   f.set_started_localized(b.started_localized() - a.started_localized());
   f.set_protrusions_found(b.protrusions_found() - a.protrusions_found());
+  f.set_recovery_retracted(b.recovery_retracted() - a.recovery_retracted());
   f.set_recovery_per_run(b.recovery_per_run() - a.recovery_per_run());
   f.set_recovery_accepted_share(b.recovery_accepted_share() - a.recovery_accepted_share());
   f.set_started_localized_share(b.started_localized_share() - a.started_localized_share());
@@ -93,6 +96,7 @@ fleet::v1::FleetFigures Delta(const fleet::v1::FleetFigures& a, const fleet::v1:
                                               a.merge_conditional_then_rejected_share());
   f.set_ambiguous_view_share(b.ambiguous_view_share() - a.ambiguous_view_share());
   f.set_protrusions_per_run(b.protrusions_per_run() - a.protrusions_per_run());
+  f.set_recovery_retracted_share(b.recovery_retracted_share() - a.recovery_retracted_share());
   return f;
 }
 

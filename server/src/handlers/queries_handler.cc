@@ -39,6 +39,7 @@ fleet::v1::ReportCounts Counts(const storage::ReportRecord& report) {
   counts.set_views_ambiguous(report.views_ambiguous);
   counts.set_protrusions_found(report.protrusions_found);
   counts.set_started_localized(report.started_localized);
+  counts.set_recovery_retracted(report.recovery_retracted);
   return counts;
 }
 
@@ -49,6 +50,7 @@ double Change(const fleet::v1::ReportCounts& a, const fleet::v1::ReportCounts& b
          d(a.merge_conditionally_accepted(), b.merge_conditionally_accepted()) +
          d(a.merge_conditional_then_rejected(), b.merge_conditional_then_rejected()) +
          d(a.views_ambiguous(), b.views_ambiguous()) + d(a.protrusions_found(), b.protrusions_found()) +
+         d(a.recovery_retracted(), b.recovery_retracted()) +
          (a.started_localized() != b.started_localized() ? 1.0 : 0.0);
 }
 

@@ -33,7 +33,7 @@ struct FleetStatistics {
   int runs_with_parent = 0;                    // runs on top of an existing map: need relocalization
   int runs_started_localized = 0;              // of those, joined the parent map at once (analyzer/run_analysis.h)
   int runs_with_recovery = 0;                  // ≥ 1 recovery hypothesis
-  long recovery_created = 0, recovery_accepted = 0;
+  long recovery_created = 0, recovery_accepted = 0, recovery_retracted = 0;
   long merge_created = 0, merge_conditionally_accepted = 0, merge_conditional_then_rejected = 0, merge_accepted = 0;
   int maps_with_views = 0, maps_with_ambiguous_views = 0;
   double ambiguous_view_share_sum = 0.0;       // Σ over maps with ambiguous views of their ambiguous share

@@ -47,6 +47,7 @@ struct ReportRecord {
   std::string parameter_set;  // must name a stored parameter set
   std::int64_t recovery_created = 0;
   std::int64_t recovery_accepted = 0;
+  std::int64_t recovery_retracted = 0;  // accepted, then taken back by later evidence
   std::int64_t merge_created = 0;
   std::int64_t merge_conditionally_accepted = 0;
   std::int64_t merge_conditional_then_rejected = 0;
@@ -185,6 +186,7 @@ struct FleetStatistics {
   std::int64_t views_ambiguous = 0;
   std::int64_t started_localized = 0;  // reports whose run started localized
   std::int64_t protrusions_found = 0;
+  std::int64_t recovery_retracted = 0;
 };
 
 enum class GroupBy { kRobot, kFirmware, kRobotModel, kParameterSet, kDay };

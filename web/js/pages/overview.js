@@ -21,6 +21,7 @@ export async function render(main, { query, isCurrent }) {
     kpi('robots', num(t.robots), 'kpi-robots'),
     kpi('recovery hypotheses / run (Fig. 6)', num(t.recovery_per_run), 'kpi-recovery'),
     kpi('recovery hypotheses accepted (Fig. 6)', pct(t.recovery_accepted_share), 'kpi-recovery-accepted'),
+    kpi('accepted recoveries later retracted', `${num(t.recovery_retracted)} (${pct(t.recovery_retracted_share)})`, 'kpi-retracted'),
     kpi('runs started localized (Fig. 7)', pct(t.started_localized_share), 'kpi-localized'),
     kpi('merges conditional → rejected (Fig. 7)', pct(t.merge_conditional_then_rejected_share), 'kpi-merge'),
     kpi('maps with ambiguous views (Fig. 8)', pct(stats.maps.share_with_ambiguous_views), 'kpi-ambiguous-maps'),

@@ -24,7 +24,7 @@ export async function render(main, { args, query, isCurrent }) {
   }
   const r = detail.report, a = detail.analysis || {};
   main.append(h('div', { class: 'kpis' },
-    kpi('recovery hypotheses (accepted)', `${num(r.recovery_created)} (${num(r.recovery_accepted)})`),
+    kpi('recovery hypotheses (accepted / later retracted)', `${num(r.recovery_created)} (${num(r.recovery_accepted)} / ${num(r.recovery_retracted)})`),
     kpi('merge hypotheses: conditional / then rejected', `${num(r.merge_conditionally_accepted)} / ${num(r.merge_conditional_then_rejected)}`),
     kpi('started localized', r.started_localized ? 'yes' : 'no'),
     kpi('to conditional / full relocalization', `${fmtSeconds(a.seconds_to_conditional_relocalization)} / ${fmtSeconds(a.seconds_to_full_relocalization)}`),
