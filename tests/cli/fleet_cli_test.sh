@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # fleetctl as a user runs it against a real fleetd on loopback: a small simulated fleet uploads with
 # fleetsim --upload, then runs, report, stats (table and --json), credentials, label-from-truth, and
-# refusals (no token, a robot token reading). Arguments: the build's bin directory, the shared data directory.
+# refusals (no token, a robot token reading). Arguments: the build's bin directory, a data directory (the repository's data/).
 set -euo pipefail
 bin=$1
 data=$2
