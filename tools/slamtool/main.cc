@@ -4,6 +4,7 @@
 //   slamtool replay-g2o FILE [--params FILE] [--json]
 //   slamtool corrupt-g2o FILE --out FILE [--count N] [--mode random|local] [--group G] [--seed S]
 //   slamtool protrusions | make-protrusion-data | train-protrusions | eval-protrusions (protrusion_commands.h)
+//   slamtool valetudo-to-map FILE.json --out OUT.yaml [--png] [--json] (valetudo_command.h)
 //
 // Exit status: 0 on success, 1 when the input is refused (the message names file, line and reason),
 // 2 on a usage error.
@@ -16,6 +17,7 @@
 
 #include "analyzer/parameters.h"
 #include "protrusion_commands.h"
+#include "valetudo_command.h"
 #include "slamcore/g2o_replay.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/loop_closure_outliers.h"
@@ -190,6 +192,7 @@ int main(int argc, char** argv) {
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
 
   AddProtrusionCommands(app);
+  AddValetudoCommands(app);
 
   CLI11_PARSE(app, argc, argv);
   if (optimize_command->parsed()) return RunOptimize(optimize);
