@@ -6,12 +6,17 @@
 # the dashboard can be opened; the last lines say how to stop it.
 #
 # Knobs (environment): FLEET_ROBOTS (12), FLEET_RUNS (4), FLEET_MINUTES (10), FLEET_SEED (1),
-# FLEET_HTTP (127.0.0.1:8080; port 0 picks a free one), FLEET_WORK_DIR (out/main).
+# FLEET_HTTP (127.0.0.1:8080; port 0 picks a free one), FLEET_WORK_DIR (out/main), SHARED_DATA_DIR (the larger
+# data set, ../shared/data; the repository's own data/ when it is absent).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/bootstrap.sh
 source deploy/build.sh
+# Homes and graphs: the larger data set beside the repository when there is one, else the repository's data/
+# (the same layout; every file read below is in both).
 data=${SHARED_DATA_DIR:-../shared/data}
+[[ -d "$data" ]] || data=data
+echo "data: $data"
 bin=$BUILD_DIR/bin
 work=${FLEET_WORK_DIR:-out/main}
 rm -rf "$work"
@@ -19,7 +24,7 @@ mkdir -p "$work"
 
 echo
 echo "== The shared SLAM core on real public pose graphs =="
-for graph in vertigo/manhattanOlson3500_olson.g2o sesync/intel.g2o sesync/MIT.g2o; do
+for graph in vertigo/ring.g2o sesync/CSAIL.g2o sesync/MIT.g2o; do
   "$bin/slamtool" optimize "$data/posegraphs/$graph"
 done
 "$bin/slamtool" corrupt-g2o "$data/posegraphs/vertigo/intel.g2o" --out "$work/intel-outliers.g2o" --count 100 --seed 1
@@ -32,6 +37,7 @@ FLEETD_BOOTSTRAP_ADMIN_TOKEN="$admin_token" nohup "$bin/fleetd" --db "sqlite:$wo
   --listen 127.0.0.1:0 --http "${FLEET_HTTP:-127.0.0.1:8080}" --log-format text \
   >"$work/fleetd.out" 2>"$work/fleetd.log" &
 fleetd_pid=$!
+echo "$fleetd_pid" >"$work/fleetd.pid"
 for _ in $(seq 300); do
   [[ -s "$work/fleetd.out" ]] && break
   kill -0 "$fleetd_pid" 2>/dev/null || { echo "fleetd did not start:"; tail -5 "$work/fleetd.log"; exit 1; }

@@ -6,13 +6,14 @@
 
 #include "sim/run_simulator.h"
 #include "slamcore/protrusion_detector.h"
+#include "test_data.h"
 
 namespace analyzer {
 namespace {
 
 /// Two simulated runs of one robot in a real floor plan: the second starts on the first's map.
 std::vector<fleet::v1::RunFile> SimulatedRuns() {
-  const auto worlds = sim::ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+  const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
   EXPECT_TRUE(worlds.ok());
   static const auto world = sim::LoadWorld(worlds->front(), 11);
   EXPECT_TRUE(world.ok()) << world.status().ToString();

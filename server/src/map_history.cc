@@ -348,6 +348,11 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
                             " the version repairs start from" +
                             (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
   }
+  if (base->origin == "import") {
+    return storage::FailedPrecondition("version " + std::to_string(base->version) +
+                                       " is an imported map without a run to repair against: import a corrected map, "
+                                       "or review this one");
+  }
   auto loaded = LoadMap(repository_, base->snapshot_id);
   if (!loaded.ok()) return loaded.status();
   auto context = LoadRunContext(repository_, base->run_id, policy_.default_parameter_set);
@@ -471,6 +476,53 @@ storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const st
   auto parent = LoadRunParent(repository_, run_id);
   if (!parent.ok()) return parent.status();
   return analyzer::NodesAddedByRun(map, *parent);
+}
+
+storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& robot_id,
+                                                          const fleet::v1::MapSnapshot& snapshot,
+                                                          const std::string& source, const std::string& reason,
+                                                          bool approve, const std::string& requested_by) {
+  auto map = analyzer::FromProto(snapshot, "snapshot");
+  if (!map.ok()) return FromSlamcore(map.status());
+  if (map->local_maps.empty()) {
+    return storage::InvalidArgument("snapshot: no local map on any node; an imported map needs its occupancy grid");
+  }
+  if (auto robot = repository_.GetRobot(robot_id); robot.status().code() == storage::StatusCode::kNotFound) {
+    storage::RobotRecord robot_record;
+    robot_record.robot_id = robot_id;
+    robot_record.registered_at_ms = NowMillis();
+    STORAGE_RETURN_IF_ERROR(repository_.PutRobot(robot_record));
+  } else if (!robot.ok()) {
+    return robot.status();
+  }
+  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*map)));
+  if (!stored.ok()) return stored.status();
+  auto versions = repository_.ListMapVersions(robot_id);
+  if (!versions.ok()) return versions.status();
+  const storage::MapVersionRecord* head = Head(*versions);
+  auto record = NewVersion(*map, *stored, /*with_known_area=*/true);
+  if (!record.ok()) return record.status();
+  record->robot_id = robot_id;
+  if (head) record->parent_version = head->version;
+  record->origin = "import";
+  record->action = "import";
+  record->action_detail = source;
+  record->created_by = requested_by;
+  record->reason = reason;
+  record->approval = approve ? "approved" : "pending";
+  if (approve) {
+    record->approved_by = requested_by;
+    record->approved_at_ms = NowMillis();
+  }
+  auto appended = repository_.AppendMapVersion(*record, head ? std::optional(head->version) : std::nullopt,
+                                               ToRecords(analyzer::FindMapFindings({.map = &*map})));
+  if (!appended.ok()) return appended.status();
+  log::Info("map_imported", {{"robot_id", robot_id},
+                             {"version", static_cast<long long>(appended->version)},
+                             {"source", source},
+                             {"by", requested_by},
+                             {"approved", approve}});
+  return ToProto(*appended, approve);
 }
 
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,

@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "sim/run_simulator.h"
+#include "test_data.h"
 
 namespace sim {
 namespace {
@@ -38,7 +39,7 @@ std::vector<NodeTruth> NodesOf(const fleet::v1::RunFile& run) {
 }
 
 World FirstWorld() {
-  const auto worlds = ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+  const auto worlds = ListWorlds(test_data::Sample() / "floorplans");
   EXPECT_TRUE(worlds.ok());
   auto world = LoadWorld(worlds->front(), 3);
   EXPECT_TRUE(world.ok()) << world.status().ToString();

@@ -5,17 +5,21 @@
 #include <filesystem>
 #include <fstream>
 
+#include "test_data.h"
+
 namespace sim {
 namespace {
 
-const std::filesystem::path kData = std::filesystem::path(SHARED_DATA_DIR);
+const std::filesystem::path kData = test_data::Sample();
 
 TEST(WorldTest, FloorPlanBecomesAHomeAtApartmentScale) {
-  const auto worlds = ListWorlds(kData / "floorplans");
+  // The first 20 plans of the widest set at hand (data/ carries 16, the larger set 240).
+  const auto worlds = ListWorlds(test_data::WidestDir("floorplans"));
   ASSERT_TRUE(worlds.ok()) << worlds.status().ToString();
-  ASSERT_GE(worlds->size(), 100u);
+  ASSERT_GE(worlds->size(), 16u);
+  const std::size_t tried = std::min<std::size_t>(20, worlds->size());
   int loaded = 0;
-  for (std::size_t k = 0; k < 20; ++k) {
+  for (std::size_t k = 0; k < tried; ++k) {
     const auto world = LoadWorld((*worlds)[k], 7);
     if (!world.ok()) continue;  // a few annotations have no room label inside their walls
     ++loaded;
@@ -27,7 +31,7 @@ TEST(WorldTest, FloorPlanBecomesAHomeAtApartmentScale) {
     EXPECT_GE(world->landmarks.size(), 4u);
     EXPECT_TRUE(world->grid.DiscIsFree(world->dock.translation(), 0.17)) << (*worlds)[k];
   }
-  EXPECT_GE(loaded, 15);
+  EXPECT_GE(4 * loaded, 3 * static_cast<int>(tried)) << loaded << " of " << tried << " plans loaded";
 }
 
 TEST(WorldTest, SameSeedGivesTheSameHome) {

@@ -48,8 +48,9 @@ Status CheckVersion(const MapVersionRecord& version) {
   STORAGE_RETURN_IF_ERROR(CheckText(version.robot_id, "map version robot_id", 128));
   if (version.snapshot_id.empty()) return InvalidArgument("map version snapshot_id is empty");
   STORAGE_RETURN_IF_ERROR(CheckText(version.snapshot_id, "map version snapshot_id", 64));
-  if (!IsOneOf(version.origin, {"upload", "repair", "rollback", "undo"})) {
-    return InvalidArgument("map version origin \"" + version.origin + "\" is not upload, repair, rollback or undo");
+  if (!IsOneOf(version.origin, {"upload", "repair", "rollback", "undo", "import"})) {
+    return InvalidArgument("map version origin \"" + version.origin +
+                           "\" is not upload, repair, rollback, undo or import");
   }
   if (version.origin == "upload" && version.run_id.empty()) return InvalidArgument("an upload map version needs run_id");
   if (!IsOneOf(version.approval, {"approved", "pending", "rejected", "stale"})) {

@@ -467,6 +467,27 @@ TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
             StatusCode::kInvalidArgument);
 }
 
+TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
+  const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
+  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}).ok());
+  MapVersionRecord imported = MakeVersion("robot-9", a, "import");
+  imported.action = "import";
+  imported.action_detail = "valetudo:home.json";
+  auto first = repo().AppendMapVersion(imported, std::nullopt, {});
+  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  imported.snapshot_id = b;
+  imported.parent_version = 1;
+  auto second = repo().AppendMapVersion(imported, 1, {});
+  ASSERT_TRUE(second.ok()) << second.status().ToString();
+  auto versions = repo().ListMapVersions("robot-9");
+  ASSERT_TRUE(versions.ok());
+  ASSERT_EQ(versions->size(), 2u);
+  EXPECT_EQ((*versions)[1].origin, "import");
+  EXPECT_EQ((*versions)[1].action_detail, "valetudo:home.json");
+  EXPECT_EQ((*versions)[1].parent_version, 1);
+  EXPECT_TRUE((*versions)[1].run_id.empty());
+}
+
 TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
   const std::string a = *repo().PutSnapshot("map a");
   ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());

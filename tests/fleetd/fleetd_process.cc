@@ -18,6 +18,7 @@
 
 #include "sim/run_simulator.h"
 #include "sim/world.h"
+#include "test_data.h"
 
 namespace fleetd_test {
 
@@ -124,7 +125,7 @@ const std::vector<fleet::v1::RunFile>& SimulatedRuns() {
   static std::once_flag once;
   static std::vector<fleet::v1::RunFile> runs;
   std::call_once(once, [] {
-    const std::filesystem::path plans = std::filesystem::path(SHARED_DATA_DIR) / "floorplans";
+    const std::filesystem::path plans = test_data::Sample() / "floorplans";
     auto worlds = sim::ListWorlds(plans);
     if (!worlds.ok()) return;
     sim::SimParams params;

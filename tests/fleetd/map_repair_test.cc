@@ -20,6 +20,7 @@
 #include "fleetd_process.h"
 #include "sim/run_simulator.h"
 #include "slamcore/graph_io.h"
+#include "test_data.h"
 
 namespace fleetd_test {
 namespace {
@@ -83,7 +84,7 @@ struct Scenario {
 /// Simulates one robot run by run until a run's child map holds exactly one wrong hypothesis that joined
 /// two components (a wrong merge). Deterministic: the same seeds find the same run every time.
 Scenario FindWrongMerge() {
-  const auto worlds = sim::ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
+  const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
   EXPECT_TRUE(worlds.ok());
   sim::SimParams params;
   params.run_minutes = 6.0;

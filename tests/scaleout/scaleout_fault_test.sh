@@ -5,7 +5,7 @@
 # acknowledged is uploaded again. Then: every run is stored exactly once, every job is done (the killed
 # worker's job retaken by the other after its lease expired), and `fleetctl stats --json` equals a single
 # `fleetd --role all` on SQLite fed the same run files.
-#   scaleout_fault_test.sh BIN_DIR SHARED_DATA_DIR
+#   scaleout_fault_test.sh BIN_DIR DATA_DIR   (the repository's data/ or a larger set of the same layout)
 set -euo pipefail
 bin=$(realpath "$1")
 data=$(realpath "$2")

@@ -13,6 +13,7 @@
 //     models train NAME [--classifier K] | models eval NAME [--version V] | models activate NAME V | models list NAME
 //     credentials PRINCIPAL          mint a token (admins)
 //     maps list|show|repair|approve|reject|get|export   map history (map_commands.h)
+//     import valetudo|map-server FILE... --robot R       maps made elsewhere into the history (import_commands.h)
 // Every command takes --json: one JSON object on stdout instead of a table. Exit status 0 on success, 1 on
 // an RPC error (printed as "fleetctl: CODE: message"), 2 on usage errors.
 #include <CLI/CLI.hpp>
@@ -29,6 +30,7 @@
 #include "analyzer/parameters.h"
 #include "client.h"
 #include "fleet/v1/service.grpc.pb.h"
+#include "import_commands.h"
 #include "map_commands.h"
 #include "sim/upload_files.h"
 #include "sim/uploader.h"
@@ -210,10 +212,12 @@ int main(int argc, char** argv) {
   credentials->add_option("principal", principal, "robot:<id>, engineer:<name> or admin:<name>")->required();
 
   fleetctl::MapCommands map_commands(app);
+  fleetctl::ImportCommands import_commands(app);
 
   CLI11_PARSE(app, argc, argv);
   Client client(global);
   if (const std::optional<int> status = map_commands.Run(client, global)) return *status;
+  if (const std::optional<int> status = import_commands.Run(client, global)) return *status;
 
   if (*upload) {
     sim::UploadFilesOptions options;

@@ -5,6 +5,7 @@
 //   slamtool corrupt-g2o FILE --out FILE [--count N | --fraction F] [--mode random|local|first] [--group G]
 //            [--max-group G] [--single-fraction F] [--seed S]
 //   slamtool protrusions | make-protrusion-data | train-protrusions | eval-protrusions (protrusion_commands.h)
+//   slamtool valetudo-to-map FILE.json --out OUT.yaml [--png] [--json] (valetudo_command.h)
 //
 // Exit status: 0 on success, 1 when the input is refused (the message names file, line and reason),
 // 2 on a usage error.
@@ -19,6 +20,7 @@
 
 #include "analyzer/parameters.h"
 #include "protrusion_commands.h"
+#include "valetudo_command.h"
 #include "slamcore/g2o_replay.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/loop_closure_outliers.h"
@@ -215,6 +217,7 @@ int main(int argc, char** argv) {
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
 
   AddProtrusionCommands(app);
+  AddValetudoCommands(app);
 
   CLI11_PARSE(app, argc, argv);
   if (optimize_command->parsed()) return RunOptimize(optimize);

@@ -47,7 +47,7 @@ export const NO_RUNS_HINT = h('span', {}, 'No runs yet — upload with ',
 
 export function noRuns() {
   return emptyState('No runs yet — upload with fleetsim --upload …',
-    'e.g. fleetsim --world ../shared/data/floorplans --robots 3 --runs 2 --upload 127.0.0.1:50051 --token "$TOKEN"; analysis then runs in fleetd.');
+    'e.g. fleetsim --world data/floorplans --robots 3 --runs 2 --upload 127.0.0.1:50051 --token "$TOKEN"; analysis then runs in fleetd.');
 }
 
 export function filterValues(form) {

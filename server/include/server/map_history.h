@@ -5,7 +5,7 @@
 //                 built on the current approved map, "stale" when on an older one (the robot is told)
 //   analysis    → OnRunAnalysed: findings from the default set's report; the repair policy may act on them
 //   engineers   → Repair (reject an edge or hypothesis, cut a protrusion, roll back, undo), Review (approve or
-//                 reject a pending version), Export (map_server PGM + YAML, g2o)
+//                 reject a pending version), Export (map_server PGM + YAML, g2o), Import (a map made elsewhere)
 //   robots      → Fetch: the current approved version, or "up to date"
 //
 // Every new version is appended with its findings in one transaction that checks the robot's newest version
@@ -90,6 +90,12 @@ class MapHistory {
   /// The nodes of a version's `map` that `run_id` (the run the version's chain started from) added: only
   /// hypotheses of that run can be rejected as a whole.
   storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& run_id, const slamcore::Map& map);
+  /// A map made elsewhere becomes the robot's newest version (origin "import", parent: the head version), approved
+  /// when `approve`, else pending; the robot is registered when new. INVALID_ARGUMENT names what is wrong with
+  /// the snapshot (it must hold at least one node with a local map).
+  storage::Result<fleet::v1::MapVersion> Import(const std::string& robot_id, const fleet::v1::MapSnapshot& snapshot,
+                                                const std::string& source, const std::string& reason, bool approve,
+                                                const std::string& requested_by);
   /// `format` "map_server" or "g2o"; files are named "<robot>-v<version>.<ext>".
   storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id, std::int64_t version,
                                                                const std::string& format);

@@ -120,4 +120,22 @@ grpc::Status MapsHandler::ExportMap(grpc::ServerContext* call, const fleet::v1::
   return scope.Done(grpc::Status::OK);
 }
 
+grpc::Status MapsHandler::ImportMap(grpc::ServerContext* call, const fleet::v1::ImportMapRequest* request,
+                                    fleet::v1::ImportMapResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/ImportMap");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRepairMap, &principal); !denied.ok()) {
+    return scope.Done(denied);
+  }
+  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (!request->has_snapshot()) return scope.Done(InvalidArgument("snapshot: required (the imported map)"));
+  if (request->source().size() > 1024) return scope.Done(InvalidArgument("source: longer than 1024 bytes"));
+  if (request->reason().size() > 4096) return scope.Done(InvalidArgument("reason: longer than 4096 bytes"));
+  auto imported = history_.Import(request->robot_id(), request->snapshot(), request->source(), request->reason(),
+                                  request->approve(), principal.name);
+  if (!imported.ok()) return scope.Done(ToGrpc(imported.status()));
+  *response->mutable_version() = std::move(imported).value();
+  return scope.Done(grpc::Status::OK);
+}
+
 }  // namespace server

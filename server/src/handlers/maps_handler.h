@@ -23,6 +23,8 @@ class MapsHandler final : public fleet::v1::Maps::Service {
                       fleet::v1::GetMapResponse* response) override;
   grpc::Status ExportMap(grpc::ServerContext* call, const fleet::v1::ExportMapRequest* request,
                          fleet::v1::ExportMapResponse* response) override;
+  grpc::Status ImportMap(grpc::ServerContext* call, const fleet::v1::ImportMapRequest* request,
+                         fleet::v1::ImportMapResponse* response) override;
 
  private:
   ServiceContext& context_;

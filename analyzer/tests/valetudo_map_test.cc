@@ -1,0 +1,299 @@
+// ValetudoMap import (docs/formats/valetudo.md): every real export imports with per-layer areas equal to the
+// file's own metaData.area, the grid equals the map_server conversion of the same export in data/maps, both
+// pixel encodings, both metaData versions and zlib-deflated input give the same map, and malformed input is
+// refused with an error naming the field.
+#include "analyzer/valetudo_map.h"
+
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <set>
+#include <utility>
+
+#include "test_data.h"
+
+namespace analyzer {
+namespace {
+
+using json = nlohmann::json;
+
+std::string ReadText(const std::filesystem::path& path) {
+  auto bytes = slamcore::ReadFileBytes(path.string());
+  EXPECT_TRUE(bytes.ok()) << bytes.status().ToString();
+  return bytes.ok() ? *bytes : std::string();
+}
+
+json ReadJson(const std::filesystem::path& path) { return json::parse(ReadText(path)); }
+
+/// Counts, straight from the JSON, the pixels that are floor or segment but not wall, and the wall pixels.
+std::pair<std::int64_t, std::int64_t> FreeAndWallPixels(const json& map) {
+  std::set<std::pair<int, int>> free, walls;
+  for (const json& layer : map["layers"]) {
+    std::set<std::pair<int, int>>& target = layer["type"] == "wall" ? walls : free;
+    if (layer.contains("compressedPixels") && !layer["compressedPixels"].empty()) {
+      const json& runs = layer["compressedPixels"];
+      for (std::size_t i = 0; i < runs.size(); i += 3) {
+        for (int k = 0; k < runs[i + 2].get<int>(); ++k) target.insert({runs[i].get<int>() + k, runs[i + 1].get<int>()});
+      }
+    } else {
+      const json& pixels = layer["pixels"];
+      for (std::size_t i = 0; i < pixels.size(); i += 2) target.insert({pixels[i].get<int>(), pixels[i + 1].get<int>()});
+    }
+  }
+  std::int64_t free_only = 0;
+  for (const auto& pixel : free) free_only += walls.contains(pixel) ? 0 : 1;
+  return {free_only, static_cast<std::int64_t>(walls.size())};
+}
+
+/// Imports every export in `folder` and checks each layer's area against the file's metaData.
+int CheckEveryExport(const std::filesystem::path& folder) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().filename().string());
+    ++files;
+    const auto map = ReadValetudoMap(entry.path().string());
+    EXPECT_TRUE(map.ok()) << map.status().ToString();
+    if (!map.ok()) continue;
+    EXPECT_EQ(map->pixel_size_cm, 5);
+    std::int64_t total = 0;
+    int declared = 0;
+    for (const ValetudoLayer& layer : map->layers) {
+      EXPECT_GT(layer.pixel_count, 0) << layer.type;
+      EXPECT_EQ(layer.area_cm2, layer.pixel_count * 25);  // pixelSize 5 cm: one pixel is 25 cm²
+      if (layer.declared_area_cm2) {
+        ++declared;
+        EXPECT_EQ(layer.area_cm2, *layer.declared_area_cm2) << layer.type << " " << layer.segment_id;
+      }
+      total += layer.area_cm2;
+    }
+    EXPECT_GT(declared, 0) << "no layer declares its area";
+    if (map->declared_total_area_cm2) {
+      EXPECT_EQ(total, *map->declared_total_area_cm2);
+    }
+    // The grid holds exactly the layers' pixels: occupied = walls, free = (floor ∪ segments) \ walls. Some
+    // exports' floor and segment layers overlap, so the free count comes from the file's pixels directly.
+    EXPECT_EQ(map->grid.resolution, 0.05);
+    const auto [free_pixels, wall_pixels] = FreeAndWallPixels(ReadJson(entry.path()));
+    EXPECT_EQ(map->grid.CountCells(slamcore::CellState::kOccupied), wall_pixels);
+    EXPECT_EQ(map->AreaOf("wall"), wall_pixels * 25);
+    EXPECT_EQ(map->grid.CountCells(slamcore::CellState::kFree), free_pixels);
+    EXPECT_TRUE(map->robot.has_value());
+  }
+  return files;
+}
+
+TEST(ValetudoMapTest, EveryCarriedExportImportsWithTheFilesOwnAreas) {
+  EXPECT_EQ(CheckEveryExport(test_data::Sample() / "valetudo"), 5);
+}
+
+TEST(ValetudoMapTest, EveryExportOfTheLargerSetImportsWithTheFilesOwnAreas) {
+  REQUIRE_LARGER_DATA_OR_SKIP("its 24 Valetudo exports (valetudo/), 19 of which data/ does not carry");
+  EXPECT_EQ(CheckEveryExport(*test_data::Larger() / "valetudo"), 24);
+}
+
+TEST(ValetudoMapTest, GridEqualsTheMapServerConversionOfTheSameExport) {
+  // data/maps holds these two exports converted to PGM/YAML (data/maps/SOURCES.md): same cells, same frame.
+  for (const char* name : {"dreame_d9_1058_no_segments", "dreame_d9_1058_with_segments"}) {
+    SCOPED_TRACE(name);
+    const auto map = ReadValetudoMap((test_data::Sample() / "valetudo" / (std::string(name) + ".json")).string());
+    ASSERT_TRUE(map.ok()) << map.status().ToString();
+    const auto converted =
+        slamcore::ReadMapServerYaml((test_data::Sample() / "maps" / ("valetudo_" + std::string(name) + ".yaml")).string());
+    ASSERT_TRUE(converted.ok()) << converted.status().ToString();
+    EXPECT_EQ(map->grid.width, converted->width);
+    EXPECT_EQ(map->grid.height, converted->height);
+    EXPECT_NEAR(map->grid.origin_x, converted->origin_x, 1e-9);
+    EXPECT_NEAR(map->grid.origin_y, converted->origin_y, 1e-9);
+    EXPECT_TRUE(map->grid.cells == converted->cells);
+  }
+}
+
+TEST(ValetudoMapTest, EntitiesBecomePosesWallsAndZonesInMetres) {
+  const auto map =
+      ReadValetudoMap((test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json").string());
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  // robot_position [3250, 3203] cm, angle 90°; charger_location [3340, 3220] cm, angle 228°.
+  ASSERT_TRUE(map->robot && map->dock);
+  EXPECT_NEAR(map->robot->pose.x(), 32.50, 1e-9);
+  EXPECT_NEAR(map->robot->pose.y(), -32.03, 1e-9);
+  EXPECT_NEAR(map->robot->pose.theta(), -std::numbers::pi / 2, 1e-9);
+  EXPECT_NEAR(map->dock->pose.translation().x(), 33.40, 1e-9);
+  EXPECT_TRUE(map->dock->has_angle);
+  ASSERT_EQ(map->virtual_walls.size(), 1u);
+  ASSERT_EQ(map->virtual_walls[0].points.size(), 2u);
+  EXPECT_NEAR(map->virtual_walls[0].points[1].x(), 34.25, 1e-9);
+  EXPECT_NEAR(map->virtual_walls[0].points[1].y(), -33.06, 1e-9);
+  ASSERT_EQ(map->zones.size(), 1u);
+  EXPECT_EQ(map->zones[0].type, "no_go_area");
+  EXPECT_EQ(map->zones[0].points.size(), 4u);
+  ASSERT_EQ(map->paths.size(), 1u);
+  EXPECT_EQ(map->paths[0].points.size(), 11u);
+  // Rooms: three segments with their ids; the dock lies inside the mapped (free) area.
+  std::vector<std::string> segments;
+  for (const ValetudoLayer& layer : map->layers) {
+    if (layer.type == "segment") segments.push_back(layer.segment_id);
+  }
+  EXPECT_EQ(segments, (std::vector<std::string>{"1", "2", "3"}));
+}
+
+/// The export rewritten as metaData version 1 with every layer's pixels expanded ([x, y, ...]), as Valetudo's
+/// UI export and older versions write it, and with a room name.
+json ExpandedVersion1(json map) {
+  map["metaData"] = {{"version", 1}};
+  for (json& layer : map["layers"]) {
+    json pixels = json::array();
+    const json& runs = layer["compressedPixels"];
+    for (std::size_t i = 0; i < runs.size(); i += 3) {
+      for (int k = 0; k < runs[i + 2].get<int>(); ++k) {
+        pixels.push_back(runs[i].get<int>() + k);
+        pixels.push_back(runs[i + 1]);
+      }
+    }
+    layer.erase("compressedPixels");
+    layer["pixels"] = pixels;
+    if (layer["type"] == "segment" && layer["metaData"]["segmentId"] == "2") layer["metaData"]["name"] = "Küche";
+  }
+  return map;
+}
+
+TEST(ValetudoMapTest, ExpandedPixelsAndVersion1GiveTheSameMap) {
+  const auto path = test_data::Sample() / "valetudo/roborock_S5_FW2008_with_segments.json";
+  const auto compressed = ReadValetudoMap(path.string());
+  ASSERT_TRUE(compressed.ok()) << compressed.status().ToString();
+  const auto expanded = ParseValetudoMap(ExpandedVersion1(ReadJson(path)).dump(), "expanded");
+  ASSERT_TRUE(expanded.ok()) << expanded.status().ToString();
+  EXPECT_EQ(compressed->version, 2);
+  EXPECT_EQ(expanded->version, 1);
+  EXPECT_TRUE(expanded->grid.cells == compressed->grid.cells);
+  ASSERT_EQ(expanded->layers.size(), compressed->layers.size());
+  for (std::size_t k = 0; k < expanded->layers.size(); ++k) {
+    EXPECT_EQ(expanded->layers[k].area_cm2, compressed->layers[k].area_cm2);
+  }
+  EXPECT_EQ(expanded->layers[3].name, "Küche");
+}
+
+TEST(ValetudoMapTest, Version1ExportOfTheLargerSetHasNamedRooms) {
+  TEST_DATA_FILE_OR_SKIP(path, "valetudo/dreame_d9_1093_multi_map.json");
+  const auto map = ReadValetudoMap(path.string());
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_EQ(map->version, 1);
+  std::vector<std::string> names;
+  for (const ValetudoLayer& layer : map->layers) {
+    if (!layer.name.empty()) names.push_back(layer.name);
+  }
+  EXPECT_EQ(names, std::vector<std::string>{"Flur"});
+  EXPECT_EQ(map->AreaOf("segment"), 27225 + 53400 + 47375 + 105500 + 99100 + 94775 + 12725);
+}
+
+std::string Deflate(const std::string& text) {
+  uLongf size = compressBound(static_cast<uLong>(text.size()));
+  std::string out(size, '\0');
+  EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(out.data()), &size, reinterpret_cast<const Bytef*>(text.data()),
+                      static_cast<uLong>(text.size()), 9),
+            Z_OK);
+  out.resize(size);
+  return out;
+}
+
+TEST(ValetudoMapTest, ZlibDeflatedExportAsPublishedOverMqttImports) {
+  const auto path = test_data::Sample() / "valetudo/dreame_d9_1058_with_segments.json";
+  const auto plain = ReadValetudoMap(path.string());
+  ASSERT_TRUE(plain.ok());
+  const std::string deflated = Deflate(ReadText(path));
+  const auto inflated = ParseValetudoMap(deflated, "mqtt");
+  ASSERT_TRUE(inflated.ok()) << inflated.status().ToString();
+  EXPECT_TRUE(inflated->grid.cells == plain->grid.cells);
+  EXPECT_EQ(inflated->AreaOf("segment"), plain->AreaOf("segment"));
+
+  const auto truncated = ParseValetudoMap(deflated.substr(0, deflated.size() / 2), "mqtt");
+  ASSERT_FALSE(truncated.ok());
+  EXPECT_NE(truncated.status().message().find("zlib stream is corrupt or truncated"), std::string::npos)
+      << truncated.status().ToString();
+  ValetudoLimits small;
+  small.max_inflated_bytes = 1000;  // a deflate bomb is cut off at the limit
+  const auto bomb = ParseValetudoMap(deflated, "mqtt", small);
+  ASSERT_FALSE(bomb.ok());
+  EXPECT_NE(bomb.status().message().find("inflates to more than 1000 bytes"), std::string::npos);
+}
+
+TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
+  const json valid = ReadJson(test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json");
+  ASSERT_TRUE(ParseValetudoMap(valid.dump(), "valid").ok());
+  struct Case {
+    const char* what;
+    std::function<void(json&)> edit;
+    const char* expected;
+  };
+  const std::vector<Case> cases = {
+      {"class", [](json& m) { m["__class"] = "SomethingElse"; }, "__class: not \"ValetudoMap\""},
+      {"version", [](json& m) { m["metaData"]["version"] = 3; }, "metaData.version: 3 is not supported"},
+      {"no metaData", [](json& m) { m.erase("metaData"); }, "metaData: missing"},
+      {"pixelSize", [](json& m) { m["pixelSize"] = 0; }, "map.pixelSize: 0 is outside [1, 100]"},
+      {"absurd size", [](json& m) { m["size"]["x"] = 10'000'000; }, "size.x: 10000000 is outside [1, 20000]"},
+      {"size type", [](json& m) { m["size"]["y"] = "big"; }, "size.y: not an integer"},
+      {"layers", [](json& m) { m["layers"] = 5; }, "layers: missing or not an array"},
+      {"layer type", [](json& m) { m["layers"][1]["type"] = "carpet"; }, "layers[1].type: unknown layer type \"carpet\""},
+      {"truncated runs",
+       [](json& m) { m["layers"][0]["compressedPixels"].erase(m["layers"][0]["compressedPixels"].size() - 1); },
+       "layers[0].compressedPixels: length 56 is not a multiple of 3"},
+      {"run off the map", [](json& m) { m["layers"][0]["compressedPixels"][2] = 100000; },
+       "layers[0].compressedPixels[2]: run leaves the map"},
+      {"zero run", [](json& m) { m["layers"][0]["compressedPixels"][2] = 0; }, "layers[0].compressedPixels[2]: run length 0 < 1"},
+      {"negative pixel", [](json& m) { m["layers"][2]["compressedPixels"][1] = -4; },
+       "layers[2].compressedPixels[1]: -4 is outside the map"},
+      {"odd pixels",
+       [](json& m) {
+         m["layers"][0].erase("compressedPixels");
+         m["layers"][0]["pixels"] = {1, 2, 3};
+       },
+       "layers[0].pixels: length 3 is not a multiple of 2"},
+      {"no pixels", [](json& m) { m["layers"][0].erase("compressedPixels"); }, "layers[0]: no pixels"},
+      {"no encoding",
+       [](json& m) {
+         m["layers"][1].erase("compressedPixels");
+         m["layers"][1].erase("pixels");
+       },
+       "layers[1]: neither pixels nor compressedPixels"},
+      {"both encodings", [](json& m) { m["layers"][0]["pixels"] = {1, 2}; }, "layers[0]: both pixels and compressedPixels"},
+      {"entity class", [](json& m) { m["entities"][0]["__class"] = "BlobMapEntity"; },
+       "entities[0].__class: unknown entity class \"BlobMapEntity\""},
+      {"point entity", [](json& m) { m["entities"][0]["points"] = {1, 2, 3, 4}; },
+       "entities[0].points: a point entity has one point"},
+      {"odd points", [](json& m) { m["entities"][2]["points"].erase(0); }, "entities[2].points: length 7 is not a multiple of 2"},
+      {"angle", [](json& m) { m["entities"][1]["metaData"]["angle"] = "north"; }, "entities[1].metaData.angle: not a number"},
+      {"no layers", [](json& m) { m["layers"] = json::array(); }, "layers: no layer covers any pixel"},
+  };
+  for (const Case& test_case : cases) {
+    SCOPED_TRACE(test_case.what);
+    json broken = valid;
+    test_case.edit(broken);
+    const auto result = ParseValetudoMap(broken.dump(), "broken.json");
+    ASSERT_FALSE(result.ok());
+    EXPECT_EQ(result.status().code(), slamcore::StatusCode::kInvalidArgument);
+    EXPECT_NE(result.status().message().find(test_case.expected), std::string::npos) << result.status().message();
+    EXPECT_EQ(result.status().message().rfind("broken.json: ", 0), 0u) << result.status().message();
+  }
+  for (const std::string& text : {std::string("{\"__class\": \"ValetudoMap\", "), std::string("[1, 2]"), std::string(""),
+                                  std::string("\x78\x9c garbage")}) {
+    const auto result = ParseValetudoMap(text, "text");
+    ASSERT_FALSE(result.ok()) << text;
+    EXPECT_EQ(result.status().code(), slamcore::StatusCode::kInvalidArgument);
+  }
+  ValetudoLimits tight;
+  tight.max_layers = 2;
+  const auto many = ParseValetudoMap(valid.dump(), "many", tight);
+  ASSERT_FALSE(many.ok());
+  EXPECT_NE(many.status().message().find("layers: 5 layers, more than the limit 2"), std::string::npos);
+  tight = {};
+  tight.max_input_bytes = 100;
+  EXPECT_NE(ParseValetudoMap(valid.dump(), "big", tight).status().message().find("more than the limit 100"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace analyzer
