@@ -77,18 +77,22 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
 }
 
 Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) const {
+  // With P H Pᵀ = L D Lᵀ, the blocks asked for are Eᵀ H⁻¹ E = Yᵀ D⁻¹ Y with Y = L⁻¹ P E: forward
+  // substitution only, with a sparse right-hand side whose solution is nonzero only on the elimination
+  // tree's path from each column to the root, so each block costs that path, not the whole factor.
   const int k = static_cast<int>(nodes.size());
-  std::vector<int> index(nodes.size());
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(factor_->size, 3 * k);
+  Eigen::SparseMatrix<double> selection(factor_->size, 3 * k);
+  std::vector<Eigen::Triplet<double>> ones;
   for (int n = 0; n < k; ++n) {
-    index[static_cast<std::size_t>(n)] = index_.at(nodes[static_cast<std::size_t>(n)]);
-    if (index[static_cast<std::size_t>(n)] >= 0) rhs.block<3, 3>(index[static_cast<std::size_t>(n)], 3 * n).setIdentity();
+    const int index = index_.at(nodes[static_cast<std::size_t>(n)]);
+    if (index < 0) continue;  // the gauge node: held, zero covariance
+    for (int axis = 0; axis < 3; ++axis) ones.emplace_back(index + axis, 3 * n + axis, 1.0);
   }
-  const Eigen::MatrixXd solution = factor_->ldlt.solve(rhs);
-  Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(3 * k, 3 * k);
-  for (int n = 0; n < k; ++n) {
-    if (index[static_cast<std::size_t>(n)] >= 0) joint.middleRows(3 * n, 3) = solution.middleRows(index[static_cast<std::size_t>(n)], 3);
-  }
+  selection.setFromTriplets(ones.begin(), ones.end());
+  Eigen::SparseMatrix<double> y = factor_->ldlt.permutationP() * selection;
+  factor_->ldlt.matrixL().solveInPlace(y);
+  const Eigen::SparseMatrix<double> scaled = factor_->ldlt.vectorD().cwiseInverse().asDiagonal() * y;
+  const Eigen::MatrixXd joint = Eigen::MatrixXd(Eigen::SparseMatrix<double>(y.transpose() * scaled));
   return 0.5 * (joint + joint.transpose());
 }
 
