@@ -33,16 +33,6 @@ const std::map<std::string, Graph> kGraphs = {
     {"csail", {"sesync/CSAIL.g2o", ""}},
 };
 
-slamcore::OutlierOptions ModeOptions(const std::string& mode) {
-  slamcore::OutlierOptions options;
-  if (mode == "local") options.mode = slamcore::OutlierOptions::Mode::kLocal;
-  if (mode == "first") options.mode = slamcore::OutlierOptions::Mode::kFirst;
-  if (mode == "shifted") options.mode = slamcore::OutlierOptions::Mode::kShifted;
-  if (mode == "grouped" || mode == "first" || mode == "shifted") options.group_size = 10;
-  if (mode == "variable") options.group_size = 1, options.max_group_size = 20;
-  if (mode == "mixed") options.group_size = 10, options.single_fraction = 0.5;
-  return options;
-}
 
 }  // namespace
 
@@ -81,7 +71,7 @@ int main(int argc, char** argv) {
         bool has_truth = false;
         bench::CleanReplays().clear();  // the baseline's time beside this row's, under the same load
         for (const int seed : seeds) {
-          bench::FilterCase test_case{graph->second.file, graph->second.truth, ModeOptions(mode)};
+          bench::FilterCase test_case{graph->second.file, graph->second.truth, bench::OutlierCase(mode)};
           test_case.fraction = fraction;
           test_case.outliers.seed = static_cast<std::uint64_t>(seed);
           slamcore::MapperParams params;

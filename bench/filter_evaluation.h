@@ -20,6 +20,20 @@
 
 namespace bench {
 
+/// The cases of the README's table by name: random, local, grouped (10), variable (1–20), mixed (half single,
+/// half groups of 10), first (groups of 10 arriving before the region's first true loop closure), shifted
+/// (groups of 10 repeating a true loop closure 3–10 vertices away; held out of tuning).
+inline slamcore::OutlierOptions OutlierCase(const std::string& mode) {
+  slamcore::OutlierOptions options;
+  if (mode == "local") options.mode = slamcore::OutlierOptions::Mode::kLocal;
+  if (mode == "first") options.mode = slamcore::OutlierOptions::Mode::kFirst;
+  if (mode == "shifted") options.mode = slamcore::OutlierOptions::Mode::kShifted;
+  if (mode == "grouped" || mode == "first" || mode == "shifted") options.group_size = 10;
+  if (mode == "variable") options.group_size = 1, options.max_group_size = 20;
+  if (mode == "mixed") options.group_size = 10, options.single_fraction = 0.5;
+  return options;
+}
+
 struct FilterCase {
   std::string graph;                 // relative to the posegraphs directory
   std::string truth;                 // ground-truth poses (id x y θ per line, or x y θ), or empty

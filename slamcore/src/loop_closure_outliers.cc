@@ -134,18 +134,6 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
         placed = v1 >= 0 && v1 <= last && v2 >= 0 && v2 <= last && std::abs(v2 - v1) >= 2;
       }
       if (!placed) return InvalidArgument("no true loop closure leaves room for a shifted group");
-      for (int k = 0; k < size; ++k) {
-        Edge edge;
-        edge.from = ids[static_cast<std::size_t>(v1 + k)];
-        edge.to = ids[static_cast<std::size_t>(v2 + k)];
-        edge.measurement = measurement;
-        edge.information = first_loop_closure->information;
-        edge.kind = EdgeKind::kObservation;
-        const auto added = corrupted.graph.AddEdge(edge);
-        if (!added.ok()) return added.status();
-        corrupted.outliers.emplace_back(edge.from, edge.to);
-      }
-      continue;
     }
     for (int k = 0; k < size; ++k) {
       Edge edge;
