@@ -85,12 +85,12 @@ MapCommands::MapCommands(CLI::App& app) {
   get_->add_option("robot", robot_, "robot id")->required();
   get_->add_option("--held", held_, "the version the robot holds (0: none)");
   get_->add_option("--out", out_, "write the MapSnapshot bytes here");
-  export_ = maps_->add_subcommand("export", "export a version as ROS map_server files or g2o");
+  export_ = maps_->add_subcommand("export", "export a version as ROS map_server files, g2o or ValetudoMap JSON");
   export_->add_option("robot", robot_, "robot id")->required();
   export_->add_option("version", version_, "version (default: the current one)");
-  export_->add_option("--format", format_, "map_server (PGM + YAML) or g2o")
+  export_->add_option("--format", format_, "map_server (PGM + YAML), g2o, or valetudo (ValetudoMap JSON)")
       ->required()
-      ->check(CLI::IsMember({"map_server", "g2o"}));
+      ->check(CLI::IsMember({"map_server", "g2o", "valetudo"}));
   export_->add_option("--out", out_, "directory for the files (default: .)");
 }
 
