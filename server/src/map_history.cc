@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <tuple>
 #include <nlohmann/json.hpp>
 
 #include "analyzer/map_comparison.h"
@@ -544,6 +546,19 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   if (!map.ok()) return FromSlamcore(map.status());
   if (map->local_maps.empty()) {
     return storage::InvalidArgument("snapshot: no local map on any node; an imported map needs its occupancy grid");
+  }
+  if (const fleet::v1::ImportedMapInfo& info = snapshot.imported(); snapshot.has_imported()) {
+    if (info.format() != "valetudo" && info.format() != "map_server") {
+      return storage::InvalidArgument("snapshot.imported.format: \"" + info.format().substr(0, 64) +
+                                      "\", expected \"valetudo\" or \"map_server\"");
+    }
+    for (const auto& [name, has, pose] : {std::tuple{"dock", info.has_dock(), info.dock()},
+                                          std::tuple{"robot", info.has_robot(), info.robot()}}) {
+      if (has && !(std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta()) &&
+                   std::abs(pose.x()) < 1e6 && std::abs(pose.y()) < 1e6)) {
+        return storage::InvalidArgument(std::string("snapshot.imported.") + name + ": not a finite pose within 1000 km");
+      }
+    }
   }
   if (auto robot = repository_.GetRobot(robot_id); robot.status().code() == storage::StatusCode::kNotFound) {
     storage::RobotRecord robot_record;

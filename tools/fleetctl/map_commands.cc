@@ -65,8 +65,8 @@ MapCommands::MapCommands(CLI::App& app) {
   repair_->add_option("--base", version_, "the version repaired (must be the newest)")->required();
   auto* edge = repair_->add_option("--reject-edge", reject_edge_, "FROM:TO[:VIEW]: remove one observation edge");
   auto* hypothesis = repair_->add_option("--reject-hypothesis", reject_hypothesis_, "remove a hypothesis's edges (undo a merge)");
-  auto* cut = repair_->add_option("--cut-finding", cut_finding_, "cut a protrusion finding's region out of the map");
-  auto* rollback = repair_->add_flag("--rollback", rollback_, "back to the map before the version's run");
+  auto* cut = repair_->add_option("--cut-finding", cut_finding_, "cut a protrusion (or an imported version's new_region) finding's region out of the map");
+  auto* rollback = repair_->add_flag("--rollback", rollback_, "back to the map before the version's run (imported versions: before the import)");
   auto* undo = repair_->add_flag("--undo", undo_, "undo the base version's repair");
   for (auto* option : {edge, hypothesis, cut, rollback, undo}) {
     for (auto* other : {edge, hypothesis, cut, rollback, undo}) {

@@ -5,7 +5,8 @@
 //                 built on the current approved map, "stale" when on an older one (the robot is told)
 //   analysis    → OnRunAnalysed: findings from the default set's report; the repair policy may act on them
 //   engineers   → Repair (reject an edge or hypothesis, cut a protrusion, roll back, undo), Review (approve or
-//                 reject a pending version), Export (map_server PGM + YAML, g2o), Import (a map made elsewhere)
+//                 reject a pending version), Export (map_server PGM + YAML, g2o, ValetudoMap JSON), Import (a map
+//                 made elsewhere, compared with the version before it; cut a new region of it, or roll it back)
 //   robots      → Fetch: the current approved version, or "up to date"
 //
 // Every new version is appended with its findings in one transaction that checks the robot's newest version
