@@ -160,7 +160,9 @@ slamcore::Result<MapAlignment> AlignGrids(const OccupancyGrid& previous, const O
       MeasureQuality(previous, next, options, &refined);
       candidates.push_back(refined);
     }
-  } else {
+  }
+  // No dock, or a dock that does not align the walls (a moved or re-reported charger): registration alone.
+  if (std::none_of(candidates.begin(), candidates.end(), [](const MapAlignment& a) { return a.good; })) {
     // Rotation search about the wall centroids, each start refined by a short ECC; the start whose walls land
     // best (wall overlap, the quality reported; ECC's own coefficient favours wrong poses that overlap large
     // free areas) is refined to convergence.
@@ -195,7 +197,7 @@ slamcore::Result<MapAlignment> AlignGrids(const OccupancyGrid& previous, const O
       registered.new_T_previous = TransformOf(previous, next, best_warp);
       MeasureQuality(previous, next, options, &registered);
       candidates.push_back(registered);
-    } else {
+    } else if (candidates.empty()) {
       MapAlignment identity;  // nothing converged: the maps' own frames, reported as such (and as poor)
       identity.method = "identity";
       MeasureQuality(previous, next, options, &identity);

@@ -654,8 +654,7 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
     if (!restored_snapshot.ok()) return restored_snapshot.status();
     auto findings = MapOnlyFindings(*restored_snapshot, *restored, reference);
     if (!findings.ok()) return findings.status();
-    RepairRequest rollback = request;
-    return AppendRepair(rollback, base, *restored, reference->snapshot_id, "rollback",
+    return AppendRepair(request, base, *restored, reference->snapshot_id, "rollback",
                         "back to version " + std::to_string(reference->version) + ", the map before the import",
                         *findings);
   }

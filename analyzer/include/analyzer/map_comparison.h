@@ -3,8 +3,8 @@
 // alignment's quality is measured, and the difference is split into connected regions — new ones, described
 // and classed by slamcore's protrusion detector and classifier (paper IV-C, as runs are), and lost ones.
 //
-//  * Alignment: by the dock poses when both maps have one (previous_T = new_dock · previous_dock⁻¹), refined
-//    by image registration; else by image registration alone: OpenCV's ECC (Evangelidis & Psarakis, "Parametric
+//  * Alignment: by the dock poses when both maps have one (new_T_previous = new_dock · previous_dock⁻¹), refined
+//    by image registration; else, or when that leaves the walls apart (a moved charger), by registration alone: OpenCV's ECC (Evangelidis & Psarakis, "Parametric
 //    image alignment using enhanced correlation coefficient maximization", PAMI 2008; cv::findTransformECC,
 //    MOTION_EUCLIDEAN) on wall images softened by a distance transform, started from a rotation search about
 //    the walls' centroids. Quality: the fraction of the previous map's wall cells that land within one cell
@@ -41,7 +41,7 @@ struct ComparisonOptions {
 
 struct MapAlignment {
   slamcore::SE2 new_T_previous;  // a point of the previous map's world frame in the new map's world frame
-  std::string method;            // "dock", "dock+registration" or "registration"
+  std::string method;            // "dock", "dock+registration", "registration", or "identity" (nothing converged)
   double wall_overlap = 0.0;     // fraction of previous wall cells within one cell of a new wall
   double residual_m = 0.0;       // their mean distance to the nearest new wall (capped at residual_cap_m)
   double correlation = 0.0;      // ECC's correlation coefficient of the registration, 0 when it did not run
