@@ -1,5 +1,7 @@
 #include "analyzer/map_repair.h"
 
+#include "analyzer/valetudo_map.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -7,6 +9,7 @@
 #include <sstream>
 
 #include "analyzer/run_analysis.h"
+#include "analyzer/valetudo_map.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/linear_initialization.h"
 #include "slamcore/optimizer.h"
@@ -415,7 +418,8 @@ Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes, const s
   return repaired;
 }
 
-Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format, const std::string& stem) {
+Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format, const std::string& stem,
+                                                       const fleet::v1::ImportedMapInfo* imported) {
   if (map.graph.num_nodes() == 0) return slamcore::InvalidArgument("the map is empty: nothing to export");
   std::vector<fleet::v1::ExportedFile> files;
   if (format == "g2o") {
@@ -426,12 +430,25 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
     file.set_content(out.str());
     return files;
   }
-  if (format != "map_server") {
-    return slamcore::InvalidArgument("format \"" + format + "\": expected \"map_server\" (PGM + YAML) or \"g2o\"");
+  if (format != "map_server" && format != "valetudo") {
+    return slamcore::InvalidArgument("format \"" + format +
+                                     "\": expected \"map_server\" (PGM + YAML), \"g2o\" or \"valetudo\" (ValetudoMap JSON)");
   }
   auto grid = RenderHomeGrid(map);
   if (!grid.ok()) return grid.status();
-  if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no map_server image");
+  if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
+  if (format == "valetudo") {
+    const auto pose = [](bool has, const fleet::v1::Pose2& proto) {
+      return has ? std::optional(slamcore::SE2(proto.x(), proto.y(), proto.theta())) : std::nullopt;
+    };
+    auto json = WriteValetudoMap(*grid, pose(imported && imported->has_dock(), imported ? imported->dock() : fleet::v1::Pose2()),
+                                 pose(imported && imported->has_robot(), imported ? imported->robot() : fleet::v1::Pose2()));
+    if (!json.ok()) return json.status();
+    fleet::v1::ExportedFile& file = files.emplace_back();
+    file.set_name(stem + ".json");
+    file.set_content(std::move(json).value());
+    return files;
+  }
   fleet::v1::ExportedFile& image = files.emplace_back();
   image.set_name(stem + ".pgm");
   image.set_content(slamcore::EncodePgm(*grid));

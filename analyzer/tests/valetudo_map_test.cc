@@ -295,5 +295,70 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
             std::string::npos);
 }
 
+/// Hand-back: every export in data/valetudo, written back as ValetudoMap JSON, imports into the very same
+/// grid (cells, size, origin) with the same dock and robot; a map_server-style grid at negative coordinates
+/// is shifted onto pixels ≥ 0; what cannot be written is refused naming the field.
+TEST(ValetudoWrite, RoundTripsEveryExportCellForCell) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(test_data::Sample() / "valetudo")) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().filename().string());
+    ++files;
+    const auto original = ReadValetudoMap(entry.path().string());
+    ASSERT_TRUE(original.ok()) << original.status().ToString();
+    const auto written = WriteValetudoMap(original->grid, original->dock ? std::optional(original->dock->pose) : std::nullopt,
+                                          original->robot ? std::optional(original->robot->pose) : std::nullopt);
+    ASSERT_TRUE(written.ok()) << written.status().ToString();
+    const auto back = ParseValetudoMap(*written, "hand-back.json");
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    EXPECT_EQ(back->version, 2);
+    EXPECT_EQ(back->pixel_size_cm, original->pixel_size_cm);
+    EXPECT_EQ(back->grid.width, original->grid.width);
+    EXPECT_EQ(back->grid.height, original->grid.height);
+    EXPECT_DOUBLE_EQ(back->grid.origin_x, original->grid.origin_x);
+    EXPECT_DOUBLE_EQ(back->grid.origin_y, original->grid.origin_y);
+    EXPECT_TRUE(back->grid.cells == original->grid.cells);
+    EXPECT_EQ(back->AreaOf("floor") + back->AreaOf("wall"), *back->declared_total_area_cm2);
+    ASSERT_EQ(back->dock.has_value(), original->dock.has_value());
+    if (original->dock) {
+      EXPECT_NEAR(back->dock->pose.x(), original->dock->pose.x(), 0.005);
+      EXPECT_NEAR(back->dock->pose.y(), original->dock->pose.y(), 0.005);
+      EXPECT_NEAR(back->dock->pose.theta(), original->dock->pose.theta(), 0.01);
+    }
+    ASSERT_EQ(back->robot.has_value(), original->robot.has_value());
+  }
+  EXPECT_EQ(files, 5);
+}
+
+TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
+  auto grid = slamcore::OccupancyGrid::Create(30, 20, 0.05, -10.0, -3.0);
+  ASSERT_TRUE(grid.ok());
+  grid->at(0, 0) = 100;
+  grid->at(5, 7) = 0;
+  grid->at(29, 19) = 0;
+  const auto written = WriteValetudoMap(*grid, slamcore::SE2(-9.5, -2.5, 0.5), std::nullopt);
+  ASSERT_TRUE(written.ok()) << written.status().ToString();
+  const auto back = ParseValetudoMap(*written, "shifted.json");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->grid.CountCells(slamcore::CellState::kOccupied), 1);
+  EXPECT_EQ(back->grid.CountCells(slamcore::CellState::kFree), 2);
+  // Shifted by 10 m in x (pixels ≥ 0); the dock moved with the grid: 0.5 m right of the grid's left edge.
+  ASSERT_TRUE(back->dock);
+  EXPECT_NEAR(back->dock->pose.x() - back->grid.origin_x, 0.5 + 10 * 0.05, 0.01);  // import margin: 10 cells
+  EXPECT_NEAR(back->dock->pose.theta(), 0.5, 0.01);
+
+  slamcore::OccupancyGrid odd = *grid;
+  odd.resolution = 0.025;
+  auto refused = WriteValetudoMap(odd, std::nullopt, std::nullopt);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("grid.resolution"), std::string::npos) << refused.status().ToString();
+  auto blank = slamcore::OccupancyGrid::Create(4, 4, 0.05);
+  ASSERT_TRUE(blank.ok());
+  refused = WriteValetudoMap(*blank, std::nullopt, std::nullopt);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("no free or occupied cell"), std::string::npos);
+  EXPECT_FALSE(WriteValetudoMap(slamcore::OccupancyGrid{}, std::nullopt, std::nullopt).ok());
+}
+
 }  // namespace
 }  // namespace analyzer

@@ -2,8 +2,13 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <tuple>
+#include <nlohmann/json.hpp>
 
+#include "analyzer/map_comparison.h"
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
 #include "server/analysis.h"
@@ -152,6 +157,55 @@ const storage::MapVersionRecord* Head(const std::vector<storage::MapVersionRecor
   return nullptr;
 }
 
+/// `version` among `versions`, or null.
+const storage::MapVersionRecord* FindRecord(const std::vector<storage::MapVersionRecord>& versions,
+                                            std::int64_t version) {
+  for (const storage::MapVersionRecord& record : versions) {
+    if (record.version == version) return &record;
+  }
+  return nullptr;
+}
+
+/// What a map-only version is compared with: the version before the import its chain started from (parents
+/// are followed through repairs back to the import). Null when that import was the robot's first version.
+const storage::MapVersionRecord* ComparisonReference(const std::vector<storage::MapVersionRecord>& versions,
+                                                     const storage::MapVersionRecord& record) {
+  const storage::MapVersionRecord* at = &record;
+  while (at != nullptr && at->origin != "import") {
+    if (!at->parent_version) return nullptr;
+    at = FindRecord(versions, *at->parent_version);
+  }
+  if (at == nullptr || !at->parent_version) return nullptr;
+  return FindRecord(versions, *at->parent_version);
+}
+
+/// Both lists in one, by severity (highest first) and numbered from 1 again.
+std::vector<fleet::v1::MapFinding> MergeFindings(std::vector<fleet::v1::MapFinding> first,
+                                                 const std::vector<fleet::v1::MapFinding>& second) {
+  first.insert(first.end(), second.begin(), second.end());
+  std::stable_sort(first.begin(), first.end(), [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
+    return a.severity() > b.severity();
+  });
+  for (std::size_t i = 0; i < first.size(); ++i) first[i].set_finding_id(static_cast<std::int64_t>(i) + 1);
+  return first;
+}
+
+/// The previous map of a comparison: its grid and its dock.
+struct ComparedMap {
+  slamcore::OccupancyGrid grid;
+  std::optional<slamcore::SE2> dock;
+};
+
+storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository, const std::string& snapshot_id) {
+  auto snapshot = LoadSnapshot(repository, snapshot_id);
+  if (!snapshot.ok()) return snapshot.status();
+  auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
+  if (!map.ok()) return storage::DataLoss(map.status().message());
+  auto grid = analyzer::RenderHomeGrid(*map);
+  if (!grid.ok()) return FromSlamcore(grid.status());
+  return ComparedMap{std::move(grid).value(), analyzer::DockOf(*snapshot)};
+}
+
 }  // namespace
 
 fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool current) {
@@ -185,7 +239,8 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
 MapPolicy MapPolicyOf(const FleetdConfig& config) {
   return {.auto_repair = config.auto_repair,
           .auto_approve = config.auto_approve,
-          .default_parameter_set = config.default_parameter_set};
+          .default_parameter_set = config.default_parameter_set,
+          .model_name = config.model_name};
 }
 
 MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
@@ -348,11 +403,9 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
                             " the version repairs start from" +
                             (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
   }
-  if (base->origin == "import") {
-    return storage::FailedPrecondition("version " + std::to_string(base->version) +
-                                       " is an imported map without a run to repair against: import a corrected map, "
-                                       "or review this one");
-  }
+  // A map without a run (an import, or a repair of one) has no pose graph to edit: it is repaired against the
+  // map before the import. Undo works the same for both.
+  if (base->run_id.empty() && request.action != "undo") return RepairMapOnly(request, *base, *versions);
   auto loaded = LoadMap(repository_, base->snapshot_id);
   if (!loaded.ok()) return loaded.status();
   auto context = LoadRunContext(repository_, base->run_id, policy_.default_parameter_set);
@@ -410,12 +463,23 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
     repaired = std::move(restored).value();
   }
 
-  auto record = NewVersion(*repaired, snapshot_id, /*with_known_area=*/true);
+  // Rolling back leaves the run's nodes behind: its findings no longer apply.
+  RunContext findings_context = origin == "rollback" ? RunContext{} : std::move(context).value();
+  if (origin == "rollback") findings_context.parent = *repaired;
+  return AppendRepair(request, *base, *repaired, snapshot_id, origin, detail, Findings(*repaired, findings_context));
+}
+
+storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& request,
+                                                           const storage::MapVersionRecord& base,
+                                                           const slamcore::Map& repaired, const std::string& snapshot_id,
+                                                           const std::string& origin, const std::string& detail,
+                                                           const std::vector<fleet::v1::MapFinding>& findings) {
+  auto record = NewVersion(repaired, snapshot_id, /*with_known_area=*/true);
   if (!record.ok()) return record.status();
   record->robot_id = request.robot_id;
-  record->parent_version = base->version;
+  record->parent_version = base.version;
   record->origin = origin;
-  record->run_id = base->run_id;
+  record->run_id = base.run_id;
   record->action = request.action == "cut_finding" ? "cut_region" : request.action;
   record->action_detail = detail;
   record->created_by = request.requested_by;
@@ -425,10 +489,6 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
     record->approved_by = request.requested_by;
     record->approved_at_ms = NowMillis();
   }
-  // Rolling back leaves the run's nodes behind: its findings no longer apply.
-  RunContext findings_context = origin == "rollback" ? RunContext{} : std::move(context).value();
-  if (origin == "rollback") findings_context.parent = *repaired;
-  const std::vector<fleet::v1::MapFinding> findings = Findings(*repaired, findings_context);
   auto appended = repository_.AppendMapVersion(*record, request.base_version, ToRecords(findings));
   if (!appended.ok()) return appended.status();
   log::Info("map_repaired", {{"robot_id", request.robot_id},
@@ -487,6 +547,19 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   if (map->local_maps.empty()) {
     return storage::InvalidArgument("snapshot: no local map on any node; an imported map needs its occupancy grid");
   }
+  if (const fleet::v1::ImportedMapInfo& info = snapshot.imported(); snapshot.has_imported()) {
+    if (info.format() != "valetudo" && info.format() != "map_server") {
+      return storage::InvalidArgument("snapshot.imported.format: \"" + info.format().substr(0, 64) +
+                                      "\", expected \"valetudo\" or \"map_server\"");
+    }
+    for (const auto& [name, has, pose] : {std::tuple{"dock", info.has_dock(), info.dock()},
+                                          std::tuple{"robot", info.has_robot(), info.robot()}}) {
+      if (has && !(std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta()) &&
+                   std::abs(pose.x()) < 1e6 && std::abs(pose.y()) < 1e6)) {
+        return storage::InvalidArgument(std::string("snapshot.imported.") + name + ": not a finite pose within 1000 km");
+      }
+    }
+  }
   if (auto robot = repository_.GetRobot(robot_id); robot.status().code() == storage::StatusCode::kNotFound) {
     storage::RobotRecord robot_record;
     robot_record.robot_id = robot_id;
@@ -495,11 +568,15 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   } else if (!robot.ok()) {
     return robot.status();
   }
-  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*map)));
+  fleet::v1::MapSnapshot stored_snapshot = analyzer::ToProto(*map);
+  if (snapshot.has_imported()) *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
+  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(stored_snapshot));
   if (!stored.ok()) return stored.status();
   auto versions = repository_.ListMapVersions(robot_id);
   if (!versions.ok()) return versions.status();
   const storage::MapVersionRecord* head = Head(*versions);
+  auto findings = MapOnlyFindings(stored_snapshot, *map, head);
+  if (!findings.ok()) return findings.status();
   auto record = NewVersion(*map, *stored, /*with_known_area=*/true);
   if (!record.ok()) return record.status();
   record->robot_id = robot_id;
@@ -515,7 +592,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
     record->approved_at_ms = NowMillis();
   }
   auto appended = repository_.AppendMapVersion(*record, head ? std::optional(head->version) : std::nullopt,
-                                               ToRecords(analyzer::FindMapFindings({.map = &*map})));
+                                               ToRecords(*findings));
   if (!appended.ok()) return appended.status();
   log::Info("map_imported", {{"robot_id", robot_id},
                              {"version", static_cast<long long>(appended->version)},
@@ -525,13 +602,120 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   return ToProto(*appended, approve);
 }
 
+storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
+    const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map, const storage::MapVersionRecord* reference) {
+  std::vector<fleet::v1::MapFinding> findings = analyzer::FindMapFindings({.map = &map});
+  if (reference == nullptr) return findings;
+  auto previous = LoadComparedMap(repository_, reference->snapshot_id);
+  if (!previous.ok()) return previous.status();
+  auto grid = analyzer::RenderHomeGrid(map);
+  if (!grid.ok()) return FromSlamcore(grid.status());
+  // Regions are classed by the active model, as runs' regions are (AnalyzeStoredRun); none: "unclassified".
+  std::unique_ptr<slamcore::ProtrusionClassifier> classifier;
+  if (auto active = repository_.GetActiveModel(policy_.model_name); active.ok()) {
+    auto loaded = LoadClassifier(active->bytes);
+    if (!loaded.ok()) return loaded.status();
+    classifier = std::move(loaded).value();
+  } else if (active.status().code() != storage::StatusCode::kNotFound) {
+    return active.status();
+  }
+  auto comparison =
+      analyzer::CompareGrids(previous->grid, *grid, previous->dock, analyzer::DockOf(snapshot), classifier.get());
+  if (!comparison.ok()) {
+    // Nothing to align by (a map without walls, another resolution): the version is kept, and says so.
+    fleet::v1::MapFinding& finding = findings.emplace_back();
+    finding.set_kind("misaligned");
+    finding.set_severity(0.9);
+    finding.set_state("open");
+    finding.set_summary("not compared with version " + std::to_string(reference->version) + ": " +
+                        comparison.status().message());
+    return MergeFindings(std::move(findings), {});
+  }
+  return MergeFindings(std::move(findings), analyzer::ComparisonFindings(*comparison, reference->version));
+}
+
+storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest& request,
+                                                            const storage::MapVersionRecord& base,
+                                                            const std::vector<storage::MapVersionRecord>& versions) {
+  const std::string name = "version " + std::to_string(base.version);
+  if (request.action != "rollback" && request.action != "cut_finding") {
+    return storage::FailedPrecondition(name + " is a map without a run (imported): \"" + request.action +
+                                       "\" does not apply; rollback, cut_finding of a new_region and undo do");
+  }
+  const storage::MapVersionRecord* reference = ComparisonReference(versions, base);
+  if (reference == nullptr) {
+    return storage::FailedPrecondition(name + " comes from the robot's first imported map: there is no earlier map to " +
+                                       (request.action == "rollback" ? "roll back to" : "cut back to"));
+  }
+  if (request.action == "rollback") {
+    auto restored = LoadMap(repository_, reference->snapshot_id);
+    if (!restored.ok()) return restored.status();
+    auto restored_snapshot = LoadSnapshot(repository_, reference->snapshot_id);
+    if (!restored_snapshot.ok()) return restored_snapshot.status();
+    auto findings = MapOnlyFindings(*restored_snapshot, *restored, reference);
+    if (!findings.ok()) return findings.status();
+    return AppendRepair(request, base, *restored, reference->snapshot_id, "rollback",
+                        "back to version " + std::to_string(reference->version) + ", the map before the import",
+                        *findings);
+  }
+  // cut_finding: the finding must be a new region of this version; its cells take the previous map's values.
+  auto detail = Get(request.robot_id, base.version);
+  if (!detail.ok()) return detail.status();
+  const fleet::v1::MapFinding* finding = nullptr;
+  for (const fleet::v1::MapFinding& candidate : detail->findings) {
+    if (candidate.finding_id() == request.finding_id) finding = &candidate;
+  }
+  if (finding == nullptr) return storage::NotFound(name + " has no finding " + std::to_string(request.finding_id));
+  if (finding->kind() != "new_region") {
+    return storage::InvalidArgument("finding " + std::to_string(request.finding_id) + " is a " + finding->kind() +
+                                    ", not a new_region that can be cut");
+  }
+  const nlohmann::json evidence = nlohmann::json::parse(finding->evidence_json(), nullptr, false);
+  if (!evidence.is_object() || !evidence.contains("region_id") || !evidence["region_id"].is_number_integer()) {
+    return storage::DataLoss("finding " + std::to_string(request.finding_id) + ": evidence has no region_id");
+  }
+  const int region_id = evidence["region_id"].get<int>();
+  auto base_snapshot = LoadSnapshot(repository_, base.snapshot_id);
+  if (!base_snapshot.ok()) return base_snapshot.status();
+  auto base_map = LoadMap(repository_, base.snapshot_id);
+  if (!base_map.ok()) return base_map.status();
+  auto previous = LoadComparedMap(repository_, reference->snapshot_id);
+  if (!previous.ok()) return previous.status();
+  auto grid = analyzer::RenderHomeGrid(*base_map);
+  if (!grid.ok()) return FromSlamcore(grid.status());
+  // The comparison again (deterministic: the same regions and ids as when the finding was made).
+  auto comparison = analyzer::CompareGrids(previous->grid, *grid, previous->dock, analyzer::DockOf(*base_snapshot),
+                                           nullptr);
+  if (!comparison.ok()) return FromSlamcore(comparison.status());
+  const slamcore::ProtrusionRegion* region = nullptr;
+  for (const analyzer::ChangedRegion& changed : comparison->new_regions) {
+    if (changed.region.id == region_id) region = &changed.region;
+  }
+  if (region == nullptr) return storage::DataLoss(name + " no longer shows region " + std::to_string(region_id));
+  const slamcore::Map repaired = analyzer::MapOfGrid(
+      slamcore::RepairChild(comparison->aligned_previous, *grid, {region}, slamcore::RepairMode::kCutOut));
+  fleet::v1::MapSnapshot repaired_snapshot = analyzer::ToProto(repaired);
+  *repaired_snapshot.mutable_imported() = base_snapshot->imported();
+  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(repaired_snapshot));
+  if (!stored.ok()) return stored.status();
+  auto findings = MapOnlyFindings(repaired_snapshot, repaired, reference);
+  if (!findings.ok()) return findings.status();
+  return AppendRepair(request, base, repaired, *stored, "repair",
+                      "cut new region " + std::to_string(region_id) + " (" + std::to_string(region->cells.size()) +
+                          " cells) back to version " + std::to_string(reference->version) + "'s cells",
+                      *findings);
+}
+
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
                                                                          const std::string& format) {
   auto record = Resolve(robot_id, version);
   if (!record.ok()) return record.status();
-  auto loaded = LoadMap(repository_, record->snapshot_id);
-  if (!loaded.ok()) return loaded.status();
-  auto files = analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version));
+  auto snapshot = LoadSnapshot(repository_, record->snapshot_id);
+  if (!snapshot.ok()) return snapshot.status();
+  auto loaded = analyzer::FromProto(*snapshot, "snapshot " + record->snapshot_id);
+  if (!loaded.ok()) return storage::DataLoss(loaded.status().message());
+  auto files = analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version),
+                                   snapshot->has_imported() ? &snapshot->imported() : nullptr);
   if (!files.ok()) return FromSlamcore(files.status());
   return std::move(files).value();
 }

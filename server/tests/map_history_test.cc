@@ -1,12 +1,15 @@
-// MapHistory on a real SQLite file: versions from uploads, findings from the analysis, and the repair policy
-// that cuts protrusions out of a robot's map after its run is analysed, with and without automatic approval.
+// MapHistory on a real SQLite file: versions from uploads, findings from the analysis, the repair policy that
+// cuts protrusions out of a robot's map after its run is analysed, with and without automatic approval, and
+// imported maps compared with the version before them, cut and rolled back.
 #include "server/map_history.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 
+#include "analyzer/map_comparison.h"
 #include "analyzer/telemetry_codec.h"
 #include "server/analysis.h"
 
@@ -197,6 +200,93 @@ TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
   EXPECT_EQ(current->version(), 3);
   EXPECT_EQ(current->approved_by(), "policy:cut_protrusions");
   EXPECT_EQ(snapshot.nodes_size(), 20);
+}
+
+/// A map-only snapshot: a 6 × 5 m grid with a walled room [x0, x1] × [0.5, 4] (and a second one beside it
+/// when `kitchen`), the dock at (1, 0.6).
+fleet::v1::MapSnapshot ImportedRooms(bool kitchen) {
+  auto grid = slamcore::OccupancyGrid::Create(160, 100, 0.05);
+  EXPECT_TRUE(grid.ok());
+  const auto room = [&](double x0, double x1) {
+    for (int row = 10; row <= 80; ++row) {
+      for (int col = static_cast<int>(x0 / 0.05); col <= static_cast<int>(x1 / 0.05); ++col) {
+        const bool edge = row == 10 || row == 80 || col == static_cast<int>(x0 / 0.05) || col == static_cast<int>(x1 / 0.05);
+        if (grid->at(col, row) != 100 || !edge) grid->at(col, row) = edge ? 100 : 0;
+      }
+    }
+  };
+  room(0.5, 4.0);
+  if (kitchen) room(4.0, 7.5);
+  fleet::v1::MapSnapshot snapshot = analyzer::ToProto(analyzer::MapOfGrid(*grid));
+  snapshot.mutable_imported()->set_format("valetudo");
+  snapshot.mutable_imported()->mutable_dock()->set_x(1.0);
+  snapshot.mutable_imported()->mutable_dock()->set_y(0.6);
+  return snapshot;
+}
+
+TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
+  MapHistory history(*repository_, MapPolicy{});
+  auto v1 = history.Import("home", ImportedRooms(false), "valetudo:a.json", "", true, "engineer:e");
+  ASSERT_TRUE(v1.ok()) << v1.status().ToString();
+  // The first import has nothing to compare with, nor to roll back to.
+  EXPECT_TRUE(history.Get("home", 1)->findings.empty());
+  RepairRequest rollback{.robot_id = "home", .base_version = 1, .action = "rollback", .requested_by = "engineer:e"};
+  EXPECT_EQ(history.Repair(rollback).status().code(), storage::StatusCode::kFailedPrecondition);
+
+  // Bad metadata is refused naming the field, and nothing is stored.
+  fleet::v1::MapSnapshot bad = ImportedRooms(true);
+  bad.mutable_imported()->mutable_dock()->set_x(std::nan(""));
+  auto refused = history.Import("home", bad, "valetudo:b.json", "", false, "engineer:e");
+  ASSERT_EQ(refused.status().code(), storage::StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.status().message().find("snapshot.imported.dock"), std::string::npos) << refused.status().ToString();
+
+  // The second export: the same home, now with a kitchen.
+  auto v2 = history.Import("home", ImportedRooms(true), "valetudo:b.json", "", false, "engineer:e");
+  ASSERT_TRUE(v2.ok()) << v2.status().ToString();
+  EXPECT_EQ(v2->version(), 2);
+  auto detail = history.Get("home", 2);
+  ASSERT_TRUE(detail.ok());
+  std::int64_t kitchen = 0;
+  int alignments = 0, new_regions = 0;
+  for (const fleet::v1::MapFinding& finding : detail->findings) {
+    alignments += finding.kind() == "alignment" ? 1 : 0;
+    if (finding.kind() == "new_region") {
+      ++new_regions;
+      kitchen = finding.finding_id();
+      EXPECT_GT(finding.world_bbox(0), 3.9);
+      EXPECT_LT(finding.world_bbox(2), 7.6);
+    }
+    EXPECT_NE(finding.kind(), "misaligned") << finding.summary();
+  }
+  EXPECT_EQ(alignments, 1);
+  ASSERT_EQ(new_regions, 1);
+
+  // Edits that need a pose graph are refused; a cut takes the kitchen back to unknown and its finding is gone.
+  RepairRequest edge{.robot_id = "home", .base_version = 2, .action = "reject_edge", .from = 0, .to = 1,
+                     .requested_by = "engineer:e"};
+  EXPECT_EQ(history.Repair(edge).status().code(), storage::StatusCode::kFailedPrecondition);
+  RepairRequest cut{.robot_id = "home", .base_version = 2, .action = "cut_finding", .finding_id = kitchen,
+                    .reason = "not ours", .requested_by = "engineer:e"};
+  auto cut_version = history.Repair(cut);
+  ASSERT_TRUE(cut_version.ok()) << cut_version.status().ToString();
+  EXPECT_EQ(cut_version->version.approval(), "pending");
+  EXPECT_EQ(cut_version->version.action(), "cut_region");
+  for (const fleet::v1::MapFinding& finding : cut_version->findings) EXPECT_NE(finding.kind(), "new_region");
+  EXPECT_LT(cut_version->version.known_area_m2(), v2->known_area_m2() - 5.0);
+  fleet::v1::MapSnapshot cut_snapshot;
+  ASSERT_TRUE(history.Get("home", 3, &cut_snapshot).ok());
+  EXPECT_TRUE(cut_snapshot.imported().has_dock());  // kept for the next comparison and the hand-back
+  // A cut's region must be a new region.
+  cut.base_version = 3;
+  cut.finding_id = 1;
+  EXPECT_EQ(history.Repair(cut).status().code(), storage::StatusCode::kInvalidArgument);
+
+  // Roll back: the map before the import, the very snapshot of version 1.
+  rollback.base_version = 3;
+  auto rolled = history.Repair(rollback);
+  ASSERT_TRUE(rolled.ok()) << rolled.status().ToString();
+  EXPECT_EQ(rolled->version.origin(), "rollback");
+  EXPECT_EQ(rolled->version.snapshot_id(), v1->snapshot_id());
 }
 
 }  // namespace

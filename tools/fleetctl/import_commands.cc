@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "analyzer/map_comparison.h"
 #include "analyzer/telemetry_codec.h"
 #include "analyzer/valetudo_map.h"
 #include "slamcore/mapper.h"
@@ -10,28 +11,32 @@
 namespace fleetctl {
 namespace {
 
-/// The grid as a map: one fixed node at the origin carrying the whole grid as its local map.
-fleet::v1::MapSnapshot SnapshotOf(const slamcore::OccupancyGrid& grid) {
-  slamcore::Map map;
-  slamcore::Node node;
-  node.id = 0;
-  node.fixed = true;
-  (void)map.graph.AddNode(node);  // the first node of an empty graph cannot be refused
-  slamcore::LocalMapEvent patch;
-  patch.resolution = grid.resolution;
-  patch.width = grid.width;
-  patch.height = grid.height;
-  patch.node_T_origin = slamcore::SE2(grid.origin_x, grid.origin_y, grid.origin_yaw);
-  patch.cells = grid.cells;
-  map.local_maps.emplace(node.id, std::move(patch));
-  return analyzer::ToProto(map);
+fleet::v1::Pose2 PoseProto(const slamcore::SE2& pose) {
+  fleet::v1::Pose2 proto;
+  proto.set_x(pose.x());
+  proto.set_y(pose.y());
+  proto.set_theta(pose.theta());
+  return proto;
 }
 
-slamcore::Result<slamcore::OccupancyGrid> ReadGrid(const std::string& path, bool valetudo) {
-  if (!valetudo) return slamcore::ReadMapServerYaml(path);
+/// The file as a map-only snapshot (analyzer::MapOfGrid) with what else the export said (dock, robot).
+slamcore::Result<fleet::v1::MapSnapshot> ReadSnapshot(const std::string& path, bool valetudo) {
+  fleet::v1::MapSnapshot snapshot;
+  if (!valetudo) {
+    auto grid = slamcore::ReadMapServerYaml(path);
+    if (!grid.ok()) return grid.status();
+    snapshot = analyzer::ToProto(analyzer::MapOfGrid(*grid));
+    snapshot.mutable_imported()->set_format("map_server");
+    return snapshot;
+  }
   auto map = analyzer::ReadValetudoMap(path);
   if (!map.ok()) return map.status();
-  return std::move(map->grid);
+  snapshot = analyzer::ToProto(analyzer::MapOfGrid(map->grid));
+  fleet::v1::ImportedMapInfo* imported = snapshot.mutable_imported();
+  imported->set_format("valetudo");
+  if (map->dock) *imported->mutable_dock() = PoseProto(map->dock->pose);
+  if (map->robot) *imported->mutable_robot() = PoseProto(map->robot->pose);
+  return snapshot;
 }
 
 }  // namespace
@@ -54,14 +59,14 @@ std::optional<int> ImportCommands::Run(Client& client, const Global& global) con
   const bool valetudo = static_cast<bool>(*valetudo_);
   int imported = 0;
   for (const std::string& file : files_) {
-    auto grid = ReadGrid(file, valetudo);
-    if (!grid.ok()) {
-      std::fprintf(stderr, "fleetctl: %s\n", grid.status().ToString().c_str());
+    auto snapshot = ReadSnapshot(file, valetudo);
+    if (!snapshot.ok()) {
+      std::fprintf(stderr, "fleetctl: %s\n", snapshot.status().ToString().c_str());
       return 1;
     }
     fleet::v1::ImportMapRequest request;
     request.set_robot_id(robot_);
-    *request.mutable_snapshot() = SnapshotOf(*grid);
+    *request.mutable_snapshot() = std::move(snapshot).value();
     request.set_source(std::string(valetudo ? "valetudo:" : "map_server:") +
                        std::filesystem::path(file).filename().string());
     request.set_reason(reason_);

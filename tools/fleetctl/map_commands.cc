@@ -65,8 +65,8 @@ MapCommands::MapCommands(CLI::App& app) {
   repair_->add_option("--base", version_, "the version repaired (must be the newest)")->required();
   auto* edge = repair_->add_option("--reject-edge", reject_edge_, "FROM:TO[:VIEW]: remove one observation edge");
   auto* hypothesis = repair_->add_option("--reject-hypothesis", reject_hypothesis_, "remove a hypothesis's edges (undo a merge)");
-  auto* cut = repair_->add_option("--cut-finding", cut_finding_, "cut a protrusion finding's region out of the map");
-  auto* rollback = repair_->add_flag("--rollback", rollback_, "back to the map before the version's run");
+  auto* cut = repair_->add_option("--cut-finding", cut_finding_, "cut a protrusion (or an imported version's new_region) finding's region out of the map");
+  auto* rollback = repair_->add_flag("--rollback", rollback_, "back to the map before the version's run (imported versions: before the import)");
   auto* undo = repair_->add_flag("--undo", undo_, "undo the base version's repair");
   for (auto* option : {edge, hypothesis, cut, rollback, undo}) {
     for (auto* other : {edge, hypothesis, cut, rollback, undo}) {
@@ -85,12 +85,12 @@ MapCommands::MapCommands(CLI::App& app) {
   get_->add_option("robot", robot_, "robot id")->required();
   get_->add_option("--held", held_, "the version the robot holds (0: none)");
   get_->add_option("--out", out_, "write the MapSnapshot bytes here");
-  export_ = maps_->add_subcommand("export", "export a version as ROS map_server files or g2o");
+  export_ = maps_->add_subcommand("export", "export a version as ROS map_server files, g2o or ValetudoMap JSON");
   export_->add_option("robot", robot_, "robot id")->required();
   export_->add_option("version", version_, "version (default: the current one)");
-  export_->add_option("--format", format_, "map_server (PGM + YAML) or g2o")
+  export_->add_option("--format", format_, "map_server (PGM + YAML), g2o, or valetudo (ValetudoMap JSON)")
       ->required()
-      ->check(CLI::IsMember({"map_server", "g2o"}));
+      ->check(CLI::IsMember({"map_server", "g2o", "valetudo"}));
   export_->add_option("--out", out_, "directory for the files (default: .)");
 }
 

@@ -82,9 +82,11 @@ slamcore::Result<slamcore::Map> RejectHypothesis(const slamcore::Map& map, const
 slamcore::Result<slamcore::Map> CutRegion(const slamcore::Map& map, const std::set<slamcore::NodeId>& run_nodes,
                                           const std::array<double, 4>& world_bbox, std::string* detail);
 
-/// Export: ROS map_server files of the home grid ("<stem>.pgm", "<stem>.yaml") or the pose graph as g2o
-/// ("<stem>.g2o"). INVALID_ARGUMENT for another format or an empty map.
+/// Export: ROS map_server files of the home grid ("<stem>.pgm", "<stem>.yaml"), the pose graph as g2o
+/// ("<stem>.g2o"), or the home grid as ValetudoMap JSON ("<stem>.json", WriteValetudoMap) with the dock and
+/// robot of `imported` when given. INVALID_ARGUMENT for another format or an empty map.
 slamcore::Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const slamcore::Map& map, const std::string& format,
-                                                                 const std::string& stem);
+                                                                 const std::string& stem,
+                                                                 const fleet::v1::ImportedMapInfo* imported = nullptr);
 
 }  // namespace analyzer

@@ -88,6 +88,17 @@ struct ValetudoMap {
 slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std::string& source,
                                                const ValetudoLimits& limits = {});
 
+/// Hand-back: `grid` as ValetudoMap JSON (metaData.version 2) that ParseValetudoMap reads back into the same
+/// cells: a floor layer of the free cells and a wall layer of the occupied ones (compressedPixels runs along
+/// x, metaData.area in cm²), pixelSize = the resolution in cm, map pixel (col + left, bottom − row) for grid
+/// cell (col, row) with left = origin_x / s and bottom = −origin_y / s (shifted to keep pixels ≥ 0), and the
+/// dock and robot as charger_location / robot_position entities when given. A grid imported from Valetudo
+/// (10 cells of unknown margin) comes back identical. INVALID_ARGUMENT naming the field when the grid is
+/// empty, has no known cell, a yaw, or a resolution that is not a whole number of centimetres (1–100).
+slamcore::Result<std::string> WriteValetudoMap(const slamcore::OccupancyGrid& grid,
+                                               const std::optional<slamcore::SE2>& dock,
+                                               const std::optional<slamcore::SE2>& robot);
+
 /// Reads and parses a file (see ParseValetudoMap).
 slamcore::Result<ValetudoMap> ReadValetudoMap(const std::string& path, const ValetudoLimits& limits = {});
 

@@ -5,7 +5,8 @@
 //                 built on the current approved map, "stale" when on an older one (the robot is told)
 //   analysis    → OnRunAnalysed: findings from the default set's report; the repair policy may act on them
 //   engineers   → Repair (reject an edge or hypothesis, cut a protrusion, roll back, undo), Review (approve or
-//                 reject a pending version), Export (map_server PGM + YAML, g2o), Import (a map made elsewhere)
+//                 reject a pending version), Export (map_server PGM + YAML, g2o, ValetudoMap JSON), Import (a map
+//                 made elsewhere, compared with the version before it; cut a new region of it, or roll it back)
 //   robots      → Fetch: the current approved version, or "up to date"
 //
 // Every new version is appended with its findings in one transaction that checks the robot's newest version
@@ -36,6 +37,8 @@ struct MapPolicy {
   /// Policy repairs are approved at once (robots get them on their next GetMap) instead of waiting for review.
   bool auto_approve = false;
   std::string default_parameter_set = "default";
+  /// The active version of this model classes the regions of imported maps, as it does runs' regions.
+  std::string model_name = "protrusion";
 };
 
 MapPolicy MapPolicyOf(const FleetdConfig& config);
@@ -92,7 +95,8 @@ class MapHistory {
   storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& run_id, const slamcore::Map& map);
   /// A map made elsewhere becomes the robot's newest version (origin "import", parent: the head version), approved
   /// when `approve`, else pending; the robot is registered when new. INVALID_ARGUMENT names what is wrong with
-  /// the snapshot (it must hold at least one node with a local map).
+  /// the snapshot (it must hold at least one node with a local map). Its findings compare it with the head
+  /// (analyzer::CompareGrids): alignment, new and lost regions.
   storage::Result<fleet::v1::MapVersion> Import(const std::string& robot_id, const fleet::v1::MapSnapshot& snapshot,
                                                 const std::string& source, const std::string& reason, bool approve,
                                                 const std::string& requested_by);
@@ -105,6 +109,19 @@ class MapHistory {
   /// The box of a version's finding that a cut removes; INVALID_ARGUMENT when the finding has none.
   storage::Result<std::array<double, 4>> CutBox(const std::string& robot_id, std::int64_t version,
                                                 std::int64_t finding_id);
+  /// Repairs of a version without a run (an import, or a repair of one): rollback to the map before the
+  /// import, or cut a new region of it back to the previous map's cells.
+  storage::Result<MapVersionDetail> RepairMapOnly(const RepairRequest& request, const storage::MapVersionRecord& base,
+                                                  const std::vector<storage::MapVersionRecord>& versions);
+  /// Appends `repaired` (stored as `snapshot_id`) as the new version of a repair of `base`, with `findings`.
+  storage::Result<MapVersionDetail> AppendRepair(const RepairRequest& request, const storage::MapVersionRecord& base,
+                                                 const slamcore::Map& repaired, const std::string& snapshot_id,
+                                                 const std::string& origin, const std::string& detail,
+                                                 const std::vector<fleet::v1::MapFinding>& findings);
+  /// Findings of a map-only version's `snapshot`: its comparison with `reference` (when there is one).
+  storage::Result<std::vector<fleet::v1::MapFinding>> MapOnlyFindings(const fleet::v1::MapSnapshot& snapshot,
+                                                                     const slamcore::Map& map,
+                                                                     const storage::MapVersionRecord* reference);
 
   storage::Repository& repository_;
   const MapPolicy policy_;
