@@ -38,6 +38,21 @@ storage::Status FleetdConfig::Validate() const {
   return storage::Status::Ok();
 }
 
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> items;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    std::string item = text.substr(start, end - start);
+    item.erase(0, item.find_first_not_of(" \t"));
+    item.erase(item.find_last_not_of(" \t") + 1);
+    if (!item.empty()) items.push_back(item);
+    start = end + 1;
+  }
+  return items;
+}
+
 storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
   std::ifstream in(path);
   if (!in) return storage::NotFound("config: cannot read " + path);
@@ -53,6 +68,8 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"db", [&](const nlohmann::json& v) { config.db = v.get<std::string>(); }},
       {"listen", [&](const nlohmann::json& v) { config.listen = v.get<std::string>(); }},
       {"http", [&](const nlohmann::json& v) { config.http = v.get<std::string>(); }},
+      {"http_allowed_hosts", [&](const nlohmann::json& v) { config.http_allowed_hosts = v.get<std::string>(); }},
+      {"metrics_open", [&](const nlohmann::json& v) { config.metrics_open = v.get<bool>(); }},
       {"role", [&](const nlohmann::json& v) { config.role = v.get<std::string>(); }},
       {"workers", [&](const nlohmann::json& v) { config.workers = v.get<int>(); }},
       {"tls_cert", [&](const nlohmann::json& v) { config.tls_cert = v.get<std::string>(); }},

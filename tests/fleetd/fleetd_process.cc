@@ -94,7 +94,7 @@ std::shared_ptr<grpc::Channel> FleetdProcess::Channel() const {
   return grpc::CreateCustomChannel(grpc_, grpc::InsecureChannelCredentials(), arguments);
 }
 
-int HttpGet(const std::string& address, const std::string& path, std::string* body) {
+int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token) {
   const std::size_t colon = address.rfind(':');
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
@@ -105,7 +105,9 @@ int HttpGet(const std::string& address, const std::string& path, std::string* bo
     close(fd);
     return -1;
   }
-  const std::string request = "GET " + path + " HTTP/1.1\r\nHost: test\r\nConnection: close\r\n\r\n";
+  const std::string request = "GET " + path + " HTTP/1.1\r\nHost: " + address + "\r\n" +
+                              (token.empty() ? "" : "Authorization: Bearer " + token + "\r\n") +
+                              "Connection: close\r\n\r\n";
   if (write(fd, request.data(), request.size()) < 0) {
     close(fd);
     return -1;

@@ -34,8 +34,9 @@ class FleetdProcess {
   std::string grpc_, http_;
 };
 
-/// GET http://address/path; returns the status code and fills body.
-int HttpGet(const std::string& address, const std::string& path, std::string* body);
+/// GET http://address/path (Host: address, with `token` as a bearer token when given); returns the status
+/// code and fills body.
+int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token = "");
 
 /// Small simulated runs (robots × runs of `minutes`), generated once per process and cached.
 const std::vector<fleet::v1::RunFile>& SimulatedRuns();

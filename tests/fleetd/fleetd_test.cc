@@ -705,8 +705,10 @@ TEST_F(FleetdTest, MetricsHealthzAndGrpcHealth) {
   std::string body;
   EXPECT_EQ(HttpGet(server_->http_address(), "/healthz", &body), 200);
   EXPECT_EQ(body, "ok\n");
-  EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body), 404);
-  ASSERT_EQ(HttpGet(server_->http_address(), "/metrics", &body), 200);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body), 401);  // no route enumeration without a token
+  EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body, *engineer_), 404);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/metrics", &body), 401);
+  ASSERT_EQ(HttpGet(server_->http_address(), "/metrics", &body, *engineer_), 200);
   for (const char* series : {"fleetd_ingest_runs_total{outcome=\"stored\"}", "fleetd_ingest_bytes_total",
                              "fleetd_ingest_events_total", "fleetd_rpc_latency_seconds_bucket{method=\"Ingest/UploadRun\"",
                              "fleetd_job_queue_depth{state=\"queued\"}", "fleetd_rpc_total{method=\"Ingest/UploadRun\",code=\"OK\"}"}) {
