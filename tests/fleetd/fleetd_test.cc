@@ -3,6 +3,7 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -533,7 +534,9 @@ TEST_F(FleetdTest, BadUploadsNameTheFieldAndStoreNothing) {
   };
   for (const Case& c : cases) {
     RunFile bad = good;
-    bad.mutable_header()->set_run_id("bad-" + c.name);
+    std::string run_id = "bad-" + c.name;
+    std::replace(run_id.begin(), run_id.end(), ' ', '-');
+    bad.mutable_header()->set_run_id(run_id);
     c.mutate(bad);
     UploadRunResponse response;
     const grpc::Status status = Upload(*ingest_, token, bad, &response);

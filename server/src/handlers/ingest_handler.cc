@@ -34,6 +34,9 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
               where + ": upload exceeds max_run_bytes (" + std::to_string(context_.limits.max_run_bytes) + ")"};
     }
     if (have_child) return InvalidArgument(where + ": nothing may follow child_snapshot");
+    if (auto unknown = analyzer::FindUnknownField(message, where)) {
+      return InvalidArgument(*unknown + ": carries bytes that are no field of fleet.v1 (trailing or unknown data)");
+    }
     if (!have_header && message.part_case() != fleet::v1::UploadRunRequest::kHeader) {
       return InvalidArgument(where + ": the first message must be a header");
     }
