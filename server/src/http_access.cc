@@ -29,7 +29,7 @@ HttpGuard MakeHttpAccessGuard(storage::Repository& repository, Authenticator& au
     HttpResponse refusal;
     const auto header = request.headers.find("authorization");
     const Authenticator::Verdict verdict =
-        authenticator.Authenticate(header == request.headers.end() ? "" : header->second);
+        authenticator.Authenticate(header == request.headers.end() ? "" : header->second, request.peer);
     if (verdict.outcome == Authenticator::Outcome::kUnavailable) return http::Error(503, verdict.message);
     if (verdict.outcome != Authenticator::Outcome::kOk) {
       refusal = http::Error(401, request.path + " needs a token (Authorization: Bearer <principal>.<secret>): " +

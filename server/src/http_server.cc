@@ -249,6 +249,9 @@ class HttpServer::Impl {
       setsockopt(socket.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
       setsockopt(socket.native_handle(), SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
     }
+    beast::error_code peer_error;
+    const auto remote = socket.remote_endpoint(peer_error);
+    const std::string peer = peer_error ? "" : remote.address().to_string();
     beast::flat_buffer buffer;
     while (!stopping_) {
       http::request_parser<http::string_body> parser;
@@ -269,6 +272,7 @@ class HttpServer::Impl {
         request.headers[name] = std::string(field.value());
       }
       request.body = message.body();
+      request.peer = peer;
       auto screened = Screen(request);
       HttpResponse handled = screened ? std::move(*screened) : router_.Handle(request);
       const bool unsafe_header = std::any_of(handled.headers.begin(), handled.headers.end(), [](const auto& header) {

@@ -31,6 +31,7 @@ struct HttpRequest {
   std::string query;   // after '?', undecoded
   std::map<std::string, std::string> headers;  // lowercase names
   std::string body;
+  std::string peer;  // the client's address, without the port
 };
 
 struct HttpResponse {
