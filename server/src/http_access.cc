@@ -32,8 +32,7 @@ HttpGuard MakeHttpAccessGuard(storage::Repository& repository, Authenticator& au
         authenticator.Authenticate(header == request.headers.end() ? "" : header->second, request.peer);
     if (verdict.outcome == Authenticator::Outcome::kUnavailable) return http::Error(503, verdict.message);
     if (verdict.outcome != Authenticator::Outcome::kOk) {
-      refusal = http::Error(401, request.path + " needs a token (Authorization: Bearer <principal>.<secret>): " +
-                                     verdict.message);
+      refusal = http::Error(401, "a token is needed (Authorization: Bearer <principal>.<secret>): " + verdict.message);
       refusal.headers.emplace_back("WWW-Authenticate", "Bearer");
       return refusal;
     }

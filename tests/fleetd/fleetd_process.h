@@ -19,6 +19,7 @@ class FleetdProcess {
   explicit FleetdProcess(std::vector<std::string> extra = {});
   ~FleetdProcess();
   bool ok() const { return pid_ > 0 && !grpc_.empty(); }
+  int pid() const { return pid_; }
   const std::string& grpc_address() const { return grpc_; }
   const std::string& http_address() const { return http_; }
   const std::filesystem::path& directory() const { return directory_; }
