@@ -352,5 +352,32 @@ TEST_F(HostileTest, BytesAfterAValidChildSnapshotAreRefused) {
   ExpectStillServing();
 }
 
+TEST_F(HostileTest, AnEngineersUploadForARobotIsTheirsAndWaitsForReview) {
+  const std::string robot = RobotId(1);
+  std::string before;
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps", &before, *engineer_), 200);
+  const int current = nlohmann::json::parse(before).at("current_version").get<int>();
+  RunFile run = RunOf(1, "hostile-engineer-upload");
+  UploadOptions options;
+  options.send_parent = false;
+  options.parent_id = robots_.at(robot);  // built on the robot's current map
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, *engineer_, run, &response, options);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  std::string body;
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps", &body, *engineer_), 200);
+  const auto history = nlohmann::json::parse(body);
+  bool found = false;
+  for (const auto& version : history.at("versions")) {
+    if (version.at("run_id") != "hostile-engineer-upload") continue;
+    found = true;
+    EXPECT_EQ(version.at("created_by"), "engineer:hostile-test");
+    EXPECT_EQ(version.at("approval"), "pending");
+  }
+  EXPECT_TRUE(found) << body;
+  EXPECT_EQ(history.at("current_version").get<int>(), current) << "the robot's map did not change unreviewed";
+  ExpectStillServing();
+}
+
 }  // namespace
 }  // namespace fleetd_test

@@ -187,7 +187,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
   // The child map becomes a version of the robot's map; also on a retry, in case the first attempt stored the
   // run but failed before this (RecordUpload is idempotent by run id).
-  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map);
+  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map, principal.name);
   if (!map.ok()) return ToGrpc(map.status());
   response->set_run_id(record.run_id);
   response->set_already_present(already);
