@@ -78,6 +78,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--model-name", config.model_name, "classifier model whose active version labels regions")
       ->capture_default_str();
+  app.add_option("--analysis-budget-seconds", config.analysis_budget_seconds,
+                 "longest one run's analysis may take; then its job fails (<= 0: no limit)")
+      ->capture_default_str();
   app.add_option("--lease-seconds", config.lease_seconds, "job lease duration")->capture_default_str();
   app.add_option("--auth-cache-seconds", config.auth_cache_seconds, "verified tokens are cached this long")
       ->capture_default_str();
@@ -140,6 +143,7 @@ int main(int argc, char** argv) {
     gethostname(host, sizeof host - 1);
     options.name = std::string(host) + ":" + std::to_string(::getpid());
     options.lease = std::chrono::seconds(config.lease_seconds);
+    options.analysis_budget_seconds = config.analysis_budget_seconds;
     options.model_name = config.model_name;
     options.map_policy = server::MapPolicyOf(config);
     workers = std::make_unique<server::WorkerPool>(repo, metrics, options);

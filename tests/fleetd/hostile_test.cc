@@ -379,5 +379,34 @@ TEST_F(HostileTest, AnEngineersUploadForARobotIsTheirsAndWaitsForReview) {
   ExpectStillServing();
 }
 
+// A run whose analysis outlasts its budget (here 1 µs) fails with a clear error instead of holding its
+// lease forever; fleetd keeps serving.
+TEST(HostileBudgetTest, AnAnalysisPastItsBudgetFailsWithAClearError) {
+  FleetdProcess server({"--analysis-budget-seconds", "0.000001"});
+  ASSERT_TRUE(server.ok());
+  auto channel = server.Channel();
+  auto ingest = fleet::v1::Ingest::NewStub(channel);
+  auto admin = fleet::v1::Admin::NewStub(channel);
+  const RunFile& run = SimulatedRuns().front();
+  UploadRunResponse response;
+  ASSERT_TRUE(Upload(*ingest, FleetdProcess::AdminToken(), run, &response).ok());
+  std::string body, state;
+  nlohmann::json job;
+  for (int k = 0; k < 240 && state != "failed"; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    ASSERT_EQ(HttpGet(server.http_address(), "/api/jobs?kind=analyze_run", &body, FleetdProcess::AdminToken()), 200);
+    const auto jobs = nlohmann::json::parse(body).at("jobs");
+    if (jobs.empty()) continue;
+    job = jobs.front();
+    state = job.at("state").get<std::string>();
+  }
+  EXPECT_EQ(state, "failed") << job.dump();
+  EXPECT_NE(job.value("last_error", "").find("analysis budget: run " + run.header().run_id() + " took longer than"),
+            std::string::npos)
+      << job.dump();
+  EXPECT_EQ(HttpGet(server.http_address(), "/healthz", &body), 200);
+  EXPECT_EQ(server.Stop(), 0);
+}
+
 }  // namespace
 }  // namespace fleetd_test

@@ -32,7 +32,8 @@ struct FleetdConfig {
   double shutdown_grace_seconds = 20.0;     // SIGTERM: in-flight RPCs and jobs get this long
   std::string default_parameter_set = "default";  // what every upload is analysed with
   std::string model_name = "protrusion";    // the active version of this model classifies regions
-  int lease_seconds = 120;                  // job lease; heartbeats renew it every lease/4
+  int lease_seconds = 120;
+  double analysis_budget_seconds = 600.0;   // one run's analysis; past it the job fails with a clear error                  // job lease; heartbeats renew it every lease/4
   int auth_cache_seconds = 60;
   std::string log_level = "info";
   std::string log_format = "json";          // "json" or "text"
