@@ -5,8 +5,6 @@
 //
 //   auth_flood_bench [--fleetd PATH]     (run by hand; not a timed unit test)
 #include <grpcpp/grpcpp.h>
-#include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,51 +13,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "fleet/v1/service.grpc.pb.h"
+#include "fleetd_child.h"
 
 namespace {
 
 const std::string kAdmin = "admin:bench." + std::string(64, 'a');
-
-struct Fleetd {
-  int pid = -1;
-  std::string grpc;
-  Fleetd(const std::string& binary, const std::filesystem::path& directory) {
-    int out[2];
-    if (pipe(out) != 0) return;
-    pid = fork();
-    if (pid == 0) {
-      dup2(out[1], 1);
-      const std::string log = (directory / "fleetd.log").string();
-      if (freopen(log.c_str(), "w", stderr) == nullptr) _exit(126);
-      setenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN", kAdmin.c_str(), 1);
-      const std::string db = "sqlite:" + (directory / "fleet.db").string();
-      execl(binary.c_str(), binary.c_str(), "--db", db.c_str(), "--listen", "127.0.0.1:0", "--http", "",
-            "--workers", "1", "--rate-limit", "0", static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    close(out[1]);
-    std::string line;
-    char c;
-    while (read(out[0], &c, 1) == 1 && c != '\n') line += c;
-    close(out[0]);
-    try {
-      grpc = nlohmann::json::parse(line).at("grpc").get<std::string>();
-    } catch (const std::exception&) {
-    }
-  }
-  ~Fleetd() {
-    if (pid > 0) {
-      kill(pid, SIGTERM);
-      waitpid(pid, nullptr, 0);
-    }
-  }
-};
 
 std::unique_ptr<grpc::ClientContext> Context(const std::string& token) {
   auto context = std::make_unique<grpc::ClientContext>();
@@ -108,7 +71,7 @@ int main(int argc, char** argv) {
   const std::filesystem::path directory = mkdtemp(pattern);
   int exit_code = 0;
   {
-    Fleetd fleetd(binary, directory);
+    bench::FleetdChild fleetd(binary, directory, kAdmin, {"--workers", "1", "--rate-limit", "0"});
     if (fleetd.grpc.empty()) {
       std::fprintf(stderr, "fleetd did not start (log in %s)\n", directory.c_str());
       return 1;

@@ -39,6 +39,14 @@ class FleetdProcess {
 /// code and fills body.
 int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token = "");
 
+/// Sends `request` as is to `address` (IPv4 host:port) and returns the whole response ("" when it failed).
+std::string HttpRaw(const std::string& address, const std::string& request);
+
+/// A new token for `principal` ("engineer:alice", "robot:r1"), minted with the bootstrap admin token.
+std::string IssueToken(fleet::v1::Admin::Stub& admin, const std::string& principal);
+/// How many runs Queries.ListRuns shows `token` (one page of up to 1000).
+int CountRuns(fleet::v1::Queries::Stub& queries, const std::string& token);
+
 /// Small simulated runs (robots × runs of `minutes`), generated once per process and cached.
 const std::vector<fleet::v1::RunFile>& SimulatedRuns();
 

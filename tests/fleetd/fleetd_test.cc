@@ -45,15 +45,7 @@ class FleetdTest : public ::testing::Test {
     delete engineer_;
   }
 
-  static std::string Token(const std::string& principal) {
-    fleet::v1::SetCredentialRequest request;
-    request.set_principal(principal);
-    fleet::v1::SetCredentialResponse response;
-    auto context = Context(FleetdProcess::AdminToken());
-    const grpc::Status status = admin_->SetCredential(context.get(), request, &response);
-    EXPECT_TRUE(status.ok()) << status.error_message();
-    return response.token();
-  }
+  static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
   static std::string RobotToken(const std::string& robot_id) {
     static std::map<std::string, std::string> tokens;
     auto [it, inserted] = tokens.try_emplace(robot_id);
@@ -89,14 +81,7 @@ class FleetdTest : public ::testing::Test {
     }
     return status;
   }
-  static int CountRuns() {
-    fleet::v1::ListRunsRequest request;
-    request.set_page_size(1000);
-    fleet::v1::ListRunsResponse response;
-    auto context = Context(*engineer_);
-    EXPECT_TRUE(queries_->ListRuns(context.get(), request, &response).ok());
-    return response.runs_size();
-  }
+  static int CountRuns() { return fleetd_test::CountRuns(*queries_, *engineer_); }
 
   static FleetdProcess* server_;
   static fleet::v1::Ingest::Stub* ingest_;

@@ -1,11 +1,8 @@
 // Hostile clients against a real fleetd on loopback (issue 16): one test per confirmed attack. Each asserts
 // the status code, that nothing was stored or leaked, that fleetd stayed up and answered a legitimate
 // request meanwhile, and records fleetd's peak RSS (VmHWM) as a test property.
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -25,26 +22,6 @@ namespace {
 
 using fleet::v1::RunFile;
 using fleet::v1::UploadRunResponse;
-
-/// Sends `request` as is to `address` and returns the whole response ("" when the connection failed).
-std::string RawHttp(const std::string& address, const std::string& request) {
-  const std::size_t colon = address.rfind(':');
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(std::stoi(address.substr(colon + 1))));
-  inet_pton(AF_INET, address.substr(0, colon).c_str(), &addr.sin_addr);
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
-      write(fd, request.data(), request.size()) < 0) {
-    close(fd);
-    return "";
-  }
-  std::string response;
-  char buffer[4096];
-  for (ssize_t n; (n = read(fd, buffer, sizeof buffer)) > 0;) response.append(buffer, static_cast<std::size_t>(n));
-  close(fd);
-  return response;
-}
 
 int StatusOf(const std::string& response) {
   return response.size() > 12 ? std::stoi(response.substr(9, 3)) : -1;
@@ -82,29 +59,14 @@ class HostileTest : public ::testing::Test {
     delete engineer_;
   }
 
-  static std::string Token(const std::string& principal) {
-    fleet::v1::SetCredentialRequest request;
-    request.set_principal(principal);
-    fleet::v1::SetCredentialResponse response;
-    auto context = Context(FleetdProcess::AdminToken());
-    const grpc::Status status = admin_->SetCredential(context.get(), request, &response);
-    EXPECT_TRUE(status.ok()) << status.error_message();
-    return response.token();
-  }
+  static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
   static std::string RobotToken(const std::string& robot_id) {
     static std::map<std::string, std::string> tokens;
     auto [it, inserted] = tokens.try_emplace(robot_id);
     if (inserted) it->second = Token("robot:" + robot_id);
     return it->second;
   }
-  static int CountRuns() {
-    fleet::v1::ListRunsRequest request;
-    request.set_page_size(1000);
-    fleet::v1::ListRunsResponse response;
-    auto context = Context(*engineer_);
-    EXPECT_TRUE(queries_->ListRuns(context.get(), request, &response).ok());
-    return response.runs_size();
-  }
+  static int CountRuns() { return fleetd_test::CountRuns(*queries_, *engineer_); }
   /// A run of robot `index` (0 or 1) from the simulation, with a fresh run id.
   static RunFile RunOf(int index, const std::string& run_id) {
     auto it = robots_.begin();
@@ -187,23 +149,23 @@ TEST_F(HostileTest, ForeignHostAndCrossOriginWritesAreRefused) {
   const std::string& address = server_->http_address();
   const std::string auth = "Authorization: Bearer " + *engineer_ + "\r\n";
   // DNS rebinding: a page on attacker.example resolved to 127.0.0.1 sends its own name as Host.
-  std::string response = RawHttp(address, "GET /api/robots HTTP/1.1\r\nHost: attacker.example:" +
+  std::string response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\nHost: attacker.example:" +
                                                address.substr(address.rfind(':') + 1) + "\r\n" + auth +
                                                "Connection: close\r\n\r\n");
   EXPECT_EQ(StatusOf(response), 421) << response;
   EXPECT_EQ(response.find(RobotId(0)), std::string::npos);
-  response = RawHttp(address, "GET /api/robots HTTP/1.1\r\n" + auth + "Connection: close\r\n\r\n");  // no Host
+  response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\n" + auth + "Connection: close\r\n\r\n");  // no Host
   EXPECT_GE(StatusOf(response), 400) << response;
   EXPECT_LT(StatusOf(response), 500) << response;
   EXPECT_EQ(response.find(RobotId(0)), std::string::npos);
   // A write from another origin, even with a valid token, is refused before it runs.
   const std::string body = R"({"action": "rollback", "reason": "cross-site"})";
-  response = RawHttp(address, "POST /api/robots/" + RobotId(0) + "/maps/current/review HTTP/1.1\r\nHost: " + address +
+  response = HttpRaw(address, "POST /api/robots/" + RobotId(0) + "/maps/current/review HTTP/1.1\r\nHost: " + address +
                                   "\r\n" + auth + "Origin: http://attacker.example\r\nContent-Length: " +
                                   std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body);
   EXPECT_EQ(StatusOf(response), 403) << response;
   // Security headers on every answer, no-store on the API.
-  response = RawHttp(address, "GET /api/robots HTTP/1.1\r\nHost: " + address + "\r\n" + auth + "Connection: close\r\n\r\n");
+  response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\nHost: " + address + "\r\n" + auth + "Connection: close\r\n\r\n");
   EXPECT_EQ(StatusOf(response), 200);
   for (const char* header : {"Content-Security-Policy: default-src 'self'", "X-Content-Type-Options: nosniff",
                              "X-Frame-Options: DENY", "Referrer-Policy: no-referrer", "Cache-Control: no-store"}) {
@@ -331,7 +293,7 @@ TEST_F(HostileTest, HeaderInjectionThroughARobotIdIsRefused) {
   EXPECT_EQ(CountRuns(), before);
   // Nor does an id in a URL come back as a header line.
   const std::string& address = server_->http_address();
-  const std::string answer = RawHttp(address, "GET /api/robots/x%0d%0aSet-Cookie:%20a=b/maps/current/export/map.yaml "
+  const std::string answer = HttpRaw(address, "GET /api/robots/x%0d%0aSet-Cookie:%20a=b/maps/current/export/map.yaml "
                                               "HTTP/1.1\r\nHost: " + address + "\r\nAuthorization: Bearer " +
                                               *engineer_ + "\r\nConnection: close\r\n\r\n");
   EXPECT_GE(StatusOf(answer), 400) << answer;
