@@ -61,7 +61,7 @@ class HttpRouter {
 };
 
 struct HttpServerOptions {
-  /// Host names (or host:port) accepted in the Host header besides the bound address; "localhost" and the
+  /// Host names (or host:port) accepted in the Host header besides the bound address and "localhost"; the
   /// loopback addresses are accepted on a loopback binding, any IP literal on a wildcard (0.0.0.0) binding.
   std::vector<std::string> allowed_hosts;
   int max_connections = 256;        // more are closed at once
