@@ -1,30 +1,36 @@
-// The hypothesis filter against seeded wrong loop closures on real pose graphs (issue: precision ≥ 99 %,
-// recall ≥ 95 % of accepted loop closures; trajectory error close to the outlier-free solution). The full
-// table over more graphs, modes and seeds is bench/filter_accuracy (README "Measured").
+// The hypothesis filter against seeded wrong loop closures on real pose graphs (precision ≥ 99 %, recall ≥ 95 %
+// of accepted loop closures; trajectory error within 5 % of the outlier-free replay), including correlated
+// wrong closures: groups of consecutive pairs with one wrong measurement, groups of 1–20, half single and half
+// grouped, groups that arrive before the region's first true loop closure, and look-alikes that repeat a true
+// closure a few metres away (a generator held out of all tuning). Seed 7 is outside the seeds
+// the filter's defaults were chosen on (1–3). The graphs of data/ always run; the others need the larger data
+// set and are skipped with the reason without it. The full table is bench/filter_accuracy (README "Measured").
 #include <gtest/gtest.h>
 
 #include "filter_evaluation.h"
+#include "test_data.h"
 
 namespace {
 
-const std::filesystem::path kGraphs = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
-
 struct AccuracyCase {
-  const char* graph;
+  const char* graph;  // under posegraphs/
   const char* truth;
-  slamcore::OutlierOptions::Mode mode;
+  const char* mode;   // bench::OutlierCase: random, local, grouped, variable, mixed, first, shifted
+  double fraction;    // wrong edges per true loop closure
 };
 
 class FilterAccuracyTest : public ::testing::TestWithParam<AccuracyCase> {};
 
 TEST_P(FilterAccuracyTest, RejectsWrongLoopClosuresAndKeepsTrueOnes) {
-  bench::FilterCase test_case{GetParam().graph, GetParam().truth, {}};
-  test_case.outliers.mode = GetParam().mode;
-  test_case.outliers.count = 100;
+  const auto graph = test_data::Find(std::string("posegraphs/") + GetParam().graph);
+  if (!graph) GTEST_SKIP() << "needs posegraphs/" << GetParam().graph << " (the larger data set, ../shared/data)";
+  const std::filesystem::path graphs = graph->parent_path().parent_path();
+  bench::FilterCase test_case{GetParam().graph, GetParam().truth, bench::OutlierCase(GetParam().mode)};
+  test_case.fraction = GetParam().fraction;
   test_case.outliers.seed = 7;
-  const auto outcome = bench::EvaluateFilter(kGraphs, test_case);
+  const auto outcome = bench::EvaluateFilter(graphs, test_case);
   ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
-  EXPECT_EQ(outcome->score.wrong_total, 100);
+  EXPECT_GT(outcome->score.wrong_total, 0);
   EXPECT_GE(outcome->score.Precision(), 0.99) << outcome->score.wrong_accepted << " wrong accepted";
   EXPECT_GE(outcome->score.Recall(), 0.95) << outcome->score.true_accepted << " of " << outcome->score.true_total;
   if (outcome->replay_rmse) {
@@ -37,16 +43,28 @@ TEST_P(FilterAccuracyTest, RejectsWrongLoopClosuresAndKeepsTrueOnes) {
 INSTANTIATE_TEST_SUITE_P(
     RealGraphs, FilterAccuracyTest,
     ::testing::Values(
+        // data/: always run.
+        AccuracyCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", "random", 1.0},
+        AccuracyCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", "grouped", 1.0},
+        AccuracyCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", "first", 1.0},
+        AccuracyCase{"vertigo/intel.g2o", "", "random", 1.0},
+        AccuracyCase{"vertigo/intel.g2o", "", "local", 1.0},
+        AccuracyCase{"vertigo/intel.g2o", "", "variable", 1.0},
+        AccuracyCase{"vertigo/intel.g2o", "", "first", 0.5},
+        AccuracyCase{"sesync/CSAIL.g2o", "", "grouped", 1.0},
+        AccuracyCase{"sesync/CSAIL.g2o", "", "mixed", 1.0},
+        // Held out of all tuning: look-alikes that repeat a true closure a few metres away.
+        AccuracyCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", "shifted", 1.0},
+        AccuracyCase{"vertigo/intel.g2o", "", "shifted", 1.0},
+        // The larger data set.
+        AccuracyCase{"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat", "random",
+                     0.5},
         AccuracyCase{"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat",
-                     slamcore::OutlierOptions::Mode::kRandom},
-        AccuracyCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt",
-                     slamcore::OutlierOptions::Mode::kLocal},
-        AccuracyCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", slamcore::OutlierOptions::Mode::kRandom},
-        AccuracyCase{"vertigo/intel.g2o", "", slamcore::OutlierOptions::Mode::kRandom},
-        AccuracyCase{"vertigo/intel.g2o", "", slamcore::OutlierOptions::Mode::kLocal}),
+                     "grouped", 0.5},
+        AccuracyCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt", "local", 1.0}),
     [](const auto& test_case) {
-      std::string name = std::filesystem::path(test_case.param.graph).stem().string() +
-                         (test_case.param.mode == slamcore::OutlierOptions::Mode::kLocal ? "_local" : "_random");
+      std::string name = std::filesystem::path(test_case.param.graph).stem().string() + "_" + test_case.param.mode +
+                         "_" + std::to_string(static_cast<int>(100 * test_case.param.fraction));
       for (char& c : name) {
         if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
       }

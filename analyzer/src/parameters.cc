@@ -27,6 +27,23 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   proto.set_optimize_after_accept(params.optimize_after_accept);
   proto.set_local_window_nodes(params.local_window_nodes);
   proto.set_full_optimization_every(params.full_optimization_every);
+  const slamcore::ConsistencyParams& c = params.consistency;
+  fleet::v1::ConsistencyParameters* consistency = proto.mutable_consistency();
+  consistency->set_enabled(c.enabled);
+  consistency->set_pass_gap_seconds(c.pass_gap_seconds);
+  consistency->set_pass_gap_distance(c.pass_gap_distance);
+  consistency->set_map_gate_chi2(c.map_gate_chi2);
+  consistency->set_min_redundancy_for_scaling(c.min_redundancy_for_scaling);
+  consistency->set_min_variance_factor(c.min_variance_factor);
+  consistency->set_aliasing_offset(c.aliasing_offset);
+  consistency->set_min_passes_uninformative(c.min_passes_uninformative);
+  consistency->set_min_passes_against_map(c.min_passes_against_map);
+  consistency->set_verify_after_optimization(c.verify_after_optimization);
+  consistency->set_retraction_confidence(c.retraction_confidence);
+  consistency->set_max_open_hypotheses(c.max_open_hypotheses);
+  consistency->set_max_continuation_edges(c.max_continuation_edges);
+  consistency->set_max_judged_per_check(c.max_judged_per_check);
+  consistency->set_max_retractions_per_check(c.max_retractions_per_check);
   return proto;
 }
 
@@ -52,6 +69,23 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   if (proto.has_optimize_after_accept()) params.optimize_after_accept = proto.optimize_after_accept();
   if (proto.has_local_window_nodes()) params.local_window_nodes = proto.local_window_nodes();
   if (proto.has_full_optimization_every()) params.full_optimization_every = proto.full_optimization_every();
+  const fleet::v1::ConsistencyParameters& from = proto.consistency();
+  slamcore::ConsistencyParams& c = params.consistency;
+  if (from.has_enabled()) c.enabled = from.enabled();
+  if (from.has_pass_gap_seconds()) c.pass_gap_seconds = from.pass_gap_seconds();
+  if (from.has_pass_gap_distance()) c.pass_gap_distance = from.pass_gap_distance();
+  if (from.has_map_gate_chi2()) c.map_gate_chi2 = from.map_gate_chi2();
+  if (from.has_min_redundancy_for_scaling()) c.min_redundancy_for_scaling = from.min_redundancy_for_scaling();
+  if (from.has_min_variance_factor()) c.min_variance_factor = from.min_variance_factor();
+  if (from.has_aliasing_offset()) c.aliasing_offset = from.aliasing_offset();
+  if (from.has_min_passes_uninformative()) c.min_passes_uninformative = from.min_passes_uninformative();
+  if (from.has_min_passes_against_map()) c.min_passes_against_map = from.min_passes_against_map();
+  if (from.has_verify_after_optimization()) c.verify_after_optimization = from.verify_after_optimization();
+  if (from.has_retraction_confidence()) c.retraction_confidence = from.retraction_confidence();
+  if (from.has_max_open_hypotheses()) c.max_open_hypotheses = from.max_open_hypotheses();
+  if (from.has_max_continuation_edges()) c.max_continuation_edges = from.max_continuation_edges();
+  if (from.has_max_judged_per_check()) c.max_judged_per_check = from.max_judged_per_check();
+  if (from.has_max_retractions_per_check()) c.max_retractions_per_check = from.max_retractions_per_check();
   if (const slamcore::Status status = params.Validate(); !status.ok()) return status;
   return params;
 }

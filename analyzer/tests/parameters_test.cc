@@ -30,6 +30,26 @@ TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
   EXPECT_EQ(params->recovery.min_views, slamcore::MapperParams().recovery.min_views);
 }
 
+TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
+  // A what-if parameter set: the paper's filter alone, or other caps.
+  const auto off = ParseParameterSetJson(R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2}})", "off.json");
+  ASSERT_TRUE(off.ok()) << off.status().ToString();
+  const auto params = FromProto(off->mapper());
+  ASSERT_TRUE(params.ok());
+  EXPECT_FALSE(params->consistency.enabled);
+  EXPECT_EQ(params->consistency.min_passes_against_map, 2);
+  EXPECT_EQ(params->consistency.max_open_hypotheses, slamcore::ConsistencyParams().max_open_hypotheses);
+  const auto round_trip = FromProto(ToProto(*params));
+  ASSERT_TRUE(round_trip.ok());
+  EXPECT_EQ(round_trip->consistency.min_passes_against_map, 2);
+  EXPECT_FALSE(round_trip->consistency.enabled);
+  // Unbounded caps are refused, naming the field.
+  const auto unbounded = ParseParameterSetJson(R"({"consistency": {"maxOpenHypotheses": 2147483647}})", "cap.json");
+  ASSERT_FALSE(unbounded.ok());
+  EXPECT_NE(unbounded.status().message().find("consistency.max_open_hypotheses"), std::string::npos)
+      << unbounded.status().message();
+}
+
 TEST(ParametersTest, BareMapperObjectIsAccepted) {
   const auto set = ParseParameterSetJson(R"({"gate_chi2": 9.0})", "bare.json");
   ASSERT_TRUE(set.ok()) << set.status().ToString();

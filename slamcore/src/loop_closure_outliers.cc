@@ -33,7 +33,8 @@ Result<OutlierOptions::Mode> ParseOutlierMode(const std::string& name) {
   if (name == "random") return OutlierOptions::Mode::kRandom;
   if (name == "local") return OutlierOptions::Mode::kLocal;
   if (name == "first") return OutlierOptions::Mode::kFirst;
-  return InvalidArgument("outlier mode '" + name + "': expected random, local or first");
+  if (name == "shifted") return OutlierOptions::Mode::kShifted;
+  return InvalidArgument("outlier mode '" + name + "': expected random, local, first or shifted");
 }
 
 int CountLoopClosures(const PoseGraph& graph) {
@@ -70,6 +71,16 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::bernoulli_distribution single(options.single_fraction);
   const std::vector<long> first_closure =
       options.mode == OutlierOptions::Mode::kFirst ? FirstClosureNear(graph, ids, largest_group) : std::vector<long>{};
+  std::vector<const Edge*> true_closures;  // for kShifted
+  for (const Edge& edge : graph.edges()) {
+    if (edge.kind == EdgeKind::kObservation && !IsOdometry(edge)) true_closures.push_back(&edge);
+  }
+  std::map<NodeId, long> index_of;
+  for (std::size_t k = 0; k < ids.size(); ++k) index_of.emplace(ids[k], static_cast<long>(k));
+  if (true_closures.empty()) return InvalidArgument("the graph has no loop closure to shift");
+  std::uniform_int_distribution<std::size_t> any_closure(0, true_closures.size() - 1);
+  std::uniform_int_distribution<long> shift(3, 10);
+  std::bernoulli_distribution backwards(0.5);
 
   CorruptedGraph corrupted{graph, {}};
   const auto enough = [&](int groups) {
@@ -92,6 +103,7 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
         if (v2 == v1) v2 = v1 - 2;  // v1 is the last usable vertex: look back instead
         break;
       }
+      case OutlierOptions::Mode::kShifted: break;  // placed below, from a true loop closure
       case OutlierOptions::Mode::kFirst: {
         // The whole group's robot end before the first true closure near v1; retry v1 where there is no room.
         for (int attempt = 0; attempt < 1000; ++attempt) {
@@ -109,7 +121,20 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
     }
     if (v2 < v1) std::swap(v1, v2);
     if (v2 == v1 + 1) v2 = v1 + 2;  // never an odometry pair
-    const SE2 measurement(translation(random), translation(random), rotation(random));
+    SE2 measurement(translation(random), translation(random), rotation(random));
+    if (options.mode == OutlierOptions::Mode::kShifted) {
+      // The true closure's appearance at the wrong place: its measurement, its first end moved by s.
+      bool placed = false;
+      for (int attempt = 0; attempt < 1000 && !placed; ++attempt) {
+        const Edge& closure = *true_closures[any_closure(random)];
+        const long s = backwards(random) ? -shift(random) : shift(random);
+        v1 = index_of.at(closure.from) + s;
+        v2 = index_of.at(closure.to);
+        measurement = closure.measurement;
+        placed = v1 >= 0 && v1 <= last && v2 >= 0 && v2 <= last && std::abs(v2 - v1) >= 2;
+      }
+      if (!placed) return InvalidArgument("no true loop closure leaves room for a shifted group");
+    }
     for (int k = 0; k < size; ++k) {
       Edge edge;
       edge.from = ids[static_cast<std::size_t>(v1 + k)];

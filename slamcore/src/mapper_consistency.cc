@@ -10,17 +10,21 @@
 //    the robot believed it), so they share its fate.
 //  * The joint test against the map. When a recovery hypothesis meets the counts, its state G ≈ robot_T_ref
 //    is tested against the map's own prediction with the marginal covariance of the relative pose between
-//    the robot and the reference node (marginal_covariance.h): χ² ≤ map_gate_chi2. Consistent: accepted.
-//    The test is *informative* when an aliasing offset of `aliasing_offset` metres, in the direction the
-//    combined uncertainty is largest, would have failed it; a consistent but uninformative hypothesis waits
-//    for min_passes_uninformative passes. An inconsistent one with min_passes_against_map passes is
-//    accepted (independent traversals overrule the map: a robot whose wheels slipped comes back again).
-//  * Conflict resolution and retraction. An inconsistent hypothesis with fewer passes is accepted on
-//    trial: its edges join G, the component is optimised, and the leave-one-out test below judges it and
-//    the accepted recovery hypotheses whose edges fit worst. While the worst fails, it is removed: when
-//    that is the newcomer, G is restored exactly (poses included) and the hypothesis stays open, waiting
-//    for another pass; when it is an earlier acceptance, that one is *retracted* — its edges leave G, the
-//    decision log records kRetracted with the reason, and the component is re-optimised.
+//    the robot and the reference node (marginal_covariance.h), scaled by the component's a-posteriori
+//    variance factor once it has redundancy (declared odometry noise is often far above the noise met):
+//    χ² ≤ map_gate_chi2. The test is *informative* when an aliasing offset of `aliasing_offset` metres, in
+//    the direction the combined uncertainty is largest, would have failed it. Consistent and informative:
+//    accepted. Consistent but uninformative: accepted after min_passes_uninformative passes, and verified.
+//    Inconsistent: it waits for min_passes_against_map independent passes, which then overrule the map (a
+//    robot whose wheels slipped does come back to the same place).
+//  * Verification and retraction. After an acceptance that the map test did not confirm, the component is
+//    optimised with the newcomer's edges and the leave-one-out test below judges the newcomer and the
+//    earlier acceptances whose edges now fit worst (RRR's rule: while one fails, the one with the largest
+//    normalised error goes). When that is the newcomer, G is restored exactly (poses included) and the
+//    hypothesis stays open until another pass; when it is an earlier acceptance, that one is *retracted* —
+//    its edges leave G, the decision log records kRetracted with the reason, and the component is
+//    re-optimised. A newcomer accepted on passes against the map is never refused, only what it
+//    contradicts is retracted.
 //
 // The leave-one-out test of a hypothesis W: with its stacked edge residuals r at the optimum, the joint
 // covariance P of the nodes they touch and the edges' Jacobians J, d² = rᵀ (Σ_z − J P Jᵀ)⁺ r is the χ² of
@@ -31,8 +35,10 @@
 // retraction_confidence for the kept degrees of freedom.
 //
 // Costs: a factorisation of the component's information matrix when observation edges changed since the
-// last test; six sparse solves per map test; per trial one optimisation, one factorisation and 3 solves
-// per node of the judged hypotheses (at most max_judged_per_trial of them). Open hypotheses are capped.
+// last test; six sparse solves per map test; per verification a copy of G, one factorisation and 3 solves
+// per node of the judged hypotheses (at most max_judged_per_check of them, each with at most its own edges
+// and max_continuation_edges), plus one optimisation per retraction (at most max_retractions_per_check).
+// Open hypotheses are capped at max_open_hypotheses.
 #include <algorithm>
 #include <sstream>
 #include <unordered_map>
@@ -181,7 +187,7 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
   for (int round = 0; round <= params_.consistency.max_retractions_per_check; ++round) {
     std::int64_t worst = -1;
     double worst_ratio = 1.0;
-    std::vector<std::int64_t> judged = WorstFittingAccepted(params_.consistency.max_judged_per_trial);
+    std::vector<std::int64_t> judged = WorstFittingAccepted(params_.consistency.max_judged_per_check);
     if (may_refuse) judged.push_back(hypothesis_id);
     for (const std::int64_t id : judged) {
       const std::optional<double> ratio = LeaveOneOutRatio(id);

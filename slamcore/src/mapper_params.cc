@@ -42,6 +42,34 @@ Status CheckCriteria(const std::string& name, const AcceptanceCriteria& criteria
   return Status::Ok();
 }
 
+/// A value within [low, high] (finite); the message names the field and the range.
+template <typename T>
+Status CheckRange(const char* field, T value, T low, T high) {
+  if (std::isfinite(static_cast<double>(value)) && value >= low && value <= high) return Status::Ok();
+  std::ostringstream requirement;
+  requirement << "must lie in [" << low << ", " << high << "]";
+  return InvalidArgument(Describe(field, static_cast<double>(value), requirement.str().c_str()));
+}
+
+/// The bounds keep every check's cost bounded too: caps on open hypotheses, judged hypotheses and
+/// continuation edges are what the per-observation work is proportional to.
+Status ValidateConsistency(const ConsistencyParams& c) {
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.pass_gap_seconds", c.pass_gap_seconds, 1e-3, 3600.0));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.pass_gap_distance", c.pass_gap_distance, 1e-3, 1000.0));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.map_gate_chi2", c.map_gate_chi2, 1e-3, 1e6));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_redundancy_for_scaling", c.min_redundancy_for_scaling, 0, 1 << 30));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_variance_factor", c.min_variance_factor, 1e-6, 1.0));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.aliasing_offset", c.aliasing_offset, 1e-3, 1000.0));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_passes_uninformative", c.min_passes_uninformative, 1, 100));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_passes_against_map", c.min_passes_against_map, 1, 100));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.retraction_confidence", c.retraction_confidence, 0.5, 0.999999));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_open_hypotheses", c.max_open_hypotheses, 1, 10000));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_continuation_edges", c.max_continuation_edges, 0, 1000));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_judged_per_check", c.max_judged_per_check, 1, 100));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_retractions_per_check", c.max_retractions_per_check, 0, 100));
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status MapperParams::Validate() const {
@@ -70,23 +98,7 @@ Status MapperParams::Validate() const {
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance, MapperParamsLimits::kMaxMeters));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance, MapperParamsLimits::kMaxMeters));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("ambiguity_min_rejections", ambiguity_min_rejections));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.pass_gap_seconds", consistency.pass_gap_seconds, MapperParamsLimits::kMaxSeconds));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.pass_gap_distance", consistency.pass_gap_distance, MapperParamsLimits::kMaxMeters));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.map_gate_chi2", consistency.map_gate_chi2, MapperParamsLimits::kMaxChi2));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("consistency.aliasing_offset", consistency.aliasing_offset, MapperParamsLimits::kMaxMeters));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.min_passes_uninformative", consistency.min_passes_uninformative));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.min_passes_against_map", consistency.min_passes_against_map));
-  if (!(consistency.retraction_confidence > 0.5 && consistency.retraction_confidence < 1.0)) {
-    return InvalidArgument(Describe("consistency.retraction_confidence", consistency.retraction_confidence,
-                                    "must lie in (0.5, 1)"));
-  }
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.max_judged_per_trial", consistency.max_judged_per_trial));
-  if (consistency.max_continuation_edges < 0 || consistency.max_continuation_edges > MapperParamsLimits::kMaxCount) {
-    return InvalidArgument(Describe("consistency.max_continuation_edges", consistency.max_continuation_edges,
-                                    ("must be in [0, " + std::to_string(MapperParamsLimits::kMaxCount) + "]").c_str()));
-  }
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.max_open_hypotheses", consistency.max_open_hypotheses));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("consistency.max_retractions_per_check", consistency.max_retractions_per_check));
+  SLAMCORE_RETURN_IF_ERROR(ValidateConsistency(consistency));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("optimizer.max_iterations", optimizer.max_iterations,
                                               MapperParamsLimits::kMaxIterations));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("optimizer.num_threads", optimizer.num_threads,

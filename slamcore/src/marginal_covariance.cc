@@ -77,19 +77,65 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
 }
 
 Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) const {
+  // With P H Pᵀ = L D Lᵀ, the blocks asked for are Eᵀ H⁻¹ E = Yᵀ D⁻¹ Y with Y = L⁻¹ P E. A column of Y,
+  // L⁻¹ e_p, is nonzero only on the elimination tree's path from p to the root (the parent of column j is
+  // its first row below the diagonal), so forward substitution walks that path alone, and two columns
+  // meet only where their paths join (Davis, "Direct Methods for Sparse Linear Systems", SIAM 2006, §4.1).
+  const Eigen::SparseMatrix<double>& lower = factor_->ldlt.matrixL().nestedExpression();
+  const Eigen::VectorXd& diagonal = factor_->ldlt.vectorD();
+  const auto& permutation = factor_->ldlt.permutationP().indices();
+  struct PathColumn {
+    std::vector<int> rows;  // ascending
+    std::vector<double> values;
+  };
+  std::vector<double> scratch(static_cast<std::size_t>(factor_->size), 0.0);
+  const auto solve_unit = [&](int start) {
+    PathColumn column;
+    scratch[static_cast<std::size_t>(start)] = 1.0;
+    for (int j = start; j >= 0;) {
+      const double value = scratch[static_cast<std::size_t>(j)];
+      scratch[static_cast<std::size_t>(j)] = 0.0;
+      column.rows.push_back(j);
+      column.values.push_back(value);
+      int parent = -1;
+      for (Eigen::SparseMatrix<double>::InnerIterator entry(lower, j); entry; ++entry) {
+        const int row = static_cast<int>(entry.row());
+        if (row <= j) continue;  // the unit diagonal
+        if (parent < 0 || row < parent) parent = row;
+        scratch[static_cast<std::size_t>(row)] -= entry.value() * value;
+      }
+      j = parent;
+    }
+    return column;
+  };
+
   const int k = static_cast<int>(nodes.size());
-  std::vector<int> index(nodes.size());
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(factor_->size, 3 * k);
+  std::vector<PathColumn> columns(static_cast<std::size_t>(3 * k));
   for (int n = 0; n < k; ++n) {
-    index[static_cast<std::size_t>(n)] = index_.at(nodes[static_cast<std::size_t>(n)]);
-    if (index[static_cast<std::size_t>(n)] >= 0) rhs.block<3, 3>(index[static_cast<std::size_t>(n)], 3 * n).setIdentity();
+    const int index = index_.at(nodes[static_cast<std::size_t>(n)]);
+    if (index < 0) continue;  // the gauge node: held, zero covariance
+    for (int axis = 0; axis < 3; ++axis) columns[static_cast<std::size_t>(3 * n + axis)] = solve_unit(permutation(index + axis));
   }
-  const Eigen::MatrixXd solution = factor_->ldlt.solve(rhs);
   Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(3 * k, 3 * k);
-  for (int n = 0; n < k; ++n) {
-    if (index[static_cast<std::size_t>(n)] >= 0) joint.middleRows(3 * n, 3) = solution.middleRows(index[static_cast<std::size_t>(n)], 3);
+  for (int a = 0; a < 3 * k; ++a) {
+    const PathColumn& first = columns[static_cast<std::size_t>(a)];
+    for (int b = a; b < 3 * k; ++b) {
+      const PathColumn& second = columns[static_cast<std::size_t>(b)];
+      double sum = 0.0;
+      for (std::size_t i = 0, j = 0; i < first.rows.size() && j < second.rows.size();) {
+        if (first.rows[i] < second.rows[j]) {
+          ++i;
+        } else if (second.rows[j] < first.rows[i]) {
+          ++j;
+        } else {
+          sum += first.values[i] * second.values[j] / diagonal(first.rows[i]);
+          ++i, ++j;
+        }
+      }
+      joint(a, b) = joint(b, a) = sum;
+    }
   }
-  return 0.5 * (joint + joint.transpose());
+  return joint;
 }
 
 PoseGaussian MarginalCovariances::Relative(NodeId a, NodeId b) const {

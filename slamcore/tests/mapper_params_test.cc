@@ -52,7 +52,7 @@ TEST(MapperParamsTest, EveryBadFieldIsNamedWithItsValue) {
       {"full_optimization_every", [](MapperParams& p) { p.full_optimization_every = 1000001; }, "[1, 1000000]"},
       {"gate_chi2", [](MapperParams& p) { p.gate_chi2 = 1e6; }, "at most 1000"},
       {"recovery.min_observations", [](MapperParams& p) { p.recovery.min_observations = 5000; }, "[1, 1000]"},
-      {"consistency.max_open_hypotheses", [](MapperParams& p) { p.consistency.max_open_hypotheses = 100000; }, "[1, 1000]"},
+      {"consistency.max_open_hypotheses", [](MapperParams& p) { p.consistency.max_open_hypotheses = 100000; }, "[1, 10000]"},
       {"optimizer.max_iterations", [](MapperParams& p) { p.optimizer.max_iterations = 100000; }, "[1, 1000]"},
   };
   for (const BadField& bad : cases) {

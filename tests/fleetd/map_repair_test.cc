@@ -37,6 +37,7 @@ slamcore::MapperParams PermissiveParameters() {
   params.merge_conditional = {.min_observations = 1, .min_views = 1};
   params.merge_full = {.min_observations = 1, .min_views = 1};
   params.recovery = {.min_observations = 1, .min_views = 1};
+  params.consistency.enabled = false;  // firmware without the checks against the map's own uncertainty
   return params;
 }
 

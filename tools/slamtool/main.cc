@@ -212,8 +212,8 @@ int main(int argc, char** argv) {
   corrupt_command
       ->add_option("--mode", corrupt.mode,
                    "random: anywhere; local: second end within 20 vertices; first: before the region's first true "
-                   "loop closure")
-      ->check(CLI::IsMember({"random", "local", "first"}));
+                   "loop closure; shifted: a true loop closure's measurement 3-10 vertices away")
+      ->check(CLI::IsMember({"random", "local", "first", "shifted"}));
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
 
   AddProtrusionCommands(app);

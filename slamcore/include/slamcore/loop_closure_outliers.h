@@ -3,6 +3,9 @@
 //  * random: both vertices uniform over the graph; local: the second within `local_window` after the first;
 //    first: the group's later end (where the robot makes the observations) lies before the first true loop
 //    closure that observes the region of its earlier end, so the wrong group arrives first;
+//    shifted: a look-alike rather than noise — a true loop closure (i, j) seen again with its own
+//    measurement but at the wrong place, (i + s + k, j + k) with s uniform in ±[3, 10] vertices (a second
+//    identical door a few metres along), so the wrong group is as self-consistent as the true one;
 //  * each outlier is repeated for a group of consecutive vertex pairs (v1+k, v2+k) with one measurement:
 //    `group_size` pairs, or a size drawn uniformly from [group_size, max_group_size] per group, and with
 //    `single_fraction` of the groups single outliers (mixed single and grouped);
@@ -22,7 +25,7 @@
 namespace slamcore {
 
 struct OutlierOptions {
-  enum class Mode : std::uint8_t { kRandom, kLocal, kFirst };
+  enum class Mode : std::uint8_t { kRandom, kLocal, kFirst, kShifted };
   Mode mode = Mode::kRandom;
   int count = 100;         // outlier groups; ignored when total_edges > 0
   int total_edges = 0;     // when > 0: groups are added until this many wrong edges are written
@@ -33,7 +36,7 @@ struct OutlierOptions {
   std::uint64_t seed = 1;
 };
 
-/// Parses "random", "local" or "first".
+/// Parses "random", "local", "first" or "shifted".
 Result<OutlierOptions::Mode> ParseOutlierMode(const std::string& name);
 
 /// The number of loop closures (edges that are not odometry k → k+1) of a graph.

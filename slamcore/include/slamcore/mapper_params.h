@@ -29,7 +29,7 @@ inline OptimizerOptions DefaultOptimizerOptions() {
 struct ConsistencyParams {
   bool enabled = true;
   /// Observations of one hypothesis belong to one pass while each follows the previous one within this
-  /// time (seconds) and this distance (metres of the robot's odometer, and between the observed views' nodes).
+  /// time (seconds) and this distance (metres of the robot's odometer).
   double pass_gap_seconds = 20.0;
   double pass_gap_distance = 2.0;
   /// Joint test of a hypothesis against the map: χ² (3 dof) of its state against the map's prediction with
@@ -47,19 +47,19 @@ struct ConsistencyParams {
   /// itself may be wrong: wheel slip, or an earlier wrong acceptance that later evidence retracts).
   int min_passes_uninformative = 1;
   int min_passes_against_map = 3;
-  /// After a recovery is accepted and the component optimised, the leave-one-out test of its edges against
-  /// the rest of G (refused and G restored when it fails) and of the worst-fitting earlier acceptances
-  /// (retracted when they fail).
+  /// After a recovery the map test did not confirm is accepted and the component optimised, the
+  /// leave-one-out test of its edges against the rest of G (refused and G restored when it fails) and of the
+  /// worst-fitting earlier acceptances (retracted when they fail).
   bool verify_after_optimization = true;
   /// Leave-one-out test: a hypothesis whose edges' leave-one-out χ² (against every other edge of G) exceeds
   /// its quantile at this confidence does not fit: refused when it is the newcomer, else retracted.
   double retraction_confidence = 0.999;
-  /// Bounds on the work per observation: open hypotheses kept (the stalest go first), hypotheses judged
-  /// per trial (the newcomer and the worst-fitting accepted ones) and retractions per trial.
+  /// Bounds on the work per observation (validated ranges in mapper_params.cc): open hypotheses kept (the
+  /// stalest go first); direct edges that continue an accepted recovery in its pass and share its fate;
+  /// earlier acceptances judged per verification (the worst-fitting); retractions per verification.
   int max_open_hypotheses = 64;
-  /// Direct edges that continue an accepted recovery in its pass and share its fate (at most this many).
   int max_continuation_edges = 20;
-  int max_judged_per_trial = 8;
+  int max_judged_per_check = 8;
   int max_retractions_per_check = 4;
 };
 
