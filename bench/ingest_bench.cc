@@ -26,6 +26,7 @@
 
 #include "analyzer/run_analysis.h"
 #include "bench_report.h"
+#include "fleetd_child.h"
 #include "server/analysis.h"
 #include "server/fleet_server.h"
 #include "sim/run_simulator.h"
@@ -71,39 +72,9 @@ std::filesystem::path TempDirectory() {
 }
 
 // A fleetd process with analysis workers off (role=server).
-struct Fleetd {
-  int pid = -1;
-  std::string grpc;
-  explicit Fleetd(const std::filesystem::path& directory) {
-    int out[2];
-    if (pipe(out) != 0) return;
-    pid = fork();
-    if (pid == 0) {
-      dup2(out[1], 1);
-      const std::string log = (directory / "fleetd.log").string();
-      if (freopen(log.c_str(), "w", stderr) == nullptr) _exit(126);
-      setenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN", kAdmin.c_str(), 1);
-      const std::string db = "sqlite:" + (directory / "fleet.db").string();
-      execl(FLEETD_BINARY, FLEETD_BINARY, "--db", db.c_str(), "--listen", "127.0.0.1:0", "--http", "",
-            "--role", "server", "--rate-limit", "0", static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    close(out[1]);
-    std::string line;
-    char c;
-    while (read(out[0], &c, 1) == 1 && c != '\n') line += c;
-    close(out[0]);
-    try {
-      grpc = nlohmann::json::parse(line).at("grpc").get<std::string>();
-    } catch (const std::exception&) {
-    }
-  }
-  ~Fleetd() {
-    if (pid > 0) {
-      kill(pid, SIGTERM);
-      waitpid(pid, nullptr, 0);
-    }
-  }
+struct Fleetd : bench::FleetdChild {
+  explicit Fleetd(const std::filesystem::path& directory)
+      : FleetdChild(FLEETD_BINARY, directory, kAdmin, {"--role", "server", "--rate-limit", "0"}) {}
 };
 
 std::mutex g_latency_mutex;

@@ -86,8 +86,11 @@ echo "== Fleet statistics (the paper's Fig. 6, 7, 8, 12) =="
 echo
 echo "== Map health: each robot's map versions and open findings (review and repair at #/maps) =="
 python3 - "$http" <<'PY'
-import json, sys, urllib.request
-robots = json.load(urllib.request.urlopen(f"http://{sys.argv[1]}/api/robots"))["robots"]
+import json, os, sys, urllib.request
+# fleetd serves no data without a token; FLEET_TOKEN comes through the environment, not the command line.
+request = urllib.request.Request(f"http://{sys.argv[1]}/api/robots",
+                                 headers={"Authorization": f"Bearer {os.environ['FLEET_TOKEN']}"})
+robots = json.load(urllib.request.urlopen(request))["robots"]
 print(f"{'robot':<14} {'versions':>8} {'current':>8} {'open findings':>14}")
 for robot in robots:
     print(f"{robot['robot_id']:<14} {robot['versions']:>8} {robot['current_version']:>8} {robot.get('open_findings', 0):>14}")
@@ -96,5 +99,5 @@ first_robot=$("$bin/fleetctl" runs --limit 1 --json | python3 -c 'import json,sy
 "$bin/fleetctl" maps show "$first_robot"
 echo
 echo "Dashboard: http://$http/"
-echo "Engineer token for labelling in the dashboard: $engineer_token"
+echo "Engineer token to sign in to the dashboard (labelling, repairs): $engineer_token"
 echo "fleetd keeps running (pid $fleetd_pid, log $work/fleetd.log); stop it with: kill $fleetd_pid"

@@ -57,6 +57,9 @@ int main(int argc, char** argv) {
   app.add_option("--db", config.db, "storage URL: sqlite:PATH or postgresql://...")->capture_default_str();
   app.add_option("--listen", config.listen, "gRPC address host:port (port 0: any free port)")->capture_default_str();
   app.add_option("--http", config.http, "HTTP address for /metrics and /healthz (empty: off)")->capture_default_str();
+  app.add_option("--http-allowed-hosts", config.http_allowed_hosts,
+                 "comma-separated Host header names the HTTP side answers besides its bound address");
+  app.add_flag("--metrics-open", config.metrics_open, "serve /metrics without a token (default: engineer token)");
   app.add_option("--role", config.role, "all, server (API only) or worker (workers only)")->capture_default_str();
   app.add_option("--workers", config.workers, "analysis worker threads (0: one per core)")->capture_default_str();
   app.add_option("--tls-cert", config.tls_cert, "PEM certificate chain: serve gRPC over TLS");
@@ -74,6 +77,9 @@ int main(int argc, char** argv) {
   app.add_option("--default-parameter-set", config.default_parameter_set, "set every upload is analysed with")
       ->capture_default_str();
   app.add_option("--model-name", config.model_name, "classifier model whose active version labels regions")
+      ->capture_default_str();
+  app.add_option("--analysis-budget-seconds", config.analysis_budget_seconds,
+                 "longest one run's analysis may take; then its job fails (<= 0: no limit)")
       ->capture_default_str();
   app.add_option("--lease-seconds", config.lease_seconds, "job lease duration")->capture_default_str();
   app.add_option("--auth-cache-seconds", config.auth_cache_seconds, "verified tokens are cached this long")
@@ -137,6 +143,7 @@ int main(int argc, char** argv) {
     gethostname(host, sizeof host - 1);
     options.name = std::string(host) + ":" + std::to_string(::getpid());
     options.lease = std::chrono::seconds(config.lease_seconds);
+    options.analysis_budget_seconds = config.analysis_budget_seconds;
     options.model_name = config.model_name;
     options.map_policy = server::MapPolicyOf(config);
     workers = std::make_unique<server::WorkerPool>(repo, metrics, options);
@@ -173,10 +180,13 @@ int main(int argc, char** argv) {
   });
   server::RegisterDashboardRoutes(router, repo, authenticator, config);
   server::RegisterMapRoutes(router, repo, authenticator, config);
+  router.SetGuard(server::MakeHttpAccessGuard(repo, authenticator, config));
   std::unique_ptr<server::HttpServer> http;
   if (!config.http.empty()) {
     std::string error;
-    http = server::HttpServer::Create(config.http, router, &error);
+    server::HttpServerOptions http_options;
+    http_options.allowed_hosts = server::SplitList(config.http_allowed_hosts);
+    http = server::HttpServer::Create(config.http, router, &error, http_options);
     if (!http) {
       server::log::Error("http_failed", {{"error", error}});
       if (grpc_server) grpc_server->Shutdown(std::chrono::system_clock::now());

@@ -222,6 +222,12 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
   for (int k = 0; k < run.events_size(); ++k) {
     const fleet::v1::Event& proto = run.events(k);
     const std::string field = "events[" + std::to_string(k) + "]";
+    if (options.keep_going && k % 256 == 0) {
+      if (const slamcore::Status status = options.keep_going(); !status.ok()) {
+        return slamcore::Status(status.code(), status.message() + " (at " + field + " of " +
+                                                   std::to_string(run.events_size()) + ")");
+      }
+    }
     const auto event = FromProto(proto, field);
     if (!event.ok()) return event.status();
     if (const slamcore::Status status = (*mapper)->Process(*event); !status.ok()) {
@@ -235,6 +241,11 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
     if (proto.has_ground_truth()) {
       has_ground_truth = true;
       if (proto.ground_truth().slipping() && (*mapper)->CurrentNode()) slipping_nodes.insert(*(*mapper)->CurrentNode());
+    }
+  }
+  if (options.keep_going) {
+    if (const slamcore::Status status = options.keep_going(); !status.ok()) {
+      return slamcore::Status(status.code(), status.message() + " (after the replay, before rendering)");
     }
   }
   const std::vector<Decision> decisions = (*mapper)->decisions();

@@ -1,5 +1,9 @@
 #include "analyzer/telemetry_codec.h"
 
+#include <algorithm>
+#include <optional>
+#include <sstream>
+
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 
@@ -45,15 +49,36 @@ void MatrixToProto(const Matrix3& matrix, google::protobuf::RepeatedField<double
   for (int k = 0; k < 9; ++k) values->Add(matrix(k / 3, k % 3));
 }
 
-Result<slamcore::LocalMapEvent> LocalMapFromProto(const fleet::v1::LocalMap& proto, const std::string& field) {
-  constexpr int kMaxCells = 4096 * 4096;
-  if (!(proto.resolution() > 0.0) || !std::isfinite(proto.resolution())) {
-    return InvalidArgument(field + ".resolution: must be positive, found " + std::to_string(proto.resolution()));
+std::string Number(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+Status CheckTime(double time, const std::string& field) {
+  if (!std::isfinite(time) || time < 0.0 || time > kMaxTimeSeconds) {
+    return InvalidArgument(field + ": " + Number(time) + " s is outside [0, " + Number(kMaxTimeSeconds) +
+                           "] (seconds, run-relative or since 1970)");
   }
-  if (proto.width() <= 0 || proto.height() <= 0 ||
-      static_cast<long long>(proto.width()) * proto.height() > kMaxCells) {
+  return Status::Ok();
+}
+
+Result<slamcore::LocalMapEvent> LocalMapFromProto(const fleet::v1::LocalMap& proto, const std::string& field) {
+  // A patch's cost is its cells, and the renderer's is its footprint in the map's cells: both are bounded.
+  if (!std::isfinite(proto.resolution()) || proto.resolution() < kMinPatchResolution ||
+      proto.resolution() > kMaxPatchResolution) {
+    return InvalidArgument(field + ".resolution: " + Number(proto.resolution()) + " m/cell is outside [" +
+                           Number(kMinPatchResolution) + ", " + Number(kMaxPatchResolution) + "]");
+  }
+  if (proto.width() <= 0 || proto.height() <= 0 || proto.width() > kMaxPatchSide || proto.height() > kMaxPatchSide) {
     return InvalidArgument(field + ": size " + std::to_string(proto.width()) + "x" + std::to_string(proto.height()) +
-                           " is empty or larger than 4096x4096 cells");
+                           " is empty or larger than " + std::to_string(kMaxPatchSide) + "x" +
+                           std::to_string(kMaxPatchSide) + " cells");
+  }
+  if (proto.width() * proto.resolution() > kMaxPatchExtent || proto.height() * proto.resolution() > kMaxPatchExtent) {
+    return InvalidArgument(field + ": footprint " + Number(proto.width() * proto.resolution()) + " x " +
+                           Number(proto.height() * proto.resolution()) + " m is larger than " +
+                           Number(kMaxPatchExtent) + " m on a side");
   }
   const auto expected = static_cast<std::size_t>(proto.width()) * static_cast<std::size_t>(proto.height());
   if (proto.cells().size() != expected) {
@@ -93,7 +118,7 @@ fleet::v1::LocalMap LocalMapToProto(const slamcore::LocalMapEvent& patch) {
 
 Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::string& field) {
   const double time = event.time();
-  if (!std::isfinite(time)) return InvalidArgument(field + ".time: not finite");
+  if (const Status status = CheckTime(time, field + ".time"); !status.ok()) return status;
   switch (event.kind_case()) {
     case fleet::v1::Event::kOdometry: {
       const auto increment =
@@ -187,12 +212,33 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
                            " is not supported (this program reads version " +
                            std::to_string(kTelemetryFormatVersion) + ")");
   }
+  const std::pair<const char*, int> counts[] = {{"nodes", snapshot.nodes_size()},
+                                                {"edges", snapshot.edges_size()},
+                                                {"views", snapshot.views_size()},
+                                                {"local_maps", snapshot.local_maps_size()}};
+  for (const auto& [name, count] : counts) {
+    const int limit = std::string(name) == "edges" ? kMaxSnapshotEdges : kMaxSnapshotNodes;
+    if (count > limit) {
+      return InvalidArgument(field + "." + name + ": " + std::to_string(count) + " entries, more than " +
+                             std::to_string(limit));
+    }
+  }
+  std::int64_t cells = 0;
+  for (const auto& patch : snapshot.local_maps()) cells += static_cast<std::int64_t>(patch.local_map().cells().size());
+  if (cells > kMaxSnapshotCells) {
+    return InvalidArgument(field + ".local_maps: " + std::to_string(cells) + " cells in all, more than " +
+                           std::to_string(kMaxSnapshotCells));
+  }
   slamcore::Map map;
   for (int k = 0; k < snapshot.nodes_size(); ++k) {
     const auto& proto = snapshot.nodes(k);
     const std::string node_field = field + ".nodes[" + std::to_string(k) + "]";
     const auto pose = PoseFromProto(proto.pose(), proto.has_pose(), node_field + ".pose");
     if (!pose.ok()) return pose.status();
+    if (const Status status = CheckTime(proto.time(), node_field + ".time"); !status.ok()) return status;
+    if (!std::isfinite(proto.odometer()) || proto.odometer() < 0.0) {
+      return InvalidArgument(node_field + ".odometer: must be finite and >= 0, found " + Number(proto.odometer()));
+    }
     slamcore::Node node{.id = proto.id(), .pose = *pose, .time = proto.time(), .odometer = proto.odometer(),
                         .fixed = false};
     if (const Status status = map.graph.AddNode(node); !status.ok()) {
@@ -287,17 +333,75 @@ std::string SerializeDeterministic(const google::protobuf::Message& message) {
   return bytes;
 }
 
+std::optional<std::string> FindUnknownField(const google::protobuf::Message& message, const std::string& field) {
+  const google::protobuf::Reflection* reflection = message.GetReflection();
+  if (!reflection->GetUnknownFields(message).empty()) return field;
+  std::vector<const google::protobuf::FieldDescriptor*> fields;
+  reflection->ListFields(message, &fields);
+  for (const google::protobuf::FieldDescriptor* descriptor : fields) {
+    if (descriptor->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    const std::string inner = field + "." + descriptor->name();
+    if (descriptor->is_repeated()) {
+      for (int k = 0; k < reflection->FieldSize(message, descriptor); ++k) {
+        if (auto found = FindUnknownField(reflection->GetRepeatedMessage(message, descriptor, k),
+                                          inner + "[" + std::to_string(k) + "]")) {
+          return found;
+        }
+      }
+    } else if (auto found = FindUnknownField(reflection->GetMessage(message, descriptor), inner)) {
+      return found;
+    }
+  }
+  return std::nullopt;
+}
+
+Status ValidateId(const std::string& value, const std::string& field) {
+  if (value.empty()) return InvalidArgument(field + ": missing");
+  if (value.size() > kMaxIdLength) {
+    return InvalidArgument(field + ": longer than " + std::to_string(kMaxIdLength) + " characters");
+  }
+  const bool valid = std::all_of(value.begin(), value.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
+           c == ':' || c == '-';
+  });
+  if (!valid) return InvalidArgument(field + ": only letters, digits and . _ : - are allowed");
+  return Status::Ok();
+}
+
+Status ValidateText(const std::string& value, const std::string& field) {
+  if (value.size() > kMaxIdLength) {
+    return InvalidArgument(field + ": longer than " + std::to_string(kMaxIdLength) + " characters");
+  }
+  if (std::any_of(value.begin(), value.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; })) {
+    return InvalidArgument(field + ": control characters are not allowed");
+  }
+  return Status::Ok();
+}
+
+bool IsSnapshotId(const std::string& value) {
+  return value.size() == 64 &&
+         std::all_of(value.begin(), value.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
 Status Validate(const fleet::v1::RunHeader& header) {
   if (header.format_version() != kTelemetryFormatVersion) {
     return InvalidArgument("header.format_version: " + std::to_string(header.format_version()) +
                            " is not supported (this program reads version " + std::to_string(kTelemetryFormatVersion) +
                            ")");
   }
-  if (header.robot_id().empty()) return InvalidArgument("header.robot_id: missing");
-  if (header.run_id().empty()) return InvalidArgument("header.run_id: missing");
-  if (header.run_id().size() > 128) return InvalidArgument("header.run_id: longer than 128 characters");
-  if (!std::isfinite(header.started_at()) || !std::isfinite(header.ended_at())) {
-    return InvalidArgument("header.started_at/ended_at: not finite");
+  if (Status status = ValidateId(header.robot_id(), "header.robot_id"); !status.ok()) return status;
+  if (Status status = ValidateId(header.run_id(), "header.run_id"); !status.ok()) return status;
+  if (Status status = ValidateText(header.firmware(), "header.firmware"); !status.ok()) return status;
+  if (Status status = ValidateText(header.robot_model(), "header.robot_model"); !status.ok()) return status;
+  if (!header.parent_snapshot_id().empty() && !IsSnapshotId(header.parent_snapshot_id())) {
+    return InvalidArgument("header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
+  }
+  for (const auto& [value, name] : {std::pair{header.started_at(), "header.started_at"},
+                                    std::pair{header.ended_at(), "header.ended_at"}}) {
+    if (!std::isfinite(value) || value < kEarliestRunSeconds || value > kLatestRunSeconds) {
+      return InvalidArgument(std::string(name) + ": " + Number(value) +
+                             " is outside 2000-01-01..2100-01-01 (seconds since 1970, UTC)");
+    }
   }
   if (header.ended_at() < header.started_at()) return InvalidArgument("header.ended_at: before started_at");
   return Status::Ok();

@@ -67,6 +67,26 @@ TEST(RunAnalysisTest, StricterParametersChangeTheDecisions) {
   EXPECT_EQ(report->counts().recovery_accepted(), 0);
 }
 
+TEST(RunAnalysisTest, TheBudgetEndsTheReplayWhereItRunsOut) {
+  const auto runs = SimulatedRuns();
+  ASSERT_GT(runs[1].events_size(), 600);
+  AnalysisOptions options;
+  int asked = 0;
+  options.keep_going = [&]() -> slamcore::Status {
+    return ++asked <= 2 ? slamcore::Status::Ok() : slamcore::FailedPrecondition("analysis budget: out of time");
+  };
+  const auto report = AnalyzeRun(runs[1], options);
+  ASSERT_FALSE(report.ok());
+  EXPECT_EQ(report.status().code(), slamcore::StatusCode::kFailedPrecondition);
+  // Asked at events 0 and 256 (fine), then at 512: the replay stops there.
+  EXPECT_EQ(report.status().message(), "analysis budget: out of time (at events[512] of " +
+                                           std::to_string(runs[1].events_size()) + ")");
+  EXPECT_EQ(asked, 3);
+  // A budget that always allows changes nothing.
+  options.keep_going = [] { return slamcore::Status::Ok(); };
+  EXPECT_TRUE(AnalyzeRun(runs[1], options).ok());
+}
+
 TEST(RunAnalysisTest, MalformedTelemetryIsRefusedNamingTheEvent) {
   auto runs = SimulatedRuns();
   fleet::v1::RunFile broken = runs[1];

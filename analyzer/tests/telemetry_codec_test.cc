@@ -110,7 +110,25 @@ TEST(TelemetryCodecTest, BadEventsAreRefusedNamingTheField) {
   event = ToProto(SampleEvents()[3]);
   event.mutable_local_map()->set_width(100000);
   event.mutable_local_map()->set_height(100000);
-  ExpectRefused(event, "larger than 4096x4096");
+  ExpectRefused(event, "larger than 2048x2048");
+
+  // The memory attack of issue 16: one cell at 400 m/cell covers a city in the renderer's grid.
+  event = ToProto(SampleEvents()[3]);
+  event.mutable_local_map()->set_resolution(400.0);
+  ExpectRefused(event, "events[4].local_map.resolution: 400 m/cell is outside [0.005, 1]");
+  event.mutable_local_map()->set_resolution(0.001);
+  ExpectRefused(event, "events[4].local_map.resolution: 0.001 m/cell is outside [0.005, 1]");
+  event.mutable_local_map()->set_resolution(0.9);
+  event.mutable_local_map()->set_width(200);
+  event.mutable_local_map()->set_height(1);
+  event.mutable_local_map()->set_cells(std::string(200, '\0'));
+  ExpectRefused(event, "events[4].local_map: footprint 180 x 0.9 m is larger than 100 m on a side");
+
+  event = ToProto(SampleEvents()[0]);
+  event.set_time(-1.0);
+  ExpectRefused(event, "events[4].time: -1 s is outside [0, 4.10244e+09]");
+  event.set_time(1e300);
+  ExpectRefused(event, "events[4].time: 1e+300 s is outside");
 
   ExpectRefused(fleet::v1::Event(), "events[4]: no event kind set");
 }
@@ -140,13 +158,36 @@ TEST(TelemetryCodecTest, HeaderValidation) {
   header.set_format_version(1);
   header.set_robot_id("robot-1");
   header.set_run_id("run-1");
-  header.set_started_at(100.0);
-  header.set_ended_at(200.0);
+  header.set_started_at(1.7e9);
+  header.set_ended_at(1.7e9 + 100.0);
   EXPECT_TRUE(Validate(header).ok());
+  // Ids: 1..128 of [A-Za-z0-9._:-] for every role; no control characters anywhere (issue 16: a robot id
+  // "x\r\nSet-Cookie: a=b" ended up in a response header).
+  header.set_robot_id("x\r\nSet-Cookie: a=b");
+  EXPECT_EQ(Validate(header).message(), "header.robot_id: only letters, digits and . _ : - are allowed");
+  header.set_robot_id(std::string(129, 'r'));
+  EXPECT_EQ(Validate(header).message(), "header.robot_id: longer than 128 characters");
+  header.set_robot_id("robot-1");
+  header.set_run_id("run 1");
+  EXPECT_EQ(Validate(header).message(), "header.run_id: only letters, digits and . _ : - are allowed");
+  header.set_run_id("run-1");
+  header.set_firmware("1.2\n");
+  EXPECT_EQ(Validate(header).message(), "header.firmware: control characters are not allowed");
+  header.set_firmware("1.2");
+  header.set_parent_snapshot_id("../../etc");
+  EXPECT_EQ(Validate(header).message(), "header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
+  header.set_parent_snapshot_id("");
+  // Times: 2000-01-01..2100-01-01 (issue 16: started_at = -9.2e15 made day keys like "-291534425-09-").
+  header.set_started_at(-9.2e15);
+  EXPECT_EQ(Validate(header).message(),
+            "header.started_at: -9.2e+15 is outside 2000-01-01..2100-01-01 (seconds since 1970, UTC)");
+  header.set_started_at(4.2e9);
+  EXPECT_NE(Validate(header).message().find("header.started_at: 4.2e+09 is outside"), std::string::npos);
+  header.set_started_at(1.7e9);
   header.set_run_id("");
   EXPECT_EQ(Validate(header).message(), "header.run_id: missing");
   header.set_run_id("run-1");
-  header.set_ended_at(50.0);
+  header.set_ended_at(1.7e9 - 50.0);
   EXPECT_EQ(Validate(header).message(), "header.ended_at: before started_at");
   header.set_format_version(9);
   EXPECT_NE(Validate(header).message().find("header.format_version: 9 is not supported"), std::string::npos);

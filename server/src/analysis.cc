@@ -144,7 +144,8 @@ std::shared_ptr<const slamcore::ProtrusionClassifier> ClassifierCache::Get() {
 
 storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const std::string& run_id,
                                                  const std::string& parameter_set,
-                                                 const slamcore::ProtrusionClassifier* classifier) {
+                                                 const slamcore::ProtrusionClassifier* classifier,
+                                                 const AnalysisBudget& budget) {
   const auto started = std::chrono::steady_clock::now();
   auto run = repository.GetRun(run_id);
   if (!run.ok()) return run.status();
@@ -178,6 +179,18 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   options.mapper = *mapper;
   options.classifier = classifier;
   options.keep_rerun_child = true;
+  const auto deadline = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(budget.max_seconds));
+  options.keep_going = [&]() -> slamcore::Status {
+    if (budget.max_seconds > 0.0 && std::chrono::steady_clock::now() > deadline) {
+      std::ostringstream message;
+      message << "analysis budget: run " << run_id << " took longer than " << budget.max_seconds
+              << " s (--analysis-budget-seconds)";
+      return slamcore::FailedPrecondition(message.str());
+    }
+    if (budget.cancelled && budget.cancelled()) return slamcore::FailedPrecondition("analysis budget: job cancelled");
+    return slamcore::Status::Ok();
+  };
   auto report = analyzer::AnalyzeRun(file, options);
   if (!report.ok()) return FromSlamcore(report.status());
   report->set_parameter_set(parameter_set);

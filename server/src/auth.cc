@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 
 namespace server {
 namespace {
@@ -105,11 +106,58 @@ std::string Sha256Hex(const std::string& bytes) {
 Authenticator::Authenticator(storage::Repository& repository, std::chrono::seconds cache_ttl)
     : repository_(repository), cache_ttl_(cache_ttl) {}
 
-Authenticator::Verdict Authenticator::Authenticate(const std::string& authorization) {
+std::optional<Principal> Authenticator::CachedLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
+  auto it = cache_.find(key);
+  if (it == cache_.end()) return std::nullopt;
+  if (it->second.expires <= now) {
+    recency_.erase(it->second.recency);
+    cache_.erase(it);
+    return std::nullopt;
+  }
+  recency_.splice(recency_.begin(), recency_, it->second.recency);
+  return it->second.principal;
+}
+
+void Authenticator::CacheLocked(const std::string& key, const Principal& principal,
+                                std::chrono::steady_clock::time_point now) {
+  if (auto it = cache_.find(key); it != cache_.end()) {
+    recency_.erase(it->second.recency);
+    cache_.erase(it);
+  }
+  recency_.push_front(key);
+  cache_[key] = CacheEntry{principal, now + cache_ttl_, recency_.begin()};
+  while (cache_.size() > kCacheCapacity) {
+    cache_.erase(recency_.back());
+    recency_.pop_back();
+  }
+}
+
+bool Authenticator::BlockedLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
+  auto it = failures_.find(key);
+  if (it == failures_.end()) return false;
+  const double elapsed = std::chrono::duration<double>(now - it->second.last).count();
+  it->second.failures = std::max(0.0, it->second.failures - elapsed / kFailureRefillSeconds);
+  it->second.last = now;
+  if (it->second.failures <= 0.0) {
+    failures_.erase(it);
+    return false;
+  }
+  return it->second.failures >= kFailureBurst;
+}
+
+void Authenticator::RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
+  if (failures_.size() > 100000) failures_.clear();  // bound memory against spraying many names
+  BlockedLocked(key, now);                            // decays the earlier failures first
+  FailureBucket& bucket = failures_[key];
+  bucket.failures += 1.0;
+  bucket.last = now;
+}
+
+Authenticator::Verdict Authenticator::Authenticate(const std::string& authorization, const std::string& peer) {
   Verdict verdict;
   static const std::string kBearer = "Bearer ";
   if (authorization.empty()) {
-    verdict.message = "authorization: missing; send metadata \"authorization: Bearer <token>\"";
+    verdict.message = "authorization: missing; send \"authorization: Bearer <token>\"";
     return verdict;
   }
   if (authorization.rfind(kBearer, 0) != 0) {
@@ -118,22 +166,19 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
   }
   const std::string token = authorization.substr(kBearer.size());
   const std::size_t dot = token.rfind('.');
-  if (dot == std::string::npos || dot == 0 || dot + 1 == token.size()) {
+  if (dot == std::string::npos || dot == 0 || dot + 1 == token.size() || token.size() > 512) {
     verdict.message = "authorization: malformed token (expected <principal>.<secret>)";
     return verdict;
   }
   const std::string key = Sha256Hex(token);
-  const auto now = std::chrono::steady_clock::now();
+  const std::string peer_key = peer.empty() ? "" : "peer:" + peer;
+  auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(mutex_);
-    auto it = cache_.find(key);
-    if (it != cache_.end()) {
-      if (it->second.expires > now) {
-        verdict.outcome = Outcome::kOk;
-        verdict.principal = it->second.principal;
-        return verdict;
-      }
-      cache_.erase(it);
+    if (auto cached = CachedLocked(key, now)) {
+      verdict.outcome = Outcome::kOk;
+      verdict.principal = std::move(*cached);
+      return verdict;
     }
   }
   auto principal = ParsePrincipal(token.substr(0, dot));
@@ -141,43 +186,30 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
     verdict.message = "authorization: token names an invalid principal";
     return verdict;
   }
-  // Single flight: concurrent calls with the same token (a robot's first parallel streams) wait for one
-  // PBKDF2 verification instead of each paying for it.
+  const std::string principal_key = "principal:" + principal->name;
   {
-    std::unique_lock lock(mutex_);
-    verifying_cv_.wait(lock, [&] { return !verifying_.contains(key); });
-    auto it = cache_.find(key);
-    if (it != cache_.end() && it->second.expires > now) {
-      verdict.outcome = Outcome::kOk;
-      verdict.principal = it->second.principal;
+    std::lock_guard lock(mutex_);
+    if (BlockedLocked(principal_key, now) || (!peer_key.empty() && BlockedLocked(peer_key, now))) {
+      verdict.message = "authorization: too many failed attempts for " + principal->name +
+                        " or from this address; retry later";
       return verdict;
     }
-    verifying_.insert(key);
   }
-  struct Done {
-    Authenticator* self;
-    const std::string& key;
-    ~Done() {
-      std::lock_guard lock(self->mutex_);
-      self->verifying_.erase(key);
-      self->verifying_cv_.notify_all();
-    }
-  } done{this, key};
   auto verified = repository_.VerifyCredential(principal->name, token.substr(dot + 1));
   if (!verified.ok()) {
     verdict.outcome = Outcome::kUnavailable;
     verdict.message = "credential store: " + verified.status().message();
     return verdict;
   }
+  now = std::chrono::steady_clock::now();
+  std::lock_guard lock(mutex_);
   if (!*verified) {
+    RecordFailureLocked(principal_key, now);
+    if (!peer_key.empty()) RecordFailureLocked(peer_key, now);
     verdict.message = "authorization: invalid token for " + principal->name;
     return verdict;
   }
-  {
-    std::lock_guard lock(mutex_);
-    if (cache_.size() > 100000) cache_.clear();  // bound memory against token spraying
-    cache_[key] = CacheEntry{*principal, now + cache_ttl_};
-  }
+  CacheLocked(key, *principal, now);
   verdict.outcome = Outcome::kOk;
   verdict.principal = std::move(principal).value();
   return verdict;
@@ -189,6 +221,7 @@ storage::Result<std::string> Authenticator::IssueToken(const Principal& principa
   std::lock_guard lock(mutex_);
   for (auto it = cache_.begin(); it != cache_.end();) {
     if (it->second.principal.name == principal.name) {
+      recency_.erase(it->second.recency);
       it = cache_.erase(it);
     } else {
       ++it;

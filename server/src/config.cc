@@ -1,5 +1,6 @@
 #include "server/config.h"
 
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -27,6 +28,7 @@ storage::Status FleetdConfig::Validate() const {
   if (shutdown_grace_seconds < 0) return storage::InvalidArgument("shutdown_grace_seconds: must be >= 0");
   if (default_parameter_set.empty()) return storage::InvalidArgument("default_parameter_set: required");
   if (lease_seconds < 4) return storage::InvalidArgument("lease_seconds: at least 4");
+  if (!std::isfinite(analysis_budget_seconds)) return storage::InvalidArgument("analysis_budget_seconds: must be finite");
   if (auth_cache_seconds < 0) return storage::InvalidArgument("auth_cache_seconds: must be >= 0");
   if (log_format != "json" && log_format != "text") return storage::InvalidArgument("log_format: json or text");
   if (auto_repair != "none" && auto_repair != "cut_protrusions") {
@@ -36,6 +38,21 @@ storage::Status FleetdConfig::Validate() const {
     return storage::InvalidArgument("log_level: debug, info, warn or error");
   }
   return storage::Status::Ok();
+}
+
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> items;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    std::string item = text.substr(start, end - start);
+    item.erase(0, item.find_first_not_of(" \t"));
+    item.erase(item.find_last_not_of(" \t") + 1);
+    if (!item.empty()) items.push_back(item);
+    start = end + 1;
+  }
+  return items;
 }
 
 storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
@@ -53,6 +70,8 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"db", [&](const nlohmann::json& v) { config.db = v.get<std::string>(); }},
       {"listen", [&](const nlohmann::json& v) { config.listen = v.get<std::string>(); }},
       {"http", [&](const nlohmann::json& v) { config.http = v.get<std::string>(); }},
+      {"http_allowed_hosts", [&](const nlohmann::json& v) { config.http_allowed_hosts = v.get<std::string>(); }},
+      {"metrics_open", [&](const nlohmann::json& v) { config.metrics_open = v.get<bool>(); }},
       {"role", [&](const nlohmann::json& v) { config.role = v.get<std::string>(); }},
       {"workers", [&](const nlohmann::json& v) { config.workers = v.get<int>(); }},
       {"tls_cert", [&](const nlohmann::json& v) { config.tls_cert = v.get<std::string>(); }},
@@ -66,6 +85,7 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"shutdown_grace_seconds", [&](const nlohmann::json& v) { config.shutdown_grace_seconds = v.get<double>(); }},
       {"default_parameter_set", [&](const nlohmann::json& v) { config.default_parameter_set = v.get<std::string>(); }},
       {"model_name", [&](const nlohmann::json& v) { config.model_name = v.get<std::string>(); }},
+      {"analysis_budget_seconds", [&](const nlohmann::json& v) { config.analysis_budget_seconds = v.get<double>(); }},
       {"lease_seconds", [&](const nlohmann::json& v) { config.lease_seconds = v.get<int>(); }},
       {"auth_cache_seconds", [&](const nlohmann::json& v) { config.auth_cache_seconds = v.get<int>(); }},
       {"log_level", [&](const nlohmann::json& v) { config.log_level = v.get<std::string>(); }},

@@ -286,7 +286,8 @@ class MapRoutes {
   Authenticator& authenticator_;
   MapHistory history_;
   RateLimiter limiter_;
-  RenderCache<slamcore::OccupancyGrid> grid_cache_{16};  // by snapshot id
+  RenderCache<slamcore::OccupancyGrid> grid_cache_{  // by snapshot id
+      256u << 20, [](const slamcore::OccupancyGrid& grid) { return sizeof grid + grid.cells.size(); }};
 };
 
 }  // namespace

@@ -751,7 +751,10 @@ class Dashboard {
   const std::string default_set_;
   const std::filesystem::path web_dir_;
   RateLimiter label_limiter_;
-  RenderCache<dashboard::RunMaps> map_cache_{16};
+  RenderCache<dashboard::RunMaps> map_cache_{64u << 20, [](const dashboard::RunMaps& maps) {
+                                                 return sizeof maps + maps.parent_png.size() + maps.child_png.size() +
+                                                        maps.difference_png.size();
+                                               }};
 };
 
 }  // namespace

@@ -106,7 +106,7 @@ std::optional<std::int64_t> ParseInt(const std::string& text) {
 std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const HttpRequest& request,
                                           Permission permission, const std::string& what, HttpResponse* refusal) {
   const auto header = request.headers.find("authorization");
-  Authenticator::Verdict verdict = authenticator.Authenticate(header == request.headers.end() ? "" : header->second);
+  Authenticator::Verdict verdict = authenticator.Authenticate(header == request.headers.end() ? "" : header->second, request.peer);
   if (verdict.outcome == Authenticator::Outcome::kUnavailable) {
     *refusal = Error(503, verdict.message);
     return std::nullopt;

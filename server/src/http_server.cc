@@ -4,6 +4,9 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 
+#include <sys/socket.h>
+#include <sys/time.h>
+
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
@@ -11,6 +14,48 @@
 #include <thread>
 
 namespace server {
+namespace {
+
+std::string Lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  return text;
+}
+
+/// "[::1]:8080" → "::1", "host:8080" → "host", "host" → "host" (lowercase).
+std::string HostPart(const std::string& host_header) {
+  std::string host = Lower(host_header);
+  if (!host.empty() && host.front() == '[') {
+    const std::size_t close = host.find(']');
+    return close == std::string::npos ? host : host.substr(1, close - 1);
+  }
+  const std::size_t colon = host.find(':');
+  if (colon != std::string::npos && host.find(':', colon + 1) == std::string::npos) host = host.substr(0, colon);
+  return host;
+}
+
+bool HasControlCharacters(std::string_view text) {
+  return std::any_of(text.begin(), text.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; });
+}
+
+HttpResponse Refusal(int status, const std::string& message) {
+  HttpResponse response;
+  response.status = status;
+  response.content_type = "application/json";
+  std::string escaped;
+  for (const char c : message) {
+    if (c == '"' || c == '\\') escaped.push_back('\\');
+    if (static_cast<unsigned char>(c) >= 0x20) escaped.push_back(c);
+  }
+  response.body = "{\"error\": \"" + escaped + "\"}";
+  return response;
+}
+
+// The dashboard loads only its own scripts, styles and images; nothing may frame it.
+constexpr const char* kContentSecurityPolicy =
+    "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
+    "connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
+
+}  // namespace
 
 namespace asio = boost::asio;
 namespace beast = boost::beast;
@@ -22,6 +67,16 @@ void HttpRouter::AddRoute(const std::string& method, const std::string& path_pre
 }
 
 HttpResponse HttpRouter::Handle(const HttpRequest& request) const {
+  if (guard_) {
+    try {
+      if (auto refusal = guard_(request)) return *refusal;
+    } catch (const std::exception& e) {
+      HttpResponse response;
+      response.status = 500;
+      response.body = std::string("internal error: ") + e.what() + "\n";
+      return response;
+    }
+  }
   const Route* best = nullptr;
   bool path_known = false;
   for (const Route& route : routes_) {
@@ -48,7 +103,10 @@ HttpResponse HttpRouter::Handle(const HttpRequest& request) const {
 
 class HttpServer::Impl {
  public:
-  Impl(const HttpRouter& router) : router_(router), acceptor_(io_) {}
+  Impl(const HttpRouter& router, HttpServerOptions options)
+      : router_(router), options_(std::move(options)), acceptor_(io_) {
+    for (std::string& host : options_.allowed_hosts) host = Lower(host);
+  }
 
   bool Bind(const std::string& address, std::string* error) {
     const std::size_t colon = address.rfind(':');
@@ -83,6 +141,7 @@ class HttpServer::Impl {
       *error = "http: cannot listen on " + address + ": " + ec.message();
       return false;
     }
+    bound_ip_ = ip;
     return true;
   }
 
@@ -134,9 +193,48 @@ class HttpServer::Impl {
         continue;
       }
       std::lock_guard lock(mutex_);
+      if (connections_ >= options_.max_connections) {
+        socket.close(ec);  // over the cap: refuse rather than queue threads without bound
+        continue;
+      }
       ++connections_;
       std::thread([this, s = std::move(socket)]() mutable { Serve(std::move(s)); }).detach();
     }
+  }
+
+  /// The Host header names this server: the allow-list, the bound address, loopback names on a loopback
+  /// binding, any IP literal on a wildcard binding (a DNS-rebinding page always sends a host *name*).
+  bool HostAllowed(const std::string& host_header) const {
+    if (host_header.empty()) return false;
+    const std::string lowered = Lower(host_header), host = HostPart(host_header);
+    for (const std::string& allowed : options_.allowed_hosts) {
+      if (allowed == lowered || allowed == host) return true;
+    }
+    if (host == "localhost") return true;  // a rebinding page cannot make a browser send it
+    beast::error_code ec;
+    const auto literal = asio::ip::make_address(host, ec);
+    if (bound_ip_.is_unspecified()) return !ec;
+    if (!ec && literal == bound_ip_) return true;
+    if (bound_ip_.is_loopback()) return host == "localhost" || (!ec && literal.is_loopback());
+    return false;
+  }
+
+  /// Transport-level checks before routing; a refusal or nullopt.
+  std::optional<HttpResponse> Screen(const HttpRequest& request) const {
+    if (request.path == "/healthz") return std::nullopt;
+    const auto host = request.headers.find("host");
+    const std::string host_value = host == request.headers.end() ? "" : host->second;
+    if (!HostAllowed(host_value)) {
+      return Refusal(421, "host: \"" + host_value + "\" is not this server (see --http-allowed-hosts)");
+    }
+    if (request.method != "GET" && request.method != "HEAD") {
+      const auto origin = request.headers.find("origin");
+      if (origin != request.headers.end() && Lower(origin->second) != "http://" + Lower(host_value) &&
+          Lower(origin->second) != "https://" + Lower(host_value)) {
+        return Refusal(403, "origin: \"" + origin->second + "\" may not write to this server");
+      }
+    }
+    return std::nullopt;
   }
 
   void Serve(tcp::socket socket) {
@@ -144,6 +242,17 @@ class HttpServer::Impl {
       std::lock_guard lock(mutex_);
       sockets_.push_back(&socket);
     }
+    {
+      // Blocking reads and writes: a slow or silent client is cut after the timeout instead of holding a
+      // thread forever.
+      timeval timeout{};
+      timeout.tv_sec = options_.io_timeout_seconds;
+      setsockopt(socket.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+      setsockopt(socket.native_handle(), SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
+    }
+    beast::error_code peer_error;
+    const auto remote = socket.remote_endpoint(peer_error);
+    const std::string peer = peer_error ? "" : remote.address().to_string();
     beast::flat_buffer buffer;
     while (!stopping_) {
       http::request_parser<http::string_body> parser;
@@ -164,11 +273,24 @@ class HttpServer::Impl {
         request.headers[name] = std::string(field.value());
       }
       request.body = message.body();
-      const HttpResponse handled = router_.Handle(request);
+      request.peer = peer;
+      auto screened = Screen(request);
+      HttpResponse handled = screened ? std::move(*screened) : router_.Handle(request);
+      const bool unsafe_header = std::any_of(handled.headers.begin(), handled.headers.end(), [](const auto& header) {
+        return HasControlCharacters(header.first) || HasControlCharacters(header.second);
+      });
+      if (unsafe_header || HasControlCharacters(handled.content_type)) {
+        handled = Refusal(500, "internal error: a response header carried control characters");
+      }
       http::response<http::string_body> response{static_cast<http::status>(handled.status), message.version()};
       response.set(http::field::server, "fleetd");
       response.set(http::field::content_type, handled.content_type);
       for (const auto& [name, value] : handled.headers) response.set(name, value);
+      response.set("X-Content-Type-Options", "nosniff");
+      response.set(http::field::x_frame_options, "DENY");
+      response.set("Referrer-Policy", "no-referrer");
+      response.set("Content-Security-Policy", kContentSecurityPolicy);
+      if (request.path.rfind("/static/", 0) != 0) response.set(http::field::cache_control, "no-store");
       response.keep_alive(message.keep_alive() && !stopping_);
       if (request.method != "HEAD") response.body() = handled.body;
       response.prepare_payload();
@@ -185,6 +307,8 @@ class HttpServer::Impl {
   }
 
   const HttpRouter router_;
+  HttpServerOptions options_;
+  asio::ip::address bound_ip_;
   asio::io_context io_;
   tcp::acceptor acceptor_;
   std::thread accept_thread_;
@@ -196,8 +320,8 @@ class HttpServer::Impl {
 };
 
 std::unique_ptr<HttpServer> HttpServer::Create(const std::string& address, const HttpRouter& router,
-                                               std::string* error) {
-  auto impl = std::make_unique<Impl>(router);
+                                               std::string* error, HttpServerOptions options) {
+  auto impl = std::make_unique<Impl>(router, std::move(options));
   if (!impl->Bind(address, error)) return nullptr;
   return std::unique_ptr<HttpServer>(new HttpServer(std::move(impl)));
 }

@@ -246,7 +246,8 @@ MapPolicy MapPolicyOf(const FleetdConfig& config) {
 MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
     : repository_(repository), policy_(std::move(policy)) {}
 
-storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run, const slamcore::Map& child) {
+storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
+                                                            const std::string& uploader) {
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   auto versions = repository_.ListMapVersions(run.robot_id);
   if (!versions.ok()) return versions.status();
@@ -256,7 +257,10 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   record->robot_id = run.robot_id;
   record->origin = "upload";
   record->run_id = run.run_id;
-  record->created_by = "robot:" + run.robot_id;
+  record->created_by = uploader.empty() ? "robot:" + run.robot_id : uploader;
+  // Only the robot's own uploads (and an admin's) become its map unreviewed: an engineer's upload for a robot
+  // is a map a person made, and goes through review like a repair.
+  const bool needs_review = uploader.rfind("engineer:", 0) == 0;
   const std::string parent = run.parent_snapshot_id.value_or("");
   for (auto it = versions->rbegin(); it != versions->rend() && !parent.empty(); ++it) {
     if (it->snapshot_id == parent) {
@@ -267,8 +271,8 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   // Built on the current map (or there is none yet): this is the robot's map now. Built on an older one: kept
   // in the history, but the robot should take the current version instead.
   const bool outdated = current != nullptr && current->snapshot_id != parent;
-  record->approval = outdated ? "stale" : "approved";
-  if (!outdated) {
+  record->approval = outdated ? "stale" : needs_review ? "pending" : "approved";
+  if (!outdated && !needs_review) {
     record->approved_by = record->created_by;
     record->approved_at_ms = run.ended_at_ms;
   }

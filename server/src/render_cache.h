@@ -1,16 +1,23 @@
-// A small least-recently-used cache of rendered things (map pictures, grids) shared by the dashboard's
-// handlers: rendering is the slow part of a page, and pages ask for the same maps several times. Internal to
-// server/.
+// A least-recently-used cache of rendered things (map pictures, grids) shared by the dashboard's handlers:
+// rendering is the slow part of a page, and pages ask for the same maps several times. Internal to server/.
 //
-// Thread safety: all members lock; rendering happens outside the lock (two threads may render one key at
-// once; both results are equal, the later one is kept).
+// Bounded by bytes, not entries: `size_of(value)` says what a value holds, the least recently used values
+// leave while the total exceeds `max_bytes`, and a value larger than the whole budget is returned but not
+// kept. Single flight: concurrent requests for one key wait for one rendering instead of each rendering it
+// (a page's images arrive together).
+//
+// Thread safety: all members lock; rendering happens outside the lock.
 #pragma once
 
+#include <condition_variable>
 #include <cstddef>
+#include <functional>
 #include <list>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "storage/status.h"
@@ -20,32 +27,60 @@ namespace server {
 template <typename Value>
 class RenderCache {
  public:
-  explicit RenderCache(std::size_t capacity) : capacity_(capacity) {}
+  RenderCache(std::size_t max_bytes, std::function<std::size_t(const Value&)> size_of)
+      : max_bytes_(max_bytes), size_of_(std::move(size_of)) {}
 
   /// The cached value of `key`, or what `render()` (returning storage::Result<Value>) makes, then cached.
   template <typename Render>
   storage::Result<std::shared_ptr<const Value>> Get(const std::string& key, Render render) {
     {
-      std::lock_guard lock(mutex_);
+      std::unique_lock lock(mutex_);
+      rendering_done_.wait(lock, [&] { return !rendering_.contains(key); });
       for (auto it = entries_.begin(); it != entries_.end(); ++it) {
-        if (it->first != key) continue;
+        if (std::get<0>(*it) != key) continue;
         entries_.splice(entries_.begin(), entries_, it);
-        return entries_.front().second;
+        return std::get<1>(entries_.front());
       }
+      rendering_.insert(key);
     }
+    struct Done {
+      RenderCache* self;
+      const std::string& key;
+      ~Done() {
+        std::lock_guard lock(self->mutex_);
+        self->rendering_.erase(key);
+        self->rendering_done_.notify_all();
+      }
+    } done{this, key};
     auto rendered = render();
     if (!rendered.ok()) return rendered.status();
     auto shared = std::make_shared<const Value>(std::move(rendered).value());
+    const std::size_t bytes = size_of_(*shared);
     std::lock_guard lock(mutex_);
-    entries_.emplace_front(key, shared);
-    while (entries_.size() > capacity_) entries_.pop_back();
+    if (bytes > max_bytes_) return shared;
+    entries_.emplace_front(key, shared, bytes);
+    bytes_ += bytes;
+    while (bytes_ > max_bytes_) {
+      bytes_ -= std::get<2>(entries_.back());
+      entries_.pop_back();
+    }
     return shared;
   }
 
+  /// Bytes held now (for tests and metrics).
+  std::size_t bytes() const {
+    std::lock_guard lock(mutex_);
+    return bytes_;
+  }
+
  private:
-  const std::size_t capacity_;
-  std::mutex mutex_;  // guards entries_
-  std::list<std::pair<std::string, std::shared_ptr<const Value>>> entries_;  // most recent first
+  const std::size_t max_bytes_;
+  const std::function<std::size_t(const Value&)> size_of_;
+  mutable std::mutex mutex_;  // guards entries_, bytes_, rendering_
+  std::condition_variable rendering_done_;
+  std::list<std::tuple<std::string, std::shared_ptr<const Value>, std::size_t>> entries_;  // most recent first
+  std::size_t bytes_ = 0;
+  std::set<std::string> rendering_;  // keys being rendered now
 };
 
 }  // namespace server

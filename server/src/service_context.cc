@@ -33,13 +33,21 @@ grpc::Status ToGrpc(const slamcore::Status& status) {
 
 grpc::Status InvalidArgument(const std::string& message) { return {grpc::StatusCode::INVALID_ARGUMENT, message}; }
 
+std::string PeerAddress(const std::string& peer) {
+  // "ipv4:127.0.0.1:41234" / "ipv6:[::1]:41234" → the address without the port: limits are per host.
+  const std::size_t colon = peer.rfind(':');
+  std::string address = colon == std::string::npos ? peer : peer.substr(0, colon);
+  if (address.rfind("ipv4:", 0) == 0 || address.rfind("ipv6:", 0) == 0) address = address.substr(5);
+  return address;
+}
+
 grpc::Status Authorize(ServiceContext& context, grpc::ServerContext* call, Permission permission,
                        Principal* principal) {
   std::string authorization;
   const auto& metadata = call->client_metadata();
   auto it = metadata.find("authorization");
   if (it != metadata.end()) authorization.assign(it->second.data(), it->second.size());
-  Authenticator::Verdict verdict = context.authenticator->Authenticate(authorization);
+  Authenticator::Verdict verdict = context.authenticator->Authenticate(authorization, PeerAddress(call->peer()));
   if (verdict.outcome == Authenticator::Outcome::kUnavailable) return {grpc::StatusCode::UNAVAILABLE, verdict.message};
   if (verdict.outcome != Authenticator::Outcome::kOk) return {grpc::StatusCode::UNAUTHENTICATED, verdict.message};
   if (!Allows(verdict.principal.role, permission)) {

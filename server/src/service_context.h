@@ -41,6 +41,9 @@ grpc::Status ToGrpc(const storage::Status& status);
 grpc::Status ToGrpc(const slamcore::Status& status);
 grpc::Status InvalidArgument(const std::string& message);
 
+/// The caller's address from grpc::ServerContext::peer(), without the port ("127.0.0.1", "[::1]").
+std::string PeerAddress(const std::string& peer);
+
 /// Authenticates the call's bearer token, checks `permission` for its role and the principal's rate limit.
 /// UNAUTHENTICATED, PERMISSION_DENIED, RESOURCE_EXHAUSTED or UNAVAILABLE (credential store down).
 grpc::Status Authorize(ServiceContext& context, grpc::ServerContext* call, Permission permission,

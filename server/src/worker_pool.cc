@@ -115,7 +115,18 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
     status = payload.status();
   } else {
     auto classifier = classifiers_.Get();
-    auto analysed = AnalyzeStoredRun(repository_, payload->run_id, payload->parameter_set, classifier.get());
+    // The budget: a deadline, and the job's own state looked up at most once a second (CancelJob marks it).
+    AnalysisBudget budget;
+    budget.max_seconds = options_.analysis_budget_seconds;
+    auto next_check = std::chrono::steady_clock::now();
+    budget.cancelled = [&] {
+      const auto now = std::chrono::steady_clock::now();
+      if (now < next_check) return false;
+      next_check = now + std::chrono::seconds(1);
+      auto job = repository_.GetJob(lease.job.job_id);
+      return job.ok() && job->state == storage::JobState::kCancelled;
+    };
+    auto analysed = AnalyzeStoredRun(repository_, payload->run_id, payload->parameter_set, classifier.get(), budget);
     if (analysed.ok()) {
       metrics_.Observe("fleetd_analysis_seconds", "", analysed->seconds);
       log::Info("run_analysed", {{"job", static_cast<long long>(lease.job.job_id)},

@@ -13,14 +13,18 @@ std::string Describe(const char* field, double value, const char* requirement) {
   return message.str();
 }
 
-Status CheckPositiveFinite(const char* field, double value) {
-  if (std::isfinite(value) && value > 0.0) return Status::Ok();
-  return InvalidArgument(Describe(field, value, "must be positive and finite"));
+// Every field also has a documented maximum (MapperParamsLimits): a parameter set is untrusted input, and a
+// window of 2^31 nodes or an expiry of 1e300 s turns one run's replay into unbounded work.
+Status CheckPositiveFinite(const char* field, double value, double max) {
+  if (std::isfinite(value) && value > 0.0 && value <= max) return Status::Ok();
+  std::ostringstream requirement;
+  requirement << "must be positive, finite and at most " << max;
+  return InvalidArgument(Describe(field, value, requirement.str().c_str()));
 }
 
-Status CheckPositiveCount(const char* field, int value) {
-  if (value > 0) return Status::Ok();
-  return InvalidArgument(Describe(field, value, "must be at least 1"));
+Status CheckPositiveCount(const char* field, int value, int max = MapperParamsLimits::kMaxCount) {
+  if (value > 0 && value <= max) return Status::Ok();
+  return InvalidArgument(Describe(field, value, ("must be in [1, " + std::to_string(max) + "]").c_str()));
 }
 
 /// A set of acceptance criteria needs at least one observation of one view, and can never ask for more
@@ -69,8 +73,8 @@ Status ValidateConsistency(const ConsistencyParams& c) {
 }  // namespace
 
 Status MapperParams::Validate() const {
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("gate_chi2", gate_chi2));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("gate_chi2", gate_chi2, MapperParamsLimits::kMaxChi2));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma, MapperParamsLimits::kMaxMeters));
   SLAMCORE_RETURN_IF_ERROR(CheckCriteria("recovery", recovery));
   SLAMCORE_RETURN_IF_ERROR(CheckCriteria("merge_conditional", merge_conditional));
   SLAMCORE_RETURN_IF_ERROR(CheckCriteria("merge_full", merge_full));
@@ -88,13 +92,17 @@ Status MapperParams::Validate() const {
                                      std::to_string(merge_conditional.min_views))
                                         .c_str()));
   }
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("local_window_nodes", local_window_nodes));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("full_optimization_every", full_optimization_every));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_seconds", hypothesis_expiry_seconds));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("local_window_nodes", local_window_nodes, MapperParamsLimits::kMaxWindowNodes));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("full_optimization_every", full_optimization_every, MapperParamsLimits::kMaxOptimizationEvery));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_seconds", hypothesis_expiry_seconds, MapperParamsLimits::kMaxSeconds));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance, MapperParamsLimits::kMaxMeters));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance, MapperParamsLimits::kMaxMeters));
   SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("ambiguity_min_rejections", ambiguity_min_rejections));
   SLAMCORE_RETURN_IF_ERROR(ValidateConsistency(consistency));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("optimizer.max_iterations", optimizer.max_iterations,
+                                              MapperParamsLimits::kMaxIterations));
+  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("optimizer.num_threads", optimizer.num_threads,
+                                              MapperParamsLimits::kMaxThreads));
   if (const Status status = slamcore::Validate(optimizer); !status.ok()) {
     return InvalidArgument("MapperParams.optimizer: " + status.message());
   }

@@ -46,6 +46,14 @@ TEST(MapperParamsTest, EveryBadFieldIsNamedWithItsValue) {
       {"ambiguity_min_rejections", [](MapperParams& p) { p.ambiguity_min_rejections = 0; }, "0"},
       {"optimizer", [](MapperParams& p) { p.optimizer.max_iterations = 0; }, "max_iterations"},
       {"optimizer", [](MapperParams& p) { p.optimizer.num_threads = 0; }, "num_threads"},
+      // Upper bounds (MapperParamsLimits): the two parameter sets of issue 16 that made one replay unbounded.
+      {"hypothesis_expiry_seconds", [](MapperParams& p) { p.hypothesis_expiry_seconds = 1e300; }, "at most 3600"},
+      {"local_window_nodes", [](MapperParams& p) { p.local_window_nodes = 2147483647; }, "[1, 10000]"},
+      {"full_optimization_every", [](MapperParams& p) { p.full_optimization_every = 1000001; }, "[1, 1000000]"},
+      {"gate_chi2", [](MapperParams& p) { p.gate_chi2 = 1e6; }, "at most 1000"},
+      {"recovery.min_observations", [](MapperParams& p) { p.recovery.min_observations = 5000; }, "[1, 1000]"},
+      {"consistency.max_open_hypotheses", [](MapperParams& p) { p.consistency.max_open_hypotheses = 100000; }, "[1, 10000]"},
+      {"optimizer.max_iterations", [](MapperParams& p) { p.optimizer.max_iterations = 100000; }, "[1, 1000]"},
   };
   for (const BadField& bad : cases) {
     MapperParams params;
@@ -58,6 +66,17 @@ TEST(MapperParamsTest, EveryBadFieldIsNamedWithItsValue) {
     // And a Mapper refuses them.
     EXPECT_FALSE(Mapper::Create(params).ok()) << bad.field;
   }
+}
+
+TEST(MapperParamsTest, TheDocumentedMaximaThemselvesAreAllowed) {
+  MapperParams params;
+  params.hypothesis_expiry_seconds = MapperParamsLimits::kMaxSeconds;
+  params.hypothesis_expiry_distance = MapperParamsLimits::kMaxMeters;
+  params.local_window_nodes = MapperParamsLimits::kMaxWindowNodes;
+  params.full_optimization_every = MapperParamsLimits::kMaxOptimizationEvery;
+  params.gate_chi2 = MapperParamsLimits::kMaxChi2;
+  params.optimizer.max_iterations = MapperParamsLimits::kMaxIterations;
+  EXPECT_TRUE(params.Validate().ok()) << params.Validate().message();
 }
 
 TEST(MapperParamsTest, EqualConditionalAndFullCriteriaAreAllowed) {

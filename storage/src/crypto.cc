@@ -70,4 +70,29 @@ bool VerifySecret(const std::string& secret, const PasswordHash& stored) {
   return CRYPTO_memcmp(computed.data(), stored.hash.data(), kHashBytes) == 0;
 }
 
+PasswordHash HashTokenSecret(const std::string& secret) {
+  PasswordHash out;
+  out.salt = RandomBytes(kSaltBytes);
+  out.iterations = 1;
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  const std::string salted = out.salt + secret;
+  if (EVP_Digest(salted.data(), salted.size(), digest, &length, EVP_sha256(), nullptr) != 1) {
+    throw std::runtime_error("EVP_Digest(SHA-256) failed");
+  }
+  out.hash.assign(reinterpret_cast<const char*>(digest), length);
+  return out;
+}
+
+bool VerifyTokenSecret(const std::string& secret, const PasswordHash& stored) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  const std::string salted = stored.salt + secret;
+  if (EVP_Digest(salted.data(), salted.size(), digest, &length, EVP_sha256(), nullptr) != 1) {
+    throw std::runtime_error("EVP_Digest(SHA-256) failed");
+  }
+  if (stored.hash.size() != length) return false;
+  return CRYPTO_memcmp(digest, stored.hash.data(), length) == 0;
+}
+
 }  // namespace storage::internal

@@ -101,11 +101,11 @@ Status SqlRepository::SetCredential(const std::string& principal, const std::str
   if (principal.empty()) return InvalidArgument("principal is empty");
   STORAGE_RETURN_IF_ERROR(CheckText(principal, "principal", 256));
   if (secret.empty()) return InvalidArgument("secret is empty");
-  const PasswordHash hashed = HashSecret(secret);  // slow on purpose: outside the transaction
+  const PasswordHash hashed = HashTokenSecret(secret);
   return Write([&](SqlTransaction& transaction) {
     return transaction.Exec(
         "INSERT INTO credentials (principal, algorithm, iterations, salt, hash, updated_at_ms) "
-        "VALUES ($1, 'pbkdf2-hmac-sha256', $2, $3, $4, $5) ON CONFLICT (principal) DO UPDATE SET "
+        "VALUES ($1, 'salted-sha256', $2, $3, $4, $5) ON CONFLICT (principal) DO UPDATE SET "
         "algorithm = excluded.algorithm, iterations = excluded.iterations, salt = excluded.salt, "
         "hash = excluded.hash, updated_at_ms = excluded.updated_at_ms",
         {principal, hashed.iterations, SqlBlob{hashed.salt}, SqlBlob{hashed.hash}, NowMs()});
@@ -114,17 +114,30 @@ Status SqlRepository::SetCredential(const std::string& principal, const std::str
 
 Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const std::string& secret) {
   std::optional<PasswordHash> stored;
+  std::string algorithm;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
-        "SELECT salt, hash, iterations FROM credentials WHERE principal = $1 AND algorithm = 'pbkdf2-hmac-sha256'",
-        {principal});
+    auto rows = transaction.Query("SELECT salt, hash, iterations, algorithm FROM credentials WHERE principal = $1",
+                                  {principal});
     if (!rows.ok()) return rows.status();
-    if (!rows->empty()) stored = PasswordHash{rows->front().Text(0), rows->front().Text(1), rows->front().Int(2)};
+    if (!rows->empty()) {
+      stored = PasswordHash{rows->front().Text(0), rows->front().Text(1), rows->front().Int(2)};
+      algorithm = rows->front().Text(3);
+    }
     return Status::Ok();
   });
   if (!status.ok()) return status;
-  if (!stored) return false;
-  return VerifySecret(secret, *stored);
+  if (!stored) {
+    // Equal work for an unknown principal: the same hash over a throwaway record, so timing says nothing.
+    static const PasswordHash kDummy = HashTokenSecret("no such principal");
+    VerifyTokenSecret(secret, kDummy);
+    return false;
+  }
+  if (algorithm == "salted-sha256") return VerifyTokenSecret(secret, *stored);
+  if (algorithm != "pbkdf2-hmac-sha256") return false;
+  // A credential from before "salted-sha256": verified the slow way once, then rewritten the fast way.
+  if (!VerifySecret(secret, *stored)) return false;
+  STORAGE_RETURN_IF_ERROR(SetCredential(principal, secret));
+  return true;
 }
 
 // ---- Snapshots ----

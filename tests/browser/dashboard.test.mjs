@@ -87,6 +87,30 @@ after(async () => {
   if (dir && !process.env.KEEP_TMP) fs.rmSync(dir, { recursive: true, force: true });
 });
 
+test('sign-in: no data without a token; the token is entered once and kept for the tab; a 401 asks again', async () => {
+  for (const route of ['/api/robots', '/api/runs', '/api/labels', '/api/jobs', '/metrics']) {
+    const response = await fetch(`${server.http}${route}`);
+    assert.equal(response.status, 401, route);
+    assert.equal(response.headers.get('cache-control'), 'no-store', route);
+  }
+  assert.equal(await visit('/overview'), 'signin');
+  const shell = await fetch(`${server.http}/`);
+  assert.equal(shell.status, 200, 'the shell itself is open');
+  assert.match(shell.headers.get('content-security-policy'), /frame-ancestors 'none'/);
+  assert.equal(shell.headers.get('x-content-type-options'), 'nosniff');
+  // A wrong token is refused and the form comes back.
+  await page.getByTestId('signin-token').fill('engineer:browser-test.0000');
+  await page.getByTestId('signin-submit').click();
+  await page.waitForFunction(() => document.querySelector('main')?.dataset.state === 'signin'
+    && !sessionStorage.getItem('fleetd.token'), null, { timeout: 20000 });
+  await page.getByTestId('signin-token').fill(engineerToken);
+  await page.getByTestId('signin-submit').click();
+  await page.waitForFunction(() => !['loading', 'signin'].includes(document.querySelector('main')?.dataset.state), null, { timeout: 20000 });
+  assert.equal(await page.locator('main').getAttribute('data-state'), 'ready');
+  assert.equal(await page.evaluate(() => sessionStorage.getItem('fleetd.token')), engineerToken);
+  assert.match(await page.locator('#token-status').innerText(), /signed in as engineer:browser-test/);
+});
+
 test('fleet overview renders the paper figures and trends', async () => {
   assert.equal(await visit('/overview'), 'ready');
   assert.match(await page.getByTestId('kpi-runs').innerText(), new RegExp(`^${uploaded}\\b`));
@@ -146,12 +170,12 @@ test('labelling: click a region, label it, and the label round-trips through the
   const regionId = Number(await rect.getAttribute('data-region'));
   await rect.click({ force: true });
   await page.waitForSelector(`[data-testid=label-map] + svg rect.region.selected[data-region="${regionId}"]`);
-  // The page asks for the engineer token once (a prompt) and keeps it in sessionStorage.
+  // The engineer signed in once (the first subtest): labelling asks for no token again.
   let prompts = 0;
   page.on('dialog', (dialog) => { prompts += 1; dialog.accept(engineerToken); });
   await page.getByTestId('label-protrusion').click();
   await page.waitForSelector('[data-testid=label-status][data-saved=protrusion]');
-  assert.equal(prompts, 1);
+  assert.equal(prompts, 0);
   const detail = await fleet.getJson(server, `/api/runs/${regionRun.run_id}`);
   const stored = detail.regions.find((g) => g.region_id === regionId);
   assert.equal(stored.label, 'protrusion');
@@ -162,7 +186,7 @@ test('labelling: click a region, label it, and the label round-trips through the
   // Relabel: no second prompt, and the newest label wins.
   await page.getByTestId('label-new-space').click();
   await page.waitForSelector('[data-testid=label-status][data-saved=new_space]');
-  assert.equal(prompts, 1, 'the token is asked for once');
+  assert.equal(prompts, 0, 'the token is not asked for again');
   const relabelled = await fleet.getJson(server, `/api/runs/${regionRun.run_id}`);
   assert.equal(relabelled.regions.find((g) => g.region_id === regionId).label, 'new_space');
   // Without a token the API refuses.
@@ -368,7 +392,9 @@ test('maps: export links download the version as ROS map_server PGM + YAML and a
   assert.equal(downloaded.split('\n').filter((l) => l.startsWith('EDGE_SE2')).length, version.edges);
   assert.equal(downloaded.split('\n').filter((l) => l.startsWith('VERTEX_SE2')).length, version.nodes);
   const fetched = async (testid) => {
-    const response = await fetch(new URL(await page.getByTestId(testid).getAttribute('href'), server.http));
+    const url = new URL(await page.getByTestId(testid).getAttribute('href'), server.http);
+    assert.equal((await fetch(url)).status, 401, `${testid} without a token`);
+    const response = await fetch(url, { headers: { Authorization: `Bearer ${engineerToken}` } });
     assert.equal(response.status, 200, testid);
     return Buffer.from(await response.arrayBuffer());
   };
@@ -407,13 +433,14 @@ test('maps: the timeline shows the repair loop', async () => {
 test('error states: a missing run and an unknown endpoint', async () => {
   assert.equal(await visit('/runs/no-such-run'), 'error');
   assert.match(await page.getByTestId('error-state').innerText(), /HTTP 404/);
-  const unknown = await fetch(`${server.http}/api/nope`);
+  const unknown = await fetch(`${server.http}/api/nope`, { headers: { Authorization: `Bearer ${engineerToken}` } });
   assert.equal(unknown.status, 404);
-  const traversal = await fetch(`${server.http}/static/%2e%2e/%2e%2e/CMakeLists.txt`);
+  const traversal = await fetch(`${server.http}/static/%2e%2e/%2e%2e/CMakeLists.txt`, { headers: { Authorization: `Bearer ${engineerToken}` } });
   assert.equal(traversal.status, 404);
 });
 
 test('no browser console errors', () => {
   // 404s come from the error-state subtest, the 409 from the stale-repair one: both on purpose.
-  assert.deepEqual(consoleErrors.filter((e) => !/404|Not Found|409 \(Conflict\)/.test(e)), []);
+  // The 401s come from the sign-in subtests, on purpose too.
+  assert.deepEqual(consoleErrors.filter((e) => !/404|Not Found|409 \(Conflict\)|401 \(Unauthorized\)/.test(e)), []);
 });

@@ -140,8 +140,9 @@ export async function simulateAndUpload(c, server, token, dir, { robots, runs, m
   return uploaded;
 }
 
+/// GET with the admin token: fleetd serves no data without one.
 export async function getJson(server, apiPath) {
-  const response = await fetch(`${server.http}${apiPath}`);
+  const response = await fetch(`${server.http}${apiPath}`, { headers: { Authorization: `Bearer ${server.adminToken}` } });
   const body = await response.json();
   if (!response.ok) throw new Error(`${apiPath}: HTTP ${response.status} ${body.error}`);
   return body;

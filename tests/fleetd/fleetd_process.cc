@@ -1,5 +1,7 @@
 #include "fleetd_process.h"
 
+#include <gtest/gtest.h>
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -94,31 +96,53 @@ std::shared_ptr<grpc::Channel> FleetdProcess::Channel() const {
   return grpc::CreateCustomChannel(grpc_, grpc::InsecureChannelCredentials(), arguments);
 }
 
-int HttpGet(const std::string& address, const std::string& path, std::string* body) {
+std::string HttpRaw(const std::string& address, const std::string& request) {
   const std::size_t colon = address.rfind(':');
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<std::uint16_t>(std::stoi(address.substr(colon + 1))));
   inet_pton(AF_INET, address.substr(0, colon).c_str(), &addr.sin_addr);
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
+      write(fd, request.data(), request.size()) < 0) {
     close(fd);
-    return -1;
-  }
-  const std::string request = "GET " + path + " HTTP/1.1\r\nHost: test\r\nConnection: close\r\n\r\n";
-  if (write(fd, request.data(), request.size()) < 0) {
-    close(fd);
-    return -1;
+    return "";
   }
   std::string response;
   char buffer[4096];
   ssize_t n;
   while ((n = read(fd, buffer, sizeof buffer)) > 0) response.append(buffer, static_cast<std::size_t>(n));
   close(fd);
+  return response;
+}
+
+int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token) {
+  const std::string response = HttpRaw(address, "GET " + path + " HTTP/1.1\r\nHost: " + address + "\r\n" +
+                                                     (token.empty() ? "" : "Authorization: Bearer " + token + "\r\n") +
+                                                     "Connection: close\r\n\r\n");
   const std::size_t header_end = response.find("\r\n\r\n");
   if (body != nullptr) *body = header_end == std::string::npos ? "" : response.substr(header_end + 4);
   if (response.size() < 12) return -1;
   return std::stoi(response.substr(9, 3));
+}
+
+std::string IssueToken(fleet::v1::Admin::Stub& admin, const std::string& principal) {
+  fleet::v1::SetCredentialRequest request;
+  request.set_principal(principal);
+  fleet::v1::SetCredentialResponse response;
+  auto context = Context(FleetdProcess::AdminToken());
+  const grpc::Status status = admin.SetCredential(context.get(), request, &response);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return response.token();
+}
+
+int CountRuns(fleet::v1::Queries::Stub& queries, const std::string& token) {
+  fleet::v1::ListRunsRequest request;
+  request.set_page_size(1000);
+  fleet::v1::ListRunsResponse response;
+  auto context = Context(token);
+  EXPECT_TRUE(queries.ListRuns(context.get(), request, &response).ok());
+  return response.runs_size();
 }
 
 const std::vector<fleet::v1::RunFile>& SimulatedRuns() {

@@ -19,6 +19,7 @@ class FleetdProcess {
   explicit FleetdProcess(std::vector<std::string> extra = {});
   ~FleetdProcess();
   bool ok() const { return pid_ > 0 && !grpc_.empty(); }
+  int pid() const { return pid_; }
   const std::string& grpc_address() const { return grpc_; }
   const std::string& http_address() const { return http_; }
   const std::filesystem::path& directory() const { return directory_; }
@@ -34,8 +35,17 @@ class FleetdProcess {
   std::string grpc_, http_;
 };
 
-/// GET http://address/path; returns the status code and fills body.
-int HttpGet(const std::string& address, const std::string& path, std::string* body);
+/// GET http://address/path (Host: address, with `token` as a bearer token when given); returns the status
+/// code and fills body.
+int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token = "");
+
+/// Sends `request` as is to `address` (IPv4 host:port) and returns the whole response ("" when it failed).
+std::string HttpRaw(const std::string& address, const std::string& request);
+
+/// A new token for `principal` ("engineer:alice", "robot:r1"), minted with the bootstrap admin token.
+std::string IssueToken(fleet::v1::Admin::Stub& admin, const std::string& principal);
+/// How many runs Queries.ListRuns shows `token` (one page of up to 1000).
+int CountRuns(fleet::v1::Queries::Stub& queries, const std::string& token);
 
 /// Small simulated runs (robots × runs of `minutes`), generated once per process and cached.
 const std::vector<fleet::v1::RunFile>& SimulatedRuns();

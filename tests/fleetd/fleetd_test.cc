@@ -3,6 +3,7 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -44,15 +45,7 @@ class FleetdTest : public ::testing::Test {
     delete engineer_;
   }
 
-  static std::string Token(const std::string& principal) {
-    fleet::v1::SetCredentialRequest request;
-    request.set_principal(principal);
-    fleet::v1::SetCredentialResponse response;
-    auto context = Context(FleetdProcess::AdminToken());
-    const grpc::Status status = admin_->SetCredential(context.get(), request, &response);
-    EXPECT_TRUE(status.ok()) << status.error_message();
-    return response.token();
-  }
+  static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
   static std::string RobotToken(const std::string& robot_id) {
     static std::map<std::string, std::string> tokens;
     auto [it, inserted] = tokens.try_emplace(robot_id);
@@ -88,14 +81,7 @@ class FleetdTest : public ::testing::Test {
     }
     return status;
   }
-  static int CountRuns() {
-    fleet::v1::ListRunsRequest request;
-    request.set_page_size(1000);
-    fleet::v1::ListRunsResponse response;
-    auto context = Context(*engineer_);
-    EXPECT_TRUE(queries_->ListRuns(context.get(), request, &response).ok());
-    return response.runs_size();
-  }
+  static int CountRuns() { return fleetd_test::CountRuns(*queries_, *engineer_); }
 
   static FleetdProcess* server_;
   static fleet::v1::Ingest::Stub* ingest_;
@@ -533,7 +519,9 @@ TEST_F(FleetdTest, BadUploadsNameTheFieldAndStoreNothing) {
   };
   for (const Case& c : cases) {
     RunFile bad = good;
-    bad.mutable_header()->set_run_id("bad-" + c.name);
+    std::string run_id = "bad-" + c.name;
+    std::replace(run_id.begin(), run_id.end(), ' ', '-');
+    bad.mutable_header()->set_run_id(run_id);
     c.mutate(bad);
     UploadRunResponse response;
     const grpc::Status status = Upload(*ingest_, token, bad, &response);
@@ -705,8 +693,10 @@ TEST_F(FleetdTest, MetricsHealthzAndGrpcHealth) {
   std::string body;
   EXPECT_EQ(HttpGet(server_->http_address(), "/healthz", &body), 200);
   EXPECT_EQ(body, "ok\n");
-  EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body), 404);
-  ASSERT_EQ(HttpGet(server_->http_address(), "/metrics", &body), 200);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body), 401);  // no route enumeration without a token
+  EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body, *engineer_), 404);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/metrics", &body), 401);
+  ASSERT_EQ(HttpGet(server_->http_address(), "/metrics", &body, *engineer_), 200);
   for (const char* series : {"fleetd_ingest_runs_total{outcome=\"stored\"}", "fleetd_ingest_bytes_total",
                              "fleetd_ingest_events_total", "fleetd_rpc_latency_seconds_bucket{method=\"Ingest/UploadRun\"",
                              "fleetd_job_queue_depth{state=\"queued\"}", "fleetd_rpc_total{method=\"Ingest/UploadRun\",code=\"OK\"}"}) {

@@ -12,7 +12,7 @@ export async function getJson(path, params = {}) {
   const url = query.toString() ? `${path}?${query}` : path;
   let response;
   try {
-    response = await fetch(url, { headers: { Accept: 'application/json' } });
+    response = await fetch(url, { headers: authHeaders({ Accept: 'application/json' }) });
   } catch (e) {
     throw new ApiError(0, `fleetd is unreachable (${e.message})`);
   }
@@ -31,7 +31,53 @@ export async function postJson(path, body, token) {
   return parse(response);
 }
 
+/// Every request carries the session's token: fleetd serves no data without one (docs/formats/service.md).
+export function authHeaders(headers = {}) {
+  const token = getToken();
+  return token ? { ...headers, Authorization: `Bearer ${token}` } : headers;
+}
+
+/// GETs `path` with the token as a Blob (pictures and downloads, which <img src> and <a href> cannot sign).
+export async function getBlob(path) {
+  let response;
+  try {
+    response = await fetch(path, { headers: authHeaders() });
+  } catch (e) {
+    throw new ApiError(0, `fleetd is unreachable (${e.message})`);
+  }
+  if (!response.ok) return parse(response);
+  return response.blob();
+}
+
+/// Shows `img` from an authenticated GET; a failure fires the image's 'error' event like a broken src.
+export function loadImage(img, path) {
+  getBlob(path).then((blob) => { img.src = URL.createObjectURL(blob); },
+    () => img.dispatchEvent(new Event('error')));
+  return img;
+}
+
+/// A link that downloads `path` with the token (as <a download>, but signed).
+export function downloadLink(link, path, filename) {
+  link.addEventListener('click', async (event) => {
+    event.preventDefault();
+    const url = URL.createObjectURL(await getBlob(path));
+    const anchor = document.createElement('a');
+    anchor.href = url; anchor.download = filename;
+    document.body.append(anchor); anchor.click(); anchor.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+  });
+  return link;
+}
+
+// ---- Sign-in: a 401 forgets the token and shows the form; signing in re-renders the page. ----
+let signInHandler = () => {};
+export function onSignInNeeded(handler) { signInHandler = handler; }
+
 async function parse(response) {
+  if (response.status === 401) {
+    setToken('');
+    signInHandler();
+  }
   const text = await response.text();
   let body = null;
   try { body = text ? JSON.parse(text) : null; } catch { body = null; }
@@ -39,7 +85,7 @@ async function parse(response) {
   return body;
 }
 
-// ---- Engineer token for labelling and map repairs: asked for once, kept for the browser session only. ----
+// ---- The session's token (any role; labelling and map repairs need an engineer's): kept for this tab only. ----
 const TOKEN_KEY = 'fleetd.token';
 export function getToken() { return sessionStorage.getItem(TOKEN_KEY) || ''; }
 export function setToken(token) {
@@ -55,7 +101,7 @@ export function updateTokenStatus() {
   const element = document.getElementById('token-status');
   if (!element) return;
   const token = getToken();
-  element.textContent = token ? `signed in as ${token.split('.')[0]}` : 'read-only (labelling and repairs ask for a token)';
+  element.textContent = token ? `signed in as ${token.split('.')[0]}` : 'not signed in';
 }
 
 /// POSTs with the engineer token, asking for it once when there is none; a token the server refuses is

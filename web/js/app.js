@@ -1,8 +1,8 @@
 // The dashboard: one page, hash routes, one module per page (pages/). Every page renders into <main> and
 // sets main[data-state] to "ready", "empty" or "error" when it is done (the browser tests wait on it).
 import { destroyAll } from './charts.js';
-import { errorState, setState } from './ui.js';
-import { updateTokenStatus } from './api.js';
+import { errorState, h, setState } from './ui.js';
+import { getToken, onSignInNeeded, setToken, updateTokenStatus } from './api.js';
 import * as overview from './pages/overview.js';
 import * as runs from './pages/runs.js';
 import * as run from './pages/run.js';
@@ -45,7 +45,7 @@ async function navigate() {
   try {
     await route.page.render(main, { args, query: new URLSearchParams(queryString || ''), isCurrent: () => mine === generation });
   } catch (error) {
-    if (mine !== generation) return;
+    if (mine !== generation || main.dataset.state === 'signin') return;
     if (error && error.status) console.warn(error.message); else console.error(error);
     destroyAll();
     main.replaceChildren(errorState(error));
@@ -53,6 +53,30 @@ async function navigate() {
   }
 }
 
-window.addEventListener('hashchange', navigate);
+/// fleetd serves no data without a token: the form asks for one (any role's; labelling and repairs need an
+/// engineer's), keeps it in sessionStorage for this tab, and renders the page again. A 401 brings it back.
+function signIn() {
+  if (current && current.stop) current.stop();
+  destroyAll();
+  ++generation;
+  const main = document.getElementById('main');
+  const input = h('input', { type: 'password', autocomplete: 'off', placeholder: 'engineer:<name>.<secret>', 'data-testid': 'signin-token', size: 60 });
+  const form = h('form', { class: 'signin', 'data-testid': 'signin' },
+    h('h1', {}, 'Sign in'),
+    h('p', { class: 'muted' }, 'Paste a fleetd token (fleetctl credentials set, or the one the main job printed). It is kept for this tab only.'),
+    input, ' ', h('button', { type: 'submit', 'data-testid': 'signin-submit' }, 'Sign in'));
+  form.addEventListener('submit', (event) => {
+    event.preventDefault();
+    if (!input.value.trim()) return;
+    setToken(input.value.trim());
+    navigate();
+  });
+  main.replaceChildren(form);
+  setState(main, 'signin');
+  input.focus();
+}
+
+onSignInNeeded(signIn);
+window.addEventListener('hashchange', () => (getToken() ? navigate() : signIn()));
 updateTokenStatus();
-navigate();
+if (getToken()) navigate(); else signIn();

@@ -7,6 +7,7 @@
 // home component — the one with the most nodes, ties to the first — lives in that frame.
 import { h } from './ui.js';
 import { svg, tip } from './svg.js';
+import { loadImage } from './api.js';
 
 /// Graph nodes arrive as [id, x, y, theta, component].
 export const nodeId = (node) => node[0];
@@ -69,9 +70,10 @@ export function mapOverlay(src, graph, findings, { testid, caption } = {}) {
     boxes.append(svg('rect', { x: x1, y: y1, width: x2 - x1, height: y2 - y1, class: `finding-box ${finding.state}`,
       'data-testid': 'finding-box', 'data-finding': finding.finding_id }, tip(`finding ${finding.finding_id}: ${finding.summary}`)));
   }
-  const img = h('img', { src, alt: `${testid || 'map'} picture`, 'data-testid': testid });
+  const img = h('img', { alt: `${testid || 'map'} picture`, 'data-testid': testid });
   const unavailable = h('p', { class: 'muted', hidden: true }, 'No picture: this version has no occupancy patches in its home component.');
   img.addEventListener('error', () => { unavailable.hidden = false; });
+  loadImage(img, src);
   const overlay = svg('svg', { viewBox: `0 0 ${grid.width} ${grid.height}`, preserveAspectRatio: 'none', class: 'graph-overlay',
     'data-testid': `${testid}-overlay` }, ...groups, boxes);
   const element = h('figure', {}, h('div', { class: 'mapview' }, img, grid.width > 0 ? overlay : null), unavailable,

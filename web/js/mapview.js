@@ -1,13 +1,14 @@
 // A map image (parent, child or difference; all three share the child's cells) with the protrusion regions
 // drawn over it as SVG rectangles, coloured by label, or by the classifier's class when unlabelled.
 import { h } from './ui.js';
+import { loadImage } from './api.js';
 
 const SVG = 'http://www.w3.org/2000/svg';
 
 export function regionClass(region) { return region.label || region.predicted_class || 'unclassified'; }
 
 export function mapView(src, info, regions, { testid, onRegionClick, selected } = {}) {
-  const img = h('img', { src, alt: testid || 'map', 'data-testid': testid });
+  const img = loadImage(h('img', { alt: testid || 'map', 'data-testid': testid }), src);
   const svg = document.createElementNS(SVG, 'svg');
   svg.setAttribute('viewBox', `0 0 ${info.width} ${info.height}`);
   svg.setAttribute('preserveAspectRatio', 'none');

@@ -11,6 +11,7 @@
 #include <optional>
 #include <set>
 #include <unordered_map>
+#include <functional>
 #include <string>
 
 #include "fleet/v1/report.pb.h"
@@ -34,6 +35,10 @@ struct AnalysisOptions {
   const slamcore::ProtrusionClassifier* classifier = nullptr;
   /// Keep the rerun's child map in the report (for map pages and reprocessing comparisons).
   bool keep_rerun_child = true;
+  /// The analysis budget: asked every 256 events of the replay and before the maps are rendered; a non-OK
+  /// status (deadline passed, job cancelled) ends the analysis with it, naming the event reached. Unset: no
+  /// budget.
+  std::function<slamcore::Status()> keep_going;
 };
 
 /// The occupancy grids the protrusion detector compares (paper IV-C): the parent's largest component (the

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -50,8 +51,16 @@ struct AnalysisResult {
 
 /// NOT_FOUND when the run or parameter set is missing, INVALID_ARGUMENT when the telemetry is refused by
 /// the replay, DATA_LOSS when stored bytes do not parse.
+/// What one analysis may take: at most `max_seconds` of replay and rendering (<= 0: no limit), and it stops
+/// when `cancelled()` says so. Either ends it with FAILED_PRECONDITION ("analysis budget: ...").
+struct AnalysisBudget {
+  double max_seconds = 0.0;
+  std::function<bool()> cancelled;
+};
+
 storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const std::string& run_id,
                                                  const std::string& parameter_set,
-                                                 const slamcore::ProtrusionClassifier* classifier);
+                                                 const slamcore::ProtrusionClassifier* classifier,
+                                                 const AnalysisBudget& budget = {});
 
 }  // namespace server

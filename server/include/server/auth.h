@@ -1,23 +1,28 @@
 // Authentication and authorisation of fleetd callers.
 //
 // Tokens are "<principal>.<secret>": the principal names the caller and its role ("robot:<id>",
-// "engineer:<name>", "admin:<name>"), the secret is 32 random bytes in hex. Only a salted PBKDF2 hash of
-// the secret is stored (storage::Repository::SetCredential). Because PBKDF2 is deliberately slow, a
-// verified token is cached in memory (keyed by its SHA-256, never the token) for `cache_ttl`; replacing a
-// credential through this Authenticator drops the principal's cached entries at once, other replicas
-// notice within the TTL.
+// "engineer:<name>", "admin:<name>"), the secret is 32 random bytes in hex. Only a salted SHA-256 of the
+// secret is stored (storage::Repository::SetCredential): with 256 random bits there is nothing to
+// brute-force, so checking is as cheap for us as guessing is for an attacker.
+//
+// Order of a check, cheapest first: the header's shape; an LRU of verified tokens (keyed by the token's
+// SHA-256, never the token; entries live `cache_ttl`); the principal's syntax; failed-attempt limits per
+// principal and per peer (kFailureBurst failures, then one per kFailureRefillSeconds), which refuse before
+// any lookup or hashing; then the credential store. Unknown principals cost the store the same hash as
+// known ones. A token already verified keeps working while its principal is under attack (the LRU answers
+// first). Replacing a credential through this Authenticator drops the principal's cached entries at once,
+// other replicas notice within the TTL.
 //
 // Thread safety: Authenticator is safe to use from many threads (one internal mutex for the cache).
 #pragma once
 
 #include <chrono>
 #include <cstdint>
-#include <condition_variable>
+#include <list>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "storage/repository.h"
 
@@ -66,8 +71,13 @@ class Authenticator {
     std::string message;
     Principal principal;
   };
-  /// `authorization` is the metadata value, "Bearer <token>".
-  Verdict Authenticate(const std::string& authorization);
+  /// `authorization` is the metadata value, "Bearer <token>"; `peer` the caller's address without port
+  /// (empty: no per-peer limit).
+  Verdict Authenticate(const std::string& authorization, const std::string& peer = "");
+
+  static constexpr double kFailureBurst = 20.0;
+  static constexpr double kFailureRefillSeconds = 1.0;
+  static constexpr std::size_t kCacheCapacity = 10000;
 
   /// Stores a new secret for `principal` and returns the token.
   storage::Result<std::string> IssueToken(const Principal& principal);
@@ -79,13 +89,24 @@ class Authenticator {
   struct CacheEntry {
     Principal principal;
     std::chrono::steady_clock::time_point expires;
+    std::list<std::string>::iterator recency;
   };
+  struct FailureBucket {
+    double failures = 0.0;
+    std::chrono::steady_clock::time_point last;
+  };
+  std::optional<Principal> CachedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
+  void CacheLocked(const std::string& key, const Principal& principal, std::chrono::steady_clock::time_point now);
+  /// True when `key` has used up its failures (decays them first).
+  bool BlockedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
+  void RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now);
+
   storage::Repository& repository_;
   const std::chrono::seconds cache_ttl_;
-  std::mutex mutex_;  // guards cache_ and verifying_
-  std::condition_variable verifying_cv_;
+  std::mutex mutex_;  // guards cache_, recency_, failures_
   std::unordered_map<std::string, CacheEntry> cache_;  // key: SHA-256 of the token
-  std::unordered_set<std::string> verifying_;          // keys being verified right now
+  std::list<std::string> recency_;                     // cache keys, most recently used first
+  std::unordered_map<std::string, FailureBucket> failures_;  // "principal:<name>" and "peer:<address>"
 };
 
 /// Per-principal token buckets: `rate` requests per second with bursts of `burst`. rate <= 0: unlimited.

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "storage/status.h"
 
@@ -16,6 +17,8 @@ struct FleetdConfig {
   std::string db = "sqlite:fleet.db";      // storage URL: sqlite:PATH or postgresql://...
   std::string listen = "127.0.0.1:50051";  // gRPC; port 0 picks a free port
   std::string http = "127.0.0.1:8080";     // /metrics, /healthz; empty disables
+  std::string http_allowed_hosts;           // comma-separated Host names accepted besides the bound address
+  bool metrics_open = false;                // /metrics without a token (e.g. a scraper on a private network)
   std::string role = "all";                // "all", "server" (API only), "worker" (workers only)
   int workers = 0;                          // analysis threads; 0: one per core (at least 1)
   std::string tls_cert;                     // PEM files; both set: the gRPC port speaks TLS only
@@ -29,7 +32,8 @@ struct FleetdConfig {
   double shutdown_grace_seconds = 20.0;     // SIGTERM: in-flight RPCs and jobs get this long
   std::string default_parameter_set = "default";  // what every upload is analysed with
   std::string model_name = "protrusion";    // the active version of this model classifies regions
-  int lease_seconds = 120;                  // job lease; heartbeats renew it every lease/4
+  int lease_seconds = 120;
+  double analysis_budget_seconds = 600.0;   // one run's analysis; past it the job fails with a clear error                  // job lease; heartbeats renew it every lease/4
   int auth_cache_seconds = 60;
   std::string log_level = "info";
   std::string log_format = "json";          // "json" or "text"
@@ -39,6 +43,9 @@ struct FleetdConfig {
   /// Checks ranges and enumerations, naming the key.
   storage::Status Validate() const;
 };
+
+/// "a, b,c" → {"a", "b", "c"} (empty items dropped).
+std::vector<std::string> SplitList(const std::string& text);
 
 /// Reads a JSON object of config keys over `config`.
 storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config);

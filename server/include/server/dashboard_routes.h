@@ -27,8 +27,9 @@
 //                                             "finding_id"} | {"action": "rollback"|"undo"}, "reason", "approve"
 //   POST /api/robots/<id>/maps/<v>/review     {"approve": true|false}
 //
-// Everything is read-only for anyone who reaches the HTTP port except the POSTs (label, repair, review),
-// which need a bearer token whose role may do them (engineer or admin; server/auth.h). Statistics are aggregated by the
+// Every /api/ route needs a bearer token (MakeHttpAccessGuard: the same tokens and roles as gRPC; robots
+// read only their own runs and map); the POSTs (label, repair, review) also need a role that may do them
+// (engineer or admin; server/auth.h). Statistics are aggregated by the
 // database (storage::Repository::Aggregate/AggregateBy); lists are paginated, so pages stay fast at 100k runs.
 // Errors are JSON {"error": "..."} with an HTTP status that matches storage's Status code.
 //
@@ -49,6 +50,10 @@ namespace server {
 /// Adds the routes above to `router`. `repository` and `authenticator` must outlive the HTTP server.
 void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
                              const FleetdConfig& config);
+/// The access rules of every HTTP route (server/src/http_access.cc, docs/formats/service.md "HTTP"): install
+/// with HttpRouter::SetGuard. `repository` and `authenticator` must outlive the HTTP server.
+HttpGuard MakeHttpAccessGuard(storage::Repository& repository, Authenticator& authenticator,
+                              const FleetdConfig& config);
 /// The /api/robots routes (server/src/dashboard_map_routes.cc).
 void RegisterMapRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
                        const FleetdConfig& config);

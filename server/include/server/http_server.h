@@ -5,13 +5,20 @@
 // "/api/runs"; "/healthz" matches only paths starting with it). Unknown paths are 404, a known path with
 // another method 405. Handlers run on the connection's thread and must be thread-safe.
 //
-// Thread safety: register routes before Start(); after that the router is read-only. Stop() is safe from
-// any thread and waits for open connections to finish their current request.
+// Access (docs/formats/service.md, "HTTP"): the server checks the Host header against its bound address and
+// `HttpServerOptions::allowed_hosts` (every path but /healthz), the Origin of writes against the Host, adds
+// the security headers to every response (CSP, nosniff, frame-ancestors, Referrer-Policy; no-store on
+// everything but static assets), refuses response headers carrying control characters, caps connections
+// and times out slow clients. The router's guard (SetGuard) then decides who may read what.
+//
+// Thread safety: register routes and the guard before Start(); after that the router is read-only. Stop()
+// is safe from any thread and waits for open connections to finish their current request.
 #pragma once
 
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +31,7 @@ struct HttpRequest {
   std::string query;   // after '?', undecoded
   std::map<std::string, std::string> headers;  // lowercase names
   std::string body;
+  std::string peer;  // the client's address, without the port
 };
 
 struct HttpResponse {
@@ -34,10 +42,13 @@ struct HttpResponse {
 };
 
 using HttpHandler = std::function<HttpResponse(const HttpRequest&)>;
+/// Runs before routing; a response refuses the request (401, 403, ...), nullopt lets it through.
+using HttpGuard = std::function<std::optional<HttpResponse>(const HttpRequest&)>;
 
 class HttpRouter {
  public:
   void AddRoute(const std::string& method, const std::string& path_prefix, HttpHandler handler);
+  void SetGuard(HttpGuard guard) { guard_ = std::move(guard); }
   HttpResponse Handle(const HttpRequest& request) const;
 
  private:
@@ -46,13 +57,22 @@ class HttpRouter {
     HttpHandler handler;
   };
   std::vector<Route> routes_;
+  HttpGuard guard_;
+};
+
+struct HttpServerOptions {
+  /// Host names (or host:port) accepted in the Host header besides the bound address and "localhost"; the
+  /// loopback addresses are accepted on a loopback binding, any IP literal on a wildcard (0.0.0.0) binding.
+  std::vector<std::string> allowed_hosts;
+  int max_connections = 256;        // more are closed at once
+  int io_timeout_seconds = 30;      // a request must arrive, and a response leave, within this
 };
 
 class HttpServer {
  public:
   /// Binds `address` ("host:port", port 0 = any free port) at once; fails with a message when it cannot.
   static std::unique_ptr<HttpServer> Create(const std::string& address, const HttpRouter& router,
-                                            std::string* error);
+                                            std::string* error, HttpServerOptions options = {});
   ~HttpServer();
   /// "127.0.0.1:41235": the bound address.
   std::string BoundAddress() const;

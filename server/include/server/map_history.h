@@ -72,7 +72,11 @@ class MapHistory {
   MapHistory(storage::Repository& repository, MapPolicy policy);
 
   /// Called by ingest once the run is stored; idempotent by run id (a retried upload gets the same version).
-  storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const slamcore::Map& child);
+  /// `uploader`: the principal that sent the run ("robot:<id>" or empty: the robot itself). An engineer's
+  /// upload for a robot is recorded as the engineer's and waits for review ("pending"); an admin's is
+  /// recorded as the admin's.
+  storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
+                                                 const std::string& uploader = "");
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
   storage::Status OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report);
 

@@ -32,6 +32,7 @@ struct WorkerOptions {
   bool coordinator = true;         // also run reprocess jobs' coordination
   std::string name = "fleetd";     // lease owner prefix: "<name>/<thread>"
   std::chrono::milliseconds lease{120000};
+  double analysis_budget_seconds = 600.0;  // one analysis's replay and rendering; <= 0: no limit
   std::string model_name = "protrusion";
   MapPolicy map_policy;            // what happens to a robot's map after its run is analysed
 };

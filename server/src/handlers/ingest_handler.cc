@@ -1,5 +1,7 @@
 #include "ingest_handler.h"
 
+#include <algorithm>
+
 #include "analyzer/telemetry_codec.h"
 #include "server/jobs.h"
 #include "server/log.h"
@@ -34,6 +36,9 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
               where + ": upload exceeds max_run_bytes (" + std::to_string(context_.limits.max_run_bytes) + ")"};
     }
     if (have_child) return InvalidArgument(where + ": nothing may follow child_snapshot");
+    if (auto unknown = analyzer::FindUnknownField(message, where)) {
+      return InvalidArgument(*unknown + ": carries bytes that are no field of fleet.v1 (trailing or unknown data)");
+    }
     if (!have_header && message.part_case() != fleet::v1::UploadRunRequest::kHeader) {
       return InvalidArgument(where + ": the first message must be a header");
     }
@@ -113,12 +118,21 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
     }
   } else if (!header.parent_snapshot_id().empty()) {
     parent_id = header.parent_snapshot_id();
+    // Named by id only, a parent must come from this robot's own map history: another robot's snapshot
+    // (its customer's home) answers exactly like one the server does not hold.
+    const grpc::Status not_held{grpc::StatusCode::FAILED_PRECONDITION,
+                                "header.parent_snapshot_id: snapshot " + parent_id +
+                                    " is not stored for robot " + header.robot_id() +
+                                    "; send parent_snapshot in the stream"};
+    auto versions = context_.repository->ListMapVersions(header.robot_id());
+    if (!versions.ok()) return ToGrpc(versions.status());
+    if (std::none_of(versions->begin(), versions->end(),
+                     [&](const storage::MapVersionRecord& version) { return version.snapshot_id == parent_id; })) {
+      return not_held;
+    }
     auto stored = context_.repository->GetSnapshot(parent_id);
     if (!stored.ok()) {
-      if (stored.status().code() == storage::StatusCode::kNotFound) {
-        return {grpc::StatusCode::FAILED_PRECONDITION, "header.parent_snapshot_id: snapshot " + parent_id +
-                                                           " is not stored; send parent_snapshot in the stream"};
-      }
+      if (stored.status().code() == storage::StatusCode::kNotFound) return not_held;
       return ToGrpc(stored.status());
     }
   }
@@ -173,7 +187,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
   // The child map becomes a version of the robot's map; also on a retry, in case the first attempt stored the
   // run but failed before this (RecordUpload is idempotent by run id).
-  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map);
+  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map, principal.name);
   if (!map.ok()) return ToGrpc(map.status());
   response->set_run_id(record.run_id);
   response->set_already_present(already);

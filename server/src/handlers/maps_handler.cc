@@ -1,5 +1,7 @@
 #include "maps_handler.h"
 
+#include "analyzer/telemetry_codec.h"
+
 namespace server {
 
 grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call, const fleet::v1::ListMapVersionsRequest* request,
@@ -7,7 +9,9 @@ grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call, const fleet
   RpcScope scope(context_.metrics, "Maps/ListMapVersions");
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   std::int64_t current = 0, head = 0;
   auto versions = history_.List(request->robot_id(), &current, &head);
   if (!versions.ok()) return scope.Done(ToGrpc(versions.status()));
@@ -22,7 +26,9 @@ grpc::Status MapsHandler::GetMapVersion(grpc::ServerContext* call, const fleet::
   RpcScope scope(context_.metrics, "Maps/GetMapVersion");
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   auto detail = history_.Get(request->robot_id(), request->version(),
                              request->include_snapshot() ? response->mutable_snapshot() : nullptr);
   if (!detail.ok()) return scope.Done(ToGrpc(detail.status()));
@@ -38,7 +44,9 @@ grpc::Status MapsHandler::RepairMap(grpc::ServerContext* call, const fleet::v1::
   if (grpc::Status denied = Authorize(context_, call, Permission::kRepairMap, &principal); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   if (request->base_version() <= 0) return scope.Done(InvalidArgument("base_version: required (the version repaired)"));
   RepairRequest repair;
   repair.robot_id = request->robot_id();
@@ -80,7 +88,9 @@ grpc::Status MapsHandler::ReviewMapVersion(grpc::ServerContext* call, const flee
   if (grpc::Status denied = Authorize(context_, call, Permission::kRepairMap, &principal); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   if (request->version() <= 0) return scope.Done(InvalidArgument("version: required"));
   auto reviewed = history_.Review(request->robot_id(), request->version(), request->approve(), principal.name);
   if (!reviewed.ok()) return scope.Done(ToGrpc(reviewed.status()));
@@ -95,7 +105,9 @@ grpc::Status MapsHandler::GetMap(grpc::ServerContext* call, const fleet::v1::Get
   if (grpc::Status denied = Authorize(context_, call, Permission::kFetchMap, &principal); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   if (principal.role == Role::kRobot && principal.id != request->robot_id()) {
     return scope.Done({grpc::StatusCode::PERMISSION_DENIED,
                        principal.name + " may fetch only its own map, not robot " + request->robot_id() + "'s"});
@@ -113,7 +125,9 @@ grpc::Status MapsHandler::ExportMap(grpc::ServerContext* call, const fleet::v1::
   RpcScope scope(context_.metrics, "Maps/ExportMap");
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   auto files = history_.Export(request->robot_id(), request->version(), request->format());
   if (!files.ok()) return scope.Done(ToGrpc(files.status()));
   for (auto& file : *files) *response->add_files() = std::move(file);
@@ -127,7 +141,9 @@ grpc::Status MapsHandler::ImportMap(grpc::ServerContext* call, const fleet::v1::
   if (grpc::Status denied = Authorize(context_, call, Permission::kRepairMap, &principal); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (request->robot_id().empty()) return scope.Done(InvalidArgument("robot_id: required"));
+  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
+    return scope.Done(InvalidArgument(bad.message()));
+  }
   if (!request->has_snapshot()) return scope.Done(InvalidArgument("snapshot: required (the imported map)"));
   if (request->source().size() > 1024) return scope.Done(InvalidArgument("source: longer than 1024 bytes"));
   if (request->reason().size() > 4096) return scope.Done(InvalidArgument("reason: longer than 4096 bytes"));

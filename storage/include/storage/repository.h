@@ -39,10 +39,13 @@ class Repository {
   /// NOT_FOUND when no such robot.
   virtual Result<RobotRecord> GetRobot(const std::string& robot_id) = 0;
   virtual Result<std::vector<RobotRecord>> ListRobots() = 0;
-  /// Stores a salted PBKDF2-HMAC-SHA256 hash of `secret` for `principal` (a robot or a user), replacing
-  /// the previous one. The secret itself is never stored.
+  /// Stores a salted SHA-256 of `secret` for `principal` (a robot or a user), replacing the previous one.
+  /// The secret itself is never stored. Secrets are tokens of 256 random bits (server/auth.h), so a fast
+  /// hash suffices and makes checking cheap. Credentials stored as PBKDF2 by older versions are still
+  /// verified, and rewritten as salted SHA-256 on their first successful check.
   virtual Status SetCredential(const std::string& principal, const std::string& secret) = 0;
-  /// True when `secret` matches; false when it does not or the principal has no credential.
+  /// True when `secret` matches; false when it does not or the principal has no credential (after the
+  /// same work as a check, so unknown principals cannot be told apart by timing).
   virtual Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) = 0;
 
   // ---- Map snapshots (content-addressed) ----

@@ -2,7 +2,7 @@
 // pose graph and findings drawn over it, the findings with their evidence, and the constraint view. Every
 // repair makes a new pending version from this one (POST …/repair, engineer token) and opens it, so the
 // engineer sees the re-optimised map beside its parent before approving or rejecting it (POST …/review).
-import { ApiError, getJson, postAsEngineer } from '../api.js';
+import { ApiError, downloadLink, getJson, postAsEngineer } from '../api.js';
 import { card, h, kpi, num, setState, time } from '../ui.js';
 import { approvalBadge, historyHash, originLabel, reviewState, robotMapsPath, sameMapAs, versionHash } from '../maphistory.js';
 import { mapOverlay, nodeId, otherComponents, overlayLegend } from '../mapoverlay.js';
@@ -129,7 +129,8 @@ export async function render(main, { args, query, isCurrent }) {
     kpi('known area', h('span', {}, `${num(version.known_area_m2, 1)} m²`, delta('known_area_m2', 1)), 'kpi-area'),
     kpi('χ² after optimisation', h('span', {}, num(version.chi2, 1), delta('chi2', 1)), 'kpi-chi2'),
     kpi('open findings', num(version.open_findings), 'kpi-findings')));
-  const exportLink = (file) => h('a', { href: `${versionBase}/export/${file}`, download: `${robotId}-v${v}${file.slice(3)}`, 'data-testid': `export-${file.slice(4)}` }, file);
+  const exportLink = (file) => downloadLink(h('a', { href: `${versionBase}/export/${file}`, 'data-testid': `export-${file.slice(4)}` }, file),
+    `${versionBase}/export/${file}`, `${robotId}-v${v}${file.slice(3)}`);
   main.append(h('p', { class: 'exports', 'data-testid': 'exports' }, h('strong', {}, `Export v${v}: `),
     exportLink('map.pgm'), ' + ', exportLink('map.yaml'), ' (ROS map_server) · ', exportLink('map.g2o'), ' (pose graph, g2o)'));
 

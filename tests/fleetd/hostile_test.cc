@@ -1,0 +1,374 @@
+// Hostile clients against a real fleetd on loopback (issue 16): one test per confirmed attack. Each asserts
+// the status code, that nothing was stored or leaked, that fleetd stayed up and answered a legitimate
+// request meanwhile, and records fleetd's peak RSS (VmHWM) as a test property.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <functional>
+#include <tuple>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "fleetd_process.h"
+
+namespace fleetd_test {
+namespace {
+
+using fleet::v1::RunFile;
+using fleet::v1::UploadRunResponse;
+
+int StatusOf(const std::string& response) {
+  return response.size() > 12 ? std::stoi(response.substr(9, 3)) : -1;
+}
+
+class HostileTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    server_ = new FleetdProcess();
+    ASSERT_TRUE(server_->ok());
+    auto channel = server_->Channel();
+    ingest_ = fleet::v1::Ingest::NewStub(channel).release();
+    queries_ = fleet::v1::Queries::NewStub(channel).release();
+    reprocessing_ = fleet::v1::Reprocessing::NewStub(channel).release();
+    admin_ = fleet::v1::Admin::NewStub(channel).release();
+    engineer_ = new std::string(Token("engineer:hostile-test"));
+    // Two robots' first runs, stored legitimately: what the attacks try to reach.
+    for (const RunFile& run : SimulatedRuns()) {
+      if (robots_.contains(run.header().robot_id())) continue;
+      UploadRunResponse response;
+      const grpc::Status status = Upload(*ingest_, RobotToken(run.header().robot_id()), run, &response);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      robots_[run.header().robot_id()] = response.child_snapshot_id();
+      if (robots_.size() == 2) break;
+    }
+    ASSERT_EQ(robots_.size(), 2u);
+  }
+  static void TearDownTestSuite() {
+    delete ingest_;
+    delete queries_;
+    delete reprocessing_;
+    delete admin_;
+    EXPECT_EQ(server_->Stop(), 0) << "fleetd exits 0 on SIGTERM";
+    delete server_;
+    delete engineer_;
+  }
+
+  static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
+  static std::string RobotToken(const std::string& robot_id) {
+    static std::map<std::string, std::string> tokens;
+    auto [it, inserted] = tokens.try_emplace(robot_id);
+    if (inserted) it->second = Token("robot:" + robot_id);
+    return it->second;
+  }
+  static int CountRuns() { return fleetd_test::CountRuns(*queries_, *engineer_); }
+  /// A run of robot `index` (0 or 1) from the simulation, with a fresh run id.
+  static RunFile RunOf(int index, const std::string& run_id) {
+    auto it = robots_.begin();
+    std::advance(it, index);
+    for (const RunFile& run : SimulatedRuns()) {
+      if (run.header().robot_id() != it->first) continue;
+      RunFile copy = run;
+      copy.mutable_header()->set_run_id(run_id);
+      return copy;
+    }
+    return {};
+  }
+  static std::string RobotId(int index) {
+    auto it = robots_.begin();
+    std::advance(it, index);
+    return it->first;
+  }
+
+  /// fleetd is alive and answers a legitimate request (a robot's own upload history and an engineer's
+  /// listing); records its peak RSS.
+  void ExpectStillServing() {
+    EXPECT_EQ(kill(server_->pid(), 0), 0) << "fleetd is running";
+    std::string body;
+    EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots", &body, *engineer_), 200) << body;
+    EXPECT_NE(body.find(RobotId(0)), std::string::npos);
+    EXPECT_GE(CountRuns(), 2);
+    std::ifstream status("/proc/" + std::to_string(server_->pid()) + "/status");
+    for (std::string line; std::getline(status, line);) {
+      if (line.rfind("VmHWM:", 0) == 0) {
+        RecordProperty("fleetd_peak_rss", line.substr(6));
+        std::printf("fleetd peak RSS: %s\n", line.substr(6).c_str());
+      }
+    }
+  }
+
+  static FleetdProcess* server_;
+  static fleet::v1::Ingest::Stub* ingest_;
+  static fleet::v1::Queries::Stub* queries_;
+  static fleet::v1::Reprocessing::Stub* reprocessing_;
+  static fleet::v1::Admin::Stub* admin_;
+  static std::string* engineer_;
+  static std::map<std::string, std::string> robots_;  // robot id → its stored child snapshot id
+};
+
+FleetdProcess* HostileTest::server_ = nullptr;
+fleet::v1::Ingest::Stub* HostileTest::ingest_ = nullptr;
+fleet::v1::Queries::Stub* HostileTest::queries_ = nullptr;
+fleet::v1::Reprocessing::Stub* HostileTest::reprocessing_ = nullptr;
+fleet::v1::Admin::Stub* HostileTest::admin_ = nullptr;
+std::string* HostileTest::engineer_ = nullptr;
+std::map<std::string, std::string> HostileTest::robots_;
+
+TEST_F(HostileTest, HttpReadsWithoutATokenGetNothing) {
+  const std::string robot = RobotId(0), other = RobotId(1);
+  for (const std::string& path : std::vector<std::string>{"/api/robots", "/api/runs", "/api/labels", "/api/jobs", "/api/stats", "/metrics",
+                                 "/api/robots/" + robot + "/maps/current/export/map.pgm",
+                                 "/api/robots/" + robot + "/maps/current/export/map.g2o"}) {
+    std::string body;
+    EXPECT_EQ(HttpGet(server_->http_address(), path, &body), 401) << path;
+    EXPECT_EQ(body.find(robot), std::string::npos) << path << " leaks the robot id";
+    EXPECT_EQ(HttpGet(server_->http_address(), path, &body, "engineer:hostile-test.0000"), 401) << path;
+  }
+  // A robot reads its own map and nothing else: not the fleet, not another robot's map or runs.
+  std::string body;
+  const std::string token = RobotToken(robot);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps/current/export/map.g2o", &body, token), 200);
+  EXPECT_NE(body.find("VERTEX_SE2"), std::string::npos);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots/" + other + "/maps/current/export/map.g2o", &body, token), 403);
+  EXPECT_EQ(body.find("VERTEX_SE2"), std::string::npos);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots", &body, token), 403);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs", &body, token), 403);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/metrics", &body, token), 403);
+  // /healthz stays open (probes), and says nothing but "ok".
+  EXPECT_EQ(HttpGet(server_->http_address(), "/healthz", &body), 200);
+  EXPECT_EQ(body, "ok\n");
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, ForeignHostAndCrossOriginWritesAreRefused) {
+  const std::string& address = server_->http_address();
+  const std::string auth = "Authorization: Bearer " + *engineer_ + "\r\n";
+  // DNS rebinding: a page on attacker.example resolved to 127.0.0.1 sends its own name as Host.
+  std::string response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\nHost: attacker.example:" +
+                                               address.substr(address.rfind(':') + 1) + "\r\n" + auth +
+                                               "Connection: close\r\n\r\n");
+  EXPECT_EQ(StatusOf(response), 421) << response;
+  EXPECT_EQ(response.find(RobotId(0)), std::string::npos);
+  response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\n" + auth + "Connection: close\r\n\r\n");  // no Host
+  EXPECT_GE(StatusOf(response), 400) << response;
+  EXPECT_LT(StatusOf(response), 500) << response;
+  EXPECT_EQ(response.find(RobotId(0)), std::string::npos);
+  // A write from another origin, even with a valid token, is refused before it runs.
+  const std::string body = R"({"action": "rollback", "reason": "cross-site"})";
+  response = HttpRaw(address, "POST /api/robots/" + RobotId(0) + "/maps/current/review HTTP/1.1\r\nHost: " + address +
+                                  "\r\n" + auth + "Origin: http://attacker.example\r\nContent-Length: " +
+                                  std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body);
+  EXPECT_EQ(StatusOf(response), 403) << response;
+  // Security headers on every answer, no-store on the API.
+  response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\nHost: " + address + "\r\n" + auth + "Connection: close\r\n\r\n");
+  EXPECT_EQ(StatusOf(response), 200);
+  for (const char* header : {"Content-Security-Policy: default-src 'self'", "X-Content-Type-Options: nosniff",
+                             "X-Frame-Options: DENY", "Referrer-Policy: no-referrer", "Cache-Control: no-store"}) {
+    EXPECT_NE(response.find(header), std::string::npos) << header;
+  }
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, APatchAt400MetresPerCellIsRefusedBeforeStoring) {
+  const int before = CountRuns();
+  RunFile run = RunOf(0, "hostile-400m");
+  auto* snapshot = run.mutable_child_snapshot();
+  ASSERT_GT(snapshot->nodes_size(), 0);
+  snapshot->clear_local_maps();
+  for (int k = 0; k < std::min(100, snapshot->nodes_size()); ++k) {
+    auto* patch = snapshot->add_local_maps();
+    patch->set_node(snapshot->nodes(k).id());
+    auto* local = patch->mutable_local_map();
+    local->set_resolution(400.0);
+    local->set_width(1);
+    local->set_height(1);
+    local->set_cells(std::string(1, '\x64'));
+    local->mutable_node_t_origin();
+  }
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, RobotToken(RobotId(0)), run, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("child_snapshot.local_maps[0].local_map.resolution: 400 m/cell"),
+            std::string::npos)
+      << status.error_message();
+  EXPECT_EQ(CountRuns(), before);
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, UnboundedParameterSetsAreRefused) {
+  for (const auto& [name, field, set] :
+       std::vector<std::tuple<std::string, std::string, std::function<void(fleet::v1::MapperParameters&)>>>{
+           {"expiry-1e300", "hypothesis_expiry_seconds", [](auto& m) { m.set_hypothesis_expiry_seconds(1e300); }},
+           {"window-2p31", "local_window_nodes", [](auto& m) { m.set_local_window_nodes(2147483647); }}}) {
+    fleet::v1::PutParameterSetRequest request;
+    request.mutable_parameter_set()->set_name(name);
+    set(*request.mutable_parameter_set()->mutable_mapper());
+    fleet::v1::PutParameterSetResponse response;
+    auto context = Context(*engineer_);
+    const grpc::Status status = reprocessing_->PutParameterSet(context.get(), request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << name;
+    EXPECT_NE(status.error_message().find(field), std::string::npos) << status.error_message();
+    std::string body;
+    EXPECT_EQ(HttpGet(server_->http_address(), "/api/meta", &body, *engineer_), 200);
+    EXPECT_EQ(body.find(name), std::string::npos) << name << " was stored";
+  }
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, WrongSecretsCostLittleAndAreLimitedBeforeHashing) {
+  // 300 wrong secrets for an existing principal, and 300 for unknown ones: both answer fast (no PBKDF2),
+  // and after a burst the known one is refused before any hashing.
+  auto attempt = [&](const std::string& principal) {
+    fleet::v1::ListRunsRequest request;
+    fleet::v1::ListRunsResponse response;
+    auto context = Context(principal + "." + std::string(64, 'f'));
+    const auto start = std::chrono::steady_clock::now();
+    const grpc::Status status = queries_->ListRuns(context.get(), request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    return std::make_pair(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                          status.error_message());
+  };
+  double known = 0.0, unknown = 0.0;
+  std::string last;
+  for (int k = 0; k < 300; ++k) {
+    auto [seconds, message] = attempt("robot:" + RobotId(1));
+    known += seconds;
+    last = message;
+  }
+  for (int k = 0; k < 300; ++k) unknown += attempt("robot:nobody-" + std::to_string(k)).first;
+  std::printf("300 wrong secrets: known principal %.3f s, unknown principals %.3f s\n", known, unknown);
+  EXPECT_LT(known, 10.0) << "PBKDF2 cost 57 s here";
+  EXPECT_NE(last.find("too many failed attempts"), std::string::npos) << last;
+  // The robot's own token, verified before the flood, still works (the LRU answers first).
+  fleet::v1::GetMapRequest request;
+  request.set_robot_id(RobotId(1));
+  fleet::v1::GetMapResponse map;
+  auto maps = fleet::v1::Maps::NewStub(server_->Channel());
+  auto context = Context(RobotToken(RobotId(1)));
+  EXPECT_TRUE(maps->GetMap(context.get(), request, &map).ok());
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, TimesOutsideTheCenturyAreRefused) {
+  const int before = CountRuns();
+  RunFile run = RunOf(0, "hostile-time");
+  run.mutable_header()->set_started_at(-9.2e15);
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, RobotToken(RobotId(0)), run, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("header.started_at: -9.2e+15 is outside 2000-01-01..2100-01-01"),
+            std::string::npos)
+      << status.error_message();
+  EXPECT_EQ(CountRuns(), before);
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, AParentFromAnotherRobotsHistoryIsRefused) {
+  const int before = CountRuns();
+  RunFile run = RunOf(0, "hostile-parent");
+  UploadOptions options;
+  options.send_parent = false;
+  options.parent_id = robots_.at(RobotId(1));  // robot B's stored child map, named by id only
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, RobotToken(RobotId(0)), run, &response, options);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << status.error_message();
+  EXPECT_NE(status.error_message().find("is not stored for robot " + RobotId(0)), std::string::npos);
+  EXPECT_EQ(CountRuns(), before);
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, HeaderInjectionThroughARobotIdIsRefused) {
+  const int before = CountRuns();
+  RunFile run = RunOf(0, "hostile-crlf");
+  run.mutable_header()->set_robot_id("x\r\nSet-Cookie: a=b");
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, FleetdProcess::AdminToken(), run, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("header.robot_id"), std::string::npos) << status.error_message();
+  EXPECT_EQ(CountRuns(), before);
+  // Nor does an id in a URL come back as a header line.
+  const std::string& address = server_->http_address();
+  const std::string answer = HttpRaw(address, "GET /api/robots/x%0d%0aSet-Cookie:%20a=b/maps/current/export/map.yaml "
+                                              "HTTP/1.1\r\nHost: " + address + "\r\nAuthorization: Bearer " +
+                                              *engineer_ + "\r\nConnection: close\r\n\r\n");
+  EXPECT_GE(StatusOf(answer), 400) << answer;
+  EXPECT_EQ(answer.find("\r\nSet-Cookie"), std::string::npos) << answer;
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, BytesAfterAValidChildSnapshotAreRefused) {
+  const int before = CountRuns();
+  RunFile run = RunOf(0, "hostile-trailing");
+  run.mutable_child_snapshot()->GetReflection()->MutableUnknownFields(run.mutable_child_snapshot())->AddVarint(99, 1);
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, RobotToken(RobotId(0)), run, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("child_snapshot: carries bytes that are no field"), std::string::npos)
+      << status.error_message();
+  EXPECT_EQ(CountRuns(), before);
+  ExpectStillServing();
+}
+
+TEST_F(HostileTest, AnEngineersUploadForARobotIsTheirsAndWaitsForReview) {
+  const std::string robot = RobotId(1);
+  std::string before;
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps", &before, *engineer_), 200);
+  const int current = nlohmann::json::parse(before).at("current_version").get<int>();
+  RunFile run = RunOf(1, "hostile-engineer-upload");
+  UploadOptions options;
+  options.send_parent = false;
+  options.parent_id = robots_.at(robot);  // built on the robot's current map
+  UploadRunResponse response;
+  const grpc::Status status = Upload(*ingest_, *engineer_, run, &response, options);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  std::string body;
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps", &body, *engineer_), 200);
+  const auto history = nlohmann::json::parse(body);
+  bool found = false;
+  for (const auto& version : history.at("versions")) {
+    if (version.at("run_id") != "hostile-engineer-upload") continue;
+    found = true;
+    EXPECT_EQ(version.at("created_by"), "engineer:hostile-test");
+    EXPECT_EQ(version.at("approval"), "pending");
+  }
+  EXPECT_TRUE(found) << body;
+  EXPECT_EQ(history.at("current_version").get<int>(), current) << "the robot's map did not change unreviewed";
+  ExpectStillServing();
+}
+
+// A run whose analysis outlasts its budget (here 1 µs) fails with a clear error instead of holding its
+// lease forever; fleetd keeps serving.
+TEST(HostileBudgetTest, AnAnalysisPastItsBudgetFailsWithAClearError) {
+  FleetdProcess server({"--analysis-budget-seconds", "0.000001"});
+  ASSERT_TRUE(server.ok());
+  auto channel = server.Channel();
+  auto ingest = fleet::v1::Ingest::NewStub(channel);
+  auto admin = fleet::v1::Admin::NewStub(channel);
+  const RunFile& run = SimulatedRuns().front();
+  UploadRunResponse response;
+  ASSERT_TRUE(Upload(*ingest, FleetdProcess::AdminToken(), run, &response).ok());
+  std::string body, state;
+  nlohmann::json job;
+  for (int k = 0; k < 240 && state != "failed"; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    ASSERT_EQ(HttpGet(server.http_address(), "/api/jobs?kind=analyze_run", &body, FleetdProcess::AdminToken()), 200);
+    const auto jobs = nlohmann::json::parse(body).at("jobs");
+    if (jobs.empty()) continue;
+    job = jobs.front();
+    state = job.at("state").get<std::string>();
+  }
+  EXPECT_EQ(state, "failed") << job.dump();
+  EXPECT_NE(job.value("last_error", "").find("analysis budget: run " + run.header().run_id() + " took longer than"),
+            std::string::npos)
+      << job.dump();
+  EXPECT_EQ(HttpGet(server.http_address(), "/healthz", &body), 200);
+  EXPECT_EQ(server.Stop(), 0);
+}
+
+}  // namespace
+}  // namespace fleetd_test
