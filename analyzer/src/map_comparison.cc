@@ -1,6 +1,8 @@
 // Comparison of a map-only version with its previous version (see map_comparison.h).
 #include "analyzer/map_comparison.h"
 
+#include "analyzer/telemetry_codec.h"
+
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -357,6 +359,29 @@ std::optional<SE2> DockOf(const fleet::v1::MapSnapshot& snapshot) {
   if (!snapshot.has_imported() || !snapshot.imported().has_dock()) return std::nullopt;
   const fleet::v1::Pose2& dock = snapshot.imported().dock();
   return SE2(dock.x(), dock.y(), dock.theta());
+}
+
+fleet::v1::MapSnapshot ImportedSnapshot(const slamcore::OccupancyGrid& grid, const std::string& format,
+                                        const std::optional<slamcore::SE2>& dock,
+                                        const std::optional<slamcore::SE2>& robot) {
+  fleet::v1::MapSnapshot snapshot = ToProto(MapOfGrid(grid));
+  fleet::v1::ImportedMapInfo* imported = snapshot.mutable_imported();
+  imported->set_format(format);
+  const auto pose = [](const slamcore::SE2& from, fleet::v1::Pose2* to) {
+    to->set_x(from.x());
+    to->set_y(from.y());
+    to->set_theta(from.theta());
+  };
+  if (dock) pose(*dock, imported->mutable_dock());
+  if (robot) pose(*robot, imported->mutable_robot());
+  return snapshot;
+}
+
+fleet::v1::MapSnapshot ImportedSnapshot(const ValetudoMap& map) {
+  const auto pose_of = [](const std::optional<ValetudoPose>& entity) {
+    return entity ? std::optional<slamcore::SE2>(entity->pose) : std::nullopt;
+  };
+  return ImportedSnapshot(map.grid, "valetudo", pose_of(map.dock), pose_of(map.robot));
 }
 
 }  // namespace analyzer

@@ -3,6 +3,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "analyzer/map_comparison.h"
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
 #include "http_helpers.h"
@@ -83,13 +84,15 @@ class MapRoutes {
 
   HttpResponse Post(const HttpRequest& request) {
     const std::vector<std::string> parts = http::SplitPath(request.path);
-    if (parts.size() != 6 || parts[3] != "maps" || (parts[5] != "repair" && parts[5] != "review")) {
+    const bool import = parts.size() == 5 && parts[3] == "maps" && parts[4] == "import";
+    if (!import && (parts.size() != 6 || parts[3] != "maps" || (parts[5] != "repair" && parts[5] != "review"))) {
       return Error(404, "no such endpoint: POST " + request.path);
     }
     HttpResponse refusal;
     const auto principal = http::AuthorizeRequest(authenticator_, request, Permission::kRepairMap, "repairing maps", &refusal);
     if (!principal) return refusal;
     if (!limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
+    if (import) return Import(parts[2], request.body, principal->name);
     const auto version = http::ParseInt(parts[4]);
     if (!version || *version <= 0) return Error(400, "version: expected a positive integer, got \"" + parts[4] + "\"");
     const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
@@ -121,6 +124,18 @@ class MapRoutes {
     } catch (const json::exception& error) {
       return Error(400, std::string("body: a field has the wrong type (") + error.what() + ")");
     }
+  }
+
+  /// A ValetudoMap export uploaded from the robot's map page (the body, as the file): a pending version of
+  /// the robot's history, compared with the previous one as `fleetctl import` does (Maps.ImportMap).
+  HttpResponse Import(const std::string& robot_id, const std::string& body, const std::string& requested_by) {
+    if (auto bad = analyzer::ValidateId(robot_id, "robot_id"); !bad.ok()) return Error(400, bad.message());
+    auto map = analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export");
+    if (!map.ok()) return Error(400, map.status().message());
+    auto imported = history_.Import(robot_id, analyzer::ImportedSnapshot(*map), "dashboard upload",
+                                    "uploaded on the robot's map page", /*approve=*/false, requested_by);
+    if (!imported.ok()) return Error(imported.status());
+    return Json({{"version", VersionJson(*imported)}});
   }
 
  private:

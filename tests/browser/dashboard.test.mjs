@@ -430,6 +430,33 @@ test('maps: the timeline shows the repair loop', async () => {
   await screenshot('map-history');
 });
 
+test('maps: two Valetudo exports of one real home uploaded on its map page become versions, the second compared with the first', async () => {
+  const home = 'valetudo-d9-1058';
+  let previous = -1;
+  for (const [index, file] of ['dreame_d9_1058_no_segments.json', 'dreame_d9_1058_with_segments.json'].entries()) {
+    await visit(`/robots/${home}/maps`);
+    await page.getByTestId('import-file').setInputFiles(path.join(fleet.env.valetudo, file));
+    await page.getByTestId('import-button').click();
+    previous = await waitForNewVersionPage(previous);
+    assert.equal(previous, index + 1, `${file} is version ${index + 1}`);
+  }
+  // The second version lists what changed against the first: the alignment and the new room among the regions.
+  const detail = await fleet.getJson(server, `${mapsApi(home)}/2`);
+  assert.equal(detail.version.approval, 'pending', 'an upload waits for review');
+  const kinds = detail.findings.map((f) => f.kind);
+  assert.ok(kinds.includes('alignment'), `the alignment is reported (${kinds})`);
+  assert.ok(kinds.filter((k) => k === 'new_region').length >= 1, 'new regions are listed');
+  assert.equal(await page.getByTestId('finding').count(), detail.findings.length, 'every finding is on the page');
+  assert.ok(await imageLoaded('version-map') > 0, 'the imported map is drawn');
+  await screenshot('map-import');
+  // A file that is no ValetudoMap export is refused with the reason, and nothing is added.
+  await visit(`/robots/${home}/maps`);
+  await page.getByTestId('import-file').setInputFiles({ name: 'notes.json', mimeType: 'application/json', buffer: Buffer.from('{"hello": 1}') });
+  await page.getByTestId('import-button').click();
+  await page.waitForFunction(() => /not imported/.test(document.querySelector('[data-testid=import-status]').textContent));
+  assert.equal((await fleet.getJson(server, mapsApi(home))).versions.length, 2);
+});
+
 test('error states: a missing run and an unknown endpoint', async () => {
   assert.equal(await visit('/runs/no-such-run'), 'error');
   assert.match(await page.getByTestId('error-state').innerText(), /HTTP 404/);
@@ -441,6 +468,6 @@ test('error states: a missing run and an unknown endpoint', async () => {
 
 test('no browser console errors', () => {
   // 404s come from the error-state subtest, the 409 from the stale-repair one: both on purpose.
-  // The 401s come from the sign-in subtests, on purpose too.
-  assert.deepEqual(consoleErrors.filter((e) => !/404|Not Found|409 \(Conflict\)|401 \(Unauthorized\)/.test(e)), []);
+  // The 401s come from the sign-in subtests, the 400 from the refused upload, on purpose too.
+  assert.deepEqual(consoleErrors.filter((e) => !/404|Not Found|409 \(Conflict\)|401 \(Unauthorized\)|400 \(Bad Request\)/.test(e)), []);
 });

@@ -15,6 +15,7 @@ export const env = {
   protoDir: process.env.PROTO_DIR,
   world: process.env.WORLD,
   artifacts: process.env.ARTIFACTS_DIR || path.resolve('browser-artifacts'),
+  valetudo: process.env.VALETUDO_DIR,
 };
 for (const [key, value] of Object.entries(env)) {
   if (!value) throw new Error(`environment: ${key} is not set (ctest sets FLEETD, FLEETSIM, WEB_DIR, PROTO_DIR, WORLD)`);

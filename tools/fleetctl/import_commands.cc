@@ -11,32 +11,16 @@
 namespace fleetctl {
 namespace {
 
-fleet::v1::Pose2 PoseProto(const slamcore::SE2& pose) {
-  fleet::v1::Pose2 proto;
-  proto.set_x(pose.x());
-  proto.set_y(pose.y());
-  proto.set_theta(pose.theta());
-  return proto;
-}
-
-/// The file as a map-only snapshot (analyzer::MapOfGrid) with what else the export said (dock, robot).
+/// The file as a map-only snapshot (analyzer::ImportedSnapshot).
 slamcore::Result<fleet::v1::MapSnapshot> ReadSnapshot(const std::string& path, bool valetudo) {
-  fleet::v1::MapSnapshot snapshot;
   if (!valetudo) {
     auto grid = slamcore::ReadMapServerYaml(path);
     if (!grid.ok()) return grid.status();
-    snapshot = analyzer::ToProto(analyzer::MapOfGrid(*grid));
-    snapshot.mutable_imported()->set_format("map_server");
-    return snapshot;
+    return analyzer::ImportedSnapshot(*grid, "map_server", std::nullopt, std::nullopt);
   }
   auto map = analyzer::ReadValetudoMap(path);
   if (!map.ok()) return map.status();
-  snapshot = analyzer::ToProto(analyzer::MapOfGrid(map->grid));
-  fleet::v1::ImportedMapInfo* imported = snapshot.mutable_imported();
-  imported->set_format("valetudo");
-  if (map->dock) *imported->mutable_dock() = PoseProto(map->dock->pose);
-  if (map->robot) *imported->mutable_robot() = PoseProto(map->robot->pose);
-  return snapshot;
+  return analyzer::ImportedSnapshot(*map);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "analyzer/valetudo_map.h"
 #include "fleet/v1/maps.pb.h"
 #include "fleet/v1/telemetry.pb.h"
 #include "slamcore/mapper.h"
@@ -91,6 +92,14 @@ std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& compa
 /// A grid as a map: one fixed node at the origin carrying the whole grid as its local map (how imported
 /// maps are stored).
 slamcore::Map MapOfGrid(const slamcore::OccupancyGrid& grid);
+
+/// A map made elsewhere as the snapshot an import records: MapOfGrid, its format ("valetudo", "map_server"),
+/// and the dock and robot poses the export named. Shared by `fleetctl import` and the dashboard's upload.
+fleet::v1::MapSnapshot ImportedSnapshot(const slamcore::OccupancyGrid& grid, const std::string& format,
+                                        const std::optional<slamcore::SE2>& dock,
+                                        const std::optional<slamcore::SE2>& robot);
+/// The same for a parsed ValetudoMap export (its grid, dock and robot).
+fleet::v1::MapSnapshot ImportedSnapshot(const ValetudoMap& map);
 
 /// The dock pose an imported snapshot carries (ImportedMapInfo.dock), if any.
 std::optional<slamcore::SE2> DockOf(const fleet::v1::MapSnapshot& snapshot);

@@ -1,12 +1,17 @@
 // One robot's map history: the lineage timeline (parent → child, coloured by review state) and every version's
 // figures; a version opens its review page.
-import { getJson } from '../api.js';
+import { ApiError, getJson, postAsEngineer } from '../api.js';
 import { card, emptyState, h, num, setState, time } from '../ui.js';
 import { approvalBadge, lineageLegend, lineageTimeline, originLabel, robotMapsPath, sameMapAs, versionHash } from '../maphistory.js';
 
 export async function render(main, { args, isCurrent }) {
   const robotId = args[0];
-  const [history, { robots }] = await Promise.all([getJson(robotMapsPath(robotId)), getJson('/api/robots')]);
+  // A robot with no history yet (one whose owner imports its first export here) has an empty page, not an error.
+  const noHistory = (error) => {
+    if (error instanceof ApiError && error.status === 404) return { versions: [], current_version: 0 };
+    throw error;
+  };
+  const [history, { robots }] = await Promise.all([getJson(robotMapsPath(robotId)).catch(noHistory), getJson('/api/robots')]);
   if (!isCurrent()) return;
   const robot = robots.find((r) => r.robot_id === robotId);
   const versions = history.versions;
@@ -15,6 +20,7 @@ export async function render(main, { args, isCurrent }) {
     h('h1', {}, `Map history — ${robotId}`),
     h('p', { class: 'muted' }, robot ? `${robot.robot_model} · firmware ${robot.firmware} · ` : '',
       `${versions.length} versions · current `, history.current_version ? h('a', { href: versionHash(robotId, history.current_version) }, `v${history.current_version}`) : 'none'));
+  main.append(importCard(robotId));
   if (versions.length === 0) {
     main.append(emptyState('This robot has no map version yet.', 'A version is recorded when one of its runs is uploaded with a child map.'));
     setState(main, 'empty');
@@ -43,4 +49,27 @@ export async function render(main, { args, isCurrent }) {
         h('td', { class: 'num' }, num(v.chi2, 1)), h('td', { class: 'num' }, num(v.open_findings)));
     })))));
   setState(main, 'ready');
+}
+
+/// Upload a ValetudoMap export (the JSON of "Export ValetudoMap" or GET /api/v2/robot/state/map) as a new,
+/// pending version of this robot's map; fleetd compares it with the previous version and lists what changed.
+function importCard(robotId) {
+  const input = h('input', { type: 'file', accept: '.json,application/json', 'data-testid': 'import-file' });
+  const status = h('span', { class: 'muted', 'data-testid': 'import-status' });
+  const button = h('button', {
+    'data-testid': 'import-button',
+    onclick: async () => {
+      const file = input.files && input.files[0];
+      if (!file) { status.textContent = 'choose a ValetudoMap export (.json) first'; return; }
+      status.textContent = `importing ${file.name} …`;
+      try {
+        const export_ = JSON.parse(await file.text());
+        const { version } = await postAsEngineer(`${robotMapsPath(robotId)}/import`, export_, 'Importing a map needs an engineer token.');
+        location.hash = versionHash(robotId, version.version);
+      } catch (error) {
+        status.textContent = `not imported: ${error.message}`;
+      }
+    },
+  }, 'Import');
+  return card('Import a map made elsewhere (ValetudoMap export, JSON)', h('p', {}, input, ' ', button, ' ', status));
 }
