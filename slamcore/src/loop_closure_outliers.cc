@@ -9,18 +9,14 @@
 namespace slamcore {
 namespace {
 
-bool IsOdometry(const Edge& edge) { return edge.to == edge.from + 1 && edge.kind == EdgeKind::kMotion; }
-
 /// For kFirst: for every vertex index v, the robot end (the larger vertex) of the first true loop closure,
 /// in replay order, whose other end lies within `radius` vertices of v; INT64_MAX where there is none.
-std::vector<long> FirstClosureNear(const PoseGraph& graph, const std::vector<NodeId>& ids, long radius) {
-  std::map<NodeId, long> index;
-  for (std::size_t k = 0; k < ids.size(); ++k) index.emplace(ids[k], static_cast<long>(k));
-  std::vector<long> first(ids.size(), std::numeric_limits<long>::max());
-  for (const Edge& edge : graph.edges()) {
-    if (IsOdometry(edge) || edge.kind != EdgeKind::kObservation) continue;
-    const long a = index.at(std::min(edge.from, edge.to)), b = index.at(std::max(edge.from, edge.to));
-    for (long v = std::max(0L, a - radius); v <= std::min<long>(static_cast<long>(ids.size()) - 1, a + radius); ++v) {
+std::vector<long> FirstClosureNear(const std::vector<const Edge*>& true_closures, const std::map<NodeId, long>& index,
+                                   std::size_t vertices, long radius) {
+  std::vector<long> first(vertices, std::numeric_limits<long>::max());
+  for (const Edge* edge : true_closures) {
+    const long a = index.at(std::min(edge->from, edge->to)), b = index.at(std::max(edge->from, edge->to));
+    for (long v = std::max(0L, a - radius); v <= std::min<long>(static_cast<long>(vertices) - 1, a + radius); ++v) {
       first[static_cast<std::size_t>(v)] = std::min(first[static_cast<std::size_t>(v)], b);
     }
   }
@@ -69,14 +65,15 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::normal_distribution<double> translation(0.0, 0.3), rotation(0.0, 10.0 * std::numbers::pi / 180.0);
   std::uniform_int_distribution<int> group_sizes(options.group_size, std::max(options.group_size, options.max_group_size));
   std::bernoulli_distribution single(options.single_fraction);
-  const std::vector<long> first_closure =
-      options.mode == OutlierOptions::Mode::kFirst ? FirstClosureNear(graph, ids, largest_group) : std::vector<long>{};
-  std::vector<const Edge*> true_closures;  // for kShifted
+  std::vector<const Edge*> true_closures;  // for kFirst and kShifted
   for (const Edge& edge : graph.edges()) {
-    if (edge.kind == EdgeKind::kObservation && !IsOdometry(edge)) true_closures.push_back(&edge);
+    if (edge.kind == EdgeKind::kObservation) true_closures.push_back(&edge);
   }
   std::map<NodeId, long> index_of;
   for (std::size_t k = 0; k < ids.size(); ++k) index_of.emplace(ids[k], static_cast<long>(k));
+  const std::vector<long> first_closure = options.mode == OutlierOptions::Mode::kFirst
+                                              ? FirstClosureNear(true_closures, index_of, ids.size(), largest_group)
+                                              : std::vector<long>{};
   if (true_closures.empty()) return InvalidArgument("the graph has no loop closure to shift");
   std::uniform_int_distribution<std::size_t> any_closure(0, true_closures.size() - 1);
   std::uniform_int_distribution<long> shift(3, 10);

@@ -26,15 +26,7 @@ void Mapper::Impl::ConditionallyAccept(std::int64_t hypothesis_id) {
   conditional_hypothesis_ = hypothesis_id;
   overlay_.emplace(map_.graph, *current_node_, hypothesis->ref_node);
   for (const HypothesisObservation& observation : hypothesis->observations) {
-    Edge edge;
-    edge.from = observation.robot_node;
-    edge.to = observation.view_node;
-    edge.measurement = observation.robot_T_view.mean;
-    edge.information =
-        EdgeInformationFromLeftCovariance(observation.robot_T_view.mean, observation.robot_T_view.covariance);
-    edge.kind = EdgeKind::kObservation;
-    edge.view = observation.view;
-    overlay_->AddEdge(edge);
+    overlay_->AddEdge(MakeObservationEdge(observation, -1));
   }
   overlay_->SetAlignment(TargetFromSource(*hypothesis));
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };

@@ -105,14 +105,7 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
     best->last_time = event.time;
     best->last_odometer = odometer_;
     if (best->conditional && overlay_) {
-      Edge edge;
-      edge.from = observation.robot_node;
-      edge.to = view_node;
-      edge.measurement = z.mean;
-      edge.information = EdgeInformationFromLeftCovariance(z.mean, z.covariance);
-      edge.kind = EdgeKind::kObservation;
-      edge.view = event.view;
-      overlay_->AddEdge(edge);
+      overlay_->AddEdge(MakeObservationEdge(observation, -1));
     }
     id = best->id;
     Log(DecisionKind::kHypothesisUpdated, event.view, best, why + "; joined with " + Chi2Text(best_mahalanobis2));
