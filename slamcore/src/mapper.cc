@@ -150,15 +150,22 @@ void Mapper::Impl::ExpireHypotheses() {
 }
 
 void Mapper::Impl::Log(DecisionKind kind, ViewId view, const Hypothesis* hypothesis, std::string reason) {
+  if (hypothesis) {
+    Log(kind, view, hypothesis->id, hypothesis->kind, std::move(reason));
+  } else {
+    Log(kind, view, -1, std::nullopt, std::move(reason));
+  }
+}
+
+void Mapper::Impl::Log(DecisionKind kind, ViewId view, std::int64_t hypothesis,
+                       std::optional<HypothesisKind> hypothesis_kind, std::string reason) {
   Decision decision;
   decision.time = time_;
   decision.kind = kind;
   decision.node = current_node_.value_or(-1);
   decision.view = view;
-  if (hypothesis) {
-    decision.hypothesis = hypothesis->id;
-    decision.hypothesis_kind = hypothesis->kind;
-  }
+  decision.hypothesis = hypothesis;
+  decision.hypothesis_kind = hypothesis_kind;
   decision.reason = std::move(reason);
   decisions_.push_back(std::move(decision));
 }

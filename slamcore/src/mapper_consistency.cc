@@ -243,14 +243,7 @@ void Mapper::Impl::LogRetractions(const std::vector<std::pair<std::int64_t, doub
     reason << "contradicted by hypothesis " << challenger << ": leave-one-out χ² " << ratio
            << "× its " << 100 * params_.consistency.retraction_confidence
            << " % quantile; edges removed and the map re-optimised";
-    Decision decision;
-    decision.time = time_;
-    decision.kind = DecisionKind::kRetracted;
-    decision.node = current_node_.value_or(-1);
-    decision.hypothesis = id;
-    decision.hypothesis_kind = HypothesisKind::kRecovery;
-    decision.reason = reason.str();
-    decisions_.push_back(std::move(decision));
+    Log(DecisionKind::kRetracted, -1, id, HypothesisKind::kRecovery, reason.str());
   }
 }
 

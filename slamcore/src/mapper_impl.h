@@ -101,6 +101,9 @@ class Mapper::Impl {
   void Apply(const GroundTruthEvent& event);
   void ExpireHypotheses();
   void Log(DecisionKind kind, ViewId view, const internal::Hypothesis* hypothesis, std::string reason);
+  /// For a hypothesis no longer open (a retraction names one already accepted).
+  void Log(DecisionKind kind, ViewId view, std::int64_t hypothesis, std::optional<HypothesisKind> hypothesis_kind,
+           std::string reason);
 
   // mapper_observations.cc
   void DecideObservation(const ViewObservedEvent& event);
