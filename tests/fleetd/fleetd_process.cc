@@ -1,5 +1,6 @@
 #include "fleetd_process.h"
 
+#include <map>
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
@@ -134,6 +135,13 @@ std::string IssueToken(fleet::v1::Admin::Stub& admin, const std::string& princip
   const grpc::Status status = admin.SetCredential(context.get(), request, &response);
   EXPECT_TRUE(status.ok()) << status.error_message();
   return response.token();
+}
+
+std::string RobotToken(fleet::v1::Admin::Stub& admin, const std::string& robot_id) {
+  static std::map<std::string, std::string> tokens;
+  auto [it, inserted] = tokens.try_emplace(robot_id);
+  if (inserted) it->second = IssueToken(admin, "robot:" + robot_id);
+  return it->second;
 }
 
 int CountRuns(fleet::v1::Queries::Stub& queries, const std::string& token) {

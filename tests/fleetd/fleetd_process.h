@@ -44,6 +44,8 @@ std::string HttpRaw(const std::string& address, const std::string& request);
 
 /// A new token for `principal` ("engineer:alice", "robot:r1"), minted with the bootstrap admin token.
 std::string IssueToken(fleet::v1::Admin::Stub& admin, const std::string& principal);
+/// The token of "robot:<robot_id>", minted on first use and reused for the process (one fleetd per test binary).
+std::string RobotToken(fleet::v1::Admin::Stub& admin, const std::string& robot_id);
 /// How many runs Queries.ListRuns shows `token` (one page of up to 1000).
 int CountRuns(fleet::v1::Queries::Stub& queries, const std::string& token);
 

@@ -46,12 +46,7 @@ class FleetdTest : public ::testing::Test {
   }
 
   static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
-  static std::string RobotToken(const std::string& robot_id) {
-    static std::map<std::string, std::string> tokens;
-    auto [it, inserted] = tokens.try_emplace(robot_id);
-    if (inserted) it->second = Token("robot:" + robot_id);
-    return it->second;
-  }
+  static std::string RobotToken(const std::string& robot_id) { return fleetd_test::RobotToken(*admin_, robot_id); }
 
   // Uploads every simulated run once (idempotent) and waits for their default reports.
   static void UploadAll() {

@@ -60,12 +60,7 @@ class HostileTest : public ::testing::Test {
   }
 
   static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
-  static std::string RobotToken(const std::string& robot_id) {
-    static std::map<std::string, std::string> tokens;
-    auto [it, inserted] = tokens.try_emplace(robot_id);
-    if (inserted) it->second = Token("robot:" + robot_id);
-    return it->second;
-  }
+  static std::string RobotToken(const std::string& robot_id) { return fleetd_test::RobotToken(*admin_, robot_id); }
   static int CountRuns() { return fleetd_test::CountRuns(*queries_, *engineer_); }
   /// A run of robot `index` (0 or 1) from the simulation, with a fresh run id.
   static RunFile RunOf(int index, const std::string& run_id) {
