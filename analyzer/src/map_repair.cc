@@ -1,7 +1,5 @@
 #include "analyzer/map_repair.h"
 
-#include "analyzer/valetudo_map.h"
-
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -9,7 +7,7 @@
 #include <sstream>
 
 #include "analyzer/run_analysis.h"
-#include "analyzer/valetudo_map.h"
+#include "analyzer/map_metadata.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/linear_initialization.h"
 #include "slamcore/optimizer.h"
@@ -419,7 +417,7 @@ Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes, const s
 }
 
 Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format, const std::string& stem,
-                                                       const fleet::v1::ImportedMapInfo* imported) {
+                                                       const fleet::v1::MapMetadata* metadata) {
   if (map.graph.num_nodes() == 0) return slamcore::InvalidArgument("the map is empty: nothing to export");
   std::vector<fleet::v1::ExportedFile> files;
   if (format == "g2o") {
@@ -438,11 +436,7 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
   if (!grid.ok()) return grid.status();
   if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
   if (format == "valetudo") {
-    const auto pose = [](bool has, const fleet::v1::Pose2& proto) {
-      return has ? std::optional(slamcore::SE2(proto.x(), proto.y(), proto.theta())) : std::nullopt;
-    };
-    auto json = WriteValetudoMap(*grid, pose(imported && imported->has_dock(), imported ? imported->dock() : fleet::v1::Pose2()),
-                                 pose(imported && imported->has_robot(), imported ? imported->robot() : fleet::v1::Pose2()));
+    auto json = WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata());
     if (!json.ok()) return json.status();
     fleet::v1::ExportedFile& file = files.emplace_back();
     file.set_name(stem + ".json");

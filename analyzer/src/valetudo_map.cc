@@ -4,6 +4,8 @@
 // with points in cm. Only the format is taken from there; this is our own reader.
 #include "analyzer/valetudo_map.h"
 
+#include "analyzer/import_order.h"
+
 #include <zlib.h>
 
 #include <algorithm>
@@ -216,6 +218,14 @@ slamcore::Result<DecodedLayer> DecodeLayer(const json& value, std::size_t index,
       layer.max_px = std::max(layer.max_px, x);
       layer.min_py = std::min(layer.min_py, y);
       layer.max_py = std::max(layer.max_py, y);
+      // Sorted cells run along x: a cell right after the previous one on the same row extends its run.
+      if (layer.type != "segment") continue;
+      const std::size_t n = layer.runs.size();
+      if (n >= 3 && layer.runs[n - 2] == y && layer.runs[n - 3] + layer.runs[n - 1] == x) {
+        ++layer.runs[n - 1];
+      } else {
+        layer.runs.insert(layer.runs.end(), {x, y, 1});
+      }
     }
   }
   return decoded;
@@ -363,6 +373,18 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   }
   map.version = static_cast<int>(*version);
   map.declared_total_area_cm2 = OptionalInt(*meta, "totalLayerArea");
+  for (const json* holder : {&*meta, &root}) {
+    const auto stamp = holder->find("timestamp");
+    if (stamp == holder->end() || map.timestamp_ms) continue;
+    if (stamp->is_number_integer() && stamp->get<std::int64_t>() >= 0 && stamp->get<std::int64_t>() <= kLatestTimeMs) {
+      map.timestamp_ms = stamp->get<std::int64_t>();
+    }
+    if (stamp->is_string()) map.timestamp_ms = ParseIsoDateTime(stamp->get<std::string>());
+    if (!map.timestamp_ms) {
+      return InvalidArgument(where + (holder == &root ? "" : "metaData.") +
+                             "timestamp: neither an ISO 8601 date-time nor milliseconds since the epoch");
+    }
+  }
   auto pixel_size = IntField(root, "pixelSize", "map", 1, 100);
   if (!pixel_size.ok()) return InvalidArgument(where + pixel_size.status().message());
   map.pixel_size_cm = static_cast<int>(*pixel_size);
@@ -418,79 +440,6 @@ slamcore::Result<ValetudoMap> ReadValetudoMap(const std::string& path, const Val
   auto bytes = slamcore::ReadFileBytes(path);
   if (!bytes.ok()) return bytes.status();
   return ParseValetudoMap(*bytes, path, limits);
-}
-
-slamcore::Result<std::string> WriteValetudoMap(const slamcore::OccupancyGrid& grid,
-                                               const std::optional<slamcore::SE2>& dock,
-                                               const std::optional<slamcore::SE2>& robot) {
-  if (grid.width <= 0 || grid.height <= 0) return InvalidArgument("grid: empty, nothing to hand back");
-  if (grid.origin_yaw != 0.0) return InvalidArgument("grid.origin_yaw: a rotated grid has no Valetudo pixels");
-  const double cm = grid.resolution * 100.0;
-  const int pixel_size = static_cast<int>(std::lround(cm));
-  if (pixel_size < 1 || pixel_size > 100 || std::abs(cm - pixel_size) > 1e-6) {
-    return InvalidArgument("grid.resolution: " + std::to_string(grid.resolution) +
-                           " m is not a whole number of centimetres in 1–100 (Valetudo's pixelSize)");
-  }
-  // Pixel (px, py) has its lower-left corner at (px·s, −py·s) (the import's frame); a map whose origin is not
-  // on that lattice, or lies at negative pixels, is shifted to the nearest lattice point ≥ 0.
-  int left = static_cast<int>(std::lround(grid.origin_x / grid.resolution));
-  int bottom = static_cast<int>(std::lround(-grid.origin_y / grid.resolution));
-  const int shift_x = left < 0 ? -left : 0, shift_y = bottom - (grid.height - 1) < 0 ? (grid.height - 1) - bottom : 0;
-  left += shift_x;
-  bottom += shift_y;
-  json floor = json::array(), walls = json::array();
-  std::int64_t free_count = 0, wall_count = 0;
-  for (int row = grid.height - 1; row >= 0; --row) {  // py ascending
-    const int py = bottom - row;
-    for (const bool wall : {false, true}) {
-      const auto state = static_cast<std::int8_t>(wall ? slamcore::CellState::kOccupied : slamcore::CellState::kFree);
-      json& runs = wall ? walls : floor;
-      for (int col = 0; col < grid.width;) {
-        if (grid.at(col, row) != state) {
-          ++col;
-          continue;
-        }
-        int end = col;
-        while (end < grid.width && grid.at(end, row) == state) ++end;
-        runs.push_back(col + left);
-        runs.push_back(py);
-        runs.push_back(end - col);
-        (wall ? wall_count : free_count) += end - col;
-        col = end;
-      }
-    }
-  }
-  if (free_count + wall_count == 0) return InvalidArgument("grid: no free or occupied cell, nothing to hand back");
-  const std::int64_t pixel_area = static_cast<std::int64_t>(pixel_size) * pixel_size;
-  auto layer = [&](const char* type, json pixels, std::int64_t count) {
-    return json{{"__class", "MapLayer"},
-                {"type", type},
-                {"compressedPixels", std::move(pixels)},
-                {"metaData", {{"area", count * pixel_area}}}};
-  };
-  json layers = json::array();
-  if (free_count) layers.push_back(layer("floor", std::move(floor), free_count));
-  if (wall_count) layers.push_back(layer("wall", std::move(walls), wall_count));
-  json entities = json::array();
-  auto point = [&](const char* type, const slamcore::SE2& pose) {
-    // Entity points are cm with y down; angles degrees 0–359 on that screen (the inverse of EntityPoint and the
-    // yaw).
-    const double x_cm = (pose.x() + shift_x * grid.resolution) * 100.0;
-    const double y_cm = (-pose.y() + shift_y * grid.resolution) * 100.0;
-    entities.push_back(json{{"__class", "PointMapEntity"},
-                            {"type", type},
-                            {"points", {std::lround(x_cm), std::lround(y_cm)}},
-                            {"metaData", {{"angle", ((std::lround(-pose.theta() * 180.0 / std::numbers::pi) % 360) + 360) % 360}}}});
-  };
-  if (robot) point("robot_position", *robot);
-  if (dock) point("charger_location", *dock);
-  const json map{{"__class", "ValetudoMap"},
-                 {"metaData", {{"version", 2}, {"totalLayerArea", (free_count + wall_count) * pixel_area}}},
-                 {"size", {{"x", left + grid.width}, {"y", bottom + 1}}},
-                 {"pixelSize", pixel_size},
-                 {"layers", std::move(layers)},
-                 {"entities", std::move(entities)}};
-  return map.dump();
 }
 
 }  // namespace analyzer

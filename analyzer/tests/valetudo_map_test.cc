@@ -4,6 +4,8 @@
 // refused with an error naming the field.
 #include "analyzer/valetudo_map.h"
 
+#include "analyzer/map_metadata.h"
+
 #include <gtest/gtest.h>
 #include <zlib.h>
 
@@ -306,8 +308,7 @@ TEST(ValetudoWrite, RoundTripsEveryExportCellForCell) {
     ++files;
     const auto original = ReadValetudoMap(entry.path().string());
     ASSERT_TRUE(original.ok()) << original.status().ToString();
-    const auto written = WriteValetudoMap(original->grid, original->dock ? std::optional(original->dock->pose) : std::nullopt,
-                                          original->robot ? std::optional(original->robot->pose) : std::nullopt);
+    const auto written = WriteValetudoMap(original->grid, MetadataOf(*original));
     ASSERT_TRUE(written.ok()) << written.status().ToString();
     const auto back = ParseValetudoMap(*written, "hand-back.json");
     ASSERT_TRUE(back.ok()) << back.status().ToString();
@@ -318,7 +319,7 @@ TEST(ValetudoWrite, RoundTripsEveryExportCellForCell) {
     EXPECT_DOUBLE_EQ(back->grid.origin_x, original->grid.origin_x);
     EXPECT_DOUBLE_EQ(back->grid.origin_y, original->grid.origin_y);
     EXPECT_TRUE(back->grid.cells == original->grid.cells);
-    EXPECT_EQ(back->AreaOf("floor") + back->AreaOf("wall"), *back->declared_total_area_cm2);
+    EXPECT_EQ(back->AreaOf("floor") + back->AreaOf("segment") + back->AreaOf("wall"), *back->declared_total_area_cm2);
     ASSERT_EQ(back->dock.has_value(), original->dock.has_value());
     if (original->dock) {
       EXPECT_NEAR(back->dock->pose.x(), original->dock->pose.x(), 0.005);
@@ -336,7 +337,13 @@ TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
   grid->at(0, 0) = 100;
   grid->at(5, 7) = 0;
   grid->at(29, 19) = 0;
-  const auto written = WriteValetudoMap(*grid, slamcore::SE2(-9.5, -2.5, 0.5), std::nullopt);
+  fleet::v1::MapMetadata dock;
+  fleet::v1::MapPoint* charger = dock.add_points();
+  charger->set_type("charger_location");
+  charger->set_x(-9.5);
+  charger->set_y(-2.5);
+  charger->set_theta(0.5);
+  const auto written = WriteValetudoMap(*grid, dock);
   ASSERT_TRUE(written.ok()) << written.status().ToString();
   const auto back = ParseValetudoMap(*written, "shifted.json");
   ASSERT_TRUE(back.ok()) << back.status().ToString();
@@ -349,15 +356,15 @@ TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
 
   slamcore::OccupancyGrid odd = *grid;
   odd.resolution = 0.025;
-  auto refused = WriteValetudoMap(odd, std::nullopt, std::nullopt);
+  auto refused = WriteValetudoMap(odd, {});
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("grid.resolution"), std::string::npos) << refused.status().ToString();
   auto blank = slamcore::OccupancyGrid::Create(4, 4, 0.05);
   ASSERT_TRUE(blank.ok());
-  refused = WriteValetudoMap(*blank, std::nullopt, std::nullopt);
+  refused = WriteValetudoMap(*blank, {});
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("no free or occupied cell"), std::string::npos);
-  EXPECT_FALSE(WriteValetudoMap(slamcore::OccupancyGrid{}, std::nullopt, std::nullopt).ok());
+  EXPECT_FALSE(WriteValetudoMap(slamcore::OccupancyGrid{}, {}).ok());
 }
 
 }  // namespace

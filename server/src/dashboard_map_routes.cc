@@ -4,9 +4,11 @@
 #include <nlohmann/json.hpp>
 
 #include "analyzer/map_comparison.h"
+#include "analyzer/map_metadata.h"
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
 #include "http_helpers.h"
+#include "multipart_form.h"
 #include "render_cache.h"
 #include "server/analysis.h"
 #include "server/dashboard_routes.h"
@@ -59,6 +61,31 @@ json FindingJson(const fleet::v1::MapFinding& finding) {
   return out;
 }
 
+/// What the version page draws over the picture: rooms with their names at their centres (the pixels stay on
+/// the server: the picture shows them), and the shapes and points in world metres.
+json MetadataJson(const fleet::v1::MapMetadata& metadata) {
+  const auto shapes = [](const google::protobuf::RepeatedPtrField<fleet::v1::MapShape>& list) {
+    json out = json::array();
+    for (const fleet::v1::MapShape& shape : list) out.push_back({{"type", shape.type()}, {"xy", std::vector<double>(shape.xy().begin(), shape.xy().end())}});
+    return out;
+  };
+  json rooms = json::array(), points = json::array();
+  for (const fleet::v1::MapRoom& room : metadata.rooms()) {
+    json row = {{"segment_id", room.segment_id()}, {"name", room.name()}, {"pixel_count", room.pixel_count()},
+                {"area_m2", room.area_m2()}};
+    if (const auto centre = analyzer::RoomCentre(room, metadata.resolution())) row["centre"] = {(*centre)[0], (*centre)[1]};
+    rooms.push_back(row);
+  }
+  for (const fleet::v1::MapPoint& point : metadata.points()) {
+    json row = {{"type", point.type()}, {"x", point.x()}, {"y", point.y()}};
+    if (point.has_theta()) row["theta"] = point.theta();
+    points.push_back(row);
+  }
+  return {{"format", metadata.format()},     {"rooms", rooms},
+          {"paths", shapes(metadata.paths())}, {"virtual_walls", shapes(metadata.virtual_walls())},
+          {"zones", shapes(metadata.zones())}, {"points", points}};
+}
+
 class MapRoutes {
  public:
   MapRoutes(storage::Repository& repository, Authenticator& authenticator, const FleetdConfig& config)
@@ -92,7 +119,7 @@ class MapRoutes {
     const auto principal = http::AuthorizeRequest(authenticator_, request, Permission::kRepairMap, "repairing maps", &refusal);
     if (!principal) return refusal;
     if (!limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
-    if (import) return Import(parts[2], request.body, principal->name);
+    if (import) return Import(parts[2], request, principal->name);
     const auto version = http::ParseInt(parts[4]);
     if (!version || *version <= 0) return Error(400, "version: expected a positive integer, got \"" + parts[4] + "\"");
     const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
@@ -126,19 +153,75 @@ class MapRoutes {
     }
   }
 
-  /// A ValetudoMap export uploaded from the robot's map page (the body, as the file): a pending version of
-  /// the robot's history, compared with the previous one as `fleetctl import` does (Maps.ImportMap).
-  HttpResponse Import(const std::string& robot_id, const std::string& body, const std::string& requested_by) {
+  /// A map uploaded from the robot's map page: a ValetudoMap export (the body, as the file), or a map_server
+  /// pair as multipart/form-data (parts "yaml" and "image"). Either becomes a pending version of the robot's
+  /// history, compared with the previous one as `fleetctl import` does (MapHistory::Import).
+  HttpResponse Import(const std::string& robot_id, const HttpRequest& request, const std::string& requested_by) {
     if (auto bad = analyzer::ValidateId(robot_id, "robot_id"); !bad.ok()) return Error(400, bad.message());
-    auto map = analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export");
-    if (!map.ok()) return Error(400, map.status().message());
-    auto imported = history_.Import(robot_id, analyzer::ImportedSnapshot(*map), "dashboard upload",
-                                    "uploaded on the robot's map page", /*approve=*/false, requested_by);
-    if (!imported.ok()) return Error(imported.status());
-    return Json({{"version", VersionJson(*imported)}});
+    const auto type = request.headers.find("content-type");
+    const bool form = type != request.headers.end() && type->second.rfind("multipart/form-data", 0) == 0;
+    std::string source = "dashboard upload";
+    auto imported = form ? MapServerUpload(type->second, request.body, &source) : ValetudoUpload(request.body);
+    // Everything wrong with an upload is the uploader's (DATA_LOSS from a malformed PGM included): 400.
+    if (!imported.ok()) return Error(400, imported.status().message());
+    auto version = history_.Import(robot_id, imported->snapshot, imported->metadata, source,
+                                   "uploaded on the robot's map page", /*approve=*/false, requested_by);
+    if (!version.ok()) return Error(version.status());
+    return Json({{"version", VersionJson(*version)}});
   }
 
  private:
+  static slamcore::Result<analyzer::ImportedMap> ValetudoUpload(const std::string& body) {
+    auto map = analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export");
+    if (!map.ok()) return map.status();
+    return analyzer::ImportValetudo(*map);
+  }
+
+  /// The YAML may name only the uploaded image (no path): an upload never reads a file of the server.
+  static slamcore::Result<analyzer::ImportedMap> MapServerUpload(const std::string& content_type, const std::string& body,
+                                                                 std::string* source) {
+    auto parts = http::ParseMultipartForm(content_type, body, /*max_parts=*/4);
+    if (!parts.ok()) return slamcore::InvalidArgument(parts.status().message());
+    const http::FormPart *yaml = nullptr, *image = nullptr;
+    for (const http::FormPart& part : *parts) {
+      if (part.name != "yaml" && part.name != "image") {
+        return slamcore::InvalidArgument("multipart: unknown part \"" + part.name + "\" (expected yaml and image)");
+      }
+      const http::FormPart*& slot = part.name == "yaml" ? yaml : image;
+      if (slot != nullptr) return slamcore::InvalidArgument("multipart: part \"" + part.name + "\" given twice");
+      slot = &part;
+    }
+    if (yaml == nullptr) return slamcore::InvalidArgument("yaml: missing (the map_server YAML file)");
+    if (image == nullptr) return slamcore::InvalidArgument("image: missing (the PGM or PNG image the YAML names)");
+    if (image->filename.empty()) return slamcore::InvalidArgument("image: the part has no filename");
+    auto grid = slamcore::ParseMapServerYaml(yaml->body, "yaml", [&](const std::string& name) -> slamcore::Result<std::string> {
+      if (name != image->filename || name.find_first_of("/\\") != std::string::npos) {
+        return slamcore::InvalidArgument("yaml: image \"" + name.substr(0, 128) +
+                                         "\" names a file outside the upload (the uploaded image is \"" +
+                                         image->filename + "\")");
+      }
+      // A PNG's header says how large it inflates: refuse one past the upload's bound before decoding it.
+      if (image->body.size() >= 24 && image->body.compare(0, 4, "\x89PNG") == 0) {
+        const auto be32 = [&](std::size_t at) {
+          std::uint64_t value = 0;
+          for (std::size_t i = 0; i < 4; ++i) value = value << 8 | static_cast<unsigned char>(image->body[at + i]);
+          return value;
+        };
+        if (be32(16) * be32(20) > kMaxUploadCells) {
+          return slamcore::InvalidArgument("image: " + std::to_string(be32(16)) + " x " + std::to_string(be32(20)) +
+                                           " pixels, more than the upload limit of " + std::to_string(kMaxUploadCells));
+        }
+      }
+      return image->body;
+    });
+    if (!grid.ok()) return grid.status();
+    *source = "dashboard upload: " + (yaml->filename.empty() ? std::string("yaml") : yaml->filename) + " + " + image->filename;
+    return analyzer::ImportMapServer(*grid);
+  }
+
+  /// Cells a map_server upload may decode to (a PNG inflates; a PGM is bounded by the 1 MiB body already).
+  static constexpr std::uint64_t kMaxUploadCells = 16'000'000;
+
   /// "current" is 0 (MapHistory's "the current version").
   static std::optional<std::int64_t> VersionOf(const std::string& text) {
     if (text == "current") return 0;
@@ -187,7 +270,9 @@ class MapRoutes {
     if (!detail.ok()) return Error(detail.status());
     json findings = json::array();
     for (const auto& finding : detail->findings) findings.push_back(FindingJson(finding));
-    return Json({{"version", VersionJson(detail->version)}, {"findings", findings}});
+    json out = {{"version", VersionJson(detail->version)}, {"findings", findings}};
+    if (detail->metadata) out["metadata"] = MetadataJson(*detail->metadata);
+    return Json(out);
   }
 
   /// A version's map with what names it.
@@ -281,15 +366,20 @@ class MapRoutes {
   }
 
   HttpResponse Export(const std::string& robot, std::int64_t version, const std::string& file) {
-    const std::string format = file == "map.g2o" ? "g2o" : (file == "map.pgm" || file == "map.yaml") ? "map_server" : "";
-    if (format.empty()) return Error(404, "export: expected map.pgm, map.yaml or map.g2o, got \"" + file + "\"");
+    const std::string format = file == "map.g2o"                         ? "g2o"
+                               : (file == "map.pgm" || file == "map.yaml") ? "map_server"
+                               : file == "map.json"                        ? "valetudo"
+                                                                           : "";
+    if (format.empty()) return Error(404, "export: expected map.pgm, map.yaml, map.g2o or map.json, got \"" + file + "\"");
     auto files = history_.Export(robot, version, format);
     if (!files.ok()) return Error(files.status());
     const std::string extension = file.substr(file.rfind('.'));
     for (const fleet::v1::ExportedFile& exported : *files) {
       if (!exported.name().ends_with(extension)) continue;
       HttpResponse response;
-      response.content_type = extension == ".pgm" ? "image/x-portable-graymap" : "text/plain; charset=utf-8";
+      response.content_type = extension == ".pgm"    ? "image/x-portable-graymap"
+                              : extension == ".json" ? "application/json"
+                                                     : "text/plain; charset=utf-8";
       response.body = exported.content();
       response.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + exported.name() + "\"");
       return response;

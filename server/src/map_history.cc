@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analyzer/map_comparison.h"
+#include "analyzer/map_metadata.h"
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
 #include "server/analysis.h"
@@ -390,6 +391,14 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
     if (!loaded.ok()) return loaded.status();
     *snapshot = std::move(loaded).value();
   }
+  auto metadata = repository_.GetMapMetadata(robot_id, record->version);
+  if (!metadata.ok()) return metadata.status();
+  if (!metadata->empty()) {
+    detail.metadata.emplace();
+    if (!detail.metadata->ParseFromString(*metadata)) {
+      return storage::DataLoss("metadata of map version " + std::to_string(record->version) + " does not parse");
+    }
+  }
   return detail;
 }
 
@@ -470,16 +479,22 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   // Rolling back leaves the run's nodes behind: its findings no longer apply.
   RunContext findings_context = origin == "rollback" ? RunContext{} : std::move(context).value();
   if (origin == "rollback") findings_context.parent = *repaired;
-  return AppendRepair(request, *base, *repaired, snapshot_id, origin, detail, Findings(*repaired, findings_context));
+  const std::int64_t metadata_of = origin == "undo" ? *base->parent_version : base->version;
+  return AppendRepair(request, *base, *repaired, snapshot_id, origin, detail, Findings(*repaired, findings_context),
+                      metadata_of);
 }
 
 storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& request,
                                                            const storage::MapVersionRecord& base,
                                                            const slamcore::Map& repaired, const std::string& snapshot_id,
                                                            const std::string& origin, const std::string& detail,
-                                                           const std::vector<fleet::v1::MapFinding>& findings) {
+                                                           const std::vector<fleet::v1::MapFinding>& findings,
+                                                           std::int64_t metadata_of) {
   auto record = NewVersion(repaired, snapshot_id, /*with_known_area=*/true);
   if (!record.ok()) return record.status();
+  auto metadata = repository_.GetMapMetadata(request.robot_id, metadata_of);
+  if (!metadata.ok()) return metadata.status();
+  record->metadata = std::move(metadata).value();
   record->robot_id = request.robot_id;
   record->parent_version = base.version;
   record->origin = origin;
@@ -505,6 +520,10 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
   MapVersionDetail result;
   result.version = ToProto(*appended, request.approve);
   result.findings = findings;
+  if (!record->metadata.empty()) {
+    result.metadata.emplace();
+    (void)result.metadata->ParseFromString(record->metadata);  // bytes this server stored a moment ago
+  }
   return result;
 }
 
@@ -544,8 +563,10 @@ storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const st
 
 storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& robot_id,
                                                           const fleet::v1::MapSnapshot& snapshot,
+                                                          const fleet::v1::MapMetadata& metadata,
                                                           const std::string& source, const std::string& reason,
                                                           bool approve, const std::string& requested_by) {
+  if (auto bad = analyzer::ValidateMetadata(metadata); !bad.ok()) return FromSlamcore(bad);
   auto map = analyzer::FromProto(snapshot, "snapshot");
   if (!map.ok()) return FromSlamcore(map.status());
   if (map->local_maps.empty()) {
@@ -587,6 +608,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   if (head) record->parent_version = head->version;
   record->origin = "import";
   record->action = "import";
+  if (analyzer::HasContent(metadata)) record->metadata = analyzer::SerializeDeterministic(metadata);
   record->action_detail = source;
   record->created_by = requested_by;
   record->reason = reason;
@@ -660,7 +682,7 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
     if (!findings.ok()) return findings.status();
     return AppendRepair(request, base, *restored, reference->snapshot_id, "rollback",
                         "back to version " + std::to_string(reference->version) + ", the map before the import",
-                        *findings);
+                        *findings, reference->version);
   }
   // cut_finding: the finding must be a new region of this version; its cells take the previous map's values.
   auto detail = Get(request.robot_id, base.version);
@@ -707,7 +729,7 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   return AppendRepair(request, base, repaired, *stored, "repair",
                       "cut new region " + std::to_string(region_id) + " (" + std::to_string(region->cells.size()) +
                           " cells) back to version " + std::to_string(reference->version) + "'s cells",
-                      *findings);
+                      *findings, base.version);
 }
 
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
@@ -718,8 +740,13 @@ storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const s
   if (!snapshot.ok()) return snapshot.status();
   auto loaded = analyzer::FromProto(*snapshot, "snapshot " + record->snapshot_id);
   if (!loaded.ok()) return storage::DataLoss(loaded.status().message());
-  auto files = analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version),
-                                   snapshot->has_imported() ? &snapshot->imported() : nullptr);
+  // The metadata kept with the version; versions without (map_server imports) still hand back their poses.
+  auto stored = repository_.GetMapMetadata(robot_id, record->version);
+  if (!stored.ok()) return stored.status();
+  fleet::v1::MapMetadata metadata;
+  if (!metadata.ParseFromString(*stored)) return storage::DataLoss("metadata of map version " + std::to_string(record->version) + " does not parse");
+  if (!analyzer::HasContent(metadata) && snapshot->has_imported()) metadata = analyzer::MetadataOfImported(snapshot->imported());
+  auto files = analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version), &metadata);
   if (!files.ok()) return FromSlamcore(files.status());
   return std::move(files).value();
 }

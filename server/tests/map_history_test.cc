@@ -224,9 +224,40 @@ fleet::v1::MapSnapshot ImportedRooms(bool kitchen) {
   return snapshot;
 }
 
+/// What an export said besides its grid: one named room per room of ImportedRooms, a no-go zone, a wall.
+fleet::v1::MapMetadata RoomsMetadata(bool kitchen) {
+  fleet::v1::MapMetadata metadata;
+  metadata.set_format("valetudo");
+  metadata.set_resolution(0.05);
+  const auto room = [&](const char* id, const char* name, int x0) {
+    fleet::v1::MapRoom* added = metadata.add_rooms();
+    added->set_segment_id(id);
+    added->set_name(name);
+    added->set_pixel_count(60);
+    for (const int value : {x0, -20, 60}) added->add_runs(value);
+  };
+  room("1", "Living room", 11);
+  if (kitchen) room("2", "Kitchen", 81);
+  fleet::v1::MapShape* zone = metadata.add_zones();
+  zone->set_type("no_go_area");
+  for (const double value : {1.0, 1.0, 2.0, 1.0, 2.0, 2.0}) zone->add_xy(value);
+  fleet::v1::MapShape* wall = metadata.add_virtual_walls();
+  wall->set_type("virtual_wall");
+  for (const double value : {0.6, 3.0, 3.0, 3.0}) wall->add_xy(value);
+  return metadata;
+}
+
+std::vector<std::string> RoomNames(const std::optional<fleet::v1::MapMetadata>& metadata) {
+  std::vector<std::string> names;
+  if (metadata) {
+    for (const fleet::v1::MapRoom& room : metadata->rooms()) names.push_back(room.name());
+  }
+  return names;
+}
+
 TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   MapHistory history(*repository_, MapPolicy{});
-  auto v1 = history.Import("home", ImportedRooms(false), "valetudo:a.json", "", true, "engineer:e");
+  auto v1 = history.Import("home", ImportedRooms(false), RoomsMetadata(false), "valetudo:a.json", "", true, "engineer:e");
   ASSERT_TRUE(v1.ok()) << v1.status().ToString();
   // The first import has nothing to compare with, nor to roll back to.
   EXPECT_TRUE(history.Get("home", 1)->findings.empty());
@@ -236,16 +267,32 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   // Bad metadata is refused naming the field, and nothing is stored.
   fleet::v1::MapSnapshot bad = ImportedRooms(true);
   bad.mutable_imported()->mutable_dock()->set_x(std::nan(""));
-  auto refused = history.Import("home", bad, "valetudo:b.json", "", false, "engineer:e");
+  auto refused = history.Import("home", bad, RoomsMetadata(true), "valetudo:b.json", "", false, "engineer:e");
   ASSERT_EQ(refused.status().code(), storage::StatusCode::kInvalidArgument);
   EXPECT_NE(refused.status().message().find("snapshot.imported.dock"), std::string::npos) << refused.status().ToString();
+  fleet::v1::MapMetadata absurd = RoomsMetadata(true);
+  for (int i = 0; i < 1001; ++i) *absurd.add_zones() = absurd.zones(0);
+  refused = history.Import("home", ImportedRooms(true), absurd, "valetudo:b.json", "", false, "engineer:e");
+  ASSERT_EQ(refused.status().code(), storage::StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.status().message().find("metadata.zones: 1002 shapes, more than the limit 1000"), std::string::npos)
+      << refused.status().ToString();
+  fleet::v1::MapMetadata long_name = RoomsMetadata(true);
+  long_name.mutable_rooms(1)->set_name(std::string(300, 'k'));
+  refused = history.Import("home", ImportedRooms(true), long_name, "valetudo:b.json", "", false, "engineer:e");
+  EXPECT_NE(refused.status().message().find("metadata.rooms[1].name: 300 bytes"), std::string::npos)
+      << refused.status().ToString();
+  EXPECT_EQ(repository_->ListMapVersions("home")->size(), 1u);  // nothing stored
 
   // The second export: the same home, now with a kitchen.
-  auto v2 = history.Import("home", ImportedRooms(true), "valetudo:b.json", "", false, "engineer:e");
+  auto v2 = history.Import("home", ImportedRooms(true), RoomsMetadata(true), "valetudo:b.json", "", false, "engineer:e");
   ASSERT_TRUE(v2.ok()) << v2.status().ToString();
   EXPECT_EQ(v2->version(), 2);
   auto detail = history.Get("home", 2);
   ASSERT_TRUE(detail.ok());
+  EXPECT_EQ(RoomNames(detail->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
+  EXPECT_EQ(detail->metadata->zones_size(), 1);
+  EXPECT_EQ(detail->metadata->virtual_walls_size(), 1);
+  EXPECT_EQ(RoomNames(history.Get("home", 1)->metadata), (std::vector<std::string>{"Living room"}));
   std::int64_t kitchen = 0;
   int alignments = 0, new_regions = 0;
   for (const fleet::v1::MapFinding& finding : detail->findings) {
@@ -276,6 +323,13 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   fleet::v1::MapSnapshot cut_snapshot;
   ASSERT_TRUE(history.Get("home", 3, &cut_snapshot).ok());
   EXPECT_TRUE(cut_snapshot.imported().has_dock());  // kept for the next comparison and the hand-back
+  // The cut keeps the metadata of the version it cut (its rooms and zones), and hands it back.
+  EXPECT_EQ(RoomNames(cut_version->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
+  EXPECT_EQ(RoomNames(history.Get("home", 3)->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
+  auto handed_back = history.Export("home", 3, "valetudo");
+  ASSERT_TRUE(handed_back.ok()) << handed_back.status().ToString();
+  EXPECT_NE(handed_back->front().content().find("\"name\":\"Living room\""), std::string::npos);
+  EXPECT_NE(handed_back->front().content().find("\"no_go_area\""), std::string::npos);
   // A cut's region must be a new region.
   cut.base_version = 3;
   cut.finding_id = 1;
@@ -287,6 +341,13 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   ASSERT_TRUE(rolled.ok()) << rolled.status().ToString();
   EXPECT_EQ(rolled->version.origin(), "rollback");
   EXPECT_EQ(rolled->version.snapshot_id(), v1->snapshot_id());
+  // …with version 1's metadata: the rooms of the map it restores.
+  EXPECT_EQ(RoomNames(history.Get("home", 4)->metadata), (std::vector<std::string>{"Living room"}));
+  // Undoing the roll-back gives the cut map again, with its metadata.
+  RepairRequest undo{.robot_id = "home", .base_version = 4, .action = "undo", .requested_by = "engineer:e"};
+  auto undone = history.Repair(undo);
+  ASSERT_TRUE(undone.ok()) << undone.status().ToString();
+  EXPECT_EQ(RoomNames(undone->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
 }
 
 }  // namespace

@@ -148,10 +148,16 @@ Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, dou
   if (values[2] <= 0 || values[2] > 255) {
     return DataLoss("PGM: maxval " + std::to_string(values[2]) + " unsupported (8-bit maps only, 1..255)");
   }
+  const std::int64_t count = values[0] * values[1];
+  // A header that promises more pixels than the bytes can hold is refused before the grid is allocated.
+  const std::int64_t available = static_cast<std::int64_t>(bytes.size() - std::min(pos, bytes.size()));
+  if ((magic == "P5" && available - 1 < count) || (magic == "P2" && available < 2 * count - 1)) {
+    return DataLoss("PGM: truncated pixel data (" + std::to_string(std::max<std::int64_t>(available - 1, 0)) +
+                    " bytes for " + std::to_string(count) + " pixels)");
+  }
   auto grid = OccupancyGrid::Create(static_cast<int>(values[0]), static_cast<int>(values[1]), resolution, origin_x,
                                     origin_y);
   if (!grid.ok()) return grid.status();
-  const std::int64_t count = values[0] * values[1];
   const double scale = 255.0 / static_cast<double>(values[2]);
   auto store = [&](std::int64_t index, int pixel) {
     const int col = static_cast<int>(index % values[0]);
@@ -219,9 +225,21 @@ Status WriteFileBytes(const std::string& path, const std::string& bytes) {
 Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path) {
   auto text = ReadFileBytes(yaml_path);
   if (!text.ok()) return text.status();
-  if (text->size() > 65536) return InvalidArgument(yaml_path + ": too large for a map_server YAML file");
+  return ParseMapServerYaml(*text, yaml_path, [&](const std::string& name) -> Result<std::string> {
+    std::filesystem::path image = name;
+    if (image.is_relative()) image = std::filesystem::path(yaml_path).parent_path() / image;
+    auto bytes = ReadFileBytes(image.string());
+    if (!bytes.ok()) return bytes.status();
+    return std::move(bytes).value();
+  });
+}
+
+Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std::string& source,
+                                         const std::function<Result<std::string>(const std::string& image)>& read_image) {
+  const std::string& yaml_path = source;
+  if (yaml_text.size() > 65536) return InvalidArgument(yaml_path + ": too large for a map_server YAML file");
   std::map<std::string, std::string> keys;
-  std::istringstream lines(*text);
+  std::istringstream lines(yaml_text);
   std::string line;
   int line_number = 0;
   while (std::getline(lines, line)) {
@@ -266,17 +284,16 @@ Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path) {
   if (Status status = CheckThresholds(occupied_thresh, free_thresh, resolution); !status.ok()) {
     return fail(status.message());
   }
-  std::filesystem::path image = Unquote(keys["image"]);
+  const std::string image = Unquote(keys["image"]);
   if (image.empty()) return fail("image is empty");
-  if (image.is_relative()) image = std::filesystem::path(yaml_path).parent_path() / image;
-  auto bytes = ReadFileBytes(image.string());
+  auto bytes = read_image(image);
   if (!bytes.ok()) return bytes.status();
   const bool is_png = bytes->size() >= 8 && bytes->compare(0, 4, "\x89PNG") == 0;
   auto grid = is_png ? DecodePng(*bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
                                  free_thresh, negate != 0.0)
                      : DecodePgm(*bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
                                  free_thresh, negate != 0.0);
-  if (!grid.ok()) return Status(grid.status().code(), image.string() + ": " + grid.status().message());
+  if (!grid.ok()) return Status(grid.status().code(), yaml_path + ": image " + image + ": " + grid.status().message());
   grid->origin_yaw = origin_values[2];
   return grid;
 }

@@ -197,6 +197,18 @@ CREATE TABLE map_findings (
       R"sql(
 ALTER TABLE reports ADD COLUMN recovery_retracted BIGINT NOT NULL DEFAULT 0;
 )sql",
+      // 4: what an imported map said besides its grid (rooms, path, poses, virtual walls, zones), per version.
+      R"sql(
+CREATE TABLE map_metadata (
+  robot_id TEXT NOT NULL,
+  version BIGINT NOT NULL,
+  data ${BLOB} NOT NULL,
+  data_crc32 BIGINT NOT NULL,
+  data_size BIGINT NOT NULL,
+  PRIMARY KEY (robot_id, version),
+  FOREIGN KEY (robot_id, version) REFERENCES map_versions(robot_id, version) ON DELETE CASCADE
+);
+)sql",
   };
   return kMigrations;
 }

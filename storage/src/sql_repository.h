@@ -67,6 +67,7 @@ class SqlRepository final : public Repository {
   Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version, std::optional<std::int64_t> expected_head,
                                             const std::vector<MapFindingRecord>& findings) override;
   Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) override;
+  Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) override;
   Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id, std::int64_t version) override;

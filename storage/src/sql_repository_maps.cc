@@ -1,6 +1,8 @@
 // SqlRepository: map versions per robot and their findings.
 #include "sql_repository.h"
 
+#include "blob_codec.h"
+
 namespace storage::internal {
 namespace {
 
@@ -62,6 +64,10 @@ Status CheckVersion(const MapVersionRecord& version) {
   STORAGE_RETURN_IF_ERROR(CheckText(version.created_by, "map version created_by"));
   STORAGE_RETURN_IF_ERROR(CheckText(version.reason, "map version reason", 4096));
   STORAGE_RETURN_IF_ERROR(CheckText(version.approved_by, "map version approved_by"));
+  if (version.metadata.size() > kMaxMapMetadataBytes) {
+    return InvalidArgument("map version metadata: " + std::to_string(version.metadata.size()) +
+                           " bytes, more than the limit " + std::to_string(kMaxMapMetadataBytes));
+  }
   return Status::Ok();
 }
 
@@ -102,7 +108,9 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
                                                          const std::vector<MapFindingRecord>& findings) {
   STORAGE_RETURN_IF_ERROR(CheckVersion(version));
   STORAGE_RETURN_IF_ERROR(CheckFindings(findings));
+  const EncodedBlob metadata = EncodeBlob(version.metadata);  // before the transaction: the lock is held briefly
   MapVersionRecord stored = version;
+  stored.metadata.clear();
   STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock serialises appends for one robot across connections and processes (SQLite
     // serialises every write transaction anyway).
@@ -154,6 +162,11 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
          stored.approved_by, stored.approved_at_ms, stored.nodes, stored.edges, stored.observation_edges, stored.views,
          stored.components, stored.known_area_m2, stored.chi2, stored.open_findings}));
     STORAGE_RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
+    if (!version.metadata.empty()) {
+      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+          "INSERT INTO map_metadata (robot_id, version, data, data_crc32, data_size) VALUES ($1, $2, $3, $4, $5)",
+          {stored.robot_id, stored.version, SqlBlob{metadata.compressed}, metadata.crc32, metadata.raw_size}));
+    }
     Fault("append_map_version:before_commit");
     return Status::Ok();
   }));
@@ -181,6 +194,20 @@ Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_i
   }));
   if (!found) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
   return *found;
+}
+
+Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, std::int64_t version) {
+  std::optional<SqlRow> row;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query("SELECT data, data_crc32, data_size FROM map_metadata WHERE robot_id = $1 AND version = $2",
+                                  {robot_id, version});
+    if (!rows.ok()) return rows.status();
+    if (!rows->empty()) row = rows->front();
+    return Status::Ok();
+  }));
+  if (!row) return std::string();
+  return DecodeBlob(row->Text(0), row->Int(1), row->Int(2),
+                    "metadata of map version " + std::to_string(version) + " of robot " + robot_id);
 }
 
 Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const std::string& run_id) {

@@ -488,6 +488,29 @@ TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
   EXPECT_TRUE((*versions)[1].run_id.empty());
 }
 
+TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMetadata) {
+  const std::string a = *repo().PutSnapshot("map a");
+  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}).ok());
+  MapVersionRecord imported = MakeVersion("robot-9", a, "import");
+  imported.metadata = std::string("rooms\0zones", 11) + std::string(100000, 'm');  // opaque bytes, NULs included
+  auto first = repo().AppendMapVersion(imported, std::nullopt, {});
+  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  EXPECT_TRUE(first->metadata.empty());
+  imported.metadata.clear();
+  ASSERT_TRUE(repo().AppendMapVersion(imported, 1, {}).ok());
+  EXPECT_EQ(*repo().GetMapMetadata("robot-9", 1), std::string("rooms\0zones", 11) + std::string(100000, 'm'));
+  EXPECT_EQ(*repo().GetMapMetadata("robot-9", 2), "");   // a version without metadata
+  EXPECT_EQ(*repo().GetMapMetadata("robot-9", 99), "");  // no such version
+  EXPECT_EQ(*repo().GetMapMetadata("nobody", 1), "");
+  EXPECT_TRUE((*repo().ListMapVersions("robot-9"))[0].metadata.empty());  // lists stay light
+  // Past the bound: refused, and nothing is appended.
+  imported.metadata.assign(kMaxMapMetadataBytes + 1, 'x');
+  const auto refused = repo().AppendMapVersion(imported, 2, {});
+  EXPECT_EQ(refused.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.status().message().find("metadata"), std::string::npos);
+  EXPECT_EQ(repo().ListMapVersions("robot-9")->size(), 2u);
+}
+
 TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
   const std::string a = *repo().PutSnapshot("map a");
   ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());

@@ -457,6 +457,85 @@ test('maps: two Valetudo exports of one real home uploaded on its map page becom
   assert.equal((await fleet.getJson(server, mapsApi(home))).versions.length, 2);
 });
 
+test('maps: a Valetudo export\'s rooms, zones, virtual walls and path are kept with its version, drawn and handed back', async () => {
+  const home = 'valetudo-viomi';
+  await visit(`/robots/${home}/maps`);
+  await page.getByTestId('import-file').setInputFiles(path.join(fleet.env.valetudo, '3irobotix_viomi_v6_41_virtual_restrictions_and_active_zones.json'));
+  await page.getByTestId('import-button').click();
+  assert.equal(await waitForNewVersionPage(-1), 1);
+  const detail = await fleet.getJson(server, `${mapsApi(home)}/1`);
+  assert.deepEqual(detail.metadata.rooms.map((r) => r.name), ['room1', 'room2']);
+  assert.equal(detail.metadata.zones.length, 4);
+  assert.equal(detail.metadata.virtual_walls.length, 2);
+  await page.waitForFunction(() => document.querySelectorAll('[data-testid=room-label]').length === 2);
+  assert.deepEqual(await page.getByTestId('room-label').allTextContents(), ['room1', 'room2']);
+  assert.equal(await page.getByTestId('zone').count(), 4);
+  assert.equal(await page.getByTestId('virtual-wall').count(), 2);
+  assert.equal(await page.getByTestId('robot-path').count(), 1);
+  assert.equal(await page.locator('[data-testid=map-point][data-type=charger_location]').count(), 1);
+  assert.equal(await page.getByTestId('room').count(), 2, 'the rooms are listed beside the picture');
+  assert.ok(await imageLoaded('version-map') > 0, 'the imported map is drawn');
+  await page.getByTestId('version-map-overlay').scrollIntoViewIfNeeded();
+  await screenshot('map-metadata');
+  // The hand-back gives the Valetudo user the rooms and zones back.
+  const handBack = await fetch(`${server.http}${mapsApi(home)}/1/export/map.json`, { headers: { Authorization: `Bearer ${engineerToken}` } });
+  assert.equal(handBack.status, 200);
+  const json = await handBack.json();
+  assert.deepEqual(json.layers.filter((l) => l.type === 'segment').map((l) => l.metaData.name), ['room1', 'room2']);
+  assert.equal(json.entities.filter((e) => e.type === 'no_go_area').length, 2);
+  assert.equal(json.entities.filter((e) => e.type === 'virtual_wall').length, 2);
+  // Absurd metadata is refused naming the field, and nothing is stored.
+  const viomi = JSON.parse(fs.readFileSync(path.join(fleet.env.valetudo, '3irobotix_viomi_v6_41_virtual_restrictions_and_active_zones.json'), 'utf8'));
+  const zone = viomi.entities.find((e) => e.type === 'no_go_area');
+  const post = (body) => fetch(`${server.http}${mapsApi(home)}/import`, { method: 'POST', body: JSON.stringify(body),
+    headers: { Authorization: `Bearer ${engineerToken}`, 'Content-Type': 'application/json' } });
+  let refused = await post({ ...viomi, entities: [...viomi.entities, ...Array(1500).fill(zone)] });
+  assert.equal(refused.status, 400);
+  assert.match((await refused.json()).error, /metadata\.zones: 1504 shapes, more than the limit 1000/);
+  const named = structuredClone(viomi);
+  named.layers.find((l) => l.type === 'segment').metaData.name = 'x'.repeat(5000);
+  refused = await post(named);
+  assert.equal(refused.status, 400);
+  assert.match((await refused.json()).error, /metadata\.rooms\[0\]\.name: 5000 bytes/);
+  assert.equal((await fleet.getJson(server, mapsApi(home))).versions.length, 1);
+});
+
+test('maps: two map_server saves of one home uploaded on its map page (YAML + image) become versions, the second compared with the first', async () => {
+  const home = 'ros-home';
+  let previous = -1;
+  for (const [index, stem] of ['valetudo_dreame_d9_1058_no_segments', 'valetudo_dreame_d9_1058_with_segments'].entries()) {
+    await visit(`/robots/${home}/maps`);
+    await page.getByTestId('import-file').setInputFiles([path.join(fleet.env.maps, `${stem}.yaml`), path.join(fleet.env.maps, `${stem}.pgm`)]);
+    await page.getByTestId('import-button').click();
+    previous = await waitForNewVersionPage(previous);
+    assert.equal(previous, index + 1, `${stem} is version ${index + 1}`);
+  }
+  const detail = await fleet.getJson(server, `${mapsApi(home)}/2`);
+  assert.equal(detail.version.approval, 'pending');
+  assert.match(detail.version.action_detail, /valetudo_dreame_d9_1058_with_segments\.yaml \+ valetudo_dreame_d9_1058_with_segments\.pgm/);
+  const kinds = detail.findings.map((f) => f.kind);
+  assert.ok(kinds.includes('alignment') || kinds.includes('misaligned'), `compared with version 1 (${kinds})`);
+  assert.ok(kinds.includes('new_region'), `the new room is a new region (${kinds})`);
+  assert.equal(await page.getByTestId('finding').count(), detail.findings.length, 'every finding is on the page');
+  assert.ok(await imageLoaded('version-map') > 0, 'the uploaded map is drawn');
+  await screenshot('map-server-import');
+  // A YAML naming a file outside the upload, and a PGM that is not one, are refused naming why; nothing is added.
+  const yaml = fs.readFileSync(path.join(fleet.env.maps, 'valetudo_dreame_d9_1058_no_segments.yaml'), 'utf8');
+  const pgm = fs.readFileSync(path.join(fleet.env.maps, 'valetudo_dreame_d9_1058_no_segments.pgm'));
+  for (const [files, why] of [
+    [[{ name: 'map.yaml', mimeType: 'text/yaml', buffer: Buffer.from(yaml.replace(/^image: .*$/m, 'image: ../../../etc/passwd')) },
+      { name: 'valetudo_dreame_d9_1058_no_segments.pgm', mimeType: 'image/x-portable-graymap', buffer: pgm }], /outside the upload/],
+    [[{ name: 'map.yaml', mimeType: 'text/yaml', buffer: Buffer.from(yaml.replace(/^image: .*$/m, 'image: broken.pgm')) },
+      { name: 'broken.pgm', mimeType: 'image/x-portable-graymap', buffer: Buffer.from('P5\n4000 4000\n255\n\x00\x01') }], /truncated/]]) {
+    await visit(`/robots/${home}/maps`);
+    await page.getByTestId('import-file').setInputFiles(files);
+    await page.getByTestId('import-button').click();
+    await page.waitForFunction(() => /not imported/.test(document.querySelector('[data-testid=import-status]').textContent));
+    assert.match(await page.getByTestId('import-status').innerText(), why);
+  }
+  assert.equal((await fleet.getJson(server, mapsApi(home))).versions.length, 2);
+});
+
 test('error states: a missing run and an unknown endpoint', async () => {
   assert.equal(await visit('/runs/no-such-run'), 'error');
   assert.match(await page.getByTestId('error-state').innerText(), /HTTP 404/);

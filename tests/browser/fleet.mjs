@@ -16,6 +16,7 @@ export const env = {
   world: process.env.WORLD,
   artifacts: process.env.ARTIFACTS_DIR || path.resolve('browser-artifacts'),
   valetudo: process.env.VALETUDO_DIR,
+  maps: process.env.MAPS_DIR,
 };
 for (const [key, value] of Object.entries(env)) {
   if (!value) throw new Error(`environment: ${key} is not set (ctest sets FLEETD, FLEETSIM, WEB_DIR, PROTO_DIR, WORLD)`);

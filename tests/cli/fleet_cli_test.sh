@@ -213,4 +213,33 @@ fi
 grep -q PERMISSION_DENIED "$work/err" || fail "no PERMISSION_DENIED for a robot's import: $(cat "$work/err")"
 [[ $("$bin/fleetctl" maps list "$home" --json | python3 -c 'import json,sys; print(len(json.load(sys.stdin)["versions"]))') == 5 ]] ||
   fail "refused imports changed the history"
+
+# Time order: a series given out of order is imported by the dates in its file names (the exports carry no
+# timestamp of their own), the order is printed; --order given keeps the command line's; a name without a date
+# or number leaves them as given and says why.
+mkdir -p "$work/series"
+cp "$data/valetudo/dreame_d9_1058_with_segments.json" "$work/series/home_2024-06-02T09-30.json"
+cp "$data/valetudo/dreame_d9_1058_no_segments.json" "$work/series/home_2024-06-01T18-05.json"
+"$bin/fleetctl" import valetudo "$work/series/home_2024-06-02T09-30.json" "$work/series/home_2024-06-01T18-05.json" \
+  --robot series-home >"$work/series.txt" || fail "import in time order: $(cat "$work/series.txt")"
+head -1 "$work/series.txt" | grep -qx "order: dates in file names" || fail "order not printed: $(cat "$work/series.txt")"
+sed -n 2p "$work/series.txt" | grep -q "1. .*home_2024-06-01T18-05.json" || fail "not in time order: $(cat "$work/series.txt")"
+"$bin/fleetctl" maps list series-home --json | python3 -c '
+import json, sys
+v = json.load(sys.stdin)["versions"]
+assert [x["action_detail"] for x in v] == ["valetudo:home_2024-06-01T18-05.json", "valetudo:home_2024-06-02T09-30.json"], v' ||
+  fail "versions not in time order"
+"$bin/fleetctl" import valetudo "$work/series/home_2024-06-02T09-30.json" "$work/series/home_2024-06-01T18-05.json" \
+  --robot series-given --order given >"$work/given.txt" || fail "import --order given"
+head -1 "$work/given.txt" | grep -qx "order: given" || fail "--order given: $(cat "$work/given.txt")"
+sed -n 2p "$work/given.txt" | grep -q "1. .*home_2024-06-02T09-30.json" || fail "--order given reordered: $(cat "$work/given.txt")"
+cp "$data/valetudo/dreame_d9_1058_no_segments.json" "$work/series/kitchen.json"
+"$bin/fleetctl" import valetudo "$work/series/home_2024-06-02T09-30.json" "$work/series/kitchen.json" \
+  --robot series-undated >"$work/undated.txt" || fail "import of an undated series"
+head -1 "$work/undated.txt" | grep -q "order: given — kitchen.json has no timestamp of its own and no date or number in its name" ||
+  fail "undated series: $(cat "$work/undated.txt")"
+if "$bin/fleetctl" import valetudo "$work/series/kitchen.json" --robot series-bad --order sideways 2>"$work/err"; then
+  fail "--order sideways was accepted"
+fi
+grep -q -- "--order" "$work/err" || fail "unclear --order refusal: $(cat "$work/err")"
 echo "fleetctl against fleetd: all checks passed"

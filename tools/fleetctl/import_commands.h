@@ -1,12 +1,15 @@
 // fleetctl import …: maps made elsewhere into a robot's map history (Maps.ImportMap), one version per file in
-// the order given — e.g. a user's Valetudo exports after each cleaning become the history of one home.
+// time order — e.g. a user's Valetudo exports after each cleaning become the history of one home.
 //
-//   import valetudo FILE.json... --robot R [--approve] [--reason TEXT]     (docs/formats/valetudo.md)
-//   import map-server FILE.yaml... --robot R [--approve] [--reason TEXT]   (ROS map_server YAML + PGM/PNG)
+//   import valetudo FILE.json... --robot R [--order time|given] [--approve] [--reason TEXT]   (docs/formats/valetudo.md)
+//   import map-server FILE.yaml... --robot R [--order time|given] [--approve] [--reason TEXT] (map_server YAML + PGM/PNG)
 //
-// Each map becomes one fixed node at the origin whose local map is the whole occupancy grid. A file that does
-// not read is refused before anything is sent (the message names the file and the field); the files before it
-// stay imported. Exit status: 0 when every file was imported, 1 otherwise, 2 on usage.
+// Each map becomes one fixed node at the origin whose local map is the whole occupancy grid, with the export's
+// rooms, path, poses, virtual walls and zones as the version's metadata. `--order time` (the default) imports
+// by the exports' own timestamps, else dates or numbers in the file names, else as given
+// (analyzer::OrderImports); the order used is printed first. Every file is read before anything is sent: one
+// that does not read is refused (the message names the file and the field) and nothing is imported. Exit
+// status: 0 when every file was imported, 1 otherwise, 2 on usage.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -30,7 +33,7 @@ class ImportCommands {
   CLI::App* import_ = nullptr;
   CLI::App *valetudo_ = nullptr, *map_server_ = nullptr;
   std::vector<std::string> files_;
-  std::string robot_, reason_;
+  std::string robot_, reason_, order_ = "time";
   bool approve_ = false;
 };
 

@@ -19,12 +19,14 @@ export async function getJson(path, params = {}) {
   return parse(response);
 }
 
+/// POSTs `body` as JSON, or a FormData as multipart/form-data (the browser writes its boundary).
 export async function postJson(path, body, token) {
-  const headers = { 'Content-Type': 'application/json' };
+  const form = body instanceof FormData;
+  const headers = form ? {} : { 'Content-Type': 'application/json' };
   if (token) headers.Authorization = `Bearer ${token}`;
   let response;
   try {
-    response = await fetch(path, { method: 'POST', headers, body: JSON.stringify(body) });
+    response = await fetch(path, { method: 'POST', headers, body: form ? body : JSON.stringify(body) });
   } catch (e) {
     throw new ApiError(0, `fleetd is unreachable (${e.message})`);
   }

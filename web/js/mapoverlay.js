@@ -53,9 +53,47 @@ function drawEdges(graph, nodes, project, flagged, { withKeys }) {
   return { groups: [layers.motion, layers.observation, layers.flagged], lines };
 }
 
-/// The picture with the home component's graph and the findings. Returns {element, highlight(key)}; the
-/// highlight marks one observation edge (the constraint table's row under the pointer).
-export function mapOverlay(src, graph, findings, { testid, caption } = {}) {
+/// What an imported map said besides its grid (the version's metadata): zones, virtual walls and the robot's
+/// path drawn in the picture's frame, the robot and dock as dots, each room's name at its centre.
+function drawMetadata(metadata, project, grid) {
+  const group = svg('g', { class: 'metadata', 'data-testid': 'metadata-overlay' });
+  if (!metadata) return group;
+  const pointsOf = (xy) => {
+    const out = [];
+    for (let i = 0; i + 1 < xy.length; i += 2) out.push(project([0, xy[i], xy[i + 1]]).join(','));
+    return out.join(' ');
+  };
+  for (const zone of metadata.zones) {
+    group.append(svg('polygon', { points: pointsOf(zone.xy), class: `zone zone-${zone.type}`, 'data-testid': 'zone', 'data-type': zone.type },
+      tip(zone.type.replaceAll('_', ' '))));
+  }
+  for (const wall of metadata.virtual_walls) {
+    group.append(svg('polyline', { points: pointsOf(wall.xy), class: 'virtual-wall', 'data-testid': 'virtual-wall' }, tip('virtual wall')));
+  }
+  for (const path of metadata.paths) {
+    group.append(svg('polyline', { points: pointsOf(path.xy), class: `robot-path ${path.type}`, 'data-testid': 'robot-path' }, tip(path.type.replaceAll('_', ' '))));
+  }
+  const size = Math.max(grid.width, grid.height) / 60;
+  for (const point of metadata.points) {
+    const [cx, cy] = project([0, point.x, point.y]);
+    group.append(svg('circle', { cx, cy, r: size / 2, class: `map-point ${point.type}`, 'data-testid': 'map-point', 'data-type': point.type },
+      tip(point.type.replaceAll('_', ' '))));
+  }
+  for (const room of metadata.rooms) {
+    if (!room.centre) continue;
+    const [x, y] = project([0, room.centre[0], room.centre[1]]);
+    group.append(svg('text', { x, y, 'font-size': size * 1.6, class: 'room-label', 'data-testid': 'room-label', 'text-anchor': 'middle' },
+      roomName(room)));
+  }
+  return group;
+}
+
+export const roomName = (room) => room.name || `room ${room.segment_id}`;
+
+/// The picture with the home component's graph and the findings (and an imported map's metadata). Returns
+/// {element, highlight(key)}; the highlight marks one observation edge (the constraint table's row under the
+/// pointer).
+export function mapOverlay(src, graph, findings, { testid, caption, metadata } = {}) {
   const { grid } = graph;
   const home = homeComponent(graph);
   const project = ([, x, y]) => [(x - grid.origin_x) / grid.resolution, grid.height - (y - grid.origin_y) / grid.resolution];
@@ -75,7 +113,7 @@ export function mapOverlay(src, graph, findings, { testid, caption } = {}) {
   img.addEventListener('error', () => { unavailable.hidden = false; });
   loadImage(img, src);
   const overlay = svg('svg', { viewBox: `0 0 ${grid.width} ${grid.height}`, preserveAspectRatio: 'none', class: 'graph-overlay',
-    'data-testid': `${testid}-overlay` }, ...groups, boxes);
+    'data-testid': `${testid}-overlay` }, drawMetadata(metadata, project, grid), ...groups, boxes);
   const element = h('figure', {}, h('div', { class: 'mapview' }, img, grid.width > 0 ? overlay : null), unavailable,
     caption ? h('figcaption', { class: 'muted' }, caption) : null);
   let highlighted = null;
@@ -110,6 +148,19 @@ export function otherComponents(graph, findings) {
       return h('figure', {}, svg('svg', { viewBox: `0 0 ${span + 2 * pad} ${span + 2 * pad}`, class: 'component-sketch' }, ...groups),
         h('figcaption', { class: 'muted' }, `component ${component.id} · ${component.nodes} nodes`));
     })));
+}
+
+/// The rooms, zones and walls an imported map carries (its metadata), beside the picture that draws them.
+export function metadataPanel(metadata) {
+  if (!metadata) return null;
+  const count = (list, one) => `${list.length} ${one}${list.length === 1 ? '' : 's'}`;
+  return h('div', { class: 'metadata-panel', 'data-testid': 'metadata-panel' },
+    h('p', { class: 'muted' }, `From the ${metadata.format || 'imported'} export: ${count(metadata.rooms, 'room')}, `,
+      `${count(metadata.zones, 'zone')}, ${count(metadata.virtual_walls, 'virtual wall')}, ${count(metadata.paths, 'path')}; handed back with the map.`),
+    metadata.rooms.length ? h('table', { class: 'compact', 'data-testid': 'rooms' },
+      h('tr', {}, h('th', {}, 'room'), h('th', {}, 'segment'), h('th', {}, 'area m²')),
+      metadata.rooms.map((room) => h('tr', { 'data-testid': 'room' }, h('td', {}, roomName(room)), h('td', {}, room.segment_id),
+        h('td', { class: 'num' }, room.area_m2.toFixed(1))))) : null);
 }
 
 export function overlayLegend() {

@@ -83,10 +83,10 @@ slamcore::Result<slamcore::Map> CutRegion(const slamcore::Map& map, const std::s
                                           const std::array<double, 4>& world_bbox, std::string* detail);
 
 /// Export: ROS map_server files of the home grid ("<stem>.pgm", "<stem>.yaml"), the pose graph as g2o
-/// ("<stem>.g2o"), or the home grid as ValetudoMap JSON ("<stem>.json", WriteValetudoMap) with the dock and
-/// robot of `imported` when given. INVALID_ARGUMENT for another format or an empty map.
+/// ("<stem>.g2o"), or the home grid as ValetudoMap JSON ("<stem>.json", WriteValetudoMap) with the rooms,
+/// entities and poses of `metadata` when given. INVALID_ARGUMENT for another format or an empty map.
 slamcore::Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const slamcore::Map& map, const std::string& format,
                                                                  const std::string& stem,
-                                                                 const fleet::v1::ImportedMapInfo* imported = nullptr);
+                                                                 const fleet::v1::MapMetadata* metadata = nullptr);
 
 }  // namespace analyzer

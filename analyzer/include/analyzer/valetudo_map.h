@@ -51,6 +51,7 @@ struct ValetudoLayer {
   std::int64_t area_cm2 = 0;                 // pixel_count · pixelSize²
   std::optional<std::int64_t> declared_area_cm2;  // metaData.area as written in the file
   int min_px = 0, max_px = 0, min_py = 0, max_py = 0;  // bounding box in map pixels (when pixel_count > 0)
+  std::vector<int> runs;                     // segments: their pixels as runs along x (x, y, count, ...)
 };
 
 /// A point entity (robot, dock, go-to target, obstacle): metres, yaw in radians in our frame.
@@ -71,6 +72,7 @@ struct ValetudoMap {
   int pixel_size_cm = 0;      // pixelSize
   int size_x = 0, size_y = 0; // size, in map pixels
   std::optional<std::int64_t> declared_total_area_cm2;  // metaData.totalLayerArea
+  std::optional<std::int64_t> timestamp_ms;  // metaData.timestamp or timestamp (ISO 8601, or ms since the epoch)
   slamcore::OccupancyGrid grid;
   std::vector<ValetudoLayer> layers;  // in file order
   std::optional<ValetudoPose> robot;  // robot_position
@@ -87,17 +89,6 @@ struct ValetudoMap {
 /// Parses a ValetudoMap from JSON text or zlib-deflated JSON. `source` names the input in errors.
 slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std::string& source,
                                                const ValetudoLimits& limits = {});
-
-/// Hand-back: `grid` as ValetudoMap JSON (metaData.version 2) that ParseValetudoMap reads back into the same
-/// cells: a floor layer of the free cells and a wall layer of the occupied ones (compressedPixels runs along
-/// x, metaData.area in cm²), pixelSize = the resolution in cm, map pixel (col + left, bottom − row) for grid
-/// cell (col, row) with left = origin_x / s and bottom = −origin_y / s (shifted to keep pixels ≥ 0), and the
-/// dock and robot as charger_location / robot_position entities when given. A grid imported from Valetudo
-/// (10 cells of unknown margin) comes back identical. INVALID_ARGUMENT naming the field when the grid is
-/// empty, has no known cell, a yaw, or a resolution that is not a whole number of centimetres (1–100).
-slamcore::Result<std::string> WriteValetudoMap(const slamcore::OccupancyGrid& grid,
-                                               const std::optional<slamcore::SE2>& dock,
-                                               const std::optional<slamcore::SE2>& robot);
 
 /// Reads and parses a file (see ParseValetudoMap).
 slamcore::Result<ValetudoMap> ReadValetudoMap(const std::string& path, const ValetudoLimits& limits = {});

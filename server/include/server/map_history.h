@@ -65,6 +65,7 @@ struct RepairRequest {
 struct MapVersionDetail {
   fleet::v1::MapVersion version;
   std::vector<fleet::v1::MapFinding> findings;
+  std::optional<fleet::v1::MapMetadata> metadata;  // imported maps: rooms, path, poses, walls, zones
 };
 
 class MapHistory {
@@ -99,12 +100,15 @@ class MapHistory {
   storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& run_id, const slamcore::Map& map);
   /// A map made elsewhere becomes the robot's newest version (origin "import", parent: the head version), approved
   /// when `approve`, else pending; the robot is registered when new. INVALID_ARGUMENT names what is wrong with
-  /// the snapshot (it must hold at least one node with a local map). Its findings compare it with the head
-  /// (analyzer::CompareGrids): alignment, new and lost regions.
+  /// the snapshot (it must hold at least one node with a local map) or the metadata (analyzer::ValidateMetadata);
+  /// nothing is stored then. The metadata (rooms, path, poses, zones) is kept with the version. Its findings
+  /// compare it with the head (analyzer::CompareGrids): alignment, new and lost regions.
   storage::Result<fleet::v1::MapVersion> Import(const std::string& robot_id, const fleet::v1::MapSnapshot& snapshot,
-                                                const std::string& source, const std::string& reason, bool approve,
+                                                const fleet::v1::MapMetadata& metadata, const std::string& source,
+                                                const std::string& reason, bool approve,
                                                 const std::string& requested_by);
-  /// `format` "map_server" or "g2o"; files are named "<robot>-v<version>.<ext>".
+  /// `format` "map_server", "g2o" or "valetudo" (with the version's metadata); files are named
+  /// "<robot>-v<version>.<ext>".
   storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id, std::int64_t version,
                                                                const std::string& format);
 
@@ -117,11 +121,14 @@ class MapHistory {
   /// import, or cut a new region of it back to the previous map's cells.
   storage::Result<MapVersionDetail> RepairMapOnly(const RepairRequest& request, const storage::MapVersionRecord& base,
                                                   const std::vector<storage::MapVersionRecord>& versions);
-  /// Appends `repaired` (stored as `snapshot_id`) as the new version of a repair of `base`, with `findings`.
+  /// Appends `repaired` (stored as `snapshot_id`) as the new version of a repair of `base`, with `findings`
+  /// and the metadata of the version whose map it derives from (`metadata_of`: the base for edits and cuts,
+  /// the restored version for rollbacks and undos).
   storage::Result<MapVersionDetail> AppendRepair(const RepairRequest& request, const storage::MapVersionRecord& base,
                                                  const slamcore::Map& repaired, const std::string& snapshot_id,
                                                  const std::string& origin, const std::string& detail,
-                                                 const std::vector<fleet::v1::MapFinding>& findings);
+                                                 const std::vector<fleet::v1::MapFinding>& findings,
+                                                 std::int64_t metadata_of);
   /// Findings of a map-only version's `snapshot`: its comparison with `reference` (when there is one).
   storage::Result<std::vector<fleet::v1::MapFinding>> MapOnlyFindings(const fleet::v1::MapSnapshot& snapshot,
                                                                      const slamcore::Map& map,

@@ -34,6 +34,7 @@ grpc::Status MapsHandler::GetMapVersion(grpc::ServerContext* call, const fleet::
   if (!detail.ok()) return scope.Done(ToGrpc(detail.status()));
   *response->mutable_version() = std::move(detail->version);
   for (auto& finding : detail->findings) *response->add_findings() = std::move(finding);
+  if (detail->metadata) *response->mutable_metadata() = std::move(*detail->metadata);
   return scope.Done(grpc::Status::OK);
 }
 
@@ -147,8 +148,8 @@ grpc::Status MapsHandler::ImportMap(grpc::ServerContext* call, const fleet::v1::
   if (!request->has_snapshot()) return scope.Done(InvalidArgument("snapshot: required (the imported map)"));
   if (request->source().size() > 1024) return scope.Done(InvalidArgument("source: longer than 1024 bytes"));
   if (request->reason().size() > 4096) return scope.Done(InvalidArgument("reason: longer than 4096 bytes"));
-  auto imported = history_.Import(request->robot_id(), request->snapshot(), request->source(), request->reason(),
-                                  request->approve(), principal.name);
+  auto imported = history_.Import(request->robot_id(), request->snapshot(), request->metadata(), request->source(),
+                                  request->reason(), request->approve(), principal.name);
   if (!imported.ok()) return scope.Done(ToGrpc(imported.status()));
   *response->mutable_version() = std::move(imported).value();
   return scope.Done(grpc::Status::OK);

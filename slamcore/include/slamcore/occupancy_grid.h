@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -58,6 +59,11 @@ struct OccupancyGrid {
 /// Reads a ROS map_server YAML file and the image it names (PGM P5/P2, or PNG), relative to the YAML's
 /// directory. Strict: unknown keys are ignored, but image, resolution and origin are required and checked.
 Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path);
+/// The same for YAML text held in memory (an upload): `read_image` gets the image's name as the YAML writes
+/// it (unquoted) and returns its bytes, or an error (e.g. a name that is not part of the upload). Errors are
+/// prefixed with `source`; malformed YAML is DATA_LOSS, as for files.
+Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std::string& source,
+                                         const std::function<Result<std::string>(const std::string& image)>& read_image);
 /// Writes `yaml_path` and an image beside it (same stem, .pgm, or .png when `png` is true).
 Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_path, bool png = false);
 /// The YAML text map_server reads for `grid` stored in `image_file` (a name relative to the YAML).

@@ -218,7 +218,13 @@ struct MapVersionRecord {
   double known_area_m2 = 0.0;
   double chi2 = 0.0;
   std::int64_t open_findings = 0;  // kept equal to the version's findings in state "open"
+  // Opaque bytes kept with the version (imported maps: their rooms, zones, …), at most kMaxMapMetadataBytes.
+  // AppendMapVersion stores them when not empty; lists and gets leave this empty (they stay light): read them
+  // with Repository::GetMapMetadata.
+  std::string metadata;
 };
+
+inline constexpr std::size_t kMaxMapMetadataBytes = 16u << 20;
 
 /// Something the analysis flags on one map version; `detail_json` is the whole finding as the server
 /// describes it (evidence, what a repair would act on), opaque to storage.

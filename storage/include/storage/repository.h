@@ -117,6 +117,9 @@ class Repository {
   /// The robot's versions, oldest first (empty when it has none).
   virtual Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) = 0;
   virtual Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) = 0;
+  /// The metadata stored with a version (MapVersionRecord::metadata); empty when it has none or there is no
+  /// such version. DATA_LOSS when the stored bytes are corrupt.
+  virtual Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) = 0;
   /// The upload version made from `run_id`; NOT_FOUND when there is none.
   virtual Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) = 0;
   virtual Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id,

@@ -51,25 +51,37 @@ export async function render(main, { args, isCurrent }) {
   setState(main, 'ready');
 }
 
-/// Upload a ValetudoMap export (the JSON of "Export ValetudoMap" or GET /api/v2/robot/state/map) as a new,
-/// pending version of this robot's map; fleetd compares it with the previous version and lists what changed.
+/// Upload a map made elsewhere as a new, pending version of this robot's map: a ValetudoMap export (the JSON
+/// of "Export ValetudoMap" or GET /api/v2/robot/state/map), or a ROS map_server save (its YAML with the PGM or
+/// PNG it names, sent together as a form). fleetd compares it with the previous version and lists what changed.
 function importCard(robotId) {
-  const input = h('input', { type: 'file', accept: '.json,application/json', 'data-testid': 'import-file' });
+  const input = h('input', { type: 'file', multiple: true, accept: '.json,application/json,.yaml,.yml,.pgm,.png', 'data-testid': 'import-file' });
   const status = h('span', { class: 'muted', 'data-testid': 'import-status' });
   const button = h('button', {
     'data-testid': 'import-button',
     onclick: async () => {
-      const file = input.files && input.files[0];
-      if (!file) { status.textContent = 'choose a ValetudoMap export (.json) first'; return; }
-      status.textContent = `importing ${file.name} …`;
+      const files = Array.from(input.files || []);
+      const yaml = files.find((f) => /\.ya?ml$/i.test(f.name));
+      const image = files.find((f) => /\.(pgm|png)$/i.test(f.name));
+      const json = files.find((f) => /\.json$/i.test(f.name));
+      if (!yaml && !json) { status.textContent = 'choose a ValetudoMap export (.json), or a map_server .yaml with its image'; return; }
+      if (yaml && !image) { status.textContent = `choose the image ${yaml.name} names (.pgm or .png) together with it`; return; }
+      status.textContent = `importing ${yaml ? `${yaml.name} + ${image.name}` : json.name} …`;
       try {
-        const export_ = JSON.parse(await file.text());
-        const { version } = await postAsEngineer(`${robotMapsPath(robotId)}/import`, export_, 'Importing a map needs an engineer token.');
+        let body;
+        if (yaml) {
+          body = new FormData();
+          body.append('yaml', yaml, yaml.name);
+          body.append('image', image, image.name);
+        } else {
+          body = JSON.parse(await json.text());
+        }
+        const { version } = await postAsEngineer(`${robotMapsPath(robotId)}/import`, body, 'Importing a map needs an engineer token.');
         location.hash = versionHash(robotId, version.version);
       } catch (error) {
         status.textContent = `not imported: ${error.message}`;
       }
     },
   }, 'Import');
-  return card('Import a map made elsewhere (ValetudoMap export, JSON)', h('p', {}, input, ' ', button, ' ', status));
+  return card('Import a map made elsewhere (ValetudoMap export .json, or map_server .yaml + .pgm/.png)', h('p', {}, input, ' ', button, ' ', status));
 }

@@ -5,7 +5,7 @@
 import { ApiError, downloadLink, getJson, postAsEngineer } from '../api.js';
 import { card, h, kpi, num, setState, time } from '../ui.js';
 import { approvalBadge, historyHash, originLabel, reviewState, robotMapsPath, sameMapAs, versionHash } from '../maphistory.js';
-import { mapOverlay, nodeId, otherComponents, overlayLegend } from '../mapoverlay.js';
+import { mapOverlay, metadataPanel, nodeId, otherComponents, overlayLegend } from '../mapoverlay.js';
 import { constraintTable } from '../constraints.js';
 
 const TOKEN_WHY = 'Repairing and reviewing maps needs an engineer token.';
@@ -132,16 +132,17 @@ export async function render(main, { args, query, isCurrent }) {
   const exportLink = (file) => downloadLink(h('a', { href: `${versionBase}/export/${file}`, 'data-testid': `export-${file.slice(4)}` }, file),
     `${versionBase}/export/${file}`, `${robotId}-v${v}${file.slice(3)}`);
   main.append(h('p', { class: 'exports', 'data-testid': 'exports' }, h('strong', {}, `Export v${v}: `),
-    exportLink('map.pgm'), ' + ', exportLink('map.yaml'), ' (ROS map_server) · ', exportLink('map.g2o'), ' (pose graph, g2o)'));
+    exportLink('map.pgm'), ' + ', exportLink('map.yaml'), ' (ROS map_server) · ', exportLink('map.g2o'), ' (pose graph, g2o) · ',
+    exportLink('map.json'), ' (ValetudoMap, with its rooms and zones)'));
 
   // ---- Picture(s), findings, repairs, constraints ----
   const after = mapOverlay(`${versionBase}/map.png`, graph, detail.findings,
-    { testid: 'version-map', caption: compare ? `after: v${v} — ${originLabel(version)} (pending)` : `v${v}: home component` });
+    { testid: 'version-map', caption: compare ? `after: v${v} — ${originLabel(version)} (pending)` : `v${v}: home component`, metadata: detail.metadata });
   const before = compare ? mapOverlay(`${base}/${parent.version}/map.png`, parentGraph, parentDetail.findings,
-    { testid: 'parent-map', caption: `before: v${parent.version} — ${originLabel(parent)} (${reviewState(parent)})` }) : null;
+    { testid: 'parent-map', caption: `before: v${parent.version} — ${originLabel(parent)} (${reviewState(parent)})`, metadata: parentDetail.metadata }) : null;
   const mapCard = card(compare ? `Before and after (v${parent.version} → v${v})` : 'Map with its pose graph and findings',
     before ? h('div', { class: 'compare' }, before.element, after.element) : after.element,
-    overlayLegend(), otherComponents(graph, detail.findings));
+    overlayLegend(), metadataPanel(detail.metadata), otherComponents(graph, detail.findings));
 
   const rollbackTitle = version.origin === 'upload' && !version.parent_version
     ? 'the robot\'s first map: there is no parent map' : `a new version holding the map from before run ${version.run_id}`;
