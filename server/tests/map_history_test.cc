@@ -12,6 +12,7 @@
 #include "analyzer/map_comparison.h"
 #include "analyzer/telemetry_codec.h"
 #include "server/analysis.h"
+#include "sqlite_repository_test.h"
 
 namespace server {
 namespace {
@@ -47,16 +48,11 @@ void AddChain(slamcore::Map& map, slamcore::NodeId first, int count, double x0, 
   }
 }
 
-class MapHistoryTest : public ::testing::Test {
+class MapHistoryTest : public SqliteRepositoryTest {
  protected:
   void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() / ("map-history-" + std::to_string(::getpid()) + "-" +
-                                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(directory_);
-    std::filesystem::create_directories(directory_);
-    auto opened = storage::OpenRepository("sqlite:" + (directory_ / "fleet.db").string());
-    ASSERT_TRUE(opened.ok()) << opened.status().ToString();
-    repository_ = std::move(opened).value();
+    SqliteRepositoryTest::SetUp();
+    if (HasFatalFailure()) return;
     ASSERT_TRUE(repository_->PutRobot({"r1", "vac", "fw", 0}).ok());
     ASSERT_TRUE(repository_->PutParameterSet({"default", "-"}).ok());
 
@@ -64,11 +60,6 @@ class MapHistoryTest : public ::testing::Test {
     child_ = parent_;
     AddChain(child_, 10, 10, 5.0, true);  // the run drove on past the end of the home map
   }
-  void TearDown() override {
-    repository_.reset();
-    std::filesystem::remove_all(directory_);
-  }
-
   /// Stores a run whose parent and child maps are given; returns its record.
   storage::RunRecord StoreRun(const std::string& run_id, const slamcore::Map* parent, const slamcore::Map& child) {
     storage::RunRecord run;
@@ -111,8 +102,6 @@ class MapHistoryTest : public ::testing::Test {
     EXPECT_EQ(history.RecordUpload(second, child_)->version, 2);
   }
 
-  std::filesystem::path directory_;
-  std::unique_ptr<storage::Repository> repository_;
   slamcore::Map parent_, child_;
 };
 

@@ -2,35 +2,20 @@
 // imported (MapHistory::Import, stored with its version), handed back (Export "valetudo") and imported again,
 // and must come back with the same grid, rooms (id, name, pixels), zones, virtual walls, paths and poses.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 
 #include "analyzer/map_metadata.h"
 #include "server/map_history.h"
+#include "sqlite_repository_test.h"
 #include "test_data.h"
 
 namespace server {
 namespace {
 
-class MetadataRoundTrip : public ::testing::Test {
+class MetadataRoundTrip : public SqliteRepositoryTest {
  protected:
-  void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("metadata-round-trip-" + std::to_string(::getpid()) + "-" +
-                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(directory_);
-    std::filesystem::create_directories(directory_);
-    auto opened = storage::OpenRepository("sqlite:" + (directory_ / "fleet.db").string());
-    ASSERT_TRUE(opened.ok()) << opened.status().ToString();
-    repository_ = std::move(opened).value();
-  }
-  void TearDown() override {
-    repository_.reset();
-    std::filesystem::remove_all(directory_);
-  }
-
   /// Round-trips every export of `folder`; returns how many files it checked.
   int RoundTripFolder(const std::filesystem::path& folder) {
     MapHistory history(*repository_, MapPolicy{});
@@ -119,8 +104,6 @@ class MetadataRoundTrip : public ::testing::Test {
     }
   }
 
-  std::filesystem::path directory_;
-  std::unique_ptr<storage::Repository> repository_;
 };
 
 TEST_F(MetadataRoundTrip, EveryExportInTheSampleComesBackWithItsRoomsZonesWallsAndPoses) {

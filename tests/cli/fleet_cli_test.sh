@@ -242,4 +242,35 @@ if "$bin/fleetctl" import valetudo "$work/series/kitchen.json" --robot series-ba
   fail "--order sideways was accepted"
 fi
 grep -q -- "--order" "$work/err" || fail "unclear --order refusal: $(cat "$work/err")"
+
+# Metadata through fleetd: an export's named rooms, zones and virtual walls are kept with its version, shown by
+# `maps show` and handed back by `--format valetudo`; absurd counts are refused by the server naming the field.
+viomi="$data/valetudo/3irobotix_viomi_v6_41_virtual_restrictions_and_active_zones.json"
+"$bin/fleetctl" import valetudo "$viomi" --robot viomi-home >/dev/null || fail "import of the viomi export"
+"$bin/fleetctl" maps show viomi-home 1 --json | python3 -c '
+import json, sys
+m = json.load(sys.stdin)["metadata"]
+assert [r["name"] for r in m["rooms"]] == ["room1", "room2"], m["rooms"]
+assert len(m["zones"]) == 4 and len(m["virtual_walls"]) == 2 and len(m["paths"]) == 1, m.keys()' ||
+  fail "metadata not kept with the version"
+"$bin/fleetctl" maps export viomi-home 1 --format valetudo --out "$work/viomi" >/dev/null || fail "valetudo hand-back"
+python3 - "$work/viomi/viomi-home-v1.json" "$viomi" <<'PY' || fail "the hand-back lost rooms or zones"
+import json, sys
+ours, theirs = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+segments = lambda m: [(l["metaData"]["segmentId"], l["metaData"].get("name")) for l in m["layers"] if l["type"] == "segment"]
+assert segments(ours) == segments(theirs), (segments(ours), segments(theirs))
+kinds = lambda m: sorted(e["type"] for e in m["entities"])
+assert kinds(ours) == kinds(theirs), (kinds(ours), kinds(theirs))
+PY
+python3 - "$viomi" "$work/absurd.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))
+zone = next(e for e in m["entities"] if e["type"] == "no_go_area")
+m["entities"] += [zone] * 5000
+json.dump(m, open(sys.argv[2], "w"))
+PY
+if "$bin/fleetctl" import valetudo "$work/absurd.json" --robot viomi-home 2>"$work/err" >/dev/null; then fail "5000 zones were stored"; fi
+grep -q "INVALID_ARGUMENT: metadata.zones: 5004 shapes, more than the limit 1000" "$work/err" || fail "unclear refusal: $(cat "$work/err")"
+[[ $("$bin/fleetctl" maps list viomi-home --json | python3 -c 'import json,sys; print(len(json.load(sys.stdin)["versions"]))') == 1 ]] ||
+  fail "a refused import was stored"
 echo "fleetctl against fleetd: all checks passed"
