@@ -81,7 +81,33 @@ TEST(OccupancyGridIo, RefusesCorruptPgmWithClearErrors) {
   check("P5\n100000 100000\n255\n", "absurd");
   check("P5\n2 2\n65535\n00000000", "maxval");
   check("P2\n2 2\n255\n1 2 3\n", "ASCII pixel 3");
+  // A header promising 10⁸ pixels over 10 bytes is refused before 100 MB are allocated for the grid.
+  check("P5\n20000 5000\n255\n" + std::string(10, '\xfe'), "truncated pixel data (10 bytes for 100000000 pixels)");
+  check("P2\n20000 5000\n255\n0 0 0", "truncated pixel data");
   EXPECT_TRUE(DecodePgm("P2\n# comment\n2 1\n255\n254 0\n", 0.05, 0, 0).ok());
+}
+
+TEST(OccupancyGridIo, YamlTextInMemoryReadsOnlyTheImageItsReaderGives) {
+  const std::string pgm = "P5\n2 1\n255\n" + std::string("\xfe\x00", 2);
+  std::string asked;
+  const auto reader = [&](const std::string& name) -> Result<std::string> {
+    asked = name;
+    if (name != "map.pgm") return InvalidArgument("image \"" + name + "\" names a file outside the upload");
+    return pgm;
+  };
+  auto grid = ParseMapServerYaml("image: \"map.pgm\"\nresolution: 0.05\norigin: [1.0, 2.0, 0.0]\n", "upload.yaml", reader);
+  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  EXPECT_EQ(asked, "map.pgm");
+  EXPECT_EQ(grid->width, 2);
+  EXPECT_DOUBLE_EQ(grid->origin_y, 2.0);
+  auto outside = ParseMapServerYaml("image: ../../etc/passwd\nresolution: 0.05\norigin: [0, 0, 0]\n", "upload.yaml", reader);
+  ASSERT_FALSE(outside.ok());
+  EXPECT_EQ(outside.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(outside.status().message().find("outside the upload"), std::string::npos);
+  auto broken = ParseMapServerYaml("image: map.pgm\nresolution: fine\norigin: [0, 0, 0]\n", "upload.yaml", reader);
+  ASSERT_FALSE(broken.ok());
+  EXPECT_NE(broken.status().message().find("upload.yaml: resolution is not a number"), std::string::npos);
+  EXPECT_FALSE(ParseMapServerYaml(std::string(70000, '#'), "upload.yaml", reader).ok());
 }
 
 TEST(OccupancyGridIo, RefusesCorruptPngAndYamlWithClearErrors) {
