@@ -163,10 +163,12 @@ export function metadataPanel(metadata) {
         h('td', { class: 'num' }, room.area_m2.toFixed(1))))) : null);
 }
 
-export function overlayLegend() {
+export function overlayLegend(metadata) {
   const swatch = (cls, label) => h('span', {}, h('i', { class: cls }), label);
   return h('div', { class: 'legend' },
     swatch('swatch-motion', 'odometry (motion edges)'), swatch('swatch-observation', 'observation edges'),
     swatch('swatch-flagged', 'edges a finding flags'), swatch('swatch-box', 'protrusion finding (dashed: cut out)'),
+    metadata ? [swatch('swatch-zone', 'no-go zone (dashed blue: active zone)'), swatch('swatch-virtual-wall', 'virtual wall'),
+      swatch('swatch-path', "the robot's path"), swatch('swatch-dock', 'dock (blue: robot)')] : null,
     h('span', {}, 'hover a constraint row to find its edge'));
 }

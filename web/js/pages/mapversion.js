@@ -142,7 +142,7 @@ export async function render(main, { args, query, isCurrent }) {
     { testid: 'parent-map', caption: `before: v${parent.version} — ${originLabel(parent)} (${reviewState(parent)})`, metadata: parentDetail.metadata }) : null;
   const mapCard = card(compare ? `Before and after (v${parent.version} → v${v})` : 'Map with its pose graph and findings',
     before ? h('div', { class: 'compare' }, before.element, after.element) : after.element,
-    overlayLegend(), metadataPanel(detail.metadata), otherComponents(graph, detail.findings));
+    overlayLegend(detail.metadata), metadataPanel(detail.metadata), otherComponents(graph, detail.findings));
 
   const rollbackTitle = version.origin === 'upload' && !version.parent_version
     ? 'the robot\'s first map: there is no parent map' : `a new version holding the map from before run ${version.run_id}`;
