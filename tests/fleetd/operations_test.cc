@@ -224,7 +224,7 @@ TEST(OperationsTest, WeakSecretsAreRefusedAtStartAndPasswordsNeverLogged) {
   }
   // Opening fails (nothing listens on port 1, a malformed escape, a bad port): no log line has the password.
   const std::string password = "Kq7vX2pL9mZ4rT8wN3bY";
-  for (const std::string url : {"postgresql://fleet:" + password + "@127.0.0.1:1/fleet?connect_timeout=2",
+  for (const std::string& url : {"postgresql://fleet:" + password + "@127.0.0.1:1/fleet?connect_timeout=2",
                                 "postgresql://fleet:" + password + "%zz@127.0.0.1:1/fleet",
                                 "postgresql://fleet:" + password + "@127.0.0.1:notaport/fleet",
                                 "postgresql://fleet@127.0.0.1:1/fleet?password=" + password + "&connect_timeout=2"}) {
@@ -456,7 +456,7 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   // A run over --max-run-bytes can never fit: INVALID_ARGUMENT, tried once.
   fleet::v1::RunFile huge = SimulatedRuns().front();
   huge.mutable_header()->set_run_id("too-big");
-  while (huge.ByteSizeLong() < 26u << 20) huge.mutable_events()->MergeFrom(chunk.events());
+  while (huge.ByteSizeLong() < 26u << 20) huge.mutable_events()->MergeFrom(chunk.events().events());
   huge.mutable_header()->set_event_count(static_cast<std::uint64_t>(huge.events_size()));
   sim::UploaderOptions options;
   options.server = server.grpc_address();
