@@ -59,8 +59,7 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path, "JSON config file (flags override it)");
   app.add_option("--db", config.db,
                  "storage URL: sqlite:PATH or postgresql://... (default $FLEETD_DB_URL; a URL with a password "
-                 "belongs in the environment, not on the command line)")
-      ->capture_default_str();
+                 "belongs in the environment, not on the command line; default sqlite:fleet.db)");
   app.add_option("--listen", config.listen, "gRPC address host:port (port 0: any free port)")->capture_default_str();
   app.add_option("--http", config.http, "HTTP address for /metrics and /healthz (empty: off)")->capture_default_str();
   app.add_option("--http-allowed-hosts", config.http_allowed_hosts,

@@ -136,7 +136,9 @@ void Authenticator::RefreshRevocations(std::chrono::steady_clock::time_point now
   polling_ = false;
   next_poll_ = now + revocation_poll_;
   if (!changes.ok()) return;  // retried at the next interval; entries still expire by their TTL
-  if (changes->truncated) {  // many changes at once: start over
+  // Many changes at once, or the first successful poll (what was cached before it, while polls failed, may
+  // predate a change the newest epoch already covers): start over.
+  if (changes->truncated || since < 0) {
     cache_.clear();
     recency_.clear();
   } else {

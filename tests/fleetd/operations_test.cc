@@ -100,7 +100,7 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
       [&] { return ListRunsCode(b.Channel(), engineer) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
   std::printf("revocation refused by the other process after %.2f s\n", seen);
   EXPECT_GE(seen, 0.0);
-  EXPECT_LT(seen, 2.0) << "the credential epoch is polled every second";
+  EXPECT_LT(seen, 3.0) << "the credential epoch is polled every second (observed about 1 s)";
 
   // Rotation: a robot rotates its own token on b; the old one stops working on a as well.
   const std::string robot = IssueToken(*admin, "robot:ops-r1");
@@ -113,7 +113,7 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   const double old_refused = SecondsUntil(
       [&] { return ListRunsCode(a.Channel(), robot) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
   EXPECT_GE(old_refused, 0.0);
-  EXPECT_LT(old_refused, 2.0);
+  EXPECT_LT(old_refused, 3.0);
   std::string ignored;
   EXPECT_EQ(Rotate(*admin_b, rotated, "engineer:ops", &ignored).error_code(), grpc::StatusCode::PERMISSION_DENIED)
       << "a robot rotates only its own token";
