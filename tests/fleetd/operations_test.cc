@@ -57,8 +57,8 @@ std::string ReadAll(const std::filesystem::path& path) {
 }
 
 std::string TempDirectory() {
-  char pattern[] = "/tmp/fleetd-ops-XXXXXX";
-  return mkdtemp(pattern);
+  std::string pattern = (std::filesystem::temp_directory_path() / "fleetd-ops-XXXXXX").string();
+  return mkdtemp(pattern.data());
 }
 
 std::unique_ptr<fleet::v1::Admin::Stub> AdminOf(const FleetdProcess& server) {
