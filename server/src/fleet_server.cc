@@ -74,6 +74,11 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
       IngestAdmissionLimits{config.max_upload_streams, config.max_upload_streams_per_principal,
                             config.max_upload_bytes_in_flight, config.max_upload_bytes_per_principal});
   context.admission = impl->admission.get();
+  // Read only while the HTTP side serves /metrics, which main stops before this server is destroyed.
+  metrics.AddCollector([admission = impl->admission.get()](Metrics& m) {
+    m.SetGauge("fleetd_upload_streams_in_flight", "", static_cast<double>(admission->streams()));
+    m.SetGauge("fleetd_upload_bytes_in_flight", "", static_cast<double>(admission->bytes()));
+  });
   context.metrics = &metrics;
   context.limits.max_events_per_run = config.max_events_per_run;
   context.limits.max_run_bytes = config.max_run_bytes;

@@ -436,6 +436,9 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   const grpc::Status stored = Upload(*ingest, FleetdProcess::AdminToken(), SimulatedRuns().front(), &small);
   EXPECT_TRUE(stored.ok()) << stored.error_message();
   EXPECT_EQ(ListRunsCode(channel, FleetdProcess::AdminToken()), grpc::StatusCode::OK);
+  std::string metrics;
+  ASSERT_EQ(HttpGet(server.http_address(), "/metrics", &metrics, FleetdProcess::AdminToken()), 200);
+  EXPECT_NE(metrics.find("fleetd_upload_streams_in_flight 2"), std::string::npos) << "the two held uploads";
   const std::string peak = PeakRss(server.pid());
   std::printf("fleetd peak RSS with 2 x 21 MiB uploads held and 2 refused: %s\n", peak.c_str());
   RecordProperty("fleetd_peak_rss", peak);
