@@ -22,7 +22,7 @@
 
 namespace {
 
-const std::string kAdmin = "admin:bench." + std::string(64, 'a');
+const std::string kAdmin = "admin:bench.9c4e1f7a2b6d3e8f0a5c7b1d9e2f4a6c8b0d3e5f7a9c1b2d4e6f8a0c2e4b6d8f";
 
 std::unique_ptr<grpc::ClientContext> Context(const std::string& token) {
   auto context = std::make_unique<grpc::ClientContext>();

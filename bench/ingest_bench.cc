@@ -36,7 +36,7 @@
 
 namespace {
 
-const std::string kAdmin = "admin:bench." + std::string(64, 'c');
+const std::string kAdmin = "admin:bench.9c4e1f7a2b6d3e8f0a5c7b1d9e2f4a6c8b0d3e5f7a9c1b2d4e6f8a0c2e4b6d8f";
 
 std::vector<fleet::v1::RunFile>& Runs() {
   static std::vector<fleet::v1::RunFile> runs = [] {

@@ -67,7 +67,9 @@ echo "upload_load.sh: $topology topology, $robots robots, $seconds s; ulimit -n 
 admin="admin:load.$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
 export FLEET_TOKEN=$admin
 
-FLEETD_COMMON_ARGS=(--rate-limit "$rate_limit")
+# One principal for all robots: its in-flight stream limit is raised with the rate limit.
+FLEETD_COMMON_ARGS=(--rate-limit "$rate_limit" --max-upload-streams 4096 --max-upload-streams-per-principal 4096
+                    --max-upload-bytes-in-flight 8589934592)
 
 if [[ $topology == scaleout ]]; then
   start_postgres

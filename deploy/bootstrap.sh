@@ -9,7 +9,7 @@ packages=(
   libeigen3-dev libceres-dev libopencv-dev
   libboost-dev libboost-math-dev
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc
-  libsqlite3-dev sqlite3 libpqxx-dev postgresql zlib1g-dev libssl-dev
+  libsqlite3-dev sqlite3 libpqxx-dev postgresql zlib1g-dev libssl-dev openssl
   libspdlog-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium chromium-driver

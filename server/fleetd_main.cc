@@ -18,6 +18,7 @@
 #include "server/config.h"
 #include "server/dashboard_routes.h"
 #include "server/fleet_server.h"
+#include "server/health.h"
 #include "server/http_server.h"
 #include "server/log.h"
 #include "server/metrics.h"
@@ -47,14 +48,18 @@ int main(int argc, char** argv) {
       }
     }
   }
+  // Secrets come through the environment (or the config file), never argv: /proc/PID/cmdline is world-readable.
   if (const char* token = std::getenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN"); token != nullptr && *token != '\0') {
     config.bootstrap_admin_token = token;
   }
+  if (const char* url = std::getenv("FLEETD_DB_URL"); url != nullptr && *url != '\0') config.db = url;
 
   CLI::App app{"fleetd: fleet telemetry analysis server"};
   std::string config_path;
   app.add_option("--config", config_path, "JSON config file (flags override it)");
-  app.add_option("--db", config.db, "storage URL: sqlite:PATH or postgresql://...")->capture_default_str();
+  app.add_option("--db", config.db,
+                 "storage URL: sqlite:PATH or postgresql://... (default $FLEETD_DB_URL; a URL with a password "
+                 "belongs in the environment, not on the command line; default sqlite:fleet.db)");
   app.add_option("--listen", config.listen, "gRPC address host:port (port 0: any free port)")->capture_default_str();
   app.add_option("--http", config.http, "HTTP address for /metrics and /healthz (empty: off)")->capture_default_str();
   app.add_option("--http-allowed-hosts", config.http_allowed_hosts,
@@ -65,10 +70,27 @@ int main(int argc, char** argv) {
   app.add_option("--tls-cert", config.tls_cert, "PEM certificate chain: serve gRPC over TLS");
   app.add_option("--tls-key", config.tls_key, "PEM private key for --tls-cert");
   app.add_option("--bootstrap-admin-token", config.bootstrap_admin_token,
-                 "install this admin token (admin:<name>.<secret>) at start; also FLEETD_BOOTSTRAP_ADMIN_TOKEN");
+                 "admin token (admin:<name>.<secret>) installed at start while no admin exists; prefer "
+                 "$FLEETD_BOOTSTRAP_ADMIN_TOKEN");
+  app.add_flag("--bootstrap-admin-force", config.bootstrap_admin_force,
+               "install the bootstrap admin token even when an admin exists (recovery; undoes its rotation)");
   app.add_option("--max-message-bytes", config.max_message_bytes, "largest gRPC message")->capture_default_str();
   app.add_option("--max-events-per-run", config.max_events_per_run, "largest run, in events")->capture_default_str();
   app.add_option("--max-run-bytes", config.max_run_bytes, "largest upload stream, in bytes")->capture_default_str();
+  app.add_option("--max-upload-streams", config.max_upload_streams, "upload streams in flight, in all")
+      ->capture_default_str();
+  app.add_option("--max-upload-streams-per-principal", config.max_upload_streams_per_principal,
+                 "upload streams in flight per principal")
+      ->capture_default_str();
+  app.add_option("--max-upload-bytes-in-flight", config.max_upload_bytes_in_flight,
+                 "bytes buffered by uploads in flight, in all")
+      ->capture_default_str();
+  app.add_option("--max-upload-bytes-per-principal", config.max_upload_bytes_per_principal,
+                 "bytes buffered by one principal's uploads in flight (>= --max-run-bytes)")
+      ->capture_default_str();
+  app.add_option("--health-probe-seconds", config.health_probe_seconds,
+                 "database write probe interval for /healthz and gRPC health")
+      ->capture_default_str();
   app.add_option("--rate-limit", config.rate_limit_per_second, "requests per second per principal (0: off)")
       ->capture_default_str();
   app.add_option("--rate-burst", config.rate_limit_burst, "burst size of the rate limit")->capture_default_str();
@@ -105,7 +127,8 @@ int main(int argc, char** argv) {
 
   auto repository = storage::OpenRepository(config.db);
   if (!repository.ok()) {
-    server::log::Error("open_failed", {{"db", config.db}, {"error", repository.status().ToString()}});
+    server::log::Error("open_failed",
+                       {{"db", storage::RedactDatabaseUrl(config.db)}, {"error", repository.status().ToString()}});
     return 1;
   }
   storage::Repository& repo = **repository;
@@ -114,13 +137,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   server::Authenticator authenticator(repo, std::chrono::seconds(config.auth_cache_seconds));
-  if (!config.bootstrap_admin_token.empty()) {
-    if (storage::Status installed = authenticator.InstallToken(config.bootstrap_admin_token); !installed.ok()) {
-      server::log::Error("bootstrap_token_failed", {{"error", installed.ToString()}});
+  if (!config.bootstrap_admin_token.empty() && config.role != "worker") {
+    auto installed = authenticator.InstallBootstrapToken(config.bootstrap_admin_token, config.bootstrap_admin_force);
+    if (!installed.ok()) {
+      server::log::Error("bootstrap_token_failed", {{"error", installed.status().ToString()}});
       return 2;
     }
-    if (config.bootstrap_admin_token.rfind("admin:", 0) != 0) {
-      server::log::Warn("bootstrap_token_not_admin", {{"hint", "the bootstrap token should name an admin principal"}});
+    using Outcome = server::Authenticator::BootstrapOutcome;
+    if (*installed == Outcome::kInstalled) {
+      server::log::Info("bootstrap_token_installed", {{"forced", config.bootstrap_admin_force}});
+    } else if (*installed == Outcome::kSkippedAdminExists) {
+      server::log::Info("bootstrap_token_skipped",
+                        {{"reason", "an admin credential exists (a rotation or revocation is kept); "
+                                    "--bootstrap-admin-force installs it anyway"}});
     }
   }
 
@@ -135,12 +164,12 @@ int main(int argc, char** argv) {
     }
   });
 
+  char host[256] = "fleetd";
+  gethostname(host, sizeof host - 1);
   std::unique_ptr<server::WorkerPool> workers;
   if (config.role != "server") {
     server::WorkerOptions options;
     options.threads = config.workers > 0 ? config.workers : std::max(1u, std::thread::hardware_concurrency());
-    char host[256] = "fleetd";
-    gethostname(host, sizeof host - 1);
     options.name = std::string(host) + ":" + std::to_string(::getpid());
     options.lease = std::chrono::seconds(config.lease_seconds);
     options.analysis_budget_seconds = config.analysis_budget_seconds;
@@ -171,11 +200,25 @@ int main(int argc, char** argv) {
     response.body = metrics.Render();
     return response;
   });
-  router.AddRoute("GET", "/healthz", [&repo](const server::HttpRequest&) {
+  server::FleetServer* health_target = grpc_server.get();
+  server::HealthMonitor health(repo, std::string(host) + ":" + std::to_string(::getpid()),
+                               std::chrono::milliseconds(static_cast<long long>(config.health_probe_seconds * 1000)),
+                               [health_target](bool healthy) {
+                                 if (health_target != nullptr) health_target->SetServing(healthy);
+                                 if (!healthy) server::log::Warn("unhealthy", {{"hint", "see /healthz"}});
+                               });
+  health.Start();
+  router.AddRoute("GET", "/healthz", [&health](const server::HttpRequest&) {
     server::HttpResponse response;
-    auto version = repo.SchemaVersion();
-    response.status = version.ok() ? 200 : 503;
-    response.body = version.ok() ? "ok\n" : "storage: " + version.status().ToString() + "\n";
+    const server::HealthMonitor::State state = health.Current();
+    response.status = state.healthy ? 200 : 503;
+    response.body = state.healthy ? "ok\n" : "storage: " + state.reason + "\n";
+    return response;
+  });
+  // Liveness: the process answers (a full database is no reason to restart it; /healthz is readiness).
+  router.AddRoute("GET", "/livez", [](const server::HttpRequest&) {
+    server::HttpResponse response;
+    response.body = "ok\n";
     return response;
   });
   server::RegisterDashboardRoutes(router, repo, authenticator, config);
@@ -189,6 +232,7 @@ int main(int argc, char** argv) {
     http = server::HttpServer::Create(config.http, router, &error, http_options);
     if (!http) {
       server::log::Error("http_failed", {{"error", error}});
+      health.Stop();
       if (grpc_server) grpc_server->Shutdown(std::chrono::system_clock::now());
       if (workers) workers->Stop();
       return 1;
@@ -202,13 +246,14 @@ int main(int argc, char** argv) {
   server::log::Info("started", {{"grpc", grpc_server ? grpc_server->BoundAddress() : ""},
                                 {"http", http ? http->BoundAddress() : ""},
                                 {"role", config.role},
-                                {"db", config.db.substr(0, config.db.find('@') == std::string::npos ? config.db.size() : 0)}});
+                                {"db", storage::RedactDatabaseUrl(config.db)}});
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);
   server::log::Info("shutting_down", {{"signal", signal_number}});
   const auto deadline = std::chrono::system_clock::now() +
                         std::chrono::milliseconds(static_cast<long long>(config.shutdown_grace_seconds * 1000));
+  health.Stop();
   if (grpc_server) grpc_server->Shutdown(deadline);
   if (workers) workers->Stop();
   if (http) http->Stop();

@@ -9,7 +9,7 @@
 //   fleetsim ... --upload HOST:PORT --token T [--upload-threads K]
 //
 // also uploads every run to fleetd like a robot (sim/uploader.h: retries with backoff; runs of one robot in
-// order, robots in parallel); the token comes from --token or FLEET_TOKEN.
+// order, robots in parallel); the token comes from --token-file, FLEET_TOKEN_FILE, FLEET_TOKEN or --token.
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -19,6 +19,7 @@
 
 #include "sim/fleet.h"
 #include "sim/upload_files.h"
+#include "sim/uploader.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"fleetsim: a simulated fleet of real homes and robots, with ground truth"};
@@ -37,7 +38,10 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "print the statistics as one JSON object on the last line");
   sim::UploadFilesOptions upload;
   app.add_option("--upload", upload.uploader.server, "also upload every run to this fleetd (host:port)");
-  app.add_option("--token", upload.uploader.token, "token for --upload (default: $FLEET_TOKEN)");
+  std::string token_file;
+  app.add_option("--token", upload.uploader.token,
+                 "token for --upload (default: $FLEET_TOKEN); prefer --token-file or the environment");
+  app.add_option("--token-file", token_file, "read the token for --upload from this file (default $FLEET_TOKEN_FILE)");
   app.add_option("--upload-threads", upload.threads, "parallel upload streams")->check(CLI::Range(1, 256));
   CLI11_PARSE(app, argc, argv);
 
@@ -52,6 +56,16 @@ int main(int argc, char** argv) {
     options.worlds = {world};
   }
   if (!upload.uploader.server.empty()) {
+    if (token_file.empty() && std::getenv("FLEET_TOKEN_FILE") != nullptr) token_file = std::getenv("FLEET_TOKEN_FILE");
+    if (!token_file.empty()) {
+      std::string error;
+      auto token = sim::ReadTokenFile(token_file, &error);
+      if (!token) {
+        std::cerr << "fleetsim: " << error << "\n";
+        return 2;
+      }
+      upload.uploader.token = *token;
+    }
     if (upload.uploader.token.empty() && std::getenv("FLEET_TOKEN") != nullptr) upload.uploader.token = std::getenv("FLEET_TOKEN");
     if (out.empty()) out = (std::filesystem::temp_directory_path() / ("fleetsim-" + std::to_string(getpid()))).string();
   }

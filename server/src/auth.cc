@@ -1,5 +1,7 @@
 #include "server/auth.h"
 
+#include "server/secrets.h"
+
 #include <openssl/rand.h>
 #include <openssl/sha.h>
 
@@ -50,11 +52,13 @@ const char* PermissionName(Permission permission) {
     case Permission::kRepairMap: return "repair_map";
     case Permission::kModels: return "models";
     case Permission::kAdmin: return "admin";
+    case Permission::kRotateOwn: return "rotate_own";
   }
   return "unknown";
 }
 
 bool Allows(Role role, Permission permission) {
+  if (permission == Permission::kRotateOwn) return true;
   switch (role) {
     case Role::kAdmin: return true;
     case Role::kEngineer: return permission != Permission::kModels && permission != Permission::kAdmin;
@@ -103,8 +107,45 @@ std::string Sha256Hex(const std::string& bytes) {
   return Hex(digest, sizeof digest);
 }
 
-Authenticator::Authenticator(storage::Repository& repository, std::chrono::seconds cache_ttl)
-    : repository_(repository), cache_ttl_(cache_ttl) {}
+Authenticator::Authenticator(storage::Repository& repository, std::chrono::seconds cache_ttl,
+                             std::chrono::milliseconds revocation_poll)
+    : repository_(repository), cache_ttl_(cache_ttl), revocation_poll_(revocation_poll) {}
+
+void Authenticator::DropCachedLocked(const std::string& principal) {
+  for (auto it = cache_.begin(); it != cache_.end();) {
+    if (it->second.principal.name == principal) {
+      recency_.erase(it->second.recency);
+      it = cache_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+void Authenticator::RefreshRevocations(std::chrono::steady_clock::time_point now) {
+  std::int64_t since = 0;
+  {
+    std::lock_guard lock(mutex_);
+    if (polling_ || now < next_poll_) return;
+    polling_ = true;  // one poll at a time; the other callers use the cache as it is
+    since = credential_epoch_;
+  }
+  constexpr int kMaxChanges = 1000;
+  auto changes = repository_.CredentialChangesSince(since, kMaxChanges);
+  std::lock_guard lock(mutex_);
+  polling_ = false;
+  next_poll_ = now + revocation_poll_;
+  if (!changes.ok()) return;  // retried at the next interval; entries still expire by their TTL
+  // Many changes at once, or the first successful poll (what was cached before it, while polls failed, may
+  // predate a change the newest epoch already covers): start over.
+  if (changes->truncated || since < 0) {
+    cache_.clear();
+    recency_.clear();
+  } else {
+    for (const std::string& principal : changes->principals) DropCachedLocked(principal);
+  }
+  credential_epoch_ = changes->epoch;
+}
 
 std::optional<Principal> Authenticator::CachedLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
   auto it = cache_.find(key);
@@ -173,6 +214,7 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
   const std::string key = Sha256Hex(token);
   const std::string peer_key = peer.empty() ? "" : "peer:" + peer;
   auto now = std::chrono::steady_clock::now();
+  RefreshRevocations(now);
   {
     std::lock_guard lock(mutex_);
     if (auto cached = CachedLocked(key, now)) {
@@ -219,26 +261,50 @@ storage::Result<std::string> Authenticator::IssueToken(const Principal& principa
   const std::string secret = GenerateSecret();
   STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal.name, secret));
   std::lock_guard lock(mutex_);
-  for (auto it = cache_.begin(); it != cache_.end();) {
-    if (it->second.principal.name == principal.name) {
-      recency_.erase(it->second.recency);
-      it = cache_.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  DropCachedLocked(principal.name);
   return MakeToken(principal.name, secret);
 }
 
-storage::Status Authenticator::InstallToken(const std::string& token) {
+storage::Result<std::string> Authenticator::RotateToken(const Principal& principal) {
+  auto existing = repository_.ListCredentials(principal.name, "", 1, /*active_only=*/true);
+  if (!existing.ok()) return existing.status();
+  if (existing->empty() || existing->front().principal != principal.name) {
+    return storage::NotFound("no unrevoked credential for " + principal.name + "; mint one with SetCredential");
+  }
+  return IssueToken(principal);
+}
+
+storage::Status Authenticator::RevokeToken(const Principal& principal) {
+  STORAGE_RETURN_IF_ERROR(repository_.RevokeCredential(principal.name));
+  std::lock_guard lock(mutex_);
+  DropCachedLocked(principal.name);
+  return storage::Status::Ok();
+}
+
+storage::Result<Authenticator::BootstrapOutcome> Authenticator::InstallBootstrapToken(const std::string& token,
+                                                                                      bool force) {
   const std::size_t dot = token.rfind('.');
-  if (dot == std::string::npos) return storage::InvalidArgument("bootstrap token: expected <principal>.<secret>");
+  if (dot == std::string::npos) {
+    return storage::InvalidArgument("bootstrap_admin_token: expected admin:<name>.<secret>");
+  }
   auto principal = ParsePrincipal(token.substr(0, dot));
-  if (!principal.ok()) return principal.status();
-  if (token.size() - dot - 1 < 32) return storage::InvalidArgument("bootstrap token: secret shorter than 32 characters");
-  auto verified = repository_.VerifyCredential(principal->name, token.substr(dot + 1));
-  if (verified.ok() && *verified) return storage::Status::Ok();
-  return repository_.SetCredential(principal->name, token.substr(dot + 1));
+  if (!principal.ok()) return storage::InvalidArgument("bootstrap_admin_token: " + principal.status().message());
+  if (principal->role != Role::kAdmin) {
+    return storage::InvalidArgument("bootstrap_admin_token: names " + principal->name +
+                                    ", not an admin (admin:<name>.<secret>)");
+  }
+  const std::string secret = token.substr(dot + 1);
+  STORAGE_RETURN_IF_ERROR(CheckSecretStrength("bootstrap_admin_token", secret, 32));
+  auto verified = repository_.VerifyCredential(principal->name, secret);
+  if (!verified.ok()) return verified.status();
+  if (*verified) return BootstrapOutcome::kAlreadyValid;
+  if (!force) {
+    auto admins = repository_.ListCredentials("admin:", "", 1, /*active_only=*/true);
+    if (!admins.ok()) return admins.status();
+    if (!admins->empty()) return BootstrapOutcome::kSkippedAdminExists;
+  }
+  STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal->name, secret));
+  return BootstrapOutcome::kInstalled;
 }
 
 bool RateLimiter::Allow(const std::string& key) {

@@ -7,6 +7,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "server/secrets.h"
+#include "storage/repository.h"
+
 namespace server {
 
 storage::Status FleetdConfig::Validate() const {
@@ -22,6 +25,27 @@ storage::Status FleetdConfig::Validate() const {
   }
   if (max_events_per_run < 1) return storage::InvalidArgument("max_events_per_run: must be positive");
   if (max_run_bytes < max_message_bytes) return storage::InvalidArgument("max_run_bytes: below max_message_bytes");
+  if (max_upload_streams < 1 || max_upload_streams_per_principal < 1 ||
+      max_upload_streams_per_principal > max_upload_streams) {
+    return storage::InvalidArgument(
+        "max_upload_streams, max_upload_streams_per_principal: expected 1 <= per principal <= in all");
+  }
+  // One run within max_run_bytes must fit when it is alone, so that RESOURCE_EXHAUSTED always means "later".
+  if (max_upload_bytes_per_principal < max_run_bytes || max_upload_bytes_in_flight < max_upload_bytes_per_principal) {
+    return storage::InvalidArgument(
+        "max_upload_bytes_per_principal, max_upload_bytes_in_flight: expected max_run_bytes <= per principal <= in all");
+  }
+  if (!(health_probe_seconds >= 0.1 && health_probe_seconds <= 3600)) {
+    return storage::InvalidArgument("health_probe_seconds: expected 0.1..3600");
+  }
+  if (!bootstrap_admin_token.empty()) {
+    const std::size_t dot = bootstrap_admin_token.rfind('.');
+    STORAGE_RETURN_IF_ERROR(CheckSecretStrength(
+        "bootstrap_admin_token", dot == std::string::npos ? "" : bootstrap_admin_token.substr(dot + 1), 32));
+  }
+  for (const std::string& password : storage::DatabaseUrlPasswords(db)) {
+    STORAGE_RETURN_IF_ERROR(CheckSecretStrength("db: the URL's password", password, 16));
+  }
   if (rate_limit_per_second < 0 || rate_limit_burst < 1) {
     return storage::InvalidArgument("rate_limit_per_second, rate_limit_burst: expected >= 0 and >= 1");
   }
@@ -77,6 +101,15 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"tls_cert", [&](const nlohmann::json& v) { config.tls_cert = v.get<std::string>(); }},
       {"tls_key", [&](const nlohmann::json& v) { config.tls_key = v.get<std::string>(); }},
       {"bootstrap_admin_token", [&](const nlohmann::json& v) { config.bootstrap_admin_token = v.get<std::string>(); }},
+      {"bootstrap_admin_force", [&](const nlohmann::json& v) { config.bootstrap_admin_force = v.get<bool>(); }},
+      {"max_upload_streams", [&](const nlohmann::json& v) { config.max_upload_streams = v.get<int>(); }},
+      {"max_upload_streams_per_principal",
+       [&](const nlohmann::json& v) { config.max_upload_streams_per_principal = v.get<int>(); }},
+      {"max_upload_bytes_in_flight",
+       [&](const nlohmann::json& v) { config.max_upload_bytes_in_flight = v.get<std::int64_t>(); }},
+      {"max_upload_bytes_per_principal",
+       [&](const nlohmann::json& v) { config.max_upload_bytes_per_principal = v.get<std::int64_t>(); }},
+      {"health_probe_seconds", [&](const nlohmann::json& v) { config.health_probe_seconds = v.get<double>(); }},
       {"max_message_bytes", [&](const nlohmann::json& v) { config.max_message_bytes = v.get<std::int64_t>(); }},
       {"max_events_per_run", [&](const nlohmann::json& v) { config.max_events_per_run = v.get<std::int64_t>(); }},
       {"max_run_bytes", [&](const nlohmann::json& v) { config.max_run_bytes = v.get<std::int64_t>(); }},

@@ -32,6 +32,7 @@ class FleetServer::Impl {
  public:
   ServiceContext context;
   std::unique_ptr<RateLimiter> rate_limiter;
+  std::unique_ptr<IngestAdmission> admission;
   std::unique_ptr<IngestHandler> ingest;
   std::unique_ptr<QueriesHandler> queries;
   std::unique_ptr<ReprocessingHandler> reprocessing;
@@ -69,6 +70,15 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
   context.repository = &repository;
   context.authenticator = &authenticator;
   context.rate_limiter = impl->rate_limiter.get();
+  impl->admission = std::make_unique<IngestAdmission>(
+      IngestAdmissionLimits{config.max_upload_streams, config.max_upload_streams_per_principal,
+                            config.max_upload_bytes_in_flight, config.max_upload_bytes_per_principal});
+  context.admission = impl->admission.get();
+  // Read only while the HTTP side serves /metrics, which main stops before this server is destroyed.
+  metrics.AddCollector([admission = impl->admission.get()](Metrics& m) {
+    m.SetGauge("fleetd_upload_streams_in_flight", "", static_cast<double>(admission->streams()));
+    m.SetGauge("fleetd_upload_bytes_in_flight", "", static_cast<double>(admission->bytes()));
+  });
   context.metrics = &metrics;
   context.limits.max_events_per_run = config.max_events_per_run;
   context.limits.max_run_bytes = config.max_run_bytes;
@@ -119,6 +129,10 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
 FleetServer::FleetServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 FleetServer::~FleetServer() = default;
 std::string FleetServer::BoundAddress() const { return impl_->bound; }
+
+void FleetServer::SetServing(bool serving) {
+  if (impl_->server) impl_->server->GetHealthCheckService()->SetServingStatus(serving);
+}
 
 void FleetServer::Shutdown(std::chrono::system_clock::time_point deadline) {
   if (!impl_->server) return;

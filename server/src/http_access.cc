@@ -1,7 +1,7 @@
 // Who may read what over HTTP: the same tokens and roles as gRPC (server/auth.h). docs/formats/service.md,
 // "HTTP", is the contract; this file is its one implementation.
 //
-//   open              GET /healthz, and the dashboard's shell (/, /index.html, /static/...): no data in them
+//   open              GET /healthz, /livez, and the dashboard's shell (/, /index.html, /static/...): no data in them
 //   /metrics          engineer or admin token, or anyone with --metrics-open
 //   /api/...          a token: engineers and admins read the fleet (writes check their own permission);
 //                     robots read only /api/robots/<own id>/... and /api/runs/<own run>/..., GET only
@@ -14,7 +14,7 @@ namespace {
 bool IsOpen(const HttpRequest& request, bool metrics_open) {
   const bool read = request.method == "GET" || request.method == "HEAD";
   if (!read) return false;
-  if (request.path == "/healthz" || request.path == "/" || request.path == "/index.html") return true;
+  if (request.path == "/healthz" || request.path == "/livez" || request.path == "/" || request.path == "/index.html") return true;
   if (request.path.rfind("/static/", 0) == 0) return true;
   return metrics_open && request.path == "/metrics";
 }

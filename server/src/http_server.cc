@@ -221,7 +221,7 @@ class HttpServer::Impl {
 
   /// Transport-level checks before routing; a refusal or nullopt.
   std::optional<HttpResponse> Screen(const HttpRequest& request) const {
-    if (request.path == "/healthz") return std::nullopt;
+    if (request.path == "/healthz" || request.path == "/livez") return std::nullopt;
     const auto host = request.headers.find("host");
     const std::string host_value = host == request.headers.end() ? "" : host->second;
     if (!HostAllowed(host_value)) {

@@ -24,6 +24,8 @@ const std::map<std::string, Description>& Descriptions() {
       {"fleetd_analysis_seconds", {"histogram", "Wall time of one run's analysis"}},
       {"fleetd_job_progress_ratio", {"gauge", "Progress of running reprocessing jobs (0..1)"}},
       {"fleetd_workers", {"gauge", "Analysis worker threads in this process"}},
+      {"fleetd_upload_streams_in_flight", {"gauge", "Upload streams open now (bounded by --max-upload-streams)"}},
+      {"fleetd_upload_bytes_in_flight", {"gauge", "Bytes buffered by uploads in flight (--max-upload-bytes-in-flight)"}},
   };
   return kDescriptions;
 }

@@ -12,6 +12,7 @@
 #include <functional>
 #include <string>
 
+#include "ingest_admission.h"
 #include "server/auth.h"
 #include "server/map_history.h"
 #include "server/metrics.h"
@@ -29,6 +30,7 @@ struct ServiceContext {
   storage::Repository* repository = nullptr;
   Authenticator* authenticator = nullptr;
   RateLimiter* rate_limiter = nullptr;
+  IngestAdmission* admission = nullptr;  // upload streams and bytes in flight; null: unbounded
   Metrics* metrics = nullptr;
   Limits limits;
   std::string default_parameter_set = "default";

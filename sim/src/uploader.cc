@@ -17,12 +17,43 @@
 namespace sim {
 namespace {
 
-bool Retryable(grpc::StatusCode code) {
-  return code == grpc::StatusCode::UNAVAILABLE || code == grpc::StatusCode::DEADLINE_EXCEEDED ||
-         code == grpc::StatusCode::RESOURCE_EXHAUSTED || code == grpc::StatusCode::ABORTED;
+}  // namespace
+
+bool RetryableUpload(int code, const std::string& message) {
+  switch (static_cast<grpc::StatusCode>(code)) {
+    case grpc::StatusCode::UNAVAILABLE:
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+    case grpc::StatusCode::ABORTED:
+      return true;
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      // gRPC itself refuses a message over the peer's size limit with this code; it never fits.
+      return message.find("larger than max") == std::string::npos;
+    default:
+      return false;
+  }
 }
 
-}  // namespace
+std::optional<std::string> ReadTokenFile(const std::string& path, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    *error = "token file " + path + ": cannot read it";
+    return std::nullopt;
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  std::string token = text.str();
+  token.erase(0, token.find_first_not_of(" \t\r\n"));
+  token.erase(token.find_last_not_of(" \t\r\n") + 1);
+  if (token.empty() || token.size() > 512) {
+    *error = "token file " + path + ": expected one token of 1..512 characters";
+    return std::nullopt;
+  }
+  if (token.find_first_of(" \t\r\n") != std::string::npos) {
+    *error = "token file " + path + ": expected one token on one line";
+    return std::nullopt;
+  }
+  return token;
+}
 
 const char* StatusCodeName(int code) {
   static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
@@ -105,7 +136,7 @@ class Uploader::Impl {
         break;
       }
       outcome.message = std::string(StatusCodeName(status.error_code())) + ": " + status.error_message();
-      if (!Retryable(status.error_code()) || attempt == options_.max_attempts) break;
+      if (!RetryableUpload(status.error_code(), status.error_message()) || attempt == options_.max_attempts) break;
       std::uniform_int_distribution<long> jitter(0, backoff.count() / 2);
       std::this_thread::sleep_for(backoff + std::chrono::milliseconds(jitter(random)));
       backoff = std::min(backoff * 2, std::chrono::milliseconds(10000));

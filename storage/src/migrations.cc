@@ -209,6 +209,21 @@ CREATE TABLE map_metadata (
   FOREIGN KEY (robot_id, version) REFERENCES map_versions(robot_id, version) ON DELETE CASCADE
 );
 )sql",
+      // 5: credential revocation seen by every process (epochs), and the health probe's write.
+      R"sql(
+ALTER TABLE credentials ADD COLUMN epoch BIGINT NOT NULL DEFAULT 0;
+CREATE INDEX credentials_by_epoch ON credentials (epoch);
+CREATE TABLE credential_epoch (
+  singleton BIGINT PRIMARY KEY,
+  epoch BIGINT NOT NULL
+);
+INSERT INTO credential_epoch (singleton, epoch) VALUES (1, 0);
+CREATE TABLE health_probe (
+  singleton BIGINT PRIMARY KEY,
+  prober TEXT NOT NULL,
+  probed_at_ms BIGINT NOT NULL
+);
+)sql",
   };
   return kMigrations;
 }

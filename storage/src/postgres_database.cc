@@ -25,8 +25,11 @@ Status MapSqlError(const pqxx::sql_error& error) {
   if (state == "23505") return AlreadyExists(message);
   if (state == "23503") return FailedPrecondition(message + " (a referenced record is missing)");
   if (state.rfind("23", 0) == 0 || state.rfind("22", 0) == 0) return InvalidArgument(message);
+  // Serialization failures, insufficient resources (53: disk full, out of memory, too many connections),
+  // operator intervention (57), connection (08), system errors (58: I/O) and a read-only server (25006, a
+  // standby or default_transaction_read_only): the request may succeed later.
   if (state == "40001" || state == "40P01" || state.rfind("53", 0) == 0 || state.rfind("57", 0) == 0 ||
-      state.rfind("08", 0) == 0) {
+      state.rfind("08", 0) == 0 || state.rfind("58", 0) == 0 || state == "25006") {
     return Unavailable(message);
   }
   if (state == "XX001" || state == "XX002") return DataLoss(message);

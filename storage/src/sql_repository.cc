@@ -102,13 +102,15 @@ Status SqlRepository::SetCredential(const std::string& principal, const std::str
   STORAGE_RETURN_IF_ERROR(CheckText(principal, "principal", 256));
   if (secret.empty()) return InvalidArgument("secret is empty");
   const PasswordHash hashed = HashTokenSecret(secret);
-  return Write([&](SqlTransaction& transaction) {
+  return Write([&](SqlTransaction& transaction) -> Status {
+    auto epoch = NextCredentialEpoch(transaction);
+    if (!epoch.ok()) return epoch.status();
     return transaction.Exec(
-        "INSERT INTO credentials (principal, algorithm, iterations, salt, hash, updated_at_ms) "
-        "VALUES ($1, 'salted-sha256', $2, $3, $4, $5) ON CONFLICT (principal) DO UPDATE SET "
+        "INSERT INTO credentials (principal, algorithm, iterations, salt, hash, updated_at_ms, epoch) "
+        "VALUES ($1, 'salted-sha256', $2, $3, $4, $5, $6) ON CONFLICT (principal) DO UPDATE SET "
         "algorithm = excluded.algorithm, iterations = excluded.iterations, salt = excluded.salt, "
-        "hash = excluded.hash, updated_at_ms = excluded.updated_at_ms",
-        {principal, hashed.iterations, SqlBlob{hashed.salt}, SqlBlob{hashed.hash}, NowMs()});
+        "hash = excluded.hash, updated_at_ms = excluded.updated_at_ms, epoch = excluded.epoch",
+        {principal, hashed.iterations, SqlBlob{hashed.salt}, SqlBlob{hashed.hash}, NowMs(), *epoch});
   });
 }
 
@@ -126,7 +128,7 @@ Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const
     return Status::Ok();
   });
   if (!status.ok()) return status;
-  if (!stored) {
+  if (!stored || algorithm == kRevokedAlgorithm) {
     // Equal work for an unknown principal: the same hash over a throwaway record, so timing says nothing.
     static const PasswordHash kDummy = HashTokenSecret("no such principal");
     VerifyTokenSecret(secret, kDummy);

@@ -7,6 +7,8 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 
 #include "sql_database.h"
@@ -31,6 +33,12 @@ class SqlRepository final : public Repository {
   Result<std::vector<RobotRecord>> ListRobots() override;
   Status SetCredential(const std::string& principal, const std::string& secret) override;
   Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) override;
+  Status RevokeCredential(const std::string& principal) override;
+  Result<std::vector<CredentialRecord>> ListCredentials(const std::string& prefix, const std::string& after, int limit,
+                                                        bool active_only) override;
+  Result<CredentialChanges> CredentialChangesSince(std::int64_t since, int limit) override;
+  Status ProbeWrite(const std::string& prober) override;
+  std::optional<WriteFailure> LastWriteFailure() const override;
 
   Result<std::string> PutSnapshot(const std::string& bytes) override;
   Result<SnapshotRecord> GetSnapshot(const std::string& snapshot_id) override;
@@ -89,8 +97,11 @@ class SqlRepository final : public Repository {
 
  private:
   Status Write(const std::function<Status(SqlTransaction&)>& body) {
-    return database_->InTransaction(TransactionMode::kWrite, body);
+    Status status = database_->InTransaction(TransactionMode::kWrite, body);
+    if (status.code() == StatusCode::kUnavailable) NoteWriteFailure(status);
+    return status;
   }
+  void NoteWriteFailure(const Status& status);
   Status Read(const std::function<Status(SqlTransaction&)>& body) {
     return database_->InTransaction(TransactionMode::kRead, body);
   }
@@ -105,7 +116,16 @@ class SqlRepository final : public Repository {
 
   std::unique_ptr<SqlDatabase> database_;
   std::function<void(const std::string&)> fault_hook_;
+  mutable std::mutex write_failure_mutex_;  // guards write_failure_
+  std::optional<WriteFailure> write_failure_;
 };
+
+/// credentials.algorithm of a revoked credential (salt and hash are emptied).
+inline constexpr const char* kRevokedAlgorithm = "revoked";
+
+/// Takes the next credential epoch inside a write transaction. The counter's row lock (PostgreSQL) or the
+/// write lock (SQLite) is held until commit, so epochs commit in order.
+Result<std::int64_t> NextCredentialEpoch(SqlTransaction& transaction);
 
 /// Milliseconds since the Unix epoch, from the system clock.
 std::int64_t NowMs();

@@ -17,6 +17,14 @@ Status SqliteError(sqlite3* db, int rc, const std::string& context) {
     case SQLITE_BUSY:
     case SQLITE_LOCKED:
       return Unavailable(message);
+    // The database cannot take writes now (disk full, file or directory read-only, I/O failing): retry
+    // later, once an operator freed space or fixed permissions; nothing is wrong with the request.
+    case SQLITE_FULL:
+    case SQLITE_READONLY:
+    case SQLITE_IOERR:
+    case SQLITE_CANTOPEN:
+    case SQLITE_PROTOCOL:
+      return Unavailable(message);
     case SQLITE_CONSTRAINT:
       if (rc == SQLITE_CONSTRAINT_FOREIGNKEY) return FailedPrecondition(message + " (a referenced record is missing)");
       if (rc == SQLITE_CONSTRAINT_PRIMARYKEY || rc == SQLITE_CONSTRAINT_UNIQUE) return AlreadyExists(message);

@@ -127,7 +127,9 @@ export async function simulateAndUpload(c, server, token, dir, { robots, runs, m
   const common = ['--world', env.world, '--robots', String(robots), '--runs', String(runs), '--minutes', String(minutes),
     '--seed', String(seed), '--threads', '2'];
   if (help.includes('--upload')) {
-    execFileSync(env.fleetsim, [...common, '--upload', server.grpc, '--token', token], { stdio: ['ignore', 'ignore', 'inherit'] });
+    // The token through the environment: never on a command line (other users can read those).
+    execFileSync(env.fleetsim, [...common, '--upload', server.grpc],
+      { stdio: ['ignore', 'ignore', 'inherit'], env: { ...process.env, FLEET_TOKEN: token } });
     return robots * runs;
   }
   const out = path.join(dir, 'runs');

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # fleetctl as a user runs it against a real fleetd on loopback: a small simulated fleet uploads with
-# fleetsim --upload, then runs, report, stats (table and --json), credentials, label-from-truth, and
+# fleetsim --upload, then runs, report, stats (table and --json), credentials (mint, token files, rotate, list,
+# revoke), label-from-truth, and
 # refusals (no token, a robot token reading). Arguments: the build's bin directory, a data directory (the repository's data/).
 set -euo pipefail
 bin=$1
@@ -49,6 +50,25 @@ assert "ground_truth" in report, "no ground-truth errors"'
 robot_token=$("$bin/fleetctl" credentials robot:robot-0000 --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["token"])')
 if FLEET_TOKEN=$robot_token "$bin/fleetctl" runs 2>"$work/err"; then fail "a robot token read runs"; fi
 grep -q PERMISSION_DENIED "$work/err" || fail "no PERMISSION_DENIED: $(cat "$work/err")"
+
+# Credentials: a token minted into a 0600 file and read from it (never on the command line), rotated (the old
+# one refused), listed, revoked (refused at once); the last admin stays.
+"$bin/fleetctl" credentials engineer:cli --out "$work/engineer.token" | grep -q "written to" || fail "credentials --out"
+[[ $(stat -c %a "$work/engineer.token") == 600 ]] || fail "token file mode $(stat -c %a "$work/engineer.token")"
+FLEET_TOKEN= FLEET_TOKEN_FILE=$work/engineer.token "$bin/fleetctl" runs >/dev/null || fail "runs with FLEET_TOKEN_FILE"
+FLEET_TOKEN= "$bin/fleetctl" --token-file "$work/engineer.token" credentials rotate engineer:cli --out "$work/rotated.token" >/dev/null ||
+  fail "an engineer rotates its own token"
+if FLEET_TOKEN= "$bin/fleetctl" --token-file "$work/engineer.token" runs 2>"$work/err"; then fail "the rotated-out token still reads"; fi
+grep -q UNAUTHENTICATED "$work/err" || fail "no UNAUTHENTICATED after rotation: $(cat "$work/err")"
+"$bin/fleetctl" credentials list | grep -q "^engineer:cli  *engineer  *active" || fail "credentials list: $("$bin/fleetctl" credentials list)"
+"$bin/fleetctl" credentials revoke engineer:cli | grep -q "revoked engineer:cli" || fail "credentials revoke"
+if FLEET_TOKEN= "$bin/fleetctl" --token-file "$work/rotated.token" runs 2>/dev/null; then fail "a revoked token still reads"; fi
+"$bin/fleetctl" credentials list --revoked --json | python3 -c '
+import json, sys
+revoked = {c["principal"]: c["revoked"] for c in json.load(sys.stdin)["credentials"]}
+assert revoked["engineer:cli"] is True and revoked[sys.argv[1]] is False, revoked' "${admin%%.*}"
+if "$bin/fleetctl" credentials revoke "${admin%%.*}" 2>"$work/err"; then fail "the last admin was revoked"; fi
+grep -q FAILED_PRECONDITION "$work/err" || fail "no FAILED_PRECONDITION: $(cat "$work/err")"
 
 # Map history: each robot's two runs made versions 1 and 2; a repair from the CLI, review, hand-back, export.
 robot=robot-0000

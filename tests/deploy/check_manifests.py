@@ -44,6 +44,37 @@ def check_fleetd_args(where, args):
             flag = arg.split("=", 1)[0]
             if flag not in fleetd_flags:
                 problem(f"{where}: fleetd has no flag {flag}")
+    check_no_secrets_in_argv(where, args)
+
+
+SECRET_VARIABLE = re.compile(r"\$[({](\w*(?:PASSWORD|TOKEN|DB_URL|SECRET)\w*)")
+
+
+def check_no_secrets_in_argv(where, args):
+    """Command lines are readable by every user of the host (/proc/PID/cmdline): secrets go in the environment."""
+    for arg in args:
+        arg = str(arg)
+        if arg.split("=", 1)[0] in ("--db", "--token", "--bootstrap-admin-token"):
+            problem(f"{where}: {arg.split('=', 1)[0]} on the command line (use the environment or a file)")
+        if re.search(r"://[^/@\s]*:[^/@\s]*@", arg):
+            problem(f"{where}: a URL with a password on the command line")
+        for variable in SECRET_VARIABLE.findall(arg):
+            problem(f"{where}: secret ${variable} spliced into the command line")
+
+
+def check_tls(where, args, mounts):
+    """A gRPC server serves TLS, its certificate and key from a mounted directory."""
+    values = {}
+    for i, arg in enumerate(args):
+        flag, _, value = str(arg).partition("=")
+        if flag in ("--tls-cert", "--tls-key"):
+            values[flag] = value or (str(args[i + 1]) if i + 1 < len(args) else "")
+    for flag in ("--tls-cert", "--tls-key"):
+        path = values.get(flag)
+        if not path:
+            problem(f"{where}: gRPC without {flag} (the shipped topology speaks TLS)")
+        elif not any(path.startswith(m.rstrip("/") + "/") for m in mounts):
+            problem(f"{where}: {flag} {path} is not under a mounted secret/volume ({sorted(mounts)})")
 
 
 # ---- Kubernetes -------------------------------------------------------------------------------------------
@@ -130,12 +161,26 @@ for kind, items in workloads.items():
                 port = (probe.get("httpGet") or {}).get("port")
                 if isinstance(port, str) and port not in ports:
                     problem(f"{cwhere}: {probe_name} port {port} is not a named container port")
+            secret_volumes = {v["name"] for v in pod.get("volumes", []) if "secret" in v}
+            mounts = {m["mountPath"] for m in container.get("volumeMounts", []) if m.get("name") in secret_volumes}
             if image.split(":")[0] in image_names and not container.get("command"):
                 check_fleetd_args(cwhere, args)
-                if "--role" in args:
-                    role = args[args.index("--role") + 1]
-                    if role not in ("all", "server", "worker"):
-                        problem(f"{cwhere}: --role {role}")
+                role = args[args.index("--role") + 1] if "--role" in args else "all"
+                if role not in ("all", "server", "worker"):
+                    problem(f"{cwhere}: --role {role}")
+                if role != "worker":
+                    check_tls(cwhere, args, mounts)
+                    if "grpc" in (container.get("readinessProbe") or {}):
+                        problem(f"{cwhere}: a gRPC readiness probe cannot speak TLS; probe /healthz")
+                if "FLEETD_DB_URL" not in env:
+                    problem(f"{cwhere}: no FLEETD_DB_URL in the environment")
+            elif image.split(":")[0] in image_names:
+                check_no_secrets_in_argv(cwhere, container.get("command", []) + args)
+                if "--token" in " ".join(args):
+                    problem(f"{cwhere}: a token on fleetctl's command line")
+                ca = env.get("FLEET_TLS_CA", "")
+                if not ca or not any(ca.startswith(m.rstrip("/") + "/") for m in mounts):
+                    problem(f"{cwhere}: fleetctl without FLEET_TLS_CA under a mounted secret")
         if kind == "Job":
             if spec.get("completionMode") != "Indexed":
                 problem(f"{where}: not an Indexed Job")
@@ -194,6 +239,9 @@ except jsonschema.ValidationError as error:
     problem(f"compose.yaml: {error.message} at {list(error.absolute_path)}")
 services = compose.get("services", {})
 roles = {}
+compose_text = open(os.path.join(deploy, "compose.yaml")).read()
+for variable in re.findall(r"\$\{(\w*(?:PASSWORD|TOKEN)\w*):-", compose_text):
+    problem(f"compose.yaml: secret ${{{variable}}} has a default value (use ${{{variable}:?...}})")
 for name, service in services.items():
     if "postgres" in service.get("image", ""):
         continue
@@ -201,8 +249,11 @@ for name, service in services.items():
     check_fleetd_args(f"compose.yaml {name}", command)
     role = next((c.split("=", 1)[1] for c in command if c.startswith("--role=")), "all")
     roles.setdefault(role, []).append(name)
-    if not any(c.startswith("--db=postgresql://") for c in command):
-        problem(f"compose.yaml {name}: not on PostgreSQL")
+    if not str(service.get("environment", {}).get("FLEETD_DB_URL", "")).startswith("postgresql://"):
+        problem(f"compose.yaml {name}: not on PostgreSQL (FLEETD_DB_URL in its environment)")
+    if role != "worker":
+        check_tls(f"compose.yaml {name}", command,
+                  {v.split(":")[1] for v in service.get("volumes", []) if v.count(":") >= 1})
     if "postgres" not in service.get("depends_on", {}):
         problem(f"compose.yaml {name}: does not wait for postgres")
     for volume in service.get("volumes", []):
@@ -255,6 +306,23 @@ for panel in dashboard["panels"]:
         if not aliases or any(not re.fullmatch(r"[a-z]", a) for a in aliases):
             problem(f"dashboard panel '{panel['title']}': give every table a one-letter alias so columns are checked")
 print(f"grafana: {len(dashboard['panels'])} panels checked against {len(tables)} tables")
+
+# ---- placeholder secrets ----------------------------------------------------------------------------------
+# The built fleetd refuses to start with the placeholder values the Secret ships (before touching a database).
+placeholders = secrets.get("fleetd-secrets", {})
+for key in ("FLEETD_BOOTSTRAP_ADMIN_TOKEN", "FLEETD_DB_URL"):
+    env = {k: v for k, v in os.environ.items() if not k.startswith("FLEETD_")}
+    env[key] = placeholders.get(key, "")
+    try:
+        run = subprocess.run([fleetd, "--listen", "127.0.0.1:0", "--http", "", "--role", "server"]
+                             + (["--db", "sqlite::memory:"] if key != "FLEETD_DB_URL" else []),
+                             env=env, capture_output=True, text=True, timeout=10, check=False)
+        refused, said = run.returncode == 2 and "placeholder" in run.stderr, f"exit {run.returncode}: {run.stderr.strip()}"
+    except subprocess.TimeoutExpired:
+        refused, said = False, "it kept running"
+    if not refused:
+        problem(f"fleetd started with the placeholder {key} of secret.yaml ({said})")
+print("placeholders: fleetd refuses the shipped FLEETD_BOOTSTRAP_ADMIN_TOKEN and FLEETD_DB_URL")
 
 if problems:
     print(f"{len(problems)} problem(s)")

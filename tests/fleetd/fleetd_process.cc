@@ -1,5 +1,7 @@
 #include "fleetd_process.h"
 
+#include <grpcpp/generic/generic_stub.h>
+
 #include <map>
 #include <gtest/gtest.h>
 
@@ -12,6 +14,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <condition_variable>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -26,11 +29,11 @@
 namespace fleetd_test {
 
 const std::string& FleetdProcess::AdminToken() {
-  static const std::string token = "admin:root.00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff";
+  static const std::string token = "admin:root.5f0c9e2a7b13d48e6a91c07f3b2d5e84a6c1f9073e2b8d4c5a7f60e19b3d2c8a";
   return token;
 }
 
-FleetdProcess::FleetdProcess(std::vector<std::string> extra) {
+FleetdProcess::FleetdProcess(std::vector<std::string> extra, std::function<void()> in_child) {
   char pattern[] = "/tmp/fleetd-test-XXXXXX";
   directory_ = mkdtemp(pattern);
   int out[2];
@@ -56,6 +59,7 @@ FleetdProcess::FleetdProcess(std::vector<std::string> extra) {
     close(out[0]);
     close(out[1]);
     setenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN", AdminToken().c_str(), 1);
+    if (in_child) in_child();
     std::vector<char*> argv;
     for (auto& arg : args) argv.push_back(arg.data());
     argv.push_back(nullptr);
@@ -175,6 +179,33 @@ const std::vector<fleet::v1::RunFile>& SimulatedRuns() {
     }
   });
   return runs;
+}
+
+int HealthStatus(const std::shared_ptr<grpc::Channel>& channel) {
+  // The request is a raw protobuf of one empty string field; the reply's field 1 is the status.
+  grpc::GenericStub generic(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  grpc::Slice empty("", 0);
+  grpc::ByteBuffer request(&empty, 1), reply;
+  grpc::Status status;
+  std::mutex mutex;
+  std::condition_variable done;
+  bool finished = false;
+  generic.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &reply,
+                    [&](grpc::Status s) {
+                      std::lock_guard lock(mutex);
+                      status = s;
+                      finished = true;
+                      done.notify_all();
+                    });
+  std::unique_lock lock(mutex);
+  done.wait(lock, [&] { return finished; });
+  std::vector<grpc::Slice> slices;
+  if (!status.ok() || !reply.Dump(&slices).ok()) return -1;
+  std::string bytes;
+  for (const auto& slice : slices) bytes.append(reinterpret_cast<const char*>(slice.begin()), slice.size());
+  return bytes.size() == 2 && bytes[0] == '\x08' ? bytes[1] : -1;
 }
 
 std::unique_ptr<grpc::ClientContext> Context(const std::string& token, int deadline_seconds) {

@@ -5,6 +5,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -15,8 +16,9 @@ namespace fleetd_test {
 class FleetdProcess {
  public:
   /// Starts fleetd with `--db sqlite:DIR/fleet.db --listen 127.0.0.1:0 --http 127.0.0.1:0` plus `extra`;
-  /// the bootstrap admin token comes through the environment.
-  explicit FleetdProcess(std::vector<std::string> extra = {});
+  /// the bootstrap admin token comes through the environment. `in_child` runs in the child just before exec
+  /// (e.g. to change the environment or enter a mount namespace).
+  explicit FleetdProcess(std::vector<std::string> extra = {}, std::function<void()> in_child = {});
   ~FleetdProcess();
   bool ok() const { return pid_ > 0 && !grpc_.empty(); }
   int pid() const { return pid_; }
@@ -62,6 +64,10 @@ struct UploadOptions {
 
 grpc::Status Upload(fleet::v1::Ingest::Stub& stub, const std::string& token, const fleet::v1::RunFile& run,
                     fleet::v1::UploadRunResponse* response, const UploadOptions& options = {});
+
+/// grpc.health.v1.Health/Check (empty service name) on `channel`: 1 SERVING, 2 NOT_SERVING, -1 when the call
+/// failed.
+int HealthStatus(const std::shared_ptr<grpc::Channel>& channel);
 
 /// A client context with the bearer token and a deadline.
 std::unique_ptr<grpc::ClientContext> Context(const std::string& token, int deadline_seconds = 30);

@@ -10,6 +10,7 @@ python3-grpc-tools (3.5.1) predates proto3 `optional`, which our protos use; grp
 """
 import json
 import os
+import secrets
 import signal
 import subprocess
 import sys
@@ -19,7 +20,7 @@ import unittest
 
 FLEETD, PROTO_DIR = sys.argv[1], sys.argv[2]
 PROTOC = sys.argv[3] if len(sys.argv) > 3 else "/usr/bin/protoc"
-ADMIN = "admin:root." + "ab" * 32
+ADMIN = "admin:root." + secrets.token_hex(32)
 
 import grpc  # noqa: E402
 

@@ -1,6 +1,6 @@
 // fleetctl: the engineers' and operators' CLI to fleetd.
 //
-//   fleetctl [--server HOST:PORT] [--token T | $FLEET_TOKEN] [--tls-ca PEM] COMMAND ...
+//   fleetctl [--server HOST:PORT] [--token-file F | $FLEET_TOKEN_FILE | $FLEET_TOKEN | --token T] [--tls-ca PEM] COMMAND ...
 //     upload PATH...                 .runpb files or directories (robots in parallel, retries)
 //     runs [filters] [--limit N]     list runs
 //     report RUN [--parameter-set S] one run's report
@@ -11,7 +11,7 @@
 //     jobs [--state S] | job ID | cancel ID
 //     regions RUN | label RUN REGION LABEL
 //     models train NAME [--classifier K] | models eval NAME [--version V] | models activate NAME V | models list NAME
-//     credentials PRINCIPAL          mint a token (admins)
+//     credentials PRINCIPAL | credentials rotate|revoke PRINCIPAL | credentials list   tokens (credential_commands.h)
 //     maps list|show|repair|approve|reject|get|export   map history (map_commands.h)
 //     import valetudo|map-server FILE... --robot R       maps made elsewhere into the history (import_commands.h)
 // Every command takes --json: one JSON object on stdout instead of a table. Exit status 0 on success, 1 on
@@ -29,6 +29,7 @@
 
 #include "analyzer/parameters.h"
 #include "client.h"
+#include "credential_commands.h"
 #include "fleet/v1/service.grpc.pb.h"
 #include "import_commands.h"
 #include "map_commands.h"
@@ -104,11 +105,17 @@ int main(int argc, char** argv) {
   CLI::App app{"fleetctl: command-line client of fleetd"};
   app.require_subcommand(1);
   Global global;
+  std::string token_file;
   if (const char* token = std::getenv("FLEET_TOKEN")) global.token = token;
+  if (const char* file = std::getenv("FLEET_TOKEN_FILE")) token_file = file;
   if (const char* server = std::getenv("FLEET_SERVER")) global.server = server;
+  if (const char* ca = std::getenv("FLEET_TLS_CA")) global.tls_ca = ca;
   app.add_option("--server", global.server, "fleetd address host:port (default $FLEET_SERVER or 127.0.0.1:50051)");
-  app.add_option("--token", global.token, "bearer token (default $FLEET_TOKEN)");
-  app.add_option("--tls-ca", global.tls_ca, "PEM CA file: connect with TLS");
+  app.add_option("--token", global.token,
+                 "bearer token (default $FLEET_TOKEN); visible to other users in the process list: prefer "
+                 "--token-file or the environment");
+  app.add_option("--token-file", token_file, "read the bearer token from this file (default $FLEET_TOKEN_FILE)");
+  app.add_option("--tls-ca", global.tls_ca, "PEM CA file: connect with TLS (default $FLEET_TLS_CA)");
   app.add_flag("--json", global.json, "print one JSON object instead of a table");
   app.fallthrough();
 
@@ -207,15 +214,22 @@ int main(int argc, char** argv) {
   auto* models_list = models->add_subcommand("list", "versions of a model");
   models_list->add_option("name", model_name, "model name")->required();
 
-  std::string principal;
-  auto* credentials = app.add_subcommand("credentials", "mint a token for a principal (admins)");
-  credentials->add_option("principal", principal, "robot:<id>, engineer:<name> or admin:<name>")->required();
-
+  fleetctl::CredentialCommands credential_commands(app);
   fleetctl::MapCommands map_commands(app);
   fleetctl::ImportCommands import_commands(app);
 
   CLI11_PARSE(app, argc, argv);
+  if (!token_file.empty()) {
+    std::string error;
+    auto token = sim::ReadTokenFile(token_file, &error);
+    if (!token) {
+      std::cerr << "fleetctl: " << error << "\n";
+      return 2;
+    }
+    global.token = *token;
+  }
   Client client(global);
+  if (const std::optional<int> status = credential_commands.Run(client, global)) return *status;
   if (const std::optional<int> status = map_commands.Run(client, global)) return *status;
   if (const std::optional<int> status = import_commands.Run(client, global)) return *status;
 
@@ -635,21 +649,6 @@ int main(int argc, char** argv) {
     for (const auto& m : response.models()) {
       std::printf("%s v%lld %-14s threshold %.2f%s\n", m.name().c_str(), static_cast<long long>(m.version()),
                   m.classifier().c_str(), m.threshold(), m.active() ? "  (active)" : "");
-    }
-    return 0;
-  }
-  if (*credentials) {
-    fleet::v1::SetCredentialRequest request;
-    request.set_principal(principal);
-    fleet::v1::SetCredentialResponse response;
-    auto context = client.Context();
-    if (grpc::Status status = client.admin->SetCredential(context.get(), request, &response); !status.ok()) {
-      return Fail(status);
-    }
-    if (global.json) {
-      PrintJson(response);
-    } else {
-      std::cout << response.token() << "\n";
     }
     return 0;
   }

@@ -10,8 +10,11 @@
 // principal and per peer (kFailureBurst failures, then one per kFailureRefillSeconds), which refuse before
 // any lookup or hashing; then the credential store. Unknown principals cost the store the same hash as
 // known ones. A token already verified keeps working while its principal is under attack (the LRU answers
-// first). Replacing a credential through this Authenticator drops the principal's cached entries at once,
-// other replicas notice within the TTL.
+// first). Replacing or revoking a credential through this Authenticator drops the principal's cached
+// entries at once; every other process sharing the database drops them at its next poll of the credential
+// epochs (storage::Repository::CredentialChangesSince, at most every `revocation_poll`, default 1 s, done by
+// the first call after the interval), so a revoked or rotated token is refused everywhere within about a
+// second. While the poll fails (database unreachable) cached entries still end after `cache_ttl`.
 //
 // Thread safety: Authenticator is safe to use from many threads (one internal mutex for the cache).
 #pragma once
@@ -41,6 +44,7 @@ enum class Permission {
   kRepairMap,  // engineers, admins: repair, approve and reject map versions
   kModels,     // admins: train and activate classifier models
   kAdmin,      // admins: credentials
+  kRotateOwn,  // everyone: a new secret for its own token (Admin.RotateCredential of itself)
 };
 const char* PermissionName(Permission permission);
 bool Allows(Role role, Permission permission);
@@ -63,7 +67,8 @@ std::string Sha256Hex(const std::string& bytes);
 
 class Authenticator {
  public:
-  Authenticator(storage::Repository& repository, std::chrono::seconds cache_ttl);
+  Authenticator(storage::Repository& repository, std::chrono::seconds cache_ttl,
+                std::chrono::milliseconds revocation_poll = std::chrono::milliseconds(1000));
 
   enum class Outcome { kOk, kUnauthenticated, kUnavailable };
   struct Verdict {
@@ -81,9 +86,17 @@ class Authenticator {
 
   /// Stores a new secret for `principal` and returns the token.
   storage::Result<std::string> IssueToken(const Principal& principal);
-  /// Stores a caller-chosen token (bootstrap admin from config); the token must be "<principal>.<secret>"
-  /// with a secret of at least 32 characters.
-  storage::Status InstallToken(const std::string& token);
+  /// A new secret for a principal that has an unrevoked credential (NOT_FOUND otherwise); the old token
+  /// is refused from now on.
+  storage::Result<std::string> RotateToken(const Principal& principal);
+  /// Revokes the principal's token (storage::Repository::RevokeCredential's errors).
+  storage::Status RevokeToken(const Principal& principal);
+
+  enum class BootstrapOutcome { kInstalled, kAlreadyValid, kSkippedAdminExists };
+  /// The bootstrap admin token from config: "admin:<name>.<secret>" with a strong secret (server/secrets.h).
+  /// Installed only while no admin has an unrevoked credential, so a rotation or revocation survives
+  /// restarts; `force` installs it anyway (the operator's explicit recovery).
+  storage::Result<BootstrapOutcome> InstallBootstrapToken(const std::string& token, bool force);
 
  private:
   struct CacheEntry {
@@ -100,10 +113,17 @@ class Authenticator {
   /// True when `key` has used up its failures (decays them first).
   bool BlockedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
   void RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now);
+  void DropCachedLocked(const std::string& principal);
+  /// Polls the credential epochs when due and drops the cached tokens of changed principals.
+  void RefreshRevocations(std::chrono::steady_clock::time_point now);
 
   storage::Repository& repository_;
   const std::chrono::seconds cache_ttl_;
-  std::mutex mutex_;  // guards cache_, recency_, failures_
+  const std::chrono::milliseconds revocation_poll_;
+  std::mutex mutex_;  // guards cache_, recency_, failures_, the poll state below
+  std::int64_t credential_epoch_ = -1;  // -1: not polled yet (the first poll only reads the newest epoch)
+  bool polling_ = false;
+  std::chrono::steady_clock::time_point next_poll_{};
   std::unordered_map<std::string, CacheEntry> cache_;  // key: SHA-256 of the token
   std::list<std::string> recency_;                     // cache keys, most recently used first
   std::unordered_map<std::string, FailureBucket> failures_;  // "principal:<name>" and "peer:<address>"

@@ -24,23 +24,30 @@ struct FleetdConfig {
   std::string tls_cert;                     // PEM files; both set: the gRPC port speaks TLS only
   std::string tls_key;
   std::string bootstrap_admin_token;        // "<admin:name>.<secret>", also env FLEETD_BOOTSTRAP_ADMIN_TOKEN
+  bool bootstrap_admin_force = false;       // install it even when an admin exists (undoes a rotation)
   std::int64_t max_message_bytes = 16 << 20;       // one gRPC message
   std::int64_t max_events_per_run = 2'000'000;
   std::int64_t max_run_bytes = 512LL << 20;        // one whole upload stream
+  int max_upload_streams = 64;                      // upload streams in flight, in all
+  int max_upload_streams_per_principal = 4;         // ... per principal
+  std::int64_t max_upload_bytes_in_flight = 1LL << 30;        // bytes buffered by uploads in flight, in all
+  std::int64_t max_upload_bytes_per_principal = 512LL << 20;  // ... per principal (>= max_run_bytes)
+  double health_probe_seconds = 5.0;        // write probe interval; a failed write is unhealthy for 3 of them
   double rate_limit_per_second = 100.0;     // per principal; 0: unlimited
   double rate_limit_burst = 200.0;
   double shutdown_grace_seconds = 20.0;     // SIGTERM: in-flight RPCs and jobs get this long
   std::string default_parameter_set = "default";  // what every upload is analysed with
   std::string model_name = "protrusion";    // the active version of this model classifies regions
   int lease_seconds = 120;
-  double analysis_budget_seconds = 600.0;   // one run's analysis; past it the job fails with a clear error                  // job lease; heartbeats renew it every lease/4
+  double analysis_budget_seconds = 600.0;   // one run's analysis; past it the job fails with a clear error
   int auth_cache_seconds = 60;
   std::string log_level = "info";
   std::string log_format = "json";          // "json" or "text"
   std::string auto_repair = "none";         // "none" or "cut_protrusions": repair maps after analysis
   bool auto_approve = false;                // policy repairs reach robots without an engineer's review
 
-  /// Checks ranges and enumerations, naming the key.
+  /// Checks ranges and enumerations, naming the key, and refuses placeholder or weak secrets (the bootstrap
+  /// token's secret, the database URL's password; server/secrets.h).
   storage::Status Validate() const;
 };
 

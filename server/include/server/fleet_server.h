@@ -26,6 +26,8 @@ class FleetServer {
   ~FleetServer();
   /// "127.0.0.1:41234".
   std::string BoundAddress() const;
+  /// The gRPC health service's answer (HealthMonitor decides; SERVING after Create).
+  void SetServing(bool serving);
   /// Health NOT_SERVING, stop accepting, let in-flight calls finish until `deadline`, then cancel them.
   void Shutdown(std::chrono::system_clock::time_point deadline);
 

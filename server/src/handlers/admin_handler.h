@@ -1,4 +1,6 @@
-// Admin: credentials. SetCredential mints a new token for a principal (replacing its previous one).
+// Admin: credentials. SetCredential mints a new token for a principal (replacing its previous one);
+// RotateCredential replaces an existing one (admins for anyone, everyone for itself); RevokeCredential
+// makes a token useless at once; ListCredentials shows principals, never secrets.
 #pragma once
 
 #include "fleet/v1/service.grpc.pb.h"
@@ -11,6 +13,12 @@ class AdminHandler final : public fleet::v1::Admin::Service {
   explicit AdminHandler(ServiceContext& context) : context_(context) {}
   grpc::Status SetCredential(grpc::ServerContext* call, const fleet::v1::SetCredentialRequest* request,
                              fleet::v1::SetCredentialResponse* response) override;
+  grpc::Status RotateCredential(grpc::ServerContext* call, const fleet::v1::RotateCredentialRequest* request,
+                                fleet::v1::SetCredentialResponse* response) override;
+  grpc::Status RevokeCredential(grpc::ServerContext* call, const fleet::v1::RevokeCredentialRequest* request,
+                                fleet::v1::RevokeCredentialResponse* response) override;
+  grpc::Status ListCredentials(grpc::ServerContext* call, const fleet::v1::ListCredentialsRequest* request,
+                               fleet::v1::ListCredentialsResponse* response) override;
 
  private:
   ServiceContext& context_;

@@ -23,6 +23,10 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
                                    fleet::v1::UploadRunResponse* response) {
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kUpload, &principal); !denied.ok()) return denied;
+  IngestAdmission::Ticket in_flight;  // this stream's slot and buffered bytes, given back when the call ends
+  if (context_.admission != nullptr) {
+    if (grpc::Status refused = context_.admission->Admit(principal.name, in_flight); !refused.ok()) return refused;
+  }
 
   fleet::v1::RunFile run;
   bool have_header = false, have_parent = false, have_child = false;
@@ -30,10 +34,16 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   fleet::v1::UploadRunRequest message;
   for (; reader->Read(&message); ++index) {
     const std::string where = "message[" + std::to_string(index) + "]";
-    bytes += static_cast<std::int64_t>(message.ByteSizeLong());
+    const auto message_bytes = static_cast<std::int64_t>(message.ByteSizeLong());
+    bytes += message_bytes;
+    // Limits a run can never fit are INVALID_ARGUMENT (clients do not retry); a full server is
+    // RESOURCE_EXHAUSTED (clients retry later).
     if (bytes > context_.limits.max_run_bytes) {
-      return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-              where + ": upload exceeds max_run_bytes (" + std::to_string(context_.limits.max_run_bytes) + ")"};
+      return InvalidArgument(where + ": upload exceeds max_run_bytes (" + std::to_string(context_.limits.max_run_bytes) +
+                             "); nothing was stored");
+    }
+    if (context_.admission != nullptr) {
+      if (grpc::Status refused = in_flight.Reserve(message_bytes); !refused.ok()) return refused;
     }
     if (have_child) return InvalidArgument(where + ": nothing may follow child_snapshot");
     if (auto unknown = analyzer::FindUnknownField(message, where)) {
@@ -54,9 +64,9 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
                       message.header().robot_id() + "\""};
         }
         if (message.header().event_count() > static_cast<std::uint64_t>(context_.limits.max_events_per_run)) {
-          return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-                  "header.event_count: " + std::to_string(message.header().event_count()) +
-                      " events exceed max_events_per_run (" + std::to_string(context_.limits.max_events_per_run) + ")"};
+          return InvalidArgument("header.event_count: " + std::to_string(message.header().event_count()) +
+                                 " events exceed max_events_per_run (" +
+                                 std::to_string(context_.limits.max_events_per_run) + ")");
         }
         *run.mutable_header() = std::move(*message.mutable_header());
         have_header = true;
@@ -65,9 +75,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
       case fleet::v1::UploadRunRequest::kEvents: {
         if (have_parent) return InvalidArgument(where + ".events: events must come before the snapshots");
         if (run.events_size() + message.events().events_size() > context_.limits.max_events_per_run) {
-          return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-                  where + ".events: the run exceeds max_events_per_run (" +
-                      std::to_string(context_.limits.max_events_per_run) + ")"};
+          return InvalidArgument(where + ".events: the run exceeds max_events_per_run (" +
+                                 std::to_string(context_.limits.max_events_per_run) + ")");
         }
         for (auto& event : *message.mutable_events()->mutable_events()) *run.add_events() = std::move(event);
         break;

@@ -1,7 +1,9 @@
 // Uploads runs to fleetd like a robot: one client stream per run (header, event chunks, parent snapshot
-// unless the server already holds it, child snapshot), retried with exponential backoff on UNAVAILABLE,
-// DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED and ABORTED — safe because ingest is idempotent by run id. gRPC
-// stays in uploader.cc.
+// unless the server already holds it, child snapshot), retried with exponential backoff on UNAVAILABLE
+// (e.g. the database is full or read-only), DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED (rate and in-flight
+// limits) and ABORTED — safe because ingest is idempotent by run id. Never retried: what can never succeed,
+// INVALID_ARGUMENT (also a run over --max-run-bytes or --max-events-per-run), PERMISSION_DENIED, … and
+// gRPC's own RESOURCE_EXHAUSTED for one message over the server's size limit. gRPC stays in uploader.cc.
 //
 // Thread safety: an Uploader may be used from several threads at once (the gRPC stub is thread-safe; the
 // set of snapshot ids the server holds has its own mutex).
@@ -10,6 +12,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "fleet/v1/telemetry.pb.h"
@@ -57,6 +60,13 @@ class Uploader {
   class Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The token in `path` (one line; surrounding whitespace dropped), or nullopt with `error` naming what is
+/// wrong (unreadable, empty, several lines). Keeps tokens off command lines.
+std::optional<std::string> ReadTokenFile(const std::string& path, std::string* error);
+
+/// True when a failed attempt with this status may succeed if sent again unchanged.
+bool RetryableUpload(int code, const std::string& message);
 
 /// "UNAVAILABLE" for grpc::StatusCode 14, … (the names gRPC's documentation uses).
 const char* StatusCodeName(int code);

@@ -19,6 +19,26 @@ struct RobotRecord {
   std::int64_t registered_at_ms = 0;
 };
 
+/// A principal's credential as listed to admins: never its secret or hash.
+struct CredentialRecord {
+  std::string principal;
+  std::int64_t updated_at_ms = 0;  // minted, rotated or revoked at
+  bool revoked = false;
+};
+
+/// Credentials changed after an epoch (SetCredential and RevokeCredential each take the next epoch).
+struct CredentialChanges {
+  std::int64_t epoch = 0;               // the newest change returned (or the `since` asked with)
+  std::vector<std::string> principals;  // changed after `since`, oldest change first
+  bool truncated = false;               // more changes than the limit: drop every cached token
+};
+
+/// A write transaction the database could not take (full, read-only, unreachable).
+struct WriteFailure {
+  std::int64_t at_ms = 0;
+  std::string message;
+};
+
 /// One uploaded run. Identity is run_id; storing the same run twice keeps one.
 struct RunRecord {
   std::string run_id;

@@ -47,6 +47,26 @@ class Repository {
   /// True when `secret` matches; false when it does not or the principal has no credential (after the
   /// same work as a check, so unknown principals cannot be told apart by timing).
   virtual Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) = 0;
+  /// Revokes the principal's credential: its token is refused from the commit on (the row stays, marked
+  /// revoked, for the listing). NOT_FOUND when it has none; revoking a revoked one is OK. FAILED_PRECONDITION
+  /// when it is the last unrevoked "admin:" principal (nobody could mint tokens any more).
+  virtual Status RevokeCredential(const std::string& principal) = 0;
+  /// Credentials whose principal starts with `prefix` (empty: all), sorted, after `after`, at most `limit`
+  /// (1..1000). `active_only` leaves revoked ones out.
+  virtual Result<std::vector<CredentialRecord>> ListCredentials(const std::string& prefix, const std::string& after,
+                                                                int limit, bool active_only) = 0;
+  /// Principals whose credential changed after `since` (an epoch from an earlier call), at most `limit`;
+  /// `since` < 0 returns only the newest epoch (where a new poller starts). Epochs are handed out in commit order, so polling with the returned epoch misses no change:
+  /// every process sharing the database can drop the cached tokens of rotated or revoked principals.
+  virtual Result<CredentialChanges> CredentialChangesSince(std::int64_t since, int limit) = 0;
+
+  // ---- Health ----
+  /// One small write transaction (the health probe): OK when the database accepts writes now. A full disk,
+  /// a read-only file or an unreachable server is UNAVAILABLE.
+  virtual Status ProbeWrite(const std::string& prober) = 0;
+  /// The newest write transaction of this Repository that failed UNAVAILABLE (the database could not take
+  /// it), if any: when and why. Successes do not clear it; the health check reads its age.
+  virtual std::optional<WriteFailure> LastWriteFailure() const = 0;
 
   // ---- Map snapshots (content-addressed) ----
   /// Stores the bytes once and returns their id (hex SHA-256); storing the same bytes again is a no-op.
@@ -170,6 +190,13 @@ std::int64_t LatestSchemaVersion();
 /// Fails with FAILED_PRECONDITION when the database's schema is newer than this program, DATA_LOSS when
 /// the file is not a database or is corrupt, UNAVAILABLE when the server cannot be reached,
 /// INVALID_ARGUMENT for an unknown URL scheme.
+/// Error messages never carry the URL's password: it is replaced by "***" (also when libpq echoes it).
 Result<std::unique_ptr<Repository>> OpenRepository(const std::string& url, const OpenOptions& options = {});
+
+/// The URL with its password (the part between "user:" and "@" of a postgresql:// URL) replaced by "***";
+/// other URLs unchanged. For logs.
+std::string RedactDatabaseUrl(const std::string& url);
+/// The URL's password as written (percent-encoded) and decoded; empty when there is none.
+std::vector<std::string> DatabaseUrlPasswords(const std::string& url);
 
 }  // namespace storage

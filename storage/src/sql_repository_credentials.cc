@@ -1,0 +1,111 @@
+// SqlRepository: revoking and listing credentials, the credential epochs other processes poll, and the
+// health probe's write.
+#include "sql_repository.h"
+
+namespace storage::internal {
+
+Result<std::int64_t> NextCredentialEpoch(SqlTransaction& transaction) {
+  auto rows = transaction.Query(
+      "UPDATE credential_epoch SET epoch = epoch + 1 WHERE singleton = 1 RETURNING epoch", {});
+  if (!rows.ok()) return rows.status();
+  if (rows->empty()) return Internal("credential_epoch: its row is missing");
+  return rows->front().Int(0);
+}
+
+Status SqlRepository::RevokeCredential(const std::string& principal) {
+  STORAGE_RETURN_IF_ERROR(CheckText(principal, "principal", 256));
+  return Write([&](SqlTransaction& transaction) -> Status {
+    // The epoch first: its row lock serialises concurrent revocations, so two admins revoking each other at
+    // once cannot both pass the last-admin check below.
+    auto epoch = NextCredentialEpoch(transaction);
+    if (!epoch.ok()) return epoch.status();
+    auto rows = transaction.Query("SELECT algorithm FROM credentials WHERE principal = $1", {principal});
+    if (!rows.ok()) return rows.status();
+    if (rows->empty()) return NotFound("no credential for " + principal);
+    if (rows->front().Text(0) == kRevokedAlgorithm) return Status::Ok();
+    if (principal.rfind("admin:", 0) == 0) {
+      auto others = transaction.Query(
+          "SELECT COUNT(*) FROM credentials WHERE substr(principal, 1, 6) = 'admin:' AND principal <> $1 "
+          "AND algorithm <> $2",
+          {principal, std::string(kRevokedAlgorithm)});
+      if (!others.ok()) return others.status();
+      if (others->front().Int(0) == 0) {
+        return FailedPrecondition(principal + " is the last admin with a credential; mint another admin first");
+      }
+    }
+    return transaction.Exec(
+        "UPDATE credentials SET algorithm = $2, iterations = 0, salt = $3, hash = $3, updated_at_ms = $4, "
+        "epoch = $5 WHERE principal = $1",
+        {principal, std::string(kRevokedAlgorithm), SqlBlob{""}, NowMs(), *epoch});
+  });
+}
+
+Result<std::vector<CredentialRecord>> SqlRepository::ListCredentials(const std::string& prefix,
+                                                                     const std::string& after, int limit,
+                                                                     bool active_only) {
+  if (limit < 1 || limit > 1000) return InvalidArgument("limit: expected 1..1000");
+  STORAGE_RETURN_IF_ERROR(CheckText(prefix, "prefix", 256));
+  STORAGE_RETURN_IF_ERROR(CheckText(after, "after", 256));
+  std::vector<CredentialRecord> credentials;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(
+        "SELECT principal, updated_at_ms, algorithm FROM credentials WHERE substr(principal, 1, $1) = $2 "
+        "AND principal > $3 AND ($4 = 0 OR algorithm <> $5) ORDER BY principal LIMIT $6",
+        {static_cast<std::int64_t>(prefix.size()), prefix, after, std::int64_t{active_only ? 1 : 0},
+         std::string(kRevokedAlgorithm), std::int64_t{limit}});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) {
+      credentials.push_back(CredentialRecord{row.Text(0), row.Int(1), row.Text(2) == kRevokedAlgorithm});
+    }
+    return Status::Ok();
+  }));
+  return credentials;
+}
+
+Result<CredentialChanges> SqlRepository::CredentialChangesSince(std::int64_t since, int limit) {
+  if (limit < 1 || limit > 100000) return InvalidArgument("limit: expected 1..100000");
+  CredentialChanges changes;
+  changes.epoch = since;
+  // One statement, one snapshot: the epoch returned is the newest change that was read.
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    if (since < 0) {
+      auto newest = transaction.Query("SELECT COALESCE(MAX(epoch), 0) FROM credentials", {});
+      if (!newest.ok()) return newest.status();
+      changes.epoch = newest->front().Int(0);
+      return Status::Ok();
+    }
+    auto rows = transaction.Query(
+        "SELECT principal, epoch FROM credentials WHERE epoch > $1 ORDER BY epoch LIMIT $2",
+        {since, std::int64_t{limit}});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) {
+      changes.principals.push_back(row.Text(0));
+      changes.epoch = std::max(changes.epoch, row.Int(1));
+    }
+    changes.truncated = static_cast<int>(rows->size()) == limit;
+    return Status::Ok();
+  }));
+  return changes;
+}
+
+Status SqlRepository::ProbeWrite(const std::string& prober) {
+  STORAGE_RETURN_IF_ERROR(CheckText(prober, "prober", 256));
+  return Write([&](SqlTransaction& transaction) {
+    return transaction.Exec(
+        "INSERT INTO health_probe (singleton, prober, probed_at_ms) VALUES (1, $1, $2) ON CONFLICT (singleton) "
+        "DO UPDATE SET prober = excluded.prober, probed_at_ms = excluded.probed_at_ms",
+        {prober, NowMs()});
+  });
+}
+
+void SqlRepository::NoteWriteFailure(const Status& status) {
+  std::lock_guard lock(write_failure_mutex_);
+  write_failure_ = WriteFailure{NowMs(), status.message()};
+}
+
+std::optional<WriteFailure> SqlRepository::LastWriteFailure() const {
+  std::lock_guard lock(write_failure_mutex_);
+  return write_failure_;
+}
+
+}  // namespace storage::internal
