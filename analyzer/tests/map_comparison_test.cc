@@ -248,3 +248,39 @@ TEST(MapComparison, RealHomeRegionsClassedByAModelOfOtherHomes) {
 
 }  // namespace
 }  // namespace analyzer
+
+namespace analyzer {
+namespace {
+
+/// The same real pair classed by the built-in default model (what fleetd uses when no model is active):
+/// every region with its class and the features that decided it, printed for the README's account.
+TEST(MapComparison, RealHomeRegionsClassedByTheDefaultModel) {
+  TEST_DATA_FILE_OR_SKIP(before_path, "valetudo/dreame_d9_1058_no_segments.json");
+  TEST_DATA_FILE_OR_SKIP(after_path, "valetudo/dreame_d9_1058_with_segments.json");
+  const auto classifier = slamcore::DefaultProtrusionClassifier();
+  ASSERT_TRUE(classifier.ok()) << classifier.status().ToString();
+  const auto before = ReadValetudoMap(before_path.string());
+  const auto after = ReadValetudoMap(after_path.string());
+  ASSERT_TRUE(before.ok() && after.ok());
+  const auto comparison =
+      CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, classifier->get());
+  ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
+  const auto& names = slamcore::ProtrusionFeatureNames();
+  int protrusions = 0;
+  for (const ChangedRegion& region : comparison->new_regions) {
+    std::printf("region %d: %.2f m², %s (p %.2f):", region.region.id, region.area_m2, region.predicted_class.c_str(),
+                region.probability);
+    for (std::size_t f = 0; f < names.size(); ++f) std::printf(" %s=%.3g", names[f].c_str(), region.region.features[f]);
+    std::printf("\n");
+    protrusions += region.predicted_class == "protrusion" ? 1 : 0;
+  }
+  const auto largest = std::max_element(
+      comparison->new_regions.begin(), comparison->new_regions.end(),
+      [](const ChangedRegion& a, const ChangedRegion& b) { return a.area_m2 < b.area_m2; });
+  ASSERT_NE(largest, comparison->new_regions.end());
+  EXPECT_EQ(largest->predicted_class, "new_space") << largest->probability;
+  std::printf("default model: %d of %zu new regions classed protrusion\n", protrusions, comparison->new_regions.size());
+}
+
+}  // namespace
+}  // namespace analyzer
