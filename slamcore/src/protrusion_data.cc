@@ -110,10 +110,54 @@ class Generator {
 
   int AddNewSpace() {
     for (int attempt = 0; attempt < kAttempts; ++attempt) {
-      const int kind = Uniform(0, 2);
-      if (kind == 2 ? AddMovedFurniture() : AddRoom(kind == 1)) return 1;
+      // The physical families add (d): the edge of known floor explored a little further.
+      const int kind = Uniform(0, options_.scan_rendering ? 3 : 2);
+      if (kind == 3 ? AddEdgeExploration() : kind == 2 ? AddMovedFurniture() : AddRoom(kind == 1)) return 1;
     }
     return 0;
+  }
+
+  /// (d): a strip along the edge of known floor (0.1–0.5 m deep, 0.5–3 m long) that the parent had not
+  /// seen yet: a cleaning run that reached a little further along a wall or under a bed's edge. Real map
+  /// pairs are full of these fringes.
+  bool AddEdgeExploration() {
+    if (edge_cells_.empty()) return false;
+    const int start = RandomCell(edge_cells_);
+    if (base_.cells[static_cast<std::size_t>(start)] != kFree || Reserved(start)) return false;
+    const double depth = Cells(Uniform(0.1, 0.5)), length = Cells(Uniform(0.5, 3.0));
+    // Floor within `length` of the start (geodesically, along the edge) and within `depth` of unknown.
+    cv::Mat unknown(base_.height, base_.width, CV_8U), distance_to_unknown;
+    for (std::size_t i = 0; i < base_.cells.size(); ++i) unknown.data[i] = base_.cells[i] == kUnknown ? 0 : 255;
+    cv::distanceTransform(unknown, distance_to_unknown, cv::DIST_L2, cv::DIST_MASK_5);
+    std::vector<int> strip;
+    std::vector<std::uint8_t> seen(base_.cells.size(), 0);
+    std::deque<std::pair<int, int>> queue{{start, 0}};
+    seen[static_cast<std::size_t>(start)] = 1;
+    while (!queue.empty()) {
+      const auto [cell, steps] = queue.front();
+      queue.pop_front();
+      strip.push_back(cell);
+      if (steps >= length) continue;
+      const int col = cell % base_.width, row = cell / base_.width;
+      for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        if (!base_.InBounds(col + dc, row + dr)) continue;
+        const int next = Index(col + dc, row + dr);
+        if (seen[static_cast<std::size_t>(next)] || base_.cells[static_cast<std::size_t>(next)] != kFree ||
+            distance_to_unknown.at<float>(row + dr, col + dc) > depth || Reserved(next)) {
+          continue;
+        }
+        seen[static_cast<std::size_t>(next)] = 1;
+        queue.push_back({next, steps + 1});
+      }
+    }
+    if (static_cast<double>(strip.size()) < 0.1 / (base_.resolution * base_.resolution)) return false;
+    for (const int cell : strip) {
+      parent_.cells[static_cast<std::size_t>(cell)] = kUnknown;
+      truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
+    }
+    DropEdges(strip, 0.2);
+    Reserve(strip);
+    return true;
   }
 
   /// (a)/(b): a room seen for the first time, or behind a door that was closed in the parent.
@@ -177,7 +221,8 @@ class Generator {
       for (const int cell : cut) parent_.cells[static_cast<std::size_t>(cell)] = kOccupied;  // the closed door
       changed.insert(changed.end(), cut.begin(), cut.end());
     }
-    if (options_.scan_rendering) return RevealByScans(room, cut, changed);
+    // Half the scanned families' rooms come from the real map as its robot drew them (clutter and all).
+    if (options_.scan_rendering && Chance(0.5)) return RevealByScans(room, cut, changed);
     for (const int cell : changed) truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
     DropEdges(changed, 0.1);
     Reserve(changed);
