@@ -83,6 +83,12 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
   const auto grids = RenderComparedGrids(parent, child);
   if (!grids.ok()) return grids.status();
   const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
+  std::shared_ptr<const slamcore::ProtrusionClassifier> built_in;
+  const slamcore::ProtrusionClassifier* classifier = options.classifier;
+  if (classifier == nullptr) {
+    if (auto loaded = slamcore::DefaultProtrusionClassifier(); loaded.ok()) built_in = *loaded;
+    classifier = built_in.get();
+  }
   if (!regions.ok()) return regions.status();
   std::set<NodeId> slip_nodes;
   for (const NodeId node : grids->child_nodes) {
@@ -113,10 +119,10 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
       }
       for (const double value : {min_x, min_y, max_x, max_y}) proto->add_world_bbox(value);
     }
-    if (options.classifier) {
-      const auto probability = options.classifier->Probability(region.features);
+    if (classifier) {
+      const auto probability = classifier->Probability(region.features);
       if (!probability.ok()) return probability.status();
-      const bool protrusion = options.classifier->IsProtrusion(*probability);
+      const bool protrusion = classifier->IsProtrusion(*probability);
       proto->set_predicted_class(protrusion ? "protrusion" : "new_space");
       proto->set_probability(*probability);
       if (protrusion) report->set_protrusions_found(report->protrusions_found() + 1);

@@ -1,41 +1,15 @@
 #include "server/analysis.h"
 
-#include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <unistd.h>
 
 #include "analyzer/parameters.h"
 #include "analyzer/run_analysis.h"
 #include "fleet/v1/telemetry.pb.h"
 
 namespace server {
-namespace {
-
-// A unique file in the temp directory, removed when this goes out of scope.
-class TempFile {
- public:
-  TempFile() {
-    static std::atomic<long> counter{0};
-    path_ = std::filesystem::temp_directory_path() /
-            ("fleetd-model-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".yaml");
-  }
-  ~TempFile() {
-    std::error_code ignored;
-    std::filesystem::remove(path_, ignored);
-  }
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
-
-}  // namespace
-
 storage::Status FromSlamcore(const slamcore::Status& status) {
   switch (status.code()) {
     case slamcore::StatusCode::kOk: return storage::Status::Ok();
@@ -104,15 +78,19 @@ storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
 }
 
 storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes) {
-  TempFile file;
-  {
-    std::ofstream out(file.path(), std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out) return storage::Internal("cannot write " + file.path().string());
-  }
-  auto loaded = slamcore::ProtrusionClassifier::Load(file.path().string());
+  auto loaded = slamcore::ProtrusionClassifier::LoadFromBytes(bytes);
   if (!loaded.ok()) return FromSlamcore(loaded.status());
   return std::move(loaded).value();
+}
+
+std::shared_ptr<const slamcore::ProtrusionClassifier> DefaultClassifier() {
+  auto loaded = slamcore::DefaultProtrusionClassifier();
+  if (!loaded.ok()) {
+    // Only a corrupt build gets here; regions then stay unclassified and the log says why.
+    std::fprintf(stderr, "fleetd: %s\n", loaded.status().ToString().c_str());
+    return nullptr;
+  }
+  return *loaded;
 }
 
 ClassifierCache::ClassifierCache(storage::Repository& repository, std::string model_name)
@@ -125,16 +103,17 @@ std::shared_ptr<const slamcore::ProtrusionClassifier> ClassifierCache::Get() {
   checked_ = now;
   auto active = repository_.GetActiveModel(model_name_);
   if (!active.ok()) {
-    classifier_.reset();
+    classifier_ = DefaultClassifier();
     version_ = 0;
     return classifier_;
   }
   if (active->version == version_ && classifier_) return classifier_;
   auto loaded = LoadClassifier(active->bytes);
   if (!loaded.ok()) {
-    std::fprintf(stderr, "fleetd: model %s v%lld does not load: %s\n", model_name_.c_str(),
-                 static_cast<long long>(active->version), loaded.status().ToString().c_str());
-    classifier_.reset();
+    std::fprintf(stderr, "fleetd: model %s v%lld does not load (the built-in default classifies instead): %s\n",
+                 model_name_.c_str(), static_cast<long long>(active->version), loaded.status().ToString().c_str());
+    classifier_ = DefaultClassifier();
+    version_ = 0;
     return classifier_;
   }
   version_ = active->version;

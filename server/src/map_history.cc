@@ -636,14 +636,17 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
   if (!previous.ok()) return previous.status();
   auto grid = analyzer::RenderHomeGrid(map);
   if (!grid.ok()) return FromSlamcore(grid.status());
-  // Regions are classed by the active model, as runs' regions are (AnalyzeStoredRun); none: "unclassified".
-  std::unique_ptr<slamcore::ProtrusionClassifier> classifier;
+  // Regions are classed by the active model, as runs' regions are (AnalyzeStoredRun); none active: the
+  // built-in default.
+  std::shared_ptr<const slamcore::ProtrusionClassifier> classifier;
   if (auto active = repository_.GetActiveModel(policy_.model_name); active.ok()) {
     auto loaded = LoadClassifier(active->bytes);
     if (!loaded.ok()) return loaded.status();
     classifier = std::move(loaded).value();
   } else if (active.status().code() != storage::StatusCode::kNotFound) {
     return active.status();
+  } else {
+    classifier = DefaultClassifier();
   }
   auto comparison =
       analyzer::CompareGrids(previous->grid, *grid, previous->dock, analyzer::DockOf(snapshot), classifier.get());

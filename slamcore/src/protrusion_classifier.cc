@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "slamcore/occupancy_grid.h"  // WriteFileBytes
 #include "slamcore/protrusion_detector.h"
 
 namespace slamcore {
@@ -194,10 +195,9 @@ Result<double> ProtrusionClassifier::Probability(const std::vector<double>& feat
   }
 }
 
-Status ProtrusionClassifier::Save(const std::string& path) const {
+Result<std::string> ProtrusionClassifier::ToBytes() const {
   try {
-    cv::FileStorage file(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
-    if (!file.isOpened()) return NotFound(path + ": cannot open for writing");
+    cv::FileStorage file("model.yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
     file << "format" << kModelFormat << "version" << kProtrusionModelVersion << "kind" << ClassifierKindName(kind_);
     std::vector<cv::String> names(ProtrusionFeatureNames().begin(), ProtrusionFeatureNames().end());
     file << "features" << names << "selected" << selected_ << "mean" << mean_ << "scale" << scale_;
@@ -205,18 +205,25 @@ Status ProtrusionClassifier::Save(const std::string& path) const {
     file << "model" << "{";
     model_->model->write(file);
     file << "}";
-    file.release();
+    return std::string(file.releaseAndGetString());
   } catch (const cv::Exception& e) {
-    return Internal(path + ": cannot write model: " + e.what());
+    return Internal(std::string("cannot write model: ") + e.what());
   }
-  return Status::Ok();
 }
 
-Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Load(const std::string& path) {
+Status ProtrusionClassifier::Save(const std::string& path) const {
+  auto bytes = ToBytes();
+  if (!bytes.ok()) return Status(bytes.status().code(), path + ": " + bytes.status().message());
+  return WriteFileBytes(path, *bytes);
+}
+
+Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const std::string& source, bool in_memory) {
+  // `path` names the model in every message: the file, or what the bytes are.
+  const std::string path = in_memory ? "model" : source;
   std::unique_ptr<ProtrusionClassifier> classifier(new ProtrusionClassifier());
   try {
-    cv::FileStorage file(path, cv::FileStorage::READ);
-    if (!file.isOpened()) return NotFound(path + ": cannot open model file");
+    cv::FileStorage file(source, cv::FileStorage::READ | (in_memory ? cv::FileStorage::MEMORY : 0));
+    if (!file.isOpened()) return in_memory ? InvalidArgument("model: not a model file") : NotFound(path + ": cannot open model file");
     std::string format, kind_name;
     int version = 0;
     file["format"] >> format;
@@ -272,6 +279,15 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Load(const s
   return classifier;
 }
 
+Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Load(const std::string& path) {
+  return Read(path, false);
+}
+
+Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::LoadFromBytes(const std::string& bytes) {
+  if (bytes.empty()) return InvalidArgument("model: empty");
+  return Read(bytes, true);
+}
+
 Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& data, const ClassifierOptions& options,
                                             int folds) {
   std::vector<std::string> groups;
@@ -298,6 +314,22 @@ Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& d
     }
   }
   return result;
+}
+
+namespace internal {
+const std::string& DefaultProtrusionModelText();  // generated from models/protrusion_default.yml
+}  // namespace internal
+
+std::string DefaultProtrusionModelBytes() { return internal::DefaultProtrusionModelText(); }
+
+Result<std::shared_ptr<const ProtrusionClassifier>> DefaultProtrusionClassifier() {
+  static const Result<std::shared_ptr<const ProtrusionClassifier>> kDefault =
+      []() -> Result<std::shared_ptr<const ProtrusionClassifier>> {
+    auto loaded = ProtrusionClassifier::LoadFromBytes(internal::DefaultProtrusionModelText());
+    if (!loaded.ok()) return Status(loaded.status().code(), "default " + loaded.status().message());
+    return std::shared_ptr<const ProtrusionClassifier>(std::move(loaded).value());
+  }();
+  return kDefault;
 }
 
 }  // namespace slamcore

@@ -9,7 +9,10 @@
 #include <cmath>
 #include <deque>
 #include <numbers>
+#include <optional>
 #include <random>
+
+#include "range_scan.h"
 
 namespace slamcore {
 namespace {
@@ -35,6 +38,14 @@ class Generator {
         if (base.at(col, row) != kUnknown && HasNeighbour(col, row, kUnknown)) edge_cells_.push_back(Index(col, row));
       }
     }
+    // One robot model per pair: its sensor draws the stuck scans and reveals the new space. The corridor
+    // family draws nothing here, so its pairs stay those of data set version 1.
+    if (options_.scan_rendering || options_.stuck_robot_share > 0.0) {
+      const auto& bands = options_.stuck.sensors;
+      const auto& band = bands[static_cast<std::size_t>(Uniform(0, static_cast<int>(bands.size()) - 1))];
+      sensor_.range_m = Uniform(band.range_m.low, band.range_m.high);
+      sensor_.field_of_view = Uniform(band.field_of_view.low, band.field_of_view.high);
+    }
   }
 
   Result<GeneratedPair> Run() {
@@ -54,7 +65,10 @@ class Generator {
  private:
   int Index(int col, int row) const { return row * base_.width + col; }
   int Uniform(int low, int high) { return std::uniform_int_distribution<int>(low, std::max(low, high))(random_); }
-  double Uniform(double low, double high) { return std::uniform_real_distribution<double>(low, high)(random_); }
+  double Uniform(double low, double high) {
+    return std::uniform_real_distribution<double>(low, std::max(low, high))(random_);
+  }
+  double Uniform(const Interval& interval) { return Uniform(interval.low, interval.high); }
   bool Chance(double p) { return Uniform(0.0, 1.0) < p; }
   double Cells(double metres) const { return metres / base_.resolution; }
 
@@ -96,10 +110,54 @@ class Generator {
 
   int AddNewSpace() {
     for (int attempt = 0; attempt < kAttempts; ++attempt) {
-      const int kind = Uniform(0, 2);
-      if (kind == 2 ? AddMovedFurniture() : AddRoom(kind == 1)) return 1;
+      // The physical families add (d): the edge of known floor explored a little further.
+      const int kind = Uniform(0, options_.scan_rendering ? 3 : 2);
+      if (kind == 3 ? AddEdgeExploration() : kind == 2 ? AddMovedFurniture() : AddRoom(kind == 1)) return 1;
     }
     return 0;
+  }
+
+  /// (d): a strip along the edge of known floor (0.1–0.5 m deep, 0.5–3 m long) that the parent had not
+  /// seen yet: a cleaning run that reached a little further along a wall or under a bed's edge. Real map
+  /// pairs are full of these fringes.
+  bool AddEdgeExploration() {
+    if (edge_cells_.empty()) return false;
+    const int start = RandomCell(edge_cells_);
+    if (base_.cells[static_cast<std::size_t>(start)] != kFree || Reserved(start)) return false;
+    const double depth = Cells(Uniform(0.1, 0.5)), length = Cells(Uniform(0.5, 3.0));
+    // Floor within `length` of the start (geodesically, along the edge) and within `depth` of unknown.
+    cv::Mat unknown(base_.height, base_.width, CV_8U), distance_to_unknown;
+    for (std::size_t i = 0; i < base_.cells.size(); ++i) unknown.data[i] = base_.cells[i] == kUnknown ? 0 : 255;
+    cv::distanceTransform(unknown, distance_to_unknown, cv::DIST_L2, cv::DIST_MASK_5);
+    std::vector<int> strip;
+    std::vector<std::uint8_t> seen(base_.cells.size(), 0);
+    std::deque<std::pair<int, int>> queue{{start, 0}};
+    seen[static_cast<std::size_t>(start)] = 1;
+    while (!queue.empty()) {
+      const auto [cell, steps] = queue.front();
+      queue.pop_front();
+      strip.push_back(cell);
+      if (steps >= length) continue;
+      const int col = cell % base_.width, row = cell / base_.width;
+      for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        if (!base_.InBounds(col + dc, row + dr)) continue;
+        const int next = Index(col + dc, row + dr);
+        if (seen[static_cast<std::size_t>(next)] || base_.cells[static_cast<std::size_t>(next)] != kFree ||
+            distance_to_unknown.at<float>(row + dr, col + dc) > depth || Reserved(next)) {
+          continue;
+        }
+        seen[static_cast<std::size_t>(next)] = 1;
+        queue.push_back({next, steps + 1});
+      }
+    }
+    if (static_cast<double>(strip.size()) < 0.1 / (base_.resolution * base_.resolution)) return false;
+    for (const int cell : strip) {
+      parent_.cells[static_cast<std::size_t>(cell)] = kUnknown;
+      truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
+    }
+    DropEdges(strip, 0.2);
+    Reserve(strip);
+    return true;
   }
 
   /// (a)/(b): a room seen for the first time, or behind a door that was closed in the parent.
@@ -111,6 +169,10 @@ class Generator {
     std::vector<int> room{seed};
     std::deque<int> queue{seed};
     distance[static_cast<std::size_t>(seed)] = 0;
+    // Scanned rooms are whole rooms (the seed's room, bounded by walls and doorways); copied ones are
+    // geodesic balls, as in data set version 1.
+    if (options_.scan_rendering && !SeedRoom(seed, &room, &distance)) return false;
+    if (options_.scan_rendering) queue.clear();
     while (!queue.empty()) {
       const int cell = queue.front();
       queue.pop_front();
@@ -159,10 +221,120 @@ class Generator {
       for (const int cell : cut) parent_.cells[static_cast<std::size_t>(cell)] = kOccupied;  // the closed door
       changed.insert(changed.end(), cut.begin(), cut.end());
     }
+    // Half the scanned families' rooms come from the real map as its robot drew them (clutter and all).
+    if (options_.scan_rendering && Chance(0.5)) return RevealByScans(room, cut, changed);
     for (const int cell : changed) truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
     DropEdges(changed, 0.1);
     Reserve(changed);
     return true;
+  }
+
+  /// The room around `seed`: floor that stays connected when every passage narrower than a doorway
+  /// (0.9 m) is closed, grown back to the walls. Fails for a room with reserved cells.
+  bool SeedRoom(int seed, std::vector<int>* room, std::vector<int>* distance) {
+    if (room_labels_.empty()) {
+      cv::Mat wide = clearance_ >= Cells(0.45);
+      wide.convertTo(wide, CV_8U);
+      cv::connectedComponents(wide, room_labels_, 4, CV_32S);
+    }
+    const int label = room_labels_.at<int>(seed / base_.width, seed % base_.width);
+    if (label <= 0) return false;
+    cv::Mat core = room_labels_ == label, grown;
+    const int reach = static_cast<int>(std::ceil(Cells(0.45))) + 1;
+    cv::dilate(core, grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * reach + 1, 2 * reach + 1}));
+    room->clear();
+    for (const int cell : free_cells_) {
+      if (!grown.data[cell]) continue;
+      if (Reserved(cell)) return false;
+      room->push_back(cell);
+      (*distance)[static_cast<std::size_t>(cell)] = 0;
+    }
+    return true;
+  }
+
+  /// The room (with its walls and door) the parent lacks, seen by the pair's sensor: from a few places
+  /// inside it (the robot drove in), or once from outside through its doorway (a glimpse, a lidar's fan).
+  bool RevealByScans(const std::vector<int>& room, const std::vector<int>& cut, const std::vector<int>& hidden) {
+    for (const int cell : hidden) child_.cells[static_cast<std::size_t>(cell)] = parent_.cells[static_cast<std::size_t>(cell)];
+    internal::ScanVotes votes(base_);
+    const double radius = Cells(options_.stuck.robot_radius_m);
+    std::vector<int> in_room, sorted_room(room);
+    std::sort(sorted_room.begin(), sorted_room.end());
+    for (const int cell : room) {
+      if (clearance_.at<float>(cell / base_.width, cell % base_.width) >= radius) in_room.push_back(cell);
+    }
+    if (!cut.empty() && Chance(0.3)) {
+      // From outside: a spot up to 3 m from the doorway with the doorway in view.
+      const int door = RandomCell(cut);
+      for (int attempt = 0; attempt < kAttempts; ++attempt) {
+        const int spot = RandomCell(free_cells_);
+        const double dx = door % base_.width - spot % base_.width, dy = door / base_.width - spot / base_.width;
+        const double distance = std::hypot(dx, dy);
+        if (distance < Cells(0.4) || distance > Cells(std::min(3.0, sensor_.range_m)) ||
+            clearance_.at<float>(spot / base_.width, spot % base_.width) < radius ||
+            std::binary_search(sorted_room.begin(), sorted_room.end(), spot) || Reserved(spot)) {
+          continue;
+        }
+        votes.AddScan(base_, CellPose(spot, std::atan2(dy, dx)), CellPose(spot, std::atan2(dy, dx)), sensor_, false,
+                      random_);
+        break;
+      }
+    } else if (!in_room.empty()) {
+      const int scans = Uniform(2, 6);
+      for (int i = 0; i < scans; ++i) {
+        const SE2 pose = CellPose(RandomCell(in_room), Uniform(-std::numbers::pi, std::numbers::pi));
+        votes.AddScan(base_, pose, pose, sensor_, false, random_);
+      }
+    }
+    return ApplyVotes(votes, Cells(1.0) * Cells(1.0)) > 0;
+  }
+
+  /// A world pose at a cell's centre.
+  SE2 CellPose(int cell, double heading) const {
+    return SE2(base_.origin_x + (cell % base_.width + 0.5) * base_.resolution,
+               base_.origin_y + (cell / base_.width + 0.5) * base_.resolution, heading);
+  }
+
+  /// Fuses scans into the child as a robot's renderer would, over what the parent knew: unknown cells
+  /// take the votes' state, a wall gives way only to a clear majority of free votes, and known floor
+  /// turns to wall only under a clear majority of hits. Changed cells are labelled by what made them
+  /// (erroneous poses: protrusion). Reserved cells (other changes) are left alone. Keeps the change when
+  /// it has at least `min_cells` changed cells; otherwise undoes it and returns 0.
+  int ApplyVotes(const internal::ScanVotes& votes, double min_cells) {
+    std::vector<int> changed;
+    for (std::size_t cell = 0; cell < child_.cells.size(); ++cell) {
+      if (!votes.Voted(cell) || Reserved(static_cast<int>(cell))) continue;
+      const std::int8_t before = parent_.cells[cell];
+      const int free = votes.Free(cell), occupied = votes.Occupied(cell);
+      std::int8_t after = before;
+      if (before == kUnknown) {
+        after = votes.Resolve(cell);
+      } else if (before == kOccupied && free >= 3 * (occupied + 1)) {
+        after = kFree;
+      } else if (before == kFree && occupied >= 3 && 2 * free < occupied) {
+        after = kOccupied;
+      }
+      if (after == child_.cells[cell]) continue;
+      child_.cells[cell] = after;
+      changed.push_back(static_cast<int>(cell));
+    }
+    long counted = 0;
+    for (const int cell : changed) {
+      const auto index = static_cast<std::size_t>(cell);
+      const bool is_new = (parent_.cells[index] == kUnknown) || (child_.cells[index] == kFree && parent_.cells[index] == kOccupied);
+      if (!is_new) continue;  // a wall drawn over known floor: no difference the detector could see
+      truth_[index] = static_cast<std::uint8_t>(votes.MostlyErroneous(index) ? TruthLabel::kProtrusion : TruthLabel::kNewSpace);
+      ++counted;
+    }
+    if (static_cast<double>(counted) < min_cells) {
+      for (const int cell : changed) {
+        child_.cells[static_cast<std::size_t>(cell)] = parent_.cells[static_cast<std::size_t>(cell)];
+        truth_[static_cast<std::size_t>(cell)] = 0;
+      }
+      return 0;
+    }
+    Reserve(changed);
+    return static_cast<int>(counted);
   }
 
   bool TouchesOutsideFree(int cell, const std::vector<int>& distance) const {
@@ -213,10 +385,60 @@ class Generator {
   }
 
   int AddProtrusion() {
+    const bool stuck = options_.stuck_robot_share > 0.0 && Chance(options_.stuck_robot_share);
     for (int attempt = 0; attempt < kAttempts; ++attempt) {
-      if (TryProtrusion()) return 1;
+      if (stuck ? TryStuckRobot() : TryProtrusion()) return 1;
     }
     return 0;
+  }
+
+  /// A robot stuck with its wheels turning (see the header): pressed against an obstacle, or lifted on a
+  /// rug in open floor; one scan per node of the believed path, all cast from the true place.
+  bool TryStuckRobot() {
+    const StuckRobotPhysics& physics = options_.stuck;
+    const int cell = RandomCell(free_cells_);
+    if (Reserved(cell)) return false;
+    const double radius = Cells(physics.robot_radius_m);
+    const double clearance = clearance_.at<float>(cell / base_.width, cell % base_.width);
+    double push = Uniform(-std::numbers::pi, std::numbers::pi);
+    if (Chance(physics.contact_share)) {
+      if (clearance < radius || clearance > radius + Cells(0.05)) return false;
+      // The obstacle's normal: the direction of the nearest wall cell around the robot.
+      const auto normal = NearestWallDirection(cell, radius + Cells(0.10));
+      if (!normal) return false;
+      push = *normal + (Chance(0.5) ? 1.0 : -1.0) * Uniform(physics.push_deviation);
+    } else if (clearance < radius + Cells(0.05)) {
+      return false;
+    }
+    const SE2 true_pose = CellPose(cell, push);
+    const double travel = Uniform(physics.stuck_travel_m);
+    const double drift = Uniform(-physics.max_heading_drift_per_m, physics.max_heading_drift_per_m);
+    internal::ScanVotes votes(base_);
+    std::normal_distribution<double> rock(0.0, 1.0);
+    SE2 believed = true_pose;
+    for (double odometry = 0.0; odometry <= travel; odometry += physics.keyframe_m) {
+      // The robot rocks a little in place while its wheels turn.
+      const SE2 seen_from = true_pose * SE2(0.01 * rock(random_), 0.01 * rock(random_), 0.02 * rock(random_));
+      votes.AddScan(base_, seen_from, believed, sensor_, odometry > 0.0, random_);
+      believed = believed * SE2(physics.keyframe_m, 0.0, physics.keyframe_m * drift);
+    }
+    return ApplyVotes(votes, std::max(20.0, 0.1 / (base_.resolution * base_.resolution))) > 0;
+  }
+
+  /// The direction (radians) from a cell to the nearest occupied cell within `reach` cells, if any.
+  std::optional<double> NearestWallDirection(int cell, double reach) const {
+    const int col = cell % base_.width, row = cell / base_.width, span = static_cast<int>(std::ceil(reach));
+    double best = reach * reach + 1.0;
+    std::optional<double> direction;
+    for (int dr = -span; dr <= span; ++dr) {
+      for (int dc = -span; dc <= span; ++dc) {
+        const double d2 = dc * dc + dr * dr;
+        if (d2 >= best || !base_.InBounds(col + dc, row + dr) || base_.at(col + dc, row + dr) != kOccupied) continue;
+        best = d2;
+        direction = std::atan2(static_cast<double>(dr), static_cast<double>(dc));
+      }
+    }
+    return direction;
   }
 
   /// A slip corridor: the false path the odometry integrated while the wheels spun (see the header).
@@ -364,6 +586,8 @@ class Generator {
   cv::Mat reserved_;
   cv::Mat clearance_;
   std::vector<int> free_cells_, edge_cells_;
+  internal::RangeSensor sensor_;
+  cv::Mat room_labels_;  // rooms for scanned new space (SeedRoom), computed on first use
 };
 
 }  // namespace
@@ -379,8 +603,21 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
       options.max_protrusion_length_m < options.min_protrusion_length_m || options.max_protrusion_length_m > 20.0) {
     return InvalidArgument("generator: options out of range");
   }
-  // Pad by the longest protrusion so that a slip out of the map's edge stays inside the child's image.
-  const int pad = static_cast<int>(std::ceil((options.max_protrusion_length_m + 1.0) / real_map.resolution));
+  if (options.stuck_robot_share < 0.0 || options.stuck_robot_share > 1.0 || options.stuck.sensors.empty() ||
+      options.stuck.sensors.size() > 16 || !(options.stuck.keyframe_m >= 0.05) || !(options.stuck.robot_radius_m > 0.0) ||
+      options.stuck.robot_radius_m > 1.0 || !(options.stuck.stuck_travel_m.low >= 0.0) ||
+      !(options.stuck.stuck_travel_m.high <= 20.0) || !(std::abs(options.stuck.max_heading_drift_per_m) <= 2.0)) {
+    return InvalidArgument("generator: stuck-robot physics out of range");
+  }
+  double longest_reach = options.max_protrusion_length_m;
+  for (const auto& band : options.stuck.sensors) {
+    if (!(band.range_m.low > 0.0) || !(band.range_m.high <= 20.0) || !(band.field_of_view.low > 0.0)) {
+      return InvalidArgument("generator: sensor ranges must lie in (0, 20] m and fields of view be positive");
+    }
+    if (options.stuck_robot_share > 0.0) longest_reach = std::max(longest_reach, options.stuck.stuck_travel_m.high + band.range_m.high);
+  }
+  // Pad by the farthest reach so that a slip out of the map's edge stays inside the child's image.
+  const int pad = static_cast<int>(std::ceil((longest_reach + 1.0) / real_map.resolution));
   auto base = OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad, real_map.resolution,
                                     real_map.origin_x - pad * real_map.resolution,
                                     real_map.origin_y - pad * real_map.resolution);
@@ -390,6 +627,30 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
     for (int col = 0; col < real_map.width; ++col) base->at(col + pad, row + pad) = real_map.at(col, row);
   }
   return Generator(*base, seed, options).Run();
+}
+
+Result<GeneratorOptions> GeneratorFamily(const std::string& name) {
+  GeneratorOptions options;
+  if (name == "corridor") return options;
+  options.scan_rendering = true;
+  options.min_protrusions = 1;
+  if (name == "physical") {
+    options.stuck_robot_share = 0.8;
+    return options;
+  }
+  if (name == "heldout") {
+    options.stuck_robot_share = 1.0;
+    StuckRobotPhysics& physics = options.stuck;
+    // Sensor ranges, fields of view and push angles disjoint from "physical"'s: other robot models,
+    // other pushes; travel and drift reach beyond its.
+    physics.sensors = {{{1.6, 4.0}, {2.2, 3.6}}, {{6.0, 8.0}, {6.3, 6.3}}};
+    physics.push_deviation = {0.52, 1.31};
+    physics.stuck_travel_m = {1.0, 6.0};
+    physics.max_heading_drift_per_m = 0.30;
+    physics.contact_share = 0.9;
+    return options;
+  }
+  return InvalidArgument("unknown generator family \"" + name + "\" (corridor, physical, heldout)");
 }
 
 }  // namespace slamcore

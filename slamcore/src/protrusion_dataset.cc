@@ -135,7 +135,7 @@ Result<LabelledPair> ExtractAndLabel(const GeneratedPair& pair, const DetectorOp
   for (std::size_t i = 0; i < pair.truth.size(); ++i) truth_protrusion.data[i] = pair.truth[i] == 1;
   cv::Mat labels, stats, centroids;
   const int count = cv::connectedComponentsWithStats(truth_protrusion, labels, stats, centroids, 8, CV_32S);
-  const double min_cells = options.min_region_area_m2 / (pair.child.resolution * pair.child.resolution);
+  const double min_cells = kMinMissedProtrusionAreaM2 / (pair.child.resolution * pair.child.resolution);
   std::vector<long> covered_cells(static_cast<std::size_t>(count), 0);
   for (std::size_t i = 0; i < pair.truth.size(); ++i) {
     if (covered[i]) ++covered_cells[static_cast<std::size_t>(labels.ptr<int>(0)[i])];

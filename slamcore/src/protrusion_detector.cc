@@ -30,10 +30,104 @@ Status CheckGrid(const OccupancyGrid& grid, const char* which) {
   return Status::Ok();
 }
 
+/// What every region's features look up in the whole pair, computed once per pair.
+struct PairContext {
+  cv::Mat parent_walls;  // CV_32F: 1 where the aligned parent (dilated by one cell) has a wall
+  cv::Mat parent_free;   // CV_32F: 1 where the aligned parent has floor
+  cv::Mat reachable;     // CV_8U: child floor connected to the parent's floor without crossing its walls
+};
+
+PairContext MakePairContext(const cv::Mat& child_cells, const cv::Mat& parent_cells) {
+  PairContext context;
+  cv::Mat walls = parent_cells == kOccupied, free = parent_cells == kFree;
+  cv::dilate(walls, walls, cv::Mat::ones(3, 3, CV_8U));
+  walls.convertTo(context.parent_walls, CV_32F, 1.0 / 255.0);
+  free.convertTo(context.parent_free, CV_32F, 1.0 / 255.0);
+  // A robot reaches new floor from known floor through a gap; a stuck robot's band lies beyond the wall
+  // it pushed. Floor is connected here through child floor the parent did not hold as a wall.
+  cv::Mat passable = (child_cells == kFree) & (parent_cells != kOccupied);
+  cv::Mat labels;
+  const int count = cv::connectedComponents(passable, labels, 4, CV_32S);
+  std::vector<std::uint8_t> touches_known(static_cast<std::size_t>(count), 0);
+  for (int row = 0; row < labels.rows; ++row) {
+    const int* label = labels.ptr<int>(row);
+    const std::int8_t* parent = parent_cells.ptr<std::int8_t>(row);
+    for (int col = 0; col < labels.cols; ++col) {
+      if (label[col] > 0 && parent[col] == kFree) touches_known[static_cast<std::size_t>(label[col])] = 1;
+    }
+  }
+  context.reachable = cv::Mat::zeros(labels.size(), CV_8U);
+  for (int row = 0; row < labels.rows; ++row) {
+    const int* label = labels.ptr<int>(row);
+    std::uint8_t* out = context.reachable.ptr<std::uint8_t>(row);
+    for (int col = 0; col < labels.cols; ++col) out[col] = label[col] > 0 && touches_known[static_cast<std::size_t>(label[col])];
+  }
+  return context;
+}
+
+/// Repetition of the surroundings: the translation (0.3–6 m) under which the region's walls and floor best
+/// land on the parent's walls and floor, and how well they do. A stuck robot draws copies of what it sees
+/// shifted along its push, so its band matches the parent shifted back; a new room's layout rarely does.
+struct ShiftMatch {
+  double walls = 0.0, floor = 0.0;  // shares of the region's wall / floor cells explained at the best shift
+  double distance_m = 0.0;
+  double angle = 0.0;               // of the best shift, radians in the image frame
+};
+
+ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, const cv::Rect& where,
+                     const PairContext& context, double resolution) {
+  ShiftMatch best;
+  const double wall_cells = cv::countNonZero(region_walls), floor_cells = cv::countNonZero(region_floor);
+  if (wall_cells + floor_cells < 1.0) return best;
+  // Big regions are matched on a coarser grid, so the cost stays bounded (≤ ~200 cells a side).
+  const int factor = std::max(1, static_cast<int>(std::ceil(std::max(where.width, where.height) / 200.0)));
+  const int reach = static_cast<int>(std::ceil(6.0 / resolution));
+  const cv::Rect window(where.x - reach, where.y - reach, where.width + 2 * reach, where.height + 2 * reach);
+  const cv::Rect inside = window & cv::Rect(0, 0, context.parent_walls.cols, context.parent_walls.rows);
+  auto crop = [&](const cv::Mat& image) {
+    cv::Mat padded = cv::Mat::zeros(window.size(), CV_32F);
+    image(inside).copyTo(padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)));
+    if (factor > 1) cv::resize(padded, padded, {}, 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
+    return padded;
+  };
+  auto templ = [&](const cv::Mat& mask) {
+    cv::Mat out;
+    mask.convertTo(out, CV_32F, 1.0 / 255.0);
+    if (factor > 1) cv::resize(out, out, {}, 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
+    return out;
+  };
+  const cv::Mat walls_image = crop(context.parent_walls), floor_image = crop(context.parent_free);
+  const cv::Mat walls_template = templ(region_walls), floor_template = templ(region_floor);
+  if (walls_template.cols > walls_image.cols || walls_template.rows > walls_image.rows) return best;
+  cv::Mat wall_scores, floor_scores;
+  cv::matchTemplate(walls_image, walls_template, wall_scores, cv::TM_CCORR);
+  cv::matchTemplate(floor_image, floor_template, floor_scores, cv::TM_CCORR);
+  const double wall_total = std::max(1e-9, cv::sum(walls_template)[0]);
+  const double floor_total = std::max(1e-9, cv::sum(floor_template)[0]);
+  const double centre_x = (where.x - window.x) / static_cast<double>(factor);
+  const double centre_y = (where.y - window.y) / static_cast<double>(factor);
+  const double min_shift = 0.3 / (resolution * factor);
+  double best_score = -1.0;
+  for (int row = 0; row < wall_scores.rows; ++row) {
+    for (int col = 0; col < wall_scores.cols; ++col) {
+      const double dx = col - centre_x, dy = row - centre_y;
+      if (std::hypot(dx, dy) < min_shift) continue;
+      const double walls = wall_cells > 0 ? std::min(1.0, wall_scores.at<float>(row, col) / wall_total) : 0.0;
+      const double floor = floor_cells > 0 ? std::min(1.0, floor_scores.at<float>(row, col) / floor_total) : 0.0;
+      const double score = (wall_cells > 0 ? walls : floor) + (floor_cells > 0 ? floor : walls);
+      if (score > best_score) {
+        best_score = score;
+        best = {walls, floor, std::hypot(dx, dy) * factor * resolution, std::atan2(dy, dx)};
+      }
+    }
+  }
+  return best;
+}
+
 /// The features of one region, `mask` being its cleaned cells inside `roi` (1 inside, 0 outside) with at
-/// least one cell of margin on every side.
+/// least one cell of margin on every side; `roi` is where mask's inner part lies in the child's image.
 std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi, const cv::Mat& parent_roi,
-                                   double resolution) {
+                                   const cv::Rect& roi, const PairContext& context, double resolution) {
   const double r = resolution, r2 = resolution * resolution;
   const double area = cv::countNonZero(mask);
   const cv::Rect box = cv::boundingRect(mask);
@@ -80,11 +174,32 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
   const double boundary_cells = std::max(1, cv::countNonZero(boundary));
   const double contact_cells = cv::countNonZero(contact);
 
-  cv::Mat child_walls, parent_walls;
+  cv::Mat child_walls, parent_walls, child_floor;
   cv::compare(child_roi, kOccupied, child_walls, cv::CMP_EQ);
   cv::compare(parent_roi, kOccupied, parent_walls, cv::CMP_EQ);
+  cv::compare(child_roi, kFree, child_floor, cv::CMP_EQ);
   cv::bitwise_and(child_walls, mask, child_walls);
+  cv::bitwise_and(child_floor, mask, child_floor);
+  // Walls crossed: cells the parent held as walls that the child now has as floor (a door opened, or a
+  // stuck robot's band drawn through the wall it pushed).
+  cv::Mat crossed;
+  cv::bitwise_and(parent_walls, child_floor, crossed);
   cv::bitwise_and(parent_walls, mask, parent_walls);
+
+  // Boundary against the parent's walls: a band beyond a wall lies along it.
+  cv::Mat near_parent_walls, wall_contact;
+  cv::dilate(parent_roi == kOccupied, near_parent_walls, cv::Mat::ones(3, 3, CV_8U));
+  cv::bitwise_and(boundary, near_parent_walls, wall_contact);
+
+  // The mask's inner part (without the 1-cell pad) in the child's image, for the pair-wide lookups.
+  const cv::Rect inner(1, 1, roi.width, roi.height);
+  cv::Mat reachable;
+  cv::bitwise_and(context.reachable(roi), child_floor(inner), reachable);
+  const double floor_cells = cv::countNonZero(child_floor);
+  const ShiftMatch shift = BestShift(child_walls(inner), child_floor(inner), roi, context, resolution);
+  // Image rows grow downwards; the moments' axis angle is in the same image frame.
+  const double axis = 0.5 * std::atan2(2.0 * mu11, mu20 - mu02);
+  const double shift_alignment = std::abs(std::cos(shift.angle - axis));
 
   return {area * r2,
           bbox_area * r2,
@@ -99,7 +214,14 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
           contact_cells * r,
           contact_cells / boundary_cells,
           cv::countNonZero(child_walls) / area,
-          cv::countNonZero(parent_walls) / area};
+          cv::countNonZero(parent_walls) / area,
+          floor_cells > 0 ? cv::countNonZero(reachable) / floor_cells : 0.0,
+          cv::countNonZero(wall_contact) / boundary_cells,
+          cv::countNonZero(crossed) * r2,
+          shift.walls,
+          shift.floor,
+          shift.distance_m,
+          shift_alignment};
 }
 
 }  // namespace
@@ -108,7 +230,9 @@ const std::vector<std::string>& ProtrusionFeatureNames() {
   static const std::vector<std::string> kNames = {
       "area_m2",          "bbox_area_m2",      "perimeter_m",   "major_axis_m",  "minor_axis_m",
       "mean_distance_m",  "max_distance_m",    "elongation",    "solidity",      "extent",
-      "contact_length_m", "contact_fraction",  "wall_fraction", "parent_wall_fraction"};
+      "contact_length_m", "contact_fraction",  "wall_fraction", "parent_wall_fraction",
+      "reachable_fraction", "wall_contact_fraction", "crossed_wall_m2", "shift_wall_match",
+      "shift_floor_match", "shift_distance_m", "shift_alignment"};
   return kNames;
 }
 
@@ -174,10 +298,22 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   } else {
     clean = raw;
   }
+  // Walls that became floor survive the clean-up whatever their thickness when they form a piece of at
+  // least the minimum area: a wall is one or two cells thick, and a hole in it (a door opened, a stuck
+  // robot's band drawn through it) is a change, not speckle.
+  {
+    cv::Mat crossed = (child_cells == kFree) & (parent_cells == kOccupied), crossed_labels, crossed_stats, unused;
+    const int pieces = cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
+    const double min_piece = std::max(1.0, options.min_region_area_m2 / (r * r));
+    for (int piece = 1; piece < pieces; ++piece) {
+      if (crossed_stats.at<int>(piece, cv::CC_STAT_AREA) >= min_piece) clean.setTo(1, crossed_labels == piece);
+    }
+  }
   // Regions are the connected components of the RAW difference, described by their cells that survive
   // the clean-up: an opening cuts a room at a narrow neck, but the pieces are still one change.
   cv::Mat labels, stats, centroids;
   const int count = cv::connectedComponentsWithStats(raw, labels, stats, centroids, 8, CV_32S);
+  const PairContext context = MakePairContext(child_cells, parent_cells);
   const double min_cells = std::max(1.0, options.min_region_area_m2 / (r * r));
   const cv::Mat dilation_kernel = cv::Mat::ones(2 * kernel + 1, 2 * kernel + 1, CV_8U);
 
@@ -207,7 +343,7 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     region.clean_area_cells = area;
     // Grid rows grow upwards, image rows downwards.
     region.bbox = {inner.x, child.height - (inner.y + inner.height), inner.width, inner.height};
-    region.features = RegionFeatures(mask, child_roi, parent_roi, r);
+    region.features = RegionFeatures(mask, child_roi, parent_roi, roi, context, r);
     // The cells to revert on repair: the raw difference near the region, so that the 1-cell walls the
     // clean-up shaved off the corridor's edges go too.
     cv::Mat near;

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <string>
 
+#include "sim/world.h"
 #include "slamcore/protrusion_classifier.h"
 #include "slamcore/protrusion_data.h"
 #include "slamcore/protrusion_detector.h"
@@ -54,8 +55,9 @@ struct DetectArguments {
   bool json = false;
 };
 
-/// Without a model: the geometric rule the paper's tree reduces to — a region nowhere wider than a robot
-/// (max distance transform < 0.25 m) and elongated (> 3) is a protrusion.
+/// `--model rule`: the geometric rule the paper's tree reduces to — a region nowhere wider than a robot
+/// (max distance transform < 0.25 m) and elongated (> 3) is a protrusion. A named fallback only: it
+/// knows nothing of stuck robots' bands (docs/protrusion-data.md).
 double RuleProbability(const std::vector<double>& features) {
   const auto& names = slamcore::ProtrusionFeatureNames();
   auto value = [&](const char* name) {
@@ -69,8 +71,12 @@ void RunDetect(const DetectArguments& arguments) {
   const auto child = Check(slamcore::ReadMapServerYaml(arguments.child));
   const auto aligned = Check(slamcore::AlignParentToChild(parent, child));
   const auto regions = Check(slamcore::ExtractRegions(parent, child));
-  std::unique_ptr<slamcore::ProtrusionClassifier> classifier;
-  if (!arguments.model.empty()) classifier = Check(slamcore::ProtrusionClassifier::Load(arguments.model));
+  std::shared_ptr<const slamcore::ProtrusionClassifier> classifier;
+  if (arguments.model.empty()) {
+    classifier = Check(slamcore::DefaultProtrusionClassifier());
+  } else if (arguments.model != "rule") {
+    classifier = Check(slamcore::ProtrusionClassifier::Load(arguments.model));
+  }
   std::vector<bool> is_protrusion;
   std::vector<double> probabilities;
   std::vector<const slamcore::ProtrusionRegion*> protrusions;
@@ -92,7 +98,9 @@ void RunDetect(const DetectArguments& arguments) {
     if (auto status = slamcore::WriteMapServerYaml(repaired, arguments.repaired); !status.ok()) Fail(status);
   }
   const auto& names = slamcore::ProtrusionFeatureNames();
-  const std::string classifier_name = classifier ? slamcore::ClassifierKindName(classifier->kind()) : "rule";
+  const std::string classifier_name = !classifier               ? std::string("rule")
+                                      : arguments.model.empty() ? std::string("default ") + slamcore::ClassifierKindName(classifier->kind())
+                                                                : std::string(slamcore::ClassifierKindName(classifier->kind()));
   if (arguments.json) {
     json items = json::array();
     for (std::size_t i = 0; i < regions.size(); ++i) {
@@ -128,31 +136,56 @@ void RunDetect(const DetectArguments& arguments) {
 // ---- make-protrusion-data ------------------------------------------------------------------------------
 
 struct MakeDataArguments {
-  std::string maps, out;
+  std::vector<std::string> homes;
+  std::string out, family = "physical";
   int variants = 40;
   std::uint64_t seed = 1;
 };
 
+/// A home as an occupancy grid: a map_server map as it is, a floor plan as fleetsim builds it (walls,
+/// doors, fixtures and furniture; every room known).
+slamcore::Result<slamcore::OccupancyGrid> LoadHome(const std::filesystem::path& path) {
+  if (path.extension() == ".yaml") return slamcore::ReadMapServerYaml(path.string());
+  auto world = sim::LoadWorld(path, 1);
+  if (!world.ok()) return world.status();
+  const sim::Grid& grid = world->grid;
+  auto home = slamcore::OccupancyGrid::Create(grid.width(), grid.height(), grid.resolution(), grid.origin().x(),
+                                              grid.origin().y());
+  if (!home.ok()) return home.status();
+  for (int row = 0; row < grid.height(); ++row) {
+    for (int col = 0; col < grid.width(); ++col) {
+      const sim::Cell cell = grid.at(col, row);
+      home->at(col, row) = static_cast<std::int8_t>(cell == sim::Cell::kFree       ? slamcore::CellState::kFree
+                                                    : cell == sim::Cell::kOccupied ? slamcore::CellState::kOccupied
+                                                                                   : slamcore::CellState::kUnknown);
+    }
+  }
+  return home;
+}
+
 void RunMakeData(const MakeDataArguments& arguments) {
+  const auto options = Check(slamcore::GeneratorFamily(arguments.family));
   std::vector<std::filesystem::path> yamls;
-  for (const auto& entry : std::filesystem::directory_iterator(arguments.maps)) {
-    if (entry.path().extension() == ".yaml") yamls.push_back(entry.path());
+  for (const auto& directory : arguments.homes) {
+    for (const auto& entry : std::filesystem::directory_iterator(directory)) {
+      if (entry.path().extension() == ".yaml" || entry.path().extension() == ".txt") yamls.push_back(entry.path());
+    }
   }
   std::sort(yamls.begin(), yamls.end());
-  if (yamls.empty()) Fail(slamcore::NotFound(arguments.maps + ": no map_server .yaml files"));
+  if (yamls.empty()) Fail(slamcore::NotFound("no map_server .yaml maps or floor-plan .txt files in the given directories"));
   if (std::filesystem::exists(std::filesystem::path(arguments.out) / "index.csv")) {
     Fail(slamcore::FailedPrecondition(arguments.out + "/index.csv exists; write a new data set to a new directory"));
   }
   int pairs = 0, protrusions = 0, new_spaces = 0;
   for (std::size_t m = 0; m < yamls.size(); ++m) {
-    const auto map = Check(slamcore::ReadMapServerYaml(yamls[m].string()));
+    const auto map = Check(LoadHome(yamls[m]));
     const std::string map_id = yamls[m].stem().string();
     for (int variant = 0; variant < arguments.variants; ++variant) {
       // One seed per (data set seed, map, variant): any pair can be regenerated alone.
       const std::uint64_t seed = arguments.seed * 1000003ULL + m * 10007ULL + static_cast<std::uint64_t>(variant);
-      const auto pair = Check(slamcore::GeneratePair(map, seed));
+      const auto pair = Check(slamcore::GeneratePair(map, seed, options));
       const slamcore::DatasetEntry entry{map_id + "_v" + std::to_string(variant), map_id,
-                                         slamcore::HomeOfRealMap(map_id), "generator"};
+                                         slamcore::HomeOfRealMap(map_id), arguments.family};
       if (auto status = slamcore::WriteDatasetPair(arguments.out, entry, pair); !status.ok()) Fail(status);
       ++pairs;
       protrusions += pair.protrusions;
@@ -171,11 +204,13 @@ struct LoadedPair {
   slamcore::LabelledPair labelled;
 };
 
-std::vector<LoadedPair> LoadData(const std::string& root) {
+std::vector<LoadedPair> LoadData(const std::vector<std::string>& roots) {
   std::vector<LoadedPair> pairs;
-  for (const auto& entry : Check(slamcore::ReadDatasetIndex(root))) {
-    const auto pair = Check(slamcore::ReadDatasetPair(root, entry));
-    pairs.push_back({entry, Check(slamcore::ExtractAndLabel(pair))});
+  for (const std::string& root : roots) {
+    for (const auto& entry : Check(slamcore::ReadDatasetIndex(root))) {
+      const auto pair = Check(slamcore::ReadDatasetPair(root, entry));
+      pairs.push_back({entry, Check(slamcore::ExtractAndLabel(pair))});
+    }
   }
   return pairs;
 }
@@ -245,8 +280,11 @@ void PrintAnova(const std::vector<slamcore::FeatureAnova>& anova, const std::vec
 // ---- train-protrusions ---------------------------------------------------------------------------------
 
 struct TrainArguments {
-  std::string data, out, classifier = "auto", holdout_homes;
+  std::vector<std::string> data;
+  std::string out, classifier = "auto", holdout_homes;
   int folds = 5;
+  int trees = 100, max_depth = 10;
+  double threshold = 0.5;
   bool json = false;
 };
 
@@ -268,6 +306,9 @@ void RunTrain(const TrainArguments& arguments) {
   const auto anova = Anova(regions);
   slamcore::ClassifierOptions options;
   options.selected_features = SelectFeatures(anova);
+  options.trees = arguments.trees;
+  options.max_depth = arguments.max_depth;
+  options.threshold = arguments.threshold;
   const int folds = std::min<int>(arguments.folds, static_cast<int>(homes.size()));
   json comparison = json::array();
   std::vector<slamcore::ClassifierKind> kinds;
@@ -317,7 +358,10 @@ void RunTrain(const TrainArguments& arguments) {
 // ---- eval-protrusions ----------------------------------------------------------------------------------
 
 struct EvalArguments {
-  std::string data, model, homes, classifier = "random_forest";
+  std::vector<std::string> data, test_data;
+  std::string model, homes, classifier = "random_forest";
+  int trees = 100, max_depth = 10;
+  double threshold = 0.5;
   bool leave_one_home_out = false;
   bool list_errors = false;
   bool json = false;
@@ -350,9 +394,12 @@ void RunEval(const EvalArguments& arguments) {
     Fail(slamcore::InvalidArgument("give either --model MODEL or --leave-one-home-out"));
   }
   const std::set<std::string> only = SplitList(arguments.homes);
+  // Training regions (leave one home out) come from DATA; test pairs from --test-data when given (another
+  // generator family: nothing of it is ever trained on), else from DATA too.
+  std::vector<LoadedPair> training = LoadData(arguments.data);
   std::vector<LoadedPair> pairs;
-  for (auto& pair : LoadData(arguments.data)) {
-    if (only.empty() || only.contains(pair.entry.home_id)) pairs.push_back(std::move(pair));
+  for (auto& pair : arguments.test_data.empty() ? training : LoadData(arguments.test_data)) {
+    if (only.empty() || only.contains(pair.entry.home_id)) pairs.push_back(pair);
   }
   if (pairs.empty()) Fail(slamcore::InvalidArgument("no pairs to evaluate (check --homes)"));
   slamcore::ConfusionMatrix confusion;
@@ -366,7 +413,10 @@ void RunEval(const EvalArguments& arguments) {
   std::vector<int> selected;
   std::string classifier_name;
   if (!arguments.model.empty()) {
-    const auto classifier = Check(slamcore::ProtrusionClassifier::Load(arguments.model));
+    const auto classifier = arguments.model == "default"
+                                ? Check(slamcore::DefaultProtrusionClassifier())
+                                : std::shared_ptr<const slamcore::ProtrusionClassifier>(
+                                      Check(slamcore::ProtrusionClassifier::Load(arguments.model)));
     selected = classifier->selected_features();
     classifier_name = slamcore::ClassifierKindName(classifier->kind());
     for (const auto& pair : pairs) Accumulate(*classifier, pair, arguments.list_errors, &confusion);
@@ -374,12 +424,16 @@ void RunEval(const EvalArguments& arguments) {
     // Leave one home out: per home, ANOVA selection and training on every other home, test on it.
     slamcore::ClassifierOptions options;
     options.kind = Check(slamcore::ParseClassifierKind(arguments.classifier));
+    options.trees = arguments.trees;
+    options.max_depth = arguments.max_depth;
+    options.threshold = arguments.threshold;
     classifier_name = arguments.classifier;
     std::set<std::string> homes;
     for (const auto& pair : pairs) homes.insert(pair.entry.home_id);
+    const auto training_regions = Regions(training);
     for (const std::string& home : homes) {
       std::vector<slamcore::LabelledRegion> train;
-      for (const auto& region : all_regions) {
+      for (const auto& region : training_regions) {
         if (region.group != home) train.push_back(region);
       }
       options.selected_features = SelectFeatures(Anova(train));
@@ -419,8 +473,9 @@ void AddProtrusionCommands(CLI::App& app) {
   CLI::App* detect_command = app.add_subcommand("protrusions", "detect erroneous protrusions between two maps (IV-C)");
   detect_command->add_option("--parent", detect->parent, "parent map (map_server YAML)")->required()->check(CLI::ExistingFile);
   detect_command->add_option("--child", detect->child, "child map (map_server YAML)")->required()->check(CLI::ExistingFile);
-  detect_command->add_option("--model", detect->model, "classifier model (train-protrusions); default: a geometric rule")
-      ->check(CLI::ExistingFile);
+  detect_command->add_option("--model", detect->model,
+                             "classifier model file (train-protrusions), or 'rule'; default: the built-in model")
+      ->check(CLI::ExistingFile | CLI::IsMember({"rule"}));
   detect_command->add_flag("--json", detect->json, "print one JSON object on stdout");
   detect_command->add_option("--png", detect->png, "write the Fig. 5 picture (parent, child, difference, classes)");
   detect_command->add_option("--repair", detect->repair, "none, cut (cut protrusions out) or parent (fall back)")
@@ -431,7 +486,11 @@ void AddProtrusionCommands(CLI::App& app) {
   auto make = std::make_shared<MakeDataArguments>();
   CLI::App* make_command =
       app.add_subcommand("make-protrusion-data", "generate labelled parent/child pairs from real maps (seeded)");
-  make_command->add_option("MAPS", make->maps, "directory of map_server YAML maps")->required()->check(CLI::ExistingDirectory);
+  make_command->add_option("HOMES", make->homes, "directories of map_server YAML maps and/or floor plans (.txt)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  make_command->add_option("--family", make->family, "generator family: physical (default), heldout, corridor")
+      ->check(CLI::IsMember({"physical", "heldout", "corridor"}));
   make_command->add_option("--out", make->out, "output data set directory")->required();
   make_command->add_option("--variants", make->variants, "pairs per map")->check(CLI::Range(1, 100000));
   make_command->add_option("--seed", make->seed, "data set seed");
@@ -439,23 +498,35 @@ void AddProtrusionCommands(CLI::App& app) {
 
   auto train = std::make_shared<TrainArguments>();
   CLI::App* train_command = app.add_subcommand("train-protrusions", "train the protrusion classifier on a data set");
-  train_command->add_option("DATA", train->data, "data set directory")->required()->check(CLI::ExistingDirectory);
+  train_command->add_option("DATA", train->data, "data set directories")->required()->check(CLI::ExistingDirectory);
   train_command->add_option("--out", train->out, "model file to write")->required();
   train_command->add_option("--classifier", train->classifier, "auto (compare by cross-validation) or one kind")
       ->check(CLI::IsMember({"auto", "decision_tree", "random_forest", "svm"}));
   train_command->add_option("--holdout-homes", train->holdout_homes, "comma-separated homes kept out of training");
   train_command->add_option("--folds", train->folds, "cross-validation folds (by home)")->check(CLI::Range(2, 100));
+  train_command->add_option("--trees", train->trees, "random forest: trees")->check(CLI::Range(1, 1000));
+  train_command->add_option("--max-depth", train->max_depth, "tree depth")->check(CLI::Range(1, 30));
+  train_command->add_option("--threshold", train->threshold, "P(protrusion) above which a region is one")
+      ->check(CLI::Range(0.01, 0.99));
   train_command->add_flag("--json", train->json, "print one JSON object on stdout");
   train_command->callback([train] { RunTrain(*train); });
 
   auto eval = std::make_shared<EvalArguments>();
   CLI::App* eval_command = app.add_subcommand("eval-protrusions", "evaluate a protrusion classifier on a data set");
-  eval_command->add_option("DATA", eval->data, "data set directory")->required()->check(CLI::ExistingDirectory);
-  eval_command->add_option("--model", eval->model, "model file")->check(CLI::ExistingFile);
+  eval_command->add_option("DATA", eval->data, "data set directories")->required()->check(CLI::ExistingDirectory);
+  eval_command->add_option("--model", eval->model, "model file, or 'default' (the built-in model)")
+      ->check(CLI::ExistingFile | CLI::IsMember({"default"}));
+  eval_command->add_option("--test-data", eval->test_data,
+                           "with --leave-one-home-out: test on this data set's pairs of the left-out home")
+      ->check(CLI::ExistingDirectory);
   eval_command->add_option("--homes", eval->homes, "comma-separated homes to evaluate on (default: all)");
   eval_command->add_flag("--leave-one-home-out", eval->leave_one_home_out, "train on all other homes, per home");
   eval_command->add_option("--classifier", eval->classifier, "kind for --leave-one-home-out")
       ->check(CLI::IsMember({"decision_tree", "random_forest", "svm"}));
+  eval_command->add_option("--trees", eval->trees, "with --leave-one-home-out: random forest trees")->check(CLI::Range(1, 1000));
+  eval_command->add_option("--max-depth", eval->max_depth, "with --leave-one-home-out: tree depth")->check(CLI::Range(1, 30));
+  eval_command->add_option("--threshold", eval->threshold, "with --leave-one-home-out: decision threshold")
+      ->check(CLI::Range(0.01, 0.99));
   eval_command->add_flag("--json", eval->json, "print one JSON object on stdout");
   eval_command->add_flag("--list-errors", eval->list_errors, "print every misclassified region to stderr");
   eval_command->callback([eval] { RunEval(*eval); });

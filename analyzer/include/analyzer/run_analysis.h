@@ -30,8 +30,8 @@ inline constexpr double kStartedLocalizedSeconds = 15.0;
 struct AnalysisOptions {
   std::string parameter_set_name = "default";
   slamcore::MapperParams mapper;
-  /// Classifies protrusion regions when set; without a model regions are reported unclassified
-  /// (predicted_class "unclassified", probability −1).
+  /// Classifies protrusion regions; unset: slamcore's built-in default model (and "unclassified",
+  /// probability −1, only if that cannot load).
   const slamcore::ProtrusionClassifier* classifier = nullptr;
   /// Keep the rerun's child map in the report (for map pages and reprocessing comparisons).
   bool keep_rerun_child = true;

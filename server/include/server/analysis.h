@@ -24,14 +24,18 @@ storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report);
 /// slamcore's Status as storage's (same code names; slamcore has no ALREADY_EXISTS, UNAVAILABLE or ABORTED).
 storage::Status FromSlamcore(const slamcore::Status& status);
 
-/// A classifier model from storage (bytes = the model file) loaded through a temporary file.
+/// A classifier model from storage (bytes = the model file).
 storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes);
+
+/// slamcore's built-in default model (docs/protrusion-data.md), which classes regions whenever no model
+/// is active; null only if the build's model is corrupt (logged).
+std::shared_ptr<const slamcore::ProtrusionClassifier> DefaultClassifier();
 
 /// The active version of one model, reloaded when the active version changes (checked every few seconds).
 class ClassifierCache {
  public:
   ClassifierCache(storage::Repository& repository, std::string model_name);
-  /// The active classifier, or null when none is active (regions stay unclassified).
+  /// The active classifier; the built-in default when none is active or the active one does not load.
   std::shared_ptr<const slamcore::ProtrusionClassifier> Get();
 
  private:

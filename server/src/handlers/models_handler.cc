@@ -1,11 +1,7 @@
 #include "models_handler.h"
 
-#include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
-#include <sstream>
-#include <unistd.h>
 
 #include "server/analysis.h"
 #include "server/log.h"
@@ -151,18 +147,13 @@ grpc::Status ModelsHandler::DoTrain(const fleet::v1::TrainModelRequest* request,
   auto trained = slamcore::ProtrusionClassifier::Train(*data, options);
   if (!trained.ok()) return ToGrpc(trained.status());
 
-  const std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                     ("fleetd-train-" + std::to_string(::getpid()) + "-" + request->name() + ".yaml");
-  if (slamcore::Status saved = (*trained)->Save(path.string()); !saved.ok()) return ToGrpc(saved);
-  std::ostringstream bytes;
-  bytes << std::ifstream(path, std::ios::binary).rdbuf();
-  std::error_code ignored;
-  std::filesystem::remove(path, ignored);
+  auto bytes = (*trained)->ToBytes();
+  if (!bytes.ok()) return ToGrpc(bytes.status());
 
   std::lock_guard lock(train_mutex_);
   storage::ModelRecord record;
   record.name = request->name();
-  record.bytes = bytes.str();
+  record.bytes = std::move(bytes).value();
   for (record.version = 1; record.version < 100000; ++record.version) {
     auto existing = context_.repository->GetModel(record.name, record.version);
     if (!existing.ok() && existing.status().code() == storage::StatusCode::kNotFound) break;

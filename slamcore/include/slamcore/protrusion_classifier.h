@@ -57,9 +57,13 @@ class ProtrusionClassifier {
   static Result<std::unique_ptr<ProtrusionClassifier>> Train(const std::vector<LabelledRegion>& data,
                                                              const ClassifierOptions& options);
   static Result<std::unique_ptr<ProtrusionClassifier>> Load(const std::string& path);
+  /// The same from a model file's bytes (a model stored in a database, or the built-in default).
+  static Result<std::unique_ptr<ProtrusionClassifier>> LoadFromBytes(const std::string& bytes);
   ~ProtrusionClassifier();
 
   Status Save(const std::string& path) const;
+  /// The model file's bytes, as Save writes them.
+  Result<std::string> ToBytes() const;
   /// P(protrusion) for a full feature vector (ProtrusionFeatureNames() order): random forest = the
   /// fraction of trees voting protrusion, SVM = a logistic of the margin, decision tree = 0 or 1.
   Result<double> Probability(const std::vector<double>& features) const;
@@ -72,12 +76,20 @@ class ProtrusionClassifier {
  private:
   class Model;
   ProtrusionClassifier();
+  static Result<std::unique_ptr<ProtrusionClassifier>> Read(const std::string& source, bool in_memory);
   ClassifierKind kind_ = ClassifierKind::kRandomForest;
   double threshold_ = 0.5;
   std::vector<int> selected_;
   std::vector<double> mean_, scale_;  // standardisation of the selected features
   std::unique_ptr<Model> model_;
 };
+
+/// The model shipped with slamcore (slamcore/models/, built into the library; how it was trained and how
+/// it scores: docs/protrusion-data.md "Default model"), loaded once. Used whenever no other model is
+/// chosen: by `slamtool protrusions`, the analysis and fleetd. Fails only if the built-in bytes are corrupt.
+Result<std::shared_ptr<const ProtrusionClassifier>> DefaultProtrusionClassifier();
+/// The built-in model file's bytes (for tools that export or compare it).
+std::string DefaultProtrusionModelBytes();
 
 /// k-fold cross-validation with whole groups per fold (no group in both training and test of a fold).
 struct CrossValidationResult {

@@ -14,6 +14,11 @@
 //    the rest) as a wall; (c) moved furniture: a rectangle in open floor, half small (0.3–0.6 × 0.3–0.8 m, a chair or box),
 //    half large (0.6–1.6 × 1.2–2.4 m, a sofa or bed), that the
 //    parent shows as an outlined obstacle with unknown inside and the child as free floor.
+//  * Stuck robot (the physical model, paper I and IV-C). The robot pushes an obstacle (or is lifted on a
+//    rug) and its wheels keep turning: odometry advances along the push, bent by unequal slip, while the
+//    robot stays where it is. Each node's scan is what the sensor sees at the TRUE place, drawn at the
+//    BELIEVED pose (range_scan.h), so the child gains a band repeating the real surroundings along the
+//    push, as wide as the sensor's view, usually through the obstacle into space beyond it.
 //  * Realism. Edge cells of every change drop out at random (the sensor misses some), the child gains
 //    speckle (1–4-cell blobs) and 1-cell fringes along known edges that the detector's clean-up must remove,
 //    and the parent is cropped to its known area, so parent and child differ in size and origin.
@@ -38,13 +43,46 @@ namespace slamcore {
 
 enum class TruthLabel : std::uint8_t { kUnchanged = 0, kProtrusion = 1, kNewSpace = 2 };
 
+/// A closed interval to draw from uniformly.
+struct Interval {
+  double low = 0.0, high = 0.0;
+};
+
+/// The physics of a robot stuck with its wheels turning (see "Stuck robot" above). Each pair draws one
+/// robot model (a sensor band, then a range and field of view within it) for all its changes.
+struct StuckRobotPhysics {
+  struct SensorBand {
+    Interval range_m;        // sensor range
+    Interval field_of_view;  // radians centred ahead; ≥ 2π: a rotating lidar
+  };
+  std::vector<SensorBand> sensors = {{{0.8, 1.6}, {1.2, 2.2}}, {{4.0, 6.0}, {6.3, 6.3}}};
+  Interval push_deviation = {0.0, 0.52};  // |angle| between the push and the obstacle's normal, radians
+  Interval stuck_travel_m = {0.5, 4.0};   // what odometry integrates while the robot does not move
+  double max_heading_drift_per_m = 0.10;  // unequal wheel slip bends the believed path (rad per metre)
+  double contact_share = 0.8;             // pushing an obstacle; the rest lifted on a rug in open floor
+  double robot_radius_m = 0.17;
+  double keyframe_m = 0.3;                // a node (and a scan) every 0.3 m of odometry
+};
+
 struct GeneratorOptions {
   int min_protrusions = 0, max_protrusions = 2;
   int min_new_spaces = 1, max_new_spaces = 3;
   double min_robot_width_m = 0.28, max_robot_width_m = 0.36;
   double min_protrusion_length_m = 0.5, max_protrusion_length_m = 5.0;
   int max_speckles = 30;
+  /// Share of protrusions made by the stuck robot (the rest are corridors); 0 = the corridor model only.
+  double stuck_robot_share = 0.0;
+  /// New rooms and opened doors revealed by scans of the pair's sensor from where the robot was (some
+  /// seen through a doorway from outside: a lidar's fan), instead of copied from the real map.
+  bool scan_rendering = false;
+  StuckRobotPhysics stuck;
 };
+
+/// The named generator families (docs/protrusion-data.md): "corridor" (version 1: corridors, copied new
+/// space), "physical" (what the default model trains on: stuck robots and scanned new space), and
+/// "heldout" (stuck robots only, with sensor ranges, fields of view, push angles, travel and drift that
+/// "physical" never uses: kept out of all training and tuning).
+Result<GeneratorOptions> GeneratorFamily(const std::string& name);
 
 struct GeneratedPair {
   OccupancyGrid parent;
@@ -70,8 +108,10 @@ Result<GeneratedPair> ReadDatasetPair(const std::string& root, const DatasetEntr
 
 /// Regions of one pair with their true class. A region counts as a protrusion when most of its changed
 /// cells are protrusion truth; regions that are mostly unchanged-truth (noise that survived clean-up) are
-/// negatives. `missed_protrusions` counts protrusions (≥ min area) that no extracted region covers: they
+/// negatives. `missed_protrusions` counts protrusion pieces of at least kMinMissedProtrusionAreaM2 (a
+/// robot's footprint; smaller slivers are noise-sized) that no protrusion region covers: they
 /// are false negatives of the segmentation, before any classifier.
+inline constexpr double kMinMissedProtrusionAreaM2 = 0.2;
 struct LabelledPair {
   std::vector<ProtrusionRegion> regions;
   std::vector<int> labels;  // 1 protrusion, 0 not
