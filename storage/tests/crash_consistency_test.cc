@@ -60,10 +60,10 @@ TEST_P(CrashConsistencyTest, WriterKilledInsideTheTransactionLeavesNoTrace) {
 
   Reopen();
   ExpectDatabaseValid();
-  EXPECT_EQ(repo().GetRun("big-run").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "big-run"}).status().code(), StatusCode::kNotFound);
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 0);
   EXPECT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted) << "the database stays writable";
-  EXPECT_EQ(repo().GetRun("big-run")->telemetry, run.telemetry);
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "big-run"})->telemetry, run.telemetry);
 }
 
 TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
@@ -96,7 +96,7 @@ TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
   const std::int64_t stored = RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0);
   EXPECT_GT(stored, 0) << "the child should have committed some runs in 700 ms";
   for (std::int64_t i = 0; i <= stored; ++i) {
-    auto run = repo().GetRun("run-" + std::to_string(i));
+    auto run = repo().GetRun(RunKey{"robot-1", "run-" + std::to_string(i)});
     if (i < stored) {
       ASSERT_TRUE(run.ok()) << "run-" << i << ": " << run.status().ToString();
       EXPECT_EQ(run->telemetry, MakeRun("run-" + std::to_string(i), i, kTelemetryBytes).telemetry);
