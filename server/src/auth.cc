@@ -218,16 +218,20 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
 storage::Result<std::string> Authenticator::IssueToken(const Principal& principal) {
   const std::string secret = GenerateSecret();
   STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal.name, secret));
+  ForgetPrincipal(principal.name);
+  return MakeToken(principal.name, secret);
+}
+
+void Authenticator::ForgetPrincipal(const std::string& name) {
   std::lock_guard lock(mutex_);
   for (auto it = cache_.begin(); it != cache_.end();) {
-    if (it->second.principal.name == principal.name) {
+    if (it->second.principal.name == name) {
       recency_.erase(it->second.recency);
       it = cache_.erase(it);
     } else {
       ++it;
     }
   }
-  return MakeToken(principal.name, secret);
 }
 
 storage::Status Authenticator::InstallToken(const std::string& token) {

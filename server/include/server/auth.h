@@ -84,6 +84,8 @@ class Authenticator {
   /// Stores a caller-chosen token (bootstrap admin from config); the token must be "<principal>.<secret>"
   /// with a secret of at least 32 characters.
   storage::Status InstallToken(const std::string& token);
+  /// Drops the principal's verified tokens from the cache (its credential was replaced or erased).
+  void ForgetPrincipal(const std::string& name);
 
  private:
   struct CacheEntry {
