@@ -108,6 +108,8 @@ class SqlRepository final : public Repository {
                                         const std::vector<SqlValue>& key, const std::string& sha256,
                                         const std::string& what);
 
+  /// Runs one write statement with RETURNING in its own transaction; how many rows it returned.
+  Result<std::int64_t> CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params);
   /// Appends `entry` inside `transaction` (DeleteRobot's audit entry commits with the deletion).
   Result<AuditEntry> AppendAuditIn(SqlTransaction& transaction, const AuditEntry& entry);
 

@@ -161,35 +161,32 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
 Result<std::int64_t> SqlRepository::PruneRunTelemetry(std::int64_t uploaded_before_ms, int limit) {
   if (limit < 1 || limit > kMaxBatch) return InvalidArgument("limit must be in 1..10000");
   static const EncodedBlob kEmpty = EncodeBlob("");
-  std::int64_t pruned = 0;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
-        "UPDATE runs SET telemetry = $1, telemetry_crc32 = $2, telemetry_size = 0, telemetry_pruned_at_ms = $3 "
-        "WHERE (robot_id, run_id) IN (SELECT robot_id, run_id FROM runs WHERE telemetry_pruned_at_ms IS NULL "
-        "AND uploaded_at_ms < $4 ORDER BY uploaded_at_ms LIMIT $5) RETURNING run_id",
-        {SqlBlob{kEmpty.compressed}, kEmpty.crc32, NowMs(), uploaded_before_ms, std::int64_t{limit}});
-    if (!rows.ok()) return rows.status();
-    pruned = static_cast<std::int64_t>(rows->size());
-    return Status::Ok();
-  }));
-  return pruned;
+  return CountReturnedRows(
+      "UPDATE runs SET telemetry = $1, telemetry_crc32 = $2, telemetry_size = 0, telemetry_pruned_at_ms = $3 "
+      "WHERE (robot_id, run_id) IN (SELECT robot_id, run_id FROM runs WHERE telemetry_pruned_at_ms IS NULL "
+      "AND uploaded_at_ms < $4 ORDER BY uploaded_at_ms LIMIT $5) RETURNING run_id",
+      {SqlBlob{kEmpty.compressed}, kEmpty.crc32, NowMs(), uploaded_before_ms, std::int64_t{limit}});
 }
 
 Result<std::int64_t> SqlRepository::PruneFinishedJobs(std::int64_t finished_before_ms, int limit) {
   if (limit < 1 || limit > kMaxBatch) return InvalidArgument("limit must be in 1..10000");
-  std::int64_t pruned = 0;
+  // A parent goes in a later batch than its last child (the foreign key), never before.
+  return CountReturnedRows(
+      "DELETE FROM jobs WHERE job_id IN (SELECT j.job_id FROM jobs j WHERE j.state IN ('done', 'failed', "
+      "'cancelled') AND j.updated_at_ms < $1 AND NOT EXISTS (SELECT 1 FROM jobs c WHERE c.parent_job_id = j.job_id) "
+      "ORDER BY j.job_id LIMIT $2) RETURNING job_id",
+      {finished_before_ms, std::int64_t{limit}});
+}
+
+Result<std::int64_t> SqlRepository::CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params) {
+  std::int64_t count = 0;
   STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    // A parent goes in a later batch than its last child (the foreign key), never before.
-    auto rows = transaction.Query(
-        "DELETE FROM jobs WHERE job_id IN (SELECT j.job_id FROM jobs j WHERE j.state IN ('done', 'failed', "
-        "'cancelled') AND j.updated_at_ms < $1 AND NOT EXISTS (SELECT 1 FROM jobs c WHERE c.parent_job_id = j.job_id) "
-        "ORDER BY j.job_id LIMIT $2) RETURNING job_id",
-        {finished_before_ms, std::int64_t{limit}});
+    auto rows = transaction.Query(sql, params);
     if (!rows.ok()) return rows.status();
-    pruned = static_cast<std::int64_t>(rows->size());
+    count = static_cast<std::int64_t>(rows->size());
     return Status::Ok();
   }));
-  return pruned;
+  return count;
 }
 
 }  // namespace storage::internal

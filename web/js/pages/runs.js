@@ -16,8 +16,8 @@ export async function render(main, { query, isCurrent }) {
   }
   const rows = page.runs.map((run) => {
     const r = run.report;
-    return h('tr', { class: 'clickable', 'data-testid': 'run-row', onclick: () => { location.hash = `#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}`; } },
-      h('td', {}, h('a', { href: `#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}` }, run.run_id)),
+    return h('tr', { class: 'clickable', 'data-testid': 'run-row', onclick: () => { location.hash = `#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}&robot=${encodeURIComponent(run.robot_id)}`; } },
+      h('td', {}, h('a', { href: `#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}&robot=${encodeURIComponent(run.robot_id)}` }, run.run_id)),
       h('td', {}, run.robot_id), h('td', {}, run.firmware), h('td', {}, time(run.started_at_ms)),
       h('td', {}, run.parent_snapshot_id ? 'yes' : 'first run'),
       r ? [h('td', { class: 'num' }, num(r.recovery_created)), h('td', { class: 'num' }, num(r.recovery_accepted)),
