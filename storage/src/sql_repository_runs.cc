@@ -205,7 +205,7 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
                           " AND p.run_id = r.run_id"
                           " AND p.parameter_set = $4))"
                           " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
-                          " (r.run_id = $8 AND r.robot_id > $10))))"
+                          " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
                           " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
   RunPage page;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {

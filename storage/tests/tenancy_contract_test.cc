@@ -160,6 +160,8 @@ TEST_P(TenancyContractTest, RunIdsArePerRobot) {
   ASSERT_EQ(second->runs.size(), 1u);
   EXPECT_NE(first->runs[0].robot_id, second->runs[0].robot_id);
   EXPECT_FALSE(second->next);
+  // A cursor without a robot (from before run ids were per robot) continues after the whole group.
+  EXPECT_TRUE(repo().ListRuns(RunFilter{}, 10, RunCursor{1000, "run-7", ""})->runs.empty());
   EXPECT_EQ(repo().Aggregate(RunFilter{})->reports, 2);
 }
 

@@ -182,7 +182,9 @@ struct RunFilter {
 struct RunCursor {
   std::int64_t started_at_ms = 0;
   std::string run_id;
-  std::string robot_id;  // the tie-breaker between two robots' runs of one id and start
+  // The tie-breaker between two robots' runs of one id and start; empty (a cursor from before run ids were
+  // per robot): the page continues after every run of that start and id.
+  std::string robot_id;
 };
 
 struct RunPage {

@@ -7,7 +7,7 @@ import { mapView, regionClass } from '../mapview.js';
 export async function render(main, { query, isCurrent }) {
   const meta = await getJson('/api/meta');
   const set = query.get('parameter_set') || meta.default_parameter_set;
-  const queue = await getJson('/api/runs', { parameter_set: set, with_regions: 1, limit: 20, after_ms: query.get('after_ms'), after_id: query.get('after_id') });
+  const queue = await getJson('/api/runs', { parameter_set: set, with_regions: 1, limit: 20, after_ms: query.get('after_ms'), after_id: query.get('after_id'), after_robot: query.get('after_robot') });
   const labelled = await getJson('/api/labels', { parameter_set: set, limit: 100 });
   if (!isCurrent()) return;
   main.append(h('h1', {}, 'Labelling'),

@@ -6,7 +6,7 @@ import { apiFilter, filterBar } from './filters.js';
 export async function render(main, { query, isCurrent }) {
   const { form, meta } = await filterBar(query, (values) => { location.hash = `#/runs?${values}`; });
   const filter = apiFilter(query, meta);
-  const page = await getJson('/api/runs', { ...filter, limit: 25, after_ms: query.get('after_ms'), after_id: query.get('after_id') });
+  const page = await getJson('/api/runs', { ...filter, limit: 25, after_ms: query.get('after_ms'), after_id: query.get('after_id'), after_robot: query.get('after_robot') });
   if (!isCurrent()) return;
   main.append(h('h1', {}, 'Runs'), form);
   if (page.runs.length === 0) {
@@ -34,11 +34,11 @@ export async function render(main, { query, isCurrent }) {
   const next = new URLSearchParams(query);
   const pager = h('div', { class: 'pager' });
   if (query.get('after_ms')) {
-    const first = new URLSearchParams(query); first.delete('after_ms'); first.delete('after_id');
+    const first = new URLSearchParams(query); first.delete('after_ms'); first.delete('after_id'); first.delete('after_robot');
     pager.append(h('button', { class: 'secondary', onclick: () => { location.hash = `#/runs?${first}`; } }, '⟨ First page'));
   }
   if (page.next) {
-    next.set('after_ms', page.next.after_ms); next.set('after_id', page.next.after_id);
+    next.set('after_ms', page.next.after_ms); next.set('after_id', page.next.after_id); next.set('after_robot', page.next.after_robot);
     pager.append(h('button', { 'data-testid': 'next-page', onclick: () => { location.hash = `#/runs?${next}`; } }, 'Next page ⟩'));
   }
   pager.append(h('span', { class: 'muted' }, `${page.runs.length} runs on this page, ordered by start time (keyset pagination)`));
