@@ -66,6 +66,58 @@ TEST_P(CrashConsistencyTest, WriterKilledInsideTheTransactionLeavesNoTrace) {
   EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "big-run"})->telemetry, run.telemetry);
 }
 
+TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
+  Reopen();
+  const std::string snapshot = *repo().PutSnapshot("map of robot-1");
+  RunRecord run = MakeRun("run-1", 1000, 1000);
+  run.child_snapshot_id = snapshot;
+  ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
+  MapVersionRecord version;
+  version.robot_id = "robot-1";
+  version.snapshot_id = snapshot;
+  version.origin = "upload";
+  version.run_id = "run-1";
+  version.approval = "approved";
+  ASSERT_TRUE(repo().AppendMapVersion(version, std::nullopt, {}).ok());
+  ASSERT_TRUE(repo().SetCredential("robot:robot-1", "secret").ok());
+  repo_.reset();
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    auto repository = internal::OpenSqlRepository(url_, OpenOptions{});
+    if (!repository.ok()) _exit(2);
+    // Called once every row of the robot is deleted, before the audit entry and COMMIT.
+    (*repository)->SetFaultHookForTesting([&](const std::string& point) {
+      if (point != "delete_robot:before_audit") return;
+      (void)!write(ready[1], "x", 1);
+      pause();
+    });
+    (void)(*repository)->DeleteRobot("robot-1", "admin:root");
+    _exit(3);
+  }
+  char byte = 0;
+  ASSERT_EQ(read(ready[0], &byte, 1), 1) << "the child never reached the middle of its erasure";
+  ASSERT_EQ(kill(child, SIGKILL), 0);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+
+  Reopen();
+  ExpectDatabaseValid();
+  EXPECT_TRUE(repo().GetRobot("robot-1").ok()) << "nothing half-deleted";
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-1"})->telemetry, run.telemetry);
+  EXPECT_TRUE(repo().GetSnapshot(snapshot).ok());
+  EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 1u);
+  EXPECT_TRUE(*repo().VerifyCredential("robot:robot-1", "secret"));
+  EXPECT_TRUE(repo().ListAudit(10, std::nullopt)->empty());
+  auto erased = repo().DeleteRobot("robot-1", "admin:root");
+  ASSERT_TRUE(erased.ok()) << erased.status().ToString();
+  EXPECT_EQ(erased->runs, 1);
+  EXPECT_EQ(erased->snapshots, 1);
+}
+
 TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
   // The child stores runs 0, 1, 2, ... one per transaction; the parent kills it while it writes. Afterwards
   // the stored runs are exactly a prefix 0..k-1, each intact.
