@@ -3,6 +3,8 @@
 // other robots whole; retention prunes run events and finished jobs in bounded batches.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdio>
 #include <map>
 #include <set>
 
@@ -20,6 +22,11 @@ using internal::SqlValue;
 
 constexpr const char* kErased = "erased-robot";
 constexpr const char* kKept = "kept-robot";
+
+std::int64_t NowMsForTest() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
 
 class TenancyContractTest : public BackendTest {
  protected:
@@ -325,6 +332,32 @@ TEST_P(TenancyContractTest, RetentionDeletesFinishedJobsChildrenBeforeParents) {
   EXPECT_EQ(repo().GetJob(queued)->state, JobState::kQueued) << "unfinished jobs stay, however old";
   EXPECT_EQ(repo().GetJob(recent)->state, JobState::kDone) << "finished within the retention period";
   EXPECT_EQ(repo().PruneFinishedJobs(200, 10001).status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST_P(TenancyContractTest, ErasureAndRetentionOfFiveHundredRunsAreMeasured) {
+  constexpr int kRuns = 500;
+  for (int i = 0; i < kRuns; ++i) {
+    const std::string run_id = "run-" + std::to_string(i);
+    ASSERT_EQ(*repo().InsertRun(MakeRun(run_id, 1000 + i, 4096, kKept)), InsertOutcome::kInserted);
+    ASSERT_TRUE(repo().PutReport(Report(kKept, run_id, "default")).ok());
+    ASSERT_EQ(*repo().InsertRun(MakeRun(run_id, 1000 + i, 4096, kErased)), InsertOutcome::kInserted);
+    ASSERT_TRUE(repo().PutReport(Report(kErased, run_id, "default")).ok());
+  }
+  auto started = std::chrono::steady_clock::now();
+  std::int64_t pruned = 0;
+  for (std::int64_t batch; (batch = *repo().PruneRunTelemetry(NowMsForTest() + 1000, 500)) > 0;) pruned += batch;
+  const double prune_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  EXPECT_EQ(pruned, 2 * kRuns);
+  started = std::chrono::steady_clock::now();
+  auto erased = repo().DeleteRobot(kErased, "admin:root");
+  const double delete_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  ASSERT_TRUE(erased.ok()) << erased.status().ToString();
+  EXPECT_EQ(erased->runs, kRuns);
+  EXPECT_EQ(erased->reports, kRuns);
+  std::printf("[ measured ] %s: retention of %d runs' events %.3f s (batches of 500); erasure of a robot with %d runs "
+              "and reports %.3f s\n",
+              GetParam() == Backend::kSqlite ? "SQLite" : "PostgreSQL", 2 * kRuns, prune_seconds, kRuns, delete_seconds);
+  EXPECT_EQ(repo().ListRuns(RunFilter{}, 1000, std::nullopt)->runs.size(), static_cast<std::size_t>(kRuns));
 }
 
 TEST_P(TenancyContractTest, AuditLogListsNewestFirstAndPages) {
