@@ -30,7 +30,8 @@ storage::Status FleetdConfig::Validate() const {
   if (lease_seconds < 4) return storage::InvalidArgument("lease_seconds: at least 4");
   if (!std::isfinite(analysis_budget_seconds)) return storage::InvalidArgument("analysis_budget_seconds: must be finite");
   if (auth_cache_seconds < 0) return storage::InvalidArgument("auth_cache_seconds: must be >= 0");
-  for (const auto& [name, days] : {std::pair{"retain_runs_days", retain_runs_days}, {"retain_jobs_days", retain_jobs_days}}) {
+  for (const auto& [name, days] :
+       {std::pair{"retain_runs_days", retain_runs_days}, {"retain_jobs_days", retain_jobs_days}}) {
     if (!std::isfinite(days) || days < 0 || days > 36500) {
       return storage::InvalidArgument(std::string(name) + ": expected 0 (keep for ever) .. 36500 days");
     }

@@ -123,7 +123,8 @@ json RunJson(const storage::RunRecord& run) {
               {"parent_snapshot_id", run.parent_snapshot_id ? json(*run.parent_snapshot_id) : json(nullptr)},
               {"child_snapshot_id", run.child_snapshot_id ? json(*run.child_snapshot_id) : json(nullptr)},
               {"telemetry_size", run.telemetry_size},
-              {"telemetry_pruned_at_ms", run.telemetry_pruned_at_ms ? json(*run.telemetry_pruned_at_ms) : json(nullptr)}};
+              {"telemetry_pruned_at_ms",
+               run.telemetry_pruned_at_ms ? json(*run.telemetry_pruned_at_ms) : json(nullptr)}};
 }
 
 json ReportCountersJson(const storage::ReportRecord& report) {
@@ -470,7 +471,8 @@ class Dashboard {
     }
     json out{{"parameter_set", set}, {"runs", runs}, {"next", nullptr}};
     if (next) {
-      out["next"] = json{{"after_ms", next->started_at_ms}, {"after_id", next->run_id}, {"after_robot", next->robot_id}};
+      out["next"] =
+          json{{"after_ms", next->started_at_ms}, {"after_id", next->run_id}, {"after_robot", next->robot_id}};
     }
     return Json(out);
   }
@@ -628,7 +630,8 @@ class Dashboard {
     }
     json components = json::array();
     for (const auto& [id, size] : component_sizes) components.push_back({{"id", id}, {"nodes", size}});
-    return Json(json{{"run_id", run_id}, {"robot_id", run.robot_id}, {"parameter_set", SetOf(params)}, {"nodes", nodes}, {"edges", edges},
+    return Json(json{{"run_id", run_id}, {"robot_id", run.robot_id}, {"parameter_set", SetOf(params)},
+                     {"nodes", nodes}, {"edges", edges},
                      {"views", views}, {"components", components}, {"hypothesis_edges", hypothesis_edges}});
   }
 

@@ -51,7 +51,9 @@ Result<AuditEntry> SqlRepository::AppendAuditIn(SqlTransaction& transaction, con
   STORAGE_RETURN_IF_ERROR(CheckText(entry.action, "audit action", 128));
   STORAGE_RETURN_IF_ERROR(CheckText(entry.subject, "audit subject", 256));
   STORAGE_RETURN_IF_ERROR(CheckText(entry.detail_json, "audit detail_json", 64 * 1024));
-  if (entry.actor.empty() || entry.action.empty()) return InvalidArgument("an audit entry needs an actor and an action");
+  if (entry.actor.empty() || entry.action.empty()) {
+    return InvalidArgument("an audit entry needs an actor and an action");
+  }
   AuditEntry stored = entry;
   if (stored.at_ms == 0) stored.at_ms = NowMs();
   auto rows = transaction.Query(

@@ -150,7 +150,8 @@ Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
          telemetry.crc32, telemetry.raw_size, digest, NowMs()});
     if (!inserted.ok()) return inserted.status();
     if (inserted->empty()) {
-      auto existing = CompareExisting(transaction, "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
+      auto existing = CompareExisting(transaction,
+                                      "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
                                       {run.robot_id, run.run_id}, digest,
                                       "run " + run.run_id + " of robot " + run.robot_id);
       if (!existing.ok()) return existing.status();
@@ -166,7 +167,8 @@ Result<RunRecord> SqlRepository::GetRun(const RunKey& key) {
   std::optional<SqlRow> row;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(std::string("SELECT ") + kRunColumns +
-                                      ", r.telemetry, r.telemetry_crc32 FROM runs r WHERE r.robot_id = $1 AND r.run_id = $2",
+                                      ", r.telemetry, r.telemetry_crc32 FROM runs r "
+                                      "WHERE r.robot_id = $1 AND r.run_id = $2",
                                   {key.robot_id, key.run_id});
     if (!rows.ok()) return rows.status();
     if (!rows->empty()) row = rows->front();

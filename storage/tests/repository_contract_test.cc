@@ -178,7 +178,8 @@ TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
   ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "tuned", 2)).ok());
-  EXPECT_EQ(*repo().ListReportParameterSets(RunKey{"robot-1", "run-1"}), (std::vector<std::string>{"default", "tuned"}));
+  EXPECT_EQ(*repo().ListReportParameterSets(RunKey{"robot-1", "run-1"}),
+            (std::vector<std::string>{"default", "tuned"}));
   auto tuned = repo().GetReport(RunKey{"robot-1", "run-1"}, "tuned");
   ASSERT_TRUE(tuned.ok()) << tuned.status().ToString();
   EXPECT_EQ(tuned->merge_created, 6);

@@ -115,7 +115,8 @@ class Repository {
   /// robot never interleave. With `expected_head` set (the version a repair started from), ABORTED unless it
   /// is the robot's head: its newest version that is approved or pending (rejected and stale versions are
   /// side branches that repairs do not continue). A version naming a run_id that already has an upload version returns that one
-  /// unchanged (uploads are retried; run ids are per robot). The robot and snapshot must be stored (FAILED_PRECONDITION).
+  /// unchanged (uploads are retried; run ids are per robot). The robot and snapshot must be stored
+  /// (FAILED_PRECONDITION).
   virtual Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version,
                                                     std::optional<std::int64_t> expected_head,
                                                     const std::vector<MapFindingRecord>& findings) = 0;
