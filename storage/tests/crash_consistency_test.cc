@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <functional>
 #include <thread>
 
 #include "test_databases.h"
@@ -31,32 +32,40 @@ class CrashConsistencyTest : public BackendTest {
     ASSERT_TRUE(version.ok()) << version.status().ToString();
     EXPECT_EQ(*version, LatestSchemaVersion());
   }
+
+  /// Runs `body` in a child process on its own connection and SIGKILLs it once it reaches fault `point`
+  /// (inside the transaction, before COMMIT).
+  void KillWriterAt(const std::string& point, const std::function<void(internal::SqlRepository&)>& body) {
+    int ready[2];
+    ASSERT_EQ(pipe(ready), 0);
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      auto repository = internal::OpenSqlRepository(url_, OpenOptions{});
+      if (!repository.ok()) _exit(2);
+      (*repository)->SetFaultHookForTesting([&](const std::string& at) {
+        if (at != point) return;
+        (void)!write(ready[1], "x", 1);
+        pause();
+      });
+      body(**repository);
+      _exit(3);
+    }
+    char byte = 0;
+    ASSERT_EQ(read(ready[0], &byte, 1), 1) << "the child never reached " << point;
+    ASSERT_EQ(kill(child, SIGKILL), 0);
+    int status = 0;
+    waitpid(child, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status));
+  }
 };
 
 TEST_P(CrashConsistencyTest, WriterKilledInsideTheTransactionLeavesNoTrace) {
-  int ready[2];
-  ASSERT_EQ(pipe(ready), 0);
   const RunRecord run = MakeRun("big-run", 1000, 8 << 20);  // 8 MiB of telemetry
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    auto repository = internal::OpenSqlRepository(url_, OpenOptions{});
-    if (!repository.ok()) _exit(2);
-    // Called after the run row is written, before COMMIT: tell the parent, then wait for SIGKILL.
-    (*repository)->SetFaultHookForTesting([&](const std::string& point) {
-      if (point != "insert_run:before_commit") return;
-      (void)!write(ready[1], "x", 1);
-      pause();
-    });
-    (void)(*repository)->InsertRun(run);
-    _exit(3);
-  }
-  char byte = 0;
-  ASSERT_EQ(read(ready[0], &byte, 1), 1) << "the child never reached the middle of its transaction";
-  ASSERT_EQ(kill(child, SIGKILL), 0);
-  int status = 0;
-  waitpid(child, &status, 0);
-  ASSERT_TRUE(WIFSIGNALED(status));
+  // Killed after the run row is written, before COMMIT.
+  KillWriterAt("insert_run:before_commit",
+               [&](internal::SqlRepository& repository) { (void)repository.InsertRun(run); });
+  if (HasFatalFailure()) return;
 
   Reopen();
   ExpectDatabaseValid();
@@ -80,29 +89,11 @@ TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
   version.approval = "approved";
   ASSERT_TRUE(repo().AppendMapVersion(version, std::nullopt, {}).ok());
   ASSERT_TRUE(repo().SetCredential("robot:robot-1", "secret").ok());
-  repo_.reset();
-  int ready[2];
-  ASSERT_EQ(pipe(ready), 0);
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    auto repository = internal::OpenSqlRepository(url_, OpenOptions{});
-    if (!repository.ok()) _exit(2);
-    // Called once every row of the robot is deleted, before the audit entry and COMMIT.
-    (*repository)->SetFaultHookForTesting([&](const std::string& point) {
-      if (point != "delete_robot:before_audit") return;
-      (void)!write(ready[1], "x", 1);
-      pause();
-    });
-    (void)(*repository)->DeleteRobot("robot-1", "admin:root");
-    _exit(3);
-  }
-  char byte = 0;
-  ASSERT_EQ(read(ready[0], &byte, 1), 1) << "the child never reached the middle of its erasure";
-  ASSERT_EQ(kill(child, SIGKILL), 0);
-  int status = 0;
-  waitpid(child, &status, 0);
-  ASSERT_TRUE(WIFSIGNALED(status));
+  repo_.reset();  // no database handle crosses fork()
+  // Killed once every row of the robot is deleted, before the audit entry and COMMIT.
+  KillWriterAt("delete_robot:before_audit",
+               [](internal::SqlRepository& repository) { (void)repository.DeleteRobot("robot-1", "admin:root"); });
+  if (HasFatalFailure()) return;
 
   Reopen();
   ExpectDatabaseValid();
