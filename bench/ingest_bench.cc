@@ -196,7 +196,8 @@ void Analysis_candidate(benchmark::State& state) {
   std::int64_t runs = 0, events = 0;
   for (auto _ : state) {
     for (const auto& run : Runs()) {
-      auto analysed = server::AnalyzeStoredRun(**repository, run.header().run_id(), "default", nullptr);
+      auto analysed = server::AnalyzeStoredRun(**repository, {run.header().robot_id(), run.header().run_id()},
+                                               "default", nullptr);
       if (!analysed.ok()) state.SkipWithError(analysed.status().ToString().c_str());
       ++runs;
       events += run.events_size();

@@ -22,6 +22,7 @@
 #include "server/http_server.h"
 #include "server/log.h"
 #include "server/metrics.h"
+#include "server/retention.h"
 #include "server/worker_pool.h"
 
 namespace {
@@ -111,6 +112,13 @@ int main(int argc, char** argv) {
   app.add_option("--auto-repair", config.auto_repair, "none, or cut_protrusions: cut protrusions out of maps after analysis")
       ->capture_default_str();
   app.add_flag("--auto-approve", config.auto_approve, "policy repairs reach robots without an engineer's review");
+  app.add_option("--retain-runs-days", config.retain_runs_days,
+                 "drop run events (telemetry) uploaded longer ago; reports and map versions are kept (0: never)")
+      ->capture_default_str();
+  app.add_option("--retain-jobs-days", config.retain_jobs_days, "delete jobs finished longer ago (0: never)")
+      ->capture_default_str();
+  app.add_option("--retention-interval-seconds", config.retention_interval_seconds, "how often retention runs")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (storage::Status valid = config.Validate(); !valid.ok()) {
     std::cerr << "fleetd: " << valid.ToString() << "\n";
@@ -192,6 +200,16 @@ int main(int argc, char** argv) {
     }
     grpc_server = std::move(created).value();
   }
+  // Retention in one place: the API servers (workers only lease jobs).
+  std::unique_ptr<server::RetentionTask> retention;
+  if (config.role != "worker") {
+    server::RetentionPolicy policy;
+    policy.retain_runs_days = config.retain_runs_days;
+    policy.retain_jobs_days = config.retain_jobs_days;
+    policy.interval = std::chrono::milliseconds(static_cast<long long>(config.retention_interval_seconds * 1000));
+    retention = std::make_unique<server::RetentionTask>(repo, metrics, policy);
+    retention->Start();
+  }
 
   server::HttpRouter router;
   router.AddRoute("GET", "/metrics", [&metrics](const server::HttpRequest&) {
@@ -233,6 +251,7 @@ int main(int argc, char** argv) {
     if (!http) {
       server::log::Error("http_failed", {{"error", error}});
       health.Stop();
+      if (retention) retention->Stop();
       if (grpc_server) grpc_server->Shutdown(std::chrono::system_clock::now());
       if (workers) workers->Stop();
       return 1;
@@ -254,6 +273,7 @@ int main(int argc, char** argv) {
   const auto deadline = std::chrono::system_clock::now() +
                         std::chrono::milliseconds(static_cast<long long>(config.shutdown_grace_seconds * 1000));
   health.Stop();
+  if (retention) retention->Stop();
   if (grpc_server) grpc_server->Shutdown(deadline);
   if (workers) workers->Stop();
   if (http) http->Stop();

@@ -25,6 +25,7 @@ storage::Status FromSlamcore(const slamcore::Status& status) {
 storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
   storage::ReportBundle bundle;
   storage::ReportRecord& record = bundle.report;
+  record.robot_id = report.robot_id();
   record.run_id = report.run_id();
   record.parameter_set = report.parameter_set();
   record.recovery_created = report.counts().recovery_created();
@@ -121,13 +122,18 @@ std::shared_ptr<const slamcore::ProtrusionClassifier> ClassifierCache::Get() {
   return classifier_;
 }
 
-storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const std::string& run_id,
+storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const storage::RunKey& key,
                                                  const std::string& parameter_set,
                                                  const slamcore::ProtrusionClassifier* classifier,
                                                  const AnalysisBudget& budget) {
   const auto started = std::chrono::steady_clock::now();
-  auto run = repository.GetRun(run_id);
+  const std::string& run_id = key.run_id;
+  auto run = repository.GetRun(key);
   if (!run.ok()) return run.status();
+  if (run->telemetry_pruned_at_ms) {
+    return storage::FailedPrecondition("run " + run_id + " of robot " + key.robot_id +
+                                       ": its events were pruned by retention (--retain-runs-days); nothing to rerun");
+  }
   fleet::v1::RunFile file;
   if (!file.ParseFromString(run->telemetry)) return storage::DataLoss("run " + run_id + ": telemetry does not parse");
   if (run->parent_snapshot_id) {
@@ -173,6 +179,9 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   auto report = analyzer::AnalyzeRun(file, options);
   if (!report.ok()) return FromSlamcore(report.status());
   report->set_parameter_set(parameter_set);
+  // The stored identity, whatever the telemetry's header says.
+  report->set_robot_id(run->robot_id);
+  report->set_run_id(run->run_id);
   const storage::ReportBundle bundle = ToReportBundle(*report);
   STORAGE_RETURN_IF_ERROR(repository.PutReport(bundle));
   AnalysisResult result;

@@ -260,9 +260,13 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
 storage::Result<std::string> Authenticator::IssueToken(const Principal& principal) {
   const std::string secret = GenerateSecret();
   STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal.name, secret));
-  std::lock_guard lock(mutex_);
-  DropCachedLocked(principal.name);
+  ForgetPrincipal(principal.name);
   return MakeToken(principal.name, secret);
+}
+
+void Authenticator::ForgetPrincipal(const std::string& name) {
+  std::lock_guard lock(mutex_);
+  DropCachedLocked(name);
 }
 
 storage::Result<std::string> Authenticator::RotateToken(const Principal& principal) {
@@ -276,8 +280,7 @@ storage::Result<std::string> Authenticator::RotateToken(const Principal& princip
 
 storage::Status Authenticator::RevokeToken(const Principal& principal) {
   STORAGE_RETURN_IF_ERROR(repository_.RevokeCredential(principal.name));
-  std::lock_guard lock(mutex_);
-  DropCachedLocked(principal.name);
+  ForgetPrincipal(principal.name);
   return storage::Status::Ok();
 }
 

@@ -54,6 +54,16 @@ storage::Status FleetdConfig::Validate() const {
   if (lease_seconds < 4) return storage::InvalidArgument("lease_seconds: at least 4");
   if (!std::isfinite(analysis_budget_seconds)) return storage::InvalidArgument("analysis_budget_seconds: must be finite");
   if (auth_cache_seconds < 0) return storage::InvalidArgument("auth_cache_seconds: must be >= 0");
+  for (const auto& [name, days] :
+       {std::pair{"retain_runs_days", retain_runs_days}, {"retain_jobs_days", retain_jobs_days}}) {
+    if (!std::isfinite(days) || days < 0 || days > 36500) {
+      return storage::InvalidArgument(std::string(name) + ": expected 0 (keep for ever) .. 36500 days");
+    }
+  }
+  if (!std::isfinite(retention_interval_seconds) || retention_interval_seconds < 1 ||
+      retention_interval_seconds > 86400 * 7) {
+    return storage::InvalidArgument("retention_interval_seconds: expected 1 .. 604800");
+  }
   if (log_format != "json" && log_format != "text") return storage::InvalidArgument("log_format: json or text");
   if (auto_repair != "none" && auto_repair != "cut_protrusions") {
     return storage::InvalidArgument("auto_repair: expected none or cut_protrusions, got \"" + auto_repair + "\"");
@@ -125,6 +135,10 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"log_format", [&](const nlohmann::json& v) { config.log_format = v.get<std::string>(); }},
       {"auto_repair", [&](const nlohmann::json& v) { config.auto_repair = v.get<std::string>(); }},
       {"auto_approve", [&](const nlohmann::json& v) { config.auto_approve = v.get<bool>(); }},
+      {"retain_runs_days", [&](const nlohmann::json& v) { config.retain_runs_days = v.get<double>(); }},
+      {"retain_jobs_days", [&](const nlohmann::json& v) { config.retain_jobs_days = v.get<double>(); }},
+      {"retention_interval_seconds",
+       [&](const nlohmann::json& v) { config.retention_interval_seconds = v.get<double>(); }},
   };
   for (const auto& [key, value] : json.items()) {
     auto setter = setters.find(key);

@@ -307,7 +307,7 @@ class MapRoutes {
   HttpResponse Graph(const std::string& robot, std::int64_t version) {
     auto loaded = LoadMap(robot, version);
     if (!loaded.ok()) return Error(loaded.status());
-    auto run_nodes = history_.NodesAddedByRun(loaded->run_id, loaded->map);
+    auto run_nodes = history_.NodesAddedByRun({robot, loaded->run_id}, loaded->map);
     if (!run_nodes.ok()) return Error(run_nodes.status());
     const slamcore::PoseGraph& graph = loaded->map.graph;
     json nodes = json::array(), edges = json::array(), components = json::array();

@@ -28,11 +28,12 @@ storage::Result<std::string> Png(const slamcore::OccupancyGrid& grid, const std:
 
 }  // namespace
 
-storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const std::string& run_id,
+storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const storage::RunKey& key,
                                        const std::string& parameter_set) {
-  auto run = repository.GetRun(run_id);
+  const std::string& run_id = key.run_id;
+  auto run = repository.GetRun(key);
   if (!run.ok()) return run.status();
-  auto stored = repository.GetReport(run_id, parameter_set);
+  auto stored = repository.GetReport(key, parameter_set);
   if (!stored.ok()) return stored.status();
   fleet::v1::RunReport report;
   if (!report.ParseFromString(stored->report)) return storage::DataLoss("report of run " + run_id + " does not parse");

@@ -23,7 +23,7 @@ struct RunMaps {
 
 /// NOT_FOUND when the run or its report with `parameter_set` is missing; DATA_LOSS when stored bytes do not
 /// parse; FAILED_PRECONDITION when the report holds no rerun child map or the child is empty.
-storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const std::string& run_id,
+storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const storage::RunKey& run,
                                        const std::string& parameter_set);
 
 }  // namespace server::dashboard

@@ -21,6 +21,7 @@
 #include "dashboard_maps.h"
 #include "http_helpers.h"
 #include "render_cache.h"
+#include "run_lookup.h"
 #include "fleet/v1/report.pb.h"
 #include "server/jobs.h"
 #include "server/log.h"
@@ -121,7 +122,9 @@ json RunJson(const storage::RunRecord& run) {
               {"ended_at_ms", run.ended_at_ms},
               {"parent_snapshot_id", run.parent_snapshot_id ? json(*run.parent_snapshot_id) : json(nullptr)},
               {"child_snapshot_id", run.child_snapshot_id ? json(*run.child_snapshot_id) : json(nullptr)},
-              {"telemetry_size", run.telemetry_size}};
+              {"telemetry_size", run.telemetry_size},
+              {"telemetry_pruned_at_ms",
+               run.telemetry_pruned_at_ms ? json(*run.telemetry_pruned_at_ms) : json(nullptr)}};
 }
 
 json ReportCountersJson(const storage::ReportRecord& report) {
@@ -145,6 +148,7 @@ json RegionJson(const storage::ProtrusionRegionRecord& region) {
     if (features.is_discarded()) features = json::object();
   }
   return json{{"run_id", region.run_id},
+              {"robot_id", region.robot_id},
               {"parameter_set", region.parameter_set},
               {"region_id", region.region_id},
               // x, y, width, height in child image cells (y down), as the map images are drawn.
@@ -169,7 +173,8 @@ json JobJson(const storage::JobRecord& job) {
            {"created_at_ms", job.created_at_ms},
            {"updated_at_ms", job.updated_at_ms},
            {"parent_job_id", job.parent_job_id ? json(*job.parent_job_id) : json(nullptr)},
-           {"lease_owner", job.lease_owner ? json(*job.lease_owner) : json(nullptr)}};
+           {"lease_owner", job.lease_owner ? json(*job.lease_owner) : json(nullptr)},
+           {"robot_id", job.robot_id ? json(*job.robot_id) : json(nullptr)}};
   if (job.kind == kReprocessJob) {
     if (auto payload = DecodeReprocessPayload(job.payload); payload.ok()) {
       out["parameter_set"] = payload->parameter_set;
@@ -264,9 +269,13 @@ class Dashboard {
     if (parts.size() == 2 && parts[1] == "meta") return Meta();
     if (parts.size() == 2 && parts[1] == "stats") return Stats(params);
     if (parts.size() == 2 && parts[1] == "runs") return Runs(params);
-    if (parts.size() == 3 && parts[1] == "runs") return Run(parts[2], params);
-    if (parts.size() == 4 && parts[1] == "runs" && parts[3] == "graph") return Graph(parts[2], params);
-    if (parts.size() == 5 && parts[1] == "runs" && parts[3] == "map") return MapImage(parts[2], parts[4], params);
+    if (parts.size() >= 3 && parts.size() <= 5 && parts[1] == "runs") {
+      auto run = RunOf(request, parts[2], params);
+      if (!run.ok()) return Error(run.status());
+      if (parts.size() == 3) return Run(*run, params);
+      if (parts.size() == 4 && parts[3] == "graph") return Graph(*run, params);
+      if (parts.size() == 5 && parts[3] == "map") return MapImage(*run, parts[4], params);
+    }
     if (parts.size() == 2 && parts[1] == "labels") return Labels(params);
     if (parts.size() == 2 && parts[1] == "compare") return Compare(params);
     if (parts.size() == 2 && parts[1] == "jobs") return Jobs(params);
@@ -294,8 +303,9 @@ class Dashboard {
     }
     std::string set = body.value("parameter_set", "");
     if (set.empty()) set = default_set_;
-    storage::Status labelled =
-        repository_.LabelProtrusionRegion(parts[2], set, *region_id, label, principal->name);
+    auto run = ResolveRun(repository_, *principal, Param(ParseQuery(request.query), "robot"), parts[2]);
+    if (!run.ok()) return Error(run.status());
+    storage::Status labelled = repository_.LabelProtrusionRegion(*run, set, *region_id, label, principal->name);
     if (!labelled.ok()) {
       if (labelled.code() == storage::StatusCode::kNotFound) {
         return Error(404, "run \"" + parts[2] + "\" has no region " + parts[4] + " with parameter set \"" + set + "\"");
@@ -303,11 +313,12 @@ class Dashboard {
       return Error(labelled);
     }
     log::Info("region_labelled", {{"run_id", parts[2]},
+                                  {"robot_id", run->robot_id},
                                   {"region", static_cast<long long>(*region_id)},
                                   {"label", label},
                                   {"principal", principal->name},
                                   {"via", "dashboard"}});
-    auto regions = repository_.ListProtrusionRegions(parts[2], set);
+    auto regions = repository_.ListProtrusionRegions(*run, set);
     if (!regions.ok()) return Error(regions.status());
     for (const auto& region : *regions) {
       if (region.region_id == *region_id) return Json(RegionJson(region));
@@ -316,6 +327,16 @@ class Dashboard {
   }
 
  private:
+  /// The run a /api/runs/<id> route names (?robot= picks among robots that share a run id; a robot reads its own).
+  storage::Result<storage::RunKey> RunOf(const HttpRequest& request, const std::string& run_id,
+                                         const std::map<std::string, std::string>& params) {
+    const auto header = request.headers.find("authorization");
+    const Authenticator::Verdict verdict =
+        authenticator_.Authenticate(header == request.headers.end() ? "" : header->second, request.peer);
+    if (verdict.outcome != Authenticator::Outcome::kOk) return storage::Unavailable(verdict.message);
+    return ResolveRun(repository_, verdict.principal, Param(params, "robot"), run_id);
+  }
+
   std::string SetOf(const std::map<std::string, std::string>& params) const {
     const std::string set = Param(params, "parameter_set");
     return set.empty() ? default_set_ : set;
@@ -412,7 +433,7 @@ class Dashboard {
     if (!filter || !error.empty()) return Error(400, error);
     const std::string set = SetOf(params);
     std::optional<storage::RunCursor> after;
-    if (after_ms) after = storage::RunCursor{*after_ms, Param(params, "after_id")};
+    if (after_ms) after = storage::RunCursor{*after_ms, Param(params, "after_id"), Param(params, "after_robot")};
     const bool with_regions_only = Param(params, "with_regions") == "1";
     const int page_size = static_cast<int>(limit.value_or(50));
     json runs = json::array();
@@ -424,7 +445,7 @@ class Dashboard {
       next = page->next;
       for (const auto& run : page->runs) {
         json row = RunJson(run);
-        auto report = repository_.GetReport(run.run_id, set);
+        auto report = repository_.GetReport(run.key(), set);
         if (report.ok()) {
           row["report"] = ReportCountersJson(*report);
         } else if (report.status().code() == storage::StatusCode::kNotFound) {
@@ -432,7 +453,7 @@ class Dashboard {
         } else {
           return Error(report.status());
         }
-        auto regions = repository_.ListProtrusionRegions(run.run_id, set);
+        auto regions = repository_.ListProtrusionRegions(run.key(), set);
         std::int64_t labelled = 0;
         if (regions.ok()) {
           for (const auto& region : *regions) labelled += region.label ? 1 : 0;
@@ -442,7 +463,7 @@ class Dashboard {
         if (with_regions_only && row["regions"].get<std::int64_t>() == 0) continue;
         runs.push_back(std::move(row));
         if (static_cast<int>(runs.size()) >= page_size) {
-          next = storage::RunCursor{run.started_at_ms, run.run_id};
+          next = storage::RunCursor{run.started_at_ms, run.run_id, run.robot_id};
           break;
         }
       }
@@ -450,14 +471,16 @@ class Dashboard {
     }
     json out{{"parameter_set", set}, {"runs", runs}, {"next", nullptr}};
     if (next) {
-      out["next"] = json{{"after_ms", next->started_at_ms}, {"after_id", next->run_id}};
+      out["next"] =
+          json{{"after_ms", next->started_at_ms}, {"after_id", next->run_id}, {"after_robot", next->robot_id}};
     }
     return Json(out);
   }
 
   /// The stored report of a run as a proto (NOT_FOUND naming the set when there is none).
-  storage::Result<fleet::v1::RunReport> LoadReport(const std::string& run_id, const std::string& set) {
-    auto stored = repository_.GetReport(run_id, set);
+  storage::Result<fleet::v1::RunReport> LoadReport(const storage::RunKey& run, const std::string& set) {
+    const std::string& run_id = run.run_id;
+    auto stored = repository_.GetReport(run, set);
     if (!stored.ok()) {
       if (stored.status().code() == storage::StatusCode::kNotFound) {
         return storage::NotFound("run \"" + run_id + "\" has no report with parameter set \"" + set +
@@ -470,15 +493,15 @@ class Dashboard {
     return report;
   }
 
-  HttpResponse Run(const std::string& run_id, const std::map<std::string, std::string>& params) {
-    auto run = repository_.GetRun(run_id);
+  HttpResponse Run(const storage::RunKey& key, const std::map<std::string, std::string>& params) {
+    auto run = repository_.GetRun(key);
     if (!run.ok()) return Error(run.status());
     const std::string set = SetOf(params);
     json out{{"run", RunJson(*run)}, {"parameter_set", set}};
-    auto sets = repository_.ListReportParameterSets(run_id);
+    auto sets = repository_.ListReportParameterSets(key);
     if (!sets.ok()) return Error(sets.status());
     out["report_parameter_sets"] = *sets;
-    auto stored = repository_.GetReport(run_id, set);
+    auto stored = repository_.GetReport(key, set);
     if (!stored.ok()) {
       if (stored.status().code() != storage::StatusCode::kNotFound) return Error(stored.status());
       out["report"] = nullptr;
@@ -514,7 +537,7 @@ class Dashboard {
                                            {"correct_observations_accepted", g.correct_observations_accepted()}};
       }
     }
-    auto decisions = repository_.ListDecisions(run_id, set);
+    auto decisions = repository_.ListDecisions(key, set);
     if (!decisions.ok()) return Error(decisions.status());
     json timeline = json::array();
     for (const auto& decision : *decisions) {
@@ -523,12 +546,12 @@ class Dashboard {
                           {"detail", decision.detail}});
     }
     out["decisions"] = std::move(timeline);
-    auto ambiguous = repository_.ListAmbiguousViews(run_id, set);
+    auto ambiguous = repository_.ListAmbiguousViews(key, set);
     if (!ambiguous.ok()) return Error(ambiguous.status());
     json views = json::array();
     for (const auto& view : *ambiguous) views.push_back({{"view_id", view.view_id}, {"time_s", view.time_s}});
     out["ambiguous_views"] = std::move(views);
-    auto regions = repository_.ListProtrusionRegions(run_id, set);
+    auto regions = repository_.ListProtrusionRegions(key, set);
     if (!regions.ok()) return Error(regions.status());
     json region_rows = json::array();
     for (const auto& region : *regions) region_rows.push_back(RegionJson(region));
@@ -539,8 +562,9 @@ class Dashboard {
   /// The rerun child's pose graph, with components (union-find over all edges) and the hypotheses' edges
   /// taken from the decisions: every observation that created or joined a hypothesis, marked with how the
   /// hypothesis ended (accepted, conditionally accepted then rejected, expired, ...).
-  HttpResponse Graph(const std::string& run_id, const std::map<std::string, std::string>& params) {
-    auto report = LoadReport(run_id, SetOf(params));
+  HttpResponse Graph(const storage::RunKey& run, const std::map<std::string, std::string>& params) {
+    const std::string& run_id = run.run_id;
+    auto report = LoadReport(run, SetOf(params));
     if (!report.ok()) return Error(report.status());
     const fleet::v1::MapSnapshot& map = report->rerun_child();
     std::unordered_map<std::int64_t, std::size_t> index;
@@ -606,11 +630,12 @@ class Dashboard {
     }
     json components = json::array();
     for (const auto& [id, size] : component_sizes) components.push_back({{"id", id}, {"nodes", size}});
-    return Json(json{{"run_id", run_id}, {"parameter_set", SetOf(params)}, {"nodes", nodes}, {"edges", edges},
+    return Json(json{{"run_id", run_id}, {"robot_id", run.robot_id}, {"parameter_set", SetOf(params)},
+                     {"nodes", nodes}, {"edges", edges},
                      {"views", views}, {"components", components}, {"hypothesis_edges", hypothesis_edges}});
   }
 
-  HttpResponse MapImage(const std::string& run_id, const std::string& file,
+  HttpResponse MapImage(const storage::RunKey& run_id, const std::string& file,
                         const std::map<std::string, std::string>& params) {
     if (file != "parent.png" && file != "child.png" && file != "difference.png" && file != "info.json") {
       return Error(404, "map images: parent.png, child.png, difference.png (or info.json)");
@@ -630,9 +655,10 @@ class Dashboard {
   }
 
   /// Rendering costs tens of milliseconds; a run page asks for three images at once, so keep the last few.
-  storage::Result<std::shared_ptr<const dashboard::RunMaps>> CachedMaps(const std::string& run_id,
+  storage::Result<std::shared_ptr<const dashboard::RunMaps>> CachedMaps(const storage::RunKey& run,
                                                                         const std::string& set) {
-    return map_cache_.Get(run_id + '\n' + set, [&] { return dashboard::RenderRunMaps(repository_, run_id, set); });
+    return map_cache_.Get(run.robot_id + '\n' + run.run_id + '\n' + set,
+                          [&] { return dashboard::RenderRunMaps(repository_, run, set); });
   }
 
   HttpResponse Labels(const std::map<std::string, std::string>& params) {
@@ -690,8 +716,8 @@ class Dashboard {
           break;
         }
         ++scanned;
-        auto report_a = repository_.GetReport(run.run_id, a);
-        auto report_b = repository_.GetReport(run.run_id, b);
+        auto report_a = repository_.GetReport(run.key(), a);
+        auto report_b = repository_.GetReport(run.key(), b);
         if (!report_a.ok() || !report_b.ok()) continue;
         const json ca = ReportCountersJson(*report_a), cb = ReportCountersJson(*report_b);
         json delta = json::object();

@@ -44,8 +44,8 @@ HttpGuard MakeHttpAccessGuard(storage::Repository& repository, Authenticator& au
     if (parts.size() >= 3 && parts[0] == "api" && parts[1] == "robots" && parts[2] == caller.id) return std::nullopt;
     if (parts.size() >= 3 && parts[0] == "api" && parts[1] == "runs") {
       // Another robot's run answers exactly like a missing one: its existence is not revealed.
-      auto run = repository.GetRun(parts[2]);
-      if (run.ok() && run->robot_id == caller.id) return std::nullopt;
+      auto run = repository.GetRun(storage::RunKey{caller.id, parts[2]});
+      if (run.ok()) return std::nullopt;
       if (!run.ok() && run.status().code() != storage::StatusCode::kNotFound) return http::Error(run.status());
       return http::Error(404, "run " + parts[2] + ": not found");
     }

@@ -5,13 +5,15 @@
 namespace server {
 
 std::string EncodeAnalyzePayload(const AnalyzePayload& payload) {
-  return nlohmann::json{{"run_id", payload.run_id}, {"parameter_set", payload.parameter_set}}.dump();
+  return nlohmann::json{{"robot_id", payload.robot_id}, {"run_id", payload.run_id},
+                        {"parameter_set", payload.parameter_set}}.dump();
 }
 
 storage::Result<AnalyzePayload> DecodeAnalyzePayload(const std::string& json) {
   try {
     const auto parsed = nlohmann::json::parse(json);
     AnalyzePayload payload;
+    payload.robot_id = parsed.value("robot_id", "");
     payload.run_id = parsed.at("run_id").get<std::string>();
     payload.parameter_set = parsed.at("parameter_set").get<std::string>();
     return payload;

@@ -43,22 +43,23 @@ struct RunContext {
 };
 
 /// The map the run started from; empty for a robot's first run (or a version without a run).
-storage::Result<slamcore::Map> LoadRunParent(storage::Repository& repository, const std::string& run_id) {
-  if (run_id.empty()) return slamcore::Map{};
-  auto run = repository.GetRun(run_id);
+storage::Result<slamcore::Map> LoadRunParent(storage::Repository& repository, const storage::RunKey& key) {
+  if (key.run_id.empty()) return slamcore::Map{};
+  auto run = repository.GetRun(key);
   if (!run.ok()) return run.status();
   if (!run->parent_snapshot_id) return slamcore::Map{};
   return LoadMap(repository, *run->parent_snapshot_id);
 }
 
-storage::Result<RunContext> LoadRunContext(storage::Repository& repository, const std::string& run_id,
+storage::Result<RunContext> LoadRunContext(storage::Repository& repository, const storage::RunKey& key,
                                            const std::string& parameter_set) {
   RunContext context;
+  const std::string& run_id = key.run_id;
   if (run_id.empty()) return context;
-  auto parent = LoadRunParent(repository, run_id);
+  auto parent = LoadRunParent(repository, key);
   if (!parent.ok()) return parent.status();
   context.parent = std::move(parent).value();
-  auto report = repository.GetReport(run_id, parameter_set);
+  auto report = repository.GetReport(key, parameter_set);
   if (report.ok()) {
     fleet::v1::RunReport parsed;
     if (!parsed.ParseFromString(report->report)) return storage::DataLoss("report of run " + run_id + " does not parse");
@@ -295,14 +296,15 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   return outcome;
 }
 
-storage::Status MapHistory::OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report) {
+storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report) {
   if (report.parameter_set() != policy_.default_parameter_set) return storage::Status::Ok();
-  auto version = repository_.GetMapVersionOfRun(run_id);
+  const std::string& run_id = run.run_id;
+  auto version = repository_.GetMapVersionOfRun(run);
   if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
   if (!version.ok()) return version.status();
   auto loaded = LoadMap(repository_, version->snapshot_id);
   if (!loaded.ok()) return loaded.status();
-  auto context = LoadRunContext(repository_, run_id, report.parameter_set());
+  auto context = LoadRunContext(repository_, run, report.parameter_set());
   if (!context.ok()) return context.status();
   context->report = report;
   const std::vector<fleet::v1::MapFinding> findings = Findings(*loaded, *context);
@@ -421,7 +423,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   if (base->run_id.empty() && request.action != "undo") return RepairMapOnly(request, *base, *versions);
   auto loaded = LoadMap(repository_, base->snapshot_id);
   if (!loaded.ok()) return loaded.status();
-  auto context = LoadRunContext(repository_, base->run_id, policy_.default_parameter_set);
+  auto context = LoadRunContext(repository_, {base->robot_id, base->run_id}, policy_.default_parameter_set);
   if (!context.ok()) return context.status();
   const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(*loaded, context->parent);
 
@@ -446,7 +448,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
     if (!stored.ok()) return stored.status();
     snapshot_id = *stored;
   } else if (request.action == "rollback") {
-    auto run = repository_.GetRun(base->run_id);
+    auto run = repository_.GetRun({base->robot_id, base->run_id});
     if (!run.ok()) return run.status();
     if (!run->parent_snapshot_id) {
       return storage::FailedPrecondition("version " + std::to_string(base->version) +
@@ -554,9 +556,9 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robo
   return ToProto(*current, true);
 }
 
-storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const std::string& run_id,
+storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const storage::RunKey& run,
                                                                        const slamcore::Map& map) {
-  auto parent = LoadRunParent(repository_, run_id);
+  auto parent = LoadRunParent(repository_, run);
   if (!parent.ok()) return parent.status();
   return analyzer::NodesAddedByRun(map, *parent);
 }

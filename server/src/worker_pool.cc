@@ -6,6 +6,7 @@
 
 #include "server/jobs.h"
 #include "server/log.h"
+#include "run_lookup.h"
 
 namespace server {
 namespace {
@@ -111,6 +112,14 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
   const auto payload = DecodeAnalyzePayload(lease.job.payload);
   storage::Status status;
   std::string outcome = "done";
+  storage::RunKey run;
+  if (payload.ok()) {
+    // Jobs queued before run ids were per robot name the run by id alone.
+    auto key = ResolveRun(repository_, Principal{"fleetd:worker", Role::kAdmin, ""}, payload->robot_id,
+                          payload->run_id);
+    if (key.ok()) run = *key;
+    else run = storage::RunKey{payload->robot_id, payload->run_id};
+  }
   if (!payload.ok()) {
     status = payload.status();
   } else {
@@ -126,19 +135,20 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
       auto job = repository_.GetJob(lease.job.job_id);
       return job.ok() && job->state == storage::JobState::kCancelled;
     };
-    auto analysed = AnalyzeStoredRun(repository_, payload->run_id, payload->parameter_set, classifier.get(), budget);
+    auto analysed = AnalyzeStoredRun(repository_, run, payload->parameter_set, classifier.get(), budget);
     if (analysed.ok()) {
       metrics_.Observe("fleetd_analysis_seconds", "", analysed->seconds);
       log::Info("run_analysed", {{"job", static_cast<long long>(lease.job.job_id)},
                                  {"run_id", payload->run_id},
+                                 {"robot_id", run.robot_id},
                                  {"parameter_set", payload->parameter_set},
                                  {"seconds", analysed->seconds},
                                  {"regions", static_cast<long long>(analysed->regions)}});
       // The upload's map version gets its findings (and the repair policy its say); a failure retries the job.
-      status = MapHistory(repository_, options_.map_policy).OnRunAnalysed(payload->run_id, analysed->report);
+      status = MapHistory(repository_, options_.map_policy).OnRunAnalysed(run, analysed->report);
     } else if (analysed.status().code() == storage::StatusCode::kNotFound &&
                analysed.status().message().find("run") != std::string::npos &&
-               repository_.GetRun(payload->run_id).status().code() == storage::StatusCode::kNotFound) {
+               repository_.GetRun(run).status().code() == storage::StatusCode::kNotFound) {
       // Ingest enqueues before it stores (so a stored run always has its job): the store may still be under
       // way, or it never happened (the upload was cut, and its retry brings a job of its own). Give it time
       // and hand the job back; on the last attempt the job is done: there is nothing to analyse.
@@ -208,7 +218,8 @@ void WorkerPool::Coordinate(storage::JobLease lease) {
     for (std::int64_t id : ids) (void)repository_.CancelJob(id);
   };
   if (children.empty()) {
-    std::vector<std::string> runs;
+    std::vector<storage::RunKey> runs;
+    std::int64_t pruned = 0;  // runs whose events retention dropped: nothing to rerun
     std::optional<storage::RunCursor> cursor;
     do {
       auto page = repository_.ListRuns(payload->filter, 1000, cursor);
@@ -216,13 +227,20 @@ void WorkerPool::Coordinate(storage::JobLease lease) {
         (void)repository_.FailJob(lease, page.status().ToString());
         return;
       }
-      for (const auto& run : page->runs) runs.push_back(run.run_id);
+      for (const auto& run : page->runs) {
+        if (run.telemetry_pruned_at_ms) {
+          ++pruned;
+        } else {
+          runs.push_back(run.key());
+        }
+      }
       cursor = page->next;
     } while (cursor);
-    for (const std::string& run_id : runs) {
+    for (const storage::RunKey& run : runs) {
       storage::NewJob child;
       child.kind = kAnalyzeRunJob;
-      child.payload = EncodeAnalyzePayload({run_id, payload->parameter_set});
+      child.payload = EncodeAnalyzePayload({run.robot_id, run.run_id, payload->parameter_set});
+      child.robot_id = run.robot_id;
       child.parent_job_id = parent;
       child.max_attempts = 3;
       auto id = repository_.EnqueueJob(child);
@@ -239,7 +257,8 @@ void WorkerPool::Coordinate(storage::JobLease lease) {
     }
     log::Info("reprocess_started", {{"job", static_cast<long long>(parent)},
                                     {"parameter_set", payload->parameter_set},
-                                    {"runs", static_cast<long long>(runs.size())}});
+                                    {"runs", static_cast<long long>(runs.size())},
+                                    {"skipped_pruned", static_cast<long long>(pruned)}});
     Wake();
   }
   const auto total = static_cast<std::int64_t>(children.size());

@@ -76,6 +76,7 @@ class MapHistoryTest : public SqliteRepositoryTest {
   /// robot, one protrusion region around run nodes 13..16 (x 6.5..8.0), clear of the home map (x up to 5.0).
   fleet::v1::RunReport Report() {
     fleet::v1::RunReport report;
+    report.set_robot_id("r1");
     report.set_run_id("run-1");
     report.set_parameter_set("default");
     *report.mutable_rerun_child() = analyzer::ToProto(child_);
@@ -108,7 +109,7 @@ class MapHistoryTest : public SqliteRepositoryTest {
 TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
   MapHistory history(*repository_, {});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
   auto detail = history.Get("r1", 2);
   ASSERT_TRUE(detail.ok());
   ASSERT_EQ(detail->findings.size(), 1u);
@@ -124,7 +125,7 @@ TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
 TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
   auto repaired = history.Get("r1", 3);
   ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
   EXPECT_EQ(repaired->version.action(), "cut_region");
@@ -141,7 +142,7 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   EXPECT_EQ(history.Fetch("r1", 2, &up_to_date, &snapshot)->version(), 2);
   EXPECT_TRUE(up_to_date);
   // The worker may analyse the run again (a retry): the policy does not cut twice.
-  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
   std::int64_t current = 0, head = 0;
   EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
   EXPECT_EQ(current, 2);
@@ -151,7 +152,7 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
 TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase) {
   MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
   ASSERT_TRUE(history.Review("r1", 3, /*approve=*/false, "engineer:ana").ok());
   std::int64_t current = 0, head = 0;
   ASSERT_TRUE(history.List("r1", &current, &head).ok());
@@ -180,7 +181,7 @@ TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase
 TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
   MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .auto_approve = true});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed("run-1", Report()).ok());
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
   bool up_to_date = true;
   fleet::v1::MapSnapshot snapshot;
   auto current = history.Fetch("r1", 2, &up_to_date, &snapshot);

@@ -197,7 +197,142 @@ CREATE TABLE map_findings (
       R"sql(
 ALTER TABLE reports ADD COLUMN recovery_retracted BIGINT NOT NULL DEFAULT 0;
 )sql",
-      // 4: what an imported map said besides its grid (rooms, path, poses, virtual walls, zones), per version.
+      // 4: a run is (robot_id, run_id), so one robot can never take another's run id; runs whose events
+      // retention pruned; jobs name the robot they work for (erasure); the audit log. The run tables are
+      // rebuilt under new names, the old ones dropped children first, then the new ones renamed (both
+      // databases carry foreign keys across a rename).
+      R"sql(
+CREATE TABLE runs_v4 (
+  robot_id TEXT NOT NULL REFERENCES robots(robot_id),
+  run_id TEXT NOT NULL,
+  firmware TEXT NOT NULL,
+  robot_model TEXT NOT NULL,
+  started_at_ms BIGINT NOT NULL,
+  ended_at_ms BIGINT NOT NULL,
+  parent_snapshot_id TEXT REFERENCES snapshots(snapshot_id),
+  child_snapshot_id TEXT REFERENCES snapshots(snapshot_id),
+  telemetry ${BLOB} NOT NULL,
+  telemetry_crc32 BIGINT NOT NULL,
+  telemetry_size BIGINT NOT NULL,
+  payload_sha256 TEXT NOT NULL,
+  uploaded_at_ms BIGINT NOT NULL,
+  telemetry_pruned_at_ms BIGINT,
+  PRIMARY KEY (robot_id, run_id)
+);
+INSERT INTO runs_v4 (robot_id, run_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id,
+  child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms)
+  SELECT robot_id, run_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id,
+  child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms FROM runs;
+CREATE TABLE reports_v4 (
+  robot_id TEXT NOT NULL,
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL REFERENCES parameter_sets(name),
+  recovery_created BIGINT NOT NULL,
+  recovery_accepted BIGINT NOT NULL,
+  recovery_retracted BIGINT NOT NULL DEFAULT 0,
+  merge_created BIGINT NOT NULL,
+  merge_conditionally_accepted BIGINT NOT NULL,
+  merge_conditional_then_rejected BIGINT NOT NULL,
+  views_total BIGINT NOT NULL,
+  views_ambiguous BIGINT NOT NULL,
+  started_localized BIGINT NOT NULL,
+  protrusions_found BIGINT NOT NULL,
+  data ${BLOB} NOT NULL,
+  data_crc32 BIGINT NOT NULL,
+  data_size BIGINT NOT NULL,
+  created_at_ms BIGINT NOT NULL,
+  PRIMARY KEY (robot_id, run_id, parameter_set),
+  FOREIGN KEY (robot_id, run_id) REFERENCES runs_v4(robot_id, run_id)
+);
+INSERT INTO reports_v4 (robot_id, run_id, parameter_set, recovery_created, recovery_accepted, recovery_retracted,
+  merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous,
+  started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms)
+  SELECT r.robot_id, p.run_id, p.parameter_set, p.recovery_created, p.recovery_accepted, p.recovery_retracted,
+  p.merge_created, p.merge_conditionally_accepted, p.merge_conditional_then_rejected, p.views_total,
+  p.views_ambiguous, p.started_localized, p.protrusions_found, p.data, p.data_crc32, p.data_size, p.created_at_ms
+  FROM reports p JOIN runs r ON r.run_id = p.run_id;
+CREATE TABLE decisions_v4 (
+  robot_id TEXT NOT NULL,
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL,
+  sequence BIGINT NOT NULL,
+  time_s DOUBLE PRECISION NOT NULL,
+  kind TEXT NOT NULL,
+  outcome TEXT NOT NULL,
+  subject_id BIGINT NOT NULL,
+  score DOUBLE PRECISION NOT NULL,
+  detail TEXT NOT NULL,
+  PRIMARY KEY (robot_id, run_id, parameter_set, sequence),
+  FOREIGN KEY (robot_id, run_id, parameter_set) REFERENCES reports_v4(robot_id, run_id, parameter_set) ON DELETE CASCADE
+);
+INSERT INTO decisions_v4 SELECT r.robot_id, d.run_id, d.parameter_set, d.sequence, d.time_s, d.kind, d.outcome,
+  d.subject_id, d.score, d.detail FROM decisions d JOIN runs r ON r.run_id = d.run_id;
+CREATE TABLE ambiguous_views_v4 (
+  robot_id TEXT NOT NULL,
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL,
+  view_id BIGINT NOT NULL,
+  time_s DOUBLE PRECISION NOT NULL,
+  candidate_count BIGINT NOT NULL,
+  ambiguity DOUBLE PRECISION NOT NULL,
+  detail TEXT NOT NULL,
+  PRIMARY KEY (robot_id, run_id, parameter_set, view_id),
+  FOREIGN KEY (robot_id, run_id, parameter_set) REFERENCES reports_v4(robot_id, run_id, parameter_set) ON DELETE CASCADE
+);
+INSERT INTO ambiguous_views_v4 SELECT r.robot_id, a.run_id, a.parameter_set, a.view_id, a.time_s,
+  a.candidate_count, a.ambiguity, a.detail FROM ambiguous_views a JOIN runs r ON r.run_id = a.run_id;
+CREATE TABLE protrusion_regions_v4 (
+  robot_id TEXT NOT NULL,
+  run_id TEXT NOT NULL,
+  parameter_set TEXT NOT NULL,
+  region_id BIGINT NOT NULL,
+  min_x DOUBLE PRECISION NOT NULL,
+  min_y DOUBLE PRECISION NOT NULL,
+  max_x DOUBLE PRECISION NOT NULL,
+  max_y DOUBLE PRECISION NOT NULL,
+  features_json TEXT NOT NULL,
+  predicted_class TEXT NOT NULL,
+  probability DOUBLE PRECISION NOT NULL,
+  label TEXT,
+  labelled_by TEXT,
+  PRIMARY KEY (robot_id, run_id, parameter_set, region_id),
+  FOREIGN KEY (robot_id, run_id, parameter_set) REFERENCES reports_v4(robot_id, run_id, parameter_set) ON DELETE CASCADE
+);
+INSERT INTO protrusion_regions_v4 SELECT r.robot_id, g.run_id, g.parameter_set, g.region_id, g.min_x, g.min_y,
+  g.max_x, g.max_y, g.features_json, g.predicted_class, g.probability, g.label, g.labelled_by
+  FROM protrusion_regions g JOIN runs r ON r.run_id = g.run_id;
+DROP TABLE decisions;
+DROP TABLE ambiguous_views;
+DROP TABLE protrusion_regions;
+DROP TABLE reports;
+DROP TABLE runs;
+ALTER TABLE runs_v4 RENAME TO runs;
+ALTER TABLE reports_v4 RENAME TO reports;
+ALTER TABLE decisions_v4 RENAME TO decisions;
+ALTER TABLE ambiguous_views_v4 RENAME TO ambiguous_views;
+ALTER TABLE protrusion_regions_v4 RENAME TO protrusion_regions;
+CREATE INDEX runs_by_start ON runs (started_at_ms, run_id, robot_id);
+CREATE INDEX runs_by_robot ON runs (robot_id, started_at_ms);
+CREATE INDEX runs_by_firmware ON runs (firmware, started_at_ms);
+CREATE INDEX runs_by_upload ON runs (uploaded_at_ms);
+CREATE INDEX runs_by_run_id ON runs (run_id);
+CREATE INDEX reports_by_parameter_set ON reports (parameter_set, robot_id, run_id);
+CREATE INDEX labelled_regions ON protrusion_regions (parameter_set, label);
+DROP INDEX map_versions_by_upload;
+CREATE UNIQUE INDEX map_versions_by_upload ON map_versions (robot_id, run_id) WHERE origin = 'upload';
+ALTER TABLE jobs ADD COLUMN robot_id TEXT;
+CREATE INDEX jobs_by_robot ON jobs (robot_id);
+CREATE INDEX jobs_by_finish ON jobs (state, updated_at_ms);
+CREATE TABLE audit_log (
+  entry_id ${ID},
+  at_ms BIGINT NOT NULL,
+  actor TEXT NOT NULL,
+  action TEXT NOT NULL,
+  subject TEXT NOT NULL,
+  detail_json TEXT NOT NULL
+);
+)sql",
+      // 5: what an imported map said besides its grid (rooms, path, poses, virtual walls, zones), per version.
       R"sql(
 CREATE TABLE map_metadata (
   robot_id TEXT NOT NULL,
@@ -209,7 +344,7 @@ CREATE TABLE map_metadata (
   FOREIGN KEY (robot_id, version) REFERENCES map_versions(robot_id, version) ON DELETE CASCADE
 );
 )sql",
-      // 5: credential revocation seen by every process (epochs), and the health probe's write.
+      // 6: credential revocation seen by every process (epochs), and the health probe's write.
       R"sql(
 ALTER TABLE credentials ADD COLUMN epoch BIGINT NOT NULL DEFAULT 0;
 CREATE INDEX credentials_by_epoch ON credentials (epoch);
@@ -258,7 +393,12 @@ Result<std::int64_t> ReadSchemaVersion(SqlTransaction& transaction) {
   return rows->front().Int(0);
 }
 
-Status MigrateToLatest(SqlDatabase& database) {
+Status MigrateToLatest(SqlDatabase& database) { return MigrateTo(database, LatestSchemaVersionInternal()); }
+
+Status MigrateTo(SqlDatabase& database, std::int64_t target_version) {
+  if (target_version < 0 || target_version > LatestSchemaVersionInternal()) {
+    return InvalidArgument("no schema version " + std::to_string(target_version));
+  }
   return database.InTransaction(TransactionMode::kWrite, [&](SqlTransaction& transaction) -> Status {
     if (database.dialect() == Dialect::kPostgres) {
       // Several servers may start at once against one PostgreSQL: let one migrate, the others wait.
@@ -268,10 +408,10 @@ Status MigrateToLatest(SqlDatabase& database) {
         "CREATE TABLE IF NOT EXISTS schema_version (version BIGINT PRIMARY KEY, applied_at_ms BIGINT NOT NULL)"));
     auto current = ReadSchemaVersion(transaction);
     if (!current.ok()) return current.status();
-    const std::int64_t latest = LatestSchemaVersionInternal();
-    if (*current > latest) {
+    const std::int64_t latest = target_version;
+    if (*current > LatestSchemaVersionInternal()) {
       return FailedPrecondition("database schema version " + std::to_string(*current) +
-                                " is newer than this program's " + std::to_string(latest) +
+                                " is newer than this program's " + std::to_string(LatestSchemaVersionInternal()) +
                                 "; upgrade the program");
     }
     for (std::int64_t version = *current + 1; version <= latest; ++version) {

@@ -13,6 +13,8 @@ std::int64_t LatestSchemaVersionInternal();
 
 /// Creates schema_version when missing, refuses a newer schema, applies the missing migrations.
 Status MigrateToLatest(SqlDatabase& database);
+/// The same up to `target_version` only (tests of upgrades from an older schema).
+Status MigrateTo(SqlDatabase& database, std::int64_t target_version);
 
 /// MAX(version) from schema_version (0 when empty).
 Result<std::int64_t> ReadSchemaVersion(SqlTransaction& transaction);

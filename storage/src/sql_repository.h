@@ -44,7 +44,8 @@ class SqlRepository final : public Repository {
   Result<SnapshotRecord> GetSnapshot(const std::string& snapshot_id) override;
 
   Result<InsertOutcome> InsertRun(const RunRecord& run) override;
-  Result<RunRecord> GetRun(const std::string& run_id) override;
+  Result<RunRecord> GetRun(const RunKey& key) override;
+  Result<std::vector<std::string>> ListRunRobots(const std::string& run_id, int limit) override;
   Result<RunPage> ListRuns(const RunFilter& filter, int page_size, const std::optional<RunCursor>& after) override;
 
   Result<InsertOutcome> PutParameterSet(const ParameterSetRecord& parameter_set) override;
@@ -56,15 +57,14 @@ class SqlRepository final : public Repository {
   Status ActivateModel(const std::string& name, std::int64_t version) override;
 
   Status PutReport(const ReportBundle& bundle) override;
-  Result<ReportRecord> GetReport(const std::string& run_id, const std::string& parameter_set) override;
-  Result<std::vector<std::string>> ListReportParameterSets(const std::string& run_id) override;
-  Result<std::vector<DecisionRecord>> ListDecisions(const std::string& run_id,
-                                                    const std::string& parameter_set) override;
-  Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const std::string& run_id,
+  Result<ReportRecord> GetReport(const RunKey& run, const std::string& parameter_set) override;
+  Result<std::vector<std::string>> ListReportParameterSets(const RunKey& run) override;
+  Result<std::vector<DecisionRecord>> ListDecisions(const RunKey& run, const std::string& parameter_set) override;
+  Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const RunKey& run,
                                                               const std::string& parameter_set) override;
-  Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(const std::string& run_id,
+  Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(const RunKey& run,
                                                                     const std::string& parameter_set) override;
-  Status LabelProtrusionRegion(const std::string& run_id, const std::string& parameter_set, std::int64_t region_id,
+  Status LabelProtrusionRegion(const RunKey& run, const std::string& parameter_set, std::int64_t region_id,
                                const std::string& label, const std::string& labelled_by) override;
   Result<std::vector<ProtrusionRegionRecord>> ListLabelledRegions(const std::string& parameter_set,
                                                                   int limit) override;
@@ -77,7 +77,7 @@ class SqlRepository final : public Repository {
   Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) override;
   Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) override;
-  Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) override;
+  Result<MapVersionRecord> GetMapVersionOfRun(const RunKey& run) override;
   Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id, std::int64_t version) override;
   Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
                                 const std::vector<MapFindingRecord>& findings) override;
@@ -94,6 +94,12 @@ class SqlRepository final : public Repository {
   Status CancelJob(std::int64_t job_id) override;
   Result<JobRecord> GetJob(std::int64_t job_id) override;
   Result<std::vector<JobRecord>> ListJobs(std::optional<JobState> state, int limit) override;
+
+  Result<RobotErasure> DeleteRobot(const std::string& robot_id, const std::string& actor) override;
+  Result<std::int64_t> PruneRunTelemetry(std::int64_t uploaded_before_ms, int limit) override;
+  Result<std::int64_t> PruneFinishedJobs(std::int64_t finished_before_ms, int limit) override;
+  Result<AuditEntry> AppendAudit(const AuditEntry& entry) override;
+  Result<std::vector<AuditEntry>> ListAudit(int limit, std::optional<std::int64_t> before_id) override;
 
  private:
   Status Write(const std::function<Status(SqlTransaction&)>& body) {
@@ -113,6 +119,11 @@ class SqlRepository final : public Repository {
   Result<InsertOutcome> CompareExisting(SqlTransaction& transaction, const std::string& select_digest_sql,
                                         const std::vector<SqlValue>& key, const std::string& sha256,
                                         const std::string& what);
+
+  /// Runs one write statement with RETURNING in its own transaction; how many rows it returned.
+  Result<std::int64_t> CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params);
+  /// Appends `entry` inside `transaction` (DeleteRobot's audit entry commits with the deletion).
+  Result<AuditEntry> AppendAuditIn(SqlTransaction& transaction, const AuditEntry& entry);
 
   std::unique_ptr<SqlDatabase> database_;
   std::function<void(const std::string&)> fault_hook_;

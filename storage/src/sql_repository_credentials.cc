@@ -66,23 +66,33 @@ Result<CredentialChanges> SqlRepository::CredentialChangesSince(std::int64_t sin
   if (limit < 1 || limit > 100000) return InvalidArgument("limit: expected 1..100000");
   CredentialChanges changes;
   changes.epoch = since;
-  // One statement, one snapshot: the epoch returned is the newest change that was read.
+  // One statement, one snapshot: the counter and the changed rows are read together.
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    if (since < 0) {
-      auto newest = transaction.Query("SELECT COALESCE(MAX(epoch), 0) FROM credentials", {});
-      if (!newest.ok()) return newest.status();
-      changes.epoch = newest->front().Int(0);
-      return Status::Ok();
-    }
     auto rows = transaction.Query(
-        "SELECT principal, epoch FROM credentials WHERE epoch > $1 ORDER BY epoch LIMIT $2",
+        "SELECT e.epoch, c.principal, c.epoch FROM credential_epoch e LEFT JOIN (SELECT principal, epoch FROM "
+        "credentials WHERE epoch > $1 ORDER BY epoch LIMIT $2) c ON 1 = 1 WHERE e.singleton = 1 ORDER BY c.epoch",
         {since, std::int64_t{limit}});
     if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) {
-      changes.principals.push_back(row.Text(0));
-      changes.epoch = std::max(changes.epoch, row.Int(1));
+    if (rows->empty()) return Internal("credential_epoch: its row is missing");
+    const std::int64_t counter = rows->front().Int(0);
+    if (since < 0) {
+      changes.epoch = counter;
+      return Status::Ok();
     }
-    changes.truncated = static_cast<int>(rows->size()) == limit;
+    int changed = 0;
+    for (const SqlRow& row : *rows) {
+      if (row.IsNull(1)) continue;
+      changes.principals.push_back(row.Text(1));
+      changes.epoch = std::max(changes.epoch, row.Int(2));
+      ++changed;
+    }
+    changes.truncated = changed == limit;
+    if (!changes.truncated && counter > changes.epoch) {
+      // An epoch taken by a change that left no row: a credential erased with its robot (DeleteRobot). Which
+      // principal is not known here, so the poller drops every cached token.
+      changes.truncated = true;
+      changes.epoch = counter;
+    }
     return Status::Ok();
   }));
   return changes;

@@ -34,7 +34,7 @@ JobState JobStateFromName(const std::string& name) {
 
 constexpr const char* kJobColumns =
     "job_id, kind, payload, state, attempts, max_attempts, parent_job_id, lease_owner, lease_expires_at_ms, "
-    "last_error, progress_done, progress_total, created_at_ms, updated_at_ms";
+    "last_error, progress_done, progress_total, created_at_ms, updated_at_ms, robot_id";
 
 JobRecord JobFromRow(const SqlRow& row) {
   JobRecord job;
@@ -52,6 +52,7 @@ JobRecord JobFromRow(const SqlRow& row) {
   job.progress_total = row.Int(11);
   job.created_at_ms = row.Int(12);
   job.updated_at_ms = row.Int(13);
+  if (!row.IsNull(14)) job.robot_id = row.Text(14);
   return job;
 }
 
@@ -67,6 +68,7 @@ Result<std::int64_t> SqlRepository::EnqueueJob(const NewJob& job) {
   STORAGE_RETURN_IF_ERROR(CheckText(job.kind, "job kind", 128));
   if (job.max_attempts < 1) return InvalidArgument("job max_attempts must be at least 1");
   if (job.progress_total < 0) return InvalidArgument("job progress_total is negative");
+  if (job.robot_id) STORAGE_RETURN_IF_ERROR(CheckText(*job.robot_id, "job robot_id", 128));
   std::int64_t job_id = 0;
   STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     const std::int64_t now = NowMs();
@@ -74,9 +76,10 @@ Result<std::int64_t> SqlRepository::EnqueueJob(const NewJob& job) {
     if (job.parent_job_id) parent = *job.parent_job_id;
     auto rows = transaction.Query(
         "INSERT INTO jobs (kind, payload, state, attempts, max_attempts, parent_job_id, last_error, progress_done, "
-        "progress_total, created_at_ms, updated_at_ms) VALUES ($1, $2, 'queued', 0, $3, $4, '', 0, $5, $6, $6) "
-        "RETURNING job_id",
-        {job.kind, SqlBlob{job.payload}, job.max_attempts, parent, job.progress_total, now});
+        "progress_total, created_at_ms, updated_at_ms, robot_id) VALUES ($1, $2, 'queued', 0, $3, $4, '', 0, $5, $6, "
+        "$6, $7) RETURNING job_id",
+        {job.kind, SqlBlob{job.payload}, job.max_attempts, parent, job.progress_total, now,
+         job.robot_id ? SqlValue{*job.robot_id} : SqlValue{SqlNull{}}});
     if (!rows.ok()) return rows.status();
     job_id = rows->front().Int(0);
     return Status::Ok();

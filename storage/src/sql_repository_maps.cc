@@ -119,8 +119,9 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
     if (!locked.ok()) return locked.status();
     if (locked->empty()) return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
     if (version.origin == "upload") {
-      auto existing = transaction.Query(std::string(kVersionColumns) + "WHERE run_id = $1 AND origin = 'upload'",
-                                        {version.run_id});
+      auto existing = transaction.Query(
+          std::string(kVersionColumns) + "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
+          {version.robot_id, version.run_id});
       if (!existing.ok()) return existing.status();
       if (!existing->empty()) {
         stored = VersionFromRow(existing->front());
@@ -210,15 +211,17 @@ Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, s
                     "metadata of map version " + std::to_string(version) + " of robot " + robot_id);
 }
 
-Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const std::string& run_id) {
+Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const RunKey& run) {
   std::optional<MapVersionRecord> found;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string(kVersionColumns) + "WHERE run_id = $1 AND origin = 'upload'", {run_id});
+    auto rows = transaction.Query(
+        std::string(kVersionColumns) + "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
+        {run.robot_id, run.run_id});
     if (!rows.ok()) return rows.status();
     if (!rows->empty()) found = VersionFromRow(rows->front());
     return Status::Ok();
   }));
-  if (!found) return NotFound("run " + run_id + " made no map version");
+  if (!found) return NotFound("run " + run.run_id + " of robot " + run.robot_id + " made no map version");
   return *found;
 }
 

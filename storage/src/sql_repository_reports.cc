@@ -11,7 +11,9 @@ constexpr std::size_t kMaxDetailBytes = 1 << 20;
 
 Status CheckBundle(const ReportBundle& bundle) {
   const ReportRecord& report = bundle.report;
+  if (report.robot_id.empty()) return InvalidArgument("report robot_id is empty");
   if (report.run_id.empty()) return InvalidArgument("report run_id is empty");
+  STORAGE_RETURN_IF_ERROR(CheckText(report.robot_id, "report robot_id", 128));
   if (report.parameter_set.empty()) return InvalidArgument("report parameter_set is empty");
   STORAGE_RETURN_IF_ERROR(CheckText(report.run_id, "report run_id", 128));
   STORAGE_RETURN_IF_ERROR(CheckText(report.parameter_set, "report parameter_set", 128));
@@ -37,7 +39,7 @@ struct Label {
 
 constexpr const char* kRegionColumns =
     "SELECT run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, features_json, predicted_class, "
-    "probability, label, labelled_by FROM protrusion_regions ";
+    "probability, label, labelled_by, robot_id FROM protrusion_regions ";
 
 ProtrusionRegionRecord RegionFromRow(const SqlRow& row) {
   ProtrusionRegionRecord region;
@@ -50,6 +52,7 @@ ProtrusionRegionRecord RegionFromRow(const SqlRow& row) {
   region.probability = row.Real(9);
   if (!row.IsNull(10)) region.label = row.Text(10);
   if (!row.IsNull(11)) region.labelled_by = row.Text(11);
+  region.robot_id = row.Text(12);
   return region;
 }
 
@@ -59,15 +62,15 @@ Status SqlRepository::PutReport(const ReportBundle& bundle) {
   STORAGE_RETURN_IF_ERROR(CheckBundle(bundle));
   const ReportRecord& report = bundle.report;
   const EncodedBlob blob = EncodeBlob(report.report);
-  const std::vector<SqlValue> key = {report.run_id, report.parameter_set};
+  const std::vector<SqlValue> key = {report.robot_id, report.run_id, report.parameter_set};
   return Write([&](SqlTransaction& transaction) -> Status {
     // The upsert comes first: it locks the report row, so concurrent writers of one key take turns.
     STORAGE_RETURN_IF_ERROR(transaction.Exec(
-        "INSERT INTO reports (run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
+        "INSERT INTO reports (robot_id, run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
         "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
         "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, recovery_retracted) "
-        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16) "
-        "ON CONFLICT (run_id, parameter_set) DO UPDATE SET recovery_created = excluded.recovery_created, "
+        "VALUES ($17, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16) "
+        "ON CONFLICT (robot_id, run_id, parameter_set) DO UPDATE SET recovery_created = excluded.recovery_created, "
         "recovery_accepted = excluded.recovery_accepted, recovery_retracted = excluded.recovery_retracted, "
         "merge_created = excluded.merge_created, "
         "merge_conditionally_accepted = excluded.merge_conditionally_accepted, "
@@ -79,12 +82,13 @@ Status SqlRepository::PutReport(const ReportBundle& bundle) {
         {report.run_id, report.parameter_set, report.recovery_created, report.recovery_accepted, report.merge_created,
          report.merge_conditionally_accepted, report.merge_conditional_then_rejected, report.views_total,
          report.views_ambiguous, std::int64_t{report.started_localized ? 1 : 0}, report.protrusions_found,
-         SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs(), report.recovery_retracted}));
+         SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs(), report.recovery_retracted, report.robot_id}));
 
     // Labels are an engineer's work: carry them over to the replacement rows of the same region ids.
     std::map<std::int64_t, Label> labels;
     auto labelled = transaction.Query(
-        "SELECT region_id, label, labelled_by FROM protrusion_regions WHERE run_id = $1 AND parameter_set = $2 "
+        "SELECT region_id, label, labelled_by FROM protrusion_regions WHERE robot_id = $1 AND run_id = $2 "
+        "AND parameter_set = $3 "
         "AND label IS NOT NULL",
         key);
     if (!labelled.ok()) return labelled.status();
@@ -92,20 +96,21 @@ Status SqlRepository::PutReport(const ReportBundle& bundle) {
 
     for (const char* table : {"decisions", "ambiguous_views", "protrusion_regions"}) {
       STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          std::string("DELETE FROM ") + table + " WHERE run_id = $1 AND parameter_set = $2", key));
+          std::string("DELETE FROM ") + table + " WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3", key));
     }
     for (const DecisionRecord& d : bundle.decisions) {
       STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO decisions (run_id, parameter_set, sequence, time_s, kind, outcome, subject_id, score, detail) "
-          "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+          "INSERT INTO decisions (robot_id, run_id, parameter_set, sequence, time_s, kind, outcome, subject_id, score, "
+          "detail) VALUES ($10, $1, $2, $3, $4, $5, $6, $7, $8, $9)",
           {report.run_id, report.parameter_set, d.sequence, d.time_s, d.kind, d.outcome, d.subject_id, d.score,
-           d.detail}));
+           d.detail, report.robot_id}));
     }
     for (const AmbiguousViewRecord& v : bundle.ambiguous_views) {
       STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO ambiguous_views (run_id, parameter_set, view_id, time_s, candidate_count, ambiguity, detail) "
-          "VALUES ($1, $2, $3, $4, $5, $6, $7)",
-          {report.run_id, report.parameter_set, v.view_id, v.time_s, v.candidate_count, v.ambiguity, v.detail}));
+          "INSERT INTO ambiguous_views (robot_id, run_id, parameter_set, view_id, time_s, candidate_count, ambiguity, "
+          "detail) VALUES ($8, $1, $2, $3, $4, $5, $6, $7)",
+          {report.run_id, report.parameter_set, v.view_id, v.time_s, v.candidate_count, v.ambiguity, v.detail,
+           report.robot_id}));
     }
     for (const ProtrusionRegionRecord& r : bundle.protrusion_regions) {
       SqlValue label = SqlNull{}, labelled_by = SqlNull{};
@@ -117,31 +122,37 @@ Status SqlRepository::PutReport(const ReportBundle& bundle) {
         labelled_by = r.labelled_by.value_or("");
       }
       STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO protrusion_regions (run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
+          "INSERT INTO protrusion_regions (robot_id, run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
           "features_json, predicted_class, probability, label, labelled_by) "
-          "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+          "VALUES ($13, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
           {report.run_id, report.parameter_set, r.region_id, r.bbox.min_x, r.bbox.min_y, r.bbox.max_x, r.bbox.max_y,
-           r.features_json, r.predicted_class, r.probability, label, labelled_by}));
+           r.features_json, r.predicted_class, r.probability, label, labelled_by, report.robot_id}));
     }
     Fault("put_report:before_commit");
     return Status::Ok();
   });
 }
 
-Result<ReportRecord> SqlRepository::GetReport(const std::string& run_id, const std::string& parameter_set) {
+Result<ReportRecord> SqlRepository::GetReport(const RunKey& run, const std::string& parameter_set) {
+  const std::string& run_id = run.run_id;
   std::optional<SqlRow> row;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(
         "SELECT recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, "
         "merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, "
-        "data, data_crc32, data_size, recovery_retracted FROM reports WHERE run_id = $1 AND parameter_set = $2",
-        {run_id, parameter_set});
+        "data, data_crc32, data_size, recovery_retracted FROM reports WHERE robot_id = $1 AND run_id = $2 "
+        "AND parameter_set = $3",
+        {run.robot_id, run_id, parameter_set});
     if (!rows.ok()) return rows.status();
     if (!rows->empty()) row = rows->front();
     return Status::Ok();
   }));
-  if (!row) return NotFound("no report for run " + run_id + " with parameter set " + parameter_set);
+  if (!row) {
+    return NotFound("no report for run " + run_id + " of robot " + run.robot_id + " with parameter set " +
+                    parameter_set);
+  }
   ReportRecord report;
+  report.robot_id = run.robot_id;
   report.run_id = run_id;
   report.parameter_set = parameter_set;
   report.recovery_created = row->Int(0);
@@ -161,11 +172,12 @@ Result<ReportRecord> SqlRepository::GetReport(const std::string& run_id, const s
   return report;
 }
 
-Result<std::vector<std::string>> SqlRepository::ListReportParameterSets(const std::string& run_id) {
+Result<std::vector<std::string>> SqlRepository::ListReportParameterSets(const RunKey& run) {
   std::vector<std::string> names;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT parameter_set FROM reports WHERE run_id = $1 ORDER BY parameter_set",
-                                  {run_id});
+    auto rows = transaction.Query(
+        "SELECT parameter_set FROM reports WHERE robot_id = $1 AND run_id = $2 ORDER BY parameter_set",
+        {run.robot_id, run.run_id});
     if (!rows.ok()) return rows.status();
     for (const SqlRow& row : *rows) names.push_back(row.Text(0));
     return Status::Ok();
@@ -173,14 +185,14 @@ Result<std::vector<std::string>> SqlRepository::ListReportParameterSets(const st
   return names;
 }
 
-Result<std::vector<DecisionRecord>> SqlRepository::ListDecisions(const std::string& run_id,
+Result<std::vector<DecisionRecord>> SqlRepository::ListDecisions(const RunKey& run,
                                                                  const std::string& parameter_set) {
   std::vector<DecisionRecord> decisions;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(
         "SELECT sequence, time_s, kind, outcome, subject_id, score, detail FROM decisions "
-        "WHERE run_id = $1 AND parameter_set = $2 ORDER BY sequence",
-        {run_id, parameter_set});
+        "WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3 ORDER BY sequence",
+        {run.robot_id, run.run_id, parameter_set});
     if (!rows.ok()) return rows.status();
     for (const SqlRow& row : *rows) {
       decisions.push_back(DecisionRecord{row.Int(0), row.Real(1), row.Text(2), row.Text(3), row.Int(4), row.Real(5),
@@ -191,14 +203,14 @@ Result<std::vector<DecisionRecord>> SqlRepository::ListDecisions(const std::stri
   return decisions;
 }
 
-Result<std::vector<AmbiguousViewRecord>> SqlRepository::ListAmbiguousViews(const std::string& run_id,
+Result<std::vector<AmbiguousViewRecord>> SqlRepository::ListAmbiguousViews(const RunKey& run,
                                                                            const std::string& parameter_set) {
   std::vector<AmbiguousViewRecord> views;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(
         "SELECT view_id, time_s, candidate_count, ambiguity, detail FROM ambiguous_views "
-        "WHERE run_id = $1 AND parameter_set = $2 ORDER BY view_id",
-        {run_id, parameter_set});
+        "WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3 ORDER BY view_id",
+        {run.robot_id, run.run_id, parameter_set});
     if (!rows.ok()) return rows.status();
     for (const SqlRow& row : *rows) {
       views.push_back(AmbiguousViewRecord{row.Int(0), row.Real(1), row.Int(2), row.Real(3), row.Text(4)});
@@ -208,13 +220,13 @@ Result<std::vector<AmbiguousViewRecord>> SqlRepository::ListAmbiguousViews(const
   return views;
 }
 
-Result<std::vector<ProtrusionRegionRecord>> SqlRepository::ListProtrusionRegions(const std::string& run_id,
+Result<std::vector<ProtrusionRegionRecord>> SqlRepository::ListProtrusionRegions(const RunKey& run,
                                                                                  const std::string& parameter_set) {
   std::vector<ProtrusionRegionRecord> regions;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(std::string(kRegionColumns) +
-                                      "WHERE run_id = $1 AND parameter_set = $2 ORDER BY region_id",
-                                  {run_id, parameter_set});
+                                      "WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3 ORDER BY region_id",
+                                  {run.robot_id, run.run_id, parameter_set});
     if (!rows.ok()) return rows.status();
     for (const SqlRow& row : *rows) regions.push_back(RegionFromRow(row));
     return Status::Ok();
@@ -222,7 +234,7 @@ Result<std::vector<ProtrusionRegionRecord>> SqlRepository::ListProtrusionRegions
   return regions;
 }
 
-Status SqlRepository::LabelProtrusionRegion(const std::string& run_id, const std::string& parameter_set,
+Status SqlRepository::LabelProtrusionRegion(const RunKey& run, const std::string& parameter_set,
                                             std::int64_t region_id, const std::string& label,
                                             const std::string& labelled_by) {
   if (label.empty()) return InvalidArgument("label is empty");
@@ -231,11 +243,12 @@ Status SqlRepository::LabelProtrusionRegion(const std::string& run_id, const std
   return Write([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(
         "UPDATE protrusion_regions SET label = $4, labelled_by = $5 "
-        "WHERE run_id = $1 AND parameter_set = $2 AND region_id = $3 RETURNING region_id",
-        {run_id, parameter_set, region_id, label, labelled_by});
+        "WHERE run_id = $1 AND parameter_set = $2 AND region_id = $3 AND robot_id = $6 RETURNING region_id",
+        {run.run_id, parameter_set, region_id, label, labelled_by, run.robot_id});
     if (!rows.ok()) return rows.status();
     if (rows->empty()) {
-      return NotFound("no protrusion region " + std::to_string(region_id) + " in run " + run_id +
+      return NotFound("no protrusion region " + std::to_string(region_id) + " in run " + run.run_id + " of robot " +
+                      run.robot_id +
                       " with parameter set " + parameter_set);
     }
     return Status::Ok();
@@ -249,7 +262,7 @@ Result<std::vector<ProtrusionRegionRecord>> SqlRepository::ListLabelledRegions(c
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(std::string(kRegionColumns) +
                                       "WHERE label IS NOT NULL AND (CAST($1 AS TEXT) = '' OR parameter_set = $1) "
-                                      "ORDER BY run_id, parameter_set, region_id LIMIT $2",
+                                      "ORDER BY robot_id, run_id, parameter_set, region_id LIMIT $2",
                                   {parameter_set, std::int64_t{limit}});
     if (!rows.ok()) return rows.status();
     for (const SqlRow& row : *rows) regions.push_back(RegionFromRow(row));

@@ -49,7 +49,7 @@ Status CheckRun(const RunRecord& run) {
 
 constexpr const char* kRunColumns =
     "r.run_id, r.robot_id, r.firmware, r.robot_model, r.started_at_ms, r.ended_at_ms, r.parent_snapshot_id, "
-    "r.child_snapshot_id, r.telemetry_size";
+    "r.child_snapshot_id, r.telemetry_size, r.telemetry_pruned_at_ms";
 
 RunRecord RunFromRow(const SqlRow& row) {
   RunRecord run;
@@ -62,6 +62,7 @@ RunRecord RunFromRow(const SqlRow& row) {
   if (!row.IsNull(6)) run.parent_snapshot_id = row.Text(6);
   if (!row.IsNull(7)) run.child_snapshot_id = row.Text(7);
   run.telemetry_size = row.Int(8);
+  if (!row.IsNull(9)) run.telemetry_pruned_at_ms = row.Int(9);
   return run;
 }
 
@@ -110,7 +111,7 @@ std::string StatisticsSql(const std::string& key_sql, bool grouped) {
                     ", CAST(COALESCE(SUM(p.started_localized), 0) AS BIGINT)"
                     ", CAST(COALESCE(SUM(p.protrusions_found), 0) AS BIGINT)"
                     ", CAST(COALESCE(SUM(p.recovery_retracted), 0) AS BIGINT)"
-                    " FROM reports p JOIN runs r ON r.run_id = p.run_id WHERE " +
+                    " FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id WHERE " +
                     std::string(kRunFilterSql) + " AND (CAST($4 AS TEXT) = '' OR p.parameter_set = $4)";
   if (grouped) sql += " GROUP BY 1 ORDER BY 1";
   return sql;
@@ -142,15 +143,17 @@ Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
     auto inserted = transaction.Query(
         "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id, "
         "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
-        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (run_id) DO NOTHING "
+        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (robot_id, run_id) DO NOTHING "
         "RETURNING run_id",
         {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
          OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id), SqlBlob{telemetry.compressed},
          telemetry.crc32, telemetry.raw_size, digest, NowMs()});
     if (!inserted.ok()) return inserted.status();
     if (inserted->empty()) {
-      auto existing = CompareExisting(transaction, "SELECT payload_sha256 FROM runs WHERE run_id = $1", {run.run_id},
-                                      digest, "run " + run.run_id);
+      auto existing = CompareExisting(transaction,
+                                      "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
+                                      {run.robot_id, run.run_id}, digest,
+                                      "run " + run.run_id + " of robot " + run.robot_id);
       if (!existing.ok()) return existing.status();
       outcome = *existing;
     }
@@ -160,22 +163,36 @@ Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
   return outcome;
 }
 
-Result<RunRecord> SqlRepository::GetRun(const std::string& run_id) {
+Result<RunRecord> SqlRepository::GetRun(const RunKey& key) {
   std::optional<SqlRow> row;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(std::string("SELECT ") + kRunColumns +
-                                      ", r.telemetry, r.telemetry_crc32 FROM runs r WHERE r.run_id = $1",
-                                  {run_id});
+                                      ", r.telemetry, r.telemetry_crc32 FROM runs r "
+                                      "WHERE r.robot_id = $1 AND r.run_id = $2",
+                                  {key.robot_id, key.run_id});
     if (!rows.ok()) return rows.status();
     if (!rows->empty()) row = rows->front();
     return Status::Ok();
   }));
-  if (!row) return NotFound("no run " + run_id);
+  if (!row) return NotFound("no run " + key.run_id + " of robot " + key.robot_id);
   RunRecord run = RunFromRow(*row);
-  auto telemetry = DecodeBlob(row->Text(9), row->Int(10), run.telemetry_size, "telemetry of run " + run_id);
+  auto telemetry = DecodeBlob(row->Text(10), row->Int(11), run.telemetry_size, "telemetry of run " + key.run_id);
   if (!telemetry.ok()) return telemetry.status();
   run.telemetry = std::move(telemetry).value();
   return run;
+}
+
+Result<std::vector<std::string>> SqlRepository::ListRunRobots(const std::string& run_id, int limit) {
+  if (limit < 1 || limit > 1000) return InvalidArgument("limit must be in 1..1000");
+  std::vector<std::string> robots;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query("SELECT robot_id FROM runs WHERE run_id = $1 ORDER BY robot_id LIMIT $2",
+                                  {run_id, std::int64_t{limit}});
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) robots.push_back(row.Text(0));
+    return Status::Ok();
+  }));
+  return robots;
 }
 
 Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, const std::optional<RunCursor>& after) {
@@ -184,11 +201,14 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
   params.emplace_back(after ? after->started_at_ms : std::numeric_limits<std::int64_t>::min());  // $7
   params.emplace_back(after ? after->run_id : std::string());                                    // $8
   params.emplace_back(std::int64_t{page_size} + 1);  // $9: one extra row tells whether a next page exists
+  params.emplace_back(after ? after->robot_id : std::string());                                  // $10
   const std::string sql = std::string("SELECT ") + kRunColumns + " FROM runs r WHERE " + kRunFilterSql +
-                          " AND (CAST($4 AS TEXT) = '' OR EXISTS (SELECT 1 FROM reports p WHERE p.run_id = r.run_id"
+                          " AND (CAST($4 AS TEXT) = '' OR EXISTS (SELECT 1 FROM reports p WHERE p.robot_id = r.robot_id"
+                          " AND p.run_id = r.run_id"
                           " AND p.parameter_set = $4))"
-                          " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND r.run_id > $8))"
-                          " ORDER BY r.started_at_ms, r.run_id LIMIT $9";
+                          " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
+                          " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
+                          " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
   RunPage page;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(sql, params);
@@ -198,7 +218,7 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
   }));
   if (page.runs.size() > static_cast<std::size_t>(page_size)) {
     page.runs.resize(static_cast<std::size_t>(page_size));
-    page.next = RunCursor{page.runs.back().started_at_ms, page.runs.back().run_id};
+    page.next = RunCursor{page.runs.back().started_at_ms, page.runs.back().run_id, page.runs.back().robot_id};
   }
   return page;
 }

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <functional>
 #include <thread>
 
 #include "test_databases.h"
@@ -31,39 +32,81 @@ class CrashConsistencyTest : public BackendTest {
     ASSERT_TRUE(version.ok()) << version.status().ToString();
     EXPECT_EQ(*version, LatestSchemaVersion());
   }
+
+  /// Runs `body` in a child process on its own connection and SIGKILLs it once it reaches fault `point`
+  /// (inside the transaction, before COMMIT).
+  void KillWriterAt(const std::string& point, const std::function<void(internal::SqlRepository&)>& body) {
+    int ready[2];
+    ASSERT_EQ(pipe(ready), 0);
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      auto repository = internal::OpenSqlRepository(url_, OpenOptions{});
+      if (!repository.ok()) _exit(2);
+      (*repository)->SetFaultHookForTesting([&](const std::string& at) {
+        if (at != point) return;
+        (void)!write(ready[1], "x", 1);
+        pause();
+      });
+      body(**repository);
+      _exit(3);
+    }
+    char byte = 0;
+    ASSERT_EQ(read(ready[0], &byte, 1), 1) << "the child never reached " << point;
+    ASSERT_EQ(kill(child, SIGKILL), 0);
+    int status = 0;
+    waitpid(child, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status));
+  }
 };
 
 TEST_P(CrashConsistencyTest, WriterKilledInsideTheTransactionLeavesNoTrace) {
-  int ready[2];
-  ASSERT_EQ(pipe(ready), 0);
   const RunRecord run = MakeRun("big-run", 1000, 8 << 20);  // 8 MiB of telemetry
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    auto repository = internal::OpenSqlRepository(url_, OpenOptions{});
-    if (!repository.ok()) _exit(2);
-    // Called after the run row is written, before COMMIT: tell the parent, then wait for SIGKILL.
-    (*repository)->SetFaultHookForTesting([&](const std::string& point) {
-      if (point != "insert_run:before_commit") return;
-      (void)!write(ready[1], "x", 1);
-      pause();
-    });
-    (void)(*repository)->InsertRun(run);
-    _exit(3);
-  }
-  char byte = 0;
-  ASSERT_EQ(read(ready[0], &byte, 1), 1) << "the child never reached the middle of its transaction";
-  ASSERT_EQ(kill(child, SIGKILL), 0);
-  int status = 0;
-  waitpid(child, &status, 0);
-  ASSERT_TRUE(WIFSIGNALED(status));
+  // Killed after the run row is written, before COMMIT.
+  KillWriterAt("insert_run:before_commit",
+               [&](internal::SqlRepository& repository) { (void)repository.InsertRun(run); });
+  if (HasFatalFailure()) return;
 
   Reopen();
   ExpectDatabaseValid();
-  EXPECT_EQ(repo().GetRun("big-run").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "big-run"}).status().code(), StatusCode::kNotFound);
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 0);
   EXPECT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted) << "the database stays writable";
-  EXPECT_EQ(repo().GetRun("big-run")->telemetry, run.telemetry);
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "big-run"})->telemetry, run.telemetry);
+}
+
+TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
+  Reopen();
+  const std::string snapshot = *repo().PutSnapshot("map of robot-1");
+  RunRecord run = MakeRun("run-1", 1000, 1000);
+  run.child_snapshot_id = snapshot;
+  ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
+  MapVersionRecord version;
+  version.robot_id = "robot-1";
+  version.snapshot_id = snapshot;
+  version.origin = "upload";
+  version.run_id = "run-1";
+  version.approval = "approved";
+  ASSERT_TRUE(repo().AppendMapVersion(version, std::nullopt, {}).ok());
+  ASSERT_TRUE(repo().SetCredential("robot:robot-1", "secret").ok());
+  repo_.reset();  // no database handle crosses fork()
+  // Killed once every row of the robot is deleted, before the audit entry and COMMIT.
+  KillWriterAt("delete_robot:before_audit",
+               [](internal::SqlRepository& repository) { (void)repository.DeleteRobot("robot-1", "admin:root"); });
+  if (HasFatalFailure()) return;
+
+  Reopen();
+  ExpectDatabaseValid();
+  EXPECT_TRUE(repo().GetRobot("robot-1").ok()) << "nothing half-deleted";
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-1"})->telemetry, run.telemetry);
+  EXPECT_TRUE(repo().GetSnapshot(snapshot).ok());
+  EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 1u);
+  EXPECT_TRUE(*repo().VerifyCredential("robot:robot-1", "secret"));
+  EXPECT_TRUE(repo().ListAudit(10, std::nullopt)->empty());
+  auto erased = repo().DeleteRobot("robot-1", "admin:root");
+  ASSERT_TRUE(erased.ok()) << erased.status().ToString();
+  EXPECT_EQ(erased->runs, 1);
+  EXPECT_EQ(erased->snapshots, 1);
 }
 
 TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
@@ -96,7 +139,7 @@ TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
   const std::int64_t stored = RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0);
   EXPECT_GT(stored, 0) << "the child should have committed some runs in 700 ms";
   for (std::int64_t i = 0; i <= stored; ++i) {
-    auto run = repo().GetRun("run-" + std::to_string(i));
+    auto run = repo().GetRun(RunKey{"robot-1", "run-" + std::to_string(i)});
     if (i < stored) {
       ASSERT_TRUE(run.ok()) << "run-" << i << ": " << run.status().ToString();
       EXPECT_EQ(run->telemetry, MakeRun("run-" + std::to_string(i), i, kTelemetryBytes).telemetry);

@@ -25,9 +25,11 @@ class RepositoryContractTest : public BackendTest {
     ASSERT_TRUE(repo().PutParameterSet({"tuned", "params-b"}).ok());
   }
 
-  static ReportBundle MakeReport(const std::string& run_id, const std::string& parameter_set, std::int64_t scale) {
+  static ReportBundle MakeReport(const std::string& run_id, const std::string& parameter_set, std::int64_t scale,
+                                 const std::string& robot_id = "robot-1") {
     ReportBundle bundle;
     ReportRecord& r = bundle.report;
+    r.robot_id = robot_id;
     r.run_id = run_id;
     r.parameter_set = parameter_set;
     r.recovery_created = 2 * scale;
@@ -108,7 +110,7 @@ TEST_P(RepositoryContractTest, RunRoundTripsWithItsTelemetry) {
   run.parent_snapshot_id = *repo().PutSnapshot("parent map");
   run.child_snapshot_id = *repo().PutSnapshot("child map");
   ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
-  auto read = repo().GetRun("run-1");
+  auto read = repo().GetRun(RunKey{"robot-1", "run-1"});
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_EQ(read->telemetry, run.telemetry);
   EXPECT_EQ(read->telemetry_size, 200000);
@@ -116,7 +118,7 @@ TEST_P(RepositoryContractTest, RunRoundTripsWithItsTelemetry) {
   EXPECT_EQ(read->child_snapshot_id, run.child_snapshot_id);
   EXPECT_EQ(read->robot_model, "vac-s");
   EXPECT_LT(RawQuery("SELECT LENGTH(telemetry) FROM runs")[0].Int(0), 200000) << "stored compressed";
-  EXPECT_EQ(repo().GetRun("run-2").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-2"}).status().code(), StatusCode::kNotFound);
 }
 
 TEST_P(RepositoryContractTest, SameRunTwiceStoresOneRun) {
@@ -133,7 +135,7 @@ TEST_P(RepositoryContractTest, DifferentPayloadUnderTheSameRunIdIsAConflict) {
   EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kAlreadyExists);
   run = MakeRun("run-1", 10001);
   EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kAlreadyExists);
-  EXPECT_EQ(repo().GetRun("run-1")->started_at_ms, 10000) << "the first payload stays";
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-1"})->started_at_ms, 10000) << "the first payload stays";
 }
 
 TEST_P(RepositoryContractTest, RunMustNameStoredRobotAndSnapshots) {
@@ -161,11 +163,11 @@ TEST_P(RepositoryContractTest, CorruptBlobsAreDataLossNeverData) {
   flip("runs", "telemetry", "run_id", "run-1");
   flip("snapshots", "data", "snapshot_id", snapshot);
   flip("reports", "data", "run_id", "run-1");
-  auto run = repo().GetRun("run-1");
+  auto run = repo().GetRun(RunKey{"robot-1", "run-1"});
   EXPECT_EQ(run.status().code(), StatusCode::kDataLoss) << run.status().ToString();
   EXPECT_NE(run.status().message().find("run-1"), std::string::npos);
   EXPECT_EQ(repo().GetSnapshot(snapshot).status().code(), StatusCode::kDataLoss);
-  EXPECT_EQ(repo().GetReport("run-1", "default").status().code(), StatusCode::kDataLoss);
+  EXPECT_EQ(repo().GetReport(RunKey{"robot-1", "run-1"}, "default").status().code(), StatusCode::kDataLoss);
   // A checksum that no longer matches is caught too, even when the bytes themselves are intact.
   ASSERT_TRUE(repo().PutParameterSet({"third", "params-c"}).ok());
   RawQuery("UPDATE parameter_sets SET data_crc32 = data_crc32 + 1 WHERE name = 'third'");
@@ -176,24 +178,25 @@ TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
   ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "tuned", 2)).ok());
-  EXPECT_EQ(*repo().ListReportParameterSets("run-1"), (std::vector<std::string>{"default", "tuned"}));
-  auto tuned = repo().GetReport("run-1", "tuned");
+  EXPECT_EQ(*repo().ListReportParameterSets(RunKey{"robot-1", "run-1"}),
+            (std::vector<std::string>{"default", "tuned"}));
+  auto tuned = repo().GetReport(RunKey{"robot-1", "run-1"}, "tuned");
   ASSERT_TRUE(tuned.ok()) << tuned.status().ToString();
   EXPECT_EQ(tuned->merge_created, 6);
   EXPECT_EQ(tuned->recovery_retracted, 10);
   EXPECT_FALSE(tuned->started_localized);
   EXPECT_EQ(tuned->report, MakeReport("run-1", "tuned", 2).report.report);
-  auto decisions = repo().ListDecisions("run-1", "default");
+  auto decisions = repo().ListDecisions(RunKey{"robot-1", "run-1"}, "default");
   ASSERT_EQ(decisions->size(), 2u);
   EXPECT_EQ((*decisions)[1].outcome, "accepted");
   EXPECT_DOUBLE_EQ((*decisions)[0].score, 0.9);
-  ASSERT_EQ(repo().ListAmbiguousViews("run-1", "default")->size(), 1u);
-  EXPECT_EQ((*repo().ListAmbiguousViews("run-1", "default"))[0].detail, "corridor");
-  auto regions = repo().ListProtrusionRegions("run-1", "tuned");
+  ASSERT_EQ(repo().ListAmbiguousViews(RunKey{"robot-1", "run-1"}, "default")->size(), 1u);
+  EXPECT_EQ((*repo().ListAmbiguousViews(RunKey{"robot-1", "run-1"}, "default"))[0].detail, "corridor");
+  auto regions = repo().ListProtrusionRegions(RunKey{"robot-1", "run-1"}, "tuned");
   ASSERT_EQ(regions->size(), 2u);
   EXPECT_EQ((*regions)[0].features_json, R"({"height":0.12})");
   EXPECT_DOUBLE_EQ((*regions)[0].bbox.max_y, 1.5);
-  EXPECT_EQ(repo().GetReport("run-1", "other").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().GetReport(RunKey{"robot-1", "run-1"}, "other").status().code(), StatusCode::kNotFound);
 }
 
 TEST_P(RepositoryContractTest, ReportNeedsAStoredRunAndParameterSet) {
@@ -205,13 +208,13 @@ TEST_P(RepositoryContractTest, ReportNeedsAStoredRunAndParameterSet) {
 TEST_P(RepositoryContractTest, ReplacingAReportKeepsEngineersLabels) {
   ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
-  ASSERT_TRUE(repo().LabelProtrusionRegion("run-1", "default", 2, "shoe", "alice").ok());
-  EXPECT_EQ(repo().LabelProtrusionRegion("run-1", "default", 9, "shoe", "alice").code(), StatusCode::kNotFound);
+  ASSERT_TRUE(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 2, "shoe", "alice").ok());
+  EXPECT_EQ(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 9, "shoe", "alice").code(), StatusCode::kNotFound);
   ReportBundle retried = MakeReport("run-1", "default", 3);
   retried.decisions.pop_back();
   ASSERT_TRUE(repo().PutReport(retried).ok());
-  EXPECT_EQ(repo().GetReport("run-1", "default")->merge_created, 9);
-  EXPECT_EQ(repo().ListDecisions("run-1", "default")->size(), 1u);
+  EXPECT_EQ(repo().GetReport(RunKey{"robot-1", "run-1"}, "default")->merge_created, 9);
+  EXPECT_EQ(repo().ListDecisions(RunKey{"robot-1", "run-1"}, "default")->size(), 1u);
   auto labelled = repo().ListLabelledRegions("default", 10);
   ASSERT_EQ(labelled->size(), 1u);
   EXPECT_EQ((*labelled)[0].region_id, 2);
@@ -281,8 +284,8 @@ TEST_P(RepositoryContractTest, AggregatesFleetStatisticsInTheDatabase) {
   c.firmware = "fw-2.0";
   ASSERT_TRUE(repo().InsertRun(c).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("a", "default", 1)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("b", "default", 2)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("c", "default", 3)).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("b", "default", 2, "robot-2")).ok());
+  ASSERT_TRUE(repo().PutReport(MakeReport("c", "default", 3, "robot-3")).ok());
   ASSERT_TRUE(repo().PutReport(MakeReport("a", "tuned", 10)).ok());
 
   RunFilter defaults;
@@ -340,13 +343,13 @@ TEST_P(RepositoryContractTest, InjectionAttemptsInValuesAreHarmless) {
     filter.firmware = attack;
     filter.parameter_set = attack;
     EXPECT_EQ(repo().Aggregate(filter)->reports, 0) << attack;
-    EXPECT_EQ(repo().GetRun(attack).status().code(), StatusCode::kNotFound) << attack;
+    EXPECT_EQ(repo().GetRun(RunKey{"robot-1", attack}).status().code(), StatusCode::kNotFound) << attack;
     EXPECT_FALSE(*repo().VerifyCredential(attack, attack));
   }
   // The same strings are stored and returned verbatim as data.
   ASSERT_TRUE(repo().PutRobot(RobotRecord{attacks[0], attacks[1], attacks[2], 1}).ok());
   ASSERT_TRUE(repo().InsertRun(MakeRun(attacks[1], 5, 10, attacks[0])).ok());
-  EXPECT_EQ(repo().GetRun(attacks[1])->robot_id, attacks[0]);
+  EXPECT_EQ(repo().GetRun(RunKey{attacks[0], attacks[1]})->robot_id, attacks[0]);
   RunFilter exact;
   exact.robot_id = attacks[0];
   EXPECT_EQ(repo().ListRuns(exact, 10, std::nullopt)->runs.size(), 1u);
@@ -413,8 +416,8 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   EXPECT_EQ((*versions)[1].parent_version, 1);
   EXPECT_EQ((*versions)[1].action, "cut_region");
   EXPECT_DOUBLE_EQ((*versions)[0].known_area_m2, 12.5);
-  EXPECT_EQ(repo().GetMapVersionOfRun("run-1")->version, 1);
-  EXPECT_EQ(repo().GetMapVersionOfRun("run-9").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().GetMapVersionOfRun(RunKey{"robot-1", "run-1"})->version, 1);
+  EXPECT_EQ(repo().GetMapVersionOfRun(RunKey{"robot-1", "run-9"}).status().code(), StatusCode::kNotFound);
   auto findings = repo().ListMapFindings("robot-1", 1);
   ASSERT_TRUE(findings.ok());
   ASSERT_EQ(findings->size(), 2u);

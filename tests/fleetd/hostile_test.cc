@@ -277,6 +277,53 @@ TEST_F(HostileTest, AParentFromAnotherRobotsHistoryIsRefused) {
   ExpectStillServing();
 }
 
+TEST_F(HostileTest, ARobotTakingAnotherRobotsNextRunIdTakesNothing) {
+  const int before = CountRuns();
+  const std::string a = RobotId(0), b = RobotId(1), next = "hostile-next-run-of-b";
+  // Robot A uploads first, under the id robot B will use for its next run.
+  UploadRunResponse squatted;
+  grpc::Status status = Upload(*ingest_, RobotToken(a), RunOf(0, next), &squatted);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  // B's real upload of that id is stored and acknowledged OK; a retry of it is the same run.
+  const RunFile real = RunOf(1, next);
+  UploadRunResponse response;
+  status = Upload(*ingest_, RobotToken(b), real, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_FALSE(response.already_present());
+  EXPECT_EQ(response.run_id(), next);
+  EXPECT_EQ(CountRuns(), before + 2) << "both runs are stored";
+  status = Upload(*ingest_, RobotToken(b), real, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_TRUE(response.already_present());
+  // The same robot, the same id, other content: a clear refusal, nothing stored.
+  RunFile changed = real;
+  changed.mutable_header()->set_firmware(changed.header().firmware() + "-changed");
+  status = Upload(*ingest_, RobotToken(b), changed, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::ALREADY_EXISTS) << status.error_message();
+  EXPECT_NE(status.error_message().find("of robot " + b), std::string::npos) << status.error_message();
+  EXPECT_EQ(CountRuns(), before + 2);
+
+  // A reads only its own run of that id; B's answers like a missing run.
+  std::string body;
+  const std::string token_a = RobotToken(a);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next, &body, token_a), 200) << body;
+  EXPECT_EQ(nlohmann::json::parse(body).at("run").at("robot_id"), a);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "?robot=" + b, &body, token_a), 404) << body;
+  EXPECT_EQ(body.find(b), std::string::npos) << "B's run is not revealed";
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "/map/info.json?robot=" + b, &body, token_a), 404);
+  // An engineer names the robot; the id alone is ambiguous and says so.
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "?robot=" + b, &body, *engineer_), 200) << body;
+  EXPECT_EQ(nlohmann::json::parse(body).at("run").at("robot_id"), b);
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next, &body, *engineer_), 400) << body;
+  EXPECT_NE(body.find("name the robot"), std::string::npos) << body;
+  fleet::v1::GetRunReportRequest request;
+  request.set_run_id(next);
+  fleet::v1::GetRunReportResponse report;
+  auto context = Context(*engineer_);
+  EXPECT_EQ(queries_->GetRunReport(context.get(), request, &report).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  ExpectStillServing();
+}
+
 TEST_F(HostileTest, HeaderInjectionThroughARobotIdIsRefused) {
   const int before = CountRuns();
   RunFile run = RunOf(0, "hostile-crlf");

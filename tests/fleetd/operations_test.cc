@@ -134,6 +134,39 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   EXPECT_TRUE(listed.credentials(1).revoked());
   EXPECT_EQ(listed.credentials(2).role(), "robot");
   EXPECT_EQ(listed.DebugString().find(rotated.substr(rotated.rfind('.') + 1)), std::string::npos);
+
+  // Each change is in the audit log, with who made it.
+  fleet::v1::ListAuditLogResponse audit;
+  auto audit_context = Context(FleetdProcess::AdminToken());
+  ASSERT_TRUE(admin->ListAuditLog(audit_context.get(), fleet::v1::ListAuditLogRequest(), &audit).ok());
+  std::vector<std::tuple<std::string, std::string, std::string>> changes;  // oldest first
+  for (const auto& entry : audit.entries()) changes.emplace(changes.begin(), entry.action(), entry.subject(), entry.actor());
+  EXPECT_EQ(changes, (std::vector<std::tuple<std::string, std::string, std::string>>{
+                         {"set_credential", "engineer:ops", "admin:root"},
+                         {"revoke_credential", "engineer:ops", "admin:root"},
+                         {"set_credential", "robot:ops-r1", "admin:root"},
+                         {"rotate_credential", "robot:ops-r1", "robot:ops-r1"}}))
+      << audit.DebugString();
+
+  // Erasing a robot deletes its credential row; the other process still drops the robot's cached token.
+  const fleet::v1::RunFile& run = SimulatedRuns().front();
+  const std::string uploader = IssueToken(*admin, "robot:" + run.header().robot_id());
+  auto ingest = fleet::v1::Ingest::NewStub(a.Channel());
+  fleet::v1::UploadRunResponse uploaded;
+  ASSERT_TRUE(Upload(*ingest, uploader, run, &uploaded).ok());
+  ASSERT_EQ(ListRunsCode(b.Channel(), uploader), grpc::StatusCode::PERMISSION_DENIED) << "authenticated (and cached)";
+  fleet::v1::DeleteRobotRequest erase;
+  erase.set_robot_id(run.header().robot_id());
+  erase.set_confirm(run.header().robot_id());
+  fleet::v1::DeleteRobotResponse erased;
+  auto erase_context = Context(FleetdProcess::AdminToken());
+  ASSERT_TRUE(admin->DeleteRobot(erase_context.get(), erase, &erased).ok());
+  EXPECT_EQ(erased.credentials(), 1);
+  const double erased_refused = SecondsUntil(
+      [&] { return ListRunsCode(b.Channel(), uploader) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
+  std::printf("erased robot's token refused by the other process after %.2f s\n", erased_refused);
+  EXPECT_GE(erased_refused, 0.0);
+  EXPECT_LT(erased_refused, 3.0);
   EXPECT_EQ(b.Stop(), 0);
   EXPECT_EQ(a.Stop(), 0);
 }

@@ -3,15 +3,16 @@
 //   fleetctl [--server HOST:PORT] [--token-file F | $FLEET_TOKEN_FILE | $FLEET_TOKEN | --token T] [--tls-ca PEM] COMMAND ...
 //     upload PATH...                 .runpb files or directories (robots in parallel, retries)
 //     runs [filters] [--limit N]     list runs
-//     report RUN [--parameter-set S] one run's report
+//     report RUN [--robot R] [--parameter-set S]   one run's report (--robot when robots share the run id)
 //     stats [filters] [--group-by day|firmware|robot_model|parameter_set|robot]
 //     compare A B [filters]          two parameter sets, fleet-wide and run by run
 //     params put FILE | params list  parameter sets (JSON, see analyzer/parameters.h)
 //     reprocess --parameter-set S [filters] [--no-wait]   with a progress bar
 //     jobs [--state S] | job ID | cancel ID
-//     regions RUN | label RUN REGION LABEL
+//     regions RUN | label RUN REGION LABEL         (both take --robot R too)
 //     models train NAME [--classifier K] | models eval NAME [--version V] | models activate NAME V | models list NAME
 //     credentials PRINCIPAL | credentials rotate|revoke PRINCIPAL | credentials list   tokens (credential_commands.h)
+//     robots delete R --confirm R | audit         erasure and the audit log (admins; admin_commands.h)
 //     maps list|show|repair|approve|reject|get|export   map history (map_commands.h)
 //     import valetudo|map-server FILE... --robot R       maps made elsewhere into the history (import_commands.h)
 // Every command takes --json: one JSON object on stdout instead of a table. Exit status 0 on success, 1 on
@@ -27,6 +28,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "admin_commands.h"
 #include "analyzer/parameters.h"
 #include "client.h"
 #include "credential_commands.h"
@@ -131,10 +133,11 @@ int main(int argc, char** argv) {
   filter.Add(runs);
   runs->add_option("--limit", limit, "at most this many runs")->check(CLI::Range(1, 100000));
 
-  std::string run_id, parameter_set;
+  std::string run_id, run_robot, parameter_set;
   bool with_map = false;
   auto* report = app.add_subcommand("report", "one run's report");
   report->add_option("run", run_id, "run id")->required();
+  report->add_option("--robot", run_robot, "the run's robot (needed when robots share the run id)");
   report->add_option("--parameter-set", parameter_set, "parameter set (default: the server's default)");
   report->add_flag("--with-map", with_map, "include the rerun's child map (JSON only)");
 
@@ -185,9 +188,11 @@ int main(int argc, char** argv) {
   std::string label_value;
   auto* regions = app.add_subcommand("regions", "protrusion regions of a run");
   regions->add_option("run", run_id, "run id")->required();
+  regions->add_option("--robot", run_robot, "the run's robot (needed when robots share the run id)");
   regions->add_option("--parameter-set", parameter_set, "parameter set");
   auto* label = app.add_subcommand("label", "label a protrusion region");
   label->add_option("run", run_id, "run id")->required();
+  label->add_option("--robot", run_robot, "the run's robot (needed when robots share the run id)");
   label->add_option("region", region_id, "region id")->required();
   label->add_option("label", label_value, "protrusion or new_space")->required();
   label->add_option("--parameter-set", parameter_set, "parameter set");
@@ -217,6 +222,7 @@ int main(int argc, char** argv) {
   fleetctl::CredentialCommands credential_commands(app);
   fleetctl::MapCommands map_commands(app);
   fleetctl::ImportCommands import_commands(app);
+  fleetctl::AdminCommands admin_commands(app);
 
   CLI11_PARSE(app, argc, argv);
   if (!token_file.empty()) {
@@ -230,6 +236,7 @@ int main(int argc, char** argv) {
   }
   Client client(global);
   if (const std::optional<int> status = credential_commands.Run(client, global)) return *status;
+  if (const std::optional<int> status = admin_commands.Run(client, global)) return *status;
   if (const std::optional<int> status = map_commands.Run(client, global)) return *status;
   if (const std::optional<int> status = import_commands.Run(client, global)) return *status;
 
@@ -285,6 +292,7 @@ int main(int argc, char** argv) {
   if (*report) {
     fleet::v1::GetRunReportRequest request;
     request.set_run_id(run_id);
+    request.set_robot_id(run_robot);
     request.set_parameter_set(parameter_set);
     request.set_include_rerun_child(with_map);
     fleet::v1::GetRunReportResponse response;
@@ -489,6 +497,7 @@ int main(int argc, char** argv) {
   if (*regions) {
     fleet::v1::ListRegionsRequest request;
     request.set_run_id(run_id);
+    request.set_robot_id(run_robot);
     request.set_parameter_set(parameter_set);
     fleet::v1::ListRegionsResponse response;
     auto context = client.Context();
@@ -510,6 +519,7 @@ int main(int argc, char** argv) {
   if (*label) {
     fleet::v1::LabelRegionRequest request;
     request.set_run_id(run_id);
+    request.set_robot_id(run_robot);
     request.set_parameter_set(parameter_set);
     request.set_region_id(region_id);
     request.set_label(label_value);
@@ -543,6 +553,7 @@ int main(int argc, char** argv) {
         ++runs_seen;
         fleet::v1::GetRunReportRequest request;
         request.set_run_id(run.run_id());
+        request.set_robot_id(run.robot_id());
         request.set_parameter_set(parameter_set);
         fleet::v1::GetRunReportResponse response;
         auto context = client.Context();
@@ -554,6 +565,7 @@ int main(int argc, char** argv) {
           if (!region.has_truth_protrusion()) continue;
           fleet::v1::LabelRegionRequest label_request;
           label_request.set_run_id(run.run_id());
+          label_request.set_robot_id(run.robot_id());
           label_request.set_parameter_set(parameter_set);
           label_request.set_region_id(region.id());
           label_request.set_label(region.truth_protrusion() ? "protrusion" : "new_space");

@@ -53,7 +53,8 @@ struct AnalysisResult {
   fleet::v1::RunReport report;  // as stored
 };
 
-/// NOT_FOUND when the run or parameter set is missing, INVALID_ARGUMENT when the telemetry is refused by
+/// NOT_FOUND when the run or parameter set is missing, FAILED_PRECONDITION when retention pruned its events,
+/// INVALID_ARGUMENT when the telemetry is refused by
 /// the replay, DATA_LOSS when stored bytes do not parse.
 /// What one analysis may take: at most `max_seconds` of replay and rendering (<= 0: no limit), and it stops
 /// when `cancelled()` says so. Either ends it with FAILED_PRECONDITION ("analysis budget: ...").
@@ -62,7 +63,7 @@ struct AnalysisBudget {
   std::function<bool()> cancelled;
 };
 
-storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const std::string& run_id,
+storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository, const storage::RunKey& run,
                                                  const std::string& parameter_set,
                                                  const slamcore::ProtrusionClassifier* classifier,
                                                  const AnalysisBudget& budget = {});

@@ -97,6 +97,9 @@ class Authenticator {
   /// Installed only while no admin has an unrevoked credential, so a rotation or revocation survives
   /// restarts; `force` installs it anyway (the operator's explicit recovery).
   storage::Result<BootstrapOutcome> InstallBootstrapToken(const std::string& token, bool force);
+  /// Drops the principal's verified tokens from this process's cache (its credential was replaced, revoked
+  /// or erased); other processes drop them when they poll the credential epochs.
+  void ForgetPrincipal(const std::string& name);
 
  private:
   struct CacheEntry {

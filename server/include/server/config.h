@@ -45,6 +45,9 @@ struct FleetdConfig {
   std::string log_format = "json";          // "json" or "text"
   std::string auto_repair = "none";         // "none" or "cut_protrusions": repair maps after analysis
   bool auto_approve = false;                // policy repairs reach robots without an engineer's review
+  double retain_runs_days = 0.0;            // run events older than this are dropped (reports, maps kept); 0: never
+  double retain_jobs_days = 7.0;            // finished jobs older than this are deleted; 0: never
+  double retention_interval_seconds = 3600.0;  // how often the server applies retention
 
   /// Checks ranges and enumerations, naming the key, and refuses placeholder or weak secrets (the bootstrap
   /// token's secret, the database URL's password; server/secrets.h).

@@ -79,7 +79,7 @@ class MapHistory {
   storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
                                                  const std::string& uploader = "");
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
-  storage::Status OnRunAnalysed(const std::string& run_id, const fleet::v1::RunReport& report);
+  storage::Status OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report);
 
   /// Versions oldest first, `current` marked; current_version 0 when none is approved; head_version: what
   /// repairs start from (the newest approved or pending version), 0 when none.
@@ -97,7 +97,7 @@ class MapHistory {
                                                fleet::v1::MapSnapshot* snapshot);
   /// The nodes of a version's `map` that `run_id` (the run the version's chain started from) added: only
   /// hypotheses of that run can be rejected as a whole.
-  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const std::string& run_id, const slamcore::Map& map);
+  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const storage::RunKey& run, const slamcore::Map& map);
   /// A map made elsewhere becomes the robot's newest version (origin "import", parent: the head version), approved
   /// when `approve`, else pending; the robot is registered when new. INVALID_ARGUMENT names what is wrong with
   /// the snapshot (it must hold at least one node with a local map) or the metadata (analyzer::ValidateMetadata);

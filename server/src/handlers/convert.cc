@@ -112,6 +112,7 @@ fleet::v1::Job ToProto(const storage::JobRecord& job) {
   out.set_created_at(static_cast<double>(job.created_at_ms) / 1000.0);
   out.set_updated_at(static_cast<double>(job.updated_at_ms) / 1000.0);
   out.set_parent_job_id(job.parent_job_id.value_or(0));
+  out.set_robot_id(job.robot_id.value_or(""));
   if (job.kind == kReprocessJob) {
     if (auto payload = DecodeReprocessPayload(job.payload); payload.ok()) {
       out.set_parameter_set(payload->parameter_set);
@@ -133,6 +134,7 @@ fleet::v1::Job ToProto(const storage::JobRecord& job) {
 fleet::v1::Region ToProto(const storage::ProtrusionRegionRecord& region) {
   fleet::v1::Region out;
   out.set_run_id(region.run_id);
+  out.set_robot_id(region.robot_id);
   out.set_parameter_set(region.parameter_set);
   out.set_region_id(region.region_id);
   out.add_bbox(region.bbox.min_x);

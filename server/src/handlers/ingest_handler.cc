@@ -178,7 +178,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
 
   storage::NewJob job;
   job.kind = kAnalyzeRunJob;
-  job.payload = EncodeAnalyzePayload({record.run_id, context_.default_parameter_set});
+  job.payload = EncodeAnalyzePayload({record.robot_id, record.run_id, context_.default_parameter_set});
+  job.robot_id = record.robot_id;
   auto job_id = context_.repository->EnqueueJob(job);
   if (!job_id.ok()) return ToGrpc(job_id.status());
 
@@ -189,7 +190,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   if (!inserted.ok()) {
     if (inserted.status().code() == storage::StatusCode::kAlreadyExists) {
       return {grpc::StatusCode::ALREADY_EXISTS,
-              "header.run_id: run \"" + record.run_id + "\" is stored with a different payload"};
+              "header.run_id: run \"" + record.run_id + "\" of robot " + record.robot_id +
+                  " is stored with a different payload"};
     }
     return ToGrpc(inserted.status());
   }

@@ -1,12 +1,14 @@
 #include "labels_handler.h"
 
 #include "convert.h"
+#include "run_lookup.h"
 #include "server/log.h"
 
 namespace server {
 
-grpc::Status LabelsHandler::ReportMissing(const std::string& run_id, const std::string& set) {
-  auto report = context_.repository->GetReport(run_id, set);
+grpc::Status LabelsHandler::ReportMissing(const storage::RunKey& run, const std::string& set) {
+  const std::string& run_id = run.run_id;
+  auto report = context_.repository->GetReport(run, set);
   if (report.ok()) return grpc::Status::OK;
   if (report.status().code() != storage::StatusCode::kNotFound) return ToGrpc(report.status());
   return {grpc::StatusCode::NOT_FOUND, "run_id: no report for run \"" + run_id + "\" with parameter set \"" + set + "\""};
@@ -21,10 +23,12 @@ grpc::Status LabelsHandler::ListRegions(grpc::ServerContext* call, const fleet::
   }
   if (request->run_id().empty()) return scope.Done(InvalidArgument("run_id: required"));
   const std::string set = request->parameter_set().empty() ? context_.default_parameter_set : request->parameter_set();
-  auto regions = context_.repository->ListProtrusionRegions(request->run_id(), set);
+  auto run = ResolveRun(*context_.repository, principal, request->robot_id(), request->run_id());
+  if (!run.ok()) return scope.Done(ToGrpc(run.status()));
+  auto regions = context_.repository->ListProtrusionRegions(*run, set);
   if (!regions.ok()) return scope.Done(ToGrpc(regions.status()));
   if (regions->empty()) {
-    if (grpc::Status missing = ReportMissing(request->run_id(), set); !missing.ok()) return scope.Done(missing);
+    if (grpc::Status missing = ReportMissing(*run, set); !missing.ok()) return scope.Done(missing);
   }
   for (const auto& region : *regions) *response->add_regions() = ToProto(region);
   return scope.Done(grpc::Status::OK);
@@ -43,23 +47,26 @@ grpc::Status LabelsHandler::LabelRegion(grpc::ServerContext* call, const fleet::
   }
   if (request->region_id() < 0) return scope.Done(InvalidArgument("region_id: must be >= 0"));
   const std::string set = request->parameter_set().empty() ? context_.default_parameter_set : request->parameter_set();
-  storage::Status labelled = context_.repository->LabelProtrusionRegion(request->run_id(), set, request->region_id(),
+  auto run = ResolveRun(*context_.repository, principal, request->robot_id(), request->run_id());
+  if (!run.ok()) return scope.Done(ToGrpc(run.status()));
+  storage::Status labelled = context_.repository->LabelProtrusionRegion(*run, set, request->region_id(),
                                                                         request->label(), principal.name);
   if (!labelled.ok()) {
     if (labelled.code() == storage::StatusCode::kNotFound) {
-      if (grpc::Status missing = ReportMissing(request->run_id(), set); !missing.ok()) return scope.Done(missing);
+      if (grpc::Status missing = ReportMissing(*run, set); !missing.ok()) return scope.Done(missing);
       return scope.Done({grpc::StatusCode::NOT_FOUND, "region_id: run \"" + request->run_id() + "\" has no region " +
                                                           std::to_string(request->region_id()) + " in set \"" + set + "\""});
     }
     return scope.Done(ToGrpc(labelled));
   }
-  auto regions = context_.repository->ListProtrusionRegions(request->run_id(), set);
+  auto regions = context_.repository->ListProtrusionRegions(*run, set);
   if (regions.ok()) {
     for (const auto& region : *regions) {
       if (region.region_id == request->region_id()) *response->mutable_region() = ToProto(region);
     }
   }
   log::Info("region_labelled", {{"run_id", request->run_id()},
+                                {"robot_id", run->robot_id},
                                 {"region", static_cast<long long>(request->region_id())},
                                 {"label", request->label()},
                                 {"principal", principal.name}});

@@ -15,7 +15,7 @@ class LabelsHandler final : public fleet::v1::Labels::Service {
                            fleet::v1::LabelRegionResponse* response) override;
 
  private:
-  grpc::Status ReportMissing(const std::string& run_id, const std::string& set);
+  grpc::Status ReportMissing(const storage::RunKey& run, const std::string& set);
   ServiceContext& context_;
 };
 

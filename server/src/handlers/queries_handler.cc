@@ -5,12 +5,15 @@
 #include <map>
 
 #include "convert.h"
+#include "run_lookup.h"
 
 namespace server {
 namespace {
 
+// "<started_at_ms>:<run_id>/<robot_id>"; neither id may contain '/'. Tokens without "/<robot_id>" (from
+// before run ids were per robot) still page correctly.
 std::string EncodePageToken(const storage::RunCursor& cursor) {
-  return std::to_string(cursor.started_at_ms) + ":" + cursor.run_id;
+  return std::to_string(cursor.started_at_ms) + ":" + cursor.run_id + "/" + cursor.robot_id;
 }
 
 storage::Result<storage::RunCursor> DecodePageToken(const std::string& token) {
@@ -25,6 +28,10 @@ storage::Result<storage::RunCursor> DecodePageToken(const std::string& token) {
     return storage::InvalidArgument("page_token: malformed; pass next_page_token from a previous response");
   }
   cursor.run_id = token.substr(colon + 1);
+  if (const std::size_t slash = cursor.run_id.rfind('/'); slash != std::string::npos) {
+    cursor.robot_id = cursor.run_id.substr(slash + 1);
+    cursor.run_id.resize(slash);
+  }
   if (cursor.run_id.empty()) return storage::InvalidArgument("page_token: malformed (no run id)");
   return cursor;
 }
@@ -68,10 +75,12 @@ grpc::Status QueriesHandler::DoGetRunReport(grpc::ServerContext* call, const fle
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
   if (request->run_id().empty()) return InvalidArgument("run_id: required");
   const std::string set = request->parameter_set().empty() ? context_.default_parameter_set : request->parameter_set();
-  auto report = context_.repository->GetReport(request->run_id(), set);
+  auto key = ResolveRun(*context_.repository, principal, request->robot_id(), request->run_id());
+  if (!key.ok()) return ToGrpc(key.status());
+  auto report = context_.repository->GetReport(*key, set);
   if (!report.ok()) {
     if (report.status().code() != storage::StatusCode::kNotFound) return ToGrpc(report.status());
-    auto run = context_.repository->GetRun(request->run_id());
+    auto run = context_.repository->GetRun(*key);
     if (!run.ok() && run.status().code() == storage::StatusCode::kNotFound) {
       return {grpc::StatusCode::NOT_FOUND, "run_id: no run \"" + request->run_id() + "\""};
     }
@@ -82,7 +91,7 @@ grpc::Status QueriesHandler::DoGetRunReport(grpc::ServerContext* call, const fle
   if (!out->ParseFromString(report->report)) {
     return {grpc::StatusCode::DATA_LOSS, "stored report of run " + request->run_id() + " does not parse"};
   }
-  auto regions = context_.repository->ListProtrusionRegions(request->run_id(), set);
+  auto regions = context_.repository->ListProtrusionRegions(*key, set);
   if (regions.ok()) {
     std::map<std::int64_t, std::string> labels;
     for (const auto& region : *regions) {
@@ -130,7 +139,7 @@ grpc::Status QueriesHandler::DoListRuns(grpc::ServerContext* call, const fleet::
     summary->set_parent_snapshot_id(run.parent_snapshot_id.value_or(""));
     summary->set_child_snapshot_id(run.child_snapshot_id.value_or(""));
     summary->set_telemetry_bytes(run.telemetry_size);
-    auto sets = context_.repository->ListReportParameterSets(run.run_id);
+    auto sets = context_.repository->ListReportParameterSets(run.key());
     if (sets.ok()) {
       for (const auto& set : *sets) summary->add_report_parameter_sets(set);
     }
@@ -221,9 +230,9 @@ grpc::Status QueriesHandler::DoCompare(grpc::ServerContext* call, const fleet::v
     auto page = context_.repository->ListRuns(filter_a, 500, cursor);
     if (!page.ok()) return ToGrpc(page.status());
     for (const auto& run : page->runs) {
-      auto report_b = context_.repository->GetReport(run.run_id, request->set_b());
+      auto report_b = context_.repository->GetReport(run.key(), request->set_b());
       if (!report_b.ok()) continue;
-      auto report_a = context_.repository->GetReport(run.run_id, request->set_a());
+      auto report_a = context_.repository->GetReport(run.key(), request->set_a());
       if (!report_a.ok()) continue;
       ++compared;
       fleet::v1::RunComparison comparison;

@@ -119,6 +119,7 @@ grpc::Status ReprocessingHandler::StartJob(grpc::ServerContext* call, const flee
   job.kind = kReprocessJob;
   job.payload = EncodeReprocessPayload({request->parameter_set(), *filter});
   job.max_attempts = 20;  // a coordinator that shuts down hands the job back; that costs an attempt
+  if (!filter->robot_id.empty()) job.robot_id = filter->robot_id;
   auto id = context_.repository->EnqueueJob(job);
   if (!id.ok()) return scope.Done(ToGrpc(id.status()));
   if (context_.job_enqueued) context_.job_enqueued();

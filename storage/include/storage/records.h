@@ -30,7 +30,8 @@ struct CredentialRecord {
 struct CredentialChanges {
   std::int64_t epoch = 0;               // the newest change returned (or the `since` asked with)
   std::vector<std::string> principals;  // changed after `since`, oldest change first
-  bool truncated = false;               // more changes than the limit: drop every cached token
+  bool truncated = false;  // more changes than the limit, or an erased credential (DeleteRobot): drop every
+                           // cached token
 };
 
 /// A write transaction the database could not take (full, read-only, unreachable).
@@ -39,7 +40,14 @@ struct WriteFailure {
   std::string message;
 };
 
-/// One uploaded run. Identity is run_id; storing the same run twice keeps one.
+/// A run's identity: run ids are the robot's own, so two robots may use the same one (robot A can never take
+/// robot B's run id).
+struct RunKey {
+  std::string robot_id;
+  std::string run_id;
+};
+
+/// One uploaded run. Identity is (robot_id, run_id); storing the same run twice keeps one.
 struct RunRecord {
   std::string run_id;
   std::string robot_id;  // must name a stored robot
@@ -51,6 +59,11 @@ struct RunRecord {
   std::optional<std::string> child_snapshot_id;   // must name a stored snapshot when set
   std::string telemetry;  // raw event stream; ListRuns leaves it empty (see telemetry_size)
   std::int64_t telemetry_size = 0;  // filled on read: uncompressed size in bytes
+  // Filled on read: when retention pruned the run's events (telemetry is then empty); the run's metadata,
+  // reports and map versions stay.
+  std::optional<std::int64_t> telemetry_pruned_at_ms;
+
+  RunKey key() const { return RunKey{robot_id, run_id}; }
 };
 
 /// A map snapshot, content-addressed: snapshot_id is the lowercase hex SHA-256 of bytes.
@@ -63,6 +76,7 @@ struct SnapshotRecord {
 /// reprocessing results sit beside the originals. The counters are columns so that fleet statistics
 /// aggregate in the database; `report` is the full report, opaque to storage.
 struct ReportRecord {
+  std::string robot_id;
   std::string run_id;
   std::string parameter_set;  // must name a stored parameter set
   std::int64_t recovery_created = 0;
@@ -105,6 +119,7 @@ struct BoundingBox {
 /// A protrusion region found in a run with a parameter set, with its features, the classifier's guess and,
 /// once an engineer looked at it, a label.
 struct ProtrusionRegionRecord {
+  std::string robot_id;       // filled on read; taken from the report on write
   std::string run_id;         // filled on read; taken from the report on write
   std::string parameter_set;  // filled on read; taken from the report on write
   std::int64_t region_id = 0;  // unique within the report
@@ -145,6 +160,7 @@ struct NewJob {
   std::int64_t max_attempts = 3;
   std::optional<std::int64_t> parent_job_id;  // a reprocessing job's per-run tasks point at it
   std::int64_t progress_total = 0;
+  std::optional<std::string> robot_id;  // the robot whose data the job works on (erased with the robot)
 };
 
 struct JobRecord {
@@ -162,6 +178,7 @@ struct JobRecord {
   std::int64_t progress_total = 0;
   std::int64_t created_at_ms = 0;
   std::int64_t updated_at_ms = 0;
+  std::optional<std::string> robot_id;
 };
 
 /// A held lease: the token proves ownership to Heartbeat/Complete/Fail/UpdateProgress.
@@ -186,10 +203,13 @@ struct RunFilter {
 struct RunCursor {
   std::int64_t started_at_ms = 0;
   std::string run_id;
+  // The tie-breaker between two robots' runs of one id and start; empty (a cursor from before run ids were
+  // per robot): the page continues after every run of that start and id.
+  std::string robot_id;
 };
 
 struct RunPage {
-  std::vector<RunRecord> runs;  // ordered by (started_at_ms, run_id); telemetry not loaded
+  std::vector<RunRecord> runs;  // ordered by (started_at_ms, run_id, robot_id); telemetry not loaded
   std::optional<RunCursor> next;  // absent on the last page
 };
 
@@ -258,5 +278,31 @@ struct MapFindingRecord {
 };
 
 enum class InsertOutcome { kInserted, kAlreadyPresent };
+
+/// What Repository::DeleteRobot removed, table by table.
+struct RobotErasure {
+  std::int64_t runs = 0;
+  std::int64_t reports = 0;            // of every parameter set
+  std::int64_t decisions = 0;
+  std::int64_t ambiguous_views = 0;
+  std::int64_t protrusion_regions = 0;  // with their labels
+  std::int64_t map_versions = 0;
+  std::int64_t map_findings = 0;
+  std::int64_t snapshots = 0;          // those no other robot's run or map version names
+  std::int64_t jobs = 0;
+  std::int64_t credentials = 0;      // deleted; the erasure takes a credential epoch so other processes drop it
+  std::int64_t map_metadata = 0;     // imported maps' metadata of its versions
+};
+
+/// One entry of the audit log: who did what to which subject, when, with counts (JSON, opaque to storage).
+struct AuditEntry {
+  std::int64_t entry_id = 0;  // assigned on append, increasing
+  std::int64_t at_ms = 0;     // assigned on append when 0
+  std::string actor;          // the principal, or "fleetd:retention"
+  std::string action;         // "delete_robot", "prune_run_events", "prune_jobs", "set_credential",
+                              // "rotate_credential", "revoke_credential"
+  std::string subject;        // the robot id or principal; for retention the policy, e.g. "uploaded before <ms>"
+  std::string detail_json;
+};
 
 }  // namespace storage

@@ -75,13 +75,19 @@ class Repository {
   virtual Result<SnapshotRecord> GetSnapshot(const std::string& snapshot_id) = 0;
 
   // ---- Runs ----
-  /// Idempotent: the same run twice stores one (kAlreadyPresent); a different payload under the same
-  /// run_id is ALREADY_EXISTS. The robot and snapshots it names must be stored (FAILED_PRECONDITION).
+  /// A run is (robot_id, run_id): each robot has its own run ids. Idempotent per robot: the same run twice
+  /// stores one (kAlreadyPresent); a different payload under the same robot and run_id is ALREADY_EXISTS;
+  /// another robot's run of the same id is a different run. The robot and snapshots it names must be
+  /// stored (FAILED_PRECONDITION).
   virtual Result<InsertOutcome> InsertRun(const RunRecord& run) = 0;
-  /// The run with its telemetry; NOT_FOUND or DATA_LOSS.
-  virtual Result<RunRecord> GetRun(const std::string& run_id) = 0;
-  /// Runs matching the filter ordered by (started_at_ms, run_id), at most page_size (1..1000), after
-  /// `after` (keyset pagination: stable while runs are added). Telemetry is not loaded.
+  /// The run with its telemetry (empty when retention pruned it: see telemetry_pruned_at_ms); NOT_FOUND or
+  /// DATA_LOSS.
+  virtual Result<RunRecord> GetRun(const RunKey& key) = 0;
+  /// The robots that have a run of this id, sorted, at most `limit` (1..1000): resolves a run named by id
+  /// alone (one robot: that run; several: the caller must name the robot).
+  virtual Result<std::vector<std::string>> ListRunRobots(const std::string& run_id, int limit) = 0;
+  /// Runs matching the filter ordered by (started_at_ms, run_id, robot_id), at most page_size (1..1000),
+  /// after `after` (keyset pagination: stable while runs are added). Telemetry is not loaded.
   virtual Result<RunPage> ListRuns(const RunFilter& filter, int page_size,
                                    const std::optional<RunCursor>& after) = 0;
 
@@ -102,17 +108,16 @@ class Repository {
   /// Stores or replaces the report with its decisions, ambiguous views and protrusion regions, all in one
   /// transaction. Labels already given to a region id survive a replacement (a retried analysis).
   virtual Status PutReport(const ReportBundle& bundle) = 0;
-  virtual Result<ReportRecord> GetReport(const std::string& run_id, const std::string& parameter_set) = 0;
+  virtual Result<ReportRecord> GetReport(const RunKey& run, const std::string& parameter_set) = 0;
   /// Parameter sets that have a report for this run, sorted.
-  virtual Result<std::vector<std::string>> ListReportParameterSets(const std::string& run_id) = 0;
-  virtual Result<std::vector<DecisionRecord>> ListDecisions(const std::string& run_id,
-                                                            const std::string& parameter_set) = 0;
-  virtual Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const std::string& run_id,
+  virtual Result<std::vector<std::string>> ListReportParameterSets(const RunKey& run) = 0;
+  virtual Result<std::vector<DecisionRecord>> ListDecisions(const RunKey& run, const std::string& parameter_set) = 0;
+  virtual Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const RunKey& run,
                                                                       const std::string& parameter_set) = 0;
-  virtual Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(
-      const std::string& run_id, const std::string& parameter_set) = 0;
+  virtual Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(const RunKey& run,
+                                                                            const std::string& parameter_set) = 0;
   /// Sets the label of one region; NOT_FOUND when the region does not exist.
-  virtual Status LabelProtrusionRegion(const std::string& run_id, const std::string& parameter_set,
+  virtual Status LabelProtrusionRegion(const RunKey& run, const std::string& parameter_set,
                                        std::int64_t region_id, const std::string& label,
                                        const std::string& labelled_by) = 0;
   /// Labelled regions of a parameter set (empty: all) for classifier training, at most `limit`.
@@ -130,7 +135,8 @@ class Repository {
   /// robot never interleave. With `expected_head` set (the version a repair started from), ABORTED unless it
   /// is the robot's head: its newest version that is approved or pending (rejected and stale versions are
   /// side branches that repairs do not continue). A version naming a run_id that already has an upload version returns that one
-  /// unchanged (uploads are retried). The robot and snapshot must be stored (FAILED_PRECONDITION).
+  /// unchanged (uploads are retried; run ids are per robot). The robot and snapshot must be stored
+  /// (FAILED_PRECONDITION).
   virtual Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version,
                                                     std::optional<std::int64_t> expected_head,
                                                     const std::vector<MapFindingRecord>& findings) = 0;
@@ -141,7 +147,7 @@ class Repository {
   /// such version. DATA_LOSS when the stored bytes are corrupt.
   virtual Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) = 0;
   /// The upload version made from `run_id`; NOT_FOUND when there is none.
-  virtual Result<MapVersionRecord> GetMapVersionOfRun(const std::string& run_id) = 0;
+  virtual Result<MapVersionRecord> GetMapVersionOfRun(const RunKey& run) = 0;
   virtual Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id,
                                                                 std::int64_t version) = 0;
   /// Replaces a version's findings and its open count, and sets its known area: its run's analysis computes
@@ -174,6 +180,25 @@ class Repository {
   virtual Result<JobRecord> GetJob(std::int64_t job_id) = 0;
   /// Jobs ordered by id, optionally only those in `state`, at most `limit`.
   virtual Result<std::vector<JobRecord>> ListJobs(std::optional<JobState> state, int limit) = 0;
+
+  // ---- Erasure, retention and the audit log (docs/formats/service.md, "Erasure and retention") ----
+  /// Deletes the robot and everything it uploaded or that was derived from it, in one transaction: its
+  /// runs, their reports of every parameter set with decisions, ambiguous views and (labelled) regions, its
+  /// map versions and findings, the snapshots no other robot's run or map version names, the jobs that
+  /// name it, its credential ("robot:<id>"); and appends an audit entry by `actor` with the counts.
+  /// NOT_FOUND when no such robot (nothing written).
+  virtual Result<RobotErasure> DeleteRobot(const std::string& robot_id, const std::string& actor) = 0;
+  /// Retention of raw runs: drops the events (telemetry) of at most `limit` (1..10000) runs uploaded before
+  /// `uploaded_before_ms` that still have them; the runs' metadata, reports, snapshots and map versions stay.
+  /// Returns how many were pruned (0: none left).
+  virtual Result<std::int64_t> PruneRunTelemetry(std::int64_t uploaded_before_ms, int limit) = 0;
+  /// Retention of jobs: deletes at most `limit` (1..10000) done, failed or cancelled jobs last updated before
+  /// `finished_before_ms` that no remaining job names as parent. Returns how many were deleted.
+  virtual Result<std::int64_t> PruneFinishedJobs(std::int64_t finished_before_ms, int limit) = 0;
+  /// Appends an entry (entry_id assigned; at_ms assigned when 0); returns it.
+  virtual Result<AuditEntry> AppendAudit(const AuditEntry& entry) = 0;
+  /// Entries newest first, at most `limit` (1..1000), older than entry `before_id` when set.
+  virtual Result<std::vector<AuditEntry>> ListAudit(int limit, std::optional<std::int64_t> before_id) = 0;
 };
 
 struct OpenOptions {

@@ -69,7 +69,7 @@ export async function render(main, { query, isCurrent }) {
       h('table', { 'data-testid': 'changed-runs' }, h('tr', {}, h('th', {}, 'run'), h('th', {}, 'firmware'), h('th', { class: 'num' }, 'score'),
         keys.map((k) => h('th', { class: 'num' }, `Δ ${k.replace(/_/g, ' ')}`)), h('th', {}, 'localized A → B')),
       cmp.changed_most.map((r) => h('tr', { 'data-testid': 'changed-run' },
-        h('td', {}, h('a', { href: `#/runs/${encodeURIComponent(r.run_id)}?parameter_set=${b}` }, r.run_id)), h('td', {}, r.firmware),
+        h('td', {}, h('a', { href: `#/runs/${encodeURIComponent(r.run_id)}?parameter_set=${b}&robot=${encodeURIComponent(r.robot_id)}` }, r.run_id)), h('td', {}, r.firmware),
         h('td', { class: 'num' }, num(r.score, 0)), keys.map((k) => h('td', { class: 'num' }, `${r.delta[k] > 0 ? '+' : ''}${r.delta[k]}`)),
         h('td', {}, `${r.a.started_localized ? 'yes' : 'no'} → ${r.b.started_localized ? 'yes' : 'no'}`))))));
   setState(main, 'ready');

@@ -7,12 +7,14 @@ import { mapView, regionClass } from '../mapview.js';
 export async function render(main, { query, isCurrent }) {
   const meta = await getJson('/api/meta');
   const set = query.get('parameter_set') || meta.default_parameter_set;
-  const queue = await getJson('/api/runs', { parameter_set: set, with_regions: 1, limit: 20, after_ms: query.get('after_ms'), after_id: query.get('after_id') });
+  const queue = await getJson('/api/runs', { parameter_set: set, with_regions: 1, limit: 20, after_ms: query.get('after_ms'), after_id: query.get('after_id'), after_robot: query.get('after_robot') });
   const labelled = await getJson('/api/labels', { parameter_set: set, limit: 100 });
   if (!isCurrent()) return;
   main.append(h('h1', {}, 'Labelling'),
     h('p', { class: 'muted' }, `Regions the detector found between parent and child maps (parameter set ${set}). Click a region, then label it. Labels train the protrusion classifier.`));
   const runId = query.get('run') || (queue.runs[0] && queue.runs[0].run_id);
+  // Run ids are per robot: the robot picks the run when robots share an id.
+  const robot = query.get('robot') || (!query.get('run') && queue.runs[0] ? queue.runs[0].robot_id : '');
   if (!runId) {
     main.append(emptyState('No regions to label yet.', 'Regions appear when a run adds space to its parent map; upload more runs with fleetsim --upload …'));
     main.append(labelledList(labelled));
@@ -24,8 +26,9 @@ export async function render(main, { query, isCurrent }) {
   layout.append(left, right);
   main.append(layout);
 
-  const detail = await getJson(`/api/runs/${encodeURIComponent(runId)}`, { parameter_set: set });
-  const info = await getJson(`/api/runs/${encodeURIComponent(runId)}/map/info.json`, { parameter_set: set });
+  const detail = await getJson(`/api/runs/${encodeURIComponent(runId)}`, { parameter_set: set, robot });
+  const runRobot = encodeURIComponent(detail.run.robot_id);
+  const info = await getJson(`/api/runs/${encodeURIComponent(runId)}/map/info.json`, { parameter_set: set, robot: detail.run.robot_id });
   if (!isCurrent()) return;
   let selected = query.has('region') ? Number(query.get('region')) : (detail.regions.find((g) => !g.label) || detail.regions[0] || {}).region_id;
   const mapHolder = h('div', {});
@@ -33,7 +36,7 @@ export async function render(main, { query, isCurrent }) {
   const status = h('p', { 'data-testid': 'label-status', class: 'muted' });
 
   const draw = () => {
-    mapHolder.replaceChildren(mapView(`/api/runs/${encodeURIComponent(runId)}/map/difference.png?parameter_set=${encodeURIComponent(set)}`, info, detail.regions,
+    mapHolder.replaceChildren(mapView(`/api/runs/${encodeURIComponent(runId)}/map/difference.png?parameter_set=${encodeURIComponent(set)}&robot=${runRobot}`, info, detail.regions,
       { testid: 'label-map', selected, onRegionClick: (region) => { selected = region.region_id; draw(); } }));
     const region = detail.regions.find((g) => g.region_id === selected);
     panel.replaceChildren(h('h2', {}, region ? `Region ${region.region_id}` : 'Click a region'));
@@ -54,7 +57,7 @@ export async function render(main, { query, isCurrent }) {
     if (!token) { status.textContent = 'Not labelled: no token given.'; return; }
     status.textContent = 'Saving…';
     try {
-      const updated = await postJson(`/api/runs/${encodeURIComponent(runId)}/regions/${region.region_id}/label`, { label: value, parameter_set: set }, token);
+      const updated = await postJson(`/api/runs/${encodeURIComponent(runId)}/regions/${region.region_id}/label?robot=${runRobot}`, { label: value, parameter_set: set }, token);
       Object.assign(region, updated);
       status.textContent = `Saved: region ${region.region_id} is ${updated.label} (by ${updated.labelled_by}).`;
       status.dataset.saved = updated.label;
@@ -71,10 +74,10 @@ export async function render(main, { query, isCurrent }) {
   }
 
   draw();
-  const picker = h('select', { 'data-testid': 'label-run', onchange: (e) => { location.hash = `#/labelling?run=${encodeURIComponent(e.target.value)}&parameter_set=${set}`; } },
-    queue.runs.map((r) => h('option', { value: r.run_id, selected: r.run_id === runId }, `${r.run_id} — ${r.regions} regions, ${r.regions_labelled} labelled`)));
-  if (!queue.runs.some((r) => r.run_id === runId)) picker.prepend(h('option', { value: runId, selected: true }, runId));
-  left.append(h('p', {}, 'Run: ', picker, ' ', h('a', { href: `#/runs/${encodeURIComponent(runId)}?parameter_set=${set}` }, 'run page')), mapHolder,
+  const picker = h('select', { 'data-testid': 'label-run', onchange: (e) => { const picked = e.target.selectedOptions[0].dataset.robot || ''; location.hash = `#/labelling?run=${encodeURIComponent(e.target.value)}&robot=${encodeURIComponent(picked)}&parameter_set=${set}`; } },
+    queue.runs.map((r) => h('option', { value: r.run_id, 'data-robot': r.robot_id, selected: r.run_id === runId && r.robot_id === detail.run.robot_id }, `${r.run_id} — ${r.regions} regions, ${r.regions_labelled} labelled`)));
+  if (!queue.runs.some((r) => r.run_id === runId && r.robot_id === detail.run.robot_id)) picker.prepend(h('option', { value: runId, 'data-robot': detail.run.robot_id, selected: true }, runId));
+  left.append(h('p', {}, 'Run: ', picker, ' ', h('a', { href: `#/runs/${encodeURIComponent(runId)}?parameter_set=${set}&robot=${runRobot}` }, 'run page')), mapHolder,
     h('p', { class: 'muted' }, `${detail.regions.length} regions · started ${time(detail.run.started_at_ms)} UTC`));
   right.append(panel, labelledList(labelled));
   setState(main, 'ready');

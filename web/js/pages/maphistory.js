@@ -38,7 +38,7 @@ export async function render(main, { args, isCurrent }) {
       return h('tr', { class: 'clickable', 'data-testid': 'version-row', 'data-version': v.version, onclick: () => open(v) },
         h('td', {}, h('a', { href: versionHash(robotId, v.version) }, `v${v.version}`), v.parent_version ? h('div', { class: 'muted' }, `from v${v.parent_version}`) : null),
         h('td', { class: 'wrap' }, h('strong', {}, originLabel(v)),
-          v.origin === 'upload' && v.run_id ? [' · ', h('a', { href: `#/runs/${encodeURIComponent(v.run_id)}`, onclick: (e) => e.stopPropagation() }, 'run')] : null,
+          v.origin === 'upload' && v.run_id ? [' · ', h('a', { href: `#/runs/${encodeURIComponent(v.run_id)}?robot=${encodeURIComponent(robotId)}`, onclick: (e) => e.stopPropagation() }, 'run')] : null,
           v.action_detail ? h('div', { class: 'muted' }, v.action_detail) : null,
           same && v.origin !== 'undo' ? h('div', { class: 'muted' }, `the map of v${same.version} again`) : null),
         h('td', {}, v.created_by, h('div', { class: 'muted' }, time(v.created_at * 1000))),

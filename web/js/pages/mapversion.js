@@ -177,7 +177,7 @@ function describe(version, parent, versions, robotId) {
   parts.push(` · ${time(version.created_at * 1000)} UTC`);
   if (parent) parts.push(' · parent ', h('a', { href: versionHash(robotId, parent.version) }, `v${parent.version}`));
   if (same && version.origin !== 'undo') parts.push(` · holds the map of v${same.version} again`);  // undo's detail says so
-  if (version.run_id) parts.push(' · run ', h('a', { href: `#/runs/${encodeURIComponent(version.run_id)}` }, version.run_id));
+  if (version.run_id) parts.push(' · run ', h('a', { href: `#/runs/${encodeURIComponent(version.run_id)}?robot=${encodeURIComponent(robotId)}` }, version.run_id));
   if (version.approval !== 'pending' && version.approved_by) parts.push(` · ${version.approval} by ${version.approved_by}`);
   return parts;
 }

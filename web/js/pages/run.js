@@ -9,10 +9,12 @@ import { poseGraph, poseGraphLegend } from '../posegraph.js';
 export async function render(main, { args, query, isCurrent }) {
   const runId = args[0];
   const set = query.get('parameter_set') || '';
-  const detail = await getJson(`/api/runs/${encodeURIComponent(runId)}`, { parameter_set: set });
+  // Run ids are per robot: the robot picks the run when robots share an id.
+  const robot = query.get('robot') || '';
+  const detail = await getJson(`/api/runs/${encodeURIComponent(runId)}`, { parameter_set: set, robot });
   if (!isCurrent()) return;
   const run = detail.run;
-  const setPicker = h('select', { 'data-testid': 'run-parameter-set', onchange: (e) => { location.hash = `#/runs/${encodeURIComponent(runId)}?parameter_set=${e.target.value}`; } },
+  const setPicker = h('select', { 'data-testid': 'run-parameter-set', onchange: (e) => { location.hash = `#/runs/${encodeURIComponent(runId)}?parameter_set=${e.target.value}&robot=${encodeURIComponent(run.robot_id)}`; } },
     (detail.report_parameter_sets.length ? detail.report_parameter_sets : [detail.parameter_set]).map((s) => h('option', { value: s, selected: s === detail.parameter_set }, s)));
   main.append(h('h1', {}, `Run ${run.run_id}`),
     h('p', { class: 'muted' }, `robot ${run.robot_id} · firmware ${run.firmware} · ${run.robot_model} · started ${time(run.started_at_ms)} UTC · `,
@@ -33,12 +35,12 @@ export async function render(main, { args, query, isCurrent }) {
     a.ground_truth ? kpi('trajectory RMSE (truth)', `${num(a.ground_truth.trajectory_rmse)} m`) : null));
 
   const base = `/api/runs/${encodeURIComponent(runId)}/map`;
-  const q = `?parameter_set=${encodeURIComponent(detail.parameter_set)}`;
+  const q = `?parameter_set=${encodeURIComponent(detail.parameter_set)}&robot=${encodeURIComponent(run.robot_id)}`;
   const mapsCard = card('Maps — (a) parent, (b) child (rerun), (c) difference with classified regions');
   main.append(mapsCard);
   let info = null;
   try {
-    info = await getJson(`${base}/info.json`, { parameter_set: detail.parameter_set });
+    info = await getJson(`${base}/info.json`, { parameter_set: detail.parameter_set, robot: run.robot_id });
   } catch (error) {
     mapsCard.append(h('div', { class: 'error', 'data-testid': 'maps-error' }, `Maps unavailable: ${error.message}`));
   }
@@ -47,13 +49,13 @@ export async function render(main, { args, query, isCurrent }) {
     mapsCard.append(h('div', { class: 'maps' },
       h('figure', {}, mapView(`${base}/parent.png${q}`, info, [], { testid: 'map-parent' }), h('figcaption', { class: 'muted' }, '(a) parent')),
       h('figure', {}, mapView(`${base}/child.png${q}`, info, regions, { testid: 'map-child' }), h('figcaption', { class: 'muted' }, '(b) child')),
-      h('figure', {}, mapView(`${base}/difference.png${q}`, info, regions, { testid: 'map-difference', onRegionClick: (region) => { location.hash = `#/labelling?run=${encodeURIComponent(runId)}&parameter_set=${detail.parameter_set}&region=${region.region_id}`; } }),
+      h('figure', {}, mapView(`${base}/difference.png${q}`, info, regions, { testid: 'map-difference', onRegionClick: (region) => { location.hash = `#/labelling?run=${encodeURIComponent(runId)}&robot=${encodeURIComponent(run.robot_id)}&parameter_set=${detail.parameter_set}&region=${region.region_id}`; } }),
         h('figcaption', { class: 'muted' }, '(c) difference: black = new in the child; boxes: red protrusion, green new space, amber unclassified'))),
       regions.length ? h('table', { 'data-testid': 'regions-table' },
         h('tr', {}, ['region', 'class', 'probability', 'label', 'area m²', 'minor axis m', 'mean distance m'].map((t) => h('th', {}, t))),
         regions.map((g) => h('tr', {}, h('td', {}, g.region_id), h('td', {}, h('span', { class: `badge ${g.predicted_class}` }, g.predicted_class)),
           h('td', { class: 'num' }, g.probability >= 0 ? num(g.probability) : '—'),
-          h('td', {}, g.label ? h('span', { class: `badge ${g.label}` }, g.label) : h('a', { href: `#/labelling?run=${encodeURIComponent(runId)}&parameter_set=${detail.parameter_set}&region=${g.region_id}` }, 'label…')),
+          h('td', {}, g.label ? h('span', { class: `badge ${g.label}` }, g.label) : h('a', { href: `#/labelling?run=${encodeURIComponent(runId)}&robot=${encodeURIComponent(run.robot_id)}&parameter_set=${detail.parameter_set}&region=${g.region_id}` }, 'label…')),
           h('td', { class: 'num' }, num(g.features.area_m2)), h('td', { class: 'num' }, num(g.features.minor_axis_m)),
           h('td', { class: 'num' }, num(g.features.mean_distance_m)))))
         : h('p', { class: 'muted' }, 'No new regions between parent and child.'));
@@ -62,7 +64,7 @@ export async function render(main, { args, query, isCurrent }) {
   const graphCard = card('Pose graph (rerun child): components, hypothesis edges, conditional merges, ambiguous views');
   const timelineCard = card(`Decision timeline (${detail.decisions.length})`);
   main.append(h('div', { class: 'row' }, graphCard, timelineCard));
-  const graph = await getJson(`/api/runs/${encodeURIComponent(runId)}/graph`, { parameter_set: detail.parameter_set });
+  const graph = await getJson(`/api/runs/${encodeURIComponent(runId)}/graph`, { parameter_set: detail.parameter_set, robot: run.robot_id });
   if (!isCurrent()) return;
   graphCard.append(h('div', { id: 'posegraph' }, poseGraph(graph)), poseGraphLegend(graph));
   const ambiguous = new Set(detail.ambiguous_views.map((v) => v.view_id));

@@ -1,0 +1,24 @@
+#include "run_lookup.h"
+
+namespace server {
+
+storage::Result<storage::RunKey> ResolveRun(storage::Repository& repository, const Principal& caller,
+                                            const std::string& robot_id, const std::string& run_id) {
+  if (run_id.empty()) return storage::InvalidArgument("run_id: required");
+  if (caller.role == Role::kRobot) {
+    if (!robot_id.empty() && robot_id != caller.id) return storage::NotFound("run " + run_id + ": not found");
+    return storage::RunKey{caller.id, run_id};
+  }
+  if (!robot_id.empty()) return storage::RunKey{robot_id, run_id};
+  auto robots = repository.ListRunRobots(run_id, 2);
+  if (!robots.ok()) return robots.status();
+  if (robots->empty()) return storage::NotFound("run_id: no run \"" + run_id + "\"");
+  if (robots->size() > 1) {
+    return storage::InvalidArgument("run_id: robots " + (*robots)[0] + ", " + (*robots)[1] +
+                                    " (and maybe more) each have a run \"" + run_id +
+                                    "\"; name the robot (robot_id, or ?robot= over HTTP)");
+  }
+  return storage::RunKey{robots->front(), run_id};
+}
+
+}  // namespace server
