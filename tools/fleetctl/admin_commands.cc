@@ -37,12 +37,12 @@ int AdminCommands::Delete(Client& client, const Global& global) const {
     return 0;
   }
   std::printf("robot %s deleted: %lld runs, %lld reports (%lld decisions, %lld ambiguous views, %lld regions), "
-              "%lld map versions (%lld findings), %lld snapshots, %lld jobs, %lld credentials\n",
+              "%lld map versions (%lld findings, %lld with metadata), %lld snapshots, %lld jobs, %lld credentials\n",
               response.robot_id().c_str(), static_cast<long long>(response.runs()),
               static_cast<long long>(response.reports()), static_cast<long long>(response.decisions()),
               static_cast<long long>(response.ambiguous_views()), static_cast<long long>(response.protrusion_regions()),
               static_cast<long long>(response.map_versions()), static_cast<long long>(response.map_findings()),
-              static_cast<long long>(response.snapshots()), static_cast<long long>(response.jobs()),
+              static_cast<long long>(response.map_metadata()), static_cast<long long>(response.snapshots()), static_cast<long long>(response.jobs()),
               static_cast<long long>(response.credentials()));
   return 0;
 }
