@@ -193,7 +193,8 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
     for (const ChangedRegion& region : comparison->new_regions) {
       if (&region != &*largest) EXPECT_LT(region.area_m2, 1.0);
     }
-    // Five lost, the earlier export's crossed walls among them (kept through the clean-up), all small.
+    // Five lost: two patches and three stretches of wall the earlier export had as floor (kept through the
+    // clean-up as walls turned to floor are).
     ASSERT_EQ(comparison->lost_regions.size(), 5u);
     for (const ChangedRegion& region : comparison->lost_regions) EXPECT_LT(region.area_m2, 0.3);
   }

@@ -32,17 +32,15 @@ Status CheckGrid(const OccupancyGrid& grid, const char* which) {
 
 /// What every region's features look up in the whole pair, computed once per pair.
 struct PairContext {
-  cv::Mat parent_walls;  // CV_32F: 1 where the aligned parent (dilated by one cell) has a wall
-  cv::Mat parent_free;   // CV_32F: 1 where the aligned parent has floor
+  cv::Mat parent_walls;  // CV_8U: 255 where the aligned parent (dilated by one cell) has a wall
+  cv::Mat parent_free;   // CV_8U: 255 where the aligned parent has floor
   cv::Mat reachable;     // CV_8U: child floor connected to the parent's floor without crossing its walls
 };
 
 PairContext MakePairContext(const cv::Mat& child_cells, const cv::Mat& parent_cells) {
   PairContext context;
-  cv::Mat walls = parent_cells == kOccupied, free = parent_cells == kFree;
-  cv::dilate(walls, walls, cv::Mat::ones(3, 3, CV_8U));
-  walls.convertTo(context.parent_walls, CV_32F, 1.0 / 255.0);
-  free.convertTo(context.parent_free, CV_32F, 1.0 / 255.0);
+  context.parent_free = parent_cells == kFree;
+  cv::dilate(parent_cells == kOccupied, context.parent_walls, cv::Mat::ones(3, 3, CV_8U));
   // A robot reaches new floor from known floor through a gap; a stuck robot's band lies beyond the wall
   // it pushed. Floor is connected here through child floor the parent did not hold as a wall.
   cv::Mat passable = (child_cells == kFree) & (parent_cells != kOccupied);
@@ -79,14 +77,17 @@ ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, c
   ShiftMatch best;
   const double wall_cells = cv::countNonZero(region_walls), floor_cells = cv::countNonZero(region_floor);
   if (wall_cells + floor_cells < 1.0) return best;
-  // Big regions are matched on a coarser grid, so the cost stays bounded (≤ ~200 cells a side).
-  const int factor = std::max(1, static_cast<int>(std::ceil(std::max(where.width, where.height) / 200.0)));
+  // Matched on a grid of at least 10 cm, and coarser for big regions (≤ ~100 cells a side), so the cost
+  // stays bounded; walls are dilated by a cell first, so the coarse grid still sees them.
+  const int factor = std::max({1, static_cast<int>(std::floor(0.1 / resolution + 1e-9)),
+                               static_cast<int>(std::ceil(std::max(where.width, where.height) / 100.0))});
   const int reach = static_cast<int>(std::ceil(6.0 / resolution));
   const cv::Rect window(where.x - reach, where.y - reach, where.width + 2 * reach, where.height + 2 * reach);
   const cv::Rect inside = window & cv::Rect(0, 0, context.parent_walls.cols, context.parent_walls.rows);
   auto crop = [&](const cv::Mat& image) {
     cv::Mat padded = cv::Mat::zeros(window.size(), CV_32F);
-    image(inside).copyTo(padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)));
+    image(inside).convertTo(padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)),
+                            CV_32F, 1.0 / 255.0);
     if (factor > 1) cv::resize(padded, padded, {}, 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
     return padded;
   };

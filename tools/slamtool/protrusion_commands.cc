@@ -235,11 +235,17 @@ std::vector<slamcore::FeatureAnova> Anova(const std::vector<slamcore::LabelledRe
   return Check(slamcore::AnovaFValues(features, labels));
 }
 
-/// Paper IV-C: keep the features whose ANOVA p-value is below 0.05.
-std::vector<int> SelectFeatures(const std::vector<slamcore::FeatureAnova>& anova) {
+/// Paper IV-C: keep the features whose ANOVA p-value is below 0.05, among `allowed` (names; empty: all).
+std::vector<int> SelectFeatures(const std::vector<slamcore::FeatureAnova>& anova, const std::set<std::string>& allowed = {}) {
+  for (const std::string& name : allowed) {
+    const auto& names = slamcore::ProtrusionFeatureNames();
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      Fail(slamcore::InvalidArgument("--features: unknown feature \"" + name + "\""));
+    }
+  }
   std::vector<int> selected;
   for (std::size_t i = 0; i < anova.size(); ++i) {
-    if (anova[i].p_value < 0.05) selected.push_back(static_cast<int>(i));
+    if (anova[i].p_value < 0.05 && (allowed.empty() || allowed.contains(anova[i].name))) selected.push_back(static_cast<int>(i));
   }
   return selected;
 }
@@ -281,7 +287,7 @@ void PrintAnova(const std::vector<slamcore::FeatureAnova>& anova, const std::vec
 
 struct TrainArguments {
   std::vector<std::string> data;
-  std::string out, classifier = "auto", holdout_homes;
+  std::string out, classifier = "auto", holdout_homes, features;
   int folds = 5;
   int trees = 100, max_depth = 10;
   double threshold = 0.5;
@@ -305,7 +311,7 @@ void RunTrain(const TrainArguments& arguments) {
   for (const auto& region : regions) homes.insert(region.group);
   const auto anova = Anova(regions);
   slamcore::ClassifierOptions options;
-  options.selected_features = SelectFeatures(anova);
+  options.selected_features = SelectFeatures(anova, SplitList(arguments.features));
   options.trees = arguments.trees;
   options.max_depth = arguments.max_depth;
   options.threshold = arguments.threshold;
@@ -359,7 +365,7 @@ void RunTrain(const TrainArguments& arguments) {
 
 struct EvalArguments {
   std::vector<std::string> data, test_data;
-  std::string model, homes, classifier = "random_forest";
+  std::string model, homes, classifier = "random_forest", features;
   int trees = 100, max_depth = 10;
   double threshold = 0.5;
   bool leave_one_home_out = false;
@@ -436,7 +442,7 @@ void RunEval(const EvalArguments& arguments) {
       for (const auto& region : training_regions) {
         if (region.group != home) train.push_back(region);
       }
-      options.selected_features = SelectFeatures(Anova(train));
+      options.selected_features = SelectFeatures(Anova(train), SplitList(arguments.features));
       const auto classifier = Check(slamcore::ProtrusionClassifier::Train(train, options));
       for (const auto& pair : pairs) {
         if (pair.entry.home_id == home) Accumulate(*classifier, pair, arguments.list_errors, &confusion);
@@ -504,6 +510,7 @@ void AddProtrusionCommands(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "decision_tree", "random_forest", "svm"}));
   train_command->add_option("--holdout-homes", train->holdout_homes, "comma-separated homes kept out of training");
   train_command->add_option("--folds", train->folds, "cross-validation folds (by home)")->check(CLI::Range(2, 100));
+  train_command->add_option("--features", train->features, "comma-separated features the model may use (default: all)");
   train_command->add_option("--trees", train->trees, "random forest: trees")->check(CLI::Range(1, 1000));
   train_command->add_option("--max-depth", train->max_depth, "tree depth")->check(CLI::Range(1, 30));
   train_command->add_option("--threshold", train->threshold, "P(protrusion) above which a region is one")
@@ -523,6 +530,7 @@ void AddProtrusionCommands(CLI::App& app) {
   eval_command->add_flag("--leave-one-home-out", eval->leave_one_home_out, "train on all other homes, per home");
   eval_command->add_option("--classifier", eval->classifier, "kind for --leave-one-home-out")
       ->check(CLI::IsMember({"decision_tree", "random_forest", "svm"}));
+  eval_command->add_option("--features", eval->features, "with --leave-one-home-out: features the models may use");
   eval_command->add_option("--trees", eval->trees, "with --leave-one-home-out: random forest trees")->check(CLI::Range(1, 1000));
   eval_command->add_option("--max-depth", eval->max_depth, "with --leave-one-home-out: tree depth")->check(CLI::Range(1, 30));
   eval_command->add_option("--threshold", eval->threshold, "with --leave-one-home-out: decision threshold")
