@@ -202,6 +202,17 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
   EXPECT_EQ(by_image->alignment.method, "registration");
 }
 
+/// Two exports compared as fleetd compares imports: aligned by their docks, regions classed by `classifier`.
+slamcore::Result<MapComparison> CompareExportsByDock(const std::filesystem::path& before_path,
+                                                     const std::filesystem::path& after_path,
+                                                     const slamcore::ProtrusionClassifier* classifier) {
+  const auto before = ReadValetudoMap(before_path.string());
+  if (!before.ok()) return before.status();
+  const auto after = ReadValetudoMap(after_path.string());
+  if (!after.ok()) return after.status();
+  return CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, classifier);
+}
+
 /// The regions of d9_1058's second export classed as runs' regions are, by a random forest trained (as
 /// `slamtool train-protrusions` and the models service do) on generated pairs of the OTHER homes in data/maps:
 /// the room that appeared is new space, not a protrusion.
@@ -225,11 +236,7 @@ TEST(MapComparison, RealHomeRegionsClassedByAModelOfOtherHomes) {
   }
   const auto classifier = slamcore::ProtrusionClassifier::Train(training, {});
   ASSERT_TRUE(classifier.ok()) << classifier.status().ToString();
-  const auto before = ReadValetudoMap(before_path.string());
-  const auto after = ReadValetudoMap(after_path.string());
-  ASSERT_TRUE(before.ok() && after.ok());
-  const auto comparison =
-      CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, classifier->get());
+  const auto comparison = CompareExportsByDock(before_path, after_path, classifier->get());
   ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
   int protrusions = 0;
   for (const ChangedRegion& region : comparison->new_regions) {
@@ -249,12 +256,6 @@ TEST(MapComparison, RealHomeRegionsClassedByAModelOfOtherHomes) {
               comparison->new_regions.size());
 }
 
-}  // namespace
-}  // namespace analyzer
-
-namespace analyzer {
-namespace {
-
 /// The same real pair classed by the built-in default model (what fleetd uses when no model is active):
 /// every region with its class and the features that decided it, printed for the README's account.
 TEST(MapComparison, RealHomeRegionsClassedByTheDefaultModel) {
@@ -262,11 +263,7 @@ TEST(MapComparison, RealHomeRegionsClassedByTheDefaultModel) {
   TEST_DATA_FILE_OR_SKIP(after_path, "valetudo/dreame_d9_1058_with_segments.json");
   const auto classifier = slamcore::DefaultProtrusionClassifier();
   ASSERT_TRUE(classifier.ok()) << classifier.status().ToString();
-  const auto before = ReadValetudoMap(before_path.string());
-  const auto after = ReadValetudoMap(after_path.string());
-  ASSERT_TRUE(before.ok() && after.ok());
-  const auto comparison =
-      CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, classifier->get());
+  const auto comparison = CompareExportsByDock(before_path, after_path, classifier->get());
   ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
   const auto& names = slamcore::ProtrusionFeatureNames();
   int protrusions = 0;
