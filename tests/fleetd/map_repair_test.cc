@@ -94,7 +94,7 @@ Scenario FindWrongMerge() {
   params.recognition_failure_probability = 0.0;
   params.kidnap_probability = 0.0;
   params.reboot_probability = 0.0;
-  params.slip_episodes_per_hour = 0.0;
+  params.stuck_rate_scale = 0.0;
   params.mapper = PermissiveParameters();
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {
     auto world = sim::LoadWorld((*worlds)[seed % worlds->size()], seed);
