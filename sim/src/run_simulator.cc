@@ -205,9 +205,9 @@ void Run::StepPhysics() {
       const Surface there = forward > 0.0 ? s_.world.SurfaceAt(next.translation()) : here;
       truth_ = next;
       if (there == Surface::kUnderFurniture && here != Surface::kUnderFurniture) {
-        StartStuck(StuckAt::kFurniture, p_.furniture_wedge_probability);
+        StartStuck(StuckAt::kFurniture, s_.world.FeatureAt(next.translation())->catch_probability);
       } else if (there == Surface::kRug && here == Surface::kFloor) {
-        StartStuck(StuckAt::kRug, p_.rug_border_probability);
+        StartStuck(StuckAt::kRug, s_.world.FeatureAt(next.translation())->catch_probability);
       }
     }
   }

@@ -39,8 +39,6 @@ slamcore::Status SimParams::Validate() const {
   if (tof_field_of_view > 2 * 3.14159265358979) return slamcore::InvalidArgument("tof_field_of_view must be at most 2π");
   SLAMCORE_RETURN_IF_ERROR(probability(lidar_share, "lidar_share"));
   SLAMCORE_RETURN_IF_ERROR(probability(wall_wedge_probability, "wall_wedge_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(furniture_wedge_probability, "furniture_wedge_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(rug_border_probability, "rug_border_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(stuck_creep_share, "stuck_creep_share"));
   SLAMCORE_RETURN_IF_ERROR(probability(wall_follow_share, "wall_follow_share"));
   SLAMCORE_RETURN_IF_ERROR(probability(start_off_dock_probability, "start_off_dock_probability"));

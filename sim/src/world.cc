@@ -65,14 +65,19 @@ bool FloorFeature::Contains(const Vector2& point) const {
   return std::abs(local.x()) <= half_size.x() && std::abs(local.y()) <= half_size.y();
 }
 
+const FloorFeature* World::FeatureAt(const Vector2& point) const {
+  for (const std::vector<FloorFeature>* features : {&low_furniture, &rugs}) {
+    for (const FloorFeature& feature : *features) {
+      if (feature.Contains(point)) return &feature;
+    }
+  }
+  return nullptr;
+}
+
 Surface World::SurfaceAt(const Vector2& point) const {
-  for (const FloorFeature& furniture : low_furniture) {
-    if (furniture.Contains(point)) return Surface::kUnderFurniture;
-  }
-  for (const FloorFeature& rug : rugs) {
-    if (rug.Contains(point)) return Surface::kRug;
-  }
-  return Surface::kFloor;
+  const FloorFeature* feature = FeatureAt(point);
+  if (feature == nullptr) return Surface::kFloor;
+  return feature->kind == "rug" ? Surface::kRug : Surface::kUnderFurniture;
 }
 
 slamcore::Result<HomeClutter> ParseHomeClutter(const std::string& name) {
@@ -88,13 +93,16 @@ void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& rand
   auto uniform = [&](double low, double high) { return low + (high - low) * unit(random); };
   // A rectangle centred within 1.5 m of the room's seed, at a right angle to the map or turned at random,
   // placed where every cell under it is free floor not yet covered; 30 tries.
+  const bool high = clutter == HomeClutter::kHigh;
   auto place = [&](const Room& room, const char* kind, double min_x, double max_x, double min_y, double max_y,
                    std::vector<FloorFeature>& into) {
+    const bool rug = std::string(kind) == "rug";
+    const double catch_probability = rug ? (high ? 0.05 : 1.0 / 700) : (high ? 0.15 : 1.0 / 250);
     for (int attempt = 0; attempt < 30; ++attempt) {
       FloorFeature feature{kind, SE2(room.seed + Vector2(uniform(-1.5, 1.5), uniform(-1.5, 1.5)),
                                      unit(random) < 0.7 ? 0.5 * std::numbers::pi * std::floor(uniform(0.0, 4.0))
                                                         : uniform(-std::numbers::pi, std::numbers::pi)),
-                           0.5 * Vector2(uniform(min_x, max_x), uniform(min_y, max_y))};
+                           0.5 * Vector2(uniform(min_x, max_x), uniform(min_y, max_y)), catch_probability};
       bool fits = true;
       const double step = world.grid.resolution();
       for (double x = -feature.half_size.x(); fits && x <= feature.half_size.x(); x += step) {
@@ -108,7 +116,6 @@ void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& rand
       return;
     }
   };
-  const bool high = clutter == HomeClutter::kHigh;
   for (const Room& room : world.rooms) {
     const bool living = room.label == "living_room" || room.label == "room";
     const bool bedroom = room.label == "bedroom";

@@ -47,7 +47,7 @@ SimParams Scripted() {
   params.start_off_dock_probability = 0.0;
   params.wall_follow_share = 0.0;
   params.kidnap_probability = params.reboot_probability = 0.0;
-  params.wall_wedge_probability = params.furniture_wedge_probability = params.rug_border_probability = 0.0;
+  params.wall_wedge_probability = 0.0;
   params.stuck_min_seconds = params.stuck_max_seconds = 10.0;
   params.stuck_mean_extra_seconds = 0.0;
   params.stuck_heading_drift_per_metre = 0.0;
@@ -152,11 +152,11 @@ TEST(StuckTest, UnderFurnitureTheCameraIsBlindOnARugBorderItSees) {
   for (const bool under_furniture : {true, false}) {
     World world = Room();
     // A bed or a rug from x = 2.2 to 3.6 across the robot's path.
-    const FloorFeature feature{under_furniture ? "bed" : "rug", SE2(2.9, 1.5, 0.0), Vector2(0.7, 1.0)};
+    // It catches the robot on every contact.
+    const FloorFeature feature{under_furniture ? "bed" : "rug", SE2(2.9, 1.5, 0.0), Vector2(0.7, 1.0), 1.0};
     (under_furniture ? world.low_furniture : world.rugs).push_back(feature);
     ASSERT_EQ(world.SurfaceAt(Vector2(2.5, 1.5)), under_furniture ? Surface::kUnderFurniture : Surface::kRug);
     SimParams params = Scripted();
-    (under_furniture ? params.furniture_wedge_probability : params.rug_border_probability) = 1.0;
     RobotSimulator robot(world, params, "robot", "fw", 7);
     const auto outcome = robot.SimulateRun("run", 0.0);
     ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
@@ -262,7 +262,7 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   options.protrusion_data = out / "pairs";
   options.params.run_minutes = 10.0;
   options.params.home_clutter = HomeClutter::kHigh;
-  options.params.stuck_rate_scale = 10.0;
+  options.params.stuck_rate_scale = 20.0;  // walls: one bump in 200; furniture and rugs: every contact
   const auto statistics = SimulateFleet(options);
   ASSERT_TRUE(statistics.ok()) << statistics.status().ToString();
   EXPECT_GT(statistics->stuck_at_wall + statistics->stuck_under_furniture + statistics->stuck_on_rug, 10);

@@ -30,10 +30,9 @@ struct SimParams {
   // probability per contact event; while stuck the wheels keep turning in the pushing direction (odometry
   // runs on, its heading drifting), the robot stays put (or creeps), and the robot's stasis detection and
   // escape (back off and turn) end the episode after min + an exponential time, at most max seconds.
-  double wall_wedge_probability = 0.002;        // per bump into a wall or fixture: wedged, pushing on
-  double furniture_wedge_probability = 0.03;    // per drive under low furniture: caught under its edge
-  double rug_border_probability = 0.01;         // per climb onto a rug: the border (or the pile) stops the wheels
-  double stuck_rate_scale = 1.0;                // multiplies the three above (0 turns stuck episodes off)
+  // Rugs and low furniture carry their own probability (FloorFeature::catch_probability, by HomeClutter).
+  double wall_wedge_probability = 1.0 / 4000;   // per bump into a wall or fixture: wedged, pushing on
+  double stuck_rate_scale = 1.0;                // multiplies every per-contact probability (0: never stuck)
   double stuck_min_seconds = 3.0, stuck_mean_extra_seconds = 7.0, stuck_max_seconds = 45.0;
   double stuck_heading_drift_per_metre = 0.15;  // σ of the claimed turn rate while stuck (one wheel grips less)
   double stuck_creep_share = 0.02;              // the robot truly moves this share of the claimed distance, where free

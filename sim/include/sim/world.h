@@ -38,12 +38,16 @@ enum class Cell : std::uint8_t { kFree = 0, kOccupied = 1, kUnknown = 2 };
 /// ranging sensor, but their edges can stop the wheels, and under furniture the camera sees nothing.
 enum class Surface : std::uint8_t { kFloor = 0, kRug = 1, kUnderFurniture = 2 };
 
-/// How many rugs and low pieces of furniture a home has (docs/fleetsim.md "Stuck robots"):
+/// How many rugs and low pieces of furniture a home has, and how easily they catch a robot
+/// (docs/fleetsim.md "Stuck robots"):
 ///  * kTypical: a rug in a living room or bedroom with probability 0.5, elsewhere 0.2 (never in bathrooms,
 ///    kitchens or corridors); a bed the robot fits under in a bedroom with probability 0.3, a low sofa in a
-///    living room with probability 0.3;
+///    living room with probability 0.3. Furniture with a clearance well above the robot catches it on 1 in 250
+///    drives under its edge, a flat rug's border on 1 in 700 climbs.
 ///  * kHigh: two rugs in every living room and bedroom and one in every other room, a low bed in every
-///    bedroom and a low sofa in every living room (and in every unlabelled room).
+///    bedroom and a low sofa in every living room (and in every unlabelled room); the furniture's clearance
+///    is just the robot's height (it catches on 3 in 20 drives under) and the rugs are deep-pile with tassels
+///    (1 in 20 climbs).
 enum class HomeClutter { kTypical, kHigh };
 slamcore::Result<HomeClutter> ParseHomeClutter(const std::string& name);  // "typical" | "high"
 const char* HomeClutterName(HomeClutter clutter);
@@ -53,6 +57,7 @@ struct FloorFeature {
   std::string kind;  // "rug", "bed", "sofa"
   SE2 pose;
   Vector2 half_size;
+  double catch_probability = 0.0;  // per drive under it (furniture) or climb onto it (rug): the robot is stuck
   bool Contains(const Vector2& point) const;
 };
 
@@ -115,6 +120,8 @@ struct World {
 
   /// Under furniture wins over a rug; kFloor elsewhere.
   Surface SurfaceAt(const Vector2& point) const;
+  /// The rug or piece of furniture at `point` (as SurfaceAt ranks them), or null.
+  const FloorFeature* FeatureAt(const Vector2& point) const;
 
   /// Free cells (centres) a robot of `radius` fits on, for placing the robot and kidnaps.
   std::vector<Vector2> FreeSpots(double radius, std::size_t max_count, std::mt19937_64& random) const;
