@@ -14,6 +14,7 @@ RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random) {
     sensor.range = params.lidar_min_range + (params.lidar_max_range - params.lidar_min_range) * unit(random);
     sensor.field_of_view = 2 * std::numbers::pi;
     sensor.rays = 360;
+    sensor.resolution = 0.10;
   } else {
     sensor.model = kTofModel;
     sensor.range = params.tof_min_range + (params.tof_max_range - params.tof_min_range) * unit(random);
@@ -26,7 +27,7 @@ RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random) {
 
 slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const RangeSensor& sensor,
                                double robot_radius, double time) {
-  const double resolution = grid.resolution();
+  const double resolution = sensor.resolution;
   const double reach = std::max(sensor.range, robot_radius) + resolution;
   const int size = static_cast<int>(std::ceil(2.0 * reach / resolution));
   std::vector<std::int8_t> square(static_cast<std::size_t>(size) * size, -1);
@@ -38,16 +39,17 @@ slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const
     if (cell != 100) cell = value;
   };
   const bool all_around = sensor.field_of_view >= 2 * std::numbers::pi - 1e-9;
+  const double step = 0.5 * std::min(resolution, grid.resolution());
   for (int k = 0; k < sensor.rays; ++k) {
     const double angle = all_around ? 2 * std::numbers::pi * k / sensor.rays
                                     : -0.5 * sensor.field_of_view + sensor.field_of_view * k / std::max(1, sensor.rays - 1);
     const double range = grid.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, sensor.range);
     const Vector2 direction(std::cos(angle), std::sin(angle));
-    for (double d = 0.0; d < range; d += 0.5 * resolution) mark(d * direction, 0);
-    if (range < sensor.range) mark((range + 0.5 * resolution) * direction, 100);
+    for (double d = 0.0; d < range; d += step) mark(d * direction, 0);
+    if (range < sensor.range) mark((range + step) * direction, 100);
   }
-  for (double dx = -robot_radius; dx <= robot_radius; dx += resolution) {
-    for (double dy = -robot_radius; dy <= robot_radius; dy += resolution) {
+  for (double dx = -robot_radius; dx <= robot_radius; dx += step) {
+    for (double dy = -robot_radius; dy <= robot_radius; dy += step) {
       if (std::hypot(dx, dy) <= robot_radius) mark(Vector2(dx, dy), 0);
     }
   }

@@ -203,7 +203,7 @@ TEST(StuckTest, PatchesAtStuckNodesAreTheTruePlaceScanAtTheFalsePoses) {
     return count;
   };
   EXPECT_EQ(robot.sensor().model, "fleetsim-lidar");
-  EXPECT_GT(scan.width, 80) << "a 5 m lidar sees the whole 4 m room";
+  EXPECT_GT(scan.width * scan.resolution, 3.9) << "a 5 m lidar sees the whole 4 m room";
   SE2 dead_reckoned;  // the node's estimated pose relative to the first stuck node
   for (std::size_t k = 0; k < episode.size(); ++k) {
     if (k > 0) dead_reckoned = dead_reckoned * episode[k].increment;
@@ -236,11 +236,12 @@ TEST(StuckTest, SensorRangeAndFieldOfViewFollowTheRobotModel) {
   // In open floor a patch spans the sensor's reach: the lidar 2·range all around, the ToF its range ahead
   // and only the robot's footprint behind.
   const slamcore::LocalMapEvent lidar_patch = ScanAt(open, SE2(), lidar, 0.17, 0.0);
-  EXPECT_NEAR(lidar_patch.width * 0.05, 2 * lidar.range, 0.15);
+  EXPECT_NEAR(lidar_patch.resolution, 0.10, 1e-12);
+  EXPECT_NEAR(lidar_patch.width * lidar_patch.resolution, 2 * lidar.range, 0.25);
   EXPECT_NEAR(lidar_patch.node_T_origin.x(), -lidar.range, 0.1);
   const slamcore::LocalMapEvent tof_patch = ScanAt(open, SE2(), tof, 0.17, 0.0);
   EXPECT_NEAR(tof_patch.node_T_origin.x(), -0.17, 0.06);
-  EXPECT_NEAR(tof_patch.node_T_origin.x() + tof_patch.width * 0.05, tof.range, 0.1);
+  EXPECT_NEAR(tof_patch.node_T_origin.x() + tof_patch.width * tof_patch.resolution, tof.range, 0.1);
   // 110° wide: at the range, ±range·sin(55°).
   EXPECT_NEAR(tof_patch.height * 0.05, 2 * tof.range * std::sin(0.96), 0.15);
 }

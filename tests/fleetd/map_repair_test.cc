@@ -96,7 +96,7 @@ Scenario FindWrongMerge() {
   params.reboot_probability = 0.0;
   params.stuck_rate_scale = 0.0;
   params.mapper = PermissiveParameters();
-  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+  for (std::uint64_t seed = 1; seed <= 400; ++seed) {
     auto world = sim::LoadWorld((*worlds)[seed % worlds->size()], seed);
     EXPECT_TRUE(world.ok());
     sim::RobotSimulator robot(*world, params, kRobot, "fw-repair", seed);
@@ -120,6 +120,7 @@ Scenario FindWrongMerge() {
           ++wrong_by_hypothesis[edge.hypothesis()];
         }
       }
+      std::fprintf(stderr, "probe seed %llu run %d wrong hypotheses %zu\n", static_cast<unsigned long long>(seed), k, wrong_by_hypothesis.size());
       if (wrong_by_hypothesis.size() != 1) {
         if (!wrong_by_hypothesis.empty()) break;  // several wrong hypotheses: try another robot
         continue;
@@ -139,7 +140,7 @@ Scenario FindWrongMerge() {
           break;
         }
       }
-      if (first_new < 0 || without.SameComponent(home, first_new)) break;
+      if (first_new < 0 || without.SameComponent(home, first_new)) { std::fprintf(stderr, "probe: not a merge\n"); break; }
       scenario.wrong_hypothesis = hypothesis;
       scenario.wrong_edges = wrong_by_hypothesis.begin()->second;
       std::printf("wrong merge: seed %llu, run %d, hypothesis %lld with %zu wrong edge(s)\n",

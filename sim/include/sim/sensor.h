@@ -23,6 +23,8 @@ struct RangeSensor {
   double range = 1.5;           // metres
   double field_of_view = 1.92;  // radians, centred ahead
   int rays = 40;                // evenly spread over the field of view (a lidar: one per degree)
+  double resolution = 0.05;     // of its patches, m per cell: a lidar's are 0.10 m (its long rays would
+                                // otherwise make a lifelong map too large to upload in one message)
 };
 
 /// The sensor of a new robot: its model by SimParams::lidar_share, its range uniform in the model's interval.
@@ -30,7 +32,7 @@ RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random);
 
 /// The patch the sensor sees from `world_T_robot`: free along each ray up to its first hit (occupied), the
 /// robot's footprint free, cropped to the cells it knows; cell (0, 0) lies at node_T_origin in the robot's
-/// frame, at the grid's resolution.
+/// frame, at the sensor's resolution.
 slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const RangeSensor& sensor,
                                double robot_radius, double time);
 

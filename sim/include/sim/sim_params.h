@@ -58,7 +58,7 @@ struct SimParams {
   double tof_field_of_view = 1.92;                  // radians (110°), centred ahead
   double lidar_min_range = 4.0, lidar_max_range = 6.0;
   int patch_every_nodes = 2;           // a ToF patch every 2 nodes (0.6 m) ...
-  int lidar_patch_every_nodes = 4;     // ... a lidar patch every 4 (1.2 m: its 4–6 m overlap anyway)
+  int lidar_patch_every_nodes = 6;     // ... a lidar patch every 6 (1.8 m: its 4–6 m overlap anyway)
   // Ground truth of the protrusion detector's regions, per run (RunOutcome)
   bool label_regions = true;
   bool keep_truth_pairs = false;      // also keep the parent/child pair with per-cell truth
