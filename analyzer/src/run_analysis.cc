@@ -163,7 +163,8 @@ Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<NodeId>
   truth.covered.assign(static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
   std::set<NodeId> slip_nodes;
   for (const NodeId node : grids.child_nodes) {
-    if (slipping_nodes.contains(node)) slip_nodes.insert(node);
+    // Only nodes with a local map paint anything (a lidar robot attaches one to every 6th node).
+    if (slipping_nodes.contains(node) && child.local_maps.contains(node)) slip_nodes.insert(node);
   }
   if (!slip_nodes.empty()) {
     slamcore::GlobalGridRenderer slip_renderer;

@@ -219,6 +219,35 @@ TEST(StuckTest, PatchesAtStuckNodesAreTheTruePlaceScanAtTheFalsePoses) {
   }
 }
 
+TEST(StuckTest, StuckNodesWithoutAPatchLabelNothingAndFailNothing) {
+  // A lidar robot attaches a patch to every 6th node only: a stuck episode can hold none. Its regions must
+  // still be labelled (none a protrusion), not fail the run's labelling or analysis.
+  const World world = Room();
+  const RangeSensor lidar{kLidarModel, 5.0, 2 * std::numbers::pi, 360, 0.10};
+  slamcore::Map parent, child;
+  for (slamcore::NodeId id = 0; id < 3; ++id) {
+    const SE2 pose(1.0 + id, 1.5, 0.0);
+    ASSERT_TRUE(child.graph.AddNode({.id = id, .pose = pose}).ok());
+    if (id > 0) {
+      ASSERT_TRUE(child.graph.AddEdge(slamcore::Edge{.from = id - 1, .to = id, .measurement = SE2(1, 0, 0)}).ok());
+    }
+    if (id == 0) {
+      ASSERT_TRUE(parent.graph.AddNode({.id = id, .pose = pose}).ok());
+      parent.local_maps.emplace(id, ScanAt(world.grid, pose, lidar, 0.17, 0.0));
+      // The child holds the parent's patch drawn 1 m further: a region the parent did not know.
+      child.local_maps.emplace(id, ScanAt(world.grid, SE2(2.0, 1.5, 0.0), lidar, 0.17, 0.0));
+    }
+  }
+  const auto grids = analyzer::RenderComparedGrids(parent, child);
+  ASSERT_TRUE(grids.ok()) << grids.status().ToString();
+  const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
+  ASSERT_TRUE(regions.ok()) << regions.status().ToString();
+  const auto truth = analyzer::SlipTruthOf(child, {1, 2}, *grids, *regions);  // stuck nodes 1, 2: no patch
+  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+  for (const bool protrusion : truth->region_is_protrusion) EXPECT_FALSE(protrusion);
+  for (const std::uint8_t covered : truth->covered) EXPECT_EQ(covered, 0);
+}
+
 TEST(StuckTest, SensorRangeAndFieldOfViewFollowTheRobotModel) {
   Grid open(400, 400, 0.05, Vector2(-10, -10), Cell::kFree);  // 20 m of open floor
   std::mt19937_64 random(1);
