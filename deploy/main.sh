@@ -6,6 +6,8 @@
 # the dashboard can be opened; the last lines say how to stop it.
 #
 # Knobs (environment): FLEET_ROBOTS (12), FLEET_RUNS (4), FLEET_MINUTES (10), FLEET_SEED (1),
+# FLEET_HOME_CLUTTER (high: homes with more rugs and low furniture, so the small fleet gets stuck often enough to
+# show protrusions; typical: the default physics, ~1 % of maps),
 # FLEET_HTTP (127.0.0.1:8080; port 0 picks a free one), FLEET_WORK_DIR (out/main), SHARED_DATA_DIR (the larger
 # data set, ../shared/data; the repository's own data/ when it is absent).
 set -euo pipefail
@@ -65,7 +67,8 @@ print(sum(1 for job in jobs if job.get("state") in ("queued", "leased", "running
 echo
 echo "== A simulated fleet in real homes uploads its runs =="
 "$bin/fleetsim" --world "$data/floorplans" --robots "${FLEET_ROBOTS:-12}" --runs "${FLEET_RUNS:-4}" \
-  --minutes "${FLEET_MINUTES:-10}" --seed "${FLEET_SEED:-1}" --out "$work/runs" --upload "$grpc"
+  --minutes "${FLEET_MINUTES:-10}" --seed "${FLEET_SEED:-1}" --home-clutter "${FLEET_HOME_CLUTTER:-high}" \
+  --out "$work/runs" --upload "$grpc"
 wait_for_jobs
 
 echo
@@ -79,6 +82,34 @@ if "$bin/fleetctl" models train protrusion --classifier random_forest; then
 else
   echo "(classifier not trained: regions stay unclassified until both classes are labelled)"
 fi
+
+echo
+echo "== The protrusion classifier against the simulator's ground truth (every region of every run) =="
+python3 - "$bin/fleetctl" <<'PY'
+import json, subprocess, sys
+fleetctl = sys.argv[1]
+def call(*args):
+    return json.loads(subprocess.run([fleetctl, *args, "--json"], check=True, capture_output=True, text=True).stdout)
+# labels come from label-from-truth (the simulator's ground truth), classes from the reports' classifier
+matrix = {(t, p): 0 for t in ("protrusion", "new_space") for p in ("protrusion", "new_space", "unclassified")}
+unlabelled = 0
+for run in call("runs", "--limit", "100000").get("runs", []):
+    for region in call("regions", run["run_id"]).get("regions", []):
+        truth, predicted = region.get("label", ""), region.get("predicted_class", "unclassified")
+        if truth not in ("protrusion", "new_space"):
+            unlabelled += 1
+            continue
+        matrix[(truth, predicted if predicted in ("protrusion", "new_space") else "unclassified")] += 1
+print(f"{'':<22} {'predicted protrusion':>21} {'predicted new space':>20} {'unclassified':>13}")
+for truth in ("protrusion", "new_space"):
+    row = [matrix[(truth, p)] for p in ("protrusion", "new_space", "unclassified")]
+    print(f"{'true ' + truth.replace('_', ' '):<22} {row[0]:>21} {row[1]:>20} {row[2]:>13}")
+tp, fp = matrix[("protrusion", "protrusion")], matrix[("new_space", "protrusion")]
+fn = matrix[("protrusion", "new_space")] + matrix[("protrusion", "unclassified")]
+precision = f"{100 * tp / (tp + fp):.1f} %" if tp + fp else "n/a"
+recall = f"{100 * tp / (tp + fn):.1f} %" if tp + fn else "n/a"
+print(f"precision {precision}, recall {recall} (unclassified counts as missed); {unlabelled} regions without a label")
+PY
 
 echo
 echo "== Fleet statistics (the paper's Fig. 6, 7, 8, 12) =="

@@ -10,6 +10,12 @@
 //
 // also uploads every run to fleetd like a robot (sim/uploader.h: retries with backoff; runs of one robot in
 // order, robots in parallel); the token comes from --token-file, FLEET_TOKEN_FILE, FLEET_TOKEN or --token.
+//
+//   fleetsim ... [--home-clutter typical|high] [--stuck-rate-scale X] [--lidar-share F] [--protrusion-data DIR]
+//
+// sets the homes' rugs and low furniture, scales the per-contact stuck probabilities, sets the share of robots
+// with a lidar, and writes each run's parent/child maps with per-cell ground truth as a protrusion data set
+// (docs/fleetsim.md).
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -35,6 +41,16 @@ int main(int argc, char** argv) {
   app.add_option("--out", out, "write each run's telemetry here");
   app.add_option("--minutes", options.params.run_minutes, "simulated minutes per run")->check(CLI::PositiveNumber);
   app.add_option("--threads", options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  std::string clutter = "typical", protrusion_data;
+  app.add_option("--home-clutter", clutter, "rugs and low furniture in the homes: typical or high")
+      ->check(CLI::IsMember({"typical", "high"}));
+  app.add_option("--stuck-rate-scale", options.params.stuck_rate_scale,
+                 "multiplies the per-contact probabilities of getting stuck (0: never)")
+      ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--lidar-share", options.params.lidar_share, "share of robots with a lidar (the rest: a front ToF)")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--protrusion-data", protrusion_data,
+                 "write each run's parent/child maps with per-cell truth here (protrusion data-set layout)");
   app.add_flag("--json", json, "print the statistics as one JSON object on the last line");
   sim::UploadFilesOptions upload;
   app.add_option("--upload", upload.uploader.server, "also upload every run to this fleetd (host:port)");
@@ -44,6 +60,8 @@ int main(int argc, char** argv) {
   app.add_option("--token-file", token_file, "read the token for --upload from this file (default $FLEET_TOKEN_FILE)");
   app.add_option("--upload-threads", upload.threads, "parallel upload streams")->check(CLI::Range(1, 256));
   CLI11_PARSE(app, argc, argv);
+  options.params.home_clutter = *sim::ParseHomeClutter(clutter);  // checked by IsMember above
+  options.protrusion_data = protrusion_data;
 
   if (std::filesystem::is_directory(world)) {
     auto worlds = sim::ListWorlds(world);

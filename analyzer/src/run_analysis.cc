@@ -90,21 +90,15 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
     classifier = built_in.get();
   }
   if (!regions.ok()) return regions.status();
-  std::set<NodeId> slip_nodes;
-  for (const NodeId node : grids->child_nodes) {
-    if (slipping_nodes.contains(node)) slip_nodes.insert(node);
-  }
-
-  // Ground truth, when the run carries it: a region is a slip artefact when most of its cells are
-  // covered by patches of nodes made while the robot was stuck.
-  std::optional<slamcore::OccupancyGrid> slip_cover;
-  if (!slip_nodes.empty()) {
-    slamcore::GlobalGridRenderer slip_renderer;
-    SLAMCORE_RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
-    slip_cover = slip_renderer.grid();
+  std::optional<SlipTruth> truth;
+  if (has_ground_truth) {
+    auto labelled = SlipTruthOf(child, slipping_nodes, *grids, *regions);
+    if (!labelled.ok()) return labelled.status();
+    truth = std::move(labelled).value();
   }
   const slamcore::OccupancyGrid& child_grid = grids->child;
-  for (const slamcore::ProtrusionRegion& region : *regions) {
+  for (std::size_t index = 0; index < regions->size(); ++index) {
+    const slamcore::ProtrusionRegion& region = (*regions)[index];
     fleet::v1::ProtrusionRegion* proto = report->add_protrusion_regions();
     proto->set_id(region.id);
     for (const int value : {region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height}) proto->add_bbox(value);
@@ -130,19 +124,7 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
       proto->set_predicted_class("unclassified");
       proto->set_probability(-1.0);
     }
-    if (has_ground_truth) {
-      int covered = 0;
-      for (const std::int32_t cell : region.cells) {
-        if (!slip_cover) break;
-        const int col = cell % child_grid.width, row = cell / child_grid.width;
-        const double x = child_grid.origin_x + (col + 0.5) * child_grid.resolution;
-        const double y = child_grid.origin_y + (row + 0.5) * child_grid.resolution;
-        const int slip_col = static_cast<int>(std::floor((x - slip_cover->origin_x) / slip_cover->resolution));
-        const int slip_row = static_cast<int>(std::floor((y - slip_cover->origin_y) / slip_cover->resolution));
-        if (slip_cover->InBounds(slip_col, slip_row) && slip_cover->at(slip_col, slip_row) != -1) ++covered;
-      }
-      proto->set_truth_protrusion(!region.cells.empty() && 2 * covered >= static_cast<int>(region.cells.size()));
-    }
+    if (truth) proto->set_truth_protrusion(truth->region_is_protrusion[index]);
   }
   return slamcore::Status::Ok();
 }
@@ -178,6 +160,40 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
     if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
   }
   return part;
+}
+
+Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<NodeId>& slipping_nodes,
+                              const ComparedGrids& grids, const std::vector<slamcore::ProtrusionRegion>& regions) {
+  const slamcore::OccupancyGrid& child_grid = grids.child;
+  SlipTruth truth;
+  truth.covered.assign(static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
+  std::set<NodeId> slip_nodes;
+  for (const NodeId node : grids.child_nodes) {
+    // Only nodes with a local map paint anything (a lidar robot attaches one to every 6th node).
+    if (slipping_nodes.contains(node) && child.local_maps.contains(node)) slip_nodes.insert(node);
+  }
+  if (!slip_nodes.empty()) {
+    slamcore::GlobalGridRenderer slip_renderer;
+    SLAMCORE_RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
+    const slamcore::OccupancyGrid& cover = slip_renderer.grid();
+    for (int row = 0; row < child_grid.height; ++row) {
+      for (int col = 0; col < child_grid.width; ++col) {
+        const double x = child_grid.origin_x + (col + 0.5) * child_grid.resolution;
+        const double y = child_grid.origin_y + (row + 0.5) * child_grid.resolution;
+        const int cover_col = static_cast<int>(std::floor((x - cover.origin_x) / cover.resolution));
+        const int cover_row = static_cast<int>(std::floor((y - cover.origin_y) / cover.resolution));
+        if (cover.InBounds(cover_col, cover_row) && cover.at(cover_col, cover_row) != -1) {
+          truth.covered[static_cast<std::size_t>(row) * child_grid.width + col] = 1;
+        }
+      }
+    }
+  }
+  for (const slamcore::ProtrusionRegion& region : regions) {
+    std::size_t covered = 0;
+    for (const std::int32_t cell : region.cells) covered += truth.covered[static_cast<std::size_t>(cell)];
+    truth.region_is_protrusion.push_back(!region.cells.empty() && 2 * covered >= region.cells.size());
+  }
+  return truth;
 }
 
 slamcore::ComponentId HomeComponent(const slamcore::PoseGraph& graph) {

@@ -18,8 +18,8 @@ std::vector<fleet::v1::RunFile> SimulatedRuns() {
   static const auto world = sim::LoadWorld(worlds->front(), 11);
   EXPECT_TRUE(world.ok()) << world.status().ToString();
   sim::SimParams params;
-  params.run_minutes = 4.0;
-  params.slip_episodes_per_hour = 30.0;  // make sure the second run slips
+  params.run_minutes = 5.0;
+  params.stuck_rate_scale = 400.0;  // a wedge on one bump in 10: make sure the second run gets stuck
   sim::RobotSimulator robot(*world, params, "robot-test", "1.0.0", 5);
   std::vector<fleet::v1::RunFile> runs;
   for (int k = 0; k < 2; ++k) {

@@ -9,6 +9,8 @@
 #include <mutex>
 #include <thread>
 
+#include "sim/sensor.h"
+
 namespace sim {
 
 void FleetStatistics::Add(const RunOutcome& outcome) {
@@ -35,7 +37,14 @@ void FleetStatistics::Add(const RunOutcome& outcome) {
   wrong_observations += outcome.wrong_observations;
   kidnaps += outcome.kidnaps;
   reboots += outcome.reboots;
-  slip_episodes += outcome.slip_episodes;
+  stuck_at_wall += outcome.stuck_at_wall;
+  stuck_under_furniture += outcome.stuck_under_furniture;
+  stuck_on_rug += outcome.stuck_on_rug;
+  stuck_nodes += outcome.stuck_nodes;
+  if (outcome.run.header().robot_model() == kLidarModel) ++lidar_runs;
+  if (outcome.truth_protrusion_regions > 0) ++maps_with_truth_protrusion;
+  truth_protrusion_regions += outcome.truth_protrusion_regions;
+  truth_new_space_regions += outcome.truth_new_space_regions;
   simulated_hours += outcome.simulated_seconds / 3600.0;
 }
 
@@ -57,7 +66,10 @@ std::string FleetStatistics::ToText() const {
       "maps with ambiguous views              %.1f %%   (paper: 90.7 %%)\n"
       "ambiguous share of views in those maps %.1f %%   (paper: 15-18 %%)\n"
       "wrong observations from the front-end  %.1f %% of %ld\n"
-      "kidnaps %d, reboots %d, slip episodes %d\n",
+      "kidnaps %d, reboots %d\n"
+      "stuck episodes                         %d (wall %d, under furniture %d, rug %d; %ld stuck nodes)\n"
+      "maps with a protrusion (ground truth)  %.2f %% (%d of %d; %ld protrusion and %ld new-space regions)   (paper: 0.92 %%)\n"
+      "robots' sensors                        %d runs lidar, %d runs ToF\n",
       runs, simulated_hours, wall_seconds, runs_with_parent, 100 * Share(runs_started_localized, runs_with_parent),
       100 * Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
       100 * Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), recovery_retracted,
@@ -65,7 +77,9 @@ std::string FleetStatistics::ToText() const {
       100 * Share(maps_with_ambiguous_views, maps_with_views),
       100 * Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
       100 * Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), observations, kidnaps,
-      reboots, slip_episodes);
+      reboots, stuck_at_wall + stuck_under_furniture + stuck_on_rug, stuck_at_wall, stuck_under_furniture, stuck_on_rug,
+      stuck_nodes, 100 * Share(maps_with_truth_protrusion, runs), maps_with_truth_protrusion, runs,
+      truth_protrusion_regions, truth_new_space_regions, lidar_runs, runs - lidar_runs);
   return text;
 }
 
@@ -78,7 +92,10 @@ std::string FleetStatistics::ToJson() const {
       "\"recovery_accepted_share\":%.4f,\"recovery_retracted\":%ld,\"merge_created\":%ld,\"merge_conditionally_accepted\":%ld,"
       "\"merge_conditional_then_rejected_share\":%.4f,\"merge_accepted\":%ld,"
       "\"maps_with_ambiguous_views_share\":%.4f,\"ambiguous_view_share\":%.4f,\"observations\":%ld,"
-      "\"wrong_observation_share\":%.4f,\"kidnaps\":%d,\"reboots\":%d,\"slip_episodes\":%d}",
+      "\"wrong_observation_share\":%.4f,\"kidnaps\":%d,\"reboots\":%d,\"stuck_at_wall\":%d,"
+      "\"stuck_under_furniture\":%d,\"stuck_on_rug\":%d,\"stuck_nodes\":%ld,\"maps_with_truth_protrusion\":%d,"
+      "\"maps_with_truth_protrusion_share\":%.5f,\"truth_protrusion_regions\":%ld,\"truth_new_space_regions\":%ld,"
+      "\"lidar_runs\":%d,\"pairs_written\":%d}",
       runs, simulated_hours, wall_seconds, runs_with_parent, Share(runs_started_localized, runs_with_parent),
       Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
       Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), recovery_retracted,
@@ -86,7 +103,9 @@ std::string FleetStatistics::ToJson() const {
       Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)), merge_accepted,
       Share(maps_with_ambiguous_views, maps_with_views), Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
       observations, Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), kidnaps,
-      reboots, slip_episodes);
+      reboots, stuck_at_wall, stuck_under_furniture, stuck_on_rug, stuck_nodes, maps_with_truth_protrusion,
+      Share(maps_with_truth_protrusion, runs), truth_protrusion_regions, truth_new_space_regions, lidar_runs,
+      pairs_written);
   return text;
 }
 
@@ -95,6 +114,16 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
   if (options.worlds.empty()) return slamcore::InvalidArgument("no worlds to simulate");
   if (options.robots < 1 || options.runs < 1) return slamcore::InvalidArgument("robots and runs must be at least 1");
   SLAMCORE_RETURN_IF_ERROR(options.params.Validate());
+  SimParams params = options.params;
+  if (!options.protrusion_data.empty()) {
+    params.keep_truth_pairs = params.label_regions = true;
+    std::error_code error;
+    if (std::filesystem::exists(options.protrusion_data / "index.csv", error)) {
+      return slamcore::InvalidArgument(options.protrusion_data.string() +
+                                       ": already holds a data set (index.csv); choose an empty directory");
+    }
+  }
+  std::atomic<int> pairs_written{0};
   const auto start = std::chrono::steady_clock::now();
 
   // Load each home once; robots share it read-only.
@@ -102,7 +131,7 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
   for (int robot = 0; robot < options.robots; ++robot) {
     const std::size_t index = static_cast<std::size_t>(robot) % options.worlds.size();
     if (worlds.contains(index)) continue;
-    auto world = LoadWorld(options.worlds[index], options.seed * 1000003ULL + index);
+    auto world = LoadWorld(options.worlds[index], options.seed * 1000003ULL + index, params.home_clutter);
     if (!world.ok()) return world.status();
     worlds.emplace(index, std::move(world).value());
   }
@@ -118,7 +147,7 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
       char robot_id[32];
       std::snprintf(robot_id, sizeof robot_id, "robot-%04d", robot);
       const std::string firmware = robot % 2 == 0 ? "1.4.2" : "1.5.0";
-      RobotSimulator simulator(world, options.params, robot_id, firmware,
+      RobotSimulator simulator(world, params, robot_id, firmware,
                                options.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(robot));
       for (int run = 0; run < options.runs; ++run) {
         char run_id[64];
@@ -143,7 +172,22 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
           output.close();
           std::filesystem::rename(file.string() + ".tmp", file);
         }
-        outcome->run.Clear();  // the statistics need no telemetry
+        if (outcome->truth_pair && (outcome->truth_pair->protrusions + outcome->truth_pair->new_spaces) > 0) {
+          const slamcore::DatasetEntry entry{run_id, run_id, world.name, "fleetsim." + outcome->run.header().robot_model()};
+          std::lock_guard lock(mutex);  // one writer of index.csv at a time
+          if (const slamcore::Status status =
+                  slamcore::WriteDatasetPair(options.protrusion_data.string(), entry, *outcome->truth_pair);
+              !status.ok()) {
+            if (first_error.ok()) first_error = status;
+            return;
+          }
+          ++pairs_written;
+        }
+        outcome->truth_pair.reset();
+        // The statistics need no telemetry, only the robot model.
+        const std::string model = outcome->run.header().robot_model();
+        outcome->run.Clear();
+        outcome->run.mutable_header()->set_robot_model(model);
         outcomes[static_cast<std::size_t>(robot)].push_back(std::move(outcome).value());
         const int finished = ++done;
         if (progress) {
@@ -165,6 +209,7 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
   for (const auto& robot_outcomes : outcomes) {
     for (const RunOutcome& outcome : robot_outcomes) statistics.Add(outcome);
   }
+  statistics.pairs_written = pairs_written;
   statistics.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return statistics;
 }

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <set>
 
 #include "analyzer/run_analysis.h"
 #include "analyzer/telemetry_codec.h"
+#include "slamcore/protrusion_detector.h"
 
 namespace sim {
 namespace {
@@ -25,6 +27,9 @@ struct ViewRecord {
 /// wall following; the same behaviour a cleaning robot shows.
 enum class Behaviour { kStraight, kTurning, kWallFollow };
 
+/// Where a stuck episode began: pushing a wall (or fixture), caught under low furniture, or on a rug border.
+enum class StuckAt { kWall, kFurniture, kRug };
+
 /// Heading difference in (−π, π].
 double AngleBetween(double a, double b) { return slamcore::WrapAngle(a - b); }
 
@@ -37,6 +42,7 @@ struct RobotSimulator::State {
   std::string firmware;
   std::mt19937_64 random;
   double wheel_scale = 1.0;  // systematic odometry error of this robot
+  RangeSensor sensor;        // this robot's model's ranging sensor
   slamcore::Map map;         // the robot's map, carried from run to run
   std::vector<ViewRecord> views;
   std::unordered_map<int, std::vector<std::size_t>> views_of_landmark;
@@ -48,6 +54,7 @@ struct RobotSimulator::State {
       : world(w), params(p), robot_id(std::move(id)), firmware(std::move(fw)), random(seed) {
     std::normal_distribution<double> scale(1.0, params.odometry_scale_error);
     wheel_scale = scale(random);
+    sensor = DrawSensor(params, random);
   }
 
   double Uniform(double low, double high) { return std::uniform_real_distribution<double>(low, high)(random); }
@@ -60,6 +67,8 @@ RobotSimulator::RobotSimulator(const World& world, const SimParams& params, std:
     : state_(std::make_unique<State>(world, params, std::move(robot_id), std::move(firmware), seed)) {}
 
 RobotSimulator::~RobotSimulator() = default;
+
+const RangeSensor& RobotSimulator::sensor() const { return state_->sensor; }
 
 namespace {
 
@@ -79,6 +88,9 @@ class Run {
   slamcore::Status ObserveLandmarks();
   slamcore::Status EmitPatch();
   slamcore::Status Kidnap(bool reboot);
+  bool StartStuck(StuckAt where, double probability);
+  bool CameraBlind() const;
+  slamcore::Status LabelRegions();
   bool Visible(const Landmark& landmark) const;
   double ViewingDirection(const Landmark& landmark) const;
 
@@ -87,6 +99,7 @@ class Run {
   std::string run_id_;
   double started_at_;
   std::unique_ptr<slamcore::Mapper> mapper_;
+  slamcore::Map parent_;
   RunOutcome outcome_;
 
   double time_ = 0.0;
@@ -94,8 +107,11 @@ class Run {
   SE2 measured_increment_;   // odometry accumulated since the last node
   double measured_distance_ = 0.0, measured_rotation_ = 0.0;
   Matrix3 increment_covariance_ = Matrix3::Zero();
-  bool slipping_ = false, slipped_since_node_ = false;
-  double slip_until_ = 0.0;
+  bool stuck_ = false, stuck_since_node_ = false;
+  StuckAt stuck_at_ = StuckAt::kWall;
+  double stuck_until_ = 0.0;
+  double stuck_turn_per_metre_ = 0.0;  // the claimed heading change while stuck
+  std::set<slamcore::NodeId> stuck_nodes_;
   Behaviour behaviour_ = Behaviour::kStraight;
   double turn_remaining_ = 0.0;
   double behaviour_until_ = 0.0;
@@ -114,46 +130,85 @@ slamcore::Status Run::Emit(const slamcore::Event& event, const std::function<voi
   return slamcore::Status::Ok();
 }
 
+bool Run::StartStuck(StuckAt where, double probability) {
+  if (!s_.Chance(std::min(1.0, probability * p_.stuck_rate_scale))) return false;
+  stuck_ = true;
+  stuck_at_ = where;
+  // The stasis detection and escape fire after min + an exponential time (the robot notices late).
+  const double extra = p_.stuck_mean_extra_seconds > 0
+                           ? std::exponential_distribution<double>(1.0 / p_.stuck_mean_extra_seconds)(s_.random)
+                           : 0.0;
+  stuck_until_ = time_ + std::min(p_.stuck_max_seconds, p_.stuck_min_seconds + extra);
+  stuck_turn_per_metre_ = s_.Gaussian(p_.stuck_heading_drift_per_metre);
+  ++(where == StuckAt::kWall ? outcome_.stuck_at_wall
+                             : where == StuckAt::kFurniture ? outcome_.stuck_under_furniture : outcome_.stuck_on_rug);
+  return true;
+}
+
+bool Run::CameraBlind() const {
+  // Face against a wall the camera sees a blank surface; under furniture it sees the dark underside.
+  return (stuck_ && stuck_at_ != StuckAt::kRug) ||
+         s_.world.SurfaceAt(truth_.translation()) == Surface::kUnderFurniture;
+}
+
 void Run::StepPhysics() {
   const double dt = p_.step_seconds;
-  // Slip episodes start at random (Poisson) and last a while: the wheels keep turning, the robot stays.
-  if (!slipping_ && s_.Chance(p_.slip_episodes_per_hour * dt / 3600.0)) {
-    slipping_ = true;
-    slip_until_ = time_ + s_.Uniform(p_.slip_min_seconds, p_.slip_max_seconds);
-    ++outcome_.slip_episodes;
+  if (stuck_ && time_ >= stuck_until_) {
+    // Escape: back off from what held the robot and turn away, as after a bump.
+    stuck_ = false;
+    behaviour_ = Behaviour::kTurning;
+    turn_remaining_ = (s_.Chance(0.5) ? 1.0 : -1.0) * s_.Uniform(0.6 * kPi, 1.1 * kPi);
   }
-  if (slipping_ && time_ >= slip_until_) slipping_ = false;
 
   // Commanded motion from the behaviour.
   double forward = 0.0, turn = 0.0;
-  if (time_ >= behaviour_until_ && behaviour_ != Behaviour::kTurning) {
-    behaviour_ = s_.Chance(p_.wall_follow_share) ? Behaviour::kWallFollow : Behaviour::kStraight;
-    behaviour_until_ = time_ + s_.Uniform(10.0, 40.0);
-  }
-  if (behaviour_ == Behaviour::kTurning) {
-    const double step = std::copysign(std::min(std::abs(turn_remaining_), p_.turn_rate * dt), turn_remaining_);
-    turn = step;
-    turn_remaining_ -= step;
-    if (std::abs(turn_remaining_) < 1e-9) behaviour_ = Behaviour::kStraight;
-  } else {
+  if (stuck_) {
+    // The wheels keep pushing in the direction the robot was going; one grips less, so the claimed heading drifts.
     forward = p_.speed * dt;
-    if (behaviour_ == Behaviour::kWallFollow) {
-      // Keep a wall about 0.1 m off the right side.
-      const double right = s_.world.grid.CastRay(truth_.translation(), truth_.theta() - kPi / 2, 1.0) - p_.robot_radius;
-      turn = std::clamp(0.8 * (right - 0.1), -0.6, 0.6) * -dt * 2.0;
+    turn = stuck_turn_per_metre_ * forward;
+  } else {
+    if (time_ >= behaviour_until_ && behaviour_ != Behaviour::kTurning) {
+      behaviour_ = s_.Chance(p_.wall_follow_share) ? Behaviour::kWallFollow : Behaviour::kStraight;
+      behaviour_until_ = time_ + s_.Uniform(10.0, 40.0);
+    }
+    if (behaviour_ == Behaviour::kTurning) {
+      const double step = std::copysign(std::min(std::abs(turn_remaining_), p_.turn_rate * dt), turn_remaining_);
+      turn = step;
+      turn_remaining_ -= step;
+      if (std::abs(turn_remaining_) < 1e-9) behaviour_ = Behaviour::kStraight;
+    } else {
+      forward = p_.speed * dt;
+      if (behaviour_ == Behaviour::kWallFollow) {
+        // Keep a wall about 0.1 m off the right side.
+        const double right = s_.world.grid.CastRay(truth_.translation(), truth_.theta() - kPi / 2, 1.0) - p_.robot_radius;
+        turn = std::clamp(0.8 * (right - 0.1), -0.6, 0.6) * -dt * 2.0;
+      }
     }
   }
 
-  // The robot's true motion: blocked by obstacles, and nothing at all while slipping.
-  if (!slipping_) {
+  // The robot's true motion. Contacts are where it can get stuck: a bump into a wall, driving under low
+  // furniture, climbing onto a rug.
+  if (stuck_) {
+    const SE2 creep = truth_ * SE2(p_.stuck_creep_share * forward, 0.0, 0.0);
+    if (p_.stuck_creep_share > 0 && s_.world.grid.DiscIsFree(creep.translation(), p_.robot_radius)) truth_ = creep;
+  } else {
     const SE2 next = truth_ * SE2(forward, 0.0, turn);
     if (forward > 0.0 && !s_.world.grid.DiscIsFree(next.translation(), p_.robot_radius)) {
-      behaviour_ = Behaviour::kTurning;
-      turn_remaining_ = (s_.Chance(0.5) ? 1.0 : -1.0) * s_.Uniform(0.6 * kPi, 1.1 * kPi);
-      forward = 0.0;
-      turn = 0.0;
+      if (!StartStuck(StuckAt::kWall, p_.wall_wedge_probability)) {
+        behaviour_ = Behaviour::kTurning;
+        turn_remaining_ = (s_.Chance(0.5) ? 1.0 : -1.0) * s_.Uniform(0.6 * kPi, 1.1 * kPi);
+        forward = 0.0;
+        turn = 0.0;
+      }
     } else {
+      const Surface here = s_.world.SurfaceAt(truth_.translation());
+      const Surface there = forward > 0.0 ? s_.world.SurfaceAt(next.translation()) : here;
       truth_ = next;
+      if (there == Surface::kUnderFurniture && here != Surface::kUnderFurniture) {
+        StartStuck(StuckAt::kFurniture, s_.world.FeatureAt(next.translation())->catch_probability);
+      } else if (there == Surface::kRug && here == Surface::kFloor) {
+        StartStuck(StuckAt::kRug, s_.world.FeatureAt(next.translation())->catch_probability);
+      }
     }
   }
   // What the wheels report: the commanded motion (also while stuck), scaled by this robot's wheel error,
@@ -174,7 +229,7 @@ void Run::StepPhysics() {
   measured_increment_ = measured_increment_ * step;
   measured_distance_ += std::abs(measured_forward);
   measured_rotation_ += std::abs(measured_turn);
-  slipped_since_node_ = slipped_since_node_ || slipping_;
+  stuck_since_node_ = stuck_since_node_ || stuck_;
   time_ += dt;
 }
 
@@ -191,16 +246,21 @@ slamcore::Status Run::Keyframe() {
       0.5 * (increment_covariance_ + increment_covariance_.transpose()) + Matrix3::Identity() * 1e-8;
   SLAMCORE_RETURN_IF_ERROR(Emit(slamcore::OdometryEvent{.time = time_, .increment = measured_increment_,
                                                         .covariance = covariance}));
-  const bool slipped = slipped_since_node_;
+  const bool slipped = stuck_since_node_;
   SLAMCORE_RETURN_IF_ERROR(Emit(slamcore::GroundTruthEvent{.time = time_, .world_T_robot = truth_},
                                 [slipped](fleet::v1::Event& event) { event.mutable_ground_truth()->set_slipping(slipped); }));
   measured_increment_ = SE2();
   increment_covariance_.setZero();
   measured_distance_ = measured_rotation_ = 0.0;
-  slipped_since_node_ = false;
+  stuck_since_node_ = false;
+  if (slipped && mapper_->CurrentNode()) {
+    stuck_nodes_.insert(*mapper_->CurrentNode());
+    ++outcome_.stuck_nodes;
+  }
   ++nodes_;
   SLAMCORE_RETURN_IF_ERROR(ObserveLandmarks());
-  if (nodes_ % p_.patch_every_nodes == 0) SLAMCORE_RETURN_IF_ERROR(EmitPatch());
+  const int patch_every = s_.sensor.model == kLidarModel ? p_.lidar_patch_every_nodes : p_.patch_every_nodes;
+  if (nodes_ % patch_every == 0) SLAMCORE_RETURN_IF_ERROR(EmitPatch());
   // The first merge into the parent map: look only at the decisions made since the last node.
   const std::vector<slamcore::Decision>& decisions = mapper_->decisions();
   for (; first_merge_time_ < 0.0 && decisions_seen_ < decisions.size(); ++decisions_seen_) {
@@ -233,6 +293,7 @@ bool Run::Visible(const Landmark& landmark) const {
 }
 
 slamcore::Status Run::ObserveLandmarks() {
+  if (CameraBlind()) return slamcore::Status::Ok();  // no view is created or recognised
   int observations_here = 0;
   bool created_here = false;
   for (const Landmark& landmark : s_.world.landmarks) {
@@ -303,40 +364,10 @@ slamcore::Status Run::ObserveLandmarks() {
 }
 
 slamcore::Status Run::EmitPatch() {
-  // A short-range ranging sensor: rays over 360° from the TRUE pose, drawn into a patch in the node's
-  // frame, plus the robot's footprint as free. While slipping the sensor keeps seeing the same place, but
-  // the node's estimated pose moves on with the wheels: rendered at the estimated poses, these patches
-  // paint free space where the robot never was — the erroneous protrusion of paper IV-C.
-  const double resolution = 0.05;
-  const int size = static_cast<int>(std::ceil(2.0 * p_.patch_range / resolution));
-  slamcore::LocalMapEvent patch;
-  patch.time = time_;
-  patch.resolution = resolution;
-  patch.width = size;
-  patch.height = size;
-  patch.node_T_origin = SE2(-p_.patch_range, -p_.patch_range, 0.0);
-  patch.cells.assign(static_cast<std::size_t>(size) * size, -1);
-  auto mark = [&](const Vector2& in_node, std::int8_t value) {
-    const int col = static_cast<int>(std::floor((in_node.x() + p_.patch_range) / resolution));
-    const int row = static_cast<int>(std::floor((in_node.y() + p_.patch_range) / resolution));
-    if (col < 0 || row < 0 || col >= size || row >= size) return;
-    std::int8_t& cell = patch.cells[static_cast<std::size_t>(row) * size + col];
-    if (cell != 100) cell = value;
-  };
-  constexpr int kRays = 72;
-  for (int k = 0; k < kRays; ++k) {
-    const double angle = 2 * kPi * k / kRays;
-    const double range = s_.world.grid.CastRay(truth_.translation(), truth_.theta() + angle, p_.patch_range);
-    const Vector2 direction(std::cos(angle), std::sin(angle));
-    for (double d = 0.0; d < range; d += 0.5 * resolution) mark(d * direction, 0);
-    if (range < p_.patch_range) mark((range + 0.5 * resolution) * direction, 100);
-  }
-  for (double dx = -p_.robot_radius; dx <= p_.robot_radius; dx += resolution) {
-    for (double dy = -p_.robot_radius; dy <= p_.robot_radius; dy += resolution) {
-      if (std::hypot(dx, dy) <= p_.robot_radius) mark(Vector2(dx, dy), 0);
-    }
-  }
-  return Emit(patch);
+  // What the sensor sees from the TRUE pose, in the node's frame: while stuck the node's estimated pose
+  // marches on with the wheels, so these patches repeat the true surroundings at false places — the
+  // erroneous protrusion of paper IV-C.
+  return Emit(ScanAt(s_.world.grid, truth_, s_.sensor, p_.robot_radius, time_));
 }
 
 slamcore::Status Run::Kidnap(bool reboot) {
@@ -357,7 +388,36 @@ slamcore::Status Run::Kidnap(bool reboot) {
                                                                  : slamcore::KidnapEvent::Cause::kKidnap});
 }
 
+slamcore::Status Run::LabelRegions() {
+  // The detector's regions between parent and child, labelled by the rule fleetd's reports use; the
+  // per-cell truth marks a changed cell as protrusion when a stuck node's patch lies on it.
+  if (parent_.local_maps.empty() || parent_.graph.num_nodes() == 0) return slamcore::Status::Ok();
+  const auto grids = analyzer::RenderComparedGrids(parent_, s_.map);
+  if (!grids.ok()) return grids.status();
+  const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
+  if (!regions.ok()) return regions.status();
+  const auto truth = analyzer::SlipTruthOf(s_.map, stuck_nodes_, *grids, *regions);
+  if (!truth.ok()) return truth.status();
+  for (const bool protrusion : truth->region_is_protrusion) ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
+  if (!p_.keep_truth_pairs) return slamcore::Status::Ok();
+  slamcore::GeneratedPair pair;
+  pair.parent = grids->parent;
+  pair.child = grids->child;
+  pair.truth.assign(truth->covered.size(), static_cast<std::uint8_t>(slamcore::TruthLabel::kUnchanged));
+  for (std::size_t k = 0; k < regions->size(); ++k) {
+    for (const std::int32_t cell : (*regions)[k].cells) {
+      pair.truth[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(
+          truth->covered[static_cast<std::size_t>(cell)] ? slamcore::TruthLabel::kProtrusion : slamcore::TruthLabel::kNewSpace);
+    }
+  }
+  pair.protrusions = outcome_.truth_protrusion_regions;
+  pair.new_spaces = outcome_.truth_new_space_regions;
+  outcome_.truth_pair = std::move(pair);
+  return slamcore::Status::Ok();
+}
+
 slamcore::Result<RunOutcome> Run::Simulate() {
+  parent_ = s_.map;
   auto mapper = slamcore::Mapper::Create(p_.mapper, s_.map);
   if (!mapper.ok()) return mapper.status();
   mapper_ = std::move(mapper).value();
@@ -402,13 +462,14 @@ slamcore::Result<RunOutcome> Run::Simulate() {
     if (view.ambiguous) ++outcome_.views_ambiguous;
   }
   *outcome_.run.mutable_child_snapshot() = analyzer::ToProto(s_.map);
+  if (p_.label_regions) SLAMCORE_RETURN_IF_ERROR(LabelRegions());
 
   fleet::v1::RunHeader& header = *outcome_.run.mutable_header();
   header.set_format_version(analyzer::kTelemetryFormatVersion);
   header.set_robot_id(s_.robot_id);
   header.set_run_id(run_id_);
   header.set_firmware(s_.firmware);
-  header.set_robot_model("fleetsim-vac1");
+  header.set_robot_model(s_.sensor.model);
   header.set_home_id(s_.world.name);
   header.set_started_at(started_at_);
   header.set_ended_at(started_at_ + time_);

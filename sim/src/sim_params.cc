@@ -29,7 +29,17 @@ slamcore::Status SimParams::Validate() const {
   SLAMCORE_RETURN_IF_ERROR(positive(view_field_of_view, "view_field_of_view"));
   SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_xy, "observation_sigma_xy"));
   SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_theta, "observation_sigma_theta"));
-  SLAMCORE_RETURN_IF_ERROR(positive(patch_range, "patch_range"));
+  SLAMCORE_RETURN_IF_ERROR(positive(tof_min_range, "tof_min_range"));
+  SLAMCORE_RETURN_IF_ERROR(positive(lidar_min_range, "lidar_min_range"));
+  SLAMCORE_RETURN_IF_ERROR(positive(tof_field_of_view, "tof_field_of_view"));
+  SLAMCORE_RETURN_IF_ERROR(positive(stuck_min_seconds, "stuck_min_seconds"));
+  if (tof_max_range < tof_min_range || lidar_max_range < lidar_min_range || lidar_max_range > 20.0) {
+    return slamcore::InvalidArgument("sensor ranges: each model's max must be at least its min, and a lidar at most 20 m");
+  }
+  if (tof_field_of_view > 2 * 3.14159265358979) return slamcore::InvalidArgument("tof_field_of_view must be at most 2π");
+  SLAMCORE_RETURN_IF_ERROR(probability(lidar_share, "lidar_share"));
+  SLAMCORE_RETURN_IF_ERROR(probability(wall_wedge_probability, "wall_wedge_probability"));
+  SLAMCORE_RETURN_IF_ERROR(probability(stuck_creep_share, "stuck_creep_share"));
   SLAMCORE_RETURN_IF_ERROR(probability(wall_follow_share, "wall_follow_share"));
   SLAMCORE_RETURN_IF_ERROR(probability(start_off_dock_probability, "start_off_dock_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(kidnap_probability, "kidnap_probability"));
@@ -37,15 +47,22 @@ slamcore::Status SimParams::Validate() const {
   SLAMCORE_RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(recognition_failure_probability, "recognition_failure_probability"));
   SLAMCORE_RETURN_IF_ERROR(probability(lookalike_probability, "lookalike_probability"));
-  if (slip_episodes_per_hour < 0.0) return slamcore::InvalidArgument("slip_episodes_per_hour must not be negative");
-  if (!(slip_min_seconds > 0.0 && slip_max_seconds >= slip_min_seconds)) {
-    return slamcore::InvalidArgument("slip_min_seconds must be positive and at most slip_max_seconds");
+  if (!(stuck_rate_scale >= 0.0 && stuck_rate_scale <= 1000.0)) {
+    return slamcore::InvalidArgument("stuck_rate_scale must be in [0, 1000]");
+  }
+  if (!(stuck_mean_extra_seconds >= 0.0 && stuck_max_seconds >= stuck_min_seconds && stuck_max_seconds <= 3600.0)) {
+    return slamcore::InvalidArgument("stuck durations: mean extra ≥ 0 and min ≤ max ≤ 3600 s expected");
+  }
+  if (!(stuck_heading_drift_per_metre >= 0.0)) {
+    return slamcore::InvalidArgument("stuck_heading_drift_per_metre must not be negative");
   }
   if (odometry_scale_error < 0.0 || odometry_noise_per_metre < 0.0 || odometry_heading_noise_per_metre < 0.0 ||
       odometry_heading_noise_per_radian < 0.0) {
     return slamcore::InvalidArgument("odometry noise parameters must not be negative");
   }
-  if (patch_every_nodes < 1) return slamcore::InvalidArgument("patch_every_nodes must be at least 1");
+  if (patch_every_nodes < 1 || lidar_patch_every_nodes < 1) {
+    return slamcore::InvalidArgument("patch_every_nodes and lidar_patch_every_nodes must be at least 1");
+  }
   return mapper.Validate();
 }
 

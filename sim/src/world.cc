@@ -60,6 +60,75 @@ bool Grid::LineOfSight(const Vector2& from, const Vector2& to) const {
   return true;
 }
 
+bool FloorFeature::Contains(const Vector2& point) const {
+  const Vector2 local = pose.inverse() * point;
+  return std::abs(local.x()) <= half_size.x() && std::abs(local.y()) <= half_size.y();
+}
+
+const FloorFeature* World::FeatureAt(const Vector2& point) const {
+  for (const std::vector<FloorFeature>* features : {&low_furniture, &rugs}) {
+    for (const FloorFeature& feature : *features) {
+      if (feature.Contains(point)) return &feature;
+    }
+  }
+  return nullptr;
+}
+
+Surface World::SurfaceAt(const Vector2& point) const {
+  const FloorFeature* feature = FeatureAt(point);
+  if (feature == nullptr) return Surface::kFloor;
+  return feature->kind == "rug" ? Surface::kRug : Surface::kUnderFurniture;
+}
+
+slamcore::Result<HomeClutter> ParseHomeClutter(const std::string& name) {
+  if (name == "typical") return HomeClutter::kTypical;
+  if (name == "high") return HomeClutter::kHigh;
+  return slamcore::InvalidArgument("home clutter '" + name + "': expected 'typical' or 'high'");
+}
+
+const char* HomeClutterName(HomeClutter clutter) { return clutter == HomeClutter::kHigh ? "high" : "typical"; }
+
+void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& random) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto uniform = [&](double low, double high) { return low + (high - low) * unit(random); };
+  // A rectangle centred within 1.5 m of the room's seed, at a right angle to the map or turned at random,
+  // placed where every cell under it is free floor not yet covered; 30 tries.
+  const bool high = clutter == HomeClutter::kHigh;
+  auto place = [&](const Room& room, const char* kind, double min_x, double max_x, double min_y, double max_y,
+                   std::vector<FloorFeature>& into) {
+    const bool rug = std::string(kind) == "rug";
+    const double catch_probability = rug ? (high ? 0.05 : 1.0 / 700) : (high ? 0.15 : 1.0 / 250);
+    for (int attempt = 0; attempt < 30; ++attempt) {
+      FloorFeature feature{kind, SE2(room.seed + Vector2(uniform(-1.5, 1.5), uniform(-1.5, 1.5)),
+                                     unit(random) < 0.7 ? 0.5 * std::numbers::pi * std::floor(uniform(0.0, 4.0))
+                                                        : uniform(-std::numbers::pi, std::numbers::pi)),
+                           0.5 * Vector2(uniform(min_x, max_x), uniform(min_y, max_y)), catch_probability};
+      bool fits = true;
+      const double step = world.grid.resolution();
+      for (double x = -feature.half_size.x(); fits && x <= feature.half_size.x(); x += step) {
+        for (double y = -feature.half_size.y(); fits && y <= feature.half_size.y(); y += step) {
+          const Vector2 point = feature.pose * Vector2(x, y);
+          fits = world.grid.AtPoint(point) == Cell::kFree && world.SurfaceAt(point) == Surface::kFloor;
+        }
+      }
+      if (!fits) continue;
+      into.push_back(feature);
+      return;
+    }
+  };
+  for (const Room& room : world.rooms) {
+    const bool living = room.label == "living_room" || room.label == "room";
+    const bool bedroom = room.label == "bedroom";
+    const bool no_rugs = room.label == "bathroom" || room.label == "restroom" || room.label == "washing_room" ||
+                         room.label == "kitchen" || room.label == "corridor" || room.label == "balcony";
+    // Low furniture first: it needs the most floor.
+    if (bedroom && (high || unit(random) < 0.3)) place(room, "bed", 1.4, 1.8, 1.9, 2.1, world.low_furniture);
+    if (living && (high || unit(random) < 0.3)) place(room, "sofa", 0.8, 1.0, 1.6, 2.2, world.low_furniture);
+    const int rugs = high ? (living || bedroom ? 2 : 1) : (no_rugs ? 0 : (unit(random) < (living || bedroom ? 0.5 : 0.2) ? 1 : 0));
+    for (int k = 0; k < rugs; ++k) place(room, "rug", 0.8, 2.5, 0.6, 1.8, world.rugs);
+  }
+}
+
 std::vector<Vector2> World::FreeSpots(double radius, std::size_t max_count, std::mt19937_64& random) const {
   std::vector<Vector2> spots;
   for (int j = 0; j < grid.height(); j += 3) {
@@ -230,7 +299,7 @@ SE2 PlaceDock(const World& world, std::mt19937_64& random) {
   return spots.empty() ? SE2() : SE2(spots.front(), 0.0);
 }
 
-slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::uint64_t seed) {
+slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
   std::ifstream input(path);
   if (!input) return slamcore::NotFound(path.string() + ": cannot open file");
   std::vector<Segment> walls, doors;
@@ -306,10 +375,11 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
   std::mt19937_64 random(seed);
   PlaceLandmarks(world, fixtures, random);
   world.dock = PlaceDock(world, random);
+  PlaceFloorFeatures(world, clutter, random);
   return world;
 }
 
-slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std::uint64_t seed) {
+slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
   const auto map = slamcore::ReadMapServerYaml(path.string());
   if (!map.ok()) return map.status();
   const slamcore::OccupancyGrid& source = *map;
@@ -346,15 +416,16 @@ slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std:
   for (std::size_t r = 0; r < seeds.size(); ++r) world.rooms.push_back({r == 0 ? "living_room" : (r % 3 == 1 ? "bedroom" : "room"), seeds[r]});
   PlaceLandmarks(world, {}, random);
   world.dock = PlaceDock(world, random);
+  PlaceFloorFeatures(world, clutter, random);
   return world;
 }
 
 }  // namespace
 
-slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed) {
+slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
   const std::string extension = path.extension().string();
-  if (extension == ".txt") return LoadFloorPlan(path, seed);
-  if (extension == ".yaml" || extension == ".yml") return LoadOccupancyMap(path, seed);
+  if (extension == ".txt") return LoadFloorPlan(path, seed, clutter);
+  if (extension == ".yaml" || extension == ".yml") return LoadOccupancyMap(path, seed, clutter);
   return slamcore::InvalidArgument(path.string() + ": not a home file (expected a floor plan .txt or a map_server .yaml)");
 }
 

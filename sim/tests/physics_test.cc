@@ -50,7 +50,7 @@ TEST(PhysicsTest, OdometryFollowsTheConfiguredNoiseModel) {
   const World world = FirstWorld();
   SimParams params;
   params.run_minutes = 30.0;
-  params.slip_episodes_per_hour = 0.0;
+  params.stuck_rate_scale = 0.0;
   params.kidnap_probability = 0.0;
   params.reboot_probability = 0.0;
   RobotSimulator robot(world, params, "robot", "fw", 21);
@@ -87,13 +87,14 @@ TEST(PhysicsTest, SlipTurnsTheWheelsButNotTheRobot) {
   const World world = FirstWorld();
   SimParams params;
   params.run_minutes = 30.0;
-  params.slip_episodes_per_hour = 20.0;
+  params.stuck_rate_scale = 200.0;  // a wedge on one bump in 20
+  params.stuck_creep_share = 0.0;
   params.kidnap_probability = 0.0;
   params.reboot_probability = 0.0;
   RobotSimulator robot(world, params, "robot", "fw", 8);
   const auto outcome = robot.SimulateRun("run", 0.0);
   ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
-  ASSERT_GT(outcome->slip_episodes, 0);
+  ASSERT_GT(outcome->stuck_episodes(), 0);
   const std::vector<NodeTruth> nodes = NodesOf(outcome->run);
   int stuck_nodes = 0, moving_nodes = 0;
   for (std::size_t k = 1; k + 1 < nodes.size(); ++k) {
@@ -120,7 +121,7 @@ TEST(PhysicsTest, WrongMatchesAreFlippedSymmetricObjectsOrLookAlikes) {
   params.run_minutes = 30.0;
   params.kidnap_probability = 0.0;
   params.reboot_probability = 0.0;
-  params.slip_episodes_per_hour = 0.0;
+  params.stuck_rate_scale = 0.0;
   params.recognition_failure_probability = 0.0;
   params.lookalike_probability = 0.0;  // only the symmetric flips remain as wrong matches
   params.observation_sigma_theta = 0.01;

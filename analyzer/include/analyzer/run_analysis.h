@@ -20,6 +20,7 @@
 #include "slamcore/mapper_params.h"
 #include "slamcore/occupancy_grid.h"
 #include "slamcore/protrusion_classifier.h"
+#include "slamcore/protrusion_detector.h"
 
 namespace analyzer {
 
@@ -50,6 +51,18 @@ struct ComparedGrids {
   std::vector<slamcore::NodeId> child_nodes;  // the child nodes rendered
 };
 slamcore::Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child);
+
+/// Ground truth of the detector's regions in a simulated run: a region is a protrusion (a slip artefact)
+/// when at least half of its cells are covered by the local maps of the nodes made while the robot was
+/// stuck, rendered at their poses in `child`. `covered` holds, per cell of `grids.child`, 1 where such a
+/// local map lies.
+struct SlipTruth {
+  std::vector<std::uint8_t> covered;
+  std::vector<bool> region_is_protrusion;  // in the order of `regions`
+};
+slamcore::Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<slamcore::NodeId>& slipping_nodes,
+                                        const ComparedGrids& grids,
+                                        const std::vector<slamcore::ProtrusionRegion>& regions);
 
 /// RMS position error of `graph` against `truth`, each component aligned on its own (components have
 /// independent frames); nullopt when fewer than two nodes carry truth. `count`: the nodes compared.

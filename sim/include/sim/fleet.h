@@ -23,6 +23,7 @@ struct FleetOptions {
   std::uint64_t seed = 1;
   int threads = 0;                             // 0: all cores
   std::filesystem::path out;                   // empty: keep nothing on disk
+  std::filesystem::path protrusion_data;       // set: write each run's labelled parent/child pair here
   double first_start = 1767225600.0;           // 2026-01-01T00:00:00Z, runs one day apart
   SimParams params;
 };
@@ -38,7 +39,14 @@ struct FleetStatistics {
   int maps_with_views = 0, maps_with_ambiguous_views = 0;
   double ambiguous_view_share_sum = 0.0;       // Σ over maps with ambiguous views of their ambiguous share
   long observations = 0, wrong_observations = 0;
-  int kidnaps = 0, reboots = 0, slip_episodes = 0;
+  int kidnaps = 0, reboots = 0;
+  int stuck_at_wall = 0, stuck_under_furniture = 0, stuck_on_rug = 0;
+  long stuck_nodes = 0;
+  int lidar_runs = 0;                          // runs by robots with a lidar (the rest: a front ToF)
+  // Ground truth of the detector's regions (RunOutcome): maps = runs' child maps
+  int maps_with_truth_protrusion = 0;
+  long truth_protrusion_regions = 0, truth_new_space_regions = 0;
+  int pairs_written = 0;                       // --protrusion-data
   double simulated_hours = 0.0;
   double wall_seconds = 0.0;
 
@@ -47,7 +55,10 @@ struct FleetStatistics {
   std::string ToJson() const;  // one line
 };
 
-/// Runs the fleet; `progress(done, total)` after each run. Files: OUT/<robot>/<run_id>.runpb (RunFile).
+/// Runs the fleet; `progress(done, total)` after each run. Files: OUT/<robot>/<run_id>.runpb (RunFile);
+/// with `protrusion_data`, every run on a parent map whose detector finds a region is written there in the
+/// protrusion data-set layout (docs/protrusion-data.md; pair id = run id, home id = home, source =
+/// "fleetsim.<robot model>"), index lines in the order the runs finish.
 slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
                                                 const std::function<void(int, int)>& progress = {});
 

@@ -9,15 +9,18 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
 #include "fleet/v1/telemetry.pb.h"
+#include "sim/sensor.h"
 #include "sim/sim_params.h"
 #include "sim/world.h"
 #include "slamcore/mapper.h"
+#include "slamcore/protrusion_data.h"
 
 namespace sim {
 
@@ -27,10 +30,18 @@ struct RunOutcome {
   slamcore::MapperStatistics statistics;  // the robot's own decisions
   bool started_localized = false;         // joined the parent map within analyzer::kStartedLocalizedSeconds
   bool had_parent = false;
-  int kidnaps = 0, reboots = 0, slip_episodes = 0;
+  int kidnaps = 0, reboots = 0;
+  int stuck_at_wall = 0, stuck_under_furniture = 0, stuck_on_rug = 0;  // episodes by where they started
+  int stuck_nodes = 0;                    // nodes made while stuck
   int wrong_observations = 0, observations = 0;
   std::size_t views_total = 0, views_ambiguous = 0;  // in the child map
   double simulated_seconds = 0.0;
+  // Ground truth of the protrusion detector's regions between this run's parent and child maps
+  // (analyzer::SlipTruthOf, the rule fleetd's reports use); with SimParams::keep_truth_pairs, the pair
+  // itself with per-cell truth (1 protrusion: under a stuck node's patch; 2 new space; 0 unchanged).
+  int truth_protrusion_regions = 0, truth_new_space_regions = 0;
+  std::optional<slamcore::GeneratedPair> truth_pair;
+  int stuck_episodes() const { return stuck_at_wall + stuck_under_furniture + stuck_on_rug; }
 };
 
 /// A robot living in one home across runs: its map, its front-end's view database and its odometry
@@ -43,6 +54,9 @@ class RobotSimulator {
 
   /// Simulates the next run; `started_at` is its Unix start time.
   slamcore::Result<RunOutcome> SimulateRun(const std::string& run_id, double started_at);
+
+  /// The ranging sensor this robot was built with.
+  const RangeSensor& sensor() const;
 
   /// The robot's persistent state (map, view database, odometry bias); defined in the .cc.
   struct State;

@@ -4,6 +4,7 @@
 // Thread safety: value type.
 #pragma once
 
+#include "sim/world.h"
 #include "slamcore/mapper_params.h"
 #include "slamcore/status.h"
 
@@ -25,9 +26,17 @@ struct SimParams {
   double odometry_heading_noise_per_radian = 0.03; // σ of the heading error from turning, rad per √rad
   double keyframe_distance = 0.3;     // a node every 0.3 m of travel ...
   double keyframe_rotation = 0.5;     // ... or 0.5 rad of turning
-  // Slip and stasis: stuck on a rug edge or under furniture, wheels turning
-  double slip_episodes_per_hour = 1.5;
-  double slip_min_seconds = 4.0, slip_max_seconds = 20.0;
+  // Stuck robots (docs/fleetsim.md "Stuck robots"): an episode starts only at a contact, with a
+  // probability per contact event; while stuck the wheels keep turning in the pushing direction (odometry
+  // runs on, its heading drifting), the robot stays put (or creeps), and the robot's stasis detection and
+  // escape (back off and turn) end the episode after min + an exponential time, at most max seconds.
+  // Rugs and low furniture carry their own probability (FloorFeature::catch_probability, by HomeClutter).
+  double wall_wedge_probability = 1.0 / 4000;   // per bump into a wall or fixture: wedged, pushing on
+  double stuck_rate_scale = 1.0;                // multiplies every per-contact probability (0: never stuck)
+  double stuck_min_seconds = 3.0, stuck_mean_extra_seconds = 7.0, stuck_max_seconds = 45.0;
+  double stuck_heading_drift_per_metre = 0.15;  // σ of the claimed turn rate while stuck (one wheel grips less)
+  double stuck_creep_share = 0.02;              // the robot truly moves this share of the claimed distance, where free
+  HomeClutter home_clutter = HomeClutter::kTypical;
   // Where a run starts: on the dock, or wherever a person put the robot down and pressed start
   double start_off_dock_probability = 0.7;
   // Kidnaps (carried to another room) and reboots, per run
@@ -41,9 +50,18 @@ struct SimParams {
   double lookalike_probability = 0.15; // a look-alike view is matched instead, when one exists
   double observation_sigma_xy = 0.04; // metres
   double observation_sigma_theta = 0.03;  // radians
-  // Local occupancy patches from a short-range sensor
-  double patch_range = 1.5;           // metres
-  int patch_every_nodes = 2;
+  // Local occupancy patches from the robot's ranging sensor, by robot model: a front time-of-flight sensor
+  // (short range, a cone ahead) or a spinning lidar (long range, all around); each robot draws its model
+  // (lidar with probability lidar_share) and its range (uniform in the model's interval).
+  double lidar_share = 0.5;
+  double tof_min_range = 1.0, tof_max_range = 1.5;  // metres
+  double tof_field_of_view = 1.92;                  // radians (110°), centred ahead
+  double lidar_min_range = 4.0, lidar_max_range = 6.0;
+  int patch_every_nodes = 2;           // a ToF patch every 2 nodes (0.6 m) ...
+  int lidar_patch_every_nodes = 6;     // ... a lidar patch every 6 (1.8 m: its 4–6 m overlap anyway)
+  // Ground truth of the protrusion detector's regions, per run (RunOutcome)
+  bool label_regions = true;
+  bool keep_truth_pairs = false;      // also keep the parent/child pair with per-cell truth
   // The robot's own back-end
   slamcore::MapperParams mapper;
 

@@ -7,7 +7,9 @@
 // Furniture is then placed per room (beds in bedrooms, tables in living rooms and kitchens), and
 // landmarks are put where a camera finds texture: pictures on walls (unique), fixtures (look-alike: every
 // washing basin looks the same), and furniture, of which beds, tables and ceiling lamps are symmetric —
-// seen from the opposite side they match with a 180°-wrong relative pose (paper IV-A).
+// seen from the opposite side they match with a 180°-wrong relative pose (paper IV-A). Where a robot can
+// get stuck is laid out too (HomeClutter): plush rugs, whose borders catch the wheels, and low furniture
+// (beds, sofas) the robot drives under and can wedge beneath.
 //
 // Thread safety: a World is immutable after loading; concurrent reads are safe.
 #pragma once
@@ -31,6 +33,33 @@ using slamcore::Vector2;
 inline constexpr double kFloorPlanMetresPerPixel = 0.016;
 
 enum class Cell : std::uint8_t { kFree = 0, kOccupied = 1, kUnknown = 2 };
+
+/// What covers a free cell, beside its occupancy: rugs and low furniture do not block the robot or its
+/// ranging sensor, but their edges can stop the wheels, and under furniture the camera sees nothing.
+enum class Surface : std::uint8_t { kFloor = 0, kRug = 1, kUnderFurniture = 2 };
+
+/// How many rugs and low pieces of furniture a home has, and how easily they catch a robot
+/// (docs/fleetsim.md "Stuck robots"):
+///  * kTypical: a rug in a living room or bedroom with probability 0.5, elsewhere 0.2 (never in bathrooms,
+///    kitchens or corridors); a bed the robot fits under in a bedroom with probability 0.3, a low sofa in a
+///    living room with probability 0.3. Furniture with a clearance well above the robot catches it on 1 in 250
+///    drives under its edge, a flat rug's border on 1 in 700 climbs.
+///  * kHigh: two rugs in every living room and bedroom and one in every other room, a low bed in every
+///    bedroom and a low sofa in every living room (and in every unlabelled room); the furniture's clearance
+///    is just the robot's height (it catches on 3 in 20 drives under) and the rugs are deep-pile with tassels
+///    (1 in 20 climbs).
+enum class HomeClutter { kTypical, kHigh };
+slamcore::Result<HomeClutter> ParseHomeClutter(const std::string& name);  // "typical" | "high"
+const char* HomeClutterName(HomeClutter clutter);
+
+/// A rug or a low piece of furniture: a rectangle of 2·half_size centred at `pose`, turned by its angle.
+struct FloorFeature {
+  std::string kind;  // "rug", "bed", "sofa"
+  SE2 pose;
+  Vector2 half_size;
+  double catch_probability = 0.0;  // per drive under it (furniture) or climb onto it (rug): the robot is stuck
+  bool Contains(const Vector2& point) const;
+};
 
 class Grid {
  public:
@@ -87,6 +116,12 @@ struct World {
   std::vector<Room> rooms;
   std::vector<Landmark> landmarks;
   SE2 dock;  // where runs start: a free spot by a wall, facing into the room
+  std::vector<FloorFeature> rugs, low_furniture;
+
+  /// Under furniture wins over a rug; kFloor elsewhere.
+  Surface SurfaceAt(const Vector2& point) const;
+  /// The rug or piece of furniture at `point` (as SurfaceAt ranks them), or null.
+  const FloorFeature* FeatureAt(const Vector2& point) const;
 
   /// Free cells (centres) a robot of `radius` fits on, for placing the robot and kidnaps.
   std::vector<Vector2> FreeSpots(double radius, std::size_t max_count, std::mt19937_64& random) const;
@@ -94,7 +129,12 @@ struct World {
 
 /// Loads one home file: a floor-plan annotation (.txt) or a map_server YAML (.yaml). Furniture and
 /// landmarks are placed with `seed`, so the same file and seed give the same home.
-slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed);
+slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed,
+                                  HomeClutter clutter = HomeClutter::kTypical);
+
+/// Lays out rugs and low furniture in the rooms of `world` (LoadWorld does it; exposed for hand-made
+/// worlds in tests). Each is placed only where all of it lies on free floor.
+void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& random);
 
 /// Every home file in a directory (either kind), sorted by name; fails when there is none.
 slamcore::Result<std::vector<std::filesystem::path>> ListWorlds(const std::filesystem::path& directory);
