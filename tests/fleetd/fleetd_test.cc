@@ -704,7 +704,7 @@ TEST_F(FleetdTest, MetricsHealthzAndGrpcHealth) {
 // A limit a run can never fit is INVALID_ARGUMENT (not retried); a message over gRPC's size limit is gRPC's own
 // RESOURCE_EXHAUSTED; the rate limit is RESOURCE_EXHAUSTED (retry later). A separate fleetd with small limits.
 TEST(FleetdLimitsTest, EventsMessageSizeAndRateLimits) {
-  FleetdProcess server({"--max-events-per-run", "100", "--max-message-bytes", "200000", "--rate-limit", "1",
+  FleetdProcess server({"--max-events-per-run", "100", "--max-message-bytes", "20000", "--rate-limit", "1",
                         "--rate-burst", "6"});
   ASSERT_TRUE(server.ok());
   auto channel = server.Channel();
