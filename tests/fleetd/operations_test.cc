@@ -455,7 +455,15 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
     uploads.push_back(std::make_unique<OpenUpload>(*ingest, RobotToken(*admin, robot), robot, chunk, 6));
     ASSERT_TRUE(uploads.back()->open) << "upload " << k << " was taken";
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(800));  // fleetd has read what they sent
+  // Wait until fleetd has read what they sent (polled, so a loaded machine only makes it slower).
+  auto metric = [&](const std::string& name) {
+    std::string text;
+    if (HttpGet(server.http_address(), "/metrics", &text, FleetdProcess::AdminToken()) != 200) return -1.0;
+    const auto at = text.find("\n" + name + " ");
+    return at == std::string::npos ? -1.0 : std::stod(text.substr(at + name.size() + 2));
+  };
+  ASSERT_GE(SecondsUntil([&] { return metric("fleetd_upload_bytes_in_flight") >= 2.0 * 6 * 3500 * 1024 * 0.9; }, 30.0),
+            0.0);
   for (int k = 2; k < 4; ++k) {
     const std::string robot = "big-" + std::to_string(k);
     OpenUpload refused(*ingest, RobotToken(*admin, robot), robot, chunk, 6);
@@ -487,7 +495,8 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
       << streams.error_message();
   second->Cancel();
   for (auto& upload : uploads) upload->Cancel();
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // their handlers return and give the bytes back
+  // Their handlers return and give the bytes back.
+  ASSERT_GE(SecondsUntil([&] { return metric("fleetd_upload_streams_in_flight") == 0.0; }, 30.0), 0.0);
 
   // A run over --max-run-bytes can never fit: INVALID_ARGUMENT, tried once.
   fleet::v1::RunFile huge = SimulatedRuns().front();
