@@ -4,10 +4,12 @@
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "fleet/v1/service.grpc.pb.h"
 #include "sim/uploader.h"
@@ -37,6 +39,22 @@ class Client {
     if (!global_.token.empty()) context->AddMetadata("authorization", "Bearer " + global_.token);
     context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
     return context;
+  }
+  /// `rpc(context)` with a fresh context, tried again after a back-off while the server says "retry later"
+  /// (RESOURCE_EXHAUSTED: its rate limit; UNAVAILABLE): at most 8 attempts, waits doubling from 0.1 s to 5 s.
+  /// For commands that send many requests in a row (label-from-truth).
+  template <typename Rpc>
+  grpc::Status CallRetrying(Rpc&& rpc) const {
+    auto delay = std::chrono::milliseconds(100);
+    for (int attempt = 1;; ++attempt) {
+      auto context = Context();
+      const grpc::Status status = rpc(context.get());
+      const bool later = status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED ||
+                         status.error_code() == grpc::StatusCode::UNAVAILABLE;
+      if (!later || attempt == 8) return status;
+      std::this_thread::sleep_for(delay);
+      delay = std::min(delay * 2, std::chrono::milliseconds(5000));
+    }
   }
   std::unique_ptr<fleet::v1::Queries::Stub> queries;
   std::unique_ptr<fleet::v1::Reprocessing::Stub> reprocessing;

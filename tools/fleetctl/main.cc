@@ -545,8 +545,9 @@ int main(int argc, char** argv) {
       list.set_page_size(500);
       list.set_page_token(token);
       fleet::v1::ListRunsResponse page;
-      auto list_context = client.Context();
-      if (grpc::Status status = client.queries->ListRuns(list_context.get(), list, &page); !status.ok()) {
+      if (grpc::Status status = client.CallRetrying(
+              [&](grpc::ClientContext* context) { return client.queries->ListRuns(context, list, &page); });
+          !status.ok()) {
         return Fail(status);
       }
       for (const auto& run : page.runs()) {
@@ -556,8 +557,10 @@ int main(int argc, char** argv) {
         request.set_robot_id(run.robot_id());
         request.set_parameter_set(parameter_set);
         fleet::v1::GetRunReportResponse response;
-        auto context = client.Context();
-        if (grpc::Status status = client.queries->GetRunReport(context.get(), request, &response); !status.ok()) {
+        if (grpc::Status status = client.CallRetrying([&](grpc::ClientContext* context) {
+              return client.queries->GetRunReport(context, request, &response);
+            });
+            !status.ok()) {
           if (status.error_code() == grpc::StatusCode::NOT_FOUND) continue;  // not analysed yet
           return Fail(status);
         }
@@ -570,8 +573,9 @@ int main(int argc, char** argv) {
           label_request.set_region_id(region.id());
           label_request.set_label(region.truth_protrusion() ? "protrusion" : "new_space");
           fleet::v1::LabelRegionResponse label_response;
-          auto label_context = client.Context();
-          if (grpc::Status status = client.labels->LabelRegion(label_context.get(), label_request, &label_response);
+          if (grpc::Status status = client.CallRetrying([&](grpc::ClientContext* context) {
+                return client.labels->LabelRegion(context, label_request, &label_response);
+              });
               !status.ok()) {
             return Fail(status);
           }
