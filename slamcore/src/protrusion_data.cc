@@ -169,8 +169,8 @@ class Generator {
     std::vector<int> room{seed};
     std::deque<int> queue{seed};
     distance[static_cast<std::size_t>(seed)] = 0;
-    // Scanned rooms are whole rooms (the seed's room, bounded by walls and doorways); copied ones are
-    // geodesic balls, as in data set version 1.
+    // The physical families take whole rooms (the seed's room, bounded by walls and doorways); the corridor
+    // family takes geodesic balls, as in data set version 1.
     if (options_.scan_rendering && !SeedRoom(seed, &room, &distance)) return false;
     if (options_.scan_rendering) queue.clear();
     while (!queue.empty()) {
