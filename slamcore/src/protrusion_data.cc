@@ -126,9 +126,13 @@ class Generator {
     if (base_.cells[static_cast<std::size_t>(start)] != kFree || Reserved(start)) return false;
     const double depth = Cells(Uniform(0.1, 0.5)), length = Cells(Uniform(0.5, 3.0));
     // Floor within `length` of the start (geodesically, along the edge) and within `depth` of unknown.
-    cv::Mat unknown(base_.height, base_.width, CV_8U), distance_to_unknown;
-    for (std::size_t i = 0; i < base_.cells.size(); ++i) unknown.data[i] = base_.cells[i] == kUnknown ? 0 : 255;
-    cv::distanceTransform(unknown, distance_to_unknown, cv::DIST_L2, cv::DIST_MASK_5);
+    // The real map never changes, so its distance to unknown is computed once per pair, on first use.
+    if (distance_to_unknown_.empty()) {
+      cv::Mat known(base_.height, base_.width, CV_8U);
+      for (std::size_t i = 0; i < base_.cells.size(); ++i) known.data[i] = base_.cells[i] == kUnknown ? 0 : 255;
+      cv::distanceTransform(known, distance_to_unknown_, cv::DIST_L2, cv::DIST_MASK_5);
+    }
+    const cv::Mat& distance_to_unknown = distance_to_unknown_;
     std::vector<int> strip;
     std::vector<std::uint8_t> seen(base_.cells.size(), 0);
     std::deque<std::pair<int, int>> queue{{start, 0}};
@@ -587,7 +591,8 @@ class Generator {
   cv::Mat clearance_;
   std::vector<int> free_cells_, edge_cells_;
   internal::RangeSensor sensor_;
-  cv::Mat room_labels_;  // rooms for scanned new space (SeedRoom), computed on first use
+  cv::Mat room_labels_;          // rooms for the physical families' new space (SeedRoom), computed on first use
+  cv::Mat distance_to_unknown_;  // cells from each cell to the real map's unknown (AddEdgeExploration), likewise
 };
 
 }  // namespace

@@ -306,8 +306,17 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     cv::Mat crossed = (child_cells == kFree) & (parent_cells == kOccupied), crossed_labels, crossed_stats, unused;
     const int pieces = cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
     const double min_piece = std::max(1.0, options.min_region_area_m2 / (r * r));
+    std::vector<std::uint8_t> kept(static_cast<std::size_t>(pieces), 0);
     for (int piece = 1; piece < pieces; ++piece) {
-      if (crossed_stats.at<int>(piece, cv::CC_STAT_AREA) >= min_piece) clean.setTo(1, crossed_labels == piece);
+      kept[static_cast<std::size_t>(piece)] = crossed_stats.at<int>(piece, cv::CC_STAT_AREA) >= min_piece;
+    }
+    // One pass over the image, however many pieces there are.
+    for (int row = 0; row < clean.rows; ++row) {
+      const int* label = crossed_labels.ptr<int>(row);
+      std::uint8_t* out = clean.ptr<std::uint8_t>(row);
+      for (int col = 0; col < clean.cols; ++col) {
+        if (kept[static_cast<std::size_t>(label[col])]) out[col] = 1;
+      }
     }
   }
   // Regions are the connected components of the RAW difference, described by their cells that survive
