@@ -147,6 +147,22 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
                          {"set_credential", "robot:ops-r1", "admin:root"},
                          {"rotate_credential", "robot:ops-r1", "robot:ops-r1"}}))
       << audit.DebugString();
+  // Both listings are bounded: a page past 1000 is refused naming the field, and a robot may not read them.
+  fleet::v1::ListCredentialsRequest too_many;
+  too_many.set_page_size(1001);
+  auto too_many_context = Context(FleetdProcess::AdminToken());
+  const grpc::Status refused_page = admin->ListCredentials(too_many_context.get(), too_many, &listed);
+  EXPECT_EQ(refused_page.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused_page.error_message().find("page_size"), std::string::npos) << refused_page.error_message();
+  fleet::v1::ListAuditLogRequest too_long;
+  too_long.set_limit(1001);
+  auto too_long_context = Context(FleetdProcess::AdminToken());
+  const grpc::Status refused_limit = admin->ListAuditLog(too_long_context.get(), too_long, &audit);
+  EXPECT_EQ(refused_limit.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused_limit.error_message().find("limit"), std::string::npos) << refused_limit.error_message();
+  auto robot_context = Context(rotated);
+  EXPECT_EQ(admin->ListAuditLog(robot_context.get(), fleet::v1::ListAuditLogRequest(), &audit).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED);
 
   // Erasing a robot deletes its credential row; the other process still drops the robot's cached token.
   const fleet::v1::RunFile& run = SimulatedRuns().front();
