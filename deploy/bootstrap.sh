@@ -6,7 +6,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config ccache git
-  libeigen3-dev libceres-dev libopencv-dev
+  libeigen3-dev libceres-dev libsuitesparse-dev libopencv-dev
   libboost-dev libboost-math-dev
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc
   libsqlite3-dev sqlite3 libpqxx-dev postgresql zlib1g-dev libssl-dev openssl

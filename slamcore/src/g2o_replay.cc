@@ -98,6 +98,7 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   ReplayResult result;
   result.statistics = (*mapper)->Statistics();
   result.graph = (*mapper)->Finish().graph;
+  result.mapper_chi2 = Chi2(result.graph);
   OptimizerOptions final_options = params.optimizer;
   final_options.max_iterations = 100;
   const auto summary = Optimize(result.graph, final_options);

@@ -1,5 +1,7 @@
 #include "slamcore/graph_io.h"
 
+#include <functional>
+
 #include <charconv>
 #include <deque>
 #include <fstream>
@@ -254,13 +256,13 @@ void WritePoseGraph(const PoseGraph& graph, std::ostream& output, GraphFormat fo
   }
 }
 
-Status WritePoseGraph(const PoseGraph& graph, const std::filesystem::path& path, GraphFormat format) {
-  // Write to a temporary file and rename, so a failed write never leaves a half-written graph behind.
+Status WriteFileReplacing(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
+  // Write to a temporary file and rename, so a failed write never leaves a half-written file behind.
   const std::filesystem::path temporary = path.string() + ".tmp";
   {
     std::ofstream output(temporary, std::ios::trunc);
     if (!output) return NotFound(temporary.string() + ": cannot open for writing");
-    WritePoseGraph(graph, output, format);
+    write(output);
     output.flush();
     if (!output) return DataLoss(temporary.string() + ": write failed");
   }
@@ -268,6 +270,10 @@ Status WritePoseGraph(const PoseGraph& graph, const std::filesystem::path& path,
   std::filesystem::rename(temporary, path, error);
   if (error) return DataLoss(path.string() + ": " + error.message());
   return Status::Ok();
+}
+
+Status WritePoseGraph(const PoseGraph& graph, const std::filesystem::path& path, GraphFormat format) {
+  return WriteFileReplacing(path, [&](std::ostream& output) { WritePoseGraph(graph, output, format); });
 }
 
 }  // namespace slamcore

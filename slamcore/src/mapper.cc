@@ -33,6 +33,9 @@ const char* DecisionKindName(DecisionKind kind) {
 Mapper::Impl::Impl(const MapperParams& params, Map parent)
     : params_(params),
       map_(std::move(parent)),
+      incremental_({.initial_region_nodes = params.local_window_nodes,
+                    .max_iterations = params.optimizer.max_iterations,
+                    .relative_cost_decrease = params.optimizer.relative_cost_decrease}),
       ambiguity_(params.ambiguity_window_distance, params.ambiguity_min_rejections) {
   for (const Node& node : map_.graph.nodes()) {
     next_node_id_ = std::max(next_node_id_, node.id + 1);
@@ -174,6 +177,8 @@ Map Mapper::Impl::Finish() {
   std::vector<std::int64_t> open;
   for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);
   for (const std::int64_t id : open) DropHypothesis(id, DecisionKind::kExpired, "run ended");
+  // The incremental back-end folds in the direct edges it deferred, so the child map is at its optimum.
+  if (params_.optimize_after_accept && UsesIncrementalBackend()) UpdateIncrementally();
   return std::move(map_);
 }
 

@@ -17,7 +17,9 @@
 //    direct edge re-optimises a local window (the robot's last `local_window_nodes` nodes, everything
 //    older held), so the recent trajectory agrees with it at O(window) cost; every
 //    `full_optimization_every` direct edges, and after every accepted hypothesis, the whole component
-//    is optimised.
+//    is optimised. That is the batch back-end; the incremental one (incremental_solver.h, the default)
+//    instead re-solves, from the endpoints of the edges added since its last update, the region of G
+//    that still moves, whatever its size, so G stays at its optimum without whole-component solves.
 //  * "Rejected observation" for the ambiguity tracker (IV-A): an observation that failed the direct gate
 //    (counted at once, at the odometer where it was made), and every observation of a merge hypothesis
 //    that is rejected or expires (counted when it is dropped, stamped with the odometer where it was made,
@@ -53,6 +55,7 @@
 
 #include "ambiguity_tracker.h"
 #include "hypothesis.h"
+#include "incremental_solver.h"
 #include "marginal_covariance.h"
 #include "merge_overlay.h"
 #include "slamcore/mapper.h"
@@ -121,6 +124,12 @@ class Mapper::Impl {
   void UpdateAmbiguityMarks();
   bool IsAmbiguous(ViewId view) const { return map_.graph.view(view).ambiguous; }
   void OptimizeComponentOf(NodeId node, std::string* note);
+  /// The incremental back-end's update from the pending seeds (which it clears).
+  void UpdateIncrementally();
+  /// The incremental back-end minimises plain χ²: with a robust loss the batch one is used.
+  bool UsesIncrementalBackend() const {
+    return params_.backend == MapperBackend::kIncremental && params_.optimizer.robust_loss == RobustLoss::kNone;
+  }
   /// After a direct edge: a local window, or the component every full_optimization_every edges.
   void OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2, std::string* note);
   internal::Hypothesis* FindHypothesis(std::int64_t id);
@@ -169,6 +178,9 @@ class Mapper::Impl {
   std::string new_component_reason_ = "first node of the run";
   Matrix3 robot_relative_covariance_ = Matrix3::Zero();  // Σ_rel, see the top of this file
   int direct_edges_since_full_optimization_ = 0;
+  internal::IncrementalSolver incremental_;
+  /// Endpoints of the edges added since the incremental back-end's last update.
+  std::vector<NodeId> pending_seeds_;
 
   std::vector<internal::Hypothesis> hypotheses_;  // open ones, in creation order
   std::int64_t next_hypothesis_id_ = 0;

@@ -160,11 +160,14 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     Matrix3 robot_relative_covariance;
     std::optional<Anchor> anchor;
     internal::AmbiguityTracker ambiguity;
+    std::vector<NodeId> pending_seeds;
   };
   const bool verify = verdict != RecoveryVerdict::kAccept && params_.consistency.enabled &&
                       params_.consistency.verify_after_optimization && params_.optimize_after_accept;
   std::optional<Saved> saved;
-  if (verify) saved = Saved{map_.graph, accepted_, retractable_, robot_relative_covariance_, anchor_, ambiguity_};
+  if (verify) {
+    saved = Saved{map_.graph, accepted_, retractable_, robot_relative_covariance_, anchor_, ambiguity_, pending_seeds_};
+  }
   for (const HypothesisObservation& observation : candidate->observations) {
     // They failed the direct gate, but the evidence says they were right: no longer rejected (IV-A).
     ambiguity_.RemoveRejected(observation.view, observation.odometer);
@@ -181,6 +184,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     robot_relative_covariance_ = saved->robot_relative_covariance;
     anchor_ = saved->anchor;
     ambiguity_ = std::move(saved->ambiguity);
+    pending_seeds_ = std::move(saved->pending_seeds);
     ++map_revision_;
     candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
                                                            params_.consistency.pass_gap_distance);
@@ -203,6 +207,8 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
   // Cannot fail: both nodes and the view exist, and the covariance passed validation.
   if (map_.graph.AddEdge(edge).ok()) {
     ++map_revision_;
+    pending_seeds_.push_back(edge.from);
+    pending_seeds_.push_back(edge.to);
     accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});
     ambiguity_.AddAccepted(observation.view, observation.odometer);
   }
@@ -265,6 +271,10 @@ void Mapper::Impl::UpdateAmbiguityMarks() {
 
 void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   direct_edges_since_full_optimization_ = 0;
+  if (UsesIncrementalBackend()) {
+    UpdateIncrementally();
+    return;
+  }
   OptimizerOptions options = params_.optimizer;
   options.component = node;
   const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
@@ -272,8 +282,13 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
 }
 
+void Mapper::Impl::UpdateIncrementally() {
+  (void)incremental_.Update(map_.graph, pending_seeds_);
+  pending_seeds_.clear();
+}
+
 // Below this innovation (Mahalanobis², 3 dof: about 0.6 σ per degree of freedom) a direct edge is not worth a
-// local re-optimisation; the periodic full optimisation still takes it in.
+// local re-optimisation; the periodic full optimisation (or incremental update) still takes it in.
 constexpr double kLocalOptimizationMinChi2 = 1.0;
 
 void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2, std::string* note) {
@@ -283,6 +298,10 @@ void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2,
   }
   // An edge that agrees with the estimate this well would move the window by a fraction of its noise.
   if (innovation_chi2 < kLocalOptimizationMinChi2) return;
+  if (UsesIncrementalBackend()) {
+    UpdateIncrementally();
+    return;
+  }
   // Nodes are numbered in creation order, so the robot's last nodes in its component are the window.
   OptimizerOptions options = params_.optimizer;
   for (NodeId id = robot; id > robot - params_.local_window_nodes; --id) {

@@ -1,9 +1,10 @@
 // slamtool: offline operations of the shared SLAM core on files.
 //
 //   slamtool optimize FILE [--out FILE.g2o] [--json] [--init linear|warm] [--robust-loss none|huber|cauchy]
-//   slamtool replay-g2o FILE [--params FILE] [--json]
+//   slamtool replay-g2o FILE [--params FILE] [--backend incremental|batch] [--json]
 //   slamtool corrupt-g2o FILE --out FILE [--count N | --fraction F] [--mode random|local|first] [--group G]
 //            [--max-group G] [--single-fraction F] [--seed S]
+//   slamtool generate-manhattan --poses N [--seed S] [--truth FILE] OUT.g2o
 //   slamtool protrusions | make-protrusion-data | train-protrusions | eval-protrusions (protrusion_commands.h)
 //   slamtool valetudo-to-map FILE.json --out OUT.yaml [--png] [--json] (valetudo_command.h)
 //
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -24,6 +26,7 @@
 #include "slamcore/g2o_replay.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/loop_closure_outliers.h"
+#include "slamcore/manhattan_world.h"
 #include "slamcore/optimizer.h"
 
 namespace {
@@ -80,6 +83,7 @@ int RunOptimize(const OptimizeArguments& arguments) {
 struct ReplayArguments {
   std::string input;
   std::string params_file;
+  std::string backend = "incremental";
   bool json = false;
 };
 
@@ -100,6 +104,7 @@ int RunReplay(const ReplayArguments& arguments) {
     if (!loaded.ok()) return Fail(loaded.status());
     params = *loaded;
   }
+  params.backend = arguments.backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
   const auto result = slamcore::ReplayPoseGraph(*graph, params);
   if (!result.ok()) return Fail(result.status());
   const slamcore::MapperStatistics& stats = result->statistics;
@@ -109,6 +114,8 @@ int RunReplay(const ReplayArguments& arguments) {
         {"accepted", PairsToJson(result->accepted)},
         {"rejected", PairsToJson(result->rejected)},
         {"final_chi2", result->final_chi2},
+        {"mapper_chi2", result->mapper_chi2},
+        {"backend", arguments.backend},
         {"seconds", result->seconds},
         {"direct_edges", stats.direct_edges},
         {"recovery_hypotheses", stats.recovery_created},
@@ -165,6 +172,29 @@ int RunCorrupt(const CorruptArguments& arguments) {
   return 0;
 }
 
+struct GenerateArguments {
+  std::string output;
+  std::string truth;  // default: OUT's stem + "_groundtruth.txt" beside it
+  slamcore::ManhattanOptions options;
+};
+
+int RunGenerate(GenerateArguments arguments) {
+  const auto world = slamcore::GenerateManhattanWorld(arguments.options);
+  if (!world.ok()) return Fail(world.status());
+  if (arguments.truth.empty()) {
+    std::filesystem::path truth = arguments.output;
+    arguments.truth = truth.replace_extension().string() + "_groundtruth.txt";
+  }
+  if (const auto status = slamcore::WritePoseGraph(world->graph, arguments.output, slamcore::GraphFormat::kG2o);
+      !status.ok()) {
+    return Fail(status);
+  }
+  if (const auto status = slamcore::WriteGroundTruth(world->truth, arguments.truth); !status.ok()) return Fail(status);
+  std::printf("%zu poses, %d loop closures; graph %s, ground truth %s\n", world->graph.num_nodes(),
+              slamcore::CountLoopClosures(world->graph), arguments.output.c_str(), arguments.truth.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -192,6 +222,10 @@ int main(int argc, char** argv) {
   replay_command->add_option("--params", replay.params_file, "Mapper parameter set (JSON, fleet.v1.ParameterSet)")
       ->check(CLI::ExistingFile);
   replay_command->add_flag("--json", replay.json, "print one JSON object on stdout");
+  replay_command
+      ->add_option("--backend", replay.backend,
+                   "incremental (default: only the region an edge affects is re-solved) or batch (the baseline)")
+      ->check(CLI::IsMember({"incremental", "batch"}));
 
   CorruptArguments corrupt;
   CLI::App* corrupt_command =
@@ -216,6 +250,16 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"random", "local", "first", "shifted"}));
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
 
+  GenerateArguments generate;
+  CLI::App* generate_command = app.add_subcommand(
+      "generate-manhattan", "write a Manhattan-world pose graph (Olson's construction) and its ground truth");
+  generate_command->add_option("OUT", generate.output, "output g2o file")->required();
+  generate_command->add_option("--poses", generate.options.poses, "number of poses")
+      ->required()
+      ->check(CLI::Range(2, slamcore::kMaxManhattanPoses));
+  generate_command->add_option("--seed", generate.options.seed, "random seed");
+  generate_command->add_option("--truth", generate.truth, "ground-truth poses (id x y theta per line)");
+
   AddProtrusionCommands(app);
   AddValetudoCommands(app);
 
@@ -223,5 +267,6 @@ int main(int argc, char** argv) {
   if (optimize_command->parsed()) return RunOptimize(optimize);
   if (replay_command->parsed()) return RunReplay(replay);
   if (corrupt_command->parsed()) return RunCorrupt(corrupt);
+  if (generate_command->parsed()) return RunGenerate(generate);
   return 2;
 }

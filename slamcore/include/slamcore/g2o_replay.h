@@ -37,6 +37,7 @@ struct ReplayResult {
   std::vector<VertexPair> accepted;  // loop closures that became observation edges
   std::vector<VertexPair> rejected;  // the others
   double final_chi2 = 0.0;           // after a final optimisation of the Mapper's graph
+  double mapper_chi2 = 0.0;          // of the Mapper's graph as the run finished, before that optimisation
   double seconds = 0.0;              // Mapper plus final optimisation
   MapperStatistics statistics;
   PoseGraph graph;                   // the Mapper's graph, optimised

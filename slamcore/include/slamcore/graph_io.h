@@ -13,6 +13,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <iosfwd>
 #include <string>
 
@@ -31,5 +32,9 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
 /// gives an identical graph. Fails only on I/O errors.
 Status WritePoseGraph(const PoseGraph& graph, const std::filesystem::path& path, GraphFormat format);
 void WritePoseGraph(const PoseGraph& graph, std::ostream& output, GraphFormat format);
+
+/// Writes a file through `write` into a temporary beside it, then renames it over `path`: a failed write
+/// leaves no half-written file. Fails (naming the file) when it cannot be opened, written or renamed.
+Status WriteFileReplacing(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
 
 }  // namespace slamcore

@@ -4,6 +4,8 @@
 // Thread safety: value type.
 #pragma once
 
+#include <cstdint>
+
 #include "slamcore/optimizer.h"
 #include "slamcore/status.h"
 
@@ -77,6 +79,11 @@ struct MapperParamsLimits {
 };
 
 
+/// What moves the map's poses after accepted edges: the incremental back-end (slamcore/src/incremental_solver.h:
+/// only the region an edge affects is re-solved), or the batch baseline (a Ceres solve of a local window or of
+/// the whole component, optimizer.h), kept for comparison.
+enum class MapperBackend : std::uint8_t { kIncremental, kBatch };
+
 struct MapperParams {
   /// Mahalanobis gate, χ² with 3 degrees of freedom: 7.81 is the 95 % quantile. Used both for direct
   /// observation edges against the current estimate and for joining an observation to a hypothesis.
@@ -110,7 +117,11 @@ struct MapperParams {
   /// Optimisation after accepted edges. A direct edge re-optimises the robot's last `local_window_nodes`
   /// nodes (older ones held), and every `full_optimization_every`-th direct edge the whole component; an
   /// accepted hypothesis always re-optimises the whole component.
+  /// With the incremental back-end the window is the region an update starts from (it grows while the map
+  /// around it would still move), and `full_optimization_every` folds in the direct edges too small to
+  /// re-solve at once.
   bool optimize_after_accept = true;
+  MapperBackend backend = MapperBackend::kIncremental;
   int local_window_nodes = 30;
   int full_optimization_every = 100;
   OptimizerOptions optimizer = DefaultOptimizerOptions();

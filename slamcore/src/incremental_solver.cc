@@ -1,0 +1,308 @@
+#include "incremental_solver.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/CholmodSupport>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+
+namespace slamcore::internal {
+namespace {
+
+bool SameEdge(const Edge& a, const Edge& b) {
+  return a.from == b.from && a.to == b.to && a.measurement.x() == b.measurement.x() &&
+         a.measurement.y() == b.measurement.y() && a.measurement.theta() == b.measurement.theta();
+}
+
+/// The normal equations' sparse Cholesky: Eigen's simplicial LDLᵀ for small regions (no set-up cost),
+/// CHOLMOD's supernodal LLᵀ for large ones (Chen, Davis, Hager, Rajamanickam, "Algorithm 887: CHOLMOD",
+/// ACM TOMS 2008). The symbolic analysis is done once per region, its pattern fixed across iterations.
+class NormalEquations {
+ public:
+  explicit NormalEquations(int size) : large_(size >= kLargeColumns) {
+    // AMD alone: CHOLMOD's default also tries nested dissection, whose cost a pose graph rarely repays.
+    supernodal_.cholmod().nmethods = 1;
+    supernodal_.cholmod().method[0].ordering = CHOLMOD_AMD;
+  }
+
+  bool Factorize(const Eigen::SparseMatrix<double>& lower) {
+    if (!analysed_) large_ ? supernodal_.analyzePattern(lower) : simplicial_.analyzePattern(lower);
+    analysed_ = true;
+    if (large_) {
+      supernodal_.factorize(lower);
+      return supernodal_.info() == Eigen::Success;
+    }
+    simplicial_.factorize(lower);
+    return simplicial_.info() == Eigen::Success;
+  }
+  Eigen::VectorXd Solve(const Eigen::VectorXd& rhs) {
+    if (large_) return supernodal_.solve(rhs);
+    return simplicial_.solve(rhs);
+  }
+
+ private:
+  static constexpr int kLargeColumns = 600;  // 200 nodes: where CHOLMOD's supernodes start to pay
+  bool large_, analysed_ = false;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> simplicial_;
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> supernodal_;
+};
+
+}  // namespace
+
+void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
+  const std::span<const Edge> edges = graph.edges();
+  if (edges.size() < known_edges_ || (known_edges_ > 0 && !SameEdge(edges[known_edges_ - 1], last_edge_))) {
+    incident_.clear();  // edges were removed or G replaced: start over
+    known_edges_ = 0;
+  }
+  incident_.resize(graph.num_nodes());
+  for (std::size_t k = known_edges_; k < edges.size(); ++k) {
+    const std::size_t from = graph.IndexOf(edges[k].from), to = graph.IndexOf(edges[k].to);
+    incident_[from].push_back(static_cast<std::uint32_t>(k));
+    if (to != from) incident_[to].push_back(static_cast<std::uint32_t>(k));
+  }
+  known_edges_ = edges.size();
+  if (known_edges_ > 0) last_edge_ = edges.back();
+}
+
+IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds) {
+  IncrementalSummary summary;
+  SyncAdjacency(graph);
+  // Marks persist between updates (all zero / −1 outside one), so an update costs what its region costs.
+  in_region_.resize(graph.num_nodes(), 0);
+  column_.resize(graph.num_nodes(), -1);
+  original_.resize(graph.num_nodes());
+  std::vector<std::size_t> region;
+  for (const NodeId seed : seeds) {
+    if (!graph.HasNode(seed)) continue;
+    const std::size_t index = graph.IndexOf(seed);
+    if (in_region_[index] || graph.nodes()[index].fixed) continue;
+    in_region_[index] = 1;
+    original_[index] = graph.nodes()[index].pose;
+    region.push_back(index);
+  }
+  if (region.empty()) return summary;
+  // An edge far from the current estimate (a long loop closed) moves much of the map, and a small region
+  // held at its boundary would absorb the correction by bending: such an update starts from the whole
+  // component, as a batch solve would.
+  double largest_seed_chi2 = 0.0;
+  for (const std::size_t index : region) {
+    for (const std::uint32_t e : incident_[index]) largest_seed_chi2 = std::max(largest_seed_chi2, EdgeChi2(graph, graph.edges()[e]));
+  }
+  const bool large = largest_seed_chi2 > options_.whole_component_edge_chi2;
+  Grow(graph, region, region, large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
+
+  for (;;) {
+    // Held nodes next to the region anchor it; without any the region is a whole free component.
+    bool anchored = false, free_neighbour = false;
+    for (const std::size_t index : region) {
+      for (const std::uint32_t e : incident_[index]) {
+        const Edge& edge = graph.edges()[e];
+        for (const NodeId id : {edge.from, edge.to}) {
+          const std::size_t other = graph.IndexOf(id);
+          if (in_region_[other]) continue;
+          anchored = true;
+          free_neighbour = free_neighbour || !graph.nodes()[other].fixed;
+        }
+      }
+    }
+    summary.iterations += SolveRegion(graph, region, !anchored);
+    ++summary.rounds;
+    summary.region_nodes = static_cast<int>(region.size());
+    summary.full = !free_neighbour;
+    if (summary.full) break;
+    const std::vector<std::size_t> moving = MovingNeighbours(graph, region);
+    if (moving.empty()) break;
+    // Doubling: a long loop needs few rounds. Past half the component a partial region saves little and its
+    // held boundary slows convergence on a large correction: the whole component is solved instead.
+    const bool whole = 2 * (2 * region.size()) > graph.ComponentSize(graph.nodes()[region.front()].id);
+    Grow(graph, region, moving, whole ? graph.num_nodes() : region.size());
+  }
+  for (const std::size_t index : region) in_region_[index] = 0;
+  return summary;
+}
+
+void IncrementalSolver::Grow(const PoseGraph& graph, std::vector<std::size_t>& region,
+                             const std::vector<std::size_t>& from, std::size_t count) {
+  // Breadth-first from `from` (region members or held nodes), admitting up to `count` new nodes.
+  std::vector<std::size_t> queue(from.begin(), from.end());  // a copy first: `from` may be `region`
+  std::size_t added = 0;
+  const std::size_t starts = queue.size();
+  for (std::size_t k = 0; k < starts; ++k) {
+    const std::size_t index = queue[k];
+    if (!in_region_[index] && !graph.nodes()[index].fixed) {
+      in_region_[index] = 1;
+      original_[index] = graph.nodes()[index].pose;
+      region.push_back(index);
+      ++added;
+    }
+  }
+  for (std::size_t head = 0; head < queue.size() && added < count; ++head) {
+    for (const std::uint32_t e : incident_[queue[head]]) {
+      const Edge& edge = graph.edges()[e];
+      for (const NodeId id : {edge.from, edge.to}) {
+        const std::size_t index = graph.IndexOf(id);
+        if (in_region_[index] || graph.nodes()[index].fixed || added >= count) continue;
+        in_region_[index] = 1;
+        original_[index] = graph.nodes()[index].pose;
+        region.push_back(index);
+        queue.push_back(index);
+        ++added;
+      }
+    }
+  }
+}
+
+int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge) {
+  // Columns: 3 per region node; the gauge (the component's first node) is held when nothing else is.
+  std::vector<int>& column = column_;
+  int columns = 0;
+  const std::size_t gauge = hold_gauge ? *std::min_element(region.begin(), region.end()) : graph.num_nodes();
+  for (const std::size_t index : region) {
+    if (index != gauge) column[index] = 3 * columns++;
+  }
+  if (columns == 0) return 0;
+  struct ResetColumns {
+    std::vector<int>& column;
+    const std::vector<std::size_t>& region;
+    ~ResetColumns() {
+      for (const std::size_t index : region) column[index] = -1;
+    }
+  } reset{column, region};
+  // Every edge touching the region once: from its `from` end when that is in the region, else from `to`.
+  std::vector<std::uint32_t> edges;
+  for (const std::size_t index : region) {
+    for (const std::uint32_t e : incident_[index]) {
+      const Edge& edge = graph.edges()[e];
+      const std::size_t from = graph.IndexOf(edge.from);
+      if (from == index || !in_region_[from]) edges.push_back(e);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+
+  const auto chi2 = [&] {
+    double sum = 0.0;
+    for (const std::uint32_t e : edges) sum += EdgeChi2(graph, graph.edges()[e]);
+    return sum;
+  };
+  NormalEquations normal_equations(3 * columns);
+  Eigen::SparseMatrix<double> hessian(3 * columns, 3 * columns);
+  std::vector<Eigen::Triplet<double>> triplets;
+  Eigen::VectorXd gradient(3 * columns);
+  double cost = chi2(), damping = 0.0;
+  int iterations = 0;
+  std::vector<SE2> saved(region.size());
+  for (int iteration = 0; iteration < options_.max_iterations; ++iteration) {
+    // Normal equations H δ = −g with H = Σ Jᵀ Ω J, g = Σ Jᵀ Ω e over the region's columns (lower triangle).
+    triplets.clear();
+    gradient.setZero();
+    const auto add_block = [&](int row, int col, const Matrix3& block) {
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+          if (row + r >= col + c) triplets.emplace_back(row + r, col + c, block(r, c));
+        }
+      }
+    };
+    for (const std::uint32_t e : edges) {
+      const Edge& edge = graph.edges()[e];
+      Matrix3 d_from, d_to;
+      const Vector3 error =
+          EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
+      const int a = column[graph.IndexOf(edge.from)], b = column[graph.IndexOf(edge.to)];
+      const Vector3 weighted = edge.information * error;
+      if (a >= 0) {
+        add_block(a, a, d_from.transpose() * edge.information * d_from);
+        gradient.segment<3>(a) += d_from.transpose() * weighted;
+      }
+      if (b >= 0) {
+        add_block(b, b, d_to.transpose() * edge.information * d_to);
+        gradient.segment<3>(b) += d_to.transpose() * weighted;
+      }
+      if (a >= 0 && b >= 0) {
+        if (a > b) add_block(a, b, d_from.transpose() * edge.information * d_to);
+        if (b > a) add_block(b, a, d_to.transpose() * edge.information * d_from);
+      }
+    }
+    hessian.setFromTriplets(triplets.begin(), triplets.end());
+    if (damping > 0.0) hessian.diagonal() *= 1.0 + damping;  // Levenberg–Marquardt after a rejected step
+    ++iterations;
+    if (!normal_equations.Factorize(hessian)) {
+      damping = damping == 0.0 ? 1e-4 : damping * 10.0;
+      if (damping > 1e8) break;
+      continue;
+    }
+    const Eigen::VectorXd step = normal_equations.Solve(-gradient);
+    double largest_position = 0.0, largest_angle = 0.0;
+    for (std::size_t k = 0; k < region.size(); ++k) {
+      Node& node = graph.mutable_nodes()[region[k]];
+      saved[k] = node.pose;
+      const int c = column[region[k]];
+      if (c < 0) continue;
+      node.pose = SE2(node.pose.x() + step(c), node.pose.y() + step(c + 1), node.pose.theta() + step(c + 2));
+      largest_position = std::max({largest_position, std::abs(step(c)), std::abs(step(c + 1))});
+      largest_angle = std::max(largest_angle, std::abs(step(c + 2)));
+    }
+    const double new_cost = chi2();
+    if (!(new_cost <= cost)) {
+      for (std::size_t k = 0; k < region.size(); ++k) graph.mutable_nodes()[region[k]].pose = saved[k];
+      damping = damping == 0.0 ? 1e-4 : damping * 10.0;
+      if (damping > 1e8) break;
+      continue;
+    }
+    const double decrease = (cost - new_cost) / std::max(cost, 1e-300);
+    cost = new_cost;
+    damping = damping < 1e-8 ? 0.0 : damping / 10.0;
+    const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
+                           largest_angle < 1e-2 * options_.angle_tolerance;
+    if (decrease < options_.relative_cost_decrease || tiny_step) break;
+  }
+  return iterations;
+}
+
+std::vector<std::size_t> IncrementalSolver::MovingNeighbours(const PoseGraph& graph,
+                                                             const std::vector<std::size_t>& region) {
+  std::vector<std::size_t> moving;
+  std::vector<std::size_t> checked;
+  for (const std::size_t index : region) {
+    for (const std::uint32_t e : incident_[index]) {
+      const Edge& edge = graph.edges()[e];
+      for (const NodeId id : {edge.from, edge.to}) {
+        const std::size_t held = graph.IndexOf(id);
+        if (in_region_[held] || graph.nodes()[held].fixed || column_[held] == -2) continue;
+        column_[held] = -2;  // checked (column_ is rebuilt by the next solve)
+        checked.push_back(held);
+        // What this update changed in the held node's own Gauss–Newton step (everything else where it is):
+        // its step with the region where it is now against its step with the region where it was.
+        const Vector3 change = LoneStep(graph, held, false) - LoneStep(graph, held, true);
+        if (std::hypot(change.x(), change.y()) > options_.position_tolerance ||
+            std::abs(change.z()) > options_.angle_tolerance) {
+          moving.push_back(held);
+        }
+      }
+    }
+  }
+  for (const std::size_t held : checked) column_[held] = -1;
+  return moving;
+}
+
+Vector3 IncrementalSolver::LoneStep(const PoseGraph& graph, std::size_t held, bool region_as_before) const {
+  const auto pose = [&](NodeId id) -> const SE2& {
+    const std::size_t index = graph.IndexOf(id);
+    return region_as_before && in_region_[index] ? original_[index] : graph.nodes()[index].pose;
+  };
+  Matrix3 block = Matrix3::Zero();
+  Vector3 gradient = Vector3::Zero();
+  for (const std::uint32_t e : incident_[held]) {
+    const Edge& edge = graph.edges()[e];
+    Matrix3 d_from, d_to;
+    const Vector3 error = EdgeError(pose(edge.from), pose(edge.to), edge.measurement, &d_from, &d_to);
+    const Matrix3& jacobian = graph.IndexOf(edge.from) == held ? d_from : d_to;
+    block += jacobian.transpose() * edge.information * jacobian;
+    gradient += jacobian.transpose() * edge.information * error;
+  }
+  return -block.ldlt().solve(gradient);
+}
+
+}  // namespace slamcore::internal

@@ -1,0 +1,91 @@
+// The Mapper's incremental back-end: new edges update the solution without re-solving the component.
+//
+// Method: incremental Gauss–Newton with fluid relinearisation of only the affected variables, the idea of
+// iSAM2 (Kaess et al., "iSAM2: Incremental smoothing and mapping using the Bayes tree", IJRR 2012, §5:
+// variables are relinearised only where their change exceeds a threshold, and the update stops spreading
+// — "wildfire" — where the change falls below it). Instead of a Bayes tree we re-eliminate the affected
+// region as a sub-problem:
+//  1. The region starts as the nodes nearest (in edges) to the endpoints of the edges added or changed
+//     since the last update (`seeds`), `initial_region_nodes` of them — or as the whole component when
+//     one of the seeds' edges is far from the estimate (χ² above `whole_component_edge_chi2`: a long loop
+//     closed, whose correction a small region held at its boundary would absorb by bending).
+//  2. Gauss–Newton (Levenberg–Marquardt damping on a rejected step) over the region, every node outside it
+//     held: the edges touching the region are linearised at the current poses and the normal equations
+//     solved by a sparse Cholesky (LDLᵀ, AMD ordering), the symbolic analysis done once per region.
+//  3. The wildfire test: for each held node next to the region, how much the update changed the step it
+//     would take alone (its own Gauss–Newton block, −H_uu⁻¹ g_u over its edges, with the region's poses
+//     after against before). When every change is below `position_tolerance` / `angle_tolerance`, the
+//     update has not reached beyond the region and ends; otherwise the region grows from the nodes it
+//     reached (doubling), and step 2 repeats.
+//     A region that reaches the whole component is a full solve (gauge: fixed nodes, else the first node).
+// Only what the update changes spreads: residual disequilibrium elsewhere (edges deferred by the Mapper,
+// earlier updates' tolerance) is left to the updates that touch it and to a final whole solve.
+// Cost: O(region + its edges) per update; the region stays small unless an edge moves much of the map
+// (a long loop closed with a large correction), which a batch solver pays for always.
+//
+// The solver keeps only the graph's adjacency, extended as edges are appended; when edges were removed
+// or G replaced (retractions, a refused acceptance restored) it notices (fewer edges, or a different last
+// edge) and rebuilds it, O(edges), rare.
+//
+// Thread safety: not thread-safe; one per Mapper.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "slamcore/optimizer.h"
+#include "slamcore/pose_graph.h"
+
+namespace slamcore::internal {
+
+struct IncrementalSolverOptions {
+  int initial_region_nodes = 30;
+  /// An update whose seeds touch an edge with a larger χ² (whitened, at the current poses) starts from the
+  /// whole component: the correction is too large for a small region to carry.
+  double whole_component_edge_chi2 = 100.0;
+  /// The wildfire threshold: a held node whose lone step is below both stays held.
+  double position_tolerance = 1e-2;  // metres
+  double angle_tolerance = 1e-3;     // radians
+  /// Gauss–Newton iterations per region, and the relative χ² decrease that ends them.
+  int max_iterations = 20;
+  double relative_cost_decrease = 1e-6;
+};
+
+struct IncrementalSummary {
+  int region_nodes = 0;  // variables of the last region solved
+  int rounds = 0;        // regions solved (1 + growths)
+  int iterations = 0;    // Gauss–Newton iterations over all rounds
+  bool full = false;     // the region reached the whole component
+};
+
+class IncrementalSolver {
+ public:
+  explicit IncrementalSolver(IncrementalSolverOptions options = {}) : options_(options) {}
+
+  /// Moves the poses of `graph` to the optimum after the edges at `seeds` changed (see the top of this
+  /// file). Seeds that are not in the graph are ignored.
+  IncrementalSummary Update(PoseGraph& graph, const std::vector<NodeId>& seeds);
+
+ private:
+  void SyncAdjacency(const PoseGraph& graph);
+  /// Admits up to `count` nodes to the region, breadth-first from `from`.
+  void Grow(const PoseGraph& graph, std::vector<std::size_t>& region, const std::vector<std::size_t>& from,
+            std::size_t count);
+  /// Gauss–Newton over `region` (graph indices), the rest held; returns the iterations taken.
+  int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge);
+  /// Held neighbours of the region whose lone step exceeds the tolerance.
+  std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
+  /// A held node's Gauss–Newton step over its own edges, the region's poses as they are or as they were.
+  Vector3 LoneStep(const PoseGraph& graph, std::size_t held, bool region_as_before) const;
+
+  IncrementalSolverOptions options_;
+  std::vector<std::vector<std::uint32_t>> incident_;  // node index → incident edge indices
+  std::size_t known_edges_ = 0;
+  Edge last_edge_;  // graph.edges()[known_edges_ − 1] when known_edges_ > 0
+  std::vector<char> in_region_;  // by node index; all 0 between updates
+  std::vector<int> column_;      // by node index: the region's columns during a solve, −1 otherwise
+  std::vector<SE2> original_;    // by node index: a region node's pose when the update admitted it
+};
+
+}  // namespace slamcore::internal

@@ -1,0 +1,203 @@
+// The incremental back-end (incremental_solver.h): it reaches the batch optimum, its region stays small
+// where an edge changes little and grows where the change spreads, it survives removed edges and replaced
+// graphs, and a Mapper replay with it makes the same decisions as with the batch baseline.
+#include "incremental_solver.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "slamcore/g2o_replay.h"
+#include "slamcore/graph_io.h"
+#include "slamcore/manhattan_world.h"
+#include "slamcore/optimizer.h"
+#include "test_data.h"
+
+namespace slamcore::internal {
+namespace {
+
+double BatchChi2(PoseGraph graph) {
+  OptimizerOptions options;
+  options.max_iterations = 200;
+  options.relative_cost_decrease = 1e-10;
+  const auto summary = Optimize(graph, options);
+  EXPECT_TRUE(summary.ok());
+  return summary.ok() ? summary->final_chi2 : -1.0;
+}
+
+/// Feeds a generated world node by node as a robot builds it (pose from odometry, then its loop
+/// closures), updating after each closure from its endpoints.
+struct Fed {
+  PoseGraph graph;
+  std::vector<IncrementalSummary> updates;
+};
+Fed FeedIncrementally(const PoseGraph& world) {
+  // The generator writes edges in pose order: the odometry into k, then k's loop closures.
+  Fed fed;
+  IncrementalSolver solver;
+  EXPECT_TRUE(fed.graph.AddNode(Node{.id = 0}).ok());
+  std::vector<NodeId> seeds;
+  const auto update = [&] {
+    if (!seeds.empty()) fed.updates.push_back(solver.Update(fed.graph, seeds));
+    seeds.clear();
+  };
+  for (const Edge& edge : world.edges()) {
+    if (edge.kind == EdgeKind::kMotion) {
+      update();
+      EXPECT_TRUE(fed.graph.AddNode(Node{.id = edge.to, .pose = fed.graph.node(edge.from).pose * edge.measurement}).ok());
+    } else {
+      seeds.push_back(edge.from), seeds.push_back(edge.to);
+    }
+    EXPECT_TRUE(fed.graph.AddEdge(edge).ok());
+  }
+  update();
+  return fed;
+}
+
+TEST(IncrementalSolverTest, ReachesTheBatchOptimumOnAGeneratedCity) {
+  ManhattanOptions options;
+  options.poses = 600;
+  const auto world = GenerateManhattanWorld(options);
+  ASSERT_TRUE(world.ok());
+  const Fed fed = FeedIncrementally(world->graph);
+  ASSERT_EQ(fed.graph.num_edges(), world->graph.num_edges());
+  const double incremental = Chi2(fed.graph), optimum = BatchChi2(fed.graph);
+  EXPECT_NEAR(incremental, optimum, 1e-3 * optimum);
+  // The common case is local: most updates solve only the first region.
+  int small = 0;
+  for (const IncrementalSummary& update : fed.updates) small += update.region_nodes <= 2 * 30 + 4;
+  EXPECT_GT(small, static_cast<int>(fed.updates.size()) / 2);
+}
+
+/// A loop of `size` nodes, odometry bent by `bend` per step, closed by one edge back to the start.
+PoseGraph BentLoop(int size, double bend) {
+  PoseGraph graph;
+  const double step = 2 * 3.14159265358979 / size;
+  for (int k = 0; k < size; ++k) {
+    SE2 pose = SE2::Identity();
+    if (k > 0) pose = graph.node(k - 1).pose * SE2(1.0, 0.0, step + bend);
+    EXPECT_TRUE(graph.AddNode(Node{.id = k, .pose = pose}).ok());
+    if (k > 0) EXPECT_TRUE(graph.AddEdge(Edge{.from = k - 1, .to = k, .measurement = SE2(1.0, 0.0, step)}).ok());
+  }
+  return graph;
+}
+
+TEST(IncrementalSolverTest, ALongLoopClosedFarFromTheEstimateIsSolvedWholeWithTheGaugeHeld) {
+  PoseGraph graph = BentLoop(200, 0.002);  // the closing edge's χ² is far above whole_component_edge_chi2
+  const SE2 first = graph.node(0).pose;
+  const SE2 closing = SE2(1.0, 0.0, 2 * 3.14159265358979 / 200);
+  ASSERT_TRUE(graph.AddEdge(Edge{.from = 199, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}).ok());
+  ASSERT_GT(EdgeChi2(graph, graph.edges().back()), IncrementalSolverOptions{}.whole_component_edge_chi2);
+  IncrementalSolver solver;
+  const IncrementalSummary summary = solver.Update(graph, {199, 0});
+  EXPECT_TRUE(summary.full);
+  EXPECT_EQ(summary.region_nodes, 200);
+  EXPECT_EQ(graph.node(0).pose.x(), first.x());  // the gauge: the component's first node is held
+  EXPECT_EQ(graph.node(0).pose.theta(), first.theta());
+  EXPECT_NEAR(Chi2(graph), BatchChi2(graph), 1e-6 * BatchChi2(graph) + 1e-9);
+}
+
+TEST(IncrementalSolverTest, ASmallCorrectionSpreadsOnlyAsFarAsItMovesTheMap) {
+  PoseGraph graph = BentLoop(2000, 2e-6);
+  const SE2 closing = SE2(1.0, 0.0, 2 * 3.14159265358979 / 2000);
+  ASSERT_TRUE(graph.AddEdge(Edge{.from = 1999, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}).ok());
+  ASSERT_LT(EdgeChi2(graph, graph.edges().back()), IncrementalSolverOptions{}.whole_component_edge_chi2);
+  const double before = Chi2(graph);
+  IncrementalSolver solver;
+  const IncrementalSummary summary = solver.Update(graph, {1999, 0});
+  EXPECT_GT(summary.rounds, 1);   // it grew ...
+  EXPECT_GT(summary.region_nodes, 64);
+  EXPECT_FALSE(summary.full);     // ... but not to the whole loop
+  EXPECT_LT(summary.region_nodes, 2000);
+  // Most of the way to the optimum: what is left is below the wildfire tolerance where the region stopped.
+  const double optimum = BatchChi2(graph);
+  EXPECT_LT(Chi2(graph) - optimum, 0.05 * (before - optimum));
+}
+
+TEST(IncrementalSolverTest, AnEdgeThatAgreesLeavesTheRegionSmall) {
+  PoseGraph graph = BentLoop(2000, 0.0);
+  IncrementalSolver solver;
+  // An exact closure between nodes 1990 and 1980: nothing moves, nothing spreads.
+  const SE2 relative = graph.node(1980).pose.inverse() * graph.node(1990).pose;
+  ASSERT_TRUE(graph.AddEdge(Edge{.from = 1980, .to = 1990, .measurement = relative, .kind = EdgeKind::kObservation}).ok());
+  const IncrementalSummary summary = solver.Update(graph, {1980, 1990});
+  EXPECT_EQ(summary.rounds, 1);
+  EXPECT_LE(summary.region_nodes, 32);
+  EXPECT_FALSE(summary.full);
+}
+
+TEST(IncrementalSolverTest, NoticesRemovedEdgesAndAReplacedGraph) {
+  PoseGraph graph = BentLoop(100, 0.003);
+  IncrementalSolver solver;
+  ASSERT_TRUE(graph.AddEdge(Edge{.from = 99, .to = 0, .measurement = SE2(1.0, 0.0, 2 * 3.14159265358979 / 100),
+                                 .kind = EdgeKind::kObservation}).ok());
+  (void)solver.Update(graph, {99, 0});
+  const PoseGraph before_removal = graph;
+  // Retraction: the closure leaves; with it gone the odometry alone is the optimum (χ² 0).
+  EXPECT_EQ(graph.RemoveEdgesIf([](const Edge& edge) { return edge.kind == EdgeKind::kObservation; }), 1u);
+  (void)solver.Update(graph, {99, 0});
+  EXPECT_LT(Chi2(graph), 1e-8);
+  // G replaced by an older copy (a refused acceptance restored), then a new edge.
+  graph = before_removal;
+  ASSERT_TRUE(graph.AddEdge(Edge{.from = 50, .to = 10, .measurement = graph.node(50).pose.inverse() * graph.node(10).pose,
+                                 .kind = EdgeKind::kObservation}).ok());
+  (void)solver.Update(graph, {50, 10});
+  EXPECT_NEAR(Chi2(graph), BatchChi2(graph), 1e-6 * BatchChi2(graph) + 1e-9);
+}
+
+TEST(IncrementalSolverTest, IgnoresSeedsItDoesNotKnowAndFixedNodes) {
+  PoseGraph graph = BentLoop(10, 0.0);
+  graph.mutable_node(3).fixed = true;
+  IncrementalSolver solver;
+  EXPECT_EQ(solver.Update(graph, {42}).rounds, 0);
+  EXPECT_EQ(solver.Update(graph, {3}).rounds, 0);
+}
+
+// ---- the Mapper with either back-end -----------------------------------------------------------------------
+
+std::set<VertexPair> Sorted(const std::vector<VertexPair>& pairs) { return {pairs.begin(), pairs.end()}; }
+
+class BackendEquivalenceTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(BackendEquivalenceTest, SameDecisionsAndTheOptimumAtTheEnd) {
+  TEST_DATA_FILE_OR_SKIP(path, std::string("posegraphs/") + GetParam());
+  const auto graph = ReadPoseGraph(path);
+  ASSERT_TRUE(graph.ok());
+  MapperParams batch, incremental;
+  batch.backend = MapperBackend::kBatch;
+  incremental.backend = MapperBackend::kIncremental;
+  const auto with_batch = ReplayPoseGraph(*graph, batch);
+  const auto with_incremental = ReplayPoseGraph(*graph, incremental);
+  ASSERT_TRUE(with_batch.ok() && with_incremental.ok());
+  EXPECT_EQ(Sorted(with_incremental->accepted), Sorted(with_batch->accepted));
+  EXPECT_EQ(Sorted(with_incremental->rejected), Sorted(with_batch->rejected));
+  // χ² at the end of the replay against a full solve of the same graph from the linear start.
+  PoseGraph full = with_incremental->graph;
+  OptimizerOptions options;
+  options.linear_initialization = true;
+  options.max_iterations = 200;
+  options.relative_cost_decrease = 1e-10;
+  const auto solved = Optimize(full, options);
+  ASSERT_TRUE(solved.ok());
+  EXPECT_NEAR(with_incremental->final_chi2, solved->final_chi2, 1e-6 * solved->final_chi2 + 1e-9);
+  EXPECT_NEAR(with_batch->final_chi2, solved->final_chi2, 1e-6 * solved->final_chi2 + 1e-9);
+  // The Mapper's own graph at the end, before the replay's final solve: at the optimum up to what the
+  // wildfire tolerance leaves (the batch back-end's local windows leave more).
+  EXPECT_NEAR(with_incremental->mapper_chi2, solved->final_chi2, 1e-2 * solved->final_chi2 + 1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(SharedGraphs, BackendEquivalenceTest,
+                         ::testing::Values("vertigo/ring.g2o", "vertigo/intel.g2o", "sesync/CSAIL.g2o", "sesync/MIT.g2o",
+                                           "vertigo/ringCity.g2o", "vertigo/manhattanOlson3500_olson.g2o",
+                                           "vertigo/manhattanOlson3500_g2o.g2o", "sesync/intel.g2o",
+                                           "sesync/manhattan.g2o"),
+                         [](const auto& info) {
+                           std::string name = info.param;
+                           for (char& c : name) {
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           }
+                           return name;
+                         });
+
+}  // namespace
+}  // namespace slamcore::internal
