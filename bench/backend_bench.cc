@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
       if (batch.seconds) batch_per_event.emplace_back(poses, *batch.seconds / static_cast<double>(batch.events));
     }
     const auto exponent = [](const std::vector<std::pair<double, double>>& points) {
-      if (points.size() < 2) return NAN;
+      if (points.size() < 2) return std::nan("");
       return std::log(points.back().second / points.front().second) / std::log(points.back().first / points.front().first);
     };
     std::printf("\ngrowth exponent of the time per event (%g → %g poses): incremental %.2f, batch %.2f%s\n",

@@ -101,6 +101,7 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   result.mapper_chi2 = Chi2(result.graph);
   OptimizerOptions final_options = params.optimizer;
   final_options.max_iterations = 100;
+  final_options.relative_cost_decrease = 1e-10;  // a full solve: its χ² is the reference the back-ends meet
   const auto summary = Optimize(result.graph, final_options);
   if (!summary.ok()) return summary.status();
   result.final_chi2 = summary->final_chi2;

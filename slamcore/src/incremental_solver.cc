@@ -66,7 +66,16 @@ void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
   if (known_edges_ > 0) last_edge_ = edges.back();
 }
 
-IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds) {
+IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start) {
+  return Run(graph, seeds, start, false);
+}
+
+IncrementalSummary IncrementalSolver::SolveComponents(PoseGraph& graph, const std::vector<NodeId>& seeds) {
+  return Run(graph, seeds, Start::kLocalUnlessFar, true);
+}
+
+IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start,
+                                          bool whole) {
   IncrementalSummary summary;
   SyncAdjacency(graph);
   // Marks persist between updates (all zero / −1 outside one), so an update costs what its region costs.
@@ -87,10 +96,12 @@ IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector
   // held at its boundary would absorb the correction by bending: such an update starts from the whole
   // component, as a batch solve would.
   double largest_seed_chi2 = 0.0;
-  for (const std::size_t index : region) {
-    for (const std::uint32_t e : incident_[index]) largest_seed_chi2 = std::max(largest_seed_chi2, EdgeChi2(graph, graph.edges()[e]));
+  for (const std::size_t index : start == Start::kLocal ? std::vector<std::size_t>{} : region) {
+    for (const std::uint32_t e : incident_[index]) {
+      largest_seed_chi2 = std::max(largest_seed_chi2, EdgeChi2(graph, graph.edges()[e]));
+    }
   }
-  const bool large = largest_seed_chi2 > options_.whole_component_edge_chi2;
+  const bool large = whole || largest_seed_chi2 > options_.whole_component_edge_chi2;
   Grow(graph, region, region, large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
 
   for (;;) {
@@ -107,7 +118,7 @@ IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector
         }
       }
     }
-    summary.iterations += SolveRegion(graph, region, !anchored);
+    summary.iterations += SolveRegion(graph, region, !anchored, whole);
     ++summary.rounds;
     summary.region_nodes = static_cast<int>(region.size());
     summary.full = !free_neighbour;
@@ -116,8 +127,8 @@ IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector
     if (moving.empty()) break;
     // Doubling: a long loop needs few rounds. Past half the component a partial region saves little and its
     // held boundary slows convergence on a large correction: the whole component is solved instead.
-    const bool whole = 2 * (2 * region.size()) > graph.ComponentSize(graph.nodes()[region.front()].id);
-    Grow(graph, region, moving, whole ? graph.num_nodes() : region.size());
+    const bool take_all = 2 * (2 * region.size()) > graph.ComponentSize(graph.nodes()[region.front()].id);
+    Grow(graph, region, moving, take_all ? graph.num_nodes() : region.size());
   }
   for (const std::size_t index : region) in_region_[index] = 0;
   return summary;
@@ -154,7 +165,8 @@ void IncrementalSolver::Grow(const PoseGraph& graph, std::vector<std::size_t>& r
   }
 }
 
-int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge) {
+int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge,
+                                   bool to_convergence) {
   // Columns: 3 per region node; the gauge (the component's first node) is held when nothing else is.
   std::vector<int>& column = column_;
   int columns = 0;
@@ -194,7 +206,9 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   double cost = chi2(), damping = 0.0;
   int iterations = 0;
   std::vector<SE2> saved(region.size());
-  for (int iteration = 0; iteration < options_.max_iterations; ++iteration) {
+  const int max_iterations = to_convergence ? 10 * options_.max_iterations : options_.max_iterations;
+  const double relative_cost_decrease = to_convergence ? 1e-10 : options_.relative_cost_decrease;
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
     // Normal equations H δ = −g with H = Σ Jᵀ Ω J, g = Σ Jᵀ Ω e over the region's columns (lower triangle).
     triplets.clear();
     gradient.setZero();
@@ -256,7 +270,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     damping = damping < 1e-8 ? 0.0 : damping / 10.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
-    if (decrease < options_.relative_cost_decrease || tiny_step) break;
+    if (decrease < relative_cost_decrease || (tiny_step && !to_convergence)) break;
   }
   return iterations;
 }

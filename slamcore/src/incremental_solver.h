@@ -6,8 +6,8 @@
 // — "wildfire" — where the change falls below it). Instead of a Bayes tree we re-eliminate the affected
 // region as a sub-problem:
 //  1. The region starts as the nodes nearest (in edges) to the endpoints of the edges added or changed
-//     since the last update (`seeds`), `initial_region_nodes` of them — or as the whole component when
-//     one of the seeds' edges is far from the estimate (χ² above `whole_component_edge_chi2`: a long loop
+//     since the last update (`seeds`), `initial_region_nodes` of them — or, for an accepted hypothesis,
+//     as the whole component when one of the seeds' edges is far from the estimate (χ² above `whole_component_edge_chi2`: a long loop
 //     closed, whose correction a small region held at its boundary would absorb by bending).
 //  2. Gauss–Newton (Levenberg–Marquardt damping on a rejected step) over the region, every node outside it
 //     held: the edges touching the region are linearised at the current poses and the normal equations
@@ -63,17 +63,26 @@ class IncrementalSolver {
  public:
   explicit IncrementalSolver(IncrementalSolverOptions options = {}) : options_(options) {}
 
+  /// Whether an update may start from the whole component when a seed's edge is far from the estimate:
+  /// kLocal for edges whose correction is bounded (a direct edge passed the gate with a robot sure of its
+  /// position), kLocalUnlessFar for accepted hypotheses (a recovery after a long drift).
+  enum class Start : std::uint8_t { kLocal, kLocalUnlessFar };
+
   /// Moves the poses of `graph` to the optimum after the edges at `seeds` changed (see the top of this
   /// file). Seeds that are not in the graph are ignored.
-  IncrementalSummary Update(PoseGraph& graph, const std::vector<NodeId>& seeds);
+  IncrementalSummary Update(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start = Start::kLocalUnlessFar);
+  /// Solves the whole components of `seeds` to convergence (relative χ² decrease below 1e-10): the end of
+  /// a run, so the child map is at its optimum and not only within the wildfire tolerance.
+  IncrementalSummary SolveComponents(PoseGraph& graph, const std::vector<NodeId>& seeds);
 
  private:
+  IncrementalSummary Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start, bool whole);
   void SyncAdjacency(const PoseGraph& graph);
   /// Admits up to `count` nodes to the region, breadth-first from `from`.
   void Grow(const PoseGraph& graph, std::vector<std::size_t>& region, const std::vector<std::size_t>& from,
             std::size_t count);
   /// Gauss–Newton over `region` (graph indices), the rest held; returns the iterations taken.
-  int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge);
+  int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge, bool to_convergence);
   /// Held neighbours of the region whose lone step exceeds the tolerance.
   std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
   /// A held node's Gauss–Newton step over its own edges, the region's poses as they are or as they were.

@@ -125,7 +125,7 @@ class Mapper::Impl {
   bool IsAmbiguous(ViewId view) const { return map_.graph.view(view).ambiguous; }
   void OptimizeComponentOf(NodeId node, std::string* note);
   /// The incremental back-end's update from the pending seeds (which it clears).
-  void UpdateIncrementally();
+  void UpdateIncrementally(internal::IncrementalSolver::Start start);
   /// The incremental back-end minimises plain χ²: with a robust loss the batch one is used.
   bool UsesIncrementalBackend() const {
     return params_.backend == MapperBackend::kIncremental && params_.optimizer.robust_loss == RobustLoss::kNone;

@@ -272,7 +272,7 @@ void Mapper::Impl::UpdateAmbiguityMarks() {
 void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   direct_edges_since_full_optimization_ = 0;
   if (UsesIncrementalBackend()) {
-    UpdateIncrementally();
+    UpdateIncrementally(internal::IncrementalSolver::Start::kLocalUnlessFar);
     return;
   }
   OptimizerOptions options = params_.optimizer;
@@ -282,8 +282,8 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
 }
 
-void Mapper::Impl::UpdateIncrementally() {
-  (void)incremental_.Update(map_.graph, pending_seeds_);
+void Mapper::Impl::UpdateIncrementally(internal::IncrementalSolver::Start start) {
+  (void)incremental_.Update(map_.graph, pending_seeds_, start);
   pending_seeds_.clear();
 }
 
@@ -292,16 +292,21 @@ void Mapper::Impl::UpdateIncrementally() {
 constexpr double kLocalOptimizationMinChi2 = 1.0;
 
 void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2, std::string* note) {
-  if (++direct_edges_since_full_optimization_ >= params_.full_optimization_every) {
+  const bool periodic = ++direct_edges_since_full_optimization_ >= params_.full_optimization_every;
+  if (UsesIncrementalBackend()) {
+    // A direct edge passed the gate with a robot sure of its position: its correction is local.
+    if (periodic) direct_edges_since_full_optimization_ = 0;
+    if (periodic || innovation_chi2 >= kLocalOptimizationMinChi2) {
+      UpdateIncrementally(internal::IncrementalSolver::Start::kLocal);
+    }
+    return;
+  }
+  if (periodic) {
     OptimizeComponentOf(robot, note);
     return;
   }
   // An edge that agrees with the estimate this well would move the window by a fraction of its noise.
   if (innovation_chi2 < kLocalOptimizationMinChi2) return;
-  if (UsesIncrementalBackend()) {
-    UpdateIncrementally();
-    return;
-  }
   // Nodes are numbered in creation order, so the robot's last nodes in its component are the window.
   OptimizerOptions options = params_.optimizer;
   for (NodeId id = robot; id > robot - params_.local_window_nodes; --id) {

@@ -1,6 +1,7 @@
 #include "marginal_covariance.h"
 
-#include <Eigen/SparseCholesky>
+#include <cholmod.h>
+
 #include <Eigen/SparseCore>
 #include <algorithm>
 
@@ -8,9 +9,55 @@
 
 namespace slamcore::internal {
 
+/// H = P'ᵀ L Lᵀ P' by CHOLMOD's supernodal Cholesky (AMD ordering), then converted to a simplicial
+/// column-by-column factor for the path walks of Joint (Chen, Davis, Hager, Rajamanickam, "Algorithm 887:
+/// CHOLMOD", ACM TOMS 2008). Supernodal numeric factorisation is several times faster than a simplicial
+/// one on pose graphs of thousands of nodes, and this factorisation is redone whenever G changed.
 struct MarginalCovariances::Factor {
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  cholmod_common common;
+  cholmod_factor* factor = nullptr;
+  std::vector<int> position;  // original column → its column in L
   int size = 0;
+
+  Factor() { cholmod_start(&common); }
+  ~Factor() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+  Factor(const Factor&) = delete;
+  Factor& operator=(const Factor&) = delete;
+
+  /// Factorises the symmetric matrix whose lower triangle is `lower` (compressed); false when it is not
+  /// positive definite.
+  bool Compute(Eigen::SparseMatrix<double>& lower) {
+    size = static_cast<int>(lower.rows());
+    cholmod_sparse matrix{};
+    matrix.nrow = matrix.ncol = static_cast<std::size_t>(size);
+    matrix.nzmax = static_cast<std::size_t>(lower.nonZeros());
+    matrix.p = lower.outerIndexPtr();
+    matrix.i = lower.innerIndexPtr();
+    matrix.x = lower.valuePtr();
+    matrix.stype = -1;  // lower triangle stored
+    matrix.itype = CHOLMOD_INT;
+    matrix.xtype = CHOLMOD_REAL;
+    matrix.dtype = CHOLMOD_DOUBLE;
+    matrix.sorted = 1;
+    matrix.packed = 1;
+    common.nmethods = 1;  // AMD alone: nested dissection rarely repays its cost on a pose graph
+    common.method[0].ordering = CHOLMOD_AMD;
+    common.supernodal = CHOLMOD_SUPERNODAL;
+    factor = cholmod_analyze(&matrix, &common);
+    if (!factor || !cholmod_factorize(&matrix, factor, &common) || common.status != CHOLMOD_OK ||
+        factor->minor < factor->n) {
+      return false;
+    }
+    // Simplicial, packed, LLᵀ: column j holds its diagonal first, then the rows below it.
+    if (!cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, factor, &common)) return false;
+    position.assign(static_cast<std::size_t>(size), 0);
+    const int* permutation = static_cast<const int*>(factor->Perm);
+    for (int k = 0; k < size; ++k) position[static_cast<std::size_t>(permutation[k])] = k;
+    return true;
+  }
 };
 
 MarginalCovariances::~MarginalCovariances() = default;
@@ -69,21 +116,21 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
   result.redundancy_ = std::max(0L, redundancy);
   Eigen::SparseMatrix<double> information(3 * columns, 3 * columns);
   information.setFromTriplets(triplets.begin(), triplets.end());
+  information.makeCompressed();
   result.factor_ = std::make_unique<Factor>();
-  result.factor_->size = 3 * columns;
-  result.factor_->ldlt.compute(information);
-  if (result.factor_->ldlt.info() != Eigen::Success) return std::nullopt;
+  if (!result.factor_->Compute(information)) return std::nullopt;
   return result;
 }
 
 Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) const {
-  // With P H Pᵀ = L D Lᵀ, the blocks asked for are Eᵀ H⁻¹ E = Yᵀ D⁻¹ Y with Y = L⁻¹ P E. A column of Y,
-  // L⁻¹ e_p, is nonzero only on the elimination tree's path from p to the root (the parent of column j is
-  // its first row below the diagonal), so forward substitution walks that path alone, and two columns
-  // meet only where their paths join (Davis, "Direct Methods for Sparse Linear Systems", SIAM 2006, §4.1).
-  const Eigen::SparseMatrix<double>& lower = factor_->ldlt.matrixL().nestedExpression();
-  const Eigen::VectorXd& diagonal = factor_->ldlt.vectorD();
-  const auto& permutation = factor_->ldlt.permutationP().indices();
+  // With P H Pᵀ = L Lᵀ, the blocks asked for are Eᵀ H⁻¹ E = Yᵀ Y with Y = L⁻¹ P E. A column of Y, L⁻¹ e_p,
+  // is nonzero only on the elimination tree's path from p to the root (the parent of column j is its first
+  // row below the diagonal), so forward substitution walks that path alone, and two columns meet only
+  // where their paths join (Davis, "Direct Methods for Sparse Linear Systems", SIAM 2006, §4.1).
+  const cholmod_factor& lower = *factor_->factor;
+  const int* column_start = static_cast<const int*>(lower.p);
+  const int* row_of = static_cast<const int*>(lower.i);
+  const double* value_of = static_cast<const double*>(lower.x);
   struct PathColumn {
     std::vector<int> rows;  // ascending
     std::vector<double> values;
@@ -93,16 +140,16 @@ Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) con
     PathColumn column;
     scratch[static_cast<std::size_t>(start)] = 1.0;
     for (int j = start; j >= 0;) {
-      const double value = scratch[static_cast<std::size_t>(j)];
+      // The diagonal comes first in each column of a simplicial CHOLMOD factor.
+      const double value = scratch[static_cast<std::size_t>(j)] / value_of[column_start[j]];
       scratch[static_cast<std::size_t>(j)] = 0.0;
       column.rows.push_back(j);
       column.values.push_back(value);
       int parent = -1;
-      for (Eigen::SparseMatrix<double>::InnerIterator entry(lower, j); entry; ++entry) {
-        const int row = static_cast<int>(entry.row());
-        if (row <= j) continue;  // the unit diagonal
+      for (int entry = column_start[j] + 1; entry < column_start[j + 1]; ++entry) {
+        const int row = row_of[entry];
         if (parent < 0 || row < parent) parent = row;
-        scratch[static_cast<std::size_t>(row)] -= entry.value() * value;
+        scratch[static_cast<std::size_t>(row)] -= value_of[entry] * value;
       }
       j = parent;
     }
@@ -114,7 +161,9 @@ Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) con
   for (int n = 0; n < k; ++n) {
     const int index = index_.at(nodes[static_cast<std::size_t>(n)]);
     if (index < 0) continue;  // the gauge node: held, zero covariance
-    for (int axis = 0; axis < 3; ++axis) columns[static_cast<std::size_t>(3 * n + axis)] = solve_unit(permutation(index + axis));
+    for (int axis = 0; axis < 3; ++axis) {
+      columns[static_cast<std::size_t>(3 * n + axis)] = solve_unit(factor_->position[static_cast<std::size_t>(index + axis)]);
+    }
   }
   Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(3 * k, 3 * k);
   for (int a = 0; a < 3 * k; ++a) {
@@ -128,7 +177,7 @@ Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) con
         } else if (second.rows[j] < first.rows[i]) {
           ++j;
         } else {
-          sum += first.values[i] * second.values[j] / diagonal(first.rows[i]);
+          sum += first.values[i] * second.values[j];
           ++i, ++j;
         }
       }

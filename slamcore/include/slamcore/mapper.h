@@ -114,8 +114,9 @@ class Mapper {
   /// Ground truth kept aside, by node (the last GroundTruthEvent at or before each node's creation).
   const std::unordered_map<NodeId, SE2>& ground_truth() const;
 
-  /// Ends the run: open hypotheses expire (logged), a pending conditional merge is undone, and the child
-  /// map (G) is returned. The Mapper must not be used afterwards.
+  /// Ends the run: open hypotheses expire (logged), a pending conditional merge is undone, with the
+  /// incremental back-end the robot's component is solved once to convergence, and the child map (G) is
+  /// returned. The Mapper must not be used afterwards.
   Map Finish();
 
  private:
