@@ -104,7 +104,9 @@ TEST(ManhattanWorldTest, TruthWalksTheGridInsideTheWorld) {
     EXPECT_EQ(pose.x(), std::round(pose.x()));
     EXPECT_GE(pose.x(), 0.0);
     EXPECT_LE(pose.y(), side);
-    if (k > 0) EXPECT_NEAR((pose.translation() - world.truth[k - 1].translation()).norm(), 1.0, 1e-12);
+    if (k > 0) {
+      EXPECT_NEAR((pose.translation() - world.truth[k - 1].translation()).norm(), 1.0, 1e-12);
+    }
   }
 }
 
