@@ -8,6 +8,7 @@
 // Markdown row per graph, mode and fraction (seeds summed); the README's table.
 //
 //   filter_accuracy [--graph NAME]... [--mode NAME]... [--fraction F]... [--seeds 1,2,3] [--data DIR]
+//                   [--backend incremental|batch]
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -51,6 +52,9 @@ int main(int argc, char** argv) {
   app.add_option("--data", data, "the posegraphs directory");
   bool counts_only = false;
   app.add_flag("--counts-only", counts_only, "the paper's filter alone (consistency checks off), for comparison");
+  std::string backend = "incremental";
+  app.add_option("--backend", backend, "the Mapper's back-end: incremental, or batch (the baseline)")
+      ->check(CLI::IsMember({"incremental", "batch"}));
   bool no_verify = false;
   app.add_flag("--no-verify", no_verify, "consistency checks without the leave-one-out verification");
   CLI11_PARSE(app, argc, argv);
@@ -77,6 +81,7 @@ int main(int argc, char** argv) {
           slamcore::MapperParams params;
           params.consistency.enabled = !counts_only;
           params.consistency.verify_after_optimization = !no_verify;
+          params.backend = backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
           const auto outcome = bench::EvaluateFilter(data, test_case, params);
           if (!outcome.ok()) {
             std::fprintf(stderr, "%s %s: %s\n", name.c_str(), mode.c_str(), outcome.status().ToString().c_str());

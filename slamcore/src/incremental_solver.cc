@@ -96,12 +96,12 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
   // held at its boundary would absorb the correction by bending: such an update starts from the whole
   // component, as a batch solve would.
   double largest_seed_chi2 = 0.0;
-  for (const std::size_t index : start == Start::kLocal ? std::vector<std::size_t>{} : region) {
+  for (const std::size_t index : start == Start::kLocalUnlessFar ? region : std::vector<std::size_t>{}) {
     for (const std::uint32_t e : incident_[index]) {
       largest_seed_chi2 = std::max(largest_seed_chi2, EdgeChi2(graph, graph.edges()[e]));
     }
   }
-  const bool large = whole || largest_seed_chi2 > options_.whole_component_edge_chi2;
+  const bool large = whole || start == Start::kWhole || largest_seed_chi2 > options_.whole_component_edge_chi2;
   Grow(graph, region, region, large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
 
   for (;;) {

@@ -66,7 +66,8 @@ class IncrementalSolver {
   /// Whether an update may start from the whole component when a seed's edge is far from the estimate:
   /// kLocal for edges whose correction is bounded (a direct edge passed the gate with a robot sure of its
   /// position), kLocalUnlessFar for accepted hypotheses (a recovery after a long drift).
-  enum class Start : std::uint8_t { kLocal, kLocalUnlessFar };
+  /// kWhole: the whole component at once (an acceptance the Mapper will verify against the optimum).
+  enum class Start : std::uint8_t { kLocal, kLocalUnlessFar, kWhole };
 
   /// Moves the poses of `graph` to the optimum after the edges at `seeds` changed (see the top of this
   /// file). Seeds that are not in the graph are ignored.

@@ -176,7 +176,17 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   robot_relative_covariance_ = candidate->state.covariance;
   anchor_ = Anchor{.hypothesis = hypothesis_id, .time = time_, .odometer = odometer_};
   std::string note;
-  if (params_.optimize_after_accept) OptimizeComponentOf(*current_node_, &note);
+  if (params_.optimize_after_accept) {
+    // The verification judges the newcomer at the optimum: the incremental back-end solves the whole
+    // component for it, as the batch one does for every acceptance.
+    if (verify && UsesIncrementalBackend()) {
+      direct_edges_since_full_optimization_ = 0;
+      pending_seeds_.push_back(*current_node_);
+      UpdateIncrementally(internal::IncrementalSolver::Start::kWhole);
+    } else {
+      OptimizeComponentOf(*current_node_, &note);
+    }
+  }
   if (verify && !VerifyAcceptance(hypothesis_id, verdict == RecoveryVerdict::kAcceptAndVerify, &note)) {
     map_.graph = std::move(saved->graph);
     accepted_ = std::move(saved->accepted);
