@@ -19,7 +19,9 @@
 //    `full_optimization_every` direct edges, and after every accepted hypothesis, the whole component
 //    is optimised. That is the batch back-end; the incremental one (incremental_solver.h, the default)
 //    instead re-solves, from the endpoints of the edges added since its last update, the region of G
-//    that still moves, whatever its size, so G stays at its optimum without whole-component solves.
+//    that still moves, whatever its size, so G stays near its optimum without whole-component solves
+//    (except for an acceptance the consistency checks will verify, which they judge at the optimum, and
+//    one far from the estimate); the edges of direct observations it defers like the batch one.
 //  * "Rejected observation" for the ambiguity tracker (IV-A): an observation that failed the direct gate
 //    (counted at once, at the odometer where it was made), and every observation of a merge hypothesis
 //    that is rejected or expires (counted when it is dropped, stamped with the odometer where it was made,
