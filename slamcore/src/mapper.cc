@@ -57,6 +57,7 @@ Status Mapper::Impl::Process(const Event& event) {
         }
       },
       event);
+  MaybeCheckConsistentSet();
   RefreshOverlay();
   return Status::Ok();
 }
@@ -174,6 +175,7 @@ Map Mapper::Impl::Finish() {
   std::vector<std::int64_t> open;
   for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);
   for (const std::int64_t id : open) DropHypothesis(id, DecisionKind::kExpired, "run ended");
+  if (current_node_) CheckConsistentSet("the run ended");
   return std::move(map_);
 }
 
