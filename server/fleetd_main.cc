@@ -109,7 +109,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--log-level", config.log_level, "debug, info, warn, error")->capture_default_str();
   app.add_option("--log-format", config.log_format, "json or text")->capture_default_str();
-  app.add_option("--auto-repair", config.auto_repair, "none, or cut_protrusions: cut protrusions out of maps after analysis")
+  app.add_option("--auto-repair", config.auto_repair,
+                 "none; cut_protrusions: cut protrusions out of maps after analysis; repair_findings: also reject "
+                 "unconfirmed hypotheses and high-residual edges, rolling back when one cannot be repaired")
+      ->capture_default_str();
+  app.add_option("--auto-repair-min-severity", config.auto_repair_min_severity,
+                 "the repair policy acts only on findings at least this severe (0..1)")
       ->capture_default_str();
   app.add_flag("--auto-approve", config.auto_approve, "policy repairs reach robots without an engineer's review");
   app.add_option("--retain-runs-days", config.retain_runs_days,
