@@ -110,6 +110,7 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"http", [&](const nlohmann::json& v) { config.http = v.get<std::string>(); }},
       {"http_allowed_hosts", [&](const nlohmann::json& v) { config.http_allowed_hosts = v.get<std::string>(); }},
       {"metrics_open", [&](const nlohmann::json& v) { config.metrics_open = v.get<bool>(); }},
+      {"lifelong_results", [&](const nlohmann::json& v) { config.lifelong_results = v.get<std::string>(); }},
       {"role", [&](const nlohmann::json& v) { config.role = v.get<std::string>(); }},
       {"workers", [&](const nlohmann::json& v) { config.workers = v.get<int>(); }},
       {"tls_cert", [&](const nlohmann::json& v) { config.tls_cert = v.get<std::string>(); }},

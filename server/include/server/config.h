@@ -18,6 +18,7 @@ struct FleetdConfig {
   std::string listen = "127.0.0.1:50051";  // gRPC; port 0 picks a free port
   std::string http = "127.0.0.1:8080";     // /metrics, /healthz; empty disables
   std::string http_allowed_hosts;           // comma-separated Host names accepted besides the bound address
+  std::string lifelong_results;             // fleetsim --lifelong --results FILE, served at /api/lifelong
   bool metrics_open = false;                // /metrics without a token (e.g. a scraper on a private network)
   std::string role = "all";                // "all", "server" (API only), "worker" (workers only)
   int workers = 0;                          // analysis threads; 0: one per core (at least 1)
