@@ -40,20 +40,26 @@
 
 namespace {
 
+/// The home files of `world` (a directory, or one file); false after printing why there are none.
+bool HomesOf(const std::string& world, std::vector<std::filesystem::path>* homes) {
+  if (!std::filesystem::is_directory(world)) {
+    *homes = {world};
+    return true;
+  }
+  auto worlds = sim::ListWorlds(world);
+  if (!worlds.ok()) {
+    std::cerr << "fleetsim: " << worlds.status().ToString() << "\n";
+    return false;
+  }
+  *homes = std::move(worlds).value();
+  return true;
+}
+
 /// --lifelong: validates, runs the regimes with one updating progress line on stderr, prints the table or the
 /// JSON object, and writes the object to `results_file` (whole or not at all).
 int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, bool json,
                        const std::string& results_file, bool remove_work_dir) {
-  if (std::filesystem::is_directory(world)) {
-    auto worlds = sim::ListWorlds(world);
-    if (!worlds.ok()) {
-      std::cerr << "fleetsim: " << worlds.status().ToString() << "\n";
-      return 1;
-    }
-    options.worlds = std::move(worlds).value();
-  } else {
-    options.worlds = {world};
-  }
+  if (!HomesOf(world, &options.worlds)) return 1;
   if (const slamcore::Status valid = sim::ValidateLifelong(options); !valid.ok()) {
     std::cerr << "fleetsim: " << valid.message() << "\n";
     return 2;
@@ -165,16 +171,7 @@ int main(int argc, char** argv) {
   options.params.home_clutter = *sim::ParseHomeClutter(clutter);  // checked by IsMember above
   options.protrusion_data = protrusion_data;
 
-  if (std::filesystem::is_directory(world)) {
-    auto worlds = sim::ListWorlds(world);
-    if (!worlds.ok()) {
-      std::cerr << "fleetsim: " << worlds.status().ToString() << "\n";
-      return 1;
-    }
-    options.worlds = std::move(worlds).value();
-  } else {
-    options.worlds = {world};
-  }
+  if (!HomesOf(world, &options.worlds)) return 1;
   if (!upload.uploader.server.empty()) {
     if (token_file.empty() && std::getenv("FLEET_TOKEN_FILE") != nullptr) token_file = std::getenv("FLEET_TOKEN_FILE");
     if (!token_file.empty()) {

@@ -16,18 +16,6 @@
 namespace sim {
 namespace {
 
-/// Regime (a): firmware without protection — a merge or loop closure on the first observation, no
-/// conditional stage, no checks against the map's own uncertainty.
-slamcore::MapperParams UnprotectedMapper() {
-  slamcore::MapperParams params;
-  params.conditional_merge = false;
-  params.merge_conditional = {.min_observations = 1, .min_views = 1};
-  params.merge_full = {.min_observations = 1, .min_views = 1};
-  params.recovery = {.min_observations = 1, .min_views = 1};
-  params.consistency.enabled = false;
-  return params;
-}
-
 bool KnownRegime(const std::string& name) {
   return name == "none" || name == "filter" || name == "service" || name == "review";
 }
@@ -94,7 +82,7 @@ slamcore::Result<RegimeResult> RunRegime(const LifelongOptions& options, const s
   fleet.params.label_regions = false;  // the protrusion truth pairs are not needed here
   fleet.measure_map_health = true;
   fleet.corruption = options.corruption;
-  if (name == "none") fleet.params.mapper = UnprotectedMapper();
+  if (name == "none") fleet.params.mapper = UnprotectedMapperParams();
   if (name == "none" || name == "filter") {
     auto statistics = SimulateFleet(fleet, progress);
     if (!statistics.ok()) return statistics.status();

@@ -32,16 +32,8 @@ using NodeTruth = std::unordered_map<slamcore::NodeId, slamcore::SE2>;
 
 constexpr const char* kRobot = "repair-robot";
 
-/// The robot's own back-end: a merge on a single observation, no conditional stage.
-slamcore::MapperParams PermissiveParameters() {
-  slamcore::MapperParams params;
-  params.conditional_merge = false;
-  params.merge_conditional = {.min_observations = 1, .min_views = 1};
-  params.merge_full = {.min_observations = 1, .min_views = 1};
-  params.recovery = {.min_observations = 1, .min_views = 1};
-  params.consistency.enabled = false;  // firmware without the checks against the map's own uncertainty
-  return params;
-}
+/// The robot's own back-end: a merge on a single observation, no conditional stage, no consistency checks.
+slamcore::MapperParams PermissiveParameters() { return sim::UnprotectedMapperParams(); }
 
 /// (robot node, view) of every observation the simulator marks wrong, by the node current at its time.
 std::set<std::pair<slamcore::NodeId, std::int64_t>> WrongObservations(const RunFile& run) {
