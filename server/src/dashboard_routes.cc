@@ -512,6 +512,7 @@ class Dashboard {
     if (report.ParseFromString(stored->report)) {
       const auto& d = report.divergence();
       out["analysis"] = json{
+          {"map_version", report.map_version()},
           {"seconds_to_conditional_relocalization", report.seconds_to_conditional_relocalization()},
           {"seconds_to_full_relocalization", report.seconds_to_full_relocalization()},
           {"replay_seconds", report.replay_seconds()},

@@ -18,8 +18,6 @@
 namespace server {
 namespace {
 
-constexpr const char* kPolicyCut = "policy:cut_protrusions";
-
 storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository, const std::string& snapshot_id) {
   auto stored = repository.GetSnapshot(snapshot_id);
   if (!stored.ok()) return stored.status();
@@ -240,6 +238,7 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
 
 MapPolicy MapPolicyOf(const FleetdConfig& config) {
   return {.auto_repair = config.auto_repair,
+          .min_severity = config.auto_repair_min_severity,
           .auto_approve = config.auto_approve,
           .default_parameter_set = config.default_parameter_set,
           .model_name = config.model_name};
@@ -313,27 +312,67 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
   STORAGE_RETURN_IF_ERROR(
       repository_.UpdateMapVersionHealth(version->robot_id, version->version, *known_area, ToRecords(findings)));
 
-  if (policy_.auto_repair != "cut_protrusions") return storage::Status::Ok();
+  if (policy_.auto_repair == "none") return storage::Status::Ok();
+  const std::string requested_by = "policy:" + policy_.auto_repair;
+  const bool all_findings = policy_.auto_repair == "repair_findings";
   std::int64_t base = version->version;
-  for (const fleet::v1::MapFinding& finding : findings) {
-    if (finding.kind() != "protrusion" || finding.state() != "open") continue;
-    RepairRequest cut;
-    cut.robot_id = version->robot_id;
-    cut.base_version = base;
-    cut.action = "cut_finding";
-    cut.finding_id = finding.finding_id();
-    cut.reason = "protrusion policy: " + finding.summary();
-    cut.approve = policy_.auto_approve;
-    cut.requested_by = kPolicyCut;
-    auto repaired = Repair(cut);
+  // Each repair makes a new version whose findings are recomputed, so the next finding is looked up in it;
+  // a finding is tried once (by what it names), and a run's map is repaired at most kMaxPolicyRepairs times.
+  constexpr int kMaxPolicyRepairs = 8;
+  std::set<std::string> tried;
+  std::vector<fleet::v1::MapFinding> open = findings;
+  for (int repairs = 0; repairs < kMaxPolicyRepairs; ++repairs) {
+    const fleet::v1::MapFinding* next = nullptr;
+    std::string key;
+    for (const fleet::v1::MapFinding& finding : open) {
+      if (finding.state() != "open" || finding.severity() < policy_.min_severity) continue;
+      const bool repairable = finding.kind() == "protrusion" ||
+                              (all_findings && (finding.kind() == "unconfirmed_hypothesis" ||
+                                                finding.kind() == "high_residual_edge"));
+      key = finding.kind() + ":" + std::to_string(finding.hypothesis()) + ":" + std::to_string(finding.edge_from()) +
+            ":" + std::to_string(finding.edge_to()) + ":" + finding.summary();
+      if (repairable && !tried.contains(key)) {
+        next = &finding;
+        break;
+      }
+    }
+    if (next == nullptr) break;
+    tried.insert(key);
+    RepairRequest repair;
+    repair.robot_id = version->robot_id;
+    repair.base_version = base;
+    if (next->kind() == "protrusion") {
+      repair.action = "cut_finding";
+      repair.finding_id = next->finding_id();
+    } else if (next->kind() == "unconfirmed_hypothesis") {
+      repair.action = "reject_hypothesis";
+      repair.hypothesis = next->hypothesis();
+    } else {
+      repair.action = "reject_edge";
+      repair.from = next->edge_from();
+      repair.to = next->edge_to();
+    }
+    repair.reason = "policy " + policy_.auto_repair + ": " + next->summary();
+    repair.approve = policy_.auto_approve;
+    repair.requested_by = requested_by;
+    auto repaired = Repair(repair);
+    if (!repaired.ok() && all_findings && repaired.status().code() != storage::StatusCode::kAborted) {
+      // The map breaks where it cannot be repaired finding by finding: back to the map before this run.
+      RepairRequest rollback = repair;
+      rollback.action = "rollback";
+      rollback.reason = "policy " + policy_.auto_repair + ": " + next->summary() + " could not be repaired (" +
+                        repaired.status().ToString() + ")";
+      repaired = Repair(rollback);
+      if (repaired.ok()) break;
+    }
     // The robot's map moved on meanwhile (ABORTED): the newer version gets its own analysis.
     if (!repaired.ok()) {
-      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(finding.finding_id())},
+      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(next->finding_id())},
                                         {"error", repaired.status().ToString()}});
       break;
     }
-    // A cut changes no finding's severity, so the next finding keeps its id in the repaired version.
     base = repaired->version.version();
+    open = std::move(repaired->findings);
   }
   return storage::Status::Ok();
 }

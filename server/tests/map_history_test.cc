@@ -192,6 +192,30 @@ TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
   EXPECT_EQ(snapshot.nodes_size(), 20);
 }
 
+TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereAsItsThreshold) {
+  {
+    MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 1.0});
+    UploadBoth(history);
+    ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+    std::int64_t current = 0, head = 0;
+    EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u) << "a protrusion below severity 1 is left open";
+    EXPECT_EQ(history.Get("r1", 2)->findings[0].state(), "open");
+  }
+  MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  auto repaired = history.Get("r1", 3);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  EXPECT_EQ(repaired->version.action(), "cut_region");
+  EXPECT_EQ(repaired->version.created_by(), "policy:repair_findings");
+  EXPECT_EQ(repaired->version.approval(), "approved");
+  EXPECT_EQ(repaired->version.open_findings(), 0);
+  // Analysed again (a retried job): the repaired version is the head, nothing is left to repair.
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  std::int64_t current = 0, head = 0;
+  EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
+  EXPECT_EQ(current, 3);
+}
+
 /// A map-only snapshot: a 6 × 5 m grid with a walled room [x0, x1] × [0.5, 4] (and a second one beside it
 /// when `kitchen`), the dock at (1, 0.6).
 fleet::v1::MapSnapshot ImportedRooms(bool kitchen) {

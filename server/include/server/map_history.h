@@ -32,8 +32,12 @@
 namespace server {
 
 struct MapPolicy {
-  /// "none", or "cut_protrusions": after analysis, cut open protrusion findings out of the newest version.
+  /// "none"; "cut_protrusions": after analysis, cut open protrusion findings out of the newest version;
+  /// "repair_findings": also reject the hypothesis of an unconfirmed-hypothesis finding and the edge of a
+  /// high-residual one, and roll back to the map before the run when such a finding cannot be repaired.
+  /// Only findings of at least `min_severity` are acted on.
   std::string auto_repair = "none";
+  double min_severity = 0.0;
   /// Policy repairs are approved at once (robots get them on their next GetMap) instead of waiting for review.
   bool auto_approve = false;
   std::string default_parameter_set = "default";
