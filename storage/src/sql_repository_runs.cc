@@ -315,9 +315,11 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
   params.emplace_back(set_b);                                                                    // $12
   const std::string sql =
       std::string("SELECT ") + kRunColumns + counters_a + counters_b +
-      " FROM runs r JOIN reports a ON a.robot_id = r.robot_id AND a.run_id = r.run_id AND a.parameter_set = $11"
-      " JOIN reports b ON b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = $12 WHERE " +
-      kRunFilterSql + " AND CAST($4 AS TEXT) = ''" +
+      // CROSS JOIN keeps SQLite walking runs in keyset order (runs_by_start) and probing each run's two
+      // reports by key, so a page costs its size, not the table's; PostgreSQL plans it as an inner join.
+      " FROM runs r CROSS JOIN reports a CROSS JOIN reports b WHERE a.robot_id = r.robot_id AND a.run_id = r.run_id"
+      " AND a.parameter_set = $11 AND b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = $12"
+      " AND " + std::string(kRunFilterSql) + " AND CAST($4 AS TEXT) = ''" +
       " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
       " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
       " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
