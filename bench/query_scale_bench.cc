@@ -148,6 +148,22 @@ std::vector<Query> Queries(storage::Repository& repo, server::FleetQueries& quer
   };
 }
 
+void PrintTable(const std::string& backend, const Options& options, const std::vector<long>& sizes,
+                const std::map<std::string, std::vector<double>>& times) {
+  std::printf("\n%s, %d robots, %d days; median of %d calls; ratio = time / time at %ld runs\n", backend.c_str(),
+              options.robots, options.days, options.repeats, sizes.front());
+  std::printf("%-32s", "query");
+  for (const long size : sizes) std::printf(" %10ld runs", size);
+  std::printf("   ratio\n");
+  for (const auto& [name, medians] : times) {
+    std::printf("%-32s", name.c_str());
+    for (double seconds : medians) std::printf(" %12.2f ms", seconds * 1e3);
+    std::printf("   %5.2f\n", medians.back() / medians.front());
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -200,16 +216,9 @@ int main(int argc, char** argv) {
         }
         times[query.name].push_back(Median(samples));
       }
-    }
-    std::printf("\n%s, %d robots, %d days; median of %d calls; ratio = time / time at %ld runs\n", backend.c_str(),
-                options.robots, options.days, options.repeats, options.sizes.front());
-    std::printf("%-32s", "query");
-    for (const long size : options.sizes) std::printf(" %10ld runs", size);
-    std::printf("   ratio\n");
-    for (const auto& [name, medians] : times) {
-      std::printf("%-32s", name.c_str());
-      for (double seconds : medians) std::printf(" %12.2f ms", seconds * 1e3);
-      std::printf("   %5.2f\n", medians.back() / medians.front());
+      // The table so far after every size, so a long run that is stopped still leaves its numbers.
+      const auto measured = static_cast<std::ptrdiff_t>(times.begin()->second.size());
+      PrintTable(backend, options, {options.sizes.begin(), options.sizes.begin() + measured}, times);
     }
     std::printf("\n");
   }

@@ -419,14 +419,12 @@ INSERT INTO report_rollup (parameter_set, day, firmware, robot_model, reports, r
 INSERT INTO report_robot_rollup (parameter_set, robot_id, reports, recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, recovery_retracted)
   SELECT p.parameter_set, p.robot_id, COUNT(*), SUM(p.recovery_created), SUM(p.recovery_accepted), SUM(p.merge_created), SUM(p.merge_conditionally_accepted), SUM(p.merge_conditional_then_rejected), SUM(p.views_total), SUM(p.views_ambiguous), SUM(p.started_localized), SUM(p.protrusions_found), SUM(p.recovery_retracted) FROM reports p GROUP BY 1, 2;
 INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports)
-  SELECT p.parameter_set, 'day', CAST(CASE WHEN r.started_at_ms >= 0 THEN r.started_at_ms / 86400000 ELSE (r.started_at_ms - 86399999) / 86400000 END AS TEXT), p.robot_id, COUNT(*)
-  FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id GROUP BY 1, 2, 3, 4;
-INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports)
-  SELECT p.parameter_set, 'firmware', r.firmware, p.robot_id, COUNT(*)
-  FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id GROUP BY 1, 2, 3, 4;
-INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports)
-  SELECT p.parameter_set, 'robot_model', r.robot_model, p.robot_id, COUNT(*)
-  FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id GROUP BY 1, 2, 3, 4;
+  SELECT g.parameter_set, g.dimension, g.group_key, g.robot_id, COUNT(*) FROM (
+    SELECT p.parameter_set, d.dimension, CASE d.dimension WHEN 'day' THEN CAST(CASE WHEN r.started_at_ms >= 0 THEN r.started_at_ms / 86400000 ELSE (r.started_at_ms - 86399999) / 86400000 END AS TEXT)
+      WHEN 'firmware' THEN r.firmware ELSE r.robot_model END AS group_key, p.robot_id
+    FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id
+    CROSS JOIN (SELECT 'day' AS dimension UNION ALL SELECT 'firmware' UNION ALL SELECT 'robot_model') d) g
+  GROUP BY 1, 2, 3, 4;
 INSERT INTO report_robot_counts (parameter_set, dimension, group_key, robots)
   SELECT parameter_set, dimension, group_key, COUNT(*) FROM report_robot_presence GROUP BY 1, 2, 3;
 )sql",

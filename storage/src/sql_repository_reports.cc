@@ -125,19 +125,20 @@ Status SqlRepository::PutReportIn(SqlTransaction& transaction, const ReportBundl
   }
   STORAGE_RETURN_IF_ERROR(AddReportToRollup(transaction, report, replaced));
 
-  // Labels are an engineer's work: carry them over to the replacement rows of the same region ids.
+  // Labels are an engineer's work: carry them over to the replacement rows of the same region ids. A new
+  // report has no rows to replace.
   std::map<std::int64_t, Label> labels;
-  auto labelled = transaction.Query(
-      "SELECT region_id, label, labelled_by FROM protrusion_regions WHERE robot_id = $1 AND run_id = $2 "
-      "AND parameter_set = $3 "
-      "AND label IS NOT NULL",
-      key);
-  if (!labelled.ok()) return labelled.status();
-  for (const SqlRow& row : *labelled) labels[row.Int(0)] = Label{row.Text(1), row.Text(2)};
-
-  for (const char* table : {"decisions", "ambiguous_views", "protrusion_regions"}) {
-    STORAGE_RETURN_IF_ERROR(transaction.Exec(
-        std::string("DELETE FROM ") + table + " WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3", key));
+  if (replaced) {
+    auto labelled = transaction.Query(
+        "SELECT region_id, label, labelled_by FROM protrusion_regions WHERE robot_id = $1 AND run_id = $2 "
+        "AND parameter_set = $3 AND label IS NOT NULL",
+        key);
+    if (!labelled.ok()) return labelled.status();
+    for (const SqlRow& row : *labelled) labels[row.Int(0)] = Label{row.Text(1), row.Text(2)};
+    for (const char* table : {"decisions", "ambiguous_views", "protrusion_regions"}) {
+      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+          std::string("DELETE FROM ") + table + " WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3", key));
+    }
   }
   for (const DecisionRecord& d : bundle.decisions) {
     STORAGE_RETURN_IF_ERROR(transaction.Exec(

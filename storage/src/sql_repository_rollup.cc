@@ -92,20 +92,22 @@ Status AddReportToRollup(SqlTransaction& transaction, const ReportRecord& report
   STORAGE_RETURN_IF_ERROR(AddToRow(transaction, "report_robot_rollup", {"parameter_set", "robot_id"},
                                    {report.parameter_set, report.robot_id}, new_reports, delta));
   if (replaced) return Status::Ok();  // a replacement keeps its run, so the robot's presence is unchanged
-  const std::pair<const char*, std::string> groups[] = {
-      {"day", std::to_string(cell->day)}, {"firmware", cell->firmware}, {"robot_model", cell->robot_model}};
-  for (const auto& [dimension, key] : groups) {
-    auto presence = transaction.Query(
-        "INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports) "
-        "VALUES ($1, $2, $3, $4, 1) ON CONFLICT (parameter_set, dimension, group_key, robot_id) "
-        "DO UPDATE SET reports = report_robot_presence.reports + 1 RETURNING reports",
-        {report.parameter_set, std::string(dimension), key, report.robot_id});
-    if (!presence.ok()) return presence.status();
-    if (presence->empty() || presence->front().Int(0) != 1) continue;  // the robot was in this group already
+  // One presence row per dimension in one statement; the rows it inserted (reports = 1) are groups the robot
+  // was not in yet, whose robot count rises.
+  const std::string day = std::to_string(cell->day);
+  auto presence = transaction.Query(
+      "INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports) "
+      "VALUES ($1, 'day', $2, $5, 1), ($1, 'firmware', $3, $5, 1), ($1, 'robot_model', $4, $5, 1) "
+      "ON CONFLICT (parameter_set, dimension, group_key, robot_id) "
+      "DO UPDATE SET reports = report_robot_presence.reports + 1 RETURNING dimension, group_key, reports",
+      {report.parameter_set, day, cell->firmware, cell->robot_model, report.robot_id});
+  if (!presence.ok()) return presence.status();
+  for (const SqlRow& row : *presence) {
+    if (row.Int(2) != 1) continue;
     STORAGE_RETURN_IF_ERROR(transaction.Exec(
         "INSERT INTO report_robot_counts (parameter_set, dimension, group_key, robots) VALUES ($1, $2, $3, 1) "
         "ON CONFLICT (parameter_set, dimension, group_key) DO UPDATE SET robots = report_robot_counts.robots + 1",
-        {report.parameter_set, std::string(dimension), key}));
+        {report.parameter_set, row.Text(0), row.Text(1)}));
   }
   return Status::Ok();
 }
@@ -160,6 +162,19 @@ FleetStatistics SumsFromRow(const SqlRow& row, std::size_t first) {
   return s;
 }
 
+/// Groups from rows (key, sums...) with their robots from rows (key, robots).
+std::vector<GroupStatistics> Joined(const SqlRows& sums, const SqlRows& robots) {
+  std::map<std::string, std::int64_t> robots_of;
+  for (const SqlRow& row : robots) robots_of[row.Text(0)] = row.Int(1);
+  std::vector<GroupStatistics> groups;
+  for (const SqlRow& row : sums) {
+    GroupStatistics group{row.Text(0), SumsFromRow(row, 1)};
+    group.statistics.robots = robots_of[group.key];
+    groups.push_back(std::move(group));
+  }
+  return groups;
+}
+
 const char* DimensionOf(GroupBy group_by) {
   switch (group_by) {
     case GroupBy::kDay: return "day";
@@ -206,14 +221,7 @@ std::optional<Result<std::vector<GroupStatistics>>> AggregateFromRollup(SqlTrans
     }
     auto robots = transaction.Query(robots_sql, robots_params);
     if (!robots.ok()) return fail(robots.status());
-    std::map<std::string, std::int64_t> robots_of;
-    for (const SqlRow& row : *robots) robots_of[row.Text(0)] = row.Int(1);
-    for (const SqlRow& row : *sums) {
-      GroupStatistics group{row.Text(0), SumsFromRow(row, 1)};
-      group.statistics.robots = robots_of[group.key];
-      groups.push_back(std::move(group));
-    }
-    return groups;
+    return Joined(*sums, *robots);
   }
 
   if (*group_by == GroupBy::kRobot) {
@@ -248,14 +256,7 @@ std::optional<Result<std::vector<GroupStatistics>>> AggregateFromRollup(SqlTrans
       "SELECT group_key, robots FROM report_robot_counts WHERE parameter_set = $1 AND dimension = $2",
       {filter.parameter_set, std::string(dimension)});
   if (!robots.ok()) return fail(robots.status());
-  std::map<std::string, std::int64_t> robots_of;
-  for (const SqlRow& row : *robots) robots_of[row.Text(0)] = row.Int(1);
-  for (const SqlRow& row : *sums) {
-    GroupStatistics group{row.Text(0), SumsFromRow(row, 1)};
-    group.statistics.robots = robots_of[group.key];
-    groups.push_back(std::move(group));
-  }
-  return groups;
+  return Joined(*sums, *robots);
 }
 
 }  // namespace storage::internal
