@@ -144,12 +144,18 @@ class MapRoutes {
       RepairRequest repair;
       repair.robot_id = robot;
       repair.base_version = *version;
-      repair.action = body.value("action", "");
-      repair.from = body.value("from", std::int64_t{0});
-      repair.to = body.value("to", std::int64_t{0});
-      if (body.contains("view") && !body["view"].is_null()) repair.view = body["view"].get<std::int64_t>();
-      repair.hypothesis = body.value("hypothesis", std::int64_t{0});
-      repair.finding_id = body.value("finding_id", std::int64_t{0});
+      auto action = RepairActionNamed(body.value("action", ""), "action");
+      if (!action.ok()) return Error(action.status());
+      repair.action = *action;
+      if (auto* edge = std::get_if<RejectEdge>(&repair.action)) {
+        edge->from = body.value("from", std::int64_t{0});
+        edge->to = body.value("to", std::int64_t{0});
+        if (body.contains("view") && !body["view"].is_null()) edge->view = body["view"].get<std::int64_t>();
+      } else if (auto* hypothesis = std::get_if<RejectHypothesis>(&repair.action)) {
+        hypothesis->hypothesis = body.value("hypothesis", std::int64_t{0});
+      } else if (auto* cut = std::get_if<CutFinding>(&repair.action)) {
+        cut->finding_id = body.value("finding_id", std::int64_t{0});
+      }
       repair.reason = body.value("reason", "");
       repair.approve = body.value("approve", false);
       repair.requested_by = principal->name;
