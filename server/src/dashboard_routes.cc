@@ -5,20 +5,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <list>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <set>
-#include <sstream>
 #include <unordered_map>
 
+#include "dashboard_json.h"
 #include "dashboard_maps.h"
+#include "dashboard_static.h"
 #include "http_helpers.h"
 #include "render_cache.h"
 #include "server/fleet_queries.h"
@@ -26,14 +21,17 @@
 #include "server/jobs.h"
 #include "server/log.h"
 
-#ifndef FLEETD_WEB_DIR_DEFAULT
-#define FLEETD_WEB_DIR_DEFAULT ""
-#endif
-
 namespace server {
 namespace {
 
 using json = nlohmann::json;
+using dashboard_json::FiguresJson;
+using dashboard_json::GroupsJson;
+using dashboard_json::JobJson;
+using dashboard_json::Optional;
+using dashboard_json::RegionJson;
+using dashboard_json::ReportCountersJson;
+using dashboard_json::RunJson;
 using http::Error;
 using http::Json;
 using http::ParseInt;
@@ -63,168 +61,6 @@ std::string Param(const std::map<std::string, std::string>& params, const std::s
   return it == params.end() ? std::string() : it->second;
 }
 
-// ---- JSON of storage records -----------------------------------------------------------------------------
-
-json Optional(const std::optional<double>& value) { return value ? json(*value) : json(nullptr); }
-
-/// The counters and the paper's figures derived from them (null when the denominator is 0).
-json FiguresJson(const Figures& f) {
-  const storage::FleetStatistics& s = f.counts;
-  return json{
-      {"reports", s.reports},
-      {"robots", s.robots},
-      {"recovery_created", s.recovery_created},
-      {"recovery_accepted", s.recovery_accepted},
-      {"merge_created", s.merge_created},
-      {"merge_conditionally_accepted", s.merge_conditionally_accepted},
-      {"merge_conditional_then_rejected", s.merge_conditional_then_rejected},
-      {"views_total", s.views_total},
-      {"views_ambiguous", s.views_ambiguous},
-      {"started_localized", s.started_localized},
-      {"protrusions_found", s.protrusions_found},
-      {"recovery_retracted", s.recovery_retracted},
-      {"recovery_per_run", Optional(f.recovery_per_run)},
-      {"recovery_accepted_share", Optional(f.recovery_accepted_share)},
-      {"started_localized_share", Optional(f.started_localized_share)},
-      {"merge_conditional_then_rejected_share", Optional(f.merge_conditional_then_rejected_share)},
-      {"ambiguous_view_share", Optional(f.ambiguous_view_share)},
-      {"protrusions_per_run", Optional(f.protrusions_per_run)},
-      {"recovery_retracted_share", Optional(f.recovery_retracted_share)},
-  };
-}
-
-json GroupsJson(const std::vector<FiguresGroup>& groups) {
-  json rows = json::array();
-  for (const FiguresGroup& group : groups) {
-    json row = FiguresJson(group.figures);
-    row["key"] = group.key;
-    rows.push_back(std::move(row));
-  }
-  return rows;
-}
-
-json RunJson(const storage::RunRecord& run) {
-  return json{{"run_id", run.run_id},
-              {"robot_id", run.robot_id},
-              {"firmware", run.firmware},
-              {"robot_model", run.robot_model},
-              {"started_at_ms", run.started_at_ms},
-              {"ended_at_ms", run.ended_at_ms},
-              {"parent_snapshot_id", run.parent_snapshot_id ? json(*run.parent_snapshot_id) : json(nullptr)},
-              {"child_snapshot_id", run.child_snapshot_id ? json(*run.child_snapshot_id) : json(nullptr)},
-              {"telemetry_size", run.telemetry_size},
-              {"telemetry_pruned_at_ms",
-               run.telemetry_pruned_at_ms ? json(*run.telemetry_pruned_at_ms) : json(nullptr)}};
-}
-
-json ReportCountersJson(const storage::ReportRecord& report) {
-  return json{{"parameter_set", report.parameter_set},
-              {"recovery_created", report.recovery_created},
-              {"recovery_accepted", report.recovery_accepted},
-              {"recovery_retracted", report.recovery_retracted},
-              {"merge_created", report.merge_created},
-              {"merge_conditionally_accepted", report.merge_conditionally_accepted},
-              {"merge_conditional_then_rejected", report.merge_conditional_then_rejected},
-              {"views_total", report.views_total},
-              {"views_ambiguous", report.views_ambiguous},
-              {"started_localized", report.started_localized},
-              {"protrusions_found", report.protrusions_found}};
-}
-
-json RegionJson(const storage::ProtrusionRegionRecord& region) {
-  json features = json::object();
-  if (!region.features_json.empty()) {
-    features = json::parse(region.features_json, nullptr, /*allow_exceptions=*/false);
-    if (features.is_discarded()) features = json::object();
-  }
-  return json{{"run_id", region.run_id},
-              {"robot_id", region.robot_id},
-              {"parameter_set", region.parameter_set},
-              {"region_id", region.region_id},
-              // x, y, width, height in child image cells (y down), as the map images are drawn.
-              {"bbox", {region.bbox.min_x, region.bbox.min_y, region.bbox.max_x - region.bbox.min_x,
-                        region.bbox.max_y - region.bbox.min_y}},
-              {"features", features},
-              {"predicted_class", region.predicted_class},
-              {"probability", region.probability},
-              {"label", region.label ? json(*region.label) : json(nullptr)},
-              {"labelled_by", region.labelled_by ? json(*region.labelled_by) : json(nullptr)}};
-}
-
-json JobJson(const storage::JobRecord& job) {
-  json out{{"job_id", job.job_id},
-           {"kind", job.kind},
-           {"state", storage::JobStateName(job.state)},
-           {"attempts", job.attempts},
-           {"max_attempts", job.max_attempts},
-           {"progress_done", job.progress_done},
-           {"progress_total", job.progress_total},
-           {"last_error", job.last_error},
-           {"created_at_ms", job.created_at_ms},
-           {"updated_at_ms", job.updated_at_ms},
-           {"parent_job_id", job.parent_job_id ? json(*job.parent_job_id) : json(nullptr)},
-           {"lease_owner", job.lease_owner ? json(*job.lease_owner) : json(nullptr)},
-           {"robot_id", job.robot_id ? json(*job.robot_id) : json(nullptr)}};
-  if (job.kind == kReprocessJob) {
-    if (auto payload = DecodeReprocessPayload(job.payload); payload.ok()) {
-      out["parameter_set"] = payload->parameter_set;
-      out["filter"] = json{{"robot_id", payload->filter.robot_id}, {"firmware", payload->filter.firmware}};
-    }
-  } else if (job.kind == kAnalyzeRunJob) {
-    if (auto payload = DecodeAnalyzePayload(job.payload); payload.ok()) {
-      out["parameter_set"] = payload->parameter_set;
-      out["run_id"] = payload->run_id;
-    }
-  }
-  return out;
-}
-
-// ---- Static files ----------------------------------------------------------------------------------------
-
-std::string ContentTypeOf(const std::string& path) {
-  static const std::map<std::string, std::string> kTypes = {
-      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
-      {".mjs", "text/javascript; charset=utf-8"}, {".css", "text/css; charset=utf-8"},
-      {".json", "application/json"}, {".png", "image/png"}, {".svg", "image/svg+xml"},
-      {".map", "application/json"}, {".ico", "image/x-icon"}};
-  const std::string extension = std::filesystem::path(path).extension().string();
-  const auto it = kTypes.find(extension);
-  return it == kTypes.end() ? "application/octet-stream" : it->second;
-}
-
-/// Only plain relative paths: no "..", no empty or hidden segments, a conservative character set.
-bool SafeRelativePath(const std::string& path) {
-  if (path.empty() || path.size() > 256) return false;
-  for (const std::string& part : SplitPath(path)) {
-    if (part.empty() || part[0] == '.') return false;
-  }
-  return std::all_of(path.begin(), path.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
-           c == '-' || c == '/';
-  });
-}
-
-HttpResponse ServeFile(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in || std::filesystem::is_directory(file)) return Error(404, "not found");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  HttpResponse response;
-  response.content_type = ContentTypeOf(file.string());
-  response.body = bytes.str();
-  response.headers.emplace_back("Cache-Control", "no-cache");
-  return response;
-}
-
-std::filesystem::path ResolveWebDir() {
-  if (const char* env = std::getenv("FLEETD_WEB_DIR"); env != nullptr && *env != '\0') return env;
-  const std::filesystem::path built = FLEETD_WEB_DIR_DEFAULT;
-  std::error_code ec;
-  if (!built.empty() && std::filesystem::exists(built / "index.html", ec)) return built;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::filesystem::path("web") : exe.parent_path() / "web";
-}
-
 // ---- The routes ------------------------------------------------------------------------------------------
 
 class Dashboard {
@@ -233,24 +69,7 @@ class Dashboard {
       : repository_(repository),
         authenticator_(authenticator),
         default_set_(config.default_parameter_set),
-        web_dir_(ResolveWebDir()),
         label_limiter_(config.rate_limit_per_second, config.rate_limit_burst) {
-    log::Info("dashboard_web_dir", {{"path", web_dir_.string()},
-                                    {"found", std::filesystem::exists(web_dir_ / "index.html")}});
-  }
-
-  HttpResponse Static(const HttpRequest& request) {
-    if (request.path == "/" || request.path == "/index.html") return ServeFile(web_dir_ / "index.html");
-    const std::string prefix = "/static/";
-    if (request.path.rfind(prefix, 0) != 0) return Error(404, "not found: " + request.path);
-    const std::string relative = request.path.substr(prefix.size());
-    if (!SafeRelativePath(relative)) return Error(404, "not found");
-    const std::string vendor = "vendor/chart.js/";
-    if (relative.rfind(vendor, 0) == 0) {
-      return ServeFile(web_dir_ / "node_modules" / "chart.js" / "dist" / relative.substr(vendor.size()));
-    }
-    if (relative.rfind("node_modules", 0) == 0) return Error(404, "not found");
-    return ServeFile(web_dir_ / relative);
   }
 
   /// GET /api/...: the first template that fits the path.
@@ -681,7 +500,6 @@ class Dashboard {
   Authenticator& authenticator_;
   const std::string default_set_;
   FleetQueries queries_{repository_, default_set_};
-  const std::filesystem::path web_dir_;
   RateLimiter label_limiter_;
   RenderCache<dashboard::RunMaps> map_cache_{64u << 20, [](const dashboard::RunMaps& maps) {
                                                  return sizeof maps + maps.parent_png.size() + maps.child_png.size() +
@@ -694,7 +512,7 @@ class Dashboard {
 void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
                              const FleetdConfig& config) {
   auto dashboard = std::make_shared<Dashboard>(repository, authenticator, config);
-  router.AddRoute("GET", "/", [dashboard](const HttpRequest& request) { return dashboard->Static(request); });
+  RegisterStaticRoutes(router);
   router.AddRoute("GET", "/api/", [dashboard](const HttpRequest& request) { return dashboard->Api(request); });
   router.AddRoute("POST", "/api/runs/", [dashboard](const HttpRequest& request) { return dashboard->Label(request); });
 }
