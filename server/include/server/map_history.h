@@ -19,7 +19,9 @@
 
 #include <array>
 #include <set>
+#include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "fleet/v1/maps.pb.h"
@@ -53,14 +55,30 @@ struct UploadMapOutcome {
   bool outdated = false;             // the run was built on a map older than the current one
 };
 
+/// What a repair does (the Maps.RepairMap oneof; the dashboard's "action" with its fields).
+struct RejectEdge {
+  std::int64_t from = 0, to = 0;
+  std::optional<std::int64_t> view;
+};
+struct RejectHypothesis {
+  std::int64_t hypothesis = 0;
+};
+struct CutFinding {
+  std::int64_t finding_id = 0;
+};
+struct Rollback {};
+struct Undo {};
+using RepairAction = std::variant<RejectEdge, RejectHypothesis, CutFinding, Rollback, Undo>;
+
+/// "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo".
+const char* RepairActionName(const RepairAction& action);
+/// The action a name stands for, with default fields; INVALID_ARGUMENT naming `field` for any other name.
+storage::Result<RepairAction> RepairActionNamed(const std::string& name, const std::string& field);
+
 struct RepairRequest {
   std::string robot_id;
   std::int64_t base_version = 0;
-  std::string action;  // "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"
-  std::int64_t from = 0, to = 0;
-  std::optional<std::int64_t> view;
-  std::int64_t hypothesis = 0;
-  std::int64_t finding_id = 0;
+  RepairAction action;
   std::string reason;
   bool approve = false;
   std::string requested_by;  // principal name or "policy:<name>"
