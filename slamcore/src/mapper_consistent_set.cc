@@ -108,14 +108,14 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   // as one edge per pass (a group of ten views from one traversal is one observation of one place, and must
   // not outweigh two passes of the truth by its size).
   for (Cluster& cluster : clusters) {
-    std::vector<const Node*> robot_nodes;
-    for (const std::size_t k : cluster.edges) robot_nodes.push_back(&working.node(working.edges()[k].from));
-    std::sort(robot_nodes.begin(), robot_nodes.end(), [](const Node* a, const Node* b) { return a->time < b->time; });
-    int passes = 0;
-    for (std::size_t i = 0; i < robot_nodes.size(); ++i) {
-      passes += i == 0 || robot_nodes[i]->time - robot_nodes[i - 1]->time > consistency.pass_gap_seconds ||
-                std::abs(robot_nodes[i]->odometer - robot_nodes[i - 1]->odometer) > consistency.pass_gap_distance;
+    std::vector<internal::TraversalPoint> points;
+    for (const std::size_t k : cluster.edges) {
+      const Node& node = working.node(working.edges()[k].from);
+      points.push_back({.time = node.time, .odometer = node.odometer});
     }
+    std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.time < b.time; });
+    const int passes =
+        internal::CountPasses(points, consistency.pass_gap_seconds, consistency.pass_gap_distance);
     cluster.edge_scale = static_cast<double>(passes) / static_cast<double>(cluster.edges.size());
     const boost::math::chi_squared_distribution<double> distribution(3.0 * passes);
     cluster.threshold = boost::math::quantile(distribution, consistency.consistent_set_confidence);

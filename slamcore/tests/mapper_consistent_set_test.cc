@@ -4,9 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numbers>
-#include <set>
-#include <tuple>
 
 #include "graduated_non_convexity.h"
 #include "mapper_test_util.h"
@@ -17,6 +14,7 @@ namespace slamcore {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::EdgeSet;
 using testing::IsNearlyPose;
 using testing::MakeMapper;
 using testing::SimulatedRobot;
@@ -43,45 +41,15 @@ TEST(TruncatedLeastSquaresWeightTest, TheFirstRoundKeepsEveryMeasurement) {
   EXPECT_NEAR(internal::TruncatedLeastSquaresWeight(10.0, mu), (std::sqrt(2.0) - 1.0) / 19.0, 1e-12);
 }
 
-/// The edges of a graph as (from, to, measurement) triples, to compare graphs built in different orders.
-std::multiset<std::tuple<NodeId, NodeId, double, double, double>> EdgeSet(const PoseGraph& graph) {
-  std::multiset<std::tuple<NodeId, NodeId, double, double, double>> edges;
-  for (const Edge& edge : graph.edges()) {
-    edges.emplace(edge.from, edge.to, edge.measurement.x(), edge.measurement.y(), edge.measurement.theta());
-  }
-  return edges;
-}
-
-// A corridor out and back with loose odometry, as in mapper_consistency_test.cc: views 1–3 at x = 0, 1, 2;
-// the robot drives to x = 12 and back to x = 2, unsure where by metres. One pass of wrong observations
-// claims it stands at x = 4.5 (uninformative: accepted). One later pass of the truth contradicts it; a
-// single pass cannot overrule the map online (three are needed), so it waits and is refused at the end.
-// Only the two judged together show which fits the odometry: the truth.
+// The corridor of mapper_test_util.h with one pass of the truth after the wrong pass: a single pass cannot
+// overrule the map online (three are needed), so it waits and is refused at the end. Only the two judged
+// together show which fits the odometry: the truth.
 void CorridorWithOnePassOfTruth(Mapper& mapper, bool with_wrong_pass) {
-  SimulatedRobot robot(mapper);
-  constexpr double kOdometryVariance = 0.1;  // per axis and step: σ_x ≈ 1.5 m after 22 steps
-  robot.Drive(SE2::Identity(), std::nullopt, kOdometryVariance);
-  robot.CreateView(1);
-  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  robot.CreateView(2);
-  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  robot.CreateView(3);
-  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  robot.Drive(SE2(0, 0, std::numbers::pi), std::nullopt, kOdometryVariance);
-  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  if (with_wrong_pass) {
-    for (const ViewId view : {1, 2, 3}) {
-      const SE2 world_T_view(view - 1.0, 0, 0), wrong_world_T_robot(4.5, 0, std::numbers::pi);
-      robot.ObserveRaw(view, wrong_world_T_robot.inverse() * world_T_view, 1e-4);
-    }
-  }
-  robot.Wait(25.0);
-  for (const ViewId view : {1, 2, 3}) robot.Observe(view, SE2::Identity(), 1e-4);
+  testing::CorridorOutAndBack(mapper, with_wrong_pass, 1);
 }
 
 MapperParams CorridorParams(bool consistent_set_check) {
-  MapperParams params = testing::TestParams();
-  params.ambiguity_min_rejections = 1000;  // the test is about the filter, not the ambiguity marks
+  MapperParams params = testing::CorridorParams();
   params.consistency.consistent_set_check = consistent_set_check;
   return params;
 }
