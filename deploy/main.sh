@@ -2,7 +2,8 @@
 # The README's main job: installs dependencies, builds, runs the shared SLAM core on real public pose graphs,
 # starts fleetd on its embedded SQLite default, drives it with a simulated fleet in real homes, labels the
 # regions from the simulator's ground truth, trains and activates the protrusion classifier, reprocesses the
-# fleet with it, and prints the fleet statistics, each robot's map health and the dashboard URL. fleetd keeps running afterwards so
+# fleet with it, and prints the fleet statistics, each robot's map health (the fleet's map-health line: healthy /
+# repaired / corrupted robots by ground truth) and the dashboard URL. fleetd keeps running afterwards so
 # the dashboard can be opened; the last lines say how to stop it.
 #
 # Knobs (environment): FLEET_ROBOTS (12), FLEET_RUNS (4), FLEET_MINUTES (10), FLEET_SEED (1),
@@ -68,7 +69,7 @@ echo
 echo "== A simulated fleet in real homes uploads its runs =="
 "$bin/fleetsim" --world "$data/floorplans" --robots "${FLEET_ROBOTS:-12}" --runs "${FLEET_RUNS:-4}" \
   --minutes "${FLEET_MINUTES:-10}" --seed "${FLEET_SEED:-1}" --home-clutter "${FLEET_HOME_CLUTTER:-high}" \
-  --out "$work/runs" --upload "$grpc"
+  --out "$work/runs" --upload "$grpc" --follow-service --map-health | tee "$work/fleetsim.txt"
 wait_for_jobs
 
 echo
@@ -126,6 +127,9 @@ print(f"{'robot':<14} {'versions':>8} {'current':>8} {'open findings':>14}")
 for robot in robots:
     print(f"{robot['robot_id']:<14} {robot['versions']:>8} {robot['current_version']:>8} {robot.get('open_findings', 0):>14}")
 PY
+# Each robot's map after its last run against the simulator's ground truth (docs/fleetsim.md, "Map health"):
+# corrupted past the documented threshold, else repaired when it took a repaired version from the service.
+grep '^map health' "$work/fleetsim.txt"
 first_robot=$("$bin/fleetctl" runs --limit 1 --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["runs"][0]["robot_id"])')
 "$bin/fleetctl" maps show "$first_robot"
 echo

@@ -17,6 +17,7 @@
 #include "server/auth.h"
 #include "server/config.h"
 #include "server/dashboard_routes.h"
+#include "server/lifelong_routes.h"
 #include "server/fleet_server.h"
 #include "server/health.h"
 #include "server/http_server.h"
@@ -66,6 +67,8 @@ int main(int argc, char** argv) {
   app.add_option("--http-allowed-hosts", config.http_allowed_hosts,
                  "comma-separated Host header names the HTTP side answers besides its bound address");
   app.add_flag("--metrics-open", config.metrics_open, "serve /metrics without a token (default: engineer token)");
+  app.add_option("--lifelong-results", config.lifelong_results,
+                 "serve this fleetsim --lifelong --results file to the dashboard's fleet page (/api/lifelong)");
   app.add_option("--role", config.role, "all, server (API only) or worker (workers only)")->capture_default_str();
   app.add_option("--workers", config.workers, "analysis worker threads (0: one per core)")->capture_default_str();
   app.add_option("--tls-cert", config.tls_cert, "PEM certificate chain: serve gRPC over TLS");
@@ -109,7 +112,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--log-level", config.log_level, "debug, info, warn, error")->capture_default_str();
   app.add_option("--log-format", config.log_format, "json or text")->capture_default_str();
-  app.add_option("--auto-repair", config.auto_repair, "none, or cut_protrusions: cut protrusions out of maps after analysis")
+  app.add_option("--auto-repair", config.auto_repair,
+                 "none; cut_protrusions: cut protrusions out of maps after analysis; repair_findings: also reject "
+                 "unconfirmed hypotheses and high-residual edges, rolling back when one cannot be repaired")
+      ->capture_default_str();
+  app.add_option("--auto-repair-min-severity", config.auto_repair_min_severity,
+                 "the repair policy acts only on findings at least this severe (0..1)")
       ->capture_default_str();
   app.add_flag("--auto-approve", config.auto_approve, "policy repairs reach robots without an engineer's review");
   app.add_option("--retain-runs-days", config.retain_runs_days,
@@ -241,6 +249,7 @@ int main(int argc, char** argv) {
   });
   server::RegisterDashboardRoutes(router, repo, authenticator, config);
   server::RegisterMapRoutes(router, repo, authenticator, config);
+  server::RegisterLifelongRoutes(router, config);
   router.SetGuard(server::MakeHttpAccessGuard(repo, authenticator, config));
   std::unique_ptr<server::HttpServer> http;
   if (!config.http.empty()) {

@@ -16,16 +16,86 @@
 // sets the homes' rugs and low furniture, scales the per-contact stuck probabilities, sets the share of robots
 // with a lidar, and writes each run's parent/child maps with per-cell ground truth as a protrusion data set
 // (docs/fleetsim.md).
+//
+//   fleetsim --lifelong --world DIR [--robots N] [--runs M] [--seed S] [--minutes T] [--json] [--results FILE]
+//            [--regimes none,filter,service,review] [--review-every K] [--min-severity X] [--fleetd BIN]
+//
+// the lifelong experiment (sim/lifelong.h; default 20 robots × 40 runs of 10 minutes): the four regimes on the
+// same seeds, a fleetd of its own for the service regimes (the one beside this program unless --fleetd), a
+// table (or with --json one object on the last line), --results also writes that object to FILE.
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <cstdlib>
 #include <unistd.h>
+#include <fstream>
 #include <iostream>
 
 #include "sim/fleet.h"
+#include "sim/follow_service.h"
+#include "sim/fleetd_launcher.h"
+#include "sim/lifelong.h"
 #include "sim/upload_files.h"
 #include "sim/uploader.h"
+
+namespace {
+
+/// The home files of `world` (a directory, or one file); false after printing why there are none.
+bool HomesOf(const std::string& world, std::vector<std::filesystem::path>* homes) {
+  if (!std::filesystem::is_directory(world)) {
+    *homes = {world};
+    return true;
+  }
+  auto worlds = sim::ListWorlds(world);
+  if (!worlds.ok()) {
+    std::cerr << "fleetsim: " << worlds.status().ToString() << "\n";
+    return false;
+  }
+  *homes = std::move(worlds).value();
+  return true;
+}
+
+/// --lifelong: validates, runs the regimes with one updating progress line on stderr, prints the table or the
+/// JSON object, and writes the object to `results_file` (whole or not at all).
+int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, bool json,
+                       const std::string& results_file, bool remove_work_dir) {
+  if (!HomesOf(world, &options.worlds)) return 1;
+  if (const slamcore::Status valid = sim::ValidateLifelong(options); !valid.ok()) {
+    std::cerr << "fleetsim: " << valid.message() << "\n";
+    return 2;
+  }
+  const auto results = sim::RunLifelong(options, [](const std::string& regime, int done, int total) {
+    std::fprintf(stderr, "\rfleetsim lifelong: regime %-8s %5d/%d runs", regime.c_str(), done, total);
+    std::fflush(stderr);
+  });
+  std::fprintf(stderr, "\n");
+  if (remove_work_dir) {
+    std::error_code ignored;
+    std::filesystem::remove_all(options.work_dir, ignored);
+  }
+  if (!results.ok()) {
+    std::cerr << "fleetsim: " << results.status().ToString() << "\n";
+    return 1;
+  }
+  const std::string object = sim::LifelongJson(options, *results);
+  if (!results_file.empty()) {
+    const std::string temporary = results_file + ".tmp";
+    std::ofstream out(temporary, std::ios::trunc);
+    out << object << "\n";
+    out.close();
+    std::error_code error;
+    if (!out) error = std::make_error_code(std::errc::io_error);
+    if (!error) std::filesystem::rename(temporary, results_file, error);
+    if (error) {
+      std::cerr << "fleetsim: --results " << results_file << ": " << error.message() << "\n";
+      return 1;
+    }
+  }
+  std::cout << (json ? object + "\n" : sim::LifelongText(options, *results));
+  return 0;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"fleetsim: a simulated fleet of real homes and robots, with ground truth"};
@@ -59,20 +129,49 @@ int main(int argc, char** argv) {
                  "token for --upload (default: $FLEET_TOKEN); prefer --token-file or the environment");
   app.add_option("--token-file", token_file, "read the token for --upload from this file (default $FLEET_TOKEN_FILE)");
   app.add_option("--upload-threads", upload.threads, "parallel upload streams")->check(CLI::Range(1, 256));
+  bool follow = false;
+  app.add_flag("--follow-service", follow,
+               "with --upload: each robot uploads after each run and takes the newest approved map before the next");
+  app.add_flag("--map-health", options.measure_map_health,
+               "measure every robot's map against ground truth after each run (docs/fleetsim.md, Map health)");
+  bool lifelong = false;
+  sim::LifelongOptions life;
+  std::string regimes = "none,filter,service,review", results_file, fleetd, work_dir;
+  app.add_flag("--lifelong", lifelong, "the lifelong experiment: four regimes side by side (docs/fleetsim.md)");
+  app.add_option("--regimes", regimes, "--lifelong: the regimes to run, comma-separated");
+  app.add_option("--review-every", life.review_every_runs, "--lifelong review: an engineer approves every K runs");
+  app.add_option("--min-severity", life.min_severity, "--lifelong: the repair policy acts on findings this severe");
+  app.add_option("--results", results_file, "--lifelong: also write the JSON object to this file");
+  app.add_option("--fleetd", fleetd, "--lifelong: the fleetd binary (default: beside fleetsim)");
+  app.add_option("--work-dir", work_dir, "--lifelong: where the service regimes' fleetd keep their databases");
   CLI11_PARSE(app, argc, argv);
+  if (lifelong) {
+    life.robots = app.count("--robots") ? options.robots : 20;
+    life.runs = app.count("--runs") ? options.runs : 40;
+    life.seed = options.seed;
+    life.threads = options.threads;
+    life.run_minutes = app.count("--minutes") ? options.params.run_minutes : 10.0;
+    life.params = options.params;
+    life.params.home_clutter = *sim::ParseHomeClutter(clutter);
+    life.regimes.clear();
+    for (std::size_t start = 0; start <= regimes.size();) {
+      const std::size_t comma = std::min(regimes.find(',', start), regimes.size());
+      if (comma > start) life.regimes.push_back(regimes.substr(start, comma - start));
+      start = comma + 1;
+    }
+    life.fleetd = fleetd.empty() ? sim::FleetdBesideThisProgram() : std::filesystem::path(fleetd);
+    life.work_dir = work_dir.empty() ? std::filesystem::temp_directory_path() / ("fleetsim-lifelong-" + std::to_string(getpid()))
+                                     : std::filesystem::path(work_dir);
+    return RunLifelongCommand(world, life, json, results_file, work_dir.empty());
+  }
+  if (follow && upload.uploader.server.empty()) {
+    std::cerr << "fleetsim: --follow-service needs --upload HOST:PORT\n";
+    return 2;
+  }
   options.params.home_clutter = *sim::ParseHomeClutter(clutter);  // checked by IsMember above
   options.protrusion_data = protrusion_data;
 
-  if (std::filesystem::is_directory(world)) {
-    auto worlds = sim::ListWorlds(world);
-    if (!worlds.ok()) {
-      std::cerr << "fleetsim: " << worlds.status().ToString() << "\n";
-      return 1;
-    }
-    options.worlds = std::move(worlds).value();
-  } else {
-    options.worlds = {world};
-  }
+  if (!HomesOf(world, &options.worlds)) return 1;
   if (!upload.uploader.server.empty()) {
     if (token_file.empty() && std::getenv("FLEET_TOKEN_FILE") != nullptr) token_file = std::getenv("FLEET_TOKEN_FILE");
     if (!token_file.empty()) {
@@ -85,7 +184,14 @@ int main(int argc, char** argv) {
       upload.uploader.token = *token;
     }
     if (upload.uploader.token.empty() && std::getenv("FLEET_TOKEN") != nullptr) upload.uploader.token = std::getenv("FLEET_TOKEN");
-    if (out.empty()) out = (std::filesystem::temp_directory_path() / ("fleetsim-" + std::to_string(getpid()))).string();
+    if (out.empty() && !follow) {
+      out = (std::filesystem::temp_directory_path() / ("fleetsim-" + std::to_string(getpid()))).string();
+    }
+  }
+  if (follow) {
+    sim::FollowServiceOptions follow_options;
+    follow_options.uploader = upload.uploader;
+    sim::FollowService(follow_options, options);
   }
   options.out = out;
   const bool interactive = isatty(fileno(stderr));
@@ -103,7 +209,7 @@ int main(int argc, char** argv) {
     std::cerr << "fleetsim: " << statistics.status().ToString() << "\n";
     return 1;
   }
-  if (!upload.uploader.server.empty()) {
+  if (!upload.uploader.server.empty() && !follow) {
     const auto uploaded = sim::UploadFiles({out}, upload);
     std::fprintf(stderr, "fleetsim: %s\n", uploaded.Summary().c_str());
     if (uploaded.failed > 0) return 1;

@@ -44,6 +44,11 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   consistency->set_max_continuation_edges(c.max_continuation_edges);
   consistency->set_max_judged_per_check(c.max_judged_per_check);
   consistency->set_max_retractions_per_check(c.max_retractions_per_check);
+  consistency->set_consistent_set_check(c.consistent_set_check);
+  consistency->set_consistent_set_confidence(c.consistent_set_confidence);
+  consistency->set_consistent_set_growth(c.consistent_set_growth);
+  consistency->set_max_kept_refused(c.max_kept_refused);
+  consistency->set_gnc_max_iterations(c.gnc_max_iterations);
   return proto;
 }
 
@@ -86,6 +91,11 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   if (from.has_max_continuation_edges()) c.max_continuation_edges = from.max_continuation_edges();
   if (from.has_max_judged_per_check()) c.max_judged_per_check = from.max_judged_per_check();
   if (from.has_max_retractions_per_check()) c.max_retractions_per_check = from.max_retractions_per_check();
+  if (from.has_consistent_set_check()) c.consistent_set_check = from.consistent_set_check();
+  if (from.has_consistent_set_confidence()) c.consistent_set_confidence = from.consistent_set_confidence();
+  if (from.has_consistent_set_growth()) c.consistent_set_growth = from.consistent_set_growth();
+  if (from.has_max_kept_refused()) c.max_kept_refused = from.max_kept_refused();
+  if (from.has_gnc_max_iterations()) c.gnc_max_iterations = from.gnc_max_iterations();
   if (const slamcore::Status status = params.Validate(); !status.ok()) return status;
   return params;
 }

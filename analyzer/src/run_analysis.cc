@@ -282,6 +282,7 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
   report.set_robot_id(run.header().robot_id());
   report.set_parameter_set(options.parameter_set_name);
   report.set_firmware(run.header().firmware());
+  report.set_map_version(run.header().map_version());
   report.set_started_at(run.header().started_at());
   *report.mutable_counts() = CountsToProto(statistics);
   for (const Decision& decision : decisions) *report.add_decisions() = DecisionToProto(decision);

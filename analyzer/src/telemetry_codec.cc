@@ -404,6 +404,9 @@ Status Validate(const fleet::v1::RunHeader& header) {
     }
   }
   if (header.ended_at() < header.started_at()) return InvalidArgument("header.ended_at: before started_at");
+  if (header.map_version() < 0) {
+    return InvalidArgument("header.map_version: " + std::to_string(header.map_version()) + " is negative (0: none)");
+  }
   return Status::Ok();
 }
 

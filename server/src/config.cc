@@ -65,8 +65,12 @@ storage::Status FleetdConfig::Validate() const {
     return storage::InvalidArgument("retention_interval_seconds: expected 1 .. 604800");
   }
   if (log_format != "json" && log_format != "text") return storage::InvalidArgument("log_format: json or text");
-  if (auto_repair != "none" && auto_repair != "cut_protrusions") {
-    return storage::InvalidArgument("auto_repair: expected none or cut_protrusions, got \"" + auto_repair + "\"");
+  if (auto_repair != "none" && auto_repair != "cut_protrusions" && auto_repair != "repair_findings") {
+    return storage::InvalidArgument("auto_repair: expected none, cut_protrusions or repair_findings, got \"" +
+                                    auto_repair + "\"");
+  }
+  if (!(auto_repair_min_severity >= 0.0 && auto_repair_min_severity <= 1.0)) {
+    return storage::InvalidArgument("auto_repair_min_severity: expected 0 .. 1");
   }
   if (log_level != "debug" && log_level != "info" && log_level != "warn" && log_level != "error") {
     return storage::InvalidArgument("log_level: debug, info, warn or error");
@@ -106,6 +110,7 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"http", [&](const nlohmann::json& v) { config.http = v.get<std::string>(); }},
       {"http_allowed_hosts", [&](const nlohmann::json& v) { config.http_allowed_hosts = v.get<std::string>(); }},
       {"metrics_open", [&](const nlohmann::json& v) { config.metrics_open = v.get<bool>(); }},
+      {"lifelong_results", [&](const nlohmann::json& v) { config.lifelong_results = v.get<std::string>(); }},
       {"role", [&](const nlohmann::json& v) { config.role = v.get<std::string>(); }},
       {"workers", [&](const nlohmann::json& v) { config.workers = v.get<int>(); }},
       {"tls_cert", [&](const nlohmann::json& v) { config.tls_cert = v.get<std::string>(); }},
@@ -135,6 +140,7 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"log_format", [&](const nlohmann::json& v) { config.log_format = v.get<std::string>(); }},
       {"auto_repair", [&](const nlohmann::json& v) { config.auto_repair = v.get<std::string>(); }},
       {"auto_approve", [&](const nlohmann::json& v) { config.auto_approve = v.get<bool>(); }},
+      {"auto_repair_min_severity", [&](const nlohmann::json& v) { config.auto_repair_min_severity = v.get<double>(); }},
       {"retain_runs_days", [&](const nlohmann::json& v) { config.retain_runs_days = v.get<double>(); }},
       {"retain_jobs_days", [&](const nlohmann::json& v) { config.retain_jobs_days = v.get<double>(); }},
       {"retention_interval_seconds",

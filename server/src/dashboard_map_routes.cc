@@ -95,51 +95,67 @@ class MapRoutes {
         limiter_(config.rate_limit_per_second, config.rate_limit_burst) {}
 
   HttpResponse Get(const HttpRequest& request) {
-    const std::vector<std::string> parts = http::SplitPath(request.path);  // api robots <id> maps <v> ...
-    if (parts.size() == 2) return Robots();
-    if (parts.size() < 4 || parts[3] != "maps") return Error(404, "no such endpoint: " + request.path);
-    const std::string& robot = parts[2];
-    if (parts.size() == 4) return Versions(robot);
-    const auto version = VersionOf(parts[4]);
-    if (!version) return Error(400, "version: expected a positive integer or \"current\", got \"" + parts[4] + "\"");
-    if (parts.size() == 5) return Version(robot, *version);
-    if (parts.size() == 6 && parts[5] == "graph") return Graph(robot, *version);
-    if (parts.size() == 6 && parts[5] == "map.png") return Picture(robot, *version);
-    if (parts.size() == 7 && parts[5] == "export") return Export(robot, *version, parts[6]);
+    if (http::MatchPath("/api/robots", request.path)) return Robots();
+    if (auto path = http::MatchPath("/api/robots/{robot}/maps", request.path)) return Versions(path->at("robot"));
+    // The routes of one version: {version} is a number or "current".
+    using VersionRoute = HttpResponse (MapRoutes::*)(const std::string& robot, std::int64_t version,
+                                                     const http::PathParams& path);
+    static constexpr std::pair<const char*, VersionRoute> kVersionRoutes[] = {
+        {"/api/robots/{robot}/maps/{version}", &MapRoutes::Version},
+        {"/api/robots/{robot}/maps/{version}/graph", &MapRoutes::Graph},
+        {"/api/robots/{robot}/maps/{version}/map.png", &MapRoutes::Picture},
+        {"/api/robots/{robot}/maps/{version}/export/{file}", &MapRoutes::Export},
+    };
+    for (const auto& [pattern, route] : kVersionRoutes) {
+      const auto path = http::MatchPath(pattern, request.path);
+      if (!path) continue;
+      const std::string& text = path->at("version");
+      const auto version = VersionOf(text);
+      if (!version) return Error(400, "version: expected a positive integer or \"current\", got \"" + text + "\"");
+      return (this->*route)(path->at("robot"), *version, *path);
+    }
     return Error(404, "no such endpoint: " + request.path);
   }
 
   HttpResponse Post(const HttpRequest& request) {
-    const std::vector<std::string> parts = http::SplitPath(request.path);
-    const bool import = parts.size() == 5 && parts[3] == "maps" && parts[4] == "import";
-    if (!import && (parts.size() != 6 || parts[3] != "maps" || (parts[5] != "repair" && parts[5] != "review"))) {
-      return Error(404, "no such endpoint: POST " + request.path);
-    }
+    const auto import_path = http::MatchPath("/api/robots/{robot}/maps/import", request.path);
+    const auto repair_path = http::MatchPath("/api/robots/{robot}/maps/{version}/repair", request.path);
+    const auto review_path = http::MatchPath("/api/robots/{robot}/maps/{version}/review", request.path);
+    const auto& path = import_path ? import_path : repair_path ? repair_path : review_path;
+    if (!path) return Error(404, "no such endpoint: POST " + request.path);
+    const std::string& robot = path->at("robot");
     HttpResponse refusal;
     const auto principal = http::AuthorizeRequest(authenticator_, request, Permission::kRepairMap, "repairing maps", &refusal);
     if (!principal) return refusal;
     if (!limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
-    if (import) return Import(parts[2], request, principal->name);
-    const auto version = http::ParseInt(parts[4]);
-    if (!version || *version <= 0) return Error(400, "version: expected a positive integer, got \"" + parts[4] + "\"");
+    if (import_path) return Import(robot, request, principal->name);
+    const std::string& version_text = path->at("version");
+    const auto version = http::ParseInt(version_text);
+    if (!version || *version <= 0) return Error(400, "version: expected a positive integer, got \"" + version_text + "\"");
     const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
     if (body.is_discarded() || !body.is_object()) return Error(400, "body: expected a JSON object");
     try {
-      if (parts[5] == "review") {
+      if (review_path) {
         if (!body.contains("approve") || !body["approve"].is_boolean()) return Error(400, "approve: expected true or false");
-        auto reviewed = history_.Review(parts[2], *version, body["approve"].get<bool>(), principal->name);
+        auto reviewed = history_.Review(robot, *version, body["approve"].get<bool>(), principal->name);
         if (!reviewed.ok()) return Error(reviewed.status());
         return Json(VersionJson(*reviewed));
       }
       RepairRequest repair;
-      repair.robot_id = parts[2];
+      repair.robot_id = robot;
       repair.base_version = *version;
-      repair.action = body.value("action", "");
-      repair.from = body.value("from", std::int64_t{0});
-      repair.to = body.value("to", std::int64_t{0});
-      if (body.contains("view") && !body["view"].is_null()) repair.view = body["view"].get<std::int64_t>();
-      repair.hypothesis = body.value("hypothesis", std::int64_t{0});
-      repair.finding_id = body.value("finding_id", std::int64_t{0});
+      auto action = RepairActionNamed(body.value("action", ""), "action");
+      if (!action.ok()) return Error(action.status());
+      repair.action = *action;
+      if (auto* edge = std::get_if<RejectEdge>(&repair.action)) {
+        edge->from = body.value("from", std::int64_t{0});
+        edge->to = body.value("to", std::int64_t{0});
+        if (body.contains("view") && !body["view"].is_null()) edge->view = body["view"].get<std::int64_t>();
+      } else if (auto* hypothesis = std::get_if<RejectHypothesis>(&repair.action)) {
+        hypothesis->hypothesis = body.value("hypothesis", std::int64_t{0});
+      } else if (auto* cut = std::get_if<CutFinding>(&repair.action)) {
+        cut->finding_id = body.value("finding_id", std::int64_t{0});
+      }
       repair.reason = body.value("reason", "");
       repair.approve = body.value("approve", false);
       repair.requested_by = principal->name;
@@ -265,7 +281,7 @@ class MapRoutes {
     return Json({{"robot_id", robot}, {"current_version", current}, {"head_version", head}, {"versions", out}});
   }
 
-  HttpResponse Version(const std::string& robot, std::int64_t version) {
+  HttpResponse Version(const std::string& robot, std::int64_t version, const http::PathParams&) {
     auto detail = history_.Get(robot, version);
     if (!detail.ok()) return Error(detail.status());
     json findings = json::array();
@@ -304,7 +320,7 @@ class MapRoutes {
 
   /// The pose graph with every edge's χ² and source, and the home grid's frame so that the page can draw
   /// the graph over map.png.
-  HttpResponse Graph(const std::string& robot, std::int64_t version) {
+  HttpResponse Graph(const std::string& robot, std::int64_t version, const http::PathParams&) {
     auto loaded = LoadMap(robot, version);
     if (!loaded.ok()) return Error(loaded.status());
     auto run_nodes = history_.NodesAddedByRun({robot, loaded->run_id}, loaded->map);
@@ -347,7 +363,7 @@ class MapRoutes {
                    {"origin_y", (*grid)->origin_y}}}});
   }
 
-  HttpResponse Picture(const std::string& robot, std::int64_t version) {
+  HttpResponse Picture(const std::string& robot, std::int64_t version, const http::PathParams&) {
     auto loaded = LoadMap(robot, version);
     if (!loaded.ok()) return Error(loaded.status());
     auto grid = HomeGrid(loaded->snapshot_id, loaded->map);
@@ -365,7 +381,8 @@ class MapRoutes {
     return response;
   }
 
-  HttpResponse Export(const std::string& robot, std::int64_t version, const std::string& file) {
+  HttpResponse Export(const std::string& robot, std::int64_t version, const http::PathParams& path) {
+    const std::string& file = path.at("file");
     const std::string format = file == "map.g2o"                         ? "g2o"
                                : (file == "map.pgm" || file == "map.yaml") ? "map_server"
                                : file == "map.json"                        ? "valetudo"

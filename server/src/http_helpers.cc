@@ -94,6 +94,21 @@ std::vector<std::string> SplitPath(const std::string& path) {
   return parts;
 }
 
+std::optional<PathParams> MatchPath(const std::string& pattern, const std::string& path) {
+  const std::vector<std::string> want = SplitPath(pattern), got = SplitPath(path);
+  if (want.size() != got.size()) return std::nullopt;
+  PathParams params;
+  for (std::size_t i = 0; i < want.size(); ++i) {
+    const std::string& segment = want[i];
+    if (segment.size() > 2 && segment.front() == '{' && segment.back() == '}') {
+      params[segment.substr(1, segment.size() - 2)] = got[i];
+    } else if (segment != got[i]) {
+      return std::nullopt;
+    }
+  }
+  return params;
+}
+
 std::optional<std::int64_t> ParseInt(const std::string& text) {
   if (text.empty()) return std::nullopt;
   char* end = nullptr;

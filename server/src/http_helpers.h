@@ -29,6 +29,10 @@ std::string UrlDecode(const std::string& text);
 std::map<std::string, std::string> ParseQuery(const std::string& query);
 /// "/api/runs/a%20b" → {"api", "runs", "a b"}.
 std::vector<std::string> SplitPath(const std::string& path);
+using PathParams = std::map<std::string, std::string>;
+/// Matches a path against a template such as "/api/runs/{run}/graph": the segments in braces are returned by
+/// name (URL-decoded), the others must be equal; nullopt when the path does not fit.
+std::optional<PathParams> MatchPath(const std::string& pattern, const std::string& path);
 /// A whole decimal integer, or nullopt.
 std::optional<std::int64_t> ParseInt(const std::string& text);
 

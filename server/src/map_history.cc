@@ -18,8 +18,6 @@
 namespace server {
 namespace {
 
-constexpr const char* kPolicyCut = "policy:cut_protrusions";
-
 storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository, const std::string& snapshot_id) {
   auto stored = repository.GetSnapshot(snapshot_id);
   if (!stored.ok()) return stored.status();
@@ -238,8 +236,26 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
   return proto;
 }
 
+const char* RepairActionName(const RepairAction& action) {
+  static constexpr const char* kNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"};
+  static_assert(std::size(kNames) == std::variant_size_v<RepairAction>);
+  return kNames[action.index()];
+}
+
+storage::Result<RepairAction> RepairActionNamed(const std::string& name, const std::string& field) {
+  if (name == "reject_edge") return RepairAction{RejectEdge{}};
+  if (name == "reject_hypothesis") return RepairAction{RejectHypothesis{}};
+  if (name == "cut_finding") return RepairAction{CutFinding{}};
+  if (name == "rollback") return RepairAction{Rollback{}};
+  if (name == "undo") return RepairAction{Undo{}};
+  return storage::InvalidArgument(field + ": \"" + name.substr(0, 64) +
+                                  "\" is not an action; expected reject_edge, reject_hypothesis, cut_finding, rollback "
+                                  "or undo");
+}
+
 MapPolicy MapPolicyOf(const FleetdConfig& config) {
   return {.auto_repair = config.auto_repair,
+          .min_severity = config.auto_repair_min_severity,
           .auto_approve = config.auto_approve,
           .default_parameter_set = config.default_parameter_set,
           .model_name = config.model_name};
@@ -313,27 +329,63 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
   STORAGE_RETURN_IF_ERROR(
       repository_.UpdateMapVersionHealth(version->robot_id, version->version, *known_area, ToRecords(findings)));
 
-  if (policy_.auto_repair != "cut_protrusions") return storage::Status::Ok();
+  if (policy_.auto_repair == "none") return storage::Status::Ok();
+  const std::string requested_by = "policy:" + policy_.auto_repair;
+  const bool all_findings = policy_.auto_repair == "repair_findings";
   std::int64_t base = version->version;
-  for (const fleet::v1::MapFinding& finding : findings) {
-    if (finding.kind() != "protrusion" || finding.state() != "open") continue;
-    RepairRequest cut;
-    cut.robot_id = version->robot_id;
-    cut.base_version = base;
-    cut.action = "cut_finding";
-    cut.finding_id = finding.finding_id();
-    cut.reason = "protrusion policy: " + finding.summary();
-    cut.approve = policy_.auto_approve;
-    cut.requested_by = kPolicyCut;
-    auto repaired = Repair(cut);
+  // Each repair makes a new version whose findings are recomputed, so the next finding is looked up in it;
+  // a finding is tried once (by what it names), and a run's map is repaired at most kMaxPolicyRepairs times.
+  constexpr int kMaxPolicyRepairs = 8;
+  std::set<std::string> tried;
+  std::vector<fleet::v1::MapFinding> open = findings;
+  for (int repairs = 0; repairs < kMaxPolicyRepairs; ++repairs) {
+    const fleet::v1::MapFinding* next = nullptr;
+    std::string key;
+    for (const fleet::v1::MapFinding& finding : open) {
+      if (finding.state() != "open" || finding.severity() < policy_.min_severity) continue;
+      const bool repairable = finding.kind() == "protrusion" ||
+                              (all_findings && (finding.kind() == "unconfirmed_hypothesis" ||
+                                                finding.kind() == "high_residual_edge"));
+      key = finding.kind() + ":" + std::to_string(finding.hypothesis()) + ":" + std::to_string(finding.edge_from()) +
+            ":" + std::to_string(finding.edge_to()) + ":" + finding.summary();
+      if (repairable && !tried.contains(key)) {
+        next = &finding;
+        break;
+      }
+    }
+    if (next == nullptr) break;
+    tried.insert(key);
+    RepairRequest repair;
+    repair.robot_id = version->robot_id;
+    repair.base_version = base;
+    if (next->kind() == "protrusion") {
+      repair.action = CutFinding{next->finding_id()};
+    } else if (next->kind() == "unconfirmed_hypothesis") {
+      repair.action = RejectHypothesis{next->hypothesis()};
+    } else {
+      repair.action = RejectEdge{.from = next->edge_from(), .to = next->edge_to(), .view = std::nullopt};
+    }
+    repair.reason = "policy " + policy_.auto_repair + ": " + next->summary();
+    repair.approve = policy_.auto_approve;
+    repair.requested_by = requested_by;
+    auto repaired = Repair(repair);
+    if (!repaired.ok() && all_findings && repaired.status().code() != storage::StatusCode::kAborted) {
+      // The map breaks where it cannot be repaired finding by finding: back to the map before this run.
+      RepairRequest rollback = repair;
+      rollback.action = Rollback{};
+      rollback.reason = "policy " + policy_.auto_repair + ": " + next->summary() + " could not be repaired (" +
+                        repaired.status().ToString() + ")";
+      repaired = Repair(rollback);
+      if (repaired.ok()) break;
+    }
     // The robot's map moved on meanwhile (ABORTED): the newer version gets its own analysis.
     if (!repaired.ok()) {
-      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(finding.finding_id())},
+      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(next->finding_id())},
                                         {"error", repaired.status().ToString()}});
       break;
     }
-    // A cut changes no finding's severity, so the next finding keeps its id in the repaired version.
     base = repaired->version.version();
+    open = std::move(repaired->findings);
   }
   return storage::Status::Ok();
 }
@@ -420,7 +472,9 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   }
   // A map without a run (an import, or a repair of one) has no pose graph to edit: it is repaired against the
   // map before the import. Undo works the same for both.
-  if (base->run_id.empty() && request.action != "undo") return RepairMapOnly(request, *base, *versions);
+  if (base->run_id.empty() && !std::holds_alternative<Undo>(request.action)) {
+    return RepairMapOnly(request, *base, *versions);
+  }
   auto loaded = LoadMap(repository_, base->snapshot_id);
   if (!loaded.ok()) return loaded.status();
   auto context = LoadRunContext(repository_, {base->robot_id, base->run_id}, policy_.default_parameter_set);
@@ -430,24 +484,27 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   // The repaired map: computed for edits, an earlier stored map for rollback and undo.
   std::optional<slamcore::Map> repaired;
   std::string snapshot_id, detail, origin = "repair";
-  if (request.action == "reject_edge" || request.action == "reject_hypothesis" || request.action == "cut_finding") {
+  const auto* reject_edge = std::get_if<RejectEdge>(&request.action);
+  const auto* reject_hypothesis = std::get_if<RejectHypothesis>(&request.action);
+  const auto* cut_finding = std::get_if<CutFinding>(&request.action);
+  if (reject_edge != nullptr || reject_hypothesis != nullptr || cut_finding != nullptr) {
     std::array<double, 4> cut_box{};
-    if (request.action == "cut_finding") {
-      auto box = CutBox(request.robot_id, request.base_version, request.finding_id);
+    if (cut_finding != nullptr) {
+      auto box = CutBox(request.robot_id, request.base_version, cut_finding->finding_id);
       if (!box.ok()) return box.status();
       cut_box = *box;
     }
-    auto edited = request.action == "reject_edge"
-                      ? analyzer::RejectEdge(*loaded, request.from, request.to, request.view, &detail)
-                  : request.action == "reject_hypothesis"
-                      ? analyzer::RejectHypothesis(*loaded, run_nodes, request.hypothesis, &detail)
+    auto edited = reject_edge != nullptr
+                      ? analyzer::RejectEdge(*loaded, reject_edge->from, reject_edge->to, reject_edge->view, &detail)
+                  : reject_hypothesis != nullptr
+                      ? analyzer::RejectHypothesis(*loaded, run_nodes, reject_hypothesis->hypothesis, &detail)
                       : analyzer::CutRegion(*loaded, run_nodes, cut_box, &detail);
     if (!edited.ok()) return FromSlamcore(edited.status());
     repaired = std::move(edited).value();
     auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired)));
     if (!stored.ok()) return stored.status();
     snapshot_id = *stored;
-  } else if (request.action == "rollback") {
+  } else if (std::holds_alternative<Rollback>(request.action)) {
     auto run = repository_.GetRun({base->robot_id, base->run_id});
     if (!run.ok()) return run.status();
     if (!run->parent_snapshot_id) {
@@ -457,7 +514,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
     origin = "rollback";
     snapshot_id = *run->parent_snapshot_id;
     detail = "back to the map before run " + base->run_id;
-  } else if (request.action == "undo") {
+  } else {  // Undo
     if (base->origin == "upload" || !base->parent_version) {
       return storage::FailedPrecondition("version " + std::to_string(base->version) + " is an upload, not a repair: " +
                                          "nothing to undo (roll back instead)");
@@ -468,9 +525,6 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
     snapshot_id = earlier->snapshot_id;
     detail = "undid version " + std::to_string(base->version) + " (" + base->action + "): the map of version " +
              std::to_string(earlier->version) + " again";
-  } else {
-    return storage::InvalidArgument("action \"" + request.action +
-                                    "\": expected reject_edge, reject_hypothesis, cut_finding, rollback or undo");
   }
   if (!repaired) {
     auto restored = LoadMap(repository_, snapshot_id);
@@ -501,7 +555,7 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
   record->parent_version = base.version;
   record->origin = origin;
   record->run_id = base.run_id;
-  record->action = request.action == "cut_finding" ? "cut_region" : request.action;
+  record->action = std::holds_alternative<CutFinding>(request.action) ? "cut_region" : RepairActionName(request.action);
   record->action_detail = detail;
   record->created_by = request.requested_by;
   record->reason = request.reason;
@@ -669,16 +723,19 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
                                                             const storage::MapVersionRecord& base,
                                                             const std::vector<storage::MapVersionRecord>& versions) {
   const std::string name = "version " + std::to_string(base.version);
-  if (request.action != "rollback" && request.action != "cut_finding") {
-    return storage::FailedPrecondition(name + " is a map without a run (imported): \"" + request.action +
+  const auto* cut_finding = std::get_if<CutFinding>(&request.action);
+  const bool rollback = std::holds_alternative<Rollback>(request.action);
+  if (!rollback && cut_finding == nullptr) {
+    return storage::FailedPrecondition(name + " is a map without a run (imported): \"" +
+                                       RepairActionName(request.action) +
                                        "\" does not apply; rollback, cut_finding of a new_region and undo do");
   }
   const storage::MapVersionRecord* reference = ComparisonReference(versions, base);
   if (reference == nullptr) {
     return storage::FailedPrecondition(name + " comes from the robot's first imported map: there is no earlier map to " +
-                                       (request.action == "rollback" ? "roll back to" : "cut back to"));
+                                       (rollback ? "roll back to" : "cut back to"));
   }
-  if (request.action == "rollback") {
+  if (rollback) {
     auto restored = LoadMap(repository_, reference->snapshot_id);
     if (!restored.ok()) return restored.status();
     auto restored_snapshot = LoadSnapshot(repository_, reference->snapshot_id);
@@ -694,16 +751,16 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   if (!detail.ok()) return detail.status();
   const fleet::v1::MapFinding* finding = nullptr;
   for (const fleet::v1::MapFinding& candidate : detail->findings) {
-    if (candidate.finding_id() == request.finding_id) finding = &candidate;
+    if (candidate.finding_id() == cut_finding->finding_id) finding = &candidate;
   }
-  if (finding == nullptr) return storage::NotFound(name + " has no finding " + std::to_string(request.finding_id));
+  if (finding == nullptr) return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
   if (finding->kind() != "new_region") {
-    return storage::InvalidArgument("finding " + std::to_string(request.finding_id) + " is a " + finding->kind() +
+    return storage::InvalidArgument("finding " + std::to_string(cut_finding->finding_id) + " is a " + finding->kind() +
                                     ", not a new_region that can be cut");
   }
   const nlohmann::json evidence = nlohmann::json::parse(finding->evidence_json(), nullptr, false);
   if (!evidence.is_object() || !evidence.contains("region_id") || !evidence["region_id"].is_number_integer()) {
-    return storage::DataLoss("finding " + std::to_string(request.finding_id) + ": evidence has no region_id");
+    return storage::DataLoss("finding " + std::to_string(cut_finding->finding_id) + ": evidence has no region_id");
   }
   const int region_id = evidence["region_id"].get<int>();
   auto base_snapshot = LoadSnapshot(repository_, base.snapshot_id);

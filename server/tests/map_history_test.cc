@@ -161,7 +161,7 @@ TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase
   RepairRequest rollback;
   rollback.robot_id = "r1";
   rollback.base_version = 3;
-  rollback.action = "rollback";
+  rollback.action = Rollback{};
   rollback.requested_by = "engineer:ana";
   EXPECT_EQ(history.Repair(rollback).status().code(), storage::StatusCode::kAborted);
   rollback.base_version = 2;
@@ -172,7 +172,7 @@ TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase
   // Approving it makes it current; an older pending version could then no longer become current.
   RepairRequest undo = rollback;
   undo.base_version = 4;
-  undo.action = "undo";
+  undo.action = Undo{};
   ASSERT_TRUE(history.Repair(undo).ok());                       // version 5, pending
   ASSERT_TRUE(history.Review("r1", 5, true, "engineer:ana").ok());  // current: 5
   EXPECT_EQ(history.Review("r1", 4, true, "engineer:ana").status().code(), storage::StatusCode::kFailedPrecondition);
@@ -190,6 +190,30 @@ TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
   EXPECT_EQ(current->version(), 3);
   EXPECT_EQ(current->approved_by(), "policy:cut_protrusions");
   EXPECT_EQ(snapshot.nodes_size(), 20);
+}
+
+TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereAsItsThreshold) {
+  {
+    MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 1.0});
+    UploadBoth(history);
+    ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+    std::int64_t current = 0, head = 0;
+    EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u) << "a protrusion below severity 1 is left open";
+    EXPECT_EQ(history.Get("r1", 2)->findings[0].state(), "open");
+  }
+  MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  auto repaired = history.Get("r1", 3);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  EXPECT_EQ(repaired->version.action(), "cut_region");
+  EXPECT_EQ(repaired->version.created_by(), "policy:repair_findings");
+  EXPECT_EQ(repaired->version.approval(), "approved");
+  EXPECT_EQ(repaired->version.open_findings(), 0);
+  // Analysed again (a retried job): the repaired version is the head, nothing is left to repair.
+  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  std::int64_t current = 0, head = 0;
+  EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
+  EXPECT_EQ(current, 3);
 }
 
 /// A map-only snapshot: a 6 × 5 m grid with a walled room [x0, x1] × [0.5, 4] (and a second one beside it
@@ -251,7 +275,7 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   ASSERT_TRUE(v1.ok()) << v1.status().ToString();
   // The first import has nothing to compare with, nor to roll back to.
   EXPECT_TRUE(history.Get("home", 1)->findings.empty());
-  RepairRequest rollback{.robot_id = "home", .base_version = 1, .action = "rollback", .requested_by = "engineer:e"};
+  RepairRequest rollback{.robot_id = "home", .base_version = 1, .action = Rollback{}, .requested_by = "engineer:e"};
   EXPECT_EQ(history.Repair(rollback).status().code(), storage::StatusCode::kFailedPrecondition);
 
   // Bad metadata is refused naming the field, and nothing is stored.
@@ -299,11 +323,11 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   ASSERT_EQ(new_regions, 1);
 
   // Edits that need a pose graph are refused; a cut takes the kitchen back to unknown and its finding is gone.
-  RepairRequest edge{.robot_id = "home", .base_version = 2, .action = "reject_edge", .from = 0, .to = 1,
+  RepairRequest edge{.robot_id = "home", .base_version = 2, .action = RejectEdge{.from = 0, .to = 1},
                      .requested_by = "engineer:e"};
   EXPECT_EQ(history.Repair(edge).status().code(), storage::StatusCode::kFailedPrecondition);
-  RepairRequest cut{.robot_id = "home", .base_version = 2, .action = "cut_finding", .finding_id = kitchen,
-                    .reason = "not ours", .requested_by = "engineer:e"};
+  RepairRequest cut{.robot_id = "home", .base_version = 2, .action = CutFinding{kitchen}, .reason = "not ours",
+                    .requested_by = "engineer:e"};
   auto cut_version = history.Repair(cut);
   ASSERT_TRUE(cut_version.ok()) << cut_version.status().ToString();
   EXPECT_EQ(cut_version->version.approval(), "pending");
@@ -322,7 +346,7 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   EXPECT_NE(handed_back->front().content().find("\"no_go_area\""), std::string::npos);
   // A cut's region must be a new region.
   cut.base_version = 3;
-  cut.finding_id = 1;
+  cut.action = CutFinding{1};
   EXPECT_EQ(history.Repair(cut).status().code(), storage::StatusCode::kInvalidArgument);
 
   // Roll back: the map before the import, the very snapshot of version 1.
@@ -334,11 +358,22 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   // …with version 1's metadata: the rooms of the map it restores.
   EXPECT_EQ(RoomNames(history.Get("home", 4)->metadata), (std::vector<std::string>{"Living room"}));
   // Undoing the roll-back gives the cut map again, with its metadata.
-  RepairRequest undo{.robot_id = "home", .base_version = 4, .action = "undo", .requested_by = "engineer:e"};
+  RepairRequest undo{.robot_id = "home", .base_version = 4, .action = Undo{}, .requested_by = "engineer:e"};
   auto undone = history.Repair(undo);
   ASSERT_TRUE(undone.ok()) << undone.status().ToString();
   EXPECT_EQ(RoomNames(undone->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
 }
 
 }  // namespace
+TEST(RepairActionTest, NamesRoundTripAndUnknownNamesAreRefusedNamingTheField) {
+  for (const char* name : {"reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"}) {
+    auto action = RepairActionNamed(name, "action");
+    ASSERT_TRUE(action.ok()) << name;
+    EXPECT_STREQ(RepairActionName(*action), name);
+  }
+  auto unknown = RepairActionNamed("explode", "action");
+  EXPECT_EQ(unknown.status().code(), storage::StatusCode::kInvalidArgument);
+  EXPECT_NE(unknown.status().message().find("action: \"explode\""), std::string::npos) << unknown.status().message();
+}
+
 }  // namespace server

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "sim/sensor.h"
@@ -80,7 +81,16 @@ std::string FleetStatistics::ToText() const {
       reboots, stuck_at_wall + stuck_under_furniture + stuck_on_rug, stuck_at_wall, stuck_under_furniture, stuck_on_rug,
       stuck_nodes, 100 * Share(maps_with_truth_protrusion, runs), maps_with_truth_protrusion, runs,
       truth_protrusion_regions, truth_new_space_regions, lidar_runs, runs - lidar_runs);
-  return text;
+  std::string out = text;
+  if (!health.empty()) out += MapHealthLine() + "\n";
+  return out;
+}
+
+std::string FleetStatistics::MapHealthLine() const {
+  char line[256];
+  std::snprintf(line, sizeof line, "map health (ground truth)              %d healthy, %d repaired, %d corrupted robots",
+                robots_healthy, robots_repaired, robots_corrupted);
+  return line;
 }
 
 std::string FleetStatistics::ToJson() const {
@@ -106,7 +116,13 @@ std::string FleetStatistics::ToJson() const {
       reboots, stuck_at_wall, stuck_under_furniture, stuck_on_rug, stuck_nodes, maps_with_truth_protrusion,
       Share(maps_with_truth_protrusion, runs), truth_protrusion_regions, truth_new_space_regions, lidar_runs,
       pairs_written);
-  return text;
+  std::string out = text;
+  if (!health.empty()) {
+    out.pop_back();  // the closing brace
+    out += ",\"robots_healthy\":" + std::to_string(robots_healthy) + ",\"robots_repaired\":" +
+           std::to_string(robots_repaired) + ",\"robots_corrupted\":" + std::to_string(robots_corrupted) + "}";
+  }
+  return out;
 }
 
 slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
@@ -138,6 +154,7 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
 
   const int total = options.robots * options.runs;
   std::vector<std::vector<RunOutcome>> outcomes(static_cast<std::size_t>(options.robots));
+  std::vector<std::vector<RunHealth>> health_by_robot(static_cast<std::size_t>(options.robots));
   std::atomic<int> next_robot{0}, done{0};
   std::mutex mutex;  // guards first_error and progress calls
   slamcore::Status first_error;
@@ -149,16 +166,21 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
       const std::string firmware = robot % 2 == 0 ? "1.4.2" : "1.5.0";
       RobotSimulator simulator(world, params, robot_id, firmware,
                                options.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(robot));
+      std::optional<MapHealthMeter> meter;
+      if (options.measure_map_health) meter.emplace(world, options.corruption);
+      auto fail = [&](const slamcore::Status& status) {
+        std::lock_guard lock(mutex);
+        if (first_error.ok()) first_error = status;
+      };
       for (int run = 0; run < options.runs; ++run) {
+        if (options.before_run) {
+          if (const slamcore::Status status = options.before_run(simulator, run); !status.ok()) return fail(status);
+        }
         char run_id[64];
         std::snprintf(run_id, sizeof run_id, "%s-s%llu-run%04d", robot_id,
                       static_cast<unsigned long long>(options.seed), run);
         auto outcome = simulator.SimulateRun(run_id, options.first_start + 86400.0 * run + 60.0 * robot);
-        if (!outcome.ok()) {
-          std::lock_guard lock(mutex);
-          if (first_error.ok()) first_error = outcome.status();
-          return;
-        }
+        if (!outcome.ok()) return fail(outcome.status());
         if (!options.out.empty()) {
           const std::filesystem::path directory = options.out / robot_id;
           std::filesystem::create_directories(directory);
@@ -184,6 +206,15 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
           ++pairs_written;
         }
         outcome->truth_pair.reset();
+        if (options.after_run) {
+          if (const slamcore::Status status = options.after_run(simulator, *outcome); !status.ok()) return fail(status);
+        }
+        if (meter) {
+          auto health = meter->Measure(simulator.map(), simulator.node_truth());
+          if (!health.ok()) return fail(health.status());
+          health_by_robot[static_cast<std::size_t>(robot)].push_back(
+              {*health, outcome->repairs_taken, outcome->map_version});
+        }
         // The statistics need no telemetry, only the robot model.
         const std::string model = outcome->run.header().robot_model();
         outcome->run.Clear();
@@ -210,6 +241,16 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
     for (const RunOutcome& outcome : robot_outcomes) statistics.Add(outcome);
   }
   statistics.pairs_written = pairs_written;
+  if (options.measure_map_health) {
+    for (const auto& runs : health_by_robot) {
+      if (runs.empty()) continue;
+      bool repaired = false;
+      for (const RunHealth& run : runs) repaired = repaired || run.repairs_taken > 0;
+      ++(runs.back().map.corrupted ? statistics.robots_corrupted
+                                   : repaired ? statistics.robots_repaired : statistics.robots_healthy);
+    }
+    statistics.health = std::move(health_by_robot);
+  }
   statistics.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return statistics;
 }

@@ -49,6 +49,9 @@ struct RobotSimulator::State {
   std::unordered_map<slamcore::ViewId, std::size_t> view_index;
   slamcore::ViewId next_view_id = 1;
   int run_count = 0;
+  std::int64_t map_version = 0;                       // the service's version of `map` (0: none)
+  std::optional<fleet::v1::MapSnapshot> taken_map;    // the service's bytes of `map`, until the next run
+  std::unordered_map<slamcore::NodeId, SE2> node_truth;  // every node of every run
 
   State(const World& w, const SimParams& p, std::string id, std::string fw, std::uint64_t seed)
       : world(w), params(p), robot_id(std::move(id)), firmware(std::move(fw)), random(seed) {
@@ -69,6 +72,26 @@ RobotSimulator::RobotSimulator(const World& world, const SimParams& params, std:
 RobotSimulator::~RobotSimulator() = default;
 
 const RangeSensor& RobotSimulator::sensor() const { return state_->sensor; }
+
+slamcore::Status RobotSimulator::TakeMap(const fleet::v1::MapSnapshot& snapshot, std::int64_t version) {
+  auto map = analyzer::FromProto(snapshot, "snapshot");
+  if (!map.ok()) return map.status();
+  State& s = *state_;
+  s.map = std::move(map).value();
+  s.taken_map = snapshot;
+  s.map_version = version;
+  // The front-end matches only views the map holds (a rollback or a rejected run drops some).
+  for (auto& [landmark, indices] : s.views_of_landmark) {
+    std::erase_if(indices, [&](std::size_t index) { return !s.map.graph.HasView(s.views[index].id); });
+  }
+  return slamcore::Status::Ok();
+}
+
+void RobotSimulator::SetMapVersion(std::int64_t version) { state_->map_version = version; }
+std::int64_t RobotSimulator::map_version() const { return state_->map_version; }
+const std::string& RobotSimulator::robot_id() const { return state_->robot_id; }
+const slamcore::Map& RobotSimulator::map() const { return state_->map; }
+const std::unordered_map<slamcore::NodeId, SE2>& RobotSimulator::node_truth() const { return state_->node_truth; }
 
 namespace {
 
@@ -422,7 +445,10 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   if (!mapper.ok()) return mapper.status();
   mapper_ = std::move(mapper).value();
   outcome_.had_parent = s_.map.graph.num_nodes() > 0;
-  *outcome_.run.mutable_parent_snapshot() = analyzer::ToProto(s_.map);
+  // A map taken from the service is named by the very bytes the service holds, so it knows the version.
+  *outcome_.run.mutable_parent_snapshot() = s_.taken_map ? std::move(*s_.taken_map) : analyzer::ToProto(s_.map);
+  s_.taken_map.reset();
+  outcome_.map_version = s_.map_version;
 
   // Start on the dock, give or take a few centimetres, or where a person put the robot down.
   truth_ = s_.world.dock * SE2(s_.Gaussian(0.02), s_.Gaussian(0.02), s_.Gaussian(0.03));
@@ -456,6 +482,7 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   outcome_.started_localized =
       outcome_.had_parent && first_merge_time_ >= 0.0 && first_merge_time_ <= analyzer::kStartedLocalizedSeconds;
   outcome_.simulated_seconds = time_;
+  for (const auto& [node, pose] : mapper_->ground_truth()) s_.node_truth[node] = pose;
   s_.map = mapper_->Finish();
   for (const slamcore::View& view : s_.map.graph.views()) {
     ++outcome_.views_total;
@@ -474,6 +501,7 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   header.set_started_at(started_at_);
   header.set_ended_at(started_at_ + time_);
   header.set_event_count(static_cast<std::uint64_t>(outcome_.run.events_size()));
+  header.set_map_version(s_.map_version);
   return std::move(outcome_);
 }
 

@@ -66,4 +66,14 @@ slamcore::Status SimParams::Validate() const {
   return mapper.Validate();
 }
 
+slamcore::MapperParams UnprotectedMapperParams() {
+  slamcore::MapperParams params;
+  params.conditional_merge = false;
+  params.merge_conditional = {.min_observations = 1, .min_views = 1};
+  params.merge_full = {.min_observations = 1, .min_views = 1};
+  params.recovery = {.min_observations = 1, .min_views = 1};
+  params.consistency.enabled = false;
+  return params;
+}
+
 }  // namespace sim

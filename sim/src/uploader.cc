@@ -130,6 +130,10 @@ class Uploader::Impl {
         outcome.already_present = response.already_present();
         outcome.child_snapshot_id = response.child_snapshot_id();
         outcome.events = response.events_stored();
+        outcome.analysis_job_id = response.analysis_job_id();
+        outcome.map_version = response.map_version();
+        outcome.current_map_version = response.current_map_version();
+        outcome.map_outdated = response.map_outdated();
         std::lock_guard lock(mutex_);
         known_.insert(response.child_snapshot_id());
         if (!response.parent_snapshot_id().empty()) known_.insert(response.parent_snapshot_id());

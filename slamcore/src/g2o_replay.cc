@@ -83,6 +83,11 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
       source_of.emplace(std::pair{robot, observed->view}, observation++);
     }
   }
+  // The run's end may still change what is accepted (the consistent-set check), so read after Finish.
+  ReplayResult result;
+  result.graph = (*mapper)->Finish().graph;
+  result.mapper_chi2 = Chi2(result.graph);
+  result.statistics = (*mapper)->Statistics();
   const std::vector<AcceptedObservation> accepted_edges = (*mapper)->accepted_observations();
   std::vector<bool> accepted(run->observation_sources.size(), false);
   for (const AcceptedObservation& edge : accepted_edges) {
@@ -95,10 +100,6 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
     }
   }
 
-  ReplayResult result;
-  result.statistics = (*mapper)->Statistics();
-  result.graph = (*mapper)->Finish().graph;
-  result.mapper_chi2 = Chi2(result.graph);
   OptimizerOptions final_options = params.optimizer;
   final_options.max_iterations = 100;
   final_options.relative_cost_decrease = 1e-10;  // a full solve: its χ² is the reference the back-ends meet

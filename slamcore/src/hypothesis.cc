@@ -18,17 +18,23 @@ EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguou
   return count;
 }
 
-int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance) {
+int CountPasses(std::span<const TraversalPoint> points, double gap_seconds, double gap_distance) {
   int passes = 0;
-  const HypothesisObservation* previous = nullptr;
-  for (const HypothesisObservation& observation : hypothesis.observations) {
-    if (!previous || observation.time - previous->time > gap_seconds ||
-        std::abs(observation.odometer - previous->odometer) > gap_distance) {
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (k == 0 || points[k].time - points[k - 1].time > gap_seconds ||
+        std::abs(points[k].odometer - points[k - 1].odometer) > gap_distance) {
       ++passes;
     }
-    previous = &observation;
   }
   return passes;
+}
+
+int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance) {
+  std::vector<TraversalPoint> points;
+  for (const HypothesisObservation& observation : hypothesis.observations) {
+    points.push_back({.time = observation.time, .odometer = observation.odometer});
+  }
+  return CountPasses(points, gap_seconds, gap_distance);
 }
 
 }  // namespace slamcore::internal

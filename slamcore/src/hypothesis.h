@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <vector>
 
 #include "pose_gaussian.h"
@@ -45,9 +46,17 @@ struct EvidenceCount {
 EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguous,
                             const std::function<bool(ViewId)>& is_ambiguous);
 
-/// Independent passes among the observations: a pass is a run of observations, each made within
-/// `gap_seconds` and `gap_distance` (robot odometer) of the previous one. One traversal past a look-alike is
-/// one pass however many views it matched (mapper_consistency.cc).
+/// When and where (robot odometer) an observation was made.
+struct TraversalPoint {
+  double time = 0.0;
+  double odometer = 0.0;
+};
+
+/// Independent passes among observations in the order they were made: a pass is a run of observations, each
+/// made within `gap_seconds` and `gap_distance` (robot odometer) of the previous one. One traversal past a
+/// look-alike is one pass however many views it matched (mapper_consistency.cc).
+int CountPasses(std::span<const TraversalPoint> points, double gap_seconds, double gap_distance);
+/// The passes among a hypothesis's observations.
 int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance);
 
 inline bool Meets(const EvidenceCount& count, const AcceptanceCriteria& criteria) {

@@ -60,6 +60,7 @@ Status Mapper::Impl::Process(const Event& event) {
         }
       },
       event);
+  MaybeCheckConsistentSet();
   RefreshOverlay();
   return Status::Ok();
 }
@@ -177,8 +178,10 @@ Map Mapper::Impl::Finish() {
   std::vector<std::int64_t> open;
   for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);
   for (const std::int64_t id : open) DropHypothesis(id, DecisionKind::kExpired, "run ended");
+  if (current_node_) CheckConsistentSet("the run ended");
   // The incremental back-end solves the robot's component once to convergence (the deferred direct edges
-  // with it), so the child map is at its optimum, not only within the wildfire tolerance.
+  // and what the check changed with it), so the child map is at its optimum, not only within the wildfire
+  // tolerance.
   if (params_.optimize_after_accept && UsesIncrementalBackend() && current_node_) {
     pending_seeds_.push_back(*current_node_);
     (void)incremental_.SolveComponents(map_.graph, pending_seeds_);

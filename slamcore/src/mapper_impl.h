@@ -5,6 +5,8 @@
 //   mapper_merge.cc         conditional and full merges (G′ as a MergeOverlay);
 //   mapper_consistency.cc   correlated wrong observations: passes, the test against the map's marginal
 //                           covariance, retraction of accepted hypotheses.
+//   mapper_consistent_set.cc  the consistent-set check: accepted and refused hypotheses judged together
+//                           (graduated non-convexity), retracting or accepting what it decides.
 //
 // Design choices the paper leaves open (PAPER.md asks us to write them down):
 //  * Gate covariance for direct observations. The prediction ẑ = robot_T_viewnode comes from G; its
@@ -163,6 +165,19 @@ class Mapper::Impl {
   /// Drops the stalest open hypotheses beyond the cap.
   void EnforceOpenHypothesisCap();
 
+  // mapper_consistent_set.cc
+  /// A refused recovery hypothesis kept for the consistent-set check: the edges its acceptance would add
+  /// (or, for a retracted one, the edges it had).
+  struct KeptRefused {
+    std::int64_t hypothesis = -1;
+    std::vector<Edge> edges;
+  };
+  /// Keeps a dropped recovery hypothesis that met the counts (its observations as edges).
+  void KeepRefused(const internal::Hypothesis& hypothesis);
+  /// Runs the check when the judged hypotheses have grown enough since the last one.
+  void MaybeCheckConsistentSet();
+  void CheckConsistentSet(const char* trigger);
+
   // mapper_merge.cc
   SE2 TargetFromSource(const internal::Hypothesis& hypothesis) const;
   void ConditionallyAccept(std::int64_t hypothesis_id);
@@ -208,6 +223,8 @@ class Mapper::Impl {
     int continuation_edges = 0;
   };
   std::optional<Anchor> anchor_;
+  std::vector<KeptRefused> kept_refused_;  // oldest first, at most consistency.max_kept_refused
+  std::size_t judged_at_last_check_ = 0;
 
   std::vector<Decision> decisions_;
   std::vector<AcceptedObservation> accepted_;

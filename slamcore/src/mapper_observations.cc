@@ -258,6 +258,7 @@ void Mapper::Impl::DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind,
   } else {
     Log(kind, dropped.ref_view, &dropped, reason);
   }
+  if (dropped.kind == HypothesisKind::kRecovery) KeepRefused(dropped);
   if (dropped.kind == HypothesisKind::kMerge) {
     for (const HypothesisObservation& observation : dropped.observations) {
       ambiguity_.AddRejected(observation.view, observation.odometer);

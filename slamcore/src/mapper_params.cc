@@ -67,6 +67,11 @@ Status ValidateConsistency(const ConsistencyParams& c) {
   SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_continuation_edges", c.max_continuation_edges, 0, 1000));
   SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_judged_per_check", c.max_judged_per_check, 1, 100));
   SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_retractions_per_check", c.max_retractions_per_check, 0, 100));
+  SLAMCORE_RETURN_IF_ERROR(
+      CheckRange("consistency.consistent_set_confidence", c.consistent_set_confidence, 0.5, 0.999999));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.consistent_set_growth", c.consistent_set_growth, 1.01, 100.0));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_kept_refused", c.max_kept_refused, 0, 10000));
+  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.gnc_max_iterations", c.gnc_max_iterations, 1, 1000));
   return Status::Ok();
 }
 

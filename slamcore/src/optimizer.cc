@@ -98,6 +98,9 @@ Status Validate(const OptimizerOptions& options) {
     return InvalidArgument("robust_loss_scale must be positive and finite");
   }
   if (options.num_threads < 1) return InvalidArgument("num_threads must be at least 1");
+  for (const double weight : options.edge_weights) {
+    if (!(weight >= 0.0) || !std::isfinite(weight)) return InvalidArgument("edge_weights must be finite and ≥ 0");
+  }
   return Status::Ok();
 }
 
@@ -118,6 +121,10 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
   for (const NodeId id : options.variable_nodes) {
     if (!graph.HasNode(id)) return NotFound("variable node " + std::to_string(id) + " does not exist");
   }
+  if (!options.edge_weights.empty() && options.edge_weights.size() != graph.num_edges()) {
+    return InvalidArgument("edge_weights has " + std::to_string(options.edge_weights.size()) + " weights for " +
+                           std::to_string(graph.num_edges()) + " edges");
+  }
   const auto start = std::chrono::steady_clock::now();
   const std::optional<ComponentId> component =
       options.component ? std::optional(graph.ComponentOf(*options.component)) : std::nullopt;
@@ -131,8 +138,13 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
     }
   }
   std::vector<const Edge*> included;
-  for (const Edge& edge : graph.edges()) {
-    if (variable[graph.IndexOf(edge.from)] || variable[graph.IndexOf(edge.to)]) included.push_back(&edge);
+  std::vector<double> included_weights;
+  for (std::size_t k = 0; k < graph.num_edges(); ++k) {
+    const Edge& edge = graph.edges()[k];
+    const double weight = options.edge_weights.empty() ? 1.0 : options.edge_weights[k];
+    if (weight == 0.0 || !(variable[graph.IndexOf(edge.from)] || variable[graph.IndexOf(edge.to)])) continue;
+    included.push_back(&edge);
+    included_weights.push_back(weight);
   }
   auto included_chi2 = [&] {
     double chi2 = 0.0;
@@ -161,8 +173,9 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
   if (options.robust_loss == RobustLoss::kCauchy) {
     loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_scale);
   }
-  for (const Edge* edge : included) {
-    problem.AddResidualBlock(new EdgeCost(edge->measurement, SqrtInformation(edge->information)), loss.get(),
+  for (std::size_t k = 0; k < included.size(); ++k) {
+    const Edge* edge = included[k];
+    problem.AddResidualBlock(new EdgeCost(edge->measurement, std::sqrt(included_weights[k]) * SqrtInformation(edge->information)), loss.get(),
                              parameters[graph.IndexOf(edge->from)].data(),
                              parameters[graph.IndexOf(edge->to)].data());
   }

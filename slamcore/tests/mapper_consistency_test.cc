@@ -4,8 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <set>
-#include <tuple>
 
 #include <Eigen/LU>
 
@@ -19,7 +17,10 @@ namespace slamcore {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::CorridorOutAndBack;
+using testing::CorridorParams;
 using testing::CountDecisions;
+using testing::EdgeSet;
 using testing::IsNearlyPose;
 using testing::LastDecision;
 using testing::MakeMapper;
@@ -151,55 +152,13 @@ TEST_F(StasisTest, TheMapTestReportsItsChi2) {
   EXPECT_LE(chi2, 50.0);
 }
 
-/// The edges of a graph as (from, to, measurement) triples, to compare graphs built in different orders.
-std::multiset<std::tuple<NodeId, NodeId, double, double, double>> EdgeSet(const PoseGraph& graph) {
-  std::multiset<std::tuple<NodeId, NodeId, double, double, double>> edges;
-  for (const Edge& edge : graph.edges()) {
-    edges.emplace(edge.from, edge.to, edge.measurement.x(), edge.measurement.y(), edge.measurement.theta());
-  }
-  return edges;
-}
-
-// A corridor out and back with loose odometry: views 1–3 at x = 0, 1, 2; the robot drives to x = 12 and
-// back to x = 2, and the map is unsure where by metres. One pass of wrong observations claims it stands
-// at x = 4.5 (a look-alike 2.5 m further): uninformative, accepted. Three later passes of true
-// observations contradict it; accepting them retracts the wrong one.
-void CorridorOutAndBack(Mapper& mapper, bool with_wrong_pass) {
-  SimulatedRobot robot(mapper);
-  constexpr double kOdometryVariance = 0.1;  // per axis and step: σ_x ≈ 1.5 m after 22 steps
-  robot.Drive(SE2::Identity(), std::nullopt, kOdometryVariance);
-  robot.CreateView(1);
-  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  robot.CreateView(2);
-  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  robot.CreateView(3);
-  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  robot.Drive(SE2(0, 0, std::numbers::pi), std::nullopt, kOdometryVariance);
-  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
-  // Now at x = 2 facing −x. The look-alike: each view seen as if the robot stood 2.5 m further along +x.
-  if (with_wrong_pass) {
-    for (const ViewId view : {1, 2, 3}) {
-      const SE2 world_T_view(view - 1.0, 0, 0), wrong_world_T_robot(4.5, 0, std::numbers::pi);
-      robot.ObserveRaw(view, wrong_world_T_robot.inverse() * world_T_view, 1e-4);
-    }
-  }
-  for (int pass = 0; pass < 3; ++pass) {
-    robot.Wait(25.0);
-    for (const ViewId view : {1, 2, 3}) robot.Observe(view, SE2::Identity(), 1e-4);
-  }
-}
-
-MapperParams CorridorParams() {
-  MapperParams params = testing::TestParams();
-  params.ambiguity_min_rejections = 1000;  // the test is about the filter, not the ambiguity marks
-  return params;
-}
-
+// The corridor of mapper_test_util.h: one wrong pass, then three later passes of the truth that contradict
+// it; accepting them retracts the wrong one.
 TEST(RetractionTest, LaterPassesRetractAnAcceptedWrongPassAndGIsAsIfItNeverWasAccepted) {
   auto with_wrong = MakeMapper(CorridorParams());
-  CorridorOutAndBack(*with_wrong, true);
+  CorridorOutAndBack(*with_wrong, true, 3);
   auto without = MakeMapper(CorridorParams());
-  CorridorOutAndBack(*without, false);
+  CorridorOutAndBack(*without, false, 3);
 
   const MapperStatistics statistics = with_wrong->Statistics();
   EXPECT_EQ(statistics.recovery_accepted, 2);

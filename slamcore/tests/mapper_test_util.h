@@ -8,8 +8,11 @@
 #include <algorithm>
 #include <map>
 #include <memory>
+#include <numbers>
+#include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include "slamcore/graph_io.h"
 #include "slamcore/mapper.h"
@@ -128,6 +131,51 @@ inline Map CorridorParentMap(int count) {
     robot.CreateView(k + 1);
   }
   return mapper->Finish();
+}
+
+/// The edges of a graph as (from, to, measurement) triples, to compare graphs built in different orders.
+inline std::multiset<std::tuple<NodeId, NodeId, double, double, double>> EdgeSet(const PoseGraph& graph) {
+  std::multiset<std::tuple<NodeId, NodeId, double, double, double>> edges;
+  for (const Edge& edge : graph.edges()) {
+    edges.emplace(edge.from, edge.to, edge.measurement.x(), edge.measurement.y(), edge.measurement.theta());
+  }
+  return edges;
+}
+
+// A corridor out and back with loose odometry: views 1–3 at x = 0, 1, 2; the robot drives to x = 12 and
+// back to x = 2, and the map is unsure where by metres. One pass of wrong observations (when asked) claims
+// it stands at x = 4.5 (a look-alike 2.5 m further): uninformative, accepted. Then `true_passes` passes of
+// true observations, 25 s apart.
+inline void CorridorOutAndBack(Mapper& mapper, bool with_wrong_pass, int true_passes) {
+  SimulatedRobot robot(mapper);
+  constexpr double kOdometryVariance = 0.1;  // per axis and step: σ_x ≈ 1.5 m after 22 steps
+  robot.Drive(SE2::Identity(), std::nullopt, kOdometryVariance);
+  robot.CreateView(1);
+  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.CreateView(2);
+  robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.CreateView(3);
+  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.Drive(SE2(0, 0, std::numbers::pi), std::nullopt, kOdometryVariance);
+  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  // Now at x = 2 facing −x. The look-alike: each view seen as if the robot stood 2.5 m further along +x.
+  if (with_wrong_pass) {
+    for (const ViewId view : {1, 2, 3}) {
+      const SE2 world_T_view(view - 1.0, 0, 0), wrong_world_T_robot(4.5, 0, std::numbers::pi);
+      robot.ObserveRaw(view, wrong_world_T_robot.inverse() * world_T_view, 1e-4);
+    }
+  }
+  for (int pass = 0; pass < true_passes; ++pass) {
+    robot.Wait(25.0);
+    for (const ViewId view : {1, 2, 3}) robot.Observe(view, SE2::Identity(), 1e-4);
+  }
+}
+
+/// Parameters for the corridor: the filter's decisions without the ambiguity marks.
+inline MapperParams CorridorParams() {
+  MapperParams params = TestParams();
+  params.ambiguity_min_rejections = 1000;
+  return params;
 }
 
 }  // namespace slamcore::testing

@@ -359,6 +359,75 @@ CREATE TABLE health_probe (
   probed_at_ms BIGINT NOT NULL
 );
 )sql",
+      // 7: the statistics roll-up, kept by every report write, so fleet statistics cost the same at 500,000
+      // runs as at 5,000 (sql_repository_rollup.cc); filled here from the reports already stored.
+      R"sql(
+CREATE TABLE report_rollup (
+  parameter_set TEXT NOT NULL,
+  day BIGINT NOT NULL,
+  firmware TEXT NOT NULL,
+  robot_model TEXT NOT NULL,
+  reports BIGINT NOT NULL,
+  recovery_created BIGINT NOT NULL,
+  recovery_accepted BIGINT NOT NULL,
+  merge_created BIGINT NOT NULL,
+  merge_conditionally_accepted BIGINT NOT NULL,
+  merge_conditional_then_rejected BIGINT NOT NULL,
+  views_total BIGINT NOT NULL,
+  views_ambiguous BIGINT NOT NULL,
+  started_localized BIGINT NOT NULL,
+  protrusions_found BIGINT NOT NULL,
+  recovery_retracted BIGINT NOT NULL,
+  PRIMARY KEY (parameter_set, day, firmware, robot_model)
+);
+CREATE TABLE report_robot_rollup (
+  parameter_set TEXT NOT NULL,
+  robot_id TEXT NOT NULL,
+  reports BIGINT NOT NULL,
+  recovery_created BIGINT NOT NULL,
+  recovery_accepted BIGINT NOT NULL,
+  merge_created BIGINT NOT NULL,
+  merge_conditionally_accepted BIGINT NOT NULL,
+  merge_conditional_then_rejected BIGINT NOT NULL,
+  views_total BIGINT NOT NULL,
+  views_ambiguous BIGINT NOT NULL,
+  started_localized BIGINT NOT NULL,
+  protrusions_found BIGINT NOT NULL,
+  recovery_retracted BIGINT NOT NULL,
+  PRIMARY KEY (parameter_set, robot_id)
+);
+CREATE INDEX report_robot_rollup_by_robot ON report_robot_rollup (robot_id);
+CREATE TABLE report_robot_presence (
+  parameter_set TEXT NOT NULL,
+  dimension TEXT NOT NULL,
+  group_key TEXT NOT NULL,
+  robot_id TEXT NOT NULL,
+  reports BIGINT NOT NULL,
+  PRIMARY KEY (parameter_set, dimension, group_key, robot_id)
+);
+CREATE INDEX report_robot_presence_by_robot ON report_robot_presence (robot_id);
+CREATE TABLE report_robot_counts (
+  parameter_set TEXT NOT NULL,
+  dimension TEXT NOT NULL,
+  group_key TEXT NOT NULL,
+  robots BIGINT NOT NULL,
+  PRIMARY KEY (parameter_set, dimension, group_key)
+);
+INSERT INTO report_rollup (parameter_set, day, firmware, robot_model, reports, recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, recovery_retracted)
+  SELECT p.parameter_set, CASE WHEN r.started_at_ms >= 0 THEN r.started_at_ms / 86400000 ELSE (r.started_at_ms - 86399999) / 86400000 END, r.firmware, r.robot_model, COUNT(*), SUM(p.recovery_created), SUM(p.recovery_accepted), SUM(p.merge_created), SUM(p.merge_conditionally_accepted), SUM(p.merge_conditional_then_rejected), SUM(p.views_total), SUM(p.views_ambiguous), SUM(p.started_localized), SUM(p.protrusions_found), SUM(p.recovery_retracted)
+  FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id GROUP BY 1, 2, 3, 4;
+INSERT INTO report_robot_rollup (parameter_set, robot_id, reports, recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, recovery_retracted)
+  SELECT p.parameter_set, p.robot_id, COUNT(*), SUM(p.recovery_created), SUM(p.recovery_accepted), SUM(p.merge_created), SUM(p.merge_conditionally_accepted), SUM(p.merge_conditional_then_rejected), SUM(p.views_total), SUM(p.views_ambiguous), SUM(p.started_localized), SUM(p.protrusions_found), SUM(p.recovery_retracted) FROM reports p GROUP BY 1, 2;
+INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports)
+  SELECT g.parameter_set, g.dimension, g.group_key, g.robot_id, COUNT(*) FROM (
+    SELECT p.parameter_set, d.dimension, CASE d.dimension WHEN 'day' THEN CAST(CASE WHEN r.started_at_ms >= 0 THEN r.started_at_ms / 86400000 ELSE (r.started_at_ms - 86399999) / 86400000 END AS TEXT)
+      WHEN 'firmware' THEN r.firmware ELSE r.robot_model END AS group_key, p.robot_id
+    FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id
+    CROSS JOIN (SELECT 'day' AS dimension UNION ALL SELECT 'firmware' UNION ALL SELECT 'robot_model') d) g
+  GROUP BY 1, 2, 3, 4;
+INSERT INTO report_robot_counts (parameter_set, dimension, group_key, robots)
+  SELECT parameter_set, dimension, group_key, COUNT(*) FROM report_robot_presence GROUP BY 1, 2, 3;
+)sql",
   };
   return kMigrations;
 }

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "blob_codec.h"
 #include "sql_database.h"
 #include "storage/repository.h"
 
@@ -71,6 +72,13 @@ class SqlRepository final : public Repository {
 
   Result<FleetStatistics> Aggregate(const RunFilter& filter) override;
   Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) override;
+  Result<ReportPairPage> ListReportPairs(const RunFilter& filter, const std::string& set_a, const std::string& set_b,
+                                         int page_size, const std::optional<RunCursor>& after) override;
+  Status InsertRuns(const std::vector<RunRecord>& runs) override;
+  Status PutReports(const std::vector<ReportBundle>& bundles) override;
+  /// Tests only: the statistics read from the reports themselves, as without the roll-up.
+  Result<std::vector<GroupStatistics>> AggregateFromReportsForTesting(const RunFilter& filter,
+                                                                      std::optional<GroupBy> group_by);
 
   Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version, std::optional<std::int64_t> expected_head,
                                             const std::vector<MapFindingRecord>& findings) override;
@@ -122,6 +130,15 @@ class SqlRepository final : public Repository {
 
   /// Runs one write statement with RETURNING in its own transaction; how many rows it returned.
   Result<std::int64_t> CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params);
+  /// One run or report written inside `transaction` (the single and the batched writes share them); the
+  /// digest and blobs are computed before the transaction so its lock is held briefly.
+  Result<InsertOutcome> InsertRunIn(SqlTransaction& transaction, const RunRecord& run, const std::string& digest,
+                                    const EncodedBlob& telemetry);
+  Status PutReportIn(SqlTransaction& transaction, const ReportBundle& bundle, const EncodedBlob& blob);
+  /// Without `group_by`: the total as one group (none when no report matches).
+  Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, std::optional<GroupBy> group_by);
+  Result<std::vector<GroupStatistics>> AggregateFromReports(SqlTransaction& transaction, const RunFilter& filter,
+                                                            std::optional<GroupBy> group_by);
   /// Appends `entry` inside `transaction` (DeleteRobot's audit entry commits with the deletion).
   Result<AuditEntry> AppendAuditIn(SqlTransaction& transaction, const AuditEntry& entry);
 
@@ -143,5 +160,17 @@ std::int64_t NowMs();
 
 /// Rejects strings the databases cannot store as TEXT (NUL bytes) or that exceed `max_bytes`.
 Status CheckText(const std::string& value, const std::string& field, std::size_t max_bytes = 1024);
+
+// The statistics roll-up (sql_repository_rollup.cc, migration 7).
+/// Adds a written report to the roll-up; `replaced` is the report it replaced (same key), if any.
+Status AddReportToRollup(SqlTransaction& transaction, const ReportRecord& report,
+                         const std::optional<ReportRecord>& replaced);
+/// Takes every report of the robot out of the roll-up (before erasure deletes them).
+Status RemoveRobotFromRollup(SqlTransaction& transaction, const std::string& robot_id);
+/// The statistics from the roll-up, one group without `group_by` (key ""; none when nothing matches); nullopt
+/// when the roll-up cannot answer this filter and grouping exactly (the caller then reads the reports).
+std::optional<Result<std::vector<GroupStatistics>>> AggregateFromRollup(SqlTransaction& transaction,
+                                                                        const RunFilter& filter,
+                                                                        std::optional<GroupBy> group_by);
 
 }  // namespace storage::internal

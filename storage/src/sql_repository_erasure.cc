@@ -122,6 +122,7 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
         "UPDATE jobs SET parent_job_id = NULL WHERE parent_job_id IN (SELECT job_id FROM jobs WHERE robot_id = $1) "
         "AND (robot_id IS NULL OR robot_id <> $1)",
         robot));
+    STORAGE_RETURN_IF_ERROR(RemoveRobotFromRollup(transaction, robot_id));
     std::int64_t child_jobs = 0;
     const Step steps[] = {
         {"decisions", "robot_id = $1", &erased.decisions},

@@ -60,77 +60,117 @@ ProtrusionRegionRecord RegionFromRow(const SqlRow& row) {
 
 Status SqlRepository::PutReport(const ReportBundle& bundle) {
   STORAGE_RETURN_IF_ERROR(CheckBundle(bundle));
-  const ReportRecord& report = bundle.report;
-  const EncodedBlob blob = EncodeBlob(report.report);
-  const std::vector<SqlValue> key = {report.robot_id, report.run_id, report.parameter_set};
+  const EncodedBlob blob = EncodeBlob(bundle.report.report);
   return Write([&](SqlTransaction& transaction) -> Status {
-    // The upsert comes first: it locks the report row, so concurrent writers of one key take turns.
-    STORAGE_RETURN_IF_ERROR(transaction.Exec(
-        "INSERT INTO reports (robot_id, run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
-        "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
-        "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, recovery_retracted) "
-        "VALUES ($17, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16) "
-        "ON CONFLICT (robot_id, run_id, parameter_set) DO UPDATE SET recovery_created = excluded.recovery_created, "
-        "recovery_accepted = excluded.recovery_accepted, recovery_retracted = excluded.recovery_retracted, "
-        "merge_created = excluded.merge_created, "
-        "merge_conditionally_accepted = excluded.merge_conditionally_accepted, "
-        "merge_conditional_then_rejected = excluded.merge_conditional_then_rejected, "
-        "views_total = excluded.views_total, views_ambiguous = excluded.views_ambiguous, "
-        "started_localized = excluded.started_localized, protrusions_found = excluded.protrusions_found, "
-        "data = excluded.data, data_crc32 = excluded.data_crc32, data_size = excluded.data_size, "
-        "created_at_ms = excluded.created_at_ms",
-        {report.run_id, report.parameter_set, report.recovery_created, report.recovery_accepted, report.merge_created,
-         report.merge_conditionally_accepted, report.merge_conditional_then_rejected, report.views_total,
-         report.views_ambiguous, std::int64_t{report.started_localized ? 1 : 0}, report.protrusions_found,
-         SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs(), report.recovery_retracted, report.robot_id}));
+    STORAGE_RETURN_IF_ERROR(PutReportIn(transaction, bundle, blob));
+    Fault("put_report:before_commit");
+    return Status::Ok();
+  });
+}
 
-    // Labels are an engineer's work: carry them over to the replacement rows of the same region ids.
-    std::map<std::int64_t, Label> labels;
+Status SqlRepository::PutReports(const std::vector<ReportBundle>& bundles) {
+  if (bundles.size() > 10000) return InvalidArgument("reports: at most 10000 per batch");
+  std::vector<EncodedBlob> blobs;
+  for (const ReportBundle& bundle : bundles) {
+    STORAGE_RETURN_IF_ERROR(CheckBundle(bundle));
+    blobs.push_back(EncodeBlob(bundle.report.report));
+  }
+  return Write([&](SqlTransaction& transaction) -> Status {
+    for (std::size_t i = 0; i < bundles.size(); ++i) STORAGE_RETURN_IF_ERROR(PutReportIn(transaction, bundles[i], blobs[i]));
+    return Status::Ok();
+  });
+}
+
+Status SqlRepository::PutReportIn(SqlTransaction& transaction, const ReportBundle& bundle, const EncodedBlob& blob) {
+  const ReportRecord& report = bundle.report;
+  const std::vector<SqlValue> key = {report.robot_id, report.run_id, report.parameter_set};
+  const std::vector<SqlValue> values = {
+      report.robot_id, report.run_id, report.parameter_set, report.recovery_created, report.recovery_accepted,
+      report.merge_created, report.merge_conditionally_accepted, report.merge_conditional_then_rejected,
+      report.views_total, report.views_ambiguous, std::int64_t{report.started_localized ? 1 : 0},
+      report.protrusions_found, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs(),
+      report.recovery_retracted};
+  // A new report or a replacement: the roll-up adds the difference, so it must know the counters replaced.
+  // Either statement locks the report row first, so concurrent writers of one key take turns and each sees
+  // the counters the other committed.
+  auto inserted = transaction.Query(
+      "INSERT INTO reports (robot_id, run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
+      "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
+      "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, recovery_retracted) "
+      "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17) "
+      "ON CONFLICT (robot_id, run_id, parameter_set) DO NOTHING RETURNING run_id",
+      values);
+  if (!inserted.ok()) return inserted.status();
+  std::optional<ReportRecord> replaced;
+  if (inserted->empty()) {
+    auto previous = transaction.Query(
+        "UPDATE reports SET data_size = data_size WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3 "
+        "RETURNING recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, "
+        "merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, protrusions_found, "
+        "recovery_retracted",
+        key);
+    if (!previous.ok()) return previous.status();
+    if (previous->empty()) return Aborted("report of run " + report.run_id + " vanished while being replaced");
+    const SqlRow& row = previous->front();
+    replaced = ReportRecord{report.robot_id, report.run_id, report.parameter_set, row.Int(0), row.Int(1),
+                            row.Int(9), row.Int(2), row.Int(3), row.Int(4), row.Int(5), row.Int(6),
+                            row.Int(7) != 0, row.Int(8), {}};
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "UPDATE reports SET recovery_created = $4, recovery_accepted = $5, merge_created = $6, "
+        "merge_conditionally_accepted = $7, merge_conditional_then_rejected = $8, views_total = $9, "
+        "views_ambiguous = $10, started_localized = $11, protrusions_found = $12, data = $13, data_crc32 = $14, "
+        "data_size = $15, created_at_ms = $16, recovery_retracted = $17 "
+        "WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3",
+        values));
+  }
+  STORAGE_RETURN_IF_ERROR(AddReportToRollup(transaction, report, replaced));
+
+  // Labels are an engineer's work: carry them over to the replacement rows of the same region ids. A new
+  // report has no rows to replace.
+  std::map<std::int64_t, Label> labels;
+  if (replaced) {
     auto labelled = transaction.Query(
         "SELECT region_id, label, labelled_by FROM protrusion_regions WHERE robot_id = $1 AND run_id = $2 "
-        "AND parameter_set = $3 "
-        "AND label IS NOT NULL",
+        "AND parameter_set = $3 AND label IS NOT NULL",
         key);
     if (!labelled.ok()) return labelled.status();
     for (const SqlRow& row : *labelled) labels[row.Int(0)] = Label{row.Text(1), row.Text(2)};
-
     for (const char* table : {"decisions", "ambiguous_views", "protrusion_regions"}) {
       STORAGE_RETURN_IF_ERROR(transaction.Exec(
           std::string("DELETE FROM ") + table + " WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3", key));
     }
-    for (const DecisionRecord& d : bundle.decisions) {
-      STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO decisions (robot_id, run_id, parameter_set, sequence, time_s, kind, outcome, subject_id, score, "
-          "detail) VALUES ($10, $1, $2, $3, $4, $5, $6, $7, $8, $9)",
-          {report.run_id, report.parameter_set, d.sequence, d.time_s, d.kind, d.outcome, d.subject_id, d.score,
-           d.detail, report.robot_id}));
+  }
+  for (const DecisionRecord& d : bundle.decisions) {
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO decisions (robot_id, run_id, parameter_set, sequence, time_s, kind, outcome, subject_id, score, "
+        "detail) VALUES ($10, $1, $2, $3, $4, $5, $6, $7, $8, $9)",
+        {report.run_id, report.parameter_set, d.sequence, d.time_s, d.kind, d.outcome, d.subject_id, d.score,
+         d.detail, report.robot_id}));
+  }
+  for (const AmbiguousViewRecord& v : bundle.ambiguous_views) {
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO ambiguous_views (robot_id, run_id, parameter_set, view_id, time_s, candidate_count, ambiguity, "
+        "detail) VALUES ($8, $1, $2, $3, $4, $5, $6, $7)",
+        {report.run_id, report.parameter_set, v.view_id, v.time_s, v.candidate_count, v.ambiguity, v.detail,
+         report.robot_id}));
+  }
+  for (const ProtrusionRegionRecord& r : bundle.protrusion_regions) {
+    SqlValue label = SqlNull{}, labelled_by = SqlNull{};
+    if (auto it = labels.find(r.region_id); it != labels.end()) {
+      label = it->second.label;
+      labelled_by = it->second.labelled_by;
+    } else if (r.label) {
+      label = *r.label;
+      labelled_by = r.labelled_by.value_or("");
     }
-    for (const AmbiguousViewRecord& v : bundle.ambiguous_views) {
-      STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO ambiguous_views (robot_id, run_id, parameter_set, view_id, time_s, candidate_count, ambiguity, "
-          "detail) VALUES ($8, $1, $2, $3, $4, $5, $6, $7)",
-          {report.run_id, report.parameter_set, v.view_id, v.time_s, v.candidate_count, v.ambiguity, v.detail,
-           report.robot_id}));
-    }
-    for (const ProtrusionRegionRecord& r : bundle.protrusion_regions) {
-      SqlValue label = SqlNull{}, labelled_by = SqlNull{};
-      if (auto it = labels.find(r.region_id); it != labels.end()) {
-        label = it->second.label;
-        labelled_by = it->second.labelled_by;
-      } else if (r.label) {
-        label = *r.label;
-        labelled_by = r.labelled_by.value_or("");
-      }
-      STORAGE_RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO protrusion_regions (robot_id, run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
-          "features_json, predicted_class, probability, label, labelled_by) "
-          "VALUES ($13, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
-          {report.run_id, report.parameter_set, r.region_id, r.bbox.min_x, r.bbox.min_y, r.bbox.max_x, r.bbox.max_y,
-           r.features_json, r.predicted_class, r.probability, label, labelled_by, report.robot_id}));
-    }
-    Fault("put_report:before_commit");
-    return Status::Ok();
-  });
+    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO protrusion_regions (robot_id, run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
+        "features_json, predicted_class, probability, label, labelled_by) "
+        "VALUES ($13, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+        {report.run_id, report.parameter_set, r.region_id, r.bbox.min_x, r.bbox.min_y, r.bbox.max_x, r.bbox.max_y,
+         r.features_json, r.predicted_class, r.probability, label, labelled_by, report.robot_id}));
+  }
+  return Status::Ok();
 }
 
 Result<ReportRecord> SqlRepository::GetReport(const RunKey& run, const std::string& parameter_set) {

@@ -10,6 +10,8 @@
 namespace storage::internal {
 namespace {
 
+constexpr std::size_t kMaxBatch = 10000;
+
 /// The digest that decides whether a re-sent run is the same run: every stored field, length-prefixed.
 std::string RunDigest(const RunRecord& run) {
   std::string canonical;
@@ -133,6 +135,22 @@ std::string GroupKeySql(GroupBy group_by) {
 
 }  // namespace
 
+Result<InsertOutcome> SqlRepository::InsertRunIn(SqlTransaction& transaction, const RunRecord& run,
+                                                const std::string& digest, const EncodedBlob& telemetry) {
+  auto inserted = transaction.Query(
+      "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id, "
+      "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
+      "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (robot_id, run_id) DO NOTHING "
+      "RETURNING run_id",
+      {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
+       OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id), SqlBlob{telemetry.compressed},
+       telemetry.crc32, telemetry.raw_size, digest, NowMs()});
+  if (!inserted.ok()) return inserted.status();
+  if (!inserted->empty()) return InsertOutcome::kInserted;
+  return CompareExisting(transaction, "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
+                         {run.robot_id, run.run_id}, digest, "run " + run.run_id + " of robot " + run.robot_id);
+}
+
 Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
   STORAGE_RETURN_IF_ERROR(CheckRun(run));
   // Hashing and compressing happen before the transaction so the write lock is held briefly.
@@ -140,27 +158,31 @@ Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
   const EncodedBlob telemetry = EncodeBlob(run.telemetry);
   InsertOutcome outcome = InsertOutcome::kInserted;
   STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto inserted = transaction.Query(
-        "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id, "
-        "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
-        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (robot_id, run_id) DO NOTHING "
-        "RETURNING run_id",
-        {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
-         OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id), SqlBlob{telemetry.compressed},
-         telemetry.crc32, telemetry.raw_size, digest, NowMs()});
+    auto inserted = InsertRunIn(transaction, run, digest, telemetry);
     if (!inserted.ok()) return inserted.status();
-    if (inserted->empty()) {
-      auto existing = CompareExisting(transaction,
-                                      "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
-                                      {run.robot_id, run.run_id}, digest,
-                                      "run " + run.run_id + " of robot " + run.robot_id);
-      if (!existing.ok()) return existing.status();
-      outcome = *existing;
-    }
+    outcome = *inserted;
     Fault("insert_run:before_commit");
     return Status::Ok();
   }));
   return outcome;
+}
+
+Status SqlRepository::InsertRuns(const std::vector<RunRecord>& runs) {
+  if (runs.size() > kMaxBatch) return InvalidArgument("runs: at most 10000 per batch");
+  std::vector<std::string> digests;
+  std::vector<EncodedBlob> blobs;
+  for (const RunRecord& run : runs) {
+    STORAGE_RETURN_IF_ERROR(CheckRun(run));
+    digests.push_back(RunDigest(run));
+    blobs.push_back(EncodeBlob(run.telemetry));
+  }
+  return Write([&](SqlTransaction& transaction) -> Status {
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      auto inserted = InsertRunIn(transaction, runs[i], digests[i], blobs[i]);
+      if (!inserted.ok()) return inserted.status();
+    }
+    return Status::Ok();
+  });
 }
 
 Result<RunRecord> SqlRepository::GetRun(const RunKey& key) {
@@ -223,26 +245,116 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
   return page;
 }
 
-Result<FleetStatistics> SqlRepository::Aggregate(const RunFilter& filter) {
-  FleetStatistics statistics;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(StatisticsSql("''", /*grouped=*/false), FilterParams(filter));
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) statistics = StatisticsFromRow(rows->front(), 1);
-    return Status::Ok();
-  }));
-  return statistics;
+Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReports(SqlTransaction& transaction,
+                                                                        const RunFilter& filter,
+                                                                        std::optional<GroupBy> group_by) {
+  auto rows = transaction.Query(StatisticsSql(group_by ? GroupKeySql(*group_by) : "''", group_by.has_value()),
+                                FilterParams(filter));
+  if (!rows.ok()) return rows.status();
+  std::vector<GroupStatistics> groups;
+  for (const SqlRow& row : *rows) {
+    if (!group_by && row.Int(1) == 0) continue;  // the total over no reports
+    groups.push_back(GroupStatistics{row.Text(0), StatisticsFromRow(row, 1)});
+  }
+  return groups;
 }
 
-Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter, GroupBy group_by) {
+Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReportsForTesting(const RunFilter& filter,
+                                                                                   std::optional<GroupBy> group_by) {
   std::vector<GroupStatistics> groups;
   STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(StatisticsSql(GroupKeySql(group_by), /*grouped=*/true), FilterParams(filter));
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) groups.push_back(GroupStatistics{row.Text(0), StatisticsFromRow(row, 1)});
+    auto read = AggregateFromReports(transaction, filter, group_by);
+    if (!read.ok()) return read.status();
+    groups = std::move(read).value();
     return Status::Ok();
   }));
   return groups;
+}
+
+Result<FleetStatistics> SqlRepository::Aggregate(const RunFilter& filter) {
+  auto groups = AggregateBy(filter, std::nullopt);
+  if (!groups.ok()) return groups.status();
+  return groups->empty() ? FleetStatistics{} : groups->front().statistics;
+}
+
+Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter, GroupBy group_by) {
+  return AggregateBy(filter, std::optional<GroupBy>(group_by));
+}
+
+Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter,
+                                                               std::optional<GroupBy> group_by) {
+  std::vector<GroupStatistics> groups;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto read = AggregateFromRollup(transaction, filter, group_by);
+    if (!read) read = AggregateFromReports(transaction, filter, group_by);
+    if (!read->ok()) return read->status();
+    groups = std::move(*read).value();
+    return Status::Ok();
+  }));
+  return groups;
+}
+
+Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, const std::string& set_a,
+                                                      const std::string& set_b, int page_size,
+                                                      const std::optional<RunCursor>& after) {
+  if (page_size < 1 || page_size > 1000) return InvalidArgument("page_size must be in 1..1000");
+  std::string counters_a, counters_b;
+  for (const char* column : {"recovery_created", "recovery_accepted", "merge_created", "merge_conditionally_accepted",
+                             "merge_conditional_then_rejected", "views_total", "views_ambiguous", "started_localized",
+                             "protrusions_found", "recovery_retracted"}) {
+    counters_a += std::string(", a.") + column;
+    counters_b += std::string(", b.") + column;
+  }
+  std::vector<SqlValue> params = FilterParams(filter);
+  params[3] = std::string();  // $4 unused: both sets are named below
+  params.emplace_back(after ? after->started_at_ms : std::numeric_limits<std::int64_t>::min());  // $7
+  params.emplace_back(after ? after->run_id : std::string());                                    // $8
+  params.emplace_back(std::int64_t{page_size} + 1);                                              // $9
+  params.emplace_back(after ? after->robot_id : std::string());                                  // $10
+  params.emplace_back(set_a);                                                                    // $11
+  params.emplace_back(set_b);                                                                    // $12
+  const std::string sql =
+      std::string("SELECT ") + kRunColumns + counters_a + counters_b +
+      // CROSS JOIN keeps SQLite walking runs in keyset order (runs_by_start) and probing each run's two
+      // reports by key, so a page costs its size, not the table's; PostgreSQL plans it as an inner join.
+      " FROM runs r CROSS JOIN reports a CROSS JOIN reports b WHERE a.robot_id = r.robot_id AND a.run_id = r.run_id"
+      " AND a.parameter_set = $11 AND b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = $12"
+      " AND " + std::string(kRunFilterSql) + " AND CAST($4 AS TEXT) = ''" +
+      " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
+      " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
+      " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
+  const auto report_of = [](const SqlRow& row, std::size_t first, const RunRecord& run, const std::string& set) {
+    ReportRecord report;
+    report.robot_id = run.robot_id;
+    report.run_id = run.run_id;
+    report.parameter_set = set;
+    std::int64_t* targets[] = {&report.recovery_created, &report.recovery_accepted, &report.merge_created,
+                               &report.merge_conditionally_accepted, &report.merge_conditional_then_rejected,
+                               &report.views_total, &report.views_ambiguous, nullptr, &report.protrusions_found,
+                               &report.recovery_retracted};
+    for (std::size_t i = 0; i < std::size(targets); ++i) {
+      if (targets[i] != nullptr) *targets[i] = row.Int(first + i);
+    }
+    report.started_localized = row.Int(first + 7) != 0;
+    return report;
+  };
+  ReportPairPage page;
+  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    auto rows = transaction.Query(sql, params);
+    if (!rows.ok()) return rows.status();
+    for (const SqlRow& row : *rows) {
+      RunRecord run = RunFromRow(row);
+      ReportRecord a = report_of(row, 10, run, set_a), b = report_of(row, 20, run, set_b);
+      page.pairs.push_back(ReportPair{std::move(run), std::move(a), std::move(b)});
+    }
+    return Status::Ok();
+  }));
+  if (page.pairs.size() > static_cast<std::size_t>(page_size)) {
+    page.pairs.resize(static_cast<std::size_t>(page_size));
+    const RunRecord& last = page.pairs.back().run;
+    page.next = RunCursor{last.started_at_ms, last.run_id, last.robot_id};
+  }
+  return page;
 }
 
 }  // namespace storage::internal

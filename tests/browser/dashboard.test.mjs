@@ -50,7 +50,9 @@ async function imageLoaded(testid) {
 
 before(async () => {
   dir = fs.mkdtempSync(path.join(os.tmpdir(), 'fleetd-dashboard-'));
-  server = await fleet.startFleetd(dir);
+  // A small lifelong experiment (two regimes, one of them with its own fleetd) for the fleet page's chart.
+  const lifelong = fleet.simulateLifelong(dir, { robots: 2, runs: 3, minutes: 2, seed: 7, regimes: 'filter,service' });
+  server = await fleet.startFleetd(dir, ['--lifelong-results', lifelong]);
   grpc = fleet.clients(server.grpc);
   engineerToken = await fleet.issueToken(grpc, server.adminToken, 'engineer:browser-test');
   uploaded = await fleet.simulateAndUpload(grpc, server, server.adminToken, dir, FLEET);
@@ -88,7 +90,7 @@ after(async () => {
 });
 
 test('sign-in: no data without a token; the token is entered once and kept for the tab; a 401 asks again', async () => {
-  for (const route of ['/api/robots', '/api/runs', '/api/labels', '/api/jobs', '/metrics']) {
+  for (const route of ['/api/robots', '/api/runs', '/api/labels', '/api/jobs', '/api/lifelong', '/metrics']) {
     const response = await fetch(`${server.http}${route}`);
     assert.equal(response.status, 401, route);
     assert.equal(response.headers.get('cache-control'), 'no-store', route);
@@ -118,6 +120,16 @@ test('fleet overview renders the paper figures and trends', async () => {
     assert.ok(await chartPoints(chart) > 0, `${chart} draws data`);
   }
   await page.getByTestId('confusion-matrix').waitFor();
+  // The lifelong experiment: corrupted share by run for each regime, and its table.
+  assert.equal(await chartPoints('chart-lifelong'), 2 * 3, 'two regimes × three runs');
+  for (const regime of ['filter', 'service']) await page.getByTestId(`lifelong-row-${regime}`).waitFor();
+  const life = await fleet.getJson(server, '/api/lifelong');
+  assert.deepEqual(Object.keys(life.regimes).sort(), ['filter', 'service']);
+  assert.equal(life.regimes.filter.corrupted_by_run.length, 3);
+  assert.equal(life.regimes.filter.per_robot, undefined, 'the page gets the summary only');
+  const robotToken = await fleet.issueToken(grpc, server.adminToken, 'robot:lifelong-reader');
+  const refused = await fetch(`${server.http}/api/lifelong`, { headers: { Authorization: `Bearer ${robotToken}` } });
+  assert.equal(refused.status, 403, 'robots do not read the fleet\'s lifelong results');
   // Filters: a firmware filter narrows the figures (server-side aggregation).
   const meta = await fleet.getJson(server, '/api/meta');
   assert.ok(meta.firmware.length >= 1);

@@ -36,12 +36,12 @@ root.resolvePath = (_origin, target) => (path.isAbsolute(target) ? target : path
 root.loadSync('fleet/v1/service.proto', { keepCase: true });
 const RunFile = root.lookupType('fleet.v1.RunFile');
 
-/// Starts fleetd; resolves with {grpc, http, stop(), log} once it printed its addresses.
-export async function startFleetd(dir) {
+/// Starts fleetd (with `extra` flags); resolves with {grpc, http, stop(), log} once it printed its addresses.
+export async function startFleetd(dir, extra = []) {
   const adminToken = `admin:browser-test.${randomBytes(24).toString('hex')}`;
   const log = fs.createWriteStream(path.join(dir, 'fleetd.log'));
   const child = spawn(env.fleetd, ['--db', `sqlite:${path.join(dir, 'fleet.db')}`, '--listen', '127.0.0.1:0',
-    '--http', '127.0.0.1:0', '--workers', '2', '--log-format', 'text', '--rate-limit', '0'], {
+    '--http', '127.0.0.1:0', '--workers', '2', '--log-format', 'text', '--rate-limit', '0', ...extra], {
     env: { ...process.env, FLEETD_BOOTSTRAP_ADMIN_TOKEN: adminToken, FLEETD_WEB_DIR: env.webDir },
     stdio: ['ignore', 'pipe', 'pipe'],
   });
@@ -162,4 +162,13 @@ export async function waitFor(probe, predicate, timeoutMs, what) {
     await new Promise((resolve) => setTimeout(resolve, 250));
   }
   throw new Error(`timed out waiting for ${what}; last: ${JSON.stringify(last).slice(0, 400)}`);
+}
+
+/// Runs `fleetsim --lifelong` (the regimes given, a small size) and returns the results file it wrote.
+export function simulateLifelong(dir, { robots, runs, minutes, seed, regimes }) {
+  const results = path.join(dir, 'lifelong.json');
+  execFileSync(env.fleetsim, ['--lifelong', '--world', env.world, '--robots', String(robots), '--runs', String(runs),
+    '--minutes', String(minutes), '--seed', String(seed), '--regimes', regimes, '--results', results,
+    '--fleetd', env.fleetd, '--work-dir', path.join(dir, 'lifelong')], { stdio: ['ignore', 'ignore', 'ignore'] });
+  return results;
 }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "fleetd_process.h"
@@ -773,6 +774,59 @@ TEST(FleetdShutdownTest, SigtermMidWorkThenRestartFinishes) {
   }
   EXPECT_EQ(reported, static_cast<int>(SimulatedRuns().size()));
   EXPECT_EQ(second.Stop(), 0);
+}
+
+// One query service behind both transports (issue 20): the same slice asked over gRPC and over HTTP gives the
+// same numbers — totals, the day keys and their counts, the comparison's counts and its ranking and scores.
+// Runs after ReprocessWithSecondParameterSetAndCompare, which stored the second set's reports.
+TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
+  UploadAll();
+  for (const RunFile& run : SimulatedRuns()) ASSERT_TRUE(WaitForReport(run.header().run_id(), "", nullptr).ok());
+  fleet::v1::GetFleetStatisticsRequest request;
+  request.mutable_filter()->set_parameter_set("default");
+  request.set_group_by(fleet::v1::GROUP_BY_DAY);
+  fleet::v1::GetFleetStatisticsResponse grpc_stats;
+  auto context = Context(*engineer_);
+  ASSERT_TRUE(queries_->GetFleetStatistics(context.get(), request, &grpc_stats).ok());
+  std::string body;
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/stats?parameter_set=default", &body, *engineer_), 200) << body;
+  const auto http_stats = nlohmann::json::parse(body);
+  const auto& total = http_stats["total"];
+  EXPECT_GT(grpc_stats.total().reports(), 0);
+  EXPECT_EQ(total["reports"].get<std::int64_t>(), grpc_stats.total().reports());
+  EXPECT_EQ(total["robots"].get<std::int64_t>(), grpc_stats.total().robots());
+  EXPECT_EQ(total["recovery_created"].get<std::int64_t>(), grpc_stats.total().recovery_created());
+  EXPECT_EQ(total["views_ambiguous"].get<std::int64_t>(), grpc_stats.total().views_ambiguous());
+  EXPECT_DOUBLE_EQ(total["ambiguous_view_share"].get<double>(), grpc_stats.total().ambiguous_view_share());
+  ASSERT_EQ(http_stats["by_day"].size(), static_cast<std::size_t>(grpc_stats.groups_size()));
+  for (int i = 0; i < grpc_stats.groups_size(); ++i) {
+    EXPECT_EQ(http_stats["by_day"][i]["key"].get<std::string>(), grpc_stats.groups(i).key());
+    EXPECT_EQ(http_stats["by_day"][i]["reports"].get<std::int64_t>(), grpc_stats.groups(i).figures().reports());
+    EXPECT_EQ(http_stats["by_day"][i]["robots"].get<std::int64_t>(), grpc_stats.groups(i).figures().robots());
+  }
+
+  fleet::v1::CompareParameterSetsRequest compare;
+  compare.set_set_a("default");
+  compare.set_set_b("strict-merge");
+  compare.set_top(10);
+  fleet::v1::CompareParameterSetsResponse grpc_compare;
+  context = Context(*engineer_);
+  const grpc::Status status = queries_->CompareParameterSets(context.get(), compare, &grpc_compare);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/compare?a=default&b=strict-merge&limit=10", &body, *engineer_), 200)
+      << body;
+  const auto http_compare = nlohmann::json::parse(body);
+  EXPECT_GT(grpc_compare.runs_compared(), 0);
+  EXPECT_EQ(http_compare["runs_compared"].get<std::int64_t>(), grpc_compare.runs_compared());
+  EXPECT_EQ(http_compare["runs_changed"].get<std::int64_t>(), grpc_compare.runs_changed());
+  EXPECT_EQ(http_compare["stats_b"]["reports"].get<std::int64_t>(), grpc_compare.b().reports());
+  ASSERT_EQ(http_compare["changed_most"].size(), static_cast<std::size_t>(grpc_compare.most_changed_size()));
+  for (int i = 0; i < grpc_compare.most_changed_size(); ++i) {
+    const auto& row = http_compare["changed_most"][i];
+    EXPECT_EQ(row["run_id"].get<std::string>(), grpc_compare.most_changed(i).run_id()) << "rank " << i;
+    EXPECT_EQ(row["robot_id"].get<std::string>(), grpc_compare.most_changed(i).robot_id()) << "rank " << i;
+    EXPECT_DOUBLE_EQ(row["score"].get<double>(), grpc_compare.most_changed(i).change()) << "rank " << i;
+  }
 }
 
 }  // namespace

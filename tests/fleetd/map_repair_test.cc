@@ -19,6 +19,8 @@
 #include "analyzer/telemetry_codec.h"
 #include "fleetd_process.h"
 #include "sim/run_simulator.h"
+#include "sim/service_client.h"
+#include "sim/uploader.h"
 #include "slamcore/graph_io.h"
 #include "test_data.h"
 
@@ -30,16 +32,8 @@ using NodeTruth = std::unordered_map<slamcore::NodeId, slamcore::SE2>;
 
 constexpr const char* kRobot = "repair-robot";
 
-/// The robot's own back-end: a merge on a single observation, no conditional stage.
-slamcore::MapperParams PermissiveParameters() {
-  slamcore::MapperParams params;
-  params.conditional_merge = false;
-  params.merge_conditional = {.min_observations = 1, .min_views = 1};
-  params.merge_full = {.min_observations = 1, .min_views = 1};
-  params.recovery = {.min_observations = 1, .min_views = 1};
-  params.consistency.enabled = false;  // firmware without the checks against the map's own uncertainty
-  return params;
-}
+/// The robot's own back-end: a merge on a single observation, no conditional stage, no consistency checks.
+slamcore::MapperParams PermissiveParameters() { return sim::UnprotectedMapperParams(); }
 
 /// (robot node, view) of every observation the simulator marks wrong, by the node current at its time.
 std::set<std::pair<slamcore::NodeId, std::int64_t>> WrongObservations(const RunFile& run) {
@@ -415,6 +409,93 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   context = Context(engineer_);
   EXPECT_EQ(maps_->ReviewMapVersion(context.get(), review, &reviewed).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
       << "only pending versions are reviewed";
+}
+
+// A robot that follows the service: before its next run it asks Maps.GetMap, takes the repaired and approved
+// version, runs on it (naming it in the run's header and as its parent snapshot), and the server records that
+// the run was built on the repaired version: the upload is approved (not stale), its version's parent is the
+// repair, and the run's report names the version.
+TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsIt) {
+  const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
+  ASSERT_TRUE(worlds.ok());
+  auto world = sim::LoadWorld(worlds->front(), 5);
+  ASSERT_TRUE(world.ok());
+  sim::SimParams params;
+  params.run_minutes = 3.0;
+  sim::RobotSimulator robot(*world, params, kRobot, "fw-follow", 5);
+  sim::UploaderOptions upload_options;
+  upload_options.server = server_.grpc_address();
+  upload_options.token = robot_;
+  sim::Uploader uploader(upload_options);
+  sim::ServiceClient service(server_.grpc_address());
+
+  auto run_and_upload = [&](int k) {
+    auto outcome = robot.SimulateRun("follow-run-" + std::to_string(k), 1.76e9 + 86400.0 * k);
+    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    const sim::UploadOutcome uploaded = uploader.Upload(outcome->run);
+    EXPECT_TRUE(uploaded.ok) << uploaded.message;
+    robot.SetMapVersion(uploaded.map_version);
+    return std::pair{std::move(outcome).value(), uploaded};
+  };
+  auto [first, first_upload] = run_and_upload(0);
+  EXPECT_EQ(first.run.header().map_version(), 0) << "a first run holds no version of the service";
+  auto [second, second_upload] = run_and_upload(1);
+  EXPECT_EQ(second.run.header().map_version(), first_upload.map_version);
+  ASSERT_EQ(second_upload.map_version, 2);
+  ASSERT_FALSE(second_upload.map_outdated);
+
+  // Nothing newer than what the robot holds: up to date.
+  auto fetched = service.FetchMap(robot_, kRobot, robot.map_version());
+  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  EXPECT_TRUE(fetched->up_to_date);
+
+  // The engineer repairs version 2 (back to the map before its run) and approves it.
+  fleet::v1::RepairMapRequest rollback;
+  rollback.set_base_version(2);
+  rollback.set_rollback(true);
+  rollback.set_reason("the second run's map is not trusted");
+  fleet::v1::RepairMapResponse repaired;
+  ASSERT_TRUE(Repair(rollback, &repaired).ok());
+  const std::int64_t repaired_version = repaired.version().version();
+  auto approved = service.ApprovePending(engineer_, kRobot);
+  ASSERT_TRUE(approved.ok()) << approved.status().ToString();
+  ASSERT_EQ(*approved, repaired_version);
+
+  // Before its next run the robot takes it.
+  fetched = service.FetchMap(robot_, kRobot, robot.map_version());
+  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  ASSERT_FALSE(fetched->up_to_date);
+  EXPECT_EQ(fetched->version.version(), repaired_version);
+  EXPECT_EQ(fetched->version.origin(), "rollback");
+  ASSERT_TRUE(robot.TakeMap(fetched->snapshot, fetched->version.version()).ok());
+  EXPECT_EQ(robot.map().graph.num_nodes(), static_cast<std::size_t>(first.run.child_snapshot().nodes_size()))
+      << "the rolled-back map is the first run's";
+  fleet::v1::MapSnapshot broken;
+  auto* dangling = broken.add_edges();  // an edge between nodes the snapshot does not hold
+  dangling->set_from(1);
+  dangling->set_to(2);
+  EXPECT_FALSE(robot.TakeMap(broken, 99).ok()) << "a snapshot that does not decode is refused";
+  EXPECT_EQ(robot.map_version(), repaired_version) << "and the map taken before is kept";
+
+  auto [third, third_upload] = run_and_upload(2);
+  EXPECT_EQ(third.run.header().map_version(), repaired_version);
+  EXPECT_EQ(sim::SnapshotId(third.run.parent_snapshot()), repaired.version().snapshot_id());
+  EXPECT_FALSE(third_upload.map_outdated) << "built on the current map";
+  EXPECT_EQ(third_upload.current_map_version, third_upload.map_version);
+  const fleet::v1::GetMapVersionResponse recorded = Version(third_upload.map_version);
+  EXPECT_EQ(recorded.version().parent_version(), repaired_version);
+  EXPECT_EQ(recorded.version().approval(), "approved");
+
+  // The analysis' report names the version the run ran on.
+  ASSERT_TRUE(service.WaitForJob(engineer_, third_upload.analysis_job_id, 120).ok());
+  auto queries = fleet::v1::Queries::NewStub(server_.Channel());
+  fleet::v1::GetRunReportRequest request;
+  request.set_run_id("follow-run-2");
+  request.set_robot_id(kRobot);
+  fleet::v1::GetRunReportResponse report;
+  auto context = Context(engineer_);
+  ASSERT_TRUE(queries->GetRunReport(context.get(), request, &report).ok());
+  EXPECT_EQ(report.report().map_version(), repaired_version);
 }
 
 }  // namespace

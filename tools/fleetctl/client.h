@@ -2,6 +2,7 @@
 #pragma once
 
 #include <google/protobuf/util/json_util.h>
+#include <CLI/CLI.hpp>
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
@@ -21,6 +22,30 @@ struct Global {
   std::string token;
   std::string tls_ca;
   bool json = false;
+};
+
+/// The run filter options several commands share (--robot, --firmware, --model, --parameter-set, --from, --before).
+struct Filter {
+  std::string robot, firmware, model, parameter_set;
+  double from = 0, before = 0;
+  void Add(CLI::App* command) {
+    command->add_option("--robot", robot, "robot id");
+    command->add_option("--firmware", firmware, "firmware version");
+    command->add_option("--model", model, "robot model");
+    command->add_option("--parameter-set", parameter_set, "parameter set");
+    command->add_option("--from", from, "started at or after (Unix seconds)");
+    command->add_option("--before", before, "started before (Unix seconds)");
+  }
+  fleet::v1::RunFilter Proto() const {
+    fleet::v1::RunFilter filter;
+    filter.set_robot_id(robot);
+    filter.set_firmware(firmware);
+    filter.set_robot_model(model);
+    filter.set_parameter_set(parameter_set);
+    if (from != 0) filter.set_started_from(from);
+    if (before != 0) filter.set_started_before(before);
+    return filter;
+  }
 };
 
 class Client {

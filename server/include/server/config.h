@@ -18,6 +18,7 @@ struct FleetdConfig {
   std::string listen = "127.0.0.1:50051";  // gRPC; port 0 picks a free port
   std::string http = "127.0.0.1:8080";     // /metrics, /healthz; empty disables
   std::string http_allowed_hosts;           // comma-separated Host names accepted besides the bound address
+  std::string lifelong_results;             // fleetsim --lifelong --results FILE, served at /api/lifelong
   bool metrics_open = false;                // /metrics without a token (e.g. a scraper on a private network)
   std::string role = "all";                // "all", "server" (API only), "worker" (workers only)
   int workers = 0;                          // analysis threads; 0: one per core (at least 1)
@@ -43,7 +44,8 @@ struct FleetdConfig {
   int auth_cache_seconds = 60;
   std::string log_level = "info";
   std::string log_format = "json";          // "json" or "text"
-  std::string auto_repair = "none";         // "none" or "cut_protrusions": repair maps after analysis
+  std::string auto_repair = "none";         // "none", "cut_protrusions" or "repair_findings" (MapPolicy)
+  double auto_repair_min_severity = 0.0;    // the policy acts on findings at least this severe (0..1)
   bool auto_approve = false;                // policy repairs reach robots without an engineer's review
   double retain_runs_days = 0.0;            // run events older than this are dropped (reports, maps kept); 0: never
   double retain_jobs_days = 7.0;            // finished jobs older than this are deleted; 0: never

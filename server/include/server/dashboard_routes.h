@@ -29,8 +29,9 @@
 //
 // Every /api/ route needs a bearer token (MakeHttpAccessGuard: the same tokens and roles as gRPC; robots
 // read only their own runs and map); the POSTs (label, repair, review) also need a role that may do them
-// (engineer or admin; server/auth.h). Statistics are aggregated by the
-// database (storage::Repository::Aggregate/AggregateBy); lists are paginated, so pages stay fast at 100k runs.
+// (engineer or admin; server/auth.h). Every read answers from FleetQueries (server/fleet_queries.h), the
+// same service behind the Queries gRPC service; routes are path templates (http::MatchPath), one per resource.
+// Statistics come from storage's roll-up and lists are keyset pages, so pages cost the same at 500k runs.
 // Errors are JSON {"error": "..."} with an HTTP status that matches storage's Status code.
 //
 // The web directory: $FLEETD_WEB_DIR when set, else the source tree's web/ as configured at build time,

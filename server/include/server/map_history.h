@@ -19,7 +19,9 @@
 
 #include <array>
 #include <set>
+#include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "fleet/v1/maps.pb.h"
@@ -32,8 +34,12 @@
 namespace server {
 
 struct MapPolicy {
-  /// "none", or "cut_protrusions": after analysis, cut open protrusion findings out of the newest version.
+  /// "none"; "cut_protrusions": after analysis, cut open protrusion findings out of the newest version;
+  /// "repair_findings": also reject the hypothesis of an unconfirmed-hypothesis finding and the edge of a
+  /// high-residual one, and roll back to the map before the run when such a finding cannot be repaired.
+  /// Only findings of at least `min_severity` are acted on.
   std::string auto_repair = "none";
+  double min_severity = 0.0;
   /// Policy repairs are approved at once (robots get them on their next GetMap) instead of waiting for review.
   bool auto_approve = false;
   std::string default_parameter_set = "default";
@@ -49,14 +55,30 @@ struct UploadMapOutcome {
   bool outdated = false;             // the run was built on a map older than the current one
 };
 
+/// What a repair does (the Maps.RepairMap oneof; the dashboard's "action" with its fields).
+struct RejectEdge {
+  std::int64_t from = 0, to = 0;
+  std::optional<std::int64_t> view;
+};
+struct RejectHypothesis {
+  std::int64_t hypothesis = 0;
+};
+struct CutFinding {
+  std::int64_t finding_id = 0;
+};
+struct Rollback {};
+struct Undo {};
+using RepairAction = std::variant<RejectEdge, RejectHypothesis, CutFinding, Rollback, Undo>;
+
+/// "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo".
+const char* RepairActionName(const RepairAction& action);
+/// The action a name stands for, with default fields; INVALID_ARGUMENT naming `field` for any other name.
+storage::Result<RepairAction> RepairActionNamed(const std::string& name, const std::string& field);
+
 struct RepairRequest {
   std::string robot_id;
   std::int64_t base_version = 0;
-  std::string action;  // "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"
-  std::int64_t from = 0, to = 0;
-  std::optional<std::int64_t> view;
-  std::int64_t hypothesis = 0;
-  std::int64_t finding_id = 0;
+  RepairAction action;
   std::string reason;
   bool approve = false;
   std::string requested_by;  // principal name or "policy:<name>"

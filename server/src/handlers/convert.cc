@@ -10,7 +10,6 @@ namespace server {
 namespace {
 
 std::int64_t Millis(double seconds) { return static_cast<std::int64_t>(std::llround(seconds * 1000.0)); }
-double Share(double part, double whole) { return whole > 0 ? part / whole : 0.0; }
 
 }  // namespace
 
@@ -50,7 +49,8 @@ fleet::v1::RunFilter ToProto(const storage::RunFilter& filter) {
   return out;
 }
 
-fleet::v1::FleetFigures ToProto(const storage::FleetStatistics& s) {
+fleet::v1::FleetFigures ToProto(const Figures& figures) {
+  const storage::FleetStatistics& s = figures.counts;
   fleet::v1::FleetFigures f;
   f.set_reports(s.reports);
   f.set_robots(s.robots);
@@ -64,14 +64,14 @@ fleet::v1::FleetFigures ToProto(const storage::FleetStatistics& s) {
   f.set_started_localized(s.started_localized);
   f.set_protrusions_found(s.protrusions_found);
   f.set_recovery_retracted(s.recovery_retracted);
-  const auto d = [](std::int64_t v) { return static_cast<double>(v); };
-  f.set_recovery_per_run(Share(d(s.recovery_created), d(s.reports)));
-  f.set_recovery_accepted_share(Share(d(s.recovery_accepted), d(s.recovery_created)));
-  f.set_started_localized_share(Share(d(s.started_localized), d(s.reports)));
-  f.set_merge_conditional_then_rejected_share(Share(d(s.merge_conditional_then_rejected), d(s.merge_created)));
-  f.set_ambiguous_view_share(Share(d(s.views_ambiguous), d(s.views_total)));
-  f.set_protrusions_per_run(Share(d(s.protrusions_found), d(s.reports)));
-  f.set_recovery_retracted_share(Share(d(s.recovery_retracted), d(s.recovery_accepted)));
+  // proto3 doubles cannot be absent: a share without a denominator is 0 on the wire (null over HTTP).
+  f.set_recovery_per_run(figures.recovery_per_run.value_or(0.0));
+  f.set_recovery_accepted_share(figures.recovery_accepted_share.value_or(0.0));
+  f.set_started_localized_share(figures.started_localized_share.value_or(0.0));
+  f.set_merge_conditional_then_rejected_share(figures.merge_conditional_then_rejected_share.value_or(0.0));
+  f.set_ambiguous_view_share(figures.ambiguous_view_share.value_or(0.0));
+  f.set_protrusions_per_run(figures.protrusions_per_run.value_or(0.0));
+  f.set_recovery_retracted_share(figures.recovery_retracted_share.value_or(0.0));
   return f;
 }
 
@@ -147,19 +147,6 @@ fleet::v1::Region ToProto(const storage::ProtrusionRegionRecord& region) {
   out.set_label(region.label.value_or(""));
   out.set_labelled_by(region.labelled_by.value_or(""));
   return out;
-}
-
-std::string DayKey(const std::string& days_since_epoch) {
-  try {
-    const std::time_t seconds = static_cast<std::time_t>(std::stoll(days_since_epoch)) * 86400;
-    std::tm tm{};
-    gmtime_r(&seconds, &tm);
-    char buffer[16];
-    std::strftime(buffer, sizeof buffer, "%Y-%m-%d", &tm);
-    return buffer;
-  } catch (...) {
-    return days_since_epoch;
-  }
 }
 
 }  // namespace server

@@ -56,22 +56,18 @@ grpc::Status MapsHandler::RepairMap(grpc::ServerContext* call, const fleet::v1::
   repair.approve = request->approve();
   repair.requested_by = principal.name;
   switch (request->action_case()) {
-    case fleet::v1::RepairMapRequest::kRejectEdge:
-      repair.action = "reject_edge";
-      repair.from = request->reject_edge().from();
-      repair.to = request->reject_edge().to();
-      if (request->reject_edge().has_view()) repair.view = request->reject_edge().view();
+    case fleet::v1::RepairMapRequest::kRejectEdge: {
+      RejectEdge edge{request->reject_edge().from(), request->reject_edge().to(), std::nullopt};
+      if (request->reject_edge().has_view()) edge.view = request->reject_edge().view();
+      repair.action = edge;
       break;
+    }
     case fleet::v1::RepairMapRequest::kRejectHypothesis:
-      repair.action = "reject_hypothesis";
-      repair.hypothesis = request->reject_hypothesis();
+      repair.action = RejectHypothesis{request->reject_hypothesis()};
       break;
-    case fleet::v1::RepairMapRequest::kCutFinding:
-      repair.action = "cut_finding";
-      repair.finding_id = request->cut_finding();
-      break;
-    case fleet::v1::RepairMapRequest::kRollback: repair.action = "rollback"; break;
-    case fleet::v1::RepairMapRequest::kUndo: repair.action = "undo"; break;
+    case fleet::v1::RepairMapRequest::kCutFinding: repair.action = CutFinding{request->cut_finding()}; break;
+    case fleet::v1::RepairMapRequest::kRollback: repair.action = Rollback{}; break;
+    case fleet::v1::RepairMapRequest::kUndo: repair.action = Undo{}; break;
     case fleet::v1::RepairMapRequest::ACTION_NOT_SET:
       return scope.Done(InvalidArgument("action: set one of reject_edge, reject_hypothesis, cut_finding, rollback, undo"));
   }

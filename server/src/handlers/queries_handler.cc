@@ -1,11 +1,7 @@
 #include "queries_handler.h"
 
-#include <algorithm>
-#include <cmath>
-#include <map>
 
 #include "convert.h"
-#include "run_lookup.h"
 
 namespace server {
 namespace {
@@ -50,17 +46,6 @@ fleet::v1::ReportCounts Counts(const storage::ReportRecord& report) {
   return counts;
 }
 
-double Change(const fleet::v1::ReportCounts& a, const fleet::v1::ReportCounts& b) {
-  const auto d = [](std::int64_t x, std::int64_t y) { return static_cast<double>(std::llabs(x - y)); };
-  return d(a.recovery_created(), b.recovery_created()) + d(a.recovery_accepted(), b.recovery_accepted()) +
-         d(a.merge_created(), b.merge_created()) +
-         d(a.merge_conditionally_accepted(), b.merge_conditionally_accepted()) +
-         d(a.merge_conditional_then_rejected(), b.merge_conditional_then_rejected()) +
-         d(a.views_ambiguous(), b.views_ambiguous()) + d(a.protrusions_found(), b.protrusions_found()) +
-         d(a.recovery_retracted(), b.recovery_retracted()) +
-         (a.started_localized() != b.started_localized() ? 1.0 : 0.0);
-}
-
 }  // namespace
 
 grpc::Status QueriesHandler::GetRunReport(grpc::ServerContext* call, const fleet::v1::GetRunReportRequest* request,
@@ -75,34 +60,12 @@ grpc::Status QueriesHandler::DoGetRunReport(grpc::ServerContext* call, const fle
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
   if (request->run_id().empty()) return InvalidArgument("run_id: required");
   const std::string set = request->parameter_set().empty() ? context_.default_parameter_set : request->parameter_set();
-  auto key = ResolveRun(*context_.repository, principal, request->robot_id(), request->run_id());
+  auto key = queries_.Run(principal, request->robot_id(), request->run_id());
   if (!key.ok()) return ToGrpc(key.status());
-  auto report = context_.repository->GetReport(*key, set);
-  if (!report.ok()) {
-    if (report.status().code() != storage::StatusCode::kNotFound) return ToGrpc(report.status());
-    auto run = context_.repository->GetRun(*key);
-    if (!run.ok() && run.status().code() == storage::StatusCode::kNotFound) {
-      return {grpc::StatusCode::NOT_FOUND, "run_id: no run \"" + request->run_id() + "\""};
-    }
-    return {grpc::StatusCode::NOT_FOUND, "parameter_set: run \"" + request->run_id() + "\" has no report for set \"" +
-                                             set + "\" (yet: analysis may be queued)"};
-  }
-  fleet::v1::RunReport* out = response->mutable_report();
-  if (!out->ParseFromString(report->report)) {
-    return {grpc::StatusCode::DATA_LOSS, "stored report of run " + request->run_id() + " does not parse"};
-  }
-  auto regions = context_.repository->ListProtrusionRegions(*key, set);
-  if (regions.ok()) {
-    std::map<std::int64_t, std::string> labels;
-    for (const auto& region : *regions) {
-      if (region.label) labels[region.region_id] = *region.label;
-    }
-    for (auto& region : *out->mutable_protrusion_regions()) {
-      auto it = labels.find(region.id());
-      if (it != labels.end()) region.set_label(it->second);
-    }
-  }
-  if (!request->include_rerun_child()) out->clear_rerun_child();
+  auto report = queries_.Report(*key, set);
+  if (!report.ok()) return ToGrpc(report.status());
+  *response->mutable_report() = std::move(report).value();
+  if (!request->include_rerun_child()) response->mutable_report()->clear_rerun_child();
   return grpc::Status::OK;
 }
 
@@ -126,9 +89,15 @@ grpc::Status QueriesHandler::DoListRuns(grpc::ServerContext* call, const fleet::
     if (!cursor.ok()) return ToGrpc(cursor.status());
     after = *cursor;
   }
-  auto page = context_.repository->ListRuns(*filter, page_size, after);
+  RunsQuery query;
+  query.filter = *filter;
+  query.page_size = page_size;
+  query.after = after;
+  query.with_report_sets = true;
+  auto page = queries_.Runs(principal, query);
   if (!page.ok()) return ToGrpc(page.status());
-  for (const auto& run : page->runs) {
+  for (const RunRow& row : page->rows) {
+    const storage::RunRecord& run = row.run;
     fleet::v1::RunSummary* summary = response->add_runs();
     summary->set_run_id(run.run_id);
     summary->set_robot_id(run.robot_id);
@@ -139,10 +108,7 @@ grpc::Status QueriesHandler::DoListRuns(grpc::ServerContext* call, const fleet::
     summary->set_parent_snapshot_id(run.parent_snapshot_id.value_or(""));
     summary->set_child_snapshot_id(run.child_snapshot_id.value_or(""));
     summary->set_telemetry_bytes(run.telemetry_size);
-    auto sets = context_.repository->ListReportParameterSets(run.key());
-    if (sets.ok()) {
-      for (const auto& set : *sets) summary->add_report_parameter_sets(set);
-    }
+    for (const auto& set : row.report_sets) summary->add_report_parameter_sets(set);
   }
   if (page->next) response->set_next_page_token(EncodePageToken(*page->next));
   return grpc::Status::OK;
@@ -161,9 +127,6 @@ grpc::Status QueriesHandler::DoStatistics(grpc::ServerContext* call, const fleet
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
   auto filter = FromProto(request->filter(), "filter");
   if (!filter.ok()) return ToGrpc(filter.status());
-  auto total = context_.repository->Aggregate(*filter);
-  if (!total.ok()) return ToGrpc(total.status());
-  *response->mutable_total() = ToProto(*total);
   std::optional<storage::GroupBy> group_by;
   switch (request->group_by()) {
     case fleet::v1::GROUP_BY_NONE: break;
@@ -174,13 +137,13 @@ grpc::Status QueriesHandler::DoStatistics(grpc::ServerContext* call, const fleet
     case fleet::v1::GROUP_BY_ROBOT: group_by = storage::GroupBy::kRobot; break;
     default: return InvalidArgument("group_by: unknown value " + std::to_string(request->group_by()));
   }
-  if (!group_by) return grpc::Status::OK;
-  auto groups = context_.repository->AggregateBy(*filter, *group_by);
-  if (!groups.ok()) return ToGrpc(groups.status());
-  for (const auto& group : *groups) {
+  auto answer = queries_.Statistics(principal, *filter, group_by);
+  if (!answer.ok()) return ToGrpc(answer.status());
+  *response->mutable_total() = ToProto(answer->total);
+  for (const FiguresGroup& group : answer->groups) {
     fleet::v1::StatisticsGroup* out = response->add_groups();
-    out->set_key(*group_by == storage::GroupBy::kDay ? DayKey(group.key) : group.key);
-    *out->mutable_figures() = ToProto(group.statistics);
+    out->set_key(group.key);
+    *out->mutable_figures() = ToProto(group.figures);
   }
   return grpc::Status::OK;
 }
@@ -196,71 +159,26 @@ grpc::Status QueriesHandler::DoCompare(grpc::ServerContext* call, const fleet::v
                                        fleet::v1::CompareParameterSetsResponse* response) {
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
-  if (request->set_a().empty()) return InvalidArgument("set_a: required");
-  if (request->set_b().empty()) return InvalidArgument("set_b: required");
   if (request->top() < 0 || request->top() > 1000) return InvalidArgument("top: expected 0..1000");
-  for (const auto& [field, name] : {std::pair{"set_a", request->set_a()}, std::pair{"set_b", request->set_b()}}) {
-    auto stored = context_.repository->GetParameterSet(name);
-    if (!stored.ok()) {
-      if (stored.status().code() == storage::StatusCode::kNotFound) {
-        return {grpc::StatusCode::NOT_FOUND, std::string(field) + ": no parameter set \"" + name + "\""};
-      }
-      return ToGrpc(stored.status());
-    }
-  }
   auto filter = FromProto(request->filter(), "filter");
   if (!filter.ok()) return ToGrpc(filter.status());
-  storage::RunFilter filter_a = *filter, filter_b = *filter;
-  filter_a.parameter_set = request->set_a();
-  filter_b.parameter_set = request->set_b();
-  auto a = context_.repository->Aggregate(filter_a);
-  if (!a.ok()) return ToGrpc(a.status());
-  auto b = context_.repository->Aggregate(filter_b);
-  if (!b.ok()) return ToGrpc(b.status());
-  *response->mutable_a() = ToProto(*a);
-  *response->mutable_b() = ToProto(*b);
-  *response->mutable_delta() = Delta(response->a(), response->b());
-
   const std::size_t top = request->top() == 0 ? 10 : static_cast<std::size_t>(request->top());
-  std::vector<fleet::v1::RunComparison> comparisons;
-  std::int64_t compared = 0, changed = 0;
-  std::optional<storage::RunCursor> cursor;
-  do {
-    if (call->IsCancelled()) return {grpc::StatusCode::CANCELLED, "cancelled or deadline exceeded"};
-    auto page = context_.repository->ListRuns(filter_a, 500, cursor);
-    if (!page.ok()) return ToGrpc(page.status());
-    for (const auto& run : page->runs) {
-      auto report_b = context_.repository->GetReport(run.key(), request->set_b());
-      if (!report_b.ok()) continue;
-      auto report_a = context_.repository->GetReport(run.key(), request->set_a());
-      if (!report_a.ok()) continue;
-      ++compared;
-      fleet::v1::RunComparison comparison;
-      comparison.set_run_id(run.run_id);
-      comparison.set_robot_id(run.robot_id);
-      *comparison.mutable_a() = Counts(*report_a);
-      *comparison.mutable_b() = Counts(*report_b);
-      comparison.set_change(Change(comparison.a(), comparison.b()));
-      if (comparison.change() > 0) ++changed;
-      comparisons.push_back(std::move(comparison));
-      // Keep memory bounded: trim to the best `top` now and then.
-      if (comparisons.size() > 4 * top + 1000) {
-        std::partial_sort(comparisons.begin(), comparisons.begin() + static_cast<std::ptrdiff_t>(top),
-                          comparisons.end(), [](const auto& x, const auto& y) {
-                            return x.change() != y.change() ? x.change() > y.change() : x.run_id() < y.run_id();
-                          });
-        comparisons.resize(top);
-      }
-    }
-    cursor = page->next;
-  } while (cursor);
-  std::sort(comparisons.begin(), comparisons.end(), [](const auto& x, const auto& y) {
-    return x.change() != y.change() ? x.change() > y.change() : x.run_id() < y.run_id();
-  });
-  if (comparisons.size() > top) comparisons.resize(top);
-  response->set_runs_compared(compared);
-  response->set_runs_changed(changed);
-  for (auto& comparison : comparisons) *response->add_most_changed() = std::move(comparison);
+  auto comparison = queries_.Compare(principal, *filter, request->set_a(), request->set_b(), top);
+  if (!comparison.ok()) return ToGrpc(comparison.status());
+  *response->mutable_a() = ToProto(comparison->a);
+  *response->mutable_b() = ToProto(comparison->b);
+  *response->mutable_delta() = Delta(response->a(), response->b());
+  response->set_runs_compared(comparison->runs_compared);
+  response->set_runs_changed(comparison->runs_changed);
+  response->set_scan_truncated(comparison->scan_truncated);
+  for (const RunChange& change : comparison->most_changed) {
+    fleet::v1::RunComparison* out = response->add_most_changed();
+    out->set_run_id(change.run.run_id);
+    out->set_robot_id(change.run.robot_id);
+    *out->mutable_a() = Counts(change.a);
+    *out->mutable_b() = Counts(change.b);
+    out->set_change(change.change);
+  }
   return grpc::Status::OK;
 }
 

@@ -3,13 +3,15 @@
 #pragma once
 
 #include "fleet/v1/service.grpc.pb.h"
+#include "server/fleet_queries.h"
 #include "service_context.h"
 
 namespace server {
 
 class QueriesHandler final : public fleet::v1::Queries::Service {
  public:
-  explicit QueriesHandler(ServiceContext& context) : context_(context) {}
+  explicit QueriesHandler(ServiceContext& context)
+      : context_(context), queries_(*context.repository, context.default_parameter_set) {}
   grpc::Status GetRunReport(grpc::ServerContext* call, const fleet::v1::GetRunReportRequest* request,
                             fleet::v1::GetRunReportResponse* response) override;
   grpc::Status ListRuns(grpc::ServerContext* call, const fleet::v1::ListRunsRequest* request,
@@ -29,6 +31,7 @@ class QueriesHandler final : public fleet::v1::Queries::Service {
   grpc::Status DoCompare(grpc::ServerContext* call, const fleet::v1::CompareParameterSetsRequest* request,
                          fleet::v1::CompareParameterSetsResponse* response);
   ServiceContext& context_;
+  FleetQueries queries_;
 };
 
 }  // namespace server

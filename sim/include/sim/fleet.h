@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/map_health.h"
 #include "sim/run_simulator.h"
 #include "sim/sim_params.h"
 
@@ -26,6 +27,21 @@ struct FleetOptions {
   std::filesystem::path protrusion_data;       // set: write each run's labelled parent/child pair here
   double first_start = 1767225600.0;           // 2026-01-01T00:00:00Z, runs one day apart
   SimParams params;
+  /// Measure each robot's map against ground truth after every run (sim/map_health.h).
+  bool measure_map_health = false;
+  CorruptionThreshold corruption;
+  /// Called on the robot's thread before each run (e.g. take the service's newest approved map) and after
+  /// it (e.g. upload it, then take a repaired map); an error stops the fleet. The after-run hook may note in
+  /// the outcome what it did (RunOutcome::repairs_taken).
+  std::function<slamcore::Status(RobotSimulator&, int run)> before_run;
+  std::function<slamcore::Status(RobotSimulator&, RunOutcome&)> after_run;
+};
+
+/// One robot's map after one run (and after the after-run hook), with what the service did to it.
+struct RunHealth {
+  MapHealth map;
+  int repairs_taken = 0;                       // repaired versions the robot took since its previous run
+  std::int64_t map_version = 0;                // the version the run started from (0: none)
 };
 
 /// Figures over all runs, as the paper reports them.
@@ -49,10 +65,16 @@ struct FleetStatistics {
   int pairs_written = 0;                       // --protrusion-data
   double simulated_hours = 0.0;
   double wall_seconds = 0.0;
+  // With measure_map_health: [robot][run], and the robots by their map after the last run: corrupted; else
+  // repaired (took a repaired map from the service at least once); else healthy.
+  std::vector<std::vector<RunHealth>> health;
+  int robots_healthy = 0, robots_repaired = 0, robots_corrupted = 0;
 
   void Add(const RunOutcome& outcome);
   std::string ToText() const;
   std::string ToJson() const;  // one line
+  /// "map health (ground truth) … H healthy, R repaired, C corrupted robots" (with measure_map_health).
+  std::string MapHealthLine() const;
 };
 
 /// Runs the fleet; `progress(done, total)` after each run. Files: OUT/<robot>/<run_id>.runpb (RunFile);

@@ -41,6 +41,8 @@ struct RunOutcome {
   // itself with per-cell truth (1 protrusion: under a stuck node's patch; 2 new space; 0 unchanged).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
   std::optional<slamcore::GeneratedPair> truth_pair;
+  std::int64_t map_version = 0;           // header.map_version: the service's version the run started from
+  int repairs_taken = 0;                  // set by a fleet's after-run hook: repaired versions taken after it
   int stuck_episodes() const { return stuck_at_wall + stuck_under_furniture + stuck_on_rug; }
 };
 
@@ -57,6 +59,19 @@ class RobotSimulator {
 
   /// The ranging sensor this robot was built with.
   const RangeSensor& sensor() const;
+
+  /// Replaces the on-board map with version `version` of the robot's map in the service (Maps.GetMap's
+  /// answer), as a robot that follows the service does before a run: the next run starts from it, names it
+  /// as its parent snapshot byte for byte and reports the version. Views the map no longer holds are
+  /// forgotten by the front-end. INVALID_ARGUMENT when the snapshot does not decode (the map is kept).
+  slamcore::Status TakeMap(const fleet::v1::MapSnapshot& snapshot, std::int64_t version);
+  /// The service's version of the robot's current map (its last upload became it); 0: none.
+  void SetMapVersion(std::int64_t version);
+  std::int64_t map_version() const;
+  const std::string& robot_id() const;
+  /// The robot's current map, and the true pose of every node it ever made (kept across runs).
+  const slamcore::Map& map() const;
+  const std::unordered_map<slamcore::NodeId, SE2>& node_truth() const;
 
   /// The robot's persistent state (map, view database, odometry bias); defined in the .cc.
   struct State;

@@ -68,4 +68,8 @@ struct SimParams {
   slamcore::Status Validate() const;
 };
 
+/// Robot firmware without the paper's protection: a merge or loop closure on the first observation, no
+/// conditional stage, no checks against the map's own uncertainty (the lifelong experiment's regime "none").
+slamcore::MapperParams UnprotectedMapperParams();
+
 }  // namespace sim

@@ -48,6 +48,9 @@ struct UploadOutcome {
   std::uint64_t events = 0;
   int attempts = 0;
   double seconds = 0.0;               // wall time including retries
+  std::int64_t analysis_job_id = 0;   // the server's answer (service.proto UploadRunResponse)
+  std::int64_t map_version = 0, current_map_version = 0;
+  bool map_outdated = false;
 };
 
 class Uploader {

@@ -63,6 +63,17 @@ struct ConsistencyParams {
   int max_continuation_edges = 20;
   int max_judged_per_check = 8;
   int max_retractions_per_check = 4;
+  /// The consistent-set check (mapper_consistent_set.cc): the accepted hypotheses of the run and the refused
+  /// ones kept (at most max_kept_refused, the oldest forgotten first) are judged together by graduated
+  /// non-convexity; those outside the largest consistent set are retracted, refused ones inside it accepted.
+  /// It runs when the number of judged hypotheses has grown by consistent_set_growth since the last check,
+  /// and at the end of the run. A hypothesis is consistent when its edges' χ² at the solution is within the
+  /// quantile at consistent_set_confidence; at most gnc_max_iterations weighted solves per check.
+  bool consistent_set_check = true;
+  double consistent_set_confidence = 0.99;
+  double consistent_set_growth = 1.5;
+  int max_kept_refused = 256;
+  int gnc_max_iterations = 40;
 };
 
 /// The largest value MapperParams::Validate accepts for each kind of field (the smallest is 1, or > 0).

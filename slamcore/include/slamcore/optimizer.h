@@ -39,6 +39,9 @@ struct OptimizerOptions {
   /// Start from the linear estimate of linear_initialization.h instead of the current poses (which is
   /// the warm start). For batch optimisation of graphs whose initial guess is composed odometry.
   bool linear_initialization = false;
+  /// When non-empty, one weight ≥ 0 per edge of the graph, in edges() order: the edge's information is
+  /// scaled by it and edges weighted 0 are left out (graduated non-convexity, mapper_consistent_set.cc).
+  std::vector<double> edge_weights;
 };
 
 /// Checks that options are usable; names the bad field.

@@ -229,6 +229,17 @@ struct FleetStatistics {
   std::int64_t recovery_retracted = 0;
 };
 
+/// One run's reports under two parameter sets (Repository::ListReportPairs): counters only, no bytes.
+struct ReportPair {
+  RunRecord run;  // telemetry not loaded
+  ReportRecord a, b;
+};
+
+struct ReportPairPage {
+  std::vector<ReportPair> pairs;
+  std::optional<RunCursor> next;  // absent on the last page
+};
+
 enum class GroupBy { kRobot, kFirmware, kRobotModel, kParameterSet, kDay };
 
 struct GroupStatistics {

@@ -125,9 +125,24 @@ class Repository {
                                                                           int limit) = 0;
 
   // ---- Fleet statistics (aggregated by the database) ----
+  // Read from a roll-up that every report write keeps (storage/docs/schema.md, migration 7), so their cost
+  // does not grow with the number of runs, whenever it answers the filter exactly: no robot or time
+  // restriction, and firmware or model restricted only where robots can still be counted exactly (the total;
+  // grouping by the restricted dimension). Other filters read the reports (indexed, counters only).
   virtual Result<FleetStatistics> Aggregate(const RunFilter& filter) = 0;
   /// One row per group, ordered by key.
   virtual Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) = 0;
+  /// Runs matching `filter` (its parameter_set ignored) that have a report under both sets, in ListRuns
+  /// order, at most page_size (1..1000) after `after`; the reports carry their counters only (no bytes).
+  virtual Result<ReportPairPage> ListReportPairs(const RunFilter& filter, const std::string& set_a,
+                                                 const std::string& set_b, int page_size,
+                                                 const std::optional<RunCursor>& after) = 0;
+
+  // ---- Bulk writes (importers and generators): each is one transaction, all or nothing ----
+  /// InsertRun for each run, at most 10,000; a run already stored with the same payload is kept.
+  virtual Status InsertRuns(const std::vector<RunRecord>& runs) = 0;
+  /// PutReport for each bundle, at most 10,000.
+  virtual Status PutReports(const std::vector<ReportBundle>& bundles) = 0;
 
   // ---- Map history (per robot) ----
   /// Appends `version` (its `version` field is ignored) as the robot's newest version, number newest + 1,

@@ -1,6 +1,6 @@
 // Fleet overview: the paper's figures (Fig. 6, 7, 8, 12) for the chosen time range, firmware and parameter
 // set, with trends by day and by firmware. Everything is aggregated by the database (/api/stats).
-import { getJson } from '../api.js';
+import { ApiError, getJson } from '../api.js';
 import * as charts from '../charts.js';
 import { card, h, kpi, noRuns, num, pct, setState } from '../ui.js';
 import { apiFilter, filterBar } from './filters.js';
@@ -47,6 +47,7 @@ export async function render(main, { query, isCurrent }) {
     card('Trends by day', dayRates),
     card('Runs and protrusions by day', dayRuns),
     card('By firmware', fwRates)));
+  await lifelongCard(main, canvas);
 
   const fw = stats.by_firmware, days = stats.by_day;
   charts.bar(fig6.firstChild, fw.map((g) => g.key), [
@@ -73,4 +74,31 @@ export async function render(main, { query, isCurrent }) {
     { label: 'merge cond. → rejected', data: fw.map((g) => g.merge_conditional_then_rejected_share) },
     { label: 'ambiguous views', data: fw.map((g) => g.ambiguous_view_share) }], { percent: true });
   setState(main, 'ready');
+}
+
+/// The lifelong experiment (fleetsim --lifelong, served by fleetd --lifelong-results): the share of robots
+/// whose map is corrupted after each run, per regime. Nothing is drawn when fleetd has no results.
+async function lifelongCard(main, canvas) {
+  let life;
+  try {
+    life = await getJson('/api/lifelong');
+  } catch (e) {
+    if (e instanceof ApiError && e.status === 404) return;
+    throw e;
+  }
+  const names = Object.keys(life.regimes);
+  const chart = canvas('chart-lifelong');
+  const rows = names.map((name) => {
+    const r = life.regimes[name];
+    return h('tr', { 'data-testid': `lifelong-row-${name}` }, h('td', {}, name), h('td', {}, pct(r.corrupted_share)),
+      h('td', {}, num(r.robots_ever_corrupted)), h('td', {}, num(r.mean_runs_to_corruption)), h('td', {}, num(r.runs_lost)),
+      h('td', {}, num(r.repairs_taken)));
+  });
+  const table = h('table', { class: 'lifelong', 'data-testid': 'lifelong-table' },
+    h('tr', {}, ...['regime', 'corrupted after the last run', 'ever corrupted', 'mean runs to corruption', 'runs lost', 'repairs taken'].map((t) => h('th', {}, t))),
+    ...rows);
+  main.append(h('div', { class: 'grid' }, card(`Lifelong maps — share of robots whose map is corrupted, by run (${life.robots} robots × ${life.runs} runs, seed ${life.seed})`,
+    chart, table, h('p', { class: 'muted' }, `Corrupted: trajectory RMSE over ${life.threshold.trajectory_rmse_m} m or false free area over ${life.threshold.false_free_m2} m² against the simulator's ground truth (docs/fleetsim.md).`))));
+  const runs = life.regimes[names[0]].corrupted_by_run.map((_, k) => String(k + 1));
+  charts.line(chart.firstChild, runs, names.map((name) => ({ label: name, data: life.regimes[name].corrupted_by_run })), { percent: true });
 }

@@ -18,7 +18,9 @@ export async function render(main, { args, query, isCurrent }) {
     (detail.report_parameter_sets.length ? detail.report_parameter_sets : [detail.parameter_set]).map((s) => h('option', { value: s, selected: s === detail.parameter_set }, s)));
   main.append(h('h1', {}, `Run ${run.run_id}`),
     h('p', { class: 'muted' }, `robot ${run.robot_id} · firmware ${run.firmware} · ${run.robot_model} · started ${time(run.started_at_ms)} UTC · `,
-      run.parent_snapshot_id ? 'continues the robot\'s map' : 'first run (no parent map)', ' · parameter set ', setPicker));
+      run.parent_snapshot_id ? 'continues the robot\'s map' : 'first run (no parent map)',
+      detail.analysis && detail.analysis.map_version ? h('span', { 'data-testid': 'run-map-version' }, ` (ran on map version ${detail.analysis.map_version})`) : '',
+      ' · parameter set ', setPicker));
   if (!detail.report) {
     main.append(emptyState(`No report with parameter set "${detail.parameter_set}" yet.`, 'Analysis runs after the upload; reprocessing jobs add other parameter sets (Jobs page).'));
     setState(main, 'empty');

@@ -1,0 +1,82 @@
+#include "sim/map_health.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "analyzer/map_repair.h"
+#include "analyzer/run_analysis.h"
+#include "slamcore/trajectory_error.h"
+
+namespace sim {
+
+MapHealthMeter::MapHealthMeter(const World& world, CorruptionThreshold threshold, double margin_m)
+    : world_(world), threshold_(threshold) {
+  const Grid& grid = world.grid;
+  reach_ = std::max(0, static_cast<int>(std::ceil(margin_m / grid.resolution())));
+  const int reach = reach_;
+  near_floor_.assign(static_cast<std::size_t>(grid.width()) * static_cast<std::size_t>(grid.height()), 0);
+  // Dilate the true floor by the margin: rows first, then columns (a square neighbourhood).
+  std::vector<std::uint8_t> rows(near_floor_.size(), 0);
+  for (int j = 0; j < grid.height(); ++j) {
+    for (int i = 0; i < grid.width(); ++i) {
+      if (grid.at(i, j) != Cell::kFree) continue;
+      for (int d = -reach; d <= reach; ++d) {
+        if (grid.Contains(i + d, j)) rows[static_cast<std::size_t>(j) * grid.width() + (i + d)] = 1;
+      }
+    }
+  }
+  for (int j = 0; j < grid.height(); ++j) {
+    for (int i = 0; i < grid.width(); ++i) {
+      if (!rows[static_cast<std::size_t>(j) * grid.width() + i]) continue;
+      for (int d = -reach; d <= reach; ++d) {
+        if (grid.Contains(i, j + d)) near_floor_[static_cast<std::size_t>(j + d) * grid.width() + i] = 1;
+      }
+    }
+  }
+}
+
+bool MapHealthMeter::NearFloor(const Vector2& point) const {
+  const Grid& grid = world_.grid;
+  const auto [i, j] = grid.CellOf(point);
+  // Beyond the home's grid: near floor only within the margin of its edge (where the nearest cell decides).
+  const int ci = std::clamp(i, 0, grid.width() - 1), cj = std::clamp(j, 0, grid.height() - 1);
+  if (std::max(std::abs(i - ci), std::abs(j - cj)) > reach_) return false;
+  return near_floor_[static_cast<std::size_t>(cj) * grid.width() + ci] != 0;
+}
+
+slamcore::Result<MapHealth> MapHealthMeter::Measure(const slamcore::Map& map,
+                                                    const std::unordered_map<slamcore::NodeId, SE2>& truth) const {
+  MapHealth health;
+  if (map.graph.num_nodes() == 0) return health;
+  health.components = static_cast<int>(analyzer::ComputeFigures(map).components);
+  int compared = 0;
+  health.trajectory_rmse_m = analyzer::ComponentwiseRmse(map.graph, truth, &compared).value_or(0.0);
+
+  // The home component in the world's frame: its nodes aligned with their true positions.
+  const slamcore::ComponentId home = analyzer::HomeComponent(map.graph);
+  std::vector<Vector2> estimate, reference;
+  for (const auto& [node, pose] : truth) {
+    if (!map.graph.HasNode(node) || map.graph.ComponentOf(node) != home) continue;
+    estimate.push_back(map.graph.node(node).pose.translation());
+    reference.push_back(pose.translation());
+  }
+  if (estimate.size() >= 2) {
+    auto world_T_map = slamcore::AlignRigidly(estimate, reference);
+    if (!world_T_map.ok()) return world_T_map.status();
+    auto grid = analyzer::RenderHomeGrid(map);
+    if (!grid.ok()) return grid.status();
+    long false_cells = 0;
+    for (int row = 0; row < grid->height; ++row) {
+      for (int col = 0; col < grid->width; ++col) {
+        if (grid->at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
+        const Vector2 in_map(grid->origin_x + (col + 0.5) * grid->resolution, grid->origin_y + (row + 0.5) * grid->resolution);
+        if (!NearFloor(*world_T_map * in_map)) ++false_cells;
+      }
+    }
+    health.false_free_m2 = static_cast<double>(false_cells) * grid->resolution * grid->resolution;
+  }
+  health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m || health.false_free_m2 > threshold_.false_free_m2;
+  return health;
+}
+
+}  // namespace sim

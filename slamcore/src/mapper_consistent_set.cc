@@ -1,0 +1,236 @@
+// The consistent-set check: retrospective correction of recovery decisions, judged all together.
+//
+// The filter decides online, one hypothesis at a time, against the map as it stands. When a wrong group
+// arrives while the map cannot tell (a test that no aliasing offset would fail), it is accepted, and the
+// map it bends then refuses the true closures that would contradict it: each of them alone is a single pass
+// against the map. Only the whole set shows which explanation the evidence favours. So, from time to time,
+// the accepted recovery hypotheses of the run and the refused ones kept are judged together, as clusters
+// (one hypothesis = all its edges, so a group stands or falls as one — the cluster level of RRR and PCM;
+// those of the robot's current component):
+//
+//   maximise Σ_c  min(r_c², c̄_c²)   over the poses,   r_c² = Σ_{e∈c} eᵀΩe,   c̄_c² = χ²_{3|c|}(confidence),
+//
+// the truncated least squares whose inliers are the largest consistent set, solved by graduated
+// non-convexity (Yang, Antonante, Tzoumas, Carlone, "Graduated Non-Convexity for Robust Spatial Perception:
+// From Non-Minimal Solvers to Global Outlier Rejection", RA-L 2020; the GNC-TLS weight update, with μ grown
+// by 1.4 per round). Odometry, direct edges and the parent's edges are always inliers. Refused clusters
+// inside the set are accepted (kAccepted); when there is at least one, the accepted clusters outside it are
+// retracted (kRetracted, and kept as refused: later evidence may bring them back). G is left at the
+// solution of the inliers.
+//
+// Cost: a copy of G and at most gnc_max_iterations optimisations of the robot's component per check; checks
+// run when the judged clusters have grown by consistent_set_growth (so O(log n) times in a run) and once at
+// the end of the run. Kept refused clusters are capped at max_kept_refused.
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+#include <boost/math/distributions/chi_squared.hpp>
+
+#include "graduated_non_convexity.h"
+#include "mapper_impl.h"
+#include "slamcore/optimizer.h"
+
+namespace slamcore {
+
+using internal::Hypothesis;
+
+void Mapper::Impl::KeepRefused(const Hypothesis& hypothesis) {
+  const ConsistencyParams& consistency = params_.consistency;
+  if (!consistency.enabled || !consistency.consistent_set_check || consistency.max_kept_refused == 0) return;
+  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
+  if (!Meets(internal::CountEvidence(hypothesis, true, is_ambiguous), params_.recovery)) return;
+  KeptRefused kept{.hypothesis = hypothesis.id, .edges = {}};
+  for (const internal::HypothesisObservation& observation : hypothesis.observations) {
+    kept.edges.push_back(MakeObservationEdge(observation, hypothesis.id));
+  }
+  if (kept_refused_.size() >= static_cast<std::size_t>(consistency.max_kept_refused)) {
+    kept_refused_.erase(kept_refused_.begin());
+  }
+  kept_refused_.push_back(std::move(kept));
+}
+
+void Mapper::Impl::MaybeCheckConsistentSet() {
+  if (kept_refused_.empty()) return;  // nothing refused: the verification of each acceptance suffices
+  const std::size_t judged = retractable_.size() + kept_refused_.size();
+  const double due = std::max(4.0, params_.consistency.consistent_set_growth * static_cast<double>(judged_at_last_check_));
+  if (static_cast<double>(judged) >= due) CheckConsistentSet("the judged hypotheses grew");
+}
+
+
+void Mapper::Impl::CheckConsistentSet(const char* trigger) {
+  const ConsistencyParams& consistency = params_.consistency;
+  if (!consistency.enabled || !consistency.consistent_set_check || overlay_ || !current_node_) return;
+  const NodeId robot = *current_node_;
+  judged_at_last_check_ = retractable_.size() + kept_refused_.size();
+
+  // The judged clusters, as edge indices of a working copy of G that also holds the refused ones' edges.
+  struct Cluster {
+    std::int64_t hypothesis = -1;
+    std::ptrdiff_t kept = -1;  // index in kept_refused_, or −1 for an accepted hypothesis
+    std::vector<std::size_t> edges;
+    double threshold = 0.0;    // c̄²
+    double edge_scale = 1.0;   // passes / edges
+    double weight = 1.0;
+  };
+  PoseGraph working = map_.graph;
+  std::vector<Cluster> clusters;
+  std::unordered_map<std::int64_t, std::size_t> cluster_of_accepted;
+  for (const std::int64_t id : retractable_) {
+    cluster_of_accepted.emplace(id, clusters.size());
+    clusters.push_back({.hypothesis = id});
+  }
+  for (std::size_t k = 0; k < working.num_edges(); ++k) {
+    const Edge& edge = working.edges()[k];
+    if (!edge.hypothesis || !IsRetractableEdge(edge, *edge.hypothesis)) continue;
+    const auto it = cluster_of_accepted.find(*edge.hypothesis);
+    if (it != cluster_of_accepted.end() && working.SameComponent(edge.from, robot)) {
+      clusters[it->second].edges.push_back(k);
+    }
+  }
+  for (std::size_t k = 0; k < kept_refused_.size(); ++k) {
+    const KeptRefused& kept = kept_refused_[k];
+    const bool in_component = std::all_of(kept.edges.begin(), kept.edges.end(), [&](const Edge& edge) {
+      return working.HasNode(edge.from) && working.HasNode(edge.to) && working.SameComponent(edge.from, robot) &&
+             working.SameComponent(edge.to, robot);
+    });
+    if (!in_component) continue;
+    Cluster cluster{.hypothesis = kept.hypothesis, .kept = static_cast<std::ptrdiff_t>(k)};
+    for (const Edge& edge : kept.edges) {
+      if (const Result<std::size_t> index = working.AddEdge(edge); index.ok()) cluster.edges.push_back(*index);
+    }
+    clusters.push_back(std::move(cluster));
+  }
+  std::erase_if(clusters, [](const Cluster& cluster) { return cluster.edges.empty(); });
+  if (clusters.empty()) return;
+  // Evidence by passes here too: a cluster's edges pull on the solution, and count against its threshold,
+  // as one edge per pass (a group of ten views from one traversal is one observation of one place, and must
+  // not outweigh two passes of the truth by its size).
+  for (Cluster& cluster : clusters) {
+    std::vector<internal::TraversalPoint> points;
+    for (const std::size_t k : cluster.edges) {
+      const Node& node = working.node(working.edges()[k].from);
+      points.push_back({.time = node.time, .odometer = node.odometer});
+    }
+    std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.time < b.time; });
+    const int passes =
+        internal::CountPasses(points, consistency.pass_gap_seconds, consistency.pass_gap_distance);
+    cluster.edge_scale = static_cast<double>(passes) / static_cast<double>(cluster.edges.size());
+    const boost::math::chi_squared_distribution<double> distribution(3.0 * passes);
+    cluster.threshold = boost::math::quantile(distribution, consistency.consistent_set_confidence);
+  }
+
+  // Declared odometry noise is often far above the noise met: bending the odometry to absorb a wrong group
+  // then costs more than its declared information says. The a-posteriori variance factor of the odometry
+  // (robustly, the median of its edges' χ² over that of χ²₃, so that a bent part of the map does not
+  // inflate it; never below min_variance_factor) scales the odometry's weight in the judged solves.
+  double variance_factor = 1.0;
+  {
+    std::vector<double> motion_chi2;
+    for (const Edge& edge : map_.graph.edges()) {
+      if (edge.kind == EdgeKind::kMotion && map_.graph.SameComponent(edge.from, robot)) {
+        motion_chi2.push_back(EdgeChi2(map_.graph, edge));
+      }
+    }
+    if (static_cast<long>(motion_chi2.size()) >= consistency.min_redundancy_for_scaling) {
+      const auto middle = motion_chi2.begin() + static_cast<std::ptrdiff_t>(motion_chi2.size() / 2);
+      std::nth_element(motion_chi2.begin(), middle, motion_chi2.end());
+      constexpr double kMedianOfChi2With3Dof = 2.366;
+      variance_factor = std::clamp(*middle / kMedianOfChi2With3Dof, consistency.min_variance_factor, 1.0);
+    }
+  }
+  OptimizerOptions options = params_.optimizer;
+  options.component = robot;
+  options.edge_weights.assign(working.num_edges(), 1.0);
+  for (std::size_t k = 0; k < working.num_edges(); ++k) {
+    if (working.edges()[k].kind == EdgeKind::kMotion) options.edge_weights[k] = 1.0 / variance_factor;
+  }
+  for (const Cluster& cluster : clusters) {
+    for (const std::size_t k : cluster.edges) options.edge_weights[k] = cluster.edge_scale;
+  }
+  const auto normalised_residuals = [&] {
+    std::vector<double> s;
+    for (const Cluster& cluster : clusters) {
+      double chi2 = 0.0;
+      for (const std::size_t k : cluster.edges) chi2 += EdgeChi2(working, working.edges()[k]);
+      s.push_back(cluster.edge_scale * chi2 / cluster.threshold);
+    }
+    return s;
+  };
+  (void)Optimize(working, options);  // cannot fail on validated data; the check reads whatever it reached
+  std::vector<double> s = normalised_residuals();
+  const double largest = *std::max_element(s.begin(), s.end());
+  int rounds = 0;
+  if (largest > 1.0) {
+    for (double mu = internal::InitialControlParameter(largest); rounds < consistency.gnc_max_iterations;
+         mu *= internal::kControlParameterGrowth) {
+      ++rounds;
+      bool binary = true;
+      for (std::size_t c = 0; c < clusters.size(); ++c) {
+        clusters[c].weight = internal::TruncatedLeastSquaresWeight(s[c], mu);
+        binary = binary && (clusters[c].weight == 0.0 || clusters[c].weight == 1.0);
+        for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].weight * clusters[c].edge_scale;
+      }
+      (void)Optimize(working, options);
+      s = normalised_residuals();
+      if (binary) break;
+    }
+  }
+
+  // Apply: retract the accepted outliers, accept the refused inliers, keep the solution of the inliers.
+  std::vector<std::size_t> accept, retract;
+  for (std::size_t c = 0; c < clusters.size(); ++c) {
+    const bool inlier = clusters[c].weight >= 0.5;
+    if (inlier && clusters[c].kept >= 0) accept.push_back(c);
+    if (!inlier && clusters[c].kept < 0) retract.push_back(c);
+  }
+  // A retraction needs better-supported evidence against it: a refused hypothesis that the set takes in. An
+  // accepted one that only fits the odometry's estimated noise badly, with nothing to replace it, stays.
+  if (accept.empty()) return;
+  const auto describe = [&](std::size_t c) {
+    std::ostringstream text;
+    text.precision(3);
+    text << "consistent-set check (" << trigger << "; " << clusters.size() << " hypotheses, " << rounds
+         << " GNC rounds): its edges' χ² is " << s[c] << "× the " << 100 * consistency.consistent_set_confidence
+         << " % quantile at the solution of the largest consistent set";
+    return text.str();
+  };
+  std::vector<KeptRefused> newly_refused;
+  for (const std::size_t c : retract) {
+    KeptRefused kept{.hypothesis = clusters[c].hypothesis, .edges = {}};
+    for (const std::size_t k : clusters[c].edges) kept.edges.push_back(map_.graph.edges()[k]);
+    newly_refused.push_back(std::move(kept));
+    Log(DecisionKind::kRetracted, -1, clusters[c].hypothesis, HypothesisKind::kRecovery,
+        describe(c) + "; edges removed and the map re-optimised");
+  }
+  for (const std::size_t c : retract) {
+    RemoveHypothesisEdges(clusters[c].hypothesis);
+    std::erase(retractable_, clusters[c].hypothesis);
+  }
+  std::vector<std::size_t> accepted_kept;
+  for (const std::size_t c : accept) {
+    const KeptRefused& kept = kept_refused_[static_cast<std::size_t>(clusters[c].kept)];
+    for (const Edge& edge : kept.edges) {
+      if (map_.graph.AddEdge(edge).ok()) {
+        accepted_.push_back({.robot_node = edge.from, .view = edge.view.value_or(-1), .hypothesis = kept.hypothesis});
+      }
+    }
+    retractable_.push_back(kept.hypothesis);
+    accepted_kept.push_back(static_cast<std::size_t>(clusters[c].kept));
+    Log(DecisionKind::kAccepted, -1, kept.hypothesis, HypothesisKind::kRecovery, describe(c));
+  }
+  std::sort(accepted_kept.rbegin(), accepted_kept.rend());
+  for (const std::size_t k : accepted_kept) kept_refused_.erase(kept_refused_.begin() + static_cast<std::ptrdiff_t>(k));
+  for (KeptRefused& kept : newly_refused) kept_refused_.push_back(std::move(kept));
+  while (kept_refused_.size() > static_cast<std::size_t>(consistency.max_kept_refused)) {
+    kept_refused_.erase(kept_refused_.begin());
+  }
+  for (const Node& node : working.nodes()) map_.graph.mutable_node(node.id).pose = node.pose;
+  ++map_revision_;
+  std::string note;  // a failed polish leaves G at the check's solution, which is already the inliers'
+  OptimizeComponentOf(robot, &note);
+  judged_at_last_check_ = retractable_.size() + kept_refused_.size();
+}
+
+}  // namespace slamcore

@@ -1,0 +1,115 @@
+// The consistent-set check (mapper_consistent_set.cc): the GNC-TLS weight rule with numbers worked by hand,
+// and a wrong pass that one pass of the truth could not overrule online, corrected when the run ends.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "graduated_non_convexity.h"
+#include "mapper_test_util.h"
+#include "slamcore/optimizer.h"
+#include "test_matchers.h"
+
+namespace slamcore {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::EdgeSet;
+using testing::IsNearlyPose;
+using testing::MakeMapper;
+using testing::SimulatedRobot;
+
+TEST(TruncatedLeastSquaresWeightTest, InsideOutsideAndTheBlendBetweenAtMuOne) {
+  // μ = 1: weight 1 up to s = 1/2, 0 from s = 2, and √(2/s) − 1 between.
+  EXPECT_EQ(internal::TruncatedLeastSquaresWeight(0.5, 1.0), 1.0);
+  EXPECT_EQ(internal::TruncatedLeastSquaresWeight(2.0, 1.0), 0.0);
+  EXPECT_NEAR(internal::TruncatedLeastSquaresWeight(1.0, 1.0), std::sqrt(2.0) - 1.0, 1e-12);
+  EXPECT_NEAR(internal::TruncatedLeastSquaresWeight(1.5, 1.0), std::sqrt(2.0 / 1.5) - 1.0, 1e-12);
+  // The blend is continuous at both ends: √(μ(μ+1)/s) − μ is 1 at s = μ/(μ+1) and 0 at s = (μ+1)/μ.
+  for (const double mu : {0.01, 0.3, 4.0}) {
+    EXPECT_NEAR(internal::TruncatedLeastSquaresWeight(mu / (mu + 1.0) * (1 + 1e-12), mu), 1.0, 1e-6);
+    EXPECT_NEAR(internal::TruncatedLeastSquaresWeight((mu + 1.0) / mu * (1 - 1e-12), mu), 0.0, 1e-6);
+  }
+}
+
+TEST(TruncatedLeastSquaresWeightTest, TheFirstRoundKeepsEveryMeasurement) {
+  // μ₀ = 1/(2·s_max − 1): s_max = 10 gives μ₀ = 1/19, and (μ₀+1)/μ₀ = 20 > 10, so no weight is 0 yet.
+  const double mu = internal::InitialControlParameter(10.0);
+  EXPECT_NEAR(mu, 1.0 / 19.0, 1e-15);
+  EXPECT_GT(internal::TruncatedLeastSquaresWeight(10.0, mu), 0.0);
+  // √((1/19)(20/19)/10) − 1/19 = √20/(19·√10) − 1/19 = (√2 − 1)/19.
+  EXPECT_NEAR(internal::TruncatedLeastSquaresWeight(10.0, mu), (std::sqrt(2.0) - 1.0) / 19.0, 1e-12);
+}
+
+// The corridor of mapper_test_util.h with one pass of the truth after the wrong pass: a single pass cannot
+// overrule the map online (three are needed), so it waits and is refused at the end. Only the two judged
+// together show which fits the odometry: the truth.
+void CorridorWithOnePassOfTruth(Mapper& mapper, bool with_wrong_pass) {
+  testing::CorridorOutAndBack(mapper, with_wrong_pass, 1);
+}
+
+MapperParams CorridorParams(bool consistent_set_check) {
+  MapperParams params = testing::CorridorParams();
+  params.consistency.consistent_set_check = consistent_set_check;
+  return params;
+}
+
+TEST(ConsistentSetCheckTest, WithoutItOnePassOfTruthCannotOverruleAnAcceptedWrongPass) {
+  auto mapper = MakeMapper(CorridorParams(false));
+  CorridorWithOnePassOfTruth(*mapper, true);
+  (void)mapper->Finish();
+  EXPECT_EQ(mapper->Statistics().recovery_accepted, 1);
+  EXPECT_EQ(mapper->Statistics().recovery_retracted, 0);
+}
+
+TEST(ConsistentSetCheckTest, AtTheEndOfTheRunTheTruthIsAcceptedAndTheWrongPassRetracted) {
+  auto with_wrong = MakeMapper(CorridorParams(true));
+  CorridorWithOnePassOfTruth(*with_wrong, true);
+  const PoseGraph corrected = with_wrong->Finish().graph;
+  auto without = MakeMapper(CorridorParams(true));
+  CorridorWithOnePassOfTruth(*without, false);
+  const PoseGraph clean = without->Finish().graph;
+
+  const MapperStatistics statistics = with_wrong->Statistics();
+  EXPECT_EQ(statistics.recovery_accepted, 2);  // the wrong pass online, the truth by the check
+  EXPECT_EQ(statistics.recovery_retracted, 1);
+  const Decision* retracted = testing::LastDecision(*with_wrong, DecisionKind::kRetracted);
+  ASSERT_NE(retracted, nullptr);
+  EXPECT_THAT(retracted->reason, HasSubstr("consistent-set check (the run ended"));
+  const Decision* accepted = testing::LastDecision(*with_wrong, DecisionKind::kAccepted);
+  ASSERT_NE(accepted, nullptr);
+  EXPECT_NE(accepted->hypothesis, retracted->hypothesis);
+  EXPECT_THAT(accepted->reason, HasSubstr("largest consistent set"));
+  for (const AcceptedObservation& edge : with_wrong->accepted_observations()) {
+    EXPECT_NE(edge.hypothesis, retracted->hypothesis);
+  }
+
+  // G equals the G of a run that never saw the wrong pass: the same edges, the same optimised poses.
+  EXPECT_EQ(EdgeSet(corrected), EdgeSet(clean));
+  PoseGraph corrected_optimized = corrected, clean_optimized = clean;
+  ASSERT_TRUE(Optimize(corrected_optimized).ok());
+  ASSERT_TRUE(Optimize(clean_optimized).ok());
+  for (const Node& node : clean_optimized.nodes()) {
+    EXPECT_THAT(corrected_optimized.node(node.id).pose, IsNearlyPose(node.pose, 1e-6)) << "node " << node.id;
+  }
+  EXPECT_NEAR(corrected_optimized.node(corrected_optimized.num_nodes() - 1).pose.x(), 2.0, 0.05);
+}
+
+TEST(ConsistentSetCheckTest, ItsFieldsAreValidated) {
+  const auto refused = [](auto change) {
+    MapperParams params;
+    change(params);
+    return params.Validate();
+  };
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.consistent_set_confidence = 1.0; }).message(),
+              HasSubstr("consistency.consistent_set_confidence"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.consistent_set_growth = 1.0; }).message(),
+              HasSubstr("consistency.consistent_set_growth"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_kept_refused = -1; }).message(),
+              HasSubstr("consistency.max_kept_refused"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.gnc_max_iterations = 0; }).message(),
+              HasSubstr("consistency.gnc_max_iterations"));
+}
+
+}  // namespace
+}  // namespace slamcore
