@@ -8,9 +8,11 @@ python3-grpc-tools (3.5.1) predates proto3 `optional`, which our protos use; grp
 
     /usr/bin/python3 fleet_client_test.py FLEETD_BINARY PROTO_DIR [PROTOC]
 """
+import atexit
 import json
 import os
 import secrets
+import shutil
 import signal
 import subprocess
 import sys
@@ -25,6 +27,7 @@ ADMIN = "admin:root." + secrets.token_hex(32)
 import grpc  # noqa: E402
 
 STUBS = tempfile.mkdtemp(prefix="fleet-py-stubs-")
+atexit.register(shutil.rmtree, STUBS, ignore_errors=True)
 PROTOS = ["fleet/v1/telemetry.proto", "fleet/v1/report.proto", "fleet/v1/maps.proto", "fleet/v1/service.proto"]
 if os.path.exists(PROTOC) and os.path.exists("/usr/bin/grpc_python_plugin"):
     subprocess.run([PROTOC, "-I" + PROTO_DIR, "--python_out=" + STUBS, "--grpc_python_out=" + STUBS,
@@ -82,6 +85,7 @@ class FleetClientTest(unittest.TestCase):
         cls.proc.send_signal(signal.SIGTERM)
         assert cls.proc.wait(timeout=30) == 0, "fleetd exits 0 on SIGTERM"
         cls.log.close()
+        shutil.rmtree(cls.dir, ignore_errors=True)
 
     @classmethod
     def token(cls, principal):
