@@ -504,6 +504,9 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   // A third concurrent stream of one robot is refused while its two others are open.
   const std::string robot = "big-0";
   auto second = std::make_unique<OpenUpload>(*ingest, RobotToken(*admin, robot), robot, chunk, 0);
+  // Only once fleetd holds the second stream is a third one over the limit (a loaded machine may deliver
+  // them in either order).
+  ASSERT_GE(SecondsUntil([&] { return metric("fleetd_upload_streams_in_flight") >= 3.0; }, 30.0), 0.0);
   OpenUpload third(*ingest, RobotToken(*admin, robot), robot, chunk, 0);
   const grpc::Status streams = third.writer->Finish();
   EXPECT_EQ(streams.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
