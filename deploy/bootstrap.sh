@@ -13,7 +13,7 @@ packages=(
   libspdlog-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium chromium-driver
-  python3-grpcio python3-grpc-tools
+  python3 python3-grpcio python3-grpc-tools
   yamllint python3-yaml python3-jsonschema
 )
 
