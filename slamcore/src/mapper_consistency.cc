@@ -1,4 +1,4 @@
-// Correlated wrong observations (../shared/docs/CORRELATED-OUTLIERS.md). One pass past a look-alike — the
+// Correlated wrong observations (docs/correlated-outliers.md). One pass past a look-alike — the
 // bed frame from the wrong side, a second identical door — yields a run of wrong observations that agree
 // with each other, so a filter that counts consistent observations (paper III-B) counts one mistake many
 // times. Three mechanisms, after RRR (Latif, Cadena, Neira, "Robust loop closing over time for pose graph

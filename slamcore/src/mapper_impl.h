@@ -8,7 +8,7 @@
 //   mapper_consistent_set.cc  the consistent-set check: accepted and refused hypotheses judged together
 //                           (graduated non-convexity), retracting or accepting what it decides.
 //
-// Design choices the paper leaves open (PAPER.md asks us to write them down):
+// Design choices the paper leaves open, written down here:
 //  * Gate covariance for direct observations. The prediction ẑ = robot_T_viewnode comes from G; its
 //    uncertainty is the robot's relative uncertainty Σ_rel: odometry covariance accumulated through the
 //    Adjoint exactly as eq. (3) since the robot was last anchored. Anchoring = an accepted observation

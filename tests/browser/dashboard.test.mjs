@@ -67,7 +67,7 @@ before(async () => {
     repairJob = await fleet.startReprocessing(grpc, engineerToken, 'default');
     await fleet.waitFor(() => fleet.getJson(server, '/api/stats'), (s) => s.total.reports >= uploaded, 120000, 'analysis of every upload');
   }
-  // A fresh profile per run (the --user-data-dir of TOOLCHAIN.md, passed the way playwright wants it).
+  // A fresh profile per run (a --user-data-dir of its own, passed the way playwright wants it).
   browser = await chromium.launchPersistentContext(path.join(dir, 'chromium-profile'), {
     executablePath: '/usr/bin/chromium',
     args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',

@@ -1,5 +1,5 @@
 // Comparison of a map-only version (an imported Valetudo or map_server map) with its previous version
-// (docs/formats/map-versions.md "Comparing imported maps"): the two occupancy grids are aligned, the
+// (docs/formats/map-versions.md "Imported maps", "Comparison"): the two occupancy grids are aligned, the
 // alignment's quality is measured, and the difference is split into connected regions — new ones, described
 // and classed by slamcore's protrusion detector and classifier (paper IV-C, as runs are), and lost ones.
 //

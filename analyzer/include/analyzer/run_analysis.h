@@ -1,4 +1,4 @@
-// Analysis of one stored run (ARCHITECTURE "Data flow of one run", step 2): the run's telemetry is replayed
+// Analysis of one stored run (docs/architecture.md "Data flow of one run", step 2): the run's telemetry is replayed
 // by slamcore's Mapper from its parent snapshot with a parameter set, and the report says what the
 // back-end decided (hypotheses, relocalization times, ambiguous views), what protrusions appeared in the
 // occupancy map, how the rerun differs from the map the robot uploaded, and, when the run carries ground

@@ -1,4 +1,4 @@
-// Analysis of stored runs (ARCHITECTURE "Data flow of one run", step 2) on top of analyzer::AnalyzeRun:
+// Analysis of stored runs (docs/architecture.md "Data flow of one run", step 2) on top of analyzer::AnalyzeRun:
 // load the run and its snapshots from storage, replay with a stored parameter set, store the report.
 //
 // Thread safety: AnalyzeStoredRun and ToReportBundle are free of shared state; ClassifierCache is safe

@@ -1,6 +1,6 @@
 // fleetd's configuration: defaults here, then a JSON config file (--config), then command-line flags, each
-// overriding the one before. docs/fleetd.md lists the keys; the JSON keys are the flag names with '_' for
-// '-' (e.g. "max_events_per_run"). Unknown keys and wrongly typed values are refused, naming the key.
+// overriding the one before. docs/fleetd.md lists the keys: mostly the flag names with '_' for '-' (e.g.
+// "max_events_per_run"; three differ). Unknown keys and wrongly typed values are refused, naming the key.
 //
 // Thread safety: value type.
 #pragma once

@@ -1,5 +1,5 @@
 // MapperParams: every threshold of the Mapper in one place, with documented defaults and validation.
-// Section references are to the paper (docs: ../shared/docs/PAPER.md restates it).
+// Section references are to the paper (the README names it).
 //
 // Thread safety: value type.
 #pragma once
@@ -25,7 +25,7 @@ inline OptimizerOptions DefaultOptimizerOptions() {
 }
 
 /// Correlated wrong observations (one pass past a look-alike yields a run of wrong observations that agree
-/// with each other; ../shared/docs/CORRELATED-OUTLIERS.md): evidence is counted per independent pass, a
+/// with each other; docs/correlated-outliers.md): evidence is counted per independent pass, a
 /// recovery hypothesis is tested against the map's own uncertainty before it is accepted, and an accepted
 /// one that later contradicts better-supported evidence is retracted. Design: mapper_consistency.cc.
 struct ConsistencyParams {
