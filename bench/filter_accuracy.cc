@@ -8,7 +8,7 @@
 // Markdown row per graph, mode and fraction (seeds summed); the README's table.
 //
 //   filter_accuracy [--graph NAME]... [--mode NAME]... [--fraction F]... [--seeds 1,2,3] [--data DIR]
-//                   [--backend incremental|batch]
+//                   [--backend incremental|batch] [--consistent-set-growth G]
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -57,6 +57,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"incremental", "batch"}));
   bool no_verify = false;
   app.add_flag("--no-verify", no_verify, "consistency checks without the leave-one-out verification");
+  double consistent_set_growth = slamcore::MapperParams{}.consistency.consistent_set_growth;
+  app.add_option("--consistent-set-growth", consistent_set_growth,
+                 "growth of the judged hypotheses between two consistent-set checks (what-if of the default)")
+      ->check(CLI::Range(1.01, 100.0));
   CLI11_PARSE(app, argc, argv);
 
   std::printf("| graph | outliers | fraction | precision | recall | wrong accepted | retracted | trajectory RMSE (m): ours "
@@ -81,6 +85,7 @@ int main(int argc, char** argv) {
           slamcore::MapperParams params;
           params.consistency.enabled = !counts_only;
           params.consistency.verify_after_optimization = !no_verify;
+          params.consistency.consistent_set_growth = consistent_set_growth;
           params.backend = backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
           const auto outcome = bench::EvaluateFilter(data, test_case, params);
           if (!outcome.ok()) {

@@ -5,6 +5,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
 
 #include "analyzer/run_analysis.h"
 #include "analyzer/map_metadata.h"
@@ -414,6 +415,73 @@ Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes, const s
             ", " + Fixed(world_bbox[3], 2) + "]: " + std::to_string(cleared) + " cells of " + std::to_string(touched.size()) +
             " patches made unknown";
   return repaired;
+}
+
+namespace {
+
+/// What identifies an edge across versions of one map: its ends, kind, view, hypothesis and measurement
+/// (measurements are constants of the graph; re-optimisation moves poses only).
+using EdgeKey = std::tuple<NodeId, NodeId, int, std::int64_t, std::int64_t, double, double, double>;
+
+EdgeKey KeyOf(const Edge& edge) {
+  return {edge.from, edge.to, static_cast<int>(edge.kind), edge.view.value_or(-1), edge.hypothesis.value_or(-1),
+          edge.measurement.x(), edge.measurement.y(), edge.measurement.theta()};
+}
+
+bool SamePatchShape(const slamcore::LocalMapEvent& a, const slamcore::LocalMapEvent& b) {
+  return a.width == b.width && a.height == b.height && a.resolution == b.resolution && a.cells.size() == b.cells.size();
+}
+
+}  // namespace
+
+Result<Map> CarryRepairForward(const Map& base, const Map& repaired, const Map& target, std::string* detail) {
+  // The edges the repair removed, counted (parallel edges with one key are possible).
+  std::map<EdgeKey, int> removed;
+  for (const Edge& edge : base.graph.edges()) ++removed[KeyOf(edge)];
+  for (const Edge& edge : repaired.graph.edges()) {
+    const auto it = removed.find(KeyOf(edge));
+    if (it != removed.end() && --it->second == 0) removed.erase(it);
+  }
+  Map carried = target;
+  std::size_t edges_removed = 0;
+  if (!removed.empty()) {
+    edges_removed = carried.graph.RemoveEdgesIf([&](const Edge& edge) {
+      if (edge.kind == EdgeKind::kMotion) return false;  // repairs never remove odometry
+      const auto it = removed.find(KeyOf(edge));
+      if (it == removed.end()) return false;
+      if (--it->second == 0) removed.erase(it);
+      return true;
+    });
+  }
+  // The patch cells the repair changed, where the target still holds what the base held.
+  std::int64_t cells_changed = 0, cells_kept = 0;
+  std::set<NodeId> patches;
+  for (const auto& [node, after] : repaired.local_maps) {
+    const auto before = base.local_maps.find(node);
+    const auto now = carried.local_maps.find(node);
+    if (before == base.local_maps.end() || now == carried.local_maps.end()) continue;
+    if (!SamePatchShape(before->second, after) || !SamePatchShape(before->second, now->second)) continue;
+    for (std::size_t i = 0; i < after.cells.size(); ++i) {
+      if (after.cells[i] == before->second.cells[i]) continue;
+      if (now->second.cells[i] != before->second.cells[i]) {
+        ++cells_kept;
+        continue;
+      }
+      now->second.cells[i] = after.cells[i];
+      ++cells_changed;
+      patches.insert(node);
+    }
+  }
+  if (edges_removed == 0 && cells_changed == 0) {
+    return slamcore::InvalidArgument(
+        "nothing of the repair applies to the later version: the edges it removed and the cells it changed are gone "
+        "or were observed again");
+  }
+  if (edges_removed > 0) SLAMCORE_RETURN_IF_ERROR(Reoptimize(carried));
+  *detail = std::to_string(edges_removed) + " edge(s) removed and " + std::to_string(cells_changed) + " cells of " +
+            std::to_string(patches.size()) + " patches changed as the repair did" +
+            (cells_kept > 0 ? "; " + std::to_string(cells_kept) + " cells observed again since kept" : std::string());
+  return carried;
 }
 
 Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format, const std::string& stem,

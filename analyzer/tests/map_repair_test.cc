@@ -216,6 +216,72 @@ TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFindin
   EXPECT_EQ(CutRegion(s.child, {}, {1.0, 1.0, 0.0, 2.0}, &detail).status().code(), slamcore::StatusCode::kInvalidArgument);
 }
 
+constexpr std::size_t kCentreCell = 10 * 20 + 10;
+
+/// The scenario's child with a later run on top: nodes 40..42 after the run's last node, and the run's node 25
+/// seen again (its patch's centre cell, free before, observed as occupied).
+Map LaterVersion(const Map& child) {
+  Map later = child;
+  for (int i = 0; i < 3; ++i) {
+    const NodeId id = 40 + i;
+    EXPECT_TRUE(later.graph.AddNode({.id = id, .pose = SE2(0.5 * (kChain + i), 3.0, 0.0)}).ok());
+    later.local_maps[id] = Patch();
+    AddMotion(later, i == 0 ? 20 + kChain - 1 : id - 1, id);
+  }
+  later.local_maps.at(25).cells[kCentreCell] = 100;
+  return later;
+}
+
+TEST(MapRepairTest, ARepairCarriedOntoALaterVersionDoesWhatItDidAndKeepsWhatCameSince) {
+  const Scenario s = MakeScenario();
+  const Map later = LaterVersion(s.child);
+  std::string detail;
+  // An edge rejection: the later version loses the same edge, keeps its own nodes, and is re-optimised.
+  const auto rejected = RejectEdge(s.child, 22, 2, 102, &detail);
+  ASSERT_TRUE(rejected.ok()) << rejected.status().ToString();
+  const auto carried_edge = CarryRepairForward(s.child, *rejected, later, &detail);
+  ASSERT_TRUE(carried_edge.ok()) << carried_edge.status().ToString();
+  EXPECT_EQ(carried_edge->graph.num_edges(), later.graph.num_edges() - 1);
+  EXPECT_EQ(carried_edge->graph.num_nodes(), later.graph.num_nodes());
+  for (const Edge& edge : carried_edge->graph.edges()) EXPECT_FALSE(edge.from == 22 && edge.to == 2) << "the rejected edge";
+  EXPECT_EQ(detail, "1 edge(s) removed and 0 cells of 0 patches changed as the repair did");
+
+  // A cut of the run's cells around nodes 24..26: the same cells go unknown in the later version, except the one its
+  // own run observed again (node 25's centre), which keeps the later observation.
+  const auto cut = CutRegion(s.child, NodesAddedByRun(s.child, s.parent), {1.8, 2.6, 3.2, 3.4}, &detail);
+  ASSERT_TRUE(cut.ok()) << cut.status().ToString();
+  std::int64_t cut_cells = 0, cut_patches = 0;
+  for (const auto& [node, patch] : cut->local_maps) {
+    const std::int64_t before = cut_cells;
+    for (std::size_t i = 0; i < patch.cells.size(); ++i) cut_cells += patch.cells[i] != s.child.local_maps.at(node).cells[i];
+    cut_patches += cut_cells > before;
+  }
+  ASSERT_GT(cut_cells, 0);
+  ASSERT_EQ(cut->local_maps.at(25).cells[kCentreCell], -1) << "the box holds node 25's centre";
+  const auto carried_cut = CarryRepairForward(s.child, *cut, later, &detail);
+  ASSERT_TRUE(carried_cut.ok()) << carried_cut.status().ToString();
+  for (const auto& [node, patch] : carried_cut->local_maps) {
+    const auto& expected = cut->local_maps.contains(node) ? cut->local_maps.at(node) : later.local_maps.at(node);
+    for (std::size_t i = 0; i < patch.cells.size(); ++i) {
+      if (node == 25 && i == kCentreCell) {
+        EXPECT_EQ(patch.cells[i], 100) << "observed again since the repair";
+      } else {
+        EXPECT_EQ(patch.cells[i], expected.cells[i]) << "node " << node << " cell " << i;
+      }
+    }
+  }
+  EXPECT_EQ(carried_cut->graph.num_edges(), later.graph.num_edges()) << "a cut removes no edge";
+  EXPECT_EQ(detail, "0 edge(s) removed and " + std::to_string(cut_cells - 1) +
+                        " cells of " + std::to_string(cut_patches) +
+                        " patches changed as the repair did; 1 cells observed again since kept");
+
+  // Nothing left to carry: the later version already lacks the edge.
+  const auto again = CarryRepairForward(s.child, *rejected, *carried_edge, &detail);
+  EXPECT_EQ(again.status().code(), slamcore::StatusCode::kInvalidArgument);
+  EXPECT_NE(again.status().message().find("nothing of the repair applies"), std::string::npos)
+      << again.status().message();
+}
+
 TEST(MapRepairTest, ExportWritesMapServerFilesAndG2oThatReadBack) {
   const Scenario s = MakeScenario();
   const auto map_server = ExportMap(s.child, "map_server", "robot-1-v3");

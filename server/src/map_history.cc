@@ -545,7 +545,7 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
                                                            const slamcore::Map& repaired, const std::string& snapshot_id,
                                                            const std::string& origin, const std::string& detail,
                                                            const std::vector<fleet::v1::MapFinding>& findings,
-                                                           std::int64_t metadata_of) {
+                                                           std::int64_t metadata_of, const CarriedRepair* carried) {
   auto record = NewVersion(repaired, snapshot_id, /*with_known_area=*/true);
   if (!record.ok()) return record.status();
   auto metadata = repository_.GetMapMetadata(request.robot_id, metadata_of);
@@ -555,16 +555,20 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
   record->parent_version = base.version;
   record->origin = origin;
   record->run_id = base.run_id;
-  record->action = std::holds_alternative<CutFinding>(request.action) ? "cut_region" : RepairActionName(request.action);
+  record->action = carried ? carried->pending->action
+                   : std::holds_alternative<CutFinding>(request.action) ? "cut_region"
+                                                                       : RepairActionName(request.action);
   record->action_detail = detail;
-  record->created_by = request.requested_by;
-  record->reason = request.reason;
+  record->created_by = carried ? carried->pending->created_by : request.requested_by;
+  record->reason = carried ? carried->pending->reason : request.reason;
   record->approval = request.approve ? "approved" : "pending";
   if (request.approve) {
     record->approved_by = request.requested_by;
     record->approved_at_ms = NowMillis();
   }
-  auto appended = repository_.AppendMapVersion(*record, request.base_version, ToRecords(findings));
+  if (carried) record->supersedes_pending = carried->pending->version;
+  auto appended = repository_.AppendMapVersion(*record, carried ? carried->expected_head : request.base_version,
+                                               ToRecords(findings));
   if (!appended.ok()) return appended.status();
   log::Info("map_repaired", {{"robot_id", request.robot_id},
                              {"base_version", static_cast<long long>(request.base_version)},
@@ -585,6 +589,15 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
 
 storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version, bool approve,
                                                           const std::string& reviewed_by) {
+  if (approve) {
+    auto versions = repository_.ListMapVersions(robot_id);
+    if (!versions.ok()) return versions.status();
+    const storage::MapVersionRecord* pending = FindRecord(*versions, version);
+    const storage::MapVersionRecord* current = Current(*versions);
+    if (pending != nullptr && pending->approval == "pending" && current != nullptr && current->version > version) {
+      return ApproveOvertaken(*versions, *pending, *current, reviewed_by);
+    }
+  }
   auto reviewed = repository_.ReviewMapVersion(robot_id, version, approve, reviewed_by);
   if (!reviewed.ok()) return reviewed.status();
   log::Info("map_reviewed", {{"robot_id", robot_id},
@@ -595,6 +608,62 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& rob
   if (!versions.ok()) return versions.status();
   const storage::MapVersionRecord* current = Current(*versions);
   return ToProto(*reviewed, current && current->version == version);
+}
+
+storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::vector<storage::MapVersionRecord>& versions,
+                                                                    const storage::MapVersionRecord& pending,
+                                                                    const storage::MapVersionRecord& current,
+                                                                    const std::string& reviewed_by) {
+  const std::string overtaken = "version " + std::to_string(pending.version) + " of robot " + pending.robot_id +
+                                " was overtaken by version " + std::to_string(current.version);
+  const std::string instead = "; reject it, or repair version " + std::to_string(current.version) + " instead";
+  if (pending.origin != "repair") {
+    return storage::FailedPrecondition(overtaken + ": a " + pending.origin +
+                                       " cannot be carried onto a later map (it would drop the runs since)" + instead);
+  }
+  const storage::MapVersionRecord* base = pending.parent_version ? FindRecord(versions, *pending.parent_version) : nullptr;
+  bool descends = false;  // the current version is built on the repair's base, through its parents
+  for (const storage::MapVersionRecord* at = &current; base != nullptr && at != nullptr && !descends;
+       at = at->parent_version ? FindRecord(versions, *at->parent_version) : nullptr) {
+    descends = at->version == base->version;
+  }
+  if (!descends || current.run_id.empty()) {
+    return storage::FailedPrecondition(overtaken + ", which is not a run's map built on version " +
+                                       (base ? std::to_string(base->version) : std::string("?")) +
+                                       ", the one the repair was made on" + instead);
+  }
+  auto base_map = LoadMap(repository_, base->snapshot_id);
+  if (!base_map.ok()) return base_map.status();
+  auto pending_map = LoadMap(repository_, pending.snapshot_id);
+  if (!pending_map.ok()) return pending_map.status();
+  auto current_map = LoadMap(repository_, current.snapshot_id);
+  if (!current_map.ok()) return current_map.status();
+  std::string carried_detail;
+  auto carried = analyzer::CarryRepairForward(*base_map, *pending_map, *current_map, &carried_detail);
+  if (!carried.ok()) return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
+  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*carried)));
+  if (!stored.ok()) return stored.status();
+  auto context = LoadRunContext(repository_, {current.robot_id, current.run_id}, policy_.default_parameter_set);
+  if (!context.ok()) return context.status();
+  const storage::MapVersionRecord* head = Head(versions);
+  const CarriedRepair carried_repair{.pending = &pending, .expected_head = head ? head->version : 0};
+  const RepairRequest request{.robot_id = pending.robot_id,
+                              .base_version = current.version,
+                              .action = Undo{},  // unused: the carried repair's action is recorded
+                              .reason = pending.reason,
+                              .approve = true,
+                              .requested_by = reviewed_by};
+  auto appended = AppendRepair(request, current, *carried, *stored, "repair",
+                               "carried forward from version " + std::to_string(pending.version) + " (" +
+                                   pending.action_detail + "): " + carried_detail,
+                               Findings(*carried, *context), current.version, &carried_repair);
+  if (!appended.ok()) return appended.status();
+  log::Info("map_repair_carried_forward", {{"robot_id", pending.robot_id},
+                                           {"pending_version", static_cast<long long>(pending.version)},
+                                           {"onto_version", static_cast<long long>(current.version)},
+                                           {"version", static_cast<long long>(appended->version.version())},
+                                           {"by", reviewed_by}});
+  return appended->version;
 }
 
 storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id, std::int64_t held_version,

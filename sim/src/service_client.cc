@@ -89,8 +89,9 @@ slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& 
   auto context = Context(token);
   grpc::Status status = impl_->maps->ListMapVersions(context.get(), list, &versions);
   if (!status.ok()) return Failed("Maps.ListMapVersions", status);
-  for (const fleet::v1::MapVersion& version : versions.versions()) {
-    if (version.version() != versions.head_version() || version.approval() != "pending") continue;
+  std::int64_t approved = 0;
+  for (const fleet::v1::MapVersion& version : versions.versions()) {  // oldest first
+    if (version.approval() != "pending") continue;
     fleet::v1::ReviewMapVersionRequest review;
     review.set_robot_id(robot_id);
     review.set_version(version.version());
@@ -98,10 +99,17 @@ slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& 
     fleet::v1::MapVersion reviewed;
     context = Context(token);
     status = impl_->maps->ReviewMapVersion(context.get(), review, &reviewed);
+    if (status.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {  // cannot be carried onto the current map
+      review.set_approve(false);
+      context = Context(token);
+      status = impl_->maps->ReviewMapVersion(context.get(), review, &reviewed);
+      if (!status.ok()) return Failed("Maps.ReviewMapVersion (reject)", status);
+      continue;
+    }
     if (!status.ok()) return Failed("Maps.ReviewMapVersion", status);
-    return reviewed.version();
+    approved = reviewed.version();
   }
-  return std::int64_t{0};
+  return approved;
 }
 
 slamcore::Result<std::string> ServiceClient::MintToken(const std::string& admin_token, const std::string& principal) {

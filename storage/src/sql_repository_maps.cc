@@ -139,6 +139,17 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
       return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(head_version) +
                      ", not " + std::to_string(*expected_head) + ": it changed meanwhile; look again and retry");
     }
+    if (version.supersedes_pending) {
+      auto superseded = transaction.Query(
+          "UPDATE map_versions SET approval = 'stale', approved_by = $3, approved_at_ms = $4 "
+          "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
+          {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()});
+      if (!superseded.ok()) return superseded.status();
+      if (superseded->empty()) {
+        return Aborted("map version " + std::to_string(*version.supersedes_pending) + " of robot " + version.robot_id +
+                       " is no longer pending: it was reviewed meanwhile");
+      }
+    }
     if (version.parent_version && (*version.parent_version < 1 || *version.parent_version > newest)) {
       return FailedPrecondition("parent version " + std::to_string(*version.parent_version) + " of robot " +
                                 version.robot_id + " does not exist");

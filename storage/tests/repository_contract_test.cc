@@ -470,6 +470,29 @@ TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
             StatusCode::kInvalidArgument);
 }
 
+TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTheSameTransaction) {
+  const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());  // 1
+  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", b, "repair"), 1, {}).ok());               // 2, pending
+  MapVersionRecord carried = MakeVersion("robot-1", b, "repair");
+  carried.parent_version = 1;
+  carried.approval = "approved";
+  carried.approved_by = "engineer:bo";
+  carried.supersedes_pending = 2;
+  auto appended = repo().AppendMapVersion(carried, 2, {});
+  ASSERT_TRUE(appended.ok()) << appended.status().ToString();
+  EXPECT_EQ(appended->version, 3);
+  const auto superseded = repo().GetMapVersion("robot-1", 2);
+  EXPECT_EQ(superseded->approval, "stale");
+  EXPECT_EQ(superseded->approved_by, "engineer:bo");
+  // Superseding a version that is no longer pending writes nothing.
+  auto again = repo().AppendMapVersion(carried, 3, {});
+  EXPECT_EQ(again.status().code(), StatusCode::kAborted) << again.status().ToString();
+  EXPECT_NE(again.status().message().find("version 2 of robot robot-1 is no longer pending"), std::string::npos)
+      << again.status().message();
+  EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 3u) << "nothing written";
+}
+
 TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
   ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}).ok());

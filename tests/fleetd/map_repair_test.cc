@@ -498,5 +498,114 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   EXPECT_EQ(report.report().map_version(), repaired_version);
 }
 
+// Review after the robot moved on: a repair proposed on version 2 waits for review while the robot runs again
+// on version 2 (the current one) and uploads version 4. Approving the repair then carries it onto version 4 as
+// a new approved version, which the robot gets next; the proposal itself becomes stale. A rollback cannot be
+// carried (it would drop the runs since): its approval is refused with the reason.
+TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrentMap) {
+  const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
+  ASSERT_TRUE(worlds.ok());
+  auto world = sim::LoadWorld(worlds->front(), 5);
+  ASSERT_TRUE(world.ok());
+  sim::SimParams params;
+  params.run_minutes = 3.0;
+  sim::RobotSimulator robot(*world, params, kRobot, "fw-follow", 5);
+  sim::UploaderOptions upload_options;
+  upload_options.server = server_.grpc_address();
+  upload_options.token = robot_;
+  sim::Uploader uploader(upload_options);
+  auto run_and_upload = [&](int k) {
+    auto outcome = robot.SimulateRun("carry-run-" + std::to_string(k), 1.76e9 + 86400.0 * k);
+    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    const sim::UploadOutcome uploaded = uploader.Upload(outcome->run);
+    EXPECT_TRUE(uploaded.ok) << uploaded.message;
+    robot.SetMapVersion(uploaded.map_version);
+    return uploaded.map_version;
+  };
+  const auto review = [&](std::int64_t version, fleet::v1::MapVersion* reviewed) {
+    fleet::v1::ReviewMapVersionRequest request;
+    request.set_robot_id(kRobot);
+    request.set_version(version);
+    request.set_approve(true);
+    auto context = Context(engineer_, 120);
+    return maps_->ReviewMapVersion(context.get(), request, reviewed);
+  };
+  ASSERT_EQ(run_and_upload(0), 1);
+  ASSERT_EQ(run_and_upload(1), 2);
+
+  // The proposal: reject one observation edge that the second run added, left for review.
+  const fleet::v1::GetMapVersionResponse first = Version(1), second = Version(2);
+  std::set<std::int64_t> first_nodes;
+  for (const auto& node : first.snapshot().nodes()) first_nodes.insert(node.id());
+  fleet::v1::RepairMapRequest proposal;
+  proposal.set_base_version(2);
+  proposal.set_reason("this closure looks wrong");
+  for (const auto& edge : second.snapshot().edges()) {
+    if (edge.kind() != fleet::v1::Edge::KIND_OBSERVATION || first_nodes.contains(edge.from())) continue;
+    proposal.mutable_reject_edge()->set_from(edge.from());
+    proposal.mutable_reject_edge()->set_to(edge.to());
+    if (edge.has_view()) proposal.mutable_reject_edge()->set_view(edge.view());
+    break;
+  }
+  ASSERT_TRUE(proposal.has_reject_edge()) << "the second run added an observation edge";
+  fleet::v1::RepairMapResponse proposed;
+  ASSERT_TRUE(Repair(proposal, &proposed).ok());
+  ASSERT_EQ(proposed.version().version(), 3);
+  ASSERT_EQ(proposed.version().approval(), "pending");
+
+  // The robot runs again on version 2, still its current map: version 4, approved, built on 2.
+  ASSERT_EQ(run_and_upload(2), 4);
+  ASSERT_EQ(Version(4).version().parent_version(), 2);
+  ASSERT_TRUE(Version(4).version().current());
+
+  fleet::v1::MapVersion carried;
+  const grpc::Status approved = review(3, &carried);
+  ASSERT_TRUE(approved.ok()) << approved.error_message();
+  EXPECT_EQ(carried.version(), 5);
+  EXPECT_EQ(carried.parent_version(), 4);
+  EXPECT_EQ(carried.origin(), "repair");
+  EXPECT_EQ(carried.action(), "reject_edge");
+  EXPECT_EQ(carried.approval(), "approved");
+  EXPECT_TRUE(carried.current());
+  EXPECT_EQ(carried.reason(), "this closure looks wrong");
+  EXPECT_NE(carried.action_detail().find("carried forward from version 3"), std::string::npos) << carried.action_detail();
+  EXPECT_NE(carried.action_detail().find("1 edge(s) removed"), std::string::npos) << carried.action_detail();
+  EXPECT_EQ(Version(3).version().approval(), "stale") << "the proposal is superseded";
+  // Version 5 is version 4 without the edge: every node of the third run is there.
+  const fleet::v1::GetMapVersionResponse fourth = Version(4), fifth = Version(5);
+  EXPECT_EQ(fifth.snapshot().nodes_size(), fourth.snapshot().nodes_size());
+  EXPECT_EQ(fifth.snapshot().edges_size(), fourth.snapshot().edges_size() - 1);
+  for (const auto& edge : fifth.snapshot().edges()) {
+    EXPECT_FALSE(edge.from() == proposal.reject_edge().from() && edge.to() == proposal.reject_edge().to() &&
+                 edge.kind() == fleet::v1::Edge::KIND_OBSERVATION)
+        << "the rejected edge is gone";
+  }
+  sim::ServiceClient service(server_.grpc_address());
+  auto fetched = service.FetchMap(robot_, kRobot, robot.map_version());
+  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  EXPECT_EQ(fetched->version.version(), 5) << "the robot gets the carried repair next";
+  EXPECT_EQ(review(3, &carried).error_code(), grpc::StatusCode::FAILED_PRECONDITION) << "reviewed already";
+
+  // A rollback proposed on version 5, overtaken by the robot's next run, cannot be carried.
+  fleet::v1::RepairMapRequest rollback;
+  rollback.set_base_version(5);
+  rollback.set_rollback(true);
+  ASSERT_TRUE(Repair(rollback, &proposed).ok());
+  ASSERT_EQ(proposed.version().version(), 6);
+  ASSERT_TRUE(robot.TakeMap(fetched->snapshot, fetched->version.version()).ok());
+  ASSERT_EQ(run_and_upload(3), 7);
+  const grpc::Status refused = review(6, &carried);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(refused.error_message().find("a rollback cannot be carried onto a later map"), std::string::npos)
+      << refused.error_message();
+  EXPECT_EQ(Version(6).version().approval(), "pending") << "a refused approval changes nothing";
+
+  // The simulated engineer's weekly review: approves what can be carried, rejects what cannot.
+  auto reviewed = service.ApprovePending(engineer_, kRobot);
+  ASSERT_TRUE(reviewed.ok()) << reviewed.status().ToString();
+  EXPECT_EQ(*reviewed, 0) << "nothing was approved";
+  EXPECT_EQ(Version(6).version().approval(), "rejected");
+}
+
 }  // namespace
 }  // namespace fleetd_test

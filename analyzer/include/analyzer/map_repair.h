@@ -82,6 +82,16 @@ slamcore::Result<slamcore::Map> RejectHypothesis(const slamcore::Map& map, const
 slamcore::Result<slamcore::Map> CutRegion(const slamcore::Map& map, const std::set<slamcore::NodeId>& run_nodes,
                                           const std::array<double, 4>& world_bbox, std::string* detail);
 
+/// A repair made on `base` (its result: `repaired`) applied again to `target`, a later version built on
+/// `base` (the robot uploaded again before the repair was approved): the observation edges the repair removed
+/// are removed from `target` where it still has them, and the patch cells it changed are changed in `target`'s
+/// patches of the same nodes; then `target` is re-optimised when edges went. Like a cherry-pick, it carries
+/// the change, not the repair's parameters, so it works for every edit (reject edge or hypothesis, cut). Cells
+/// that `target`'s own run changed since `base` keep `target`'s value (the later observation wins).
+/// INVALID_ARGUMENT when nothing of the repair still applies to `target`.
+slamcore::Result<slamcore::Map> CarryRepairForward(const slamcore::Map& base, const slamcore::Map& repaired,
+                                                   const slamcore::Map& target, std::string* detail);
+
 /// Export: ROS map_server files of the home grid ("<stem>.pgm", "<stem>.yaml"), the pose graph as g2o
 /// ("<stem>.g2o"), or the home grid as ValetudoMap JSON ("<stem>.json", WriteValetudoMap) with the rooms,
 /// entities and poses of `metadata` when given. INVALID_ARGUMENT for another format or an empty map.

@@ -112,6 +112,12 @@ class MapHistory {
                                         fleet::v1::MapSnapshot* snapshot = nullptr);
   /// INVALID_ARGUMENT for a repair that changes nothing, ABORTED when base_version is not the head.
   storage::Result<MapVersionDetail> Repair(const RepairRequest& request);
+  /// Approves or rejects a pending version. Approving a pending repair that the robot's next upload overtook
+  /// (it ran on the map before the repair) carries the repair onto the current version
+  /// (analyzer::CarryRepairForward): the answer is that new, approved version (origin "repair", the pending
+  /// one's action, "carried forward from version N" in its detail), and the pending one becomes "stale".
+  /// FAILED_PRECONDITION, naming why, when it cannot be carried (a rollback or undo, a current version not
+  /// built on the repair's base, or nothing of the repair still applies): reject it, or repair the current one.
   storage::Result<fleet::v1::MapVersion> Review(const std::string& robot_id, std::int64_t version, bool approve,
                                                 const std::string& reviewed_by);
   /// NOT_FOUND when the robot has no approved map. `snapshot` is filled unless up to date.
@@ -143,14 +149,25 @@ class MapHistory {
   /// import, or cut a new region of it back to the previous map's cells.
   storage::Result<MapVersionDetail> RepairMapOnly(const RepairRequest& request, const storage::MapVersionRecord& base,
                                                   const std::vector<storage::MapVersionRecord>& versions);
+  /// A pending repair carried onto a later version (Review): whose repair it is, and the head it was read at.
+  struct CarriedRepair {
+    const storage::MapVersionRecord* pending = nullptr;
+    std::int64_t expected_head = 0;
+  };
   /// Appends `repaired` (stored as `snapshot_id`) as the new version of a repair of `base`, with `findings`
   /// and the metadata of the version whose map it derives from (`metadata_of`: the base for edits and cuts,
-  /// the restored version for rollbacks and undos).
+  /// the restored version for rollbacks and undos). With `carried`, it is that pending repair's, approved by
+  /// `request.requested_by`, and the pending one is superseded in the same transaction.
   storage::Result<MapVersionDetail> AppendRepair(const RepairRequest& request, const storage::MapVersionRecord& base,
                                                  const slamcore::Map& repaired, const std::string& snapshot_id,
                                                  const std::string& origin, const std::string& detail,
                                                  const std::vector<fleet::v1::MapFinding>& findings,
-                                                 std::int64_t metadata_of);
+                                                 std::int64_t metadata_of, const CarriedRepair* carried = nullptr);
+  /// Review's approval of `pending` once `current` (newer) overtook it.
+  storage::Result<fleet::v1::MapVersion> ApproveOvertaken(const std::vector<storage::MapVersionRecord>& versions,
+                                                          const storage::MapVersionRecord& pending,
+                                                          const storage::MapVersionRecord& current,
+                                                          const std::string& reviewed_by);
   /// Findings of a map-only version's `snapshot`: its comparison with `reference` (when there is one).
   storage::Result<std::vector<fleet::v1::MapFinding>> MapOnlyFindings(const fleet::v1::MapSnapshot& snapshot,
                                                                      const slamcore::Map& map,

@@ -33,8 +33,10 @@ class ServiceClient {
   /// Polls Reprocessing.GetJob until the job is done; FAILED_PRECONDITION when it failed or was cancelled,
   /// INTERNAL after `timeout_seconds`.
   slamcore::Status WaitForJob(const std::string& token, std::int64_t job_id, double timeout_seconds = 600.0);
-  /// Approves the robot's head version when it is pending (an engineer's review); returns the approved
-  /// version, 0 when nothing was pending.
+  /// An engineer's review that trusts every proposal: each pending version, oldest first, is approved (the
+  /// server carries a repair that a later upload overtook onto the current version); one the server cannot
+  /// carry forward (FAILED_PRECONDITION) is rejected instead. Returns the version the last approval made
+  /// current, 0 when nothing was approved.
   slamcore::Result<std::int64_t> ApprovePending(const std::string& token, const std::string& robot_id);
   /// Admin.SetCredential: a new token for `principal`.
   slamcore::Result<std::string> MintToken(const std::string& admin_token, const std::string& principal);

@@ -273,6 +273,10 @@ struct MapVersionRecord {
   // AppendMapVersion stores them when not empty; lists and gets leave this empty (they stay light): read them
   // with Repository::GetMapMetadata.
   std::string metadata;
+  // Append only, never read back: a pending version that this one carries forward (a repair approved after
+  // the robot's next upload overtook it). AppendMapVersion marks it "stale" in the same transaction, and
+  // fails with ABORTED when it is no longer pending.
+  std::optional<std::int64_t> supersedes_pending;
 };
 
 inline constexpr std::size_t kMaxMapMetadataBytes = 16u << 20;
