@@ -393,6 +393,7 @@ Status Validate(const fleet::v1::RunHeader& header) {
   if (Status status = ValidateId(header.run_id(), "header.run_id"); !status.ok()) return status;
   if (Status status = ValidateText(header.firmware(), "header.firmware"); !status.ok()) return status;
   if (Status status = ValidateText(header.robot_model(), "header.robot_model"); !status.ok()) return status;
+  if (Status status = ValidateText(header.home_id(), "header.home_id"); !status.ok()) return status;
   if (!header.parent_snapshot_id().empty() && !IsSnapshotId(header.parent_snapshot_id())) {
     return InvalidArgument("header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
   }

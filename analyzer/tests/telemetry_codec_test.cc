@@ -174,6 +174,9 @@ TEST(TelemetryCodecTest, HeaderValidation) {
   header.set_firmware("1.2\n");
   EXPECT_EQ(Validate(header).message(), "header.firmware: control characters are not allowed");
   header.set_firmware("1.2");
+  header.set_home_id(std::string(129, 'h'));
+  EXPECT_EQ(Validate(header).message(), "header.home_id: longer than 128 characters");
+  header.set_home_id("home-1");
   header.set_parent_snapshot_id("../../etc");
   EXPECT_EQ(Validate(header).message(), "header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
   header.set_parent_snapshot_id("");
