@@ -71,7 +71,7 @@ struct ConsistencyParams {
   /// quantile at consistent_set_confidence; at most gnc_max_iterations weighted solves per check.
   bool consistent_set_check = true;
   double consistent_set_confidence = 0.99;
-  double consistent_set_growth = 1.5;
+  double consistent_set_growth = 3.0;
   int max_kept_refused = 256;
   int gnc_max_iterations = 40;
 };
