@@ -147,6 +147,48 @@ Scenario FindWrongMerge() {
   return {};
 }
 
+/// One robot in the sample's first floor plan, cleaning daily for 3 minutes and uploading each run as itself
+/// (runs "<prefix>-<day>"); it keeps the version each upload became as the map it holds.
+class DailyRobot {
+ public:
+  DailyRobot(const std::string& server, const std::string& token, std::string prefix)
+      : world_(LoadFirstWorld()), robot_(world_, Params(), kRobot, "fw-follow", 5), prefix_(std::move(prefix)) {
+    sim::UploaderOptions options;
+    options.server = server;
+    options.token = token;
+    uploader_ = std::make_unique<sim::Uploader>(options);
+  }
+
+  std::pair<sim::RunOutcome, sim::UploadOutcome> RunAndUpload(int day) {
+    auto outcome = robot_.SimulateRun(prefix_ + "-" + std::to_string(day), 1.76e9 + 86400.0 * day);
+    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    const sim::UploadOutcome uploaded = uploader_->Upload(outcome->run);
+    EXPECT_TRUE(uploaded.ok) << uploaded.message;
+    robot_.SetMapVersion(uploaded.map_version);
+    return {std::move(outcome).value(), uploaded};
+  }
+  sim::RobotSimulator& robot() { return robot_; }
+
+ private:
+  static sim::World LoadFirstWorld() {
+    const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
+    EXPECT_TRUE(worlds.ok() && !worlds->empty());
+    auto world = sim::LoadWorld(worlds->front(), 5);
+    EXPECT_TRUE(world.ok()) << world.status().ToString();
+    return std::move(world).value();
+  }
+  static sim::SimParams Params() {
+    sim::SimParams params;
+    params.run_minutes = 3.0;
+    return params;
+  }
+
+  sim::World world_;
+  sim::RobotSimulator robot_;
+  std::string prefix_;
+  std::unique_ptr<sim::Uploader> uploader_;
+};
+
 class MapRepairTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -416,27 +458,10 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
 // the run was built on the repaired version: the upload is approved (not stale), its version's parent is the
 // repair, and the run's report names the version.
 TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsIt) {
-  const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-  ASSERT_TRUE(worlds.ok());
-  auto world = sim::LoadWorld(worlds->front(), 5);
-  ASSERT_TRUE(world.ok());
-  sim::SimParams params;
-  params.run_minutes = 3.0;
-  sim::RobotSimulator robot(*world, params, kRobot, "fw-follow", 5);
-  sim::UploaderOptions upload_options;
-  upload_options.server = server_.grpc_address();
-  upload_options.token = robot_;
-  sim::Uploader uploader(upload_options);
+  DailyRobot daily(server_.grpc_address(), robot_, "follow-run");
+  sim::RobotSimulator& robot = daily.robot();
   sim::ServiceClient service(server_.grpc_address());
-
-  auto run_and_upload = [&](int k) {
-    auto outcome = robot.SimulateRun("follow-run-" + std::to_string(k), 1.76e9 + 86400.0 * k);
-    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
-    const sim::UploadOutcome uploaded = uploader.Upload(outcome->run);
-    EXPECT_TRUE(uploaded.ok) << uploaded.message;
-    robot.SetMapVersion(uploaded.map_version);
-    return std::pair{std::move(outcome).value(), uploaded};
-  };
+  const auto run_and_upload = [&](int day) { return daily.RunAndUpload(day); };
   auto [first, first_upload] = run_and_upload(0);
   EXPECT_EQ(first.run.header().map_version(), 0) << "a first run holds no version of the service";
   auto [second, second_upload] = run_and_upload(1);
@@ -503,25 +528,9 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
 // a new approved version, which the robot gets next; the proposal itself becomes stale. A rollback cannot be
 // carried (it would drop the runs since): its approval is refused with the reason.
 TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrentMap) {
-  const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-  ASSERT_TRUE(worlds.ok());
-  auto world = sim::LoadWorld(worlds->front(), 5);
-  ASSERT_TRUE(world.ok());
-  sim::SimParams params;
-  params.run_minutes = 3.0;
-  sim::RobotSimulator robot(*world, params, kRobot, "fw-follow", 5);
-  sim::UploaderOptions upload_options;
-  upload_options.server = server_.grpc_address();
-  upload_options.token = robot_;
-  sim::Uploader uploader(upload_options);
-  auto run_and_upload = [&](int k) {
-    auto outcome = robot.SimulateRun("carry-run-" + std::to_string(k), 1.76e9 + 86400.0 * k);
-    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
-    const sim::UploadOutcome uploaded = uploader.Upload(outcome->run);
-    EXPECT_TRUE(uploaded.ok) << uploaded.message;
-    robot.SetMapVersion(uploaded.map_version);
-    return uploaded.map_version;
-  };
+  DailyRobot daily(server_.grpc_address(), robot_, "carry-run");
+  sim::RobotSimulator& robot = daily.robot();
+  const auto run_and_upload = [&](int day) { return daily.RunAndUpload(day).second.map_version; };
   const auto review = [&](std::int64_t version, fleet::v1::MapVersion* reviewed) {
     fleet::v1::ReviewMapVersionRequest request;
     request.set_robot_id(kRobot);
