@@ -286,7 +286,7 @@ Result<slamcore::OccupancyGrid> RenderHomeGrid(const Map& map) {
   const Map part = ComponentMap(map, home);
   if (part.local_maps.empty()) return slamcore::OccupancyGrid{};
   slamcore::GlobalGridRenderer renderer;
-  SLAMCORE_RETURN_IF_ERROR(renderer.RenderAll(part));
+  RETURN_IF_ERROR(renderer.RenderAll(part));
   return renderer.grid();
 }
 
@@ -302,10 +302,9 @@ MapFigures ComputeFigures(const Map& map) {
 }
 
 Result<double> KnownArea(const Map& map) {
-  auto grid = RenderHomeGrid(map);
-  if (!grid.ok()) return grid.status();
-  const std::int64_t known = static_cast<std::int64_t>(grid->cells.size()) - grid->CountCells(slamcore::CellState::kUnknown);
-  return static_cast<double>(known) * grid->resolution * grid->resolution;
+  ASSIGN_OR_RETURN(auto grid, RenderHomeGrid(map));
+  const std::int64_t known = static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(slamcore::CellState::kUnknown);
+  return static_cast<double>(known) * grid.resolution * grid.resolution;
 }
 
 std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {
@@ -338,7 +337,7 @@ std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, 
 
 Status Reoptimize(Map& map) {
   if (map.graph.num_nodes() == 0) return Status::Ok();
-  SLAMCORE_RETURN_IF_ERROR(slamcore::InitializeLinear(map.graph));
+  RETURN_IF_ERROR(slamcore::InitializeLinear(map.graph));
   slamcore::OptimizerOptions options;
   options.max_iterations = 50;
   auto summary = slamcore::Optimize(map.graph, options);
@@ -367,7 +366,7 @@ Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<sla
   const std::size_t components_before = repaired.graph.NumComponents();
   std::size_t index = 0;
   repaired.graph.RemoveEdgesIf([&](const Edge&) { return index++ == *target; });
-  SLAMCORE_RETURN_IF_ERROR(Reoptimize(repaired));
+  RETURN_IF_ERROR(Reoptimize(repaired));
   *detail = "rejected observation " + name + "; components " + std::to_string(components_before) + " → " +
             std::to_string(repaired.graph.NumComponents());
   return repaired;
@@ -383,7 +382,7 @@ Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, 
     return slamcore::InvalidArgument("the map has no edge that hypothesis " + std::to_string(hypothesis) +
                                      " of its run added (already rejected, or a hypothesis of another run)");
   }
-  SLAMCORE_RETURN_IF_ERROR(Reoptimize(repaired));
+  RETURN_IF_ERROR(Reoptimize(repaired));
   *detail = "rejected hypothesis " + std::to_string(hypothesis) + ": " + std::to_string(removed) +
             " edge(s) removed; components " + std::to_string(components_before) + " → " +
             std::to_string(repaired.graph.NumComponents());
@@ -433,14 +432,13 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
                                      "\": expected \"map_server\" (PGM + YAML), \"g2o\" or \"valetudo\" (ValetudoMap JSON)");
   }
   auto grid = RenderHomeGrid(map);
-  if (!grid.ok()) return grid.status();
+  RETURN_IF_ERROR(grid.status());
   if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
   if (format == "valetudo") {
-    auto json = WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata());
-    if (!json.ok()) return json.status();
+    ASSIGN_OR_RETURN(auto json, WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata()));
     fleet::v1::ExportedFile& file = files.emplace_back();
     file.set_name(stem + ".json");
-    file.set_content(std::move(json).value());
+    file.set_content(std::move(json));
     return files;
   }
   fleet::v1::ExportedFile& image = files.emplace_back();

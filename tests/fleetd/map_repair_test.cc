@@ -23,6 +23,7 @@
 #include "sim/uploader.h"
 #include "slamcore/graph_io.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 namespace {
@@ -53,18 +54,18 @@ std::set<std::pair<slamcore::NodeId, std::int64_t>> WrongObservations(const RunF
 /// Ground truth of the run's nodes, from a replay with the robot's parameters (the same map, node for node).
 NodeTruth TruthOf(const RunFile& run, const slamcore::MapperParams& params) {
   auto parent = analyzer::FromProto(run.parent_snapshot(), "parent");
-  EXPECT_TRUE(parent.ok());
+  EXPECT_THAT(parent, IsOk());
   auto mapper = slamcore::Mapper::Create(params, *parent);
-  EXPECT_TRUE(mapper.ok());
+  EXPECT_THAT(mapper, IsOk());
   auto events = analyzer::FromProto(run.events(), "events");
-  EXPECT_TRUE(events.ok());
-  for (const auto& event : *events) EXPECT_TRUE((*mapper)->Process(event).ok());
+  EXPECT_THAT(events, IsOk());
+  for (const auto& event : *events) EXPECT_THAT((*mapper)->Process(event), IsOk());
   return (*mapper)->ground_truth();
 }
 
 double Rmse(const fleet::v1::MapSnapshot& snapshot, const NodeTruth& truth) {
   auto map = analyzer::FromProto(snapshot, "map");
-  EXPECT_TRUE(map.ok());
+  EXPECT_THAT(map, IsOk());
   int count = 0;
   return analyzer::ComponentwiseRmse(map->graph, truth, &count).value_or(-1.0);
 }
@@ -80,7 +81,7 @@ struct Scenario {
 /// two components (a wrong merge). Deterministic: the same seeds find the same run every time.
 Scenario FindWrongMerge() {
   const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-  EXPECT_TRUE(worlds.ok());
+  EXPECT_THAT(worlds, IsOk());
   sim::SimParams params;
   params.run_minutes = 6.0;
   params.start_off_dock_probability = 1.0;  // every run has to merge into the home map
@@ -92,7 +93,7 @@ Scenario FindWrongMerge() {
   params.mapper = PermissiveParameters();
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     auto world = sim::LoadWorld((*worlds)[seed % worlds->size()], seed);
-    EXPECT_TRUE(world.ok());
+    EXPECT_THAT(world, IsOk());
     // Only look-alikes mislead the front-end here (no symmetric object seen from the other side), so that a
     // run with exactly one wrong merge is common.
     for (sim::Landmark& landmark : world->landmarks) landmark.symmetric = false;
@@ -123,7 +124,7 @@ Scenario FindWrongMerge() {
       }
       // A merge: without the hypothesis's edges the run's first node is not connected to the home map.
       auto child = analyzer::FromProto(run.child_snapshot(), "child");
-      EXPECT_TRUE(child.ok());
+      EXPECT_THAT(child, IsOk());
       const std::int64_t hypothesis = wrong_by_hypothesis.begin()->first;
       slamcore::PoseGraph without = child->graph;
       without.RemoveEdgesIf(
@@ -150,7 +151,7 @@ Scenario FindWrongMerge() {
 class MapRepairTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(server_.ok());
+    ASSERT_THAT(server_, IsOk());
     auto channel = server_.Channel();
     ingest_ = fleet::v1::Ingest::NewStub(channel);
     maps_ = fleet::v1::Maps::NewStub(channel);
@@ -164,7 +165,7 @@ class MapRepairTest : public ::testing::Test {
     request.set_principal(principal);
     fleet::v1::SetCredentialResponse response;
     auto context = Context(FleetdProcess::AdminToken());
-    EXPECT_TRUE(admin_->SetCredential(context.get(), request, &response).ok());
+    EXPECT_THAT(admin_->SetCredential(context.get(), request, &response), IsOk());
     return response.token();
   }
 
@@ -182,7 +183,7 @@ class MapRepairTest : public ::testing::Test {
     fleet::v1::GetMapVersionResponse response;
     auto context = Context(engineer_);
     const grpc::Status status = maps_->GetMapVersion(context.get(), request, &response);
-    EXPECT_TRUE(status.ok()) << status.error_message();
+    EXPECT_THAT(status, IsOk());
     return response;
   }
 
@@ -203,7 +204,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   for (const RunFile& run : scenario.runs) {
     fleet::v1::UploadRunResponse response;
     const grpc::Status status = Upload(*ingest_, robot_, run, &response);
-    ASSERT_TRUE(status.ok()) << status.error_message();
+    ASSERT_THAT(status, IsOk());
     EXPECT_FALSE(response.map_outdated());
     EXPECT_EQ(response.current_map_version(), response.map_version());
     merged_version = response.map_version();
@@ -234,7 +235,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   reject.set_reason("look-alike merged the run into the wrong room");
   fleet::v1::RepairMapResponse repaired;
   grpc::Status status = Repair(reject, &repaired);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   const std::int64_t repaired_version = repaired.version().version();
   EXPECT_EQ(repaired_version, merged_version + 1);
   EXPECT_EQ(repaired.version().approval(), "pending");
@@ -251,7 +252,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   fetch.set_held_version(merged_version);
   fleet::v1::GetMapResponse held;
   auto context = Context(robot_);
-  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &held).ok());
+  ASSERT_THAT(maps_->GetMap(context.get(), fetch, &held), IsOk());
   EXPECT_TRUE(held.up_to_date()) << "a pending repair is not handed to the robot";
 
   fleet::v1::ReviewMapVersionRequest approve;
@@ -260,13 +261,13 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   approve.set_approve(true);
   fleet::v1::MapVersion approved;
   context = Context(engineer_);
-  ASSERT_TRUE(maps_->ReviewMapVersion(context.get(), approve, &approved).ok());
+  ASSERT_THAT(maps_->ReviewMapVersion(context.get(), approve, &approved), IsOk());
   EXPECT_EQ(approved.approval(), "approved");
   EXPECT_TRUE(approved.current());
 
   fleet::v1::GetMapResponse downloaded;
   context = Context(robot_);
-  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &downloaded).ok());
+  ASSERT_THAT(maps_->GetMap(context.get(), fetch, &downloaded), IsOk());
   ASSERT_FALSE(downloaded.up_to_date());
   EXPECT_EQ(downloaded.version().version(), repaired_version);
   EXPECT_EQ(analyzer::SerializeDeterministic(downloaded.snapshot()).size(),
@@ -278,7 +279,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   const double wrong = Rmse(merged_run.child_snapshot(), scenario.truth);
   const double after = Rmse(downloaded.snapshot(), scenario.truth);
   auto default_report = analyzer::AnalyzeRun(merged_run, {});
-  ASSERT_TRUE(default_report.ok());
+  ASSERT_THAT(default_report, IsOk());
   const double default_rerun = Rmse(default_report->rerun_child(), scenario.truth);
   std::printf("trajectory RMSE vs ground truth (m): parent %.3f, with the wrong merge %.3f, repaired %.3f, "
               "default-parameter rerun %.3f\n", before, wrong, after, default_rerun);
@@ -295,7 +296,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   undo.set_base_version(repaired_version);
   undo.set_undo(true);
   fleet::v1::RepairMapResponse undone;
-  ASSERT_TRUE(Repair(undo, &undone).ok());
+  ASSERT_THAT(Repair(undo, &undone), IsOk());
   EXPECT_EQ(undone.version().snapshot_id(), merged.version().snapshot_id());
   EXPECT_EQ(undone.version().origin(), "undo");
   EXPECT_EQ(analyzer::SerializeDeterministic(Version(undone.version().version()).snapshot()),
@@ -326,7 +327,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   *next.mutable_parent_snapshot() = merged_run.child_snapshot();
   fleet::v1::UploadRunResponse outdated;
   status = Upload(*ingest_, robot_, next, &outdated);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_TRUE(outdated.map_outdated());
   EXPECT_EQ(outdated.current_map_version(), repaired_version);
 
@@ -338,13 +339,13 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
     request.set_format(format);
     fleet::v1::ExportMapResponse exported;
     context = Context(engineer_);
-    ASSERT_TRUE(maps_->ExportMap(context.get(), request, &exported).ok());
+    ASSERT_THAT(maps_->ExportMap(context.get(), request, &exported), IsOk());
     ASSERT_EQ(exported.files_size(), format == "g2o" ? 1 : 2);
     for (const auto& file : exported.files()) EXPECT_FALSE(file.content().empty()) << file.name();
     if (format == "g2o") {
       std::istringstream in(exported.files(0).content());
       auto graph = slamcore::ReadPoseGraph(in, "export");
-      ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+      ASSERT_THAT(graph, IsOk());
       EXPECT_EQ(static_cast<std::int64_t>(graph->num_nodes()), repaired.version().nodes());
     }
   }
@@ -356,7 +357,7 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   const RunFile& run = runs.front();
   const std::string owner = Token("robot:" + run.header().robot_id());
   fleet::v1::UploadRunResponse uploaded;
-  ASSERT_TRUE(Upload(*ingest_, owner, run, &uploaded).ok());
+  ASSERT_THAT(Upload(*ingest_, owner, run, &uploaded), IsOk());
   ASSERT_EQ(uploaded.map_version(), 1);
 
   fleet::v1::GetMapRequest fetch;
@@ -365,7 +366,7 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   auto context = Context(robot_);  // another robot's token
   EXPECT_EQ(maps_->GetMap(context.get(), fetch, &response).error_code(), grpc::StatusCode::PERMISSION_DENIED);
   context = Context(owner);
-  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &response).ok());
+  ASSERT_THAT(maps_->GetMap(context.get(), fetch, &response), IsOk());
   EXPECT_FALSE(response.up_to_date());
   EXPECT_EQ(response.snapshot().nodes_size(), run.child_snapshot().nodes_size());
 
@@ -417,9 +418,9 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
 // repair, and the run's report names the version.
 TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsIt) {
   const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-  ASSERT_TRUE(worlds.ok());
+  ASSERT_THAT(worlds, IsOk());
   auto world = sim::LoadWorld(worlds->front(), 5);
-  ASSERT_TRUE(world.ok());
+  ASSERT_THAT(world, IsOk());
   sim::SimParams params;
   params.run_minutes = 3.0;
   sim::RobotSimulator robot(*world, params, kRobot, "fw-follow", 5);
@@ -431,7 +432,7 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
 
   auto run_and_upload = [&](int k) {
     auto outcome = robot.SimulateRun("follow-run-" + std::to_string(k), 1.76e9 + 86400.0 * k);
-    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    EXPECT_THAT(outcome, IsOk());
     const sim::UploadOutcome uploaded = uploader.Upload(outcome->run);
     EXPECT_TRUE(uploaded.ok) << uploaded.message;
     robot.SetMapVersion(uploaded.map_version);
@@ -446,7 +447,7 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
 
   // Nothing newer than what the robot holds: up to date.
   auto fetched = service.FetchMap(robot_, kRobot, robot.map_version());
-  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  ASSERT_THAT(fetched, IsOk());
   EXPECT_TRUE(fetched->up_to_date);
 
   // The engineer repairs version 2 (back to the map before its run) and approves it.
@@ -455,19 +456,19 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   rollback.set_rollback(true);
   rollback.set_reason("the second run's map is not trusted");
   fleet::v1::RepairMapResponse repaired;
-  ASSERT_TRUE(Repair(rollback, &repaired).ok());
+  ASSERT_THAT(Repair(rollback, &repaired), IsOk());
   const std::int64_t repaired_version = repaired.version().version();
   auto approved = service.ApprovePending(engineer_, kRobot);
-  ASSERT_TRUE(approved.ok()) << approved.status().ToString();
+  ASSERT_THAT(approved, IsOk());
   ASSERT_EQ(*approved, repaired_version);
 
   // Before its next run the robot takes it.
   fetched = service.FetchMap(robot_, kRobot, robot.map_version());
-  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  ASSERT_THAT(fetched, IsOk());
   ASSERT_FALSE(fetched->up_to_date);
   EXPECT_EQ(fetched->version.version(), repaired_version);
   EXPECT_EQ(fetched->version.origin(), "rollback");
-  ASSERT_TRUE(robot.TakeMap(fetched->snapshot, fetched->version.version()).ok());
+  ASSERT_THAT(robot.TakeMap(fetched->snapshot, fetched->version.version()), IsOk());
   EXPECT_EQ(robot.map().graph.num_nodes(), static_cast<std::size_t>(first.run.child_snapshot().nodes_size()))
       << "the rolled-back map is the first run's";
   fleet::v1::MapSnapshot broken;
@@ -487,14 +488,14 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   EXPECT_EQ(recorded.version().approval(), "approved");
 
   // The analysis' report names the version the run ran on.
-  ASSERT_TRUE(service.WaitForJob(engineer_, third_upload.analysis_job_id, 120).ok());
+  ASSERT_THAT(service.WaitForJob(engineer_, third_upload.analysis_job_id, 120), IsOk());
   auto queries = fleet::v1::Queries::NewStub(server_.Channel());
   fleet::v1::GetRunReportRequest request;
   request.set_run_id("follow-run-2");
   request.set_robot_id(kRobot);
   fleet::v1::GetRunReportResponse report;
   auto context = Context(engineer_);
-  ASSERT_TRUE(queries->GetRunReport(context.get(), request, &report).ok());
+  ASSERT_THAT(queries->GetRunReport(context.get(), request, &report), IsOk());
   EXPECT_EQ(report.report().map_version(), repaired_version);
 }
 
