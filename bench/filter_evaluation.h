@@ -90,45 +90,40 @@ inline slamcore::Result<std::pair<double, double>> CleanReplay(const std::filesy
   std::ostringstream key;
   key << test_case.graph << "|" << params.consistency.enabled << params.consistency.verify_after_optimization;
   if (const auto it = cache.find(key.str()); it != cache.end()) return it->second;
-  const auto replay = slamcore::ReplayPoseGraph(clean, params);
-  if (!replay.ok()) return replay.status();
+  ASSIGN_OR_RETURN(const auto replay, slamcore::ReplayPoseGraph(clean, params));
   double rmse = -1;
   if (!test_case.truth.empty()) {
-    const auto aligned = slamcore::AlignedRmse(Positions(replay->graph), ReadTruth(graphs / test_case.truth));
-    if (!aligned.ok()) return aligned.status();
-    rmse = *aligned;
+    ASSIGN_OR_RETURN(const auto aligned,
+                     slamcore::AlignedRmse(Positions(replay.graph), ReadTruth(graphs / test_case.truth)));
+    rmse = aligned;
   }
-  return cache[key.str()] = {replay->seconds, rmse};
+  return cache[key.str()] = {replay.seconds, rmse};
 }
 
 inline slamcore::Result<FilterOutcome> EvaluateFilter(const std::filesystem::path& graphs, const FilterCase& test_case,
                                                       const slamcore::MapperParams& params = {}) {
-  auto clean = slamcore::ReadPoseGraph(graphs / test_case.graph);
-  if (!clean.ok()) return clean.status();
+  ASSIGN_OR_RETURN(auto clean, slamcore::ReadPoseGraph(graphs / test_case.graph));
   slamcore::OutlierOptions outliers = test_case.outliers;
   if (test_case.fraction > 0) {
     outliers.total_edges =
-        std::max(1, static_cast<int>(std::lround(test_case.fraction * slamcore::CountLoopClosures(*clean))));
+        std::max(1, static_cast<int>(std::lround(test_case.fraction * slamcore::CountLoopClosures(clean))));
   }
-  const auto corrupted = slamcore::AddLoopClosureOutliers(*clean, outliers);
-  if (!corrupted.ok()) return corrupted.status();
-  const auto replay = slamcore::ReplayPoseGraph(corrupted->graph, params);
-  if (!replay.ok()) return replay.status();
-  const auto clean_replay = CleanReplay(graphs, test_case, *clean, params);
-  if (!clean_replay.ok()) return clean_replay.status();
+  ASSIGN_OR_RETURN(const auto corrupted, slamcore::AddLoopClosureOutliers(clean, outliers));
+  ASSIGN_OR_RETURN(const auto replay, slamcore::ReplayPoseGraph(corrupted.graph, params));
+  ASSIGN_OR_RETURN(const auto clean_replay, CleanReplay(graphs, test_case, clean, params));
 
   FilterOutcome outcome;
-  outcome.score = slamcore::ScoreReplay(*replay, corrupted->outliers);
-  outcome.retracted = replay->statistics.recovery_retracted;
-  outcome.seconds = replay->seconds;
-  outcome.clean_seconds = clean_replay->first;
-  outcome.final_chi2 = replay->final_chi2;
+  outcome.score = slamcore::ScoreReplay(replay, corrupted.outliers);
+  outcome.retracted = replay.statistics.recovery_retracted;
+  outcome.seconds = replay.seconds;
+  outcome.clean_seconds = clean_replay.first;
+  outcome.final_chi2 = replay.final_chi2;
   if (!test_case.truth.empty()) {
     // The replay numbers nodes 0, 1, … in vertex order, as the file's vertices are when ids start at 0.
-    const auto replay_rmse = slamcore::AlignedRmse(Positions(replay->graph), ReadTruth(graphs / test_case.truth));
-    if (!replay_rmse.ok()) return replay_rmse.status();
-    outcome.replay_rmse = *replay_rmse;
-    outcome.clean_replay_rmse = clean_replay->second;
+    ASSIGN_OR_RETURN(const auto replay_rmse,
+                     slamcore::AlignedRmse(Positions(replay.graph), ReadTruth(graphs / test_case.truth)));
+    outcome.replay_rmse = replay_rmse;
+    outcome.clean_replay_rmse = clean_replay.second;
   }
   return outcome;
 }

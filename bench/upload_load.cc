@@ -84,13 +84,12 @@ constexpr double kUploadSpacingSeconds = 3600.0;
 
 /// The first run of `pool_size` simulated robots in the homes of `world_dir` (taken in turn).
 slamcore::Result<std::vector<fleet::v1::RunFile>> GenerateRunPool(const LoadOptions& options) {
-  auto worlds = sim::ListWorlds(options.world_dir);
-  if (!worlds.ok()) return worlds.status();
+  ASSIGN_OR_RETURN(auto worlds, sim::ListWorlds(options.world_dir));
   sim::SimParams params;
   params.run_minutes = options.run_minutes;
   std::vector<fleet::v1::RunFile> pool;
   for (int i = 0; i < options.pool_size; ++i) {
-    const auto& path = (*worlds)[static_cast<std::size_t>(i) % worlds->size()];
+    const auto& path = (worlds)[static_cast<std::size_t>(i) % worlds.size()];
     auto world = sim::LoadWorld(path, options.seed + static_cast<std::uint64_t>(i));
     if (!world.ok()) return slamcore::Status(world.status().code(), path.string() + ": " + world.status().message());
     const std::string robot_id = "pool-" + std::to_string(i);

@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   // The config file comes first so that flags override it.
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "--config") {
-      if (storage::Status loaded = server::LoadConfigFile(argv[i + 1], config); !loaded.ok()) {
+      if (slamcore::Status loaded = server::LoadConfigFile(argv[i + 1], config); !loaded.ok()) {
         std::cerr << "fleetd: " << loaded.ToString() << "\n";
         return 2;
       }
@@ -128,7 +128,7 @@ int main(int argc, char** argv) {
   app.add_option("--retention-interval-seconds", config.retention_interval_seconds, "how often retention runs")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
-  if (storage::Status valid = config.Validate(); !valid.ok()) {
+  if (slamcore::Status valid = config.Validate(); !valid.ok()) {
     std::cerr << "fleetd: " << valid.ToString() << "\n";
     return 2;
   }
@@ -148,7 +148,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   storage::Repository& repo = **repository;
-  if (storage::Status ensured = server::EnsureDefaultParameterSet(repo, config.default_parameter_set); !ensured.ok()) {
+  if (slamcore::Status ensured = server::EnsureDefaultParameterSet(repo, config.default_parameter_set); !ensured.ok()) {
     server::log::Error("default_parameter_set_failed", {{"error", ensured.ToString()}});
     return 1;
   }

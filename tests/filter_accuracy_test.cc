@@ -9,6 +9,7 @@
 
 #include "filter_evaluation.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace {
 
@@ -29,7 +30,7 @@ TEST_P(FilterAccuracyTest, RejectsWrongLoopClosuresAndKeepsTrueOnes) {
   test_case.fraction = GetParam().fraction;
   test_case.outliers.seed = 7;
   const auto outcome = bench::EvaluateFilter(graphs, test_case);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
   EXPECT_GT(outcome->score.wrong_total, 0);
   EXPECT_GE(outcome->score.Precision(), 0.99) << outcome->score.wrong_accepted << " wrong accepted";
   EXPECT_GE(outcome->score.Recall(), 0.95) << outcome->score.true_accepted << " of " << outcome->score.true_total;

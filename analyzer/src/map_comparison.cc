@@ -243,33 +243,29 @@ slamcore::Result<MapComparison> CompareGrids(const OccupancyGrid& previous, cons
                                              const std::optional<SE2>& previous_dock, const std::optional<SE2>& next_dock,
                                              const slamcore::ProtrusionClassifier* classifier,
                                              const ComparisonOptions& options) {
-  auto alignment = AlignGrids(previous, next, previous_dock, next_dock, options);
-  if (!alignment.ok()) return alignment.status();
+  ASSIGN_OR_RETURN(auto alignment, AlignGrids(previous, next, previous_dock, next_dock, options));
   MapComparison comparison;
-  comparison.alignment = *alignment;
-  auto aligned = ResampleOnto(previous, next, alignment->new_T_previous);
-  if (!aligned.ok()) return aligned.status();
-  comparison.aligned_previous = std::move(aligned).value();
+  comparison.alignment = alignment;
+  ASSIGN_OR_RETURN(auto aligned, ResampleOnto(previous, next, alignment.new_T_previous));
+  comparison.aligned_previous = std::move(aligned);
   const double cell_area = next.resolution * next.resolution;
-  auto found = slamcore::ExtractRegions(comparison.aligned_previous, next, options.detector);
-  if (!found.ok()) return found.status();
-  for (slamcore::ProtrusionRegion& region : *found) {
+  ASSIGN_OR_RETURN(auto found, slamcore::ExtractRegions(comparison.aligned_previous, next, options.detector));
+  for (slamcore::ProtrusionRegion& region : found) {
     ChangedRegion& changed = comparison.new_regions.emplace_back();
     changed.world_bbox = WorldBox(next, region.bbox);
     changed.area_m2 = static_cast<double>(region.clean_area_cells) * cell_area;
     changed.predicted_class = "unclassified";
     if (classifier) {
       auto probability = classifier->Probability(region.features);
-      if (!probability.ok()) return probability.status();
+      RETURN_IF_ERROR(probability.status());
       changed.probability = *probability;
       changed.predicted_class = *probability >= options.protrusion_probability ? "protrusion" : "new_space";
     }
     changed.region = std::move(region);
   }
   // Lost: the same detector with the roles swapped — cells the previous map knew that the new one does not.
-  auto lost = slamcore::ExtractRegions(next, comparison.aligned_previous, options.detector);
-  if (!lost.ok()) return lost.status();
-  for (slamcore::ProtrusionRegion& region : *lost) {
+  ASSIGN_OR_RETURN(auto lost, slamcore::ExtractRegions(next, comparison.aligned_previous, options.detector));
+  for (slamcore::ProtrusionRegion& region : lost) {
     ChangedRegion& changed = comparison.lost_regions.emplace_back();
     changed.world_bbox = WorldBox(next, region.bbox);
     changed.area_m2 = static_cast<double>(region.clean_area_cells) * cell_area;

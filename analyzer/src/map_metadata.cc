@@ -59,8 +59,8 @@ Status CheckCount(std::size_t count, std::size_t limit, const std::string& field
 }
 
 Status CheckRoom(const fleet::v1::MapRoom& room, const std::string& field, const MetadataLimits& limits) {
-  SLAMCORE_RETURN_IF_ERROR(CheckText(room.segment_id(), field + ".segment_id", limits));
-  SLAMCORE_RETURN_IF_ERROR(CheckText(room.name(), field + ".name", limits));
+  RETURN_IF_ERROR(CheckText(room.segment_id(), field + ".segment_id", limits));
+  RETURN_IF_ERROR(CheckText(room.name(), field + ".name", limits));
   if (room.runs_size() % 3 != 0) return InvalidArgument(field + ".runs: length is not a multiple of 3 (x, y, count)");
   std::int64_t pixels = 0;
   for (int i = 0; i < room.runs_size(); i += 3) {
@@ -85,11 +85,11 @@ Status CheckRoom(const fleet::v1::MapRoom& room, const std::string& field, const
 
 Status CheckShapes(const google::protobuf::RepeatedPtrField<fleet::v1::MapShape>& shapes, const std::string& field,
                    int min_points, const MetadataLimits& limits, std::size_t* coordinates) {
-  SLAMCORE_RETURN_IF_ERROR(CheckCount(static_cast<std::size_t>(shapes.size()), limits.max_shapes, field, "shapes"));
+  RETURN_IF_ERROR(CheckCount(static_cast<std::size_t>(shapes.size()), limits.max_shapes, field, "shapes"));
   for (int i = 0; i < shapes.size(); ++i) {
     const fleet::v1::MapShape& shape = shapes[i];
     const std::string at = field + "[" + std::to_string(i) + "]";
-    SLAMCORE_RETURN_IF_ERROR(CheckText(shape.type(), at + ".type", limits));
+    RETURN_IF_ERROR(CheckText(shape.type(), at + ".type", limits));
     if (shape.type().empty()) return InvalidArgument(at + ".type: empty");
     if (shape.xy_size() % 2 != 0) return InvalidArgument(at + ".xy: length is not a multiple of 2 (x, y)");
     if (shape.xy_size() / 2 < min_points) {
@@ -97,10 +97,10 @@ Status CheckShapes(const google::protobuf::RepeatedPtrField<fleet::v1::MapShape>
                              std::to_string(min_points));
     }
     *coordinates += static_cast<std::size_t>(shape.xy_size());
-    SLAMCORE_RETURN_IF_ERROR(CheckCount(*coordinates, limits.max_shape_coordinates, field.substr(0, field.find('.')) +
+    RETURN_IF_ERROR(CheckCount(*coordinates, limits.max_shape_coordinates, field.substr(0, field.find('.')) +
                                         ".paths+virtual_walls+zones", "coordinates"));
     for (int k = 0; k < shape.xy_size(); ++k) {
-      SLAMCORE_RETURN_IF_ERROR(CheckCoordinate(shape.xy(k), at + ".xy[" + std::to_string(k) + "]", limits));
+      RETURN_IF_ERROR(CheckCoordinate(shape.xy(k), at + ".xy[" + std::to_string(k) + "]", limits));
     }
   }
   return Status::Ok();
@@ -178,11 +178,11 @@ bool HasContent(const fleet::v1::MapMetadata& metadata) {
 }
 
 Status ValidateMetadata(const fleet::v1::MapMetadata& metadata, const MetadataLimits& limits) {
-  SLAMCORE_RETURN_IF_ERROR(CheckText(metadata.format(), "metadata.format", limits));
+  RETURN_IF_ERROR(CheckText(metadata.format(), "metadata.format", limits));
   if (!metadata.format().empty() && metadata.format() != "valetudo" && metadata.format() != "map_server") {
     return InvalidArgument("metadata.format: \"" + metadata.format() + "\", expected \"valetudo\" or \"map_server\"");
   }
-  SLAMCORE_RETURN_IF_ERROR(
+  RETURN_IF_ERROR(
       CheckCount(static_cast<std::size_t>(metadata.rooms_size()), limits.max_rooms, "metadata.rooms", "rooms"));
   if (metadata.rooms_size() > 0 && !(metadata.resolution() >= 0.005 && metadata.resolution() <= 1.0)) {
     return InvalidArgument("metadata.resolution: " + std::to_string(metadata.resolution()) +
@@ -191,22 +191,22 @@ Status ValidateMetadata(const fleet::v1::MapMetadata& metadata, const MetadataLi
   std::size_t runs = 0;
   for (int i = 0; i < metadata.rooms_size(); ++i) {
     runs += static_cast<std::size_t>(metadata.rooms(i).runs_size());
-    SLAMCORE_RETURN_IF_ERROR(CheckCount(runs, limits.max_room_runs, "metadata.rooms", "run coordinates"));
-    SLAMCORE_RETURN_IF_ERROR(CheckRoom(metadata.rooms(i), "metadata.rooms[" + std::to_string(i) + "]", limits));
+    RETURN_IF_ERROR(CheckCount(runs, limits.max_room_runs, "metadata.rooms", "run coordinates"));
+    RETURN_IF_ERROR(CheckRoom(metadata.rooms(i), "metadata.rooms[" + std::to_string(i) + "]", limits));
   }
   std::size_t coordinates = 0;
-  SLAMCORE_RETURN_IF_ERROR(CheckShapes(metadata.paths(), "metadata.paths", 0, limits, &coordinates));
-  SLAMCORE_RETURN_IF_ERROR(CheckShapes(metadata.virtual_walls(), "metadata.virtual_walls", 2, limits, &coordinates));
-  SLAMCORE_RETURN_IF_ERROR(CheckShapes(metadata.zones(), "metadata.zones", 3, limits, &coordinates));
-  SLAMCORE_RETURN_IF_ERROR(
+  RETURN_IF_ERROR(CheckShapes(metadata.paths(), "metadata.paths", 0, limits, &coordinates));
+  RETURN_IF_ERROR(CheckShapes(metadata.virtual_walls(), "metadata.virtual_walls", 2, limits, &coordinates));
+  RETURN_IF_ERROR(CheckShapes(metadata.zones(), "metadata.zones", 3, limits, &coordinates));
+  RETURN_IF_ERROR(
       CheckCount(static_cast<std::size_t>(metadata.points_size()), limits.max_points, "metadata.points", "points"));
   for (int i = 0; i < metadata.points_size(); ++i) {
     const fleet::v1::MapPoint& point = metadata.points(i);
     const std::string at = "metadata.points[" + std::to_string(i) + "]";
-    SLAMCORE_RETURN_IF_ERROR(CheckText(point.type(), at + ".type", limits));
+    RETURN_IF_ERROR(CheckText(point.type(), at + ".type", limits));
     if (point.type().empty()) return InvalidArgument(at + ".type: empty");
-    SLAMCORE_RETURN_IF_ERROR(CheckCoordinate(point.x(), at + ".x", limits));
-    SLAMCORE_RETURN_IF_ERROR(CheckCoordinate(point.y(), at + ".y", limits));
+    RETURN_IF_ERROR(CheckCoordinate(point.x(), at + ".x", limits));
+    RETURN_IF_ERROR(CheckCoordinate(point.y(), at + ".y", limits));
     if (point.has_theta() && !std::isfinite(point.theta())) return InvalidArgument(at + ".theta: not finite");
   }
   return Status::Ok();

@@ -287,7 +287,7 @@ Result<slamcore::OccupancyGrid> RenderHomeGrid(const Map& map) {
   const Map part = ComponentMap(map, home);
   if (part.local_maps.empty()) return slamcore::OccupancyGrid{};
   slamcore::GlobalGridRenderer renderer;
-  SLAMCORE_RETURN_IF_ERROR(renderer.RenderAll(part));
+  RETURN_IF_ERROR(renderer.RenderAll(part));
   return renderer.grid();
 }
 
@@ -303,10 +303,9 @@ MapFigures ComputeFigures(const Map& map) {
 }
 
 Result<double> KnownArea(const Map& map) {
-  auto grid = RenderHomeGrid(map);
-  if (!grid.ok()) return grid.status();
-  const std::int64_t known = static_cast<std::int64_t>(grid->cells.size()) - grid->CountCells(slamcore::CellState::kUnknown);
-  return static_cast<double>(known) * grid->resolution * grid->resolution;
+  ASSIGN_OR_RETURN(auto grid, RenderHomeGrid(map));
+  const std::int64_t known = static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(slamcore::CellState::kUnknown);
+  return static_cast<double>(known) * grid.resolution * grid.resolution;
 }
 
 std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {
@@ -339,7 +338,7 @@ std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, 
 
 Status Reoptimize(Map& map) {
   if (map.graph.num_nodes() == 0) return Status::Ok();
-  SLAMCORE_RETURN_IF_ERROR(slamcore::InitializeLinear(map.graph));
+  RETURN_IF_ERROR(slamcore::InitializeLinear(map.graph));
   slamcore::OptimizerOptions options;
   options.max_iterations = 50;
   auto summary = slamcore::Optimize(map.graph, options);
@@ -368,7 +367,7 @@ Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<sla
   const std::size_t components_before = repaired.graph.NumComponents();
   std::size_t index = 0;
   repaired.graph.RemoveEdgesIf([&](const Edge&) { return index++ == *target; });
-  SLAMCORE_RETURN_IF_ERROR(Reoptimize(repaired));
+  RETURN_IF_ERROR(Reoptimize(repaired));
   *detail = "rejected observation " + name + "; components " + std::to_string(components_before) + " → " +
             std::to_string(repaired.graph.NumComponents());
   return repaired;
@@ -384,7 +383,7 @@ Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, 
     return slamcore::InvalidArgument("the map has no edge that hypothesis " + std::to_string(hypothesis) +
                                      " of its run added (already rejected, or a hypothesis of another run)");
   }
-  SLAMCORE_RETURN_IF_ERROR(Reoptimize(repaired));
+  RETURN_IF_ERROR(Reoptimize(repaired));
   *detail = "rejected hypothesis " + std::to_string(hypothesis) + ": " + std::to_string(removed) +
             " edge(s) removed; components " + std::to_string(components_before) + " → " +
             std::to_string(repaired.graph.NumComponents());
@@ -477,7 +476,7 @@ Result<Map> CarryRepairForward(const Map& base, const Map& repaired, const Map& 
         "nothing of the repair applies to the later version: the edges it removed and the cells it changed are gone "
         "or were observed again");
   }
-  if (edges_removed > 0) SLAMCORE_RETURN_IF_ERROR(Reoptimize(carried));
+  if (edges_removed > 0) RETURN_IF_ERROR(Reoptimize(carried));
   *detail = std::to_string(edges_removed) + " edge(s) removed and " + std::to_string(cells_changed) + " cells of " +
             std::to_string(patches.size()) + " patches changed as the repair did" +
             (cells_kept > 0 ? "; " + std::to_string(cells_kept) + " cells observed again since kept" : std::string());
@@ -501,14 +500,13 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
                                      "\": expected \"map_server\" (PGM + YAML), \"g2o\" or \"valetudo\" (ValetudoMap JSON)");
   }
   auto grid = RenderHomeGrid(map);
-  if (!grid.ok()) return grid.status();
+  RETURN_IF_ERROR(grid.status());
   if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
   if (format == "valetudo") {
-    auto json = WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata());
-    if (!json.ok()) return json.status();
+    ASSIGN_OR_RETURN(auto json, WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata()));
     fleet::v1::ExportedFile& file = files.emplace_back();
     file.set_name(stem + ".json");
-    file.set_content(std::move(json).value());
+    file.set_content(std::move(json));
     return files;
   }
   fleet::v1::ExportedFile& image = files.emplace_back();

@@ -96,7 +96,7 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   if (from.has_consistent_set_growth()) c.consistent_set_growth = from.consistent_set_growth();
   if (from.has_max_kept_refused()) c.max_kept_refused = from.max_kept_refused();
   if (from.has_gnc_max_iterations()) c.gnc_max_iterations = from.gnc_max_iterations();
-  if (const slamcore::Status status = params.Validate(); !status.ok()) return status;
+  RETURN_IF_ERROR(params.Validate());
   return params;
 }
 

@@ -80,23 +80,21 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
                                    fleet::v1::RunReport* report) {
   for (const std::string& name : slamcore::ProtrusionFeatureNames()) report->add_feature_names(name);
   if (parent.local_maps.empty() || parent.graph.num_nodes() == 0) return slamcore::Status::Ok();
-  const auto grids = RenderComparedGrids(parent, child);
-  if (!grids.ok()) return grids.status();
-  const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
+  ASSIGN_OR_RETURN(const auto grids, RenderComparedGrids(parent, child));
+  const auto regions = slamcore::ExtractRegions(grids.parent, grids.child);
   std::shared_ptr<const slamcore::ProtrusionClassifier> built_in;
   const slamcore::ProtrusionClassifier* classifier = options.classifier;
   if (classifier == nullptr) {
     if (auto loaded = slamcore::DefaultProtrusionClassifier(); loaded.ok()) built_in = *loaded;
     classifier = built_in.get();
   }
-  if (!regions.ok()) return regions.status();
+  RETURN_IF_ERROR(regions.status());
   std::optional<SlipTruth> truth;
   if (has_ground_truth) {
-    auto labelled = SlipTruthOf(child, slipping_nodes, *grids, *regions);
-    if (!labelled.ok()) return labelled.status();
-    truth = std::move(labelled).value();
+    ASSIGN_OR_RETURN(auto labelled, SlipTruthOf(child, slipping_nodes, grids, *regions));
+    truth = std::move(labelled);
   }
-  const slamcore::OccupancyGrid& child_grid = grids->child;
+  const slamcore::OccupancyGrid& child_grid = grids.child;
   for (std::size_t index = 0; index < regions->size(); ++index) {
     const slamcore::ProtrusionRegion& region = (*regions)[index];
     fleet::v1::ProtrusionRegion* proto = report->add_protrusion_regions();
@@ -114,11 +112,10 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
       for (const double value : {min_x, min_y, max_x, max_y}) proto->add_world_bbox(value);
     }
     if (classifier) {
-      const auto probability = classifier->Probability(region.features);
-      if (!probability.ok()) return probability.status();
-      const bool protrusion = classifier->IsProtrusion(*probability);
+      ASSIGN_OR_RETURN(const auto probability, classifier->Probability(region.features));
+      const bool protrusion = classifier->IsProtrusion(probability);
       proto->set_predicted_class(protrusion ? "protrusion" : "new_space");
-      proto->set_probability(*probability);
+      proto->set_probability(probability);
       if (protrusion) report->set_protrusions_found(report->protrusions_found() + 1);
     } else {
       proto->set_predicted_class("unclassified");
@@ -174,7 +171,7 @@ Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<NodeId>
   }
   if (!slip_nodes.empty()) {
     slamcore::GlobalGridRenderer slip_renderer;
-    SLAMCORE_RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
+    RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
     const slamcore::OccupancyGrid& cover = slip_renderer.grid();
     for (int row = 0; row < child_grid.height; ++row) {
       for (int col = 0; col < child_grid.width; ++col) {
@@ -208,7 +205,7 @@ Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const sla
   ComparedGrids grids;
   slamcore::GlobalGridRenderer parent_renderer, child_renderer;
   if (parent.graph.num_nodes() == 0 || parent.local_maps.empty()) {
-    SLAMCORE_RETURN_IF_ERROR(child_renderer.RenderAll(child));
+    RETURN_IF_ERROR(child_renderer.RenderAll(child));
     for (const slamcore::Node& node : child.graph.nodes()) grids.child_nodes.push_back(node.id);
     grids.child = child_renderer.grid();
     return grids;
@@ -219,8 +216,8 @@ Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const sla
   if (child.graph.HasNode(home)) {
     for (const NodeId node : child.graph.NodesOf(child.graph.ComponentOf(home))) child_nodes.insert(node);
   }
-  SLAMCORE_RETURN_IF_ERROR(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)));
-  SLAMCORE_RETURN_IF_ERROR(child_renderer.RenderAll(ComponentMap(child, child_nodes)));
+  RETURN_IF_ERROR(parent_renderer.RenderAll(ComponentMap(parent, parent_nodes)));
+  RETURN_IF_ERROR(child_renderer.RenderAll(ComponentMap(child, child_nodes)));
   grids.parent = parent_renderer.grid();
   grids.child = child_renderer.grid();
   grids.child_nodes.assign(child_nodes.begin(), child_nodes.end());
@@ -228,15 +225,12 @@ Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const sla
 }
 
 Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options) {
-  SLAMCORE_RETURN_IF_ERROR(Validate(run.header()));
-  auto parent = FromProto(run.parent_snapshot(), "parent_snapshot");
-  if (!parent.ok()) return parent.status();
-  auto uploaded_child = FromProto(run.child_snapshot(), "child_snapshot");
-  if (!uploaded_child.ok()) return uploaded_child.status();
+  RETURN_IF_ERROR(Validate(run.header()));
+  ASSIGN_OR_RETURN(auto parent, FromProto(run.parent_snapshot(), "parent_snapshot"));
+  ASSIGN_OR_RETURN(auto uploaded_child, FromProto(run.child_snapshot(), "child_snapshot"));
 
   const auto replay_start = std::chrono::steady_clock::now();
-  auto mapper = slamcore::Mapper::Create(options.mapper, *parent);
-  if (!mapper.ok()) return mapper.status();
+  ASSIGN_OR_RETURN(auto mapper, slamcore::Mapper::Create(options.mapper, parent));
   std::vector<ReportedObservation> observations;
   std::set<NodeId> slipping_nodes;
   bool has_ground_truth = false;
@@ -250,19 +244,18 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
                                                    std::to_string(run.events_size()) + ")");
       }
     }
-    const auto event = FromProto(proto, field);
-    if (!event.ok()) return event.status();
-    if (const slamcore::Status status = (*mapper)->Process(*event); !status.ok()) {
+    ASSIGN_OR_RETURN(const auto event, FromProto(proto, field));
+    if (const slamcore::Status status = (mapper)->Process(event); !status.ok()) {
       return slamcore::InvalidArgument(field + ": " + status.message());
     }
     if (proto.has_view_observed()) {
-      ReportedObservation observation{*(*mapper)->CurrentNode(), proto.view_observed().view(), std::nullopt};
+      ReportedObservation observation{*(mapper)->CurrentNode(), proto.view_observed().view(), std::nullopt};
       if (proto.view_observed().has_truth_wrong()) observation.truth_wrong = proto.view_observed().truth_wrong();
       observations.push_back(observation);
     }
     if (proto.has_ground_truth()) {
       has_ground_truth = true;
-      if (proto.ground_truth().slipping() && (*mapper)->CurrentNode()) slipping_nodes.insert(*(*mapper)->CurrentNode());
+      if (proto.ground_truth().slipping() && (mapper)->CurrentNode()) slipping_nodes.insert(*(mapper)->CurrentNode());
     }
   }
   if (options.keep_going) {
@@ -270,11 +263,11 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
       return slamcore::Status(status.code(), status.message() + " (after the replay, before rendering)");
     }
   }
-  const std::vector<Decision> decisions = (*mapper)->decisions();
-  const slamcore::MapperStatistics statistics = (*mapper)->Statistics();
-  const std::vector<slamcore::AcceptedObservation> accepted = (*mapper)->accepted_observations();
-  const std::unordered_map<NodeId, slamcore::SE2> truth = (*mapper)->ground_truth();
-  const slamcore::Map child = (*mapper)->Finish();
+  const std::vector<Decision> decisions = (mapper)->decisions();
+  const slamcore::MapperStatistics statistics = (mapper)->Statistics();
+  const std::vector<slamcore::AcceptedObservation> accepted = (mapper)->accepted_observations();
+  const std::unordered_map<NodeId, slamcore::SE2> truth = (mapper)->ground_truth();
+  const slamcore::Map child = (mapper)->Finish();
 
   fleet::v1::RunReport report;
   report.set_format_version(1);
@@ -291,7 +284,7 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
   report.set_seconds_to_conditional_relocalization(to_conditional);
   report.set_seconds_to_full_relocalization(to_full);
   const double first_join = to_conditional >= 0 ? to_conditional : to_full;
-  report.set_started_localized(parent->graph.num_nodes() > 0 && first_join >= 0 &&
+  report.set_started_localized(parent.graph.num_nodes() > 0 && first_join >= 0 &&
                                first_join <= kStartedLocalizedSeconds);
   for (const slamcore::View& view : child.graph.views()) {
     if (view.ambiguous) report.add_ambiguous_views(view.id);
@@ -300,7 +293,7 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
   report.set_replay_seconds(Seconds(std::chrono::steady_clock::now() - replay_start));
 
   const auto detection_start = std::chrono::steady_clock::now();
-  SLAMCORE_RETURN_IF_ERROR(DetectProtrusions(*parent, child, has_ground_truth, slipping_nodes, options, &report));
+  RETURN_IF_ERROR(DetectProtrusions(parent, child, has_ground_truth, slipping_nodes, options, &report));
   report.set_detection_seconds(Seconds(std::chrono::steady_clock::now() - detection_start));
 
   // Divergence from the map the robot uploaded: sizes, and node positions over the nodes both hold.
@@ -310,12 +303,12 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
       return edge.kind == slamcore::EdgeKind::kObservation;
     }));
   };
-  divergence.set_robot_nodes(static_cast<int>(uploaded_child->graph.num_nodes()));
+  divergence.set_robot_nodes(static_cast<int>(uploaded_child.graph.num_nodes()));
   divergence.set_rerun_nodes(static_cast<int>(child.graph.num_nodes()));
-  divergence.set_robot_observation_edges(observation_edges(uploaded_child->graph));
+  divergence.set_robot_observation_edges(observation_edges(uploaded_child.graph));
   divergence.set_rerun_observation_edges(observation_edges(child.graph));
   std::unordered_map<NodeId, slamcore::SE2> uploaded_poses;
-  for (const slamcore::Node& node : uploaded_child->graph.nodes()) uploaded_poses.emplace(node.id, node.pose);
+  for (const slamcore::Node& node : uploaded_child.graph.nodes()) uploaded_poses.emplace(node.id, node.pose);
   int common = 0;
   divergence.set_node_position_rms(ComponentwiseRmse(child.graph, uploaded_poses, &common).value_or(0.0));
 

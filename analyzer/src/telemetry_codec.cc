@@ -40,7 +40,7 @@ Result<Matrix3> MatrixFromProto(const google::protobuf::RepeatedField<double>& v
   }
   Matrix3 matrix;
   for (int k = 0; k < 9; ++k) matrix(k / 3, k % 3) = values[k];
-  if (const Status status = slamcore::CheckPositiveDefinite(matrix, field.c_str()); !status.ok()) return status;
+  RETURN_IF_ERROR(slamcore::CheckPositiveDefinite(matrix, field.c_str()));
   return matrix;
 }
 
@@ -89,9 +89,9 @@ Result<slamcore::LocalMapEvent> LocalMapFromProto(const fleet::v1::LocalMap& pro
   patch.resolution = proto.resolution();
   patch.width = proto.width();
   patch.height = proto.height();
-  const auto origin = PoseFromProto(proto.node_t_origin(), proto.has_node_t_origin(), field + ".node_t_origin");
-  if (!origin.ok()) return origin.status();
-  patch.node_T_origin = *origin;
+  ASSIGN_OR_RETURN(const auto origin,
+                   PoseFromProto(proto.node_t_origin(), proto.has_node_t_origin(), field + ".node_t_origin"));
+  patch.node_T_origin = origin;
   patch.cells.resize(expected);
   for (std::size_t k = 0; k < expected; ++k) {
     const auto cell = static_cast<std::int8_t>(proto.cells()[k]);
@@ -118,33 +118,31 @@ fleet::v1::LocalMap LocalMapToProto(const slamcore::LocalMapEvent& patch) {
 
 Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::string& field) {
   const double time = event.time();
-  if (const Status status = CheckTime(time, field + ".time"); !status.ok()) return status;
+  RETURN_IF_ERROR(CheckTime(time, field + ".time"));
   switch (event.kind_case()) {
     case fleet::v1::Event::kOdometry: {
       const auto increment =
           PoseFromProto(event.odometry().increment(), event.odometry().has_increment(), field + ".odometry.increment");
-      if (!increment.ok()) return increment.status();
-      const auto covariance = MatrixFromProto(event.odometry().covariance(), field + ".odometry.covariance");
-      if (!covariance.ok()) return covariance.status();
-      return slamcore::Event(slamcore::OdometryEvent{.time = time, .increment = *increment, .covariance = *covariance});
+      RETURN_IF_ERROR(increment.status());
+      ASSIGN_OR_RETURN(const auto covariance,
+                       MatrixFromProto(event.odometry().covariance(), field + ".odometry.covariance"));
+      return slamcore::Event(slamcore::OdometryEvent{.time = time, .increment = *increment, .covariance = covariance});
     }
     case fleet::v1::Event::kViewCreated:
       return slamcore::Event(slamcore::ViewCreatedEvent{.time = time, .view = event.view_created().view()});
     case fleet::v1::Event::kViewObserved: {
       const auto& observed = event.view_observed();
-      const auto z = PoseFromProto(observed.robot_t_view(), observed.has_robot_t_view(),
-                                   field + ".view_observed.robot_t_view");
-      if (!z.ok()) return z.status();
-      const auto covariance = MatrixFromProto(observed.covariance(), field + ".view_observed.covariance");
-      if (!covariance.ok()) return covariance.status();
+      ASSIGN_OR_RETURN(const auto z, PoseFromProto(observed.robot_t_view(), observed.has_robot_t_view(),
+                                   field + ".view_observed.robot_t_view"));
+      ASSIGN_OR_RETURN(const auto covariance,
+                       MatrixFromProto(observed.covariance(), field + ".view_observed.covariance"));
       return slamcore::Event(slamcore::ViewObservedEvent{
-          .time = time, .view = observed.view(), .robot_T_view = *z, .covariance = *covariance});
+          .time = time, .view = observed.view(), .robot_T_view = z, .covariance = covariance});
     }
     case fleet::v1::Event::kLocalMap: {
-      auto patch = LocalMapFromProto(event.local_map(), field + ".local_map");
-      if (!patch.ok()) return patch.status();
-      patch->time = time;
-      return slamcore::Event(std::move(patch).value());
+      ASSIGN_OR_RETURN(auto patch, LocalMapFromProto(event.local_map(), field + ".local_map"));
+      patch.time = time;
+      return slamcore::Event(std::move(patch));
     }
     case fleet::v1::Event::kKidnap: {
       const auto cause = event.kidnap().cause() == fleet::v1::Kidnap::CAUSE_REBOOT
@@ -153,10 +151,10 @@ Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::stri
       return slamcore::Event(slamcore::KidnapEvent{.time = time, .cause = cause});
     }
     case fleet::v1::Event::kGroundTruth: {
-      const auto pose = PoseFromProto(event.ground_truth().world_t_robot(), event.ground_truth().has_world_t_robot(),
-                                      field + ".ground_truth.world_t_robot");
-      if (!pose.ok()) return pose.status();
-      return slamcore::Event(slamcore::GroundTruthEvent{.time = time, .world_T_robot = *pose});
+      ASSIGN_OR_RETURN(const auto pose,
+                       PoseFromProto(event.ground_truth().world_t_robot(), event.ground_truth().has_world_t_robot(),
+                                      field + ".ground_truth.world_t_robot"));
+      return slamcore::Event(slamcore::GroundTruthEvent{.time = time, .world_T_robot = pose});
     }
     case fleet::v1::Event::KIND_NOT_SET:
       break;
@@ -199,9 +197,8 @@ Result<std::vector<slamcore::Event>> FromProto(const google::protobuf::RepeatedP
   std::vector<slamcore::Event> converted;
   converted.reserve(static_cast<std::size_t>(events.size()));
   for (int k = 0; k < events.size(); ++k) {
-    auto event = FromProto(events[k], field + "[" + std::to_string(k) + "]");
-    if (!event.ok()) return event.status();
-    converted.push_back(std::move(event).value());
+    ASSIGN_OR_RETURN(auto event, FromProto(events[k], field + "[" + std::to_string(k) + "]"));
+    converted.push_back(std::move(event));
   }
   return converted;
 }
@@ -233,13 +230,12 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
   for (int k = 0; k < snapshot.nodes_size(); ++k) {
     const auto& proto = snapshot.nodes(k);
     const std::string node_field = field + ".nodes[" + std::to_string(k) + "]";
-    const auto pose = PoseFromProto(proto.pose(), proto.has_pose(), node_field + ".pose");
-    if (!pose.ok()) return pose.status();
-    if (const Status status = CheckTime(proto.time(), node_field + ".time"); !status.ok()) return status;
+    ASSIGN_OR_RETURN(const auto pose, PoseFromProto(proto.pose(), proto.has_pose(), node_field + ".pose"));
+    RETURN_IF_ERROR(CheckTime(proto.time(), node_field + ".time"));
     if (!std::isfinite(proto.odometer()) || proto.odometer() < 0.0) {
       return InvalidArgument(node_field + ".odometer: must be finite and >= 0, found " + Number(proto.odometer()));
     }
-    slamcore::Node node{.id = proto.id(), .pose = *pose, .time = proto.time(), .odometer = proto.odometer(),
+    slamcore::Node node{.id = proto.id(), .pose = pose, .time = proto.time(), .odometer = proto.odometer(),
                         .fixed = false};
     if (const Status status = map.graph.AddNode(node); !status.ok()) {
       return InvalidArgument(node_field + ": " + status.message());
@@ -255,15 +251,14 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
   for (int k = 0; k < snapshot.edges_size(); ++k) {
     const auto& proto = snapshot.edges(k);
     const std::string edge_field = field + ".edges[" + std::to_string(k) + "]";
-    const auto measurement = PoseFromProto(proto.measurement(), proto.has_measurement(), edge_field + ".measurement");
-    if (!measurement.ok()) return measurement.status();
-    const auto information = MatrixFromProto(proto.information(), edge_field + ".information");
-    if (!information.ok()) return information.status();
+    ASSIGN_OR_RETURN(const auto measurement,
+                     PoseFromProto(proto.measurement(), proto.has_measurement(), edge_field + ".measurement"));
+    ASSIGN_OR_RETURN(const auto information, MatrixFromProto(proto.information(), edge_field + ".information"));
     slamcore::Edge edge;
     edge.from = proto.from();
     edge.to = proto.to();
-    edge.measurement = *measurement;
-    edge.information = *information;
+    edge.measurement = measurement;
+    edge.information = information;
     edge.kind = proto.kind() == fleet::v1::Edge::KIND_MOTION ? slamcore::EdgeKind::kMotion
                                                               : slamcore::EdgeKind::kObservation;
     if (proto.has_view()) edge.view = proto.view();
@@ -278,9 +273,8 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
     if (!map.graph.HasNode(proto.node())) {
       return InvalidArgument(map_field + ".node: node " + std::to_string(proto.node()) + " does not exist");
     }
-    auto patch = LocalMapFromProto(proto.local_map(), map_field + ".local_map");
-    if (!patch.ok()) return patch.status();
-    map.local_maps.insert_or_assign(proto.node(), std::move(patch).value());
+    ASSIGN_OR_RETURN(auto patch, LocalMapFromProto(proto.local_map(), map_field + ".local_map"));
+    map.local_maps.insert_or_assign(proto.node(), std::move(patch));
   }
   return map;
 }
@@ -389,11 +383,11 @@ Status Validate(const fleet::v1::RunHeader& header) {
                            " is not supported (this program reads version " + std::to_string(kTelemetryFormatVersion) +
                            ")");
   }
-  if (Status status = ValidateId(header.robot_id(), "header.robot_id"); !status.ok()) return status;
-  if (Status status = ValidateId(header.run_id(), "header.run_id"); !status.ok()) return status;
-  if (Status status = ValidateText(header.firmware(), "header.firmware"); !status.ok()) return status;
-  if (Status status = ValidateText(header.robot_model(), "header.robot_model"); !status.ok()) return status;
-  if (Status status = ValidateText(header.home_id(), "header.home_id"); !status.ok()) return status;
+  RETURN_IF_ERROR(ValidateId(header.robot_id(), "header.robot_id"));
+  RETURN_IF_ERROR(ValidateId(header.run_id(), "header.run_id"));
+  RETURN_IF_ERROR(ValidateText(header.firmware(), "header.firmware"));
+  RETURN_IF_ERROR(ValidateText(header.robot_model(), "header.robot_model"));
+  RETURN_IF_ERROR(ValidateText(header.home_id(), "header.home_id"));
   if (!header.parent_snapshot_id().empty() && !IsSnapshotId(header.parent_snapshot_id())) {
     return InvalidArgument("header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
   }

@@ -99,8 +99,8 @@ class LayerPixels {
     }
     for (std::size_t i = 0; i < array.size(); i += 2) {
       int x = 0, y = 0;
-      if (Status status = Coordinate(array[i], where, i, size_x_, "size.x", &x); !status.ok()) return status;
-      if (Status status = Coordinate(array[i + 1], where, i + 1, size_y_, "size.y", &y); !status.ok()) return status;
+      RETURN_IF_ERROR(Coordinate(array[i], where, i, size_x_, "size.x", &x));
+      RETURN_IF_ERROR(Coordinate(array[i + 1], where, i + 1, size_y_, "size.y", &y));
       cells_.push_back(static_cast<std::int64_t>(y) * size_x_ + x);
     }
     return Status::Ok();
@@ -115,8 +115,8 @@ class LayerPixels {
     std::int64_t total = 0;
     for (std::size_t i = 0; i < array.size(); i += 3) {
       int x = 0, y = 0;
-      if (Status status = Coordinate(array[i], where, i, size_x_, "size.x", &x); !status.ok()) return status;
-      if (Status status = Coordinate(array[i + 1], where, i + 1, size_y_, "size.y", &y); !status.ok()) return status;
+      RETURN_IF_ERROR(Coordinate(array[i], where, i, size_x_, "size.x", &x));
+      RETURN_IF_ERROR(Coordinate(array[i + 1], where, i + 1, size_y_, "size.y", &y));
       const json& count_value = array[i + 2];
       const std::string at = where + "[" + std::to_string(i + 2) + "]";
       if (!count_value.is_number_integer()) return InvalidArgument(at + ": run length is not an integer");
@@ -319,7 +319,7 @@ slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map, cons
   // Pixel (px, py) has its lower-left corner at (px·s, −py·s): the lowest row of the grid is py = bottom.
   auto grid = slamcore::OccupancyGrid::Create(max_x - min_x + 1 + 2 * margin, max_y - min_y + 1 + 2 * margin,
                                               resolution, left * resolution, -bottom * resolution);
-  if (!grid.ok()) return grid.status();
+  RETURN_IF_ERROR(grid.status());
   for (const bool walls : {false, true}) {
     for (const DecodedLayer& decoded : layers) {
       if ((decoded.layer.type == "wall") != walls) continue;
@@ -351,9 +351,8 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   }
   std::string inflated;
   if (LooksDeflated(bytes)) {
-    auto text = Inflate(bytes, source, limits.max_inflated_bytes);
-    if (!text.ok()) return text.status();
-    inflated = std::move(text).value();
+    ASSIGN_OR_RETURN(auto text, Inflate(bytes, source, limits.max_inflated_bytes));
+    inflated = std::move(text);
     bytes = inflated;
   }
   const json root = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
@@ -437,9 +436,8 @@ slamcore::Result<ValetudoMap> ReadValetudoMap(const std::string& path, const Val
     return InvalidArgument(path + ": " + std::to_string(size) + " bytes, more than the limit " +
                            std::to_string(limits.max_input_bytes));
   }
-  auto bytes = slamcore::ReadFileBytes(path);
-  if (!bytes.ok()) return bytes.status();
-  return ParseValetudoMap(*bytes, path, limits);
+  ASSIGN_OR_RETURN(auto bytes, slamcore::ReadFileBytes(path));
+  return ParseValetudoMap(bytes, path, limits);
 }
 
 }  // namespace analyzer

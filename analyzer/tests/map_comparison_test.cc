@@ -15,6 +15,7 @@
 #include "analyzer/valetudo_map.h"
 #include "slamcore/protrusion_data.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace analyzer {
 namespace {
@@ -34,7 +35,7 @@ struct Room {
 /// and occupied on its walls (interiors win, so rooms sharing a wall get a doorway-free shared wall).
 OccupancyGrid Draw(const std::vector<Room>& rooms, const SE2& home_T_grid, double origin_x, double origin_y) {
   auto grid = OccupancyGrid::Create(200, 160, 0.05, origin_x, origin_y);
-  EXPECT_TRUE(grid.ok());
+  EXPECT_THAT(grid, IsOk());
   for (int row = 0; row < grid->height; ++row) {
     for (int col = 0; col < grid->width; ++col) {
       const slamcore::Vector2 home =
@@ -60,7 +61,7 @@ TEST(MapComparison, RegistrationFindsAMovedHomeAndTheNewRoom) {
   const SE2 home_T_new(1.0, -0.5, 20.0 * std::numbers::pi / 180.0);
   const OccupancyGrid next = Draw({kHall, kKitchen}, home_T_new, -1.0, -1.5);
   const auto comparison = CompareGrids(previous, next, std::nullopt, std::nullopt, nullptr);
-  ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
+  ASSERT_THAT(comparison, IsOk());
   const MapAlignment& alignment = comparison->alignment;
   EXPECT_EQ(alignment.method, "registration");
   const SE2 expected = home_T_new.inverse();  // new_T_previous: previous = home frame
@@ -90,7 +91,7 @@ TEST(MapComparison, DockAlignsAndALostRoomIsReported) {
   const SE2 dock_home(2.0, 0.7, std::numbers::pi / 2);
   const auto comparison =
       CompareGrids(previous, next, dock_home, home_T_new.inverse() * dock_home, nullptr);
-  ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
+  ASSERT_THAT(comparison, IsOk());
   EXPECT_EQ(comparison->alignment.method.rfind("dock", 0), 0u) << comparison->alignment.method;
   // The kitchen's own walls (7.5 of 23.5 m of wall) are gone: they count as misses.
   EXPECT_GT(comparison->alignment.wall_overlap, 0.6);
@@ -113,7 +114,7 @@ TEST(MapComparison, AWrongDockFallsBackToRegistration) {
   // The same map, but docks 2 m and 90° apart: the dock alone says the home turned, its walls land on none
   // (even refined), so registration alone runs and finds the true pose, the identity.
   auto alignment = AlignGrids(room, room, SE2(1, 1, 0), SE2(3, 1, std::numbers::pi / 2));
-  ASSERT_TRUE(alignment.ok()) << alignment.status().ToString();
+  ASSERT_THAT(alignment, IsOk());
   EXPECT_EQ(alignment->method, "registration");
   EXPECT_TRUE(alignment->good);
   EXPECT_GT(alignment->wall_overlap, 0.99);
@@ -143,7 +144,7 @@ TEST(MapComparison, RefusesWhatCannotBeCompared) {
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("resolution"), std::string::npos) << refused.status().ToString();
   auto blank = OccupancyGrid::Create(10, 10, 0.05);
-  ASSERT_TRUE(blank.ok());
+  ASSERT_THAT(blank, IsOk());
   refused = AlignGrids(*blank, room, std::nullopt, std::nullopt);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("previous map: no wall"), std::string::npos) << refused.status().ToString();
@@ -159,12 +160,13 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
   TEST_DATA_FILE_OR_SKIP(after_path, "valetudo/dreame_d9_1058_with_segments.json");
   const auto before = ReadValetudoMap(before_path.string());
   const auto after = ReadValetudoMap(after_path.string());
-  ASSERT_TRUE(before.ok() && after.ok());
+  ASSERT_THAT(before, IsOk());
+  ASSERT_THAT(after, IsOk());
   ASSERT_TRUE(before->dock && after->dock);
   const auto by_dock = CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, nullptr);
-  ASSERT_TRUE(by_dock.ok()) << by_dock.status().ToString();
+  ASSERT_THAT(by_dock, IsOk());
   const auto by_image = CompareGrids(before->grid, after->grid, std::nullopt, std::nullopt, nullptr);
-  ASSERT_TRUE(by_image.ok()) << by_image.status().ToString();
+  ASSERT_THAT(by_image, IsOk());
   for (const MapComparison* comparison : {&*by_dock, &*by_image}) {
     const MapAlignment& a = comparison->alignment;
     std::printf("%s: overlap %.3f residual %.3f m correlation %.3f shift (%.3f, %.3f) m %.2f°; %zu new, %zu lost\n",
@@ -206,11 +208,9 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
 slamcore::Result<MapComparison> CompareExportsByDock(const std::filesystem::path& before_path,
                                                      const std::filesystem::path& after_path,
                                                      const slamcore::ProtrusionClassifier* classifier) {
-  const auto before = ReadValetudoMap(before_path.string());
-  if (!before.ok()) return before.status();
-  const auto after = ReadValetudoMap(after_path.string());
-  if (!after.ok()) return after.status();
-  return CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, classifier);
+  ASSIGN_OR_RETURN(const auto before, ReadValetudoMap(before_path.string()));
+  ASSIGN_OR_RETURN(const auto after, ReadValetudoMap(after_path.string()));
+  return CompareGrids(before.grid, after.grid, before.dock->pose, after.dock->pose, classifier);
 }
 
 /// The regions of d9_1058's second export classed as runs' regions are, by a random forest trained (as
@@ -223,21 +223,21 @@ TEST(MapComparison, RealHomeRegionsClassedByAModelOfOtherHomes) {
   for (const char* id : {"aws_small_house", "valetudo_dreame_1c_1096_fullcleanup",
                          "valetudo_roborock_S5_FW2008_with_segments"}) {
     const auto map = slamcore::ReadMapServerYaml((test_data::Sample() / "maps" / (std::string(id) + ".yaml")).string());
-    ASSERT_TRUE(map.ok()) << map.status().ToString();
+    ASSERT_THAT(map, IsOk());
     for (std::uint64_t variant = 0; variant < 6; ++variant) {
       const auto pair = slamcore::GeneratePair(*map, 1000 + variant);
-      ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+      ASSERT_THAT(pair, IsOk());
       const auto labelled = slamcore::ExtractAndLabel(*pair);
-      ASSERT_TRUE(labelled.ok()) << labelled.status().ToString();
+      ASSERT_THAT(labelled, IsOk());
       for (std::size_t i = 0; i < labelled->regions.size(); ++i) {
         training.push_back({id, labelled->regions[i].features, labelled->labels[i]});
       }
     }
   }
   const auto classifier = slamcore::ProtrusionClassifier::Train(training, {});
-  ASSERT_TRUE(classifier.ok()) << classifier.status().ToString();
+  ASSERT_THAT(classifier, IsOk());
   const auto comparison = CompareExportsByDock(before_path, after_path, classifier->get());
-  ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
+  ASSERT_THAT(comparison, IsOk());
   int protrusions = 0;
   for (const ChangedRegion& region : comparison->new_regions) {
     std::printf("region %d: %.2f m², %s (p %.2f)\n", region.region.id, region.area_m2, region.predicted_class.c_str(),
@@ -262,9 +262,9 @@ TEST(MapComparison, RealHomeRegionsClassedByTheDefaultModel) {
   TEST_DATA_FILE_OR_SKIP(before_path, "valetudo/dreame_d9_1058_no_segments.json");
   TEST_DATA_FILE_OR_SKIP(after_path, "valetudo/dreame_d9_1058_with_segments.json");
   const auto classifier = slamcore::DefaultProtrusionClassifier();
-  ASSERT_TRUE(classifier.ok()) << classifier.status().ToString();
+  ASSERT_THAT(classifier, IsOk());
   const auto comparison = CompareExportsByDock(before_path, after_path, classifier->get());
-  ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
+  ASSERT_THAT(comparison, IsOk());
   const auto& names = slamcore::ProtrusionFeatureNames();
   int protrusions = 0;
   for (const ChangedRegion& region : comparison->new_regions) {

@@ -7,6 +7,7 @@
 
 #include "analyzer/import_order.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace analyzer {
 namespace {
@@ -14,7 +15,7 @@ namespace {
 fleet::v1::MapMetadata ViomiMetadata() {
   const auto map =
       ReadValetudoMap((test_data::Sample() / "valetudo/3irobotix_viomi_v6_41_virtual_restrictions_and_active_zones.json").string());
-  EXPECT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_THAT(map, IsOk());
   return map.ok() ? MetadataOf(*map) : fleet::v1::MapMetadata();
 }
 
@@ -30,7 +31,7 @@ TEST(MapMetadata, AnExportsRoomsZonesWallsAndPosesAreKept) {
   ASSERT_EQ(metadata.points_size(), 2);
   EXPECT_EQ(metadata.points(0).type(), "robot_position");
   EXPECT_EQ(metadata.points(1).type(), "charger_location");
-  EXPECT_TRUE(ValidateMetadata(metadata).ok()) << ValidateMetadata(metadata).ToString();
+  EXPECT_THAT(ValidateMetadata(metadata), IsOk());
   // The room's runs hold its pixels; its name goes at a point inside it.
   std::int64_t pixels = 0;
   for (int i = 2; i < metadata.rooms(0).runs_size(); i += 3) pixels += metadata.rooms(0).runs(i);
@@ -92,7 +93,7 @@ TEST(MapMetadata, AbsurdOrMalformedMetadataIsRefusedNamingTheField) {
   fleet::v1::MapMetadata resolution = ViomiMetadata();
   resolution.set_resolution(0.0);
   refused(resolution, "metadata.resolution");
-  EXPECT_TRUE(ValidateMetadata(fleet::v1::MapMetadata()).ok());
+  EXPECT_THAT(ValidateMetadata(fleet::v1::MapMetadata()), IsOk());
 }
 
 TEST(ImportOrder, DateTimesAreReadAsISO8601InUTCOrWithTheirOffset) {
@@ -139,13 +140,13 @@ TEST(ImportOrder, AValetudoExportsOwnTimestampIsReadAndAMalformedOneRefused) {
   const std::string head = R"({"__class":"ValetudoMap","metaData":{"version":2,)";
   const std::string tail = R"(},"size":{"x":10,"y":10},"pixelSize":5,"layers":[{"__class":"MapLayer","type":"floor","compressedPixels":[1,1,3]}],"entities":[]})";
   auto map = ParseValetudoMap(head + R"("timestamp":"2024-03-05T10:20:30Z")" + tail, "stamped.json");
-  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  ASSERT_THAT(map, IsOk());
   EXPECT_EQ(map->timestamp_ms, 1709634030000);
   map = ParseValetudoMap(head + R"("timestamp":"last tuesday")" + tail, "bad.json");
   ASSERT_FALSE(map.ok());
   EXPECT_NE(map.status().message().find("metaData.timestamp"), std::string::npos) << map.status().ToString();
   map = ParseValetudoMap(head + R"("totalLayerArea":75)" + tail, "plain.json");
-  ASSERT_TRUE(map.ok());
+  ASSERT_THAT(map, IsOk());
   EXPECT_FALSE(map->timestamp_ms);
 }
 

@@ -7,6 +7,7 @@
 
 #include "analyzer/telemetry_codec.h"
 #include "slamcore/graph_io.h"
+#include "status_matchers.h"
 
 namespace analyzer {
 namespace {
@@ -36,7 +37,7 @@ void AddMotion(Map& map, NodeId from, NodeId to) {
   edge.to = to;
   edge.measurement = map.graph.node(from).pose.inverse() * map.graph.node(to).pose;
   edge.information = slamcore::Matrix3::Identity() * 100.0;
-  ASSERT_TRUE(map.graph.AddEdge(edge).ok());
+  ASSERT_THAT(map.graph.AddEdge(edge), IsOk());
 }
 
 /// Home: nodes 0..11 along y = 0 with patches and views 100..111, the robot's earlier map. The run added
@@ -49,8 +50,8 @@ struct Scenario {
 Scenario MakeScenario(int merge_edges = 2) {
   Scenario s;
   for (int i = 0; i < kChain; ++i) {
-    EXPECT_TRUE(s.parent.graph.AddNode({.id = i, .pose = SE2(0.5 * i, 0.0, 0.0)}).ok());
-    EXPECT_TRUE(s.parent.graph.AddView({.id = 100 + i, .node = i}).ok());
+    EXPECT_THAT(s.parent.graph.AddNode({.id = i, .pose = SE2(0.5 * i, 0.0, 0.0)}), IsOk());
+    EXPECT_THAT(s.parent.graph.AddView({.id = 100 + i, .node = i}), IsOk());
     s.parent.local_maps[i] = Patch();
     if (i > 0) AddMotion(s.parent, i - 1, i);
   }
@@ -70,7 +71,7 @@ Scenario MakeScenario(int merge_edges = 2) {
     edge.view = 102 + 3 * k;
     edge.hypothesis = 4;
     edge.information = slamcore::Matrix3::Identity() * 50.0;
-    EXPECT_TRUE(s.child.graph.AddEdge(edge).ok());
+    EXPECT_THAT(s.child.graph.AddEdge(edge), IsOk());
   }
   return s;
 }
@@ -93,7 +94,7 @@ TEST(MapRepairTest, FiguresCountTheMapAndItsKnownArea) {
   const Scenario s = MakeScenario();
   const MapFigures figures = ComputeFigures(s.child);
   const auto known_area = KnownArea(s.child);
-  ASSERT_TRUE(known_area.ok()) << known_area.status().ToString();
+  ASSERT_THAT(known_area, IsOk());
   EXPECT_EQ(figures.nodes, 2 * kChain);
   EXPECT_EQ(figures.edges, 2 * (kChain - 1) + 2);
   EXPECT_EQ(figures.observation_edges, 2);
@@ -110,7 +111,7 @@ TEST(MapRepairTest, RejectingAMergeHypothesisSplitsTheComponentsAgain) {
   EXPECT_EQ(run_nodes.size(), static_cast<std::size_t>(kChain));
   std::string detail;
   const auto repaired = RejectHypothesis(s.child, run_nodes, 4, &detail);
-  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  ASSERT_THAT(repaired, IsOk());
   EXPECT_EQ(repaired->graph.NumComponents(), 2u);
   EXPECT_EQ(repaired->graph.num_edges(), s.child.graph.num_edges() - 2);
   EXPECT_NE(detail.find("2 edge(s) removed; components 1 → 2"), std::string::npos) << detail;
@@ -121,7 +122,7 @@ TEST(MapRepairTest, RejectingAMergeHypothesisSplitsTheComponentsAgain) {
   }
   // A hypothesis that added nothing (already rejected, or of another run) is an error, not an empty repair.
   const auto again = RejectHypothesis(*repaired, run_nodes, 4, &detail);
-  EXPECT_EQ(again.status().code(), slamcore::StatusCode::kInvalidArgument);
+  EXPECT_THAT(again, StatusIs(slamcore::StatusCode::kInvalidArgument));
   EXPECT_EQ(RejectHypothesis(s.child, {}, 4, &detail).status().code(), slamcore::StatusCode::kInvalidArgument);
 }
 
@@ -129,7 +130,7 @@ TEST(MapRepairTest, RejectEdgeRemovesOneObservationEdgeAndRefusesMotionEdges) {
   const Scenario s = MakeScenario();
   std::string detail;
   const auto repaired = RejectEdge(s.child, 22, 2, 102, &detail);
-  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  ASSERT_THAT(repaired, IsOk());
   EXPECT_EQ(repaired->graph.num_edges(), s.child.graph.num_edges() - 1);
   EXPECT_EQ(repaired->graph.NumComponents(), 1u);  // the other merge edge still joins them
   const auto motion = RejectEdge(s.child, 0, 1, std::nullopt, &detail);
@@ -148,8 +149,8 @@ TEST(MapRepairTest, AnEdgeThatContradictsItsPeersIsAResidualFinding) {
   wrong.kind = EdgeKind::kObservation;
   wrong.view = 101;
   wrong.information = slamcore::Matrix3::Identity() * 50.0;
-  ASSERT_TRUE(s.child.graph.AddEdge(wrong).ok());
-  ASSERT_TRUE(Reoptimize(s.child).ok());
+  ASSERT_THAT(s.child.graph.AddEdge(wrong), IsOk());
+  ASSERT_THAT(Reoptimize(s.child), IsOk());
   const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent});
   const auto* residual = FindKind(findings, "high_residual_edge");
   ASSERT_NE(residual, nullptr);
@@ -201,14 +202,15 @@ TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFindin
   std::string detail;
   const auto cut = CutRegion(s.child, NodesAddedByRun(s.child, s.parent),
                              {open->world_bbox(0), open->world_bbox(1), open->world_bbox(2), open->world_bbox(3)}, &detail);
-  ASSERT_TRUE(cut.ok()) << cut.status().ToString();
+  ASSERT_THAT(cut, IsOk());
   for (int i = 0; i < kChain; ++i) EXPECT_EQ(cut->local_maps.at(i).cells, s.child.local_maps.at(i).cells) << "home node " << i;
   const auto after = FindMapFindings({.map = &*cut, .run_parent = &s.parent, .report = &report});
   const auto* resolved = FindKind(after, "protrusion");
   ASSERT_NE(resolved, nullptr);
   EXPECT_EQ(resolved->state(), "resolved");
   const auto area_before = KnownArea(s.child), area_after = KnownArea(*cut);
-  ASSERT_TRUE(area_before.ok() && area_after.ok());
+  ASSERT_THAT(area_before, IsOk());
+  ASSERT_THAT(area_after, IsOk());
   EXPECT_LT(*area_after, *area_before - 0.5);
   // Nothing of the run's left in the box: a second cut is refused.
   EXPECT_EQ(CutRegion(*cut, NodesAddedByRun(s.child, s.parent), {1.8, 2.6, 3.2, 3.4}, &detail).status().code(),
@@ -224,7 +226,7 @@ Map LaterVersion(const Map& child) {
   Map later = child;
   for (int i = 0; i < 3; ++i) {
     const NodeId id = 40 + i;
-    EXPECT_TRUE(later.graph.AddNode({.id = id, .pose = SE2(0.5 * (kChain + i), 3.0, 0.0)}).ok());
+    EXPECT_THAT(later.graph.AddNode({.id = id, .pose = SE2(0.5 * (kChain + i), 3.0, 0.0)}), IsOk());
     later.local_maps[id] = Patch();
     AddMotion(later, i == 0 ? 20 + kChain - 1 : id - 1, id);
   }
@@ -238,9 +240,9 @@ TEST(MapRepairTest, ARepairCarriedOntoALaterVersionDoesWhatItDidAndKeepsWhatCame
   std::string detail;
   // An edge rejection: the later version loses the same edge, keeps its own nodes, and is re-optimised.
   const auto rejected = RejectEdge(s.child, 22, 2, 102, &detail);
-  ASSERT_TRUE(rejected.ok()) << rejected.status().ToString();
+  ASSERT_THAT(rejected, IsOk());
   const auto carried_edge = CarryRepairForward(s.child, *rejected, later, &detail);
-  ASSERT_TRUE(carried_edge.ok()) << carried_edge.status().ToString();
+  ASSERT_THAT(carried_edge, IsOk());
   EXPECT_EQ(carried_edge->graph.num_edges(), later.graph.num_edges() - 1);
   EXPECT_EQ(carried_edge->graph.num_nodes(), later.graph.num_nodes());
   for (const Edge& edge : carried_edge->graph.edges()) EXPECT_FALSE(edge.from == 22 && edge.to == 2) << "the rejected edge";
@@ -249,7 +251,7 @@ TEST(MapRepairTest, ARepairCarriedOntoALaterVersionDoesWhatItDidAndKeepsWhatCame
   // A cut of the run's cells around nodes 24..26: the same cells go unknown in the later version, except the one its
   // own run observed again (node 25's centre), which keeps the later observation.
   const auto cut = CutRegion(s.child, NodesAddedByRun(s.child, s.parent), {1.8, 2.6, 3.2, 3.4}, &detail);
-  ASSERT_TRUE(cut.ok()) << cut.status().ToString();
+  ASSERT_THAT(cut, IsOk());
   std::int64_t cut_cells = 0, cut_patches = 0;
   for (const auto& [node, patch] : cut->local_maps) {
     const std::int64_t before = cut_cells;
@@ -259,7 +261,7 @@ TEST(MapRepairTest, ARepairCarriedOntoALaterVersionDoesWhatItDidAndKeepsWhatCame
   ASSERT_GT(cut_cells, 0);
   ASSERT_EQ(cut->local_maps.at(25).cells[kCentreCell], -1) << "the box holds node 25's centre";
   const auto carried_cut = CarryRepairForward(s.child, *cut, later, &detail);
-  ASSERT_TRUE(carried_cut.ok()) << carried_cut.status().ToString();
+  ASSERT_THAT(carried_cut, IsOk());
   for (const auto& [node, patch] : carried_cut->local_maps) {
     const auto& expected = cut->local_maps.contains(node) ? cut->local_maps.at(node) : later.local_maps.at(node);
     for (std::size_t i = 0; i < patch.cells.size(); ++i) {
@@ -285,22 +287,22 @@ TEST(MapRepairTest, ARepairCarriedOntoALaterVersionDoesWhatItDidAndKeepsWhatCame
 TEST(MapRepairTest, ExportWritesMapServerFilesAndG2oThatReadBack) {
   const Scenario s = MakeScenario();
   const auto map_server = ExportMap(s.child, "map_server", "robot-1-v3");
-  ASSERT_TRUE(map_server.ok()) << map_server.status().ToString();
+  ASSERT_THAT(map_server, IsOk());
   ASSERT_EQ(map_server->size(), 2u);
   EXPECT_EQ((*map_server)[0].name(), "robot-1-v3.pgm");
   EXPECT_EQ((*map_server)[1].name(), "robot-1-v3.yaml");
   EXPECT_EQ((*map_server)[1].content().rfind("image: robot-1-v3.pgm\n", 0), 0u);
   const auto grid = RenderHomeGrid(s.child);
-  ASSERT_TRUE(grid.ok());
+  ASSERT_THAT(grid, IsOk());
   const auto decoded = slamcore::DecodePgm((*map_server)[0].content(), grid->resolution, grid->origin_x, grid->origin_y);
-  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  ASSERT_THAT(decoded, IsOk());
   EXPECT_EQ(decoded->cells, grid->cells);
 
   const auto g2o = ExportMap(s.child, "g2o", "robot-1-v3");
-  ASSERT_TRUE(g2o.ok());
+  ASSERT_THAT(g2o, IsOk());
   std::istringstream in((*g2o)[0].content());
   const auto graph = slamcore::ReadPoseGraph(in, "export");
-  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  ASSERT_THAT(graph, IsOk());
   EXPECT_EQ(graph->num_nodes(), s.child.graph.num_nodes());
   EXPECT_EQ(graph->num_edges(), s.child.graph.num_edges());
 
@@ -311,7 +313,7 @@ TEST(MapRepairTest, ExportWritesMapServerFilesAndG2oThatReadBack) {
 TEST(MapRepairTest, EdgeHypothesisSurvivesTheWireFormat) {
   const Scenario s = MakeScenario();
   const auto back = FromProto(ToProto(s.child), "snapshot");
-  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_THAT(back, IsOk());
   int with_hypothesis = 0;
   for (const Edge& edge : back->graph.edges()) with_hypothesis += edge.hypothesis == 4 ? 1 : 0;
   EXPECT_EQ(with_hypothesis, 2);

@@ -2,13 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include "status_matchers.h"
+
 namespace analyzer {
 namespace {
 
 TEST(ParametersTest, DefaultsRoundTrip) {
   const slamcore::MapperParams defaults;
   const auto back = FromProto(ToProto(defaults));
-  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_THAT(back, IsOk());
   EXPECT_EQ(back->gate_chi2, defaults.gate_chi2);
   EXPECT_EQ(back->merge_full.min_views, defaults.merge_full.min_views);
   EXPECT_EQ(back->conditional_merge, defaults.conditional_merge);
@@ -19,10 +21,10 @@ TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
   const auto set = ParseParameterSetJson(
       R"({"name": "strict", "mapper": {"gateChi2": 7.8, "mergeFull": {"minViews": 3}, "conditionalMerge": false}})",
       "strict.json");
-  ASSERT_TRUE(set.ok()) << set.status().ToString();
+  ASSERT_THAT(set, IsOk());
   EXPECT_EQ(set->name(), "strict");
   const auto params = FromProto(set->mapper());
-  ASSERT_TRUE(params.ok());
+  ASSERT_THAT(params, IsOk());
   EXPECT_EQ(params->gate_chi2, 7.8);
   EXPECT_EQ(params->merge_full.min_views, 3);
   EXPECT_EQ(params->merge_full.min_observations, slamcore::MapperParams().merge_full.min_observations);
@@ -33,14 +35,14 @@ TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
 TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   // A what-if parameter set: the paper's filter alone, or other caps.
   const auto off = ParseParameterSetJson(R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2}})", "off.json");
-  ASSERT_TRUE(off.ok()) << off.status().ToString();
+  ASSERT_THAT(off, IsOk());
   const auto params = FromProto(off->mapper());
-  ASSERT_TRUE(params.ok());
+  ASSERT_THAT(params, IsOk());
   EXPECT_FALSE(params->consistency.enabled);
   EXPECT_EQ(params->consistency.min_passes_against_map, 2);
   EXPECT_EQ(params->consistency.max_open_hypotheses, slamcore::ConsistencyParams().max_open_hypotheses);
   const auto round_trip = FromProto(ToProto(*params));
-  ASSERT_TRUE(round_trip.ok());
+  ASSERT_THAT(round_trip, IsOk());
   EXPECT_EQ(round_trip->consistency.min_passes_against_map, 2);
   EXPECT_FALSE(round_trip->consistency.enabled);
   // Unbounded caps are refused, naming the field.
@@ -52,7 +54,7 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
 
 TEST(ParametersTest, BareMapperObjectIsAccepted) {
   const auto set = ParseParameterSetJson(R"({"gate_chi2": 9.0})", "bare.json");
-  ASSERT_TRUE(set.ok()) << set.status().ToString();
+  ASSERT_THAT(set, IsOk());
   EXPECT_EQ(set->mapper().gate_chi2(), 9.0);
 }
 

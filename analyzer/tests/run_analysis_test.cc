@@ -7,6 +7,7 @@
 #include "sim/run_simulator.h"
 #include "slamcore/protrusion_detector.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace analyzer {
 namespace {
@@ -14,9 +15,9 @@ namespace {
 /// Two simulated runs of one robot in a real floor plan: the second starts on the first's map.
 std::vector<fleet::v1::RunFile> SimulatedRuns() {
   const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-  EXPECT_TRUE(worlds.ok());
+  EXPECT_THAT(worlds, IsOk());
   static const auto world = sim::LoadWorld(worlds->front(), 11);
-  EXPECT_TRUE(world.ok()) << world.status().ToString();
+  EXPECT_THAT(world, IsOk());
   sim::SimParams params;
   params.run_minutes = 5.0;
   params.stuck_rate_scale = 400.0;  // a wedge on one bump in 10: make sure the second run gets stuck
@@ -24,7 +25,7 @@ std::vector<fleet::v1::RunFile> SimulatedRuns() {
   std::vector<fleet::v1::RunFile> runs;
   for (int k = 0; k < 2; ++k) {
     auto outcome = robot.SimulateRun("run-" + std::to_string(k), 1.7e9 + 86400.0 * k);
-    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    EXPECT_THAT(outcome, IsOk());
     runs.push_back(outcome->run);
   }
   return runs;
@@ -33,7 +34,7 @@ std::vector<fleet::v1::RunFile> SimulatedRuns() {
 TEST(RunAnalysisTest, RerunWithTheRobotsParametersReproducesTheRobotsMap) {
   const auto runs = SimulatedRuns();
   const auto report = AnalyzeRun(runs[1], {});
-  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  ASSERT_THAT(report, IsOk());
   EXPECT_EQ(report->run_id(), "run-1");
   EXPECT_EQ(report->parameter_set(), "default");
   EXPECT_FALSE(report->decisions().empty());
@@ -65,7 +66,7 @@ TEST(RunAnalysisTest, StricterParametersChangeTheDecisions) {
   strict.mapper.recovery.min_observations = 50;
   strict.mapper.recovery.min_views = 20;
   const auto report = AnalyzeRun(runs[1], strict);
-  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  ASSERT_THAT(report, IsOk());
   EXPECT_EQ(report->parameter_set(), "strict");
   EXPECT_EQ(report->counts().recovery_accepted(), 0);
 }
@@ -79,15 +80,14 @@ TEST(RunAnalysisTest, TheBudgetEndsTheReplayWhereItRunsOut) {
     return ++asked <= 2 ? slamcore::Status::Ok() : slamcore::FailedPrecondition("analysis budget: out of time");
   };
   const auto report = AnalyzeRun(runs[1], options);
-  ASSERT_FALSE(report.ok());
-  EXPECT_EQ(report.status().code(), slamcore::StatusCode::kFailedPrecondition);
+  ASSERT_THAT(report, StatusIs(slamcore::StatusCode::kFailedPrecondition));
   // Asked at events 0 and 256 (fine), then at 512: the replay stops there.
   EXPECT_EQ(report.status().message(), "analysis budget: out of time (at events[512] of " +
                                            std::to_string(runs[1].events_size()) + ")");
   EXPECT_EQ(asked, 3);
   // A budget that always allows changes nothing.
   options.keep_going = [] { return slamcore::Status::Ok(); };
-  EXPECT_TRUE(AnalyzeRun(runs[1], options).ok());
+  EXPECT_THAT(AnalyzeRun(runs[1], options), IsOk());
 }
 
 TEST(RunAnalysisTest, MalformedTelemetryIsRefusedNamingTheEvent) {
@@ -103,8 +103,7 @@ TEST(RunAnalysisTest, MalformedTelemetryIsRefusedNamingTheEvent) {
   }
   ASSERT_GE(index, 0);
   const auto report = AnalyzeRun(broken, {});
-  ASSERT_FALSE(report.ok());
-  EXPECT_EQ(report.status().code(), slamcore::StatusCode::kInvalidArgument);
+  ASSERT_THAT(report, StatusIs(slamcore::StatusCode::kInvalidArgument));
   EXPECT_NE(report.status().message().find("events[" + std::to_string(index) + "]"), std::string::npos)
       << report.status().message();
   EXPECT_NE(report.status().message().find("987654321"), std::string::npos) << report.status().message();

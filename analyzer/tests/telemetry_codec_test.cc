@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "status_matchers.h"
+
 namespace analyzer {
 namespace {
 
@@ -35,7 +37,7 @@ TEST(TelemetryCodecTest, EventsRoundTripExactly) {
   for (const slamcore::Event& event : SampleEvents()) {
     const fleet::v1::Event proto = ToProto(event);
     const auto back = FromProto(proto, "event");
-    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    ASSERT_THAT(back, IsOk());
     // Serialising the decoded event again gives the same bytes: nothing was lost or changed.
     EXPECT_EQ(ToProto(*back).SerializeAsString(), proto.SerializeAsString());
     EXPECT_EQ(back->index(), event.index());
@@ -45,27 +47,26 @@ TEST(TelemetryCodecTest, EventsRoundTripExactly) {
 TEST(TelemetryCodecTest, MapSnapshotRoundTripsAndSerialisesDeterministically) {
   slamcore::Map map;
   for (int k = 0; k < 3; ++k) {
-    ASSERT_TRUE(map.graph.AddNode({.id = k, .pose = SE2(k, 0.5 * k, 0.1 * k), .time = 1.0 * k, .odometer = 1.0 * k,
-                                   .fixed = false})
-                    .ok());
+    ASSERT_THAT(map.graph.AddNode({.id = k, .pose = SE2(k, 0.5 * k, 0.1 * k), .time = 1.0 * k, .odometer = 1.0 * k,
+                                   .fixed = false}), IsOk());
   }
-  ASSERT_TRUE(map.graph.AddView({.id = 10, .node = 0, .ambiguous = true}).ok());
+  ASSERT_THAT(map.graph.AddView({.id = 10, .node = 0, .ambiguous = true}), IsOk());
   slamcore::Edge motion;
   motion.from = 0;
   motion.to = 1;
   motion.measurement = SE2(1.0, 0.5, 0.1);
-  ASSERT_TRUE(map.graph.AddEdge(motion).ok());
+  ASSERT_THAT(map.graph.AddEdge(motion), IsOk());
   slamcore::Edge observation;
   observation.from = 2;
   observation.to = 0;
   observation.kind = slamcore::EdgeKind::kObservation;
   observation.view = 10;
-  ASSERT_TRUE(map.graph.AddEdge(observation).ok());
+  ASSERT_THAT(map.graph.AddEdge(observation), IsOk());
   map.local_maps[1] = std::get<slamcore::LocalMapEvent>(SampleEvents()[3]);
 
   const fleet::v1::MapSnapshot proto = ToProto(map);
   const auto back = FromProto(proto, "snapshot");
-  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_THAT(back, IsOk());
   EXPECT_EQ(back->graph.num_nodes(), 3u);
   EXPECT_EQ(back->graph.NumComponents(), 1u);
   EXPECT_TRUE(back->graph.view(10).ambiguous);
@@ -76,7 +77,7 @@ TEST(TelemetryCodecTest, MapSnapshotRoundTripsAndSerialisesDeterministically) {
 
 TEST(TelemetryCodecTest, EmptySnapshotIsTheEmptyMap) {
   const auto map = FromProto(fleet::v1::MapSnapshot(), "parent_snapshot");
-  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  ASSERT_THAT(map, IsOk());
   EXPECT_EQ(map->graph.num_nodes(), 0u);
 }
 
@@ -160,7 +161,7 @@ TEST(TelemetryCodecTest, HeaderValidation) {
   header.set_run_id("run-1");
   header.set_started_at(1.7e9);
   header.set_ended_at(1.7e9 + 100.0);
-  EXPECT_TRUE(Validate(header).ok());
+  EXPECT_THAT(Validate(header), IsOk());
   // Ids: 1..128 of [A-Za-z0-9._:-] for every role; no control characters anywhere (issue 16: a robot id
   // "x\r\nSet-Cookie: a=b" ended up in a response header).
   header.set_robot_id("x\r\nSet-Cookie: a=b");

@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace analyzer {
 namespace {
@@ -25,7 +26,7 @@ using json = nlohmann::json;
 
 std::string ReadText(const std::filesystem::path& path) {
   auto bytes = slamcore::ReadFileBytes(path.string());
-  EXPECT_TRUE(bytes.ok()) << bytes.status().ToString();
+  EXPECT_THAT(bytes, IsOk());
   return bytes.ok() ? *bytes : std::string();
 }
 
@@ -59,7 +60,7 @@ int CheckEveryExport(const std::filesystem::path& folder) {
     SCOPED_TRACE(entry.path().filename().string());
     ++files;
     const auto map = ReadValetudoMap(entry.path().string());
-    EXPECT_TRUE(map.ok()) << map.status().ToString();
+    EXPECT_THAT(map, IsOk());
     if (!map.ok()) continue;
     EXPECT_EQ(map->pixel_size_cm, 5);
     std::int64_t total = 0;
@@ -103,10 +104,10 @@ TEST(ValetudoMapTest, GridEqualsTheMapServerConversionOfTheSameExport) {
   for (const char* name : {"dreame_d9_1058_no_segments", "dreame_d9_1058_with_segments"}) {
     SCOPED_TRACE(name);
     const auto map = ReadValetudoMap((test_data::Sample() / "valetudo" / (std::string(name) + ".json")).string());
-    ASSERT_TRUE(map.ok()) << map.status().ToString();
+    ASSERT_THAT(map, IsOk());
     const auto converted =
         slamcore::ReadMapServerYaml((test_data::Sample() / "maps" / ("valetudo_" + std::string(name) + ".yaml")).string());
-    ASSERT_TRUE(converted.ok()) << converted.status().ToString();
+    ASSERT_THAT(converted, IsOk());
     EXPECT_EQ(map->grid.width, converted->width);
     EXPECT_EQ(map->grid.height, converted->height);
     EXPECT_NEAR(map->grid.origin_x, converted->origin_x, 1e-9);
@@ -118,7 +119,7 @@ TEST(ValetudoMapTest, GridEqualsTheMapServerConversionOfTheSameExport) {
 TEST(ValetudoMapTest, EntitiesBecomePosesWallsAndZonesInMetres) {
   const auto map =
       ReadValetudoMap((test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json").string());
-  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  ASSERT_THAT(map, IsOk());
   // robot_position [3250, 3203] cm, angle 90°; charger_location [3340, 3220] cm, angle 228°.
   ASSERT_TRUE(map->robot && map->dock);
   EXPECT_NEAR(map->robot->pose.x(), 32.50, 1e-9);
@@ -166,9 +167,9 @@ json ExpandedVersion1(json map) {
 TEST(ValetudoMapTest, ExpandedPixelsAndVersion1GiveTheSameMap) {
   const auto path = test_data::Sample() / "valetudo/roborock_S5_FW2008_with_segments.json";
   const auto compressed = ReadValetudoMap(path.string());
-  ASSERT_TRUE(compressed.ok()) << compressed.status().ToString();
+  ASSERT_THAT(compressed, IsOk());
   const auto expanded = ParseValetudoMap(ExpandedVersion1(ReadJson(path)).dump(), "expanded");
-  ASSERT_TRUE(expanded.ok()) << expanded.status().ToString();
+  ASSERT_THAT(expanded, IsOk());
   EXPECT_EQ(compressed->version, 2);
   EXPECT_EQ(expanded->version, 1);
   EXPECT_TRUE(expanded->grid.cells == compressed->grid.cells);
@@ -182,7 +183,7 @@ TEST(ValetudoMapTest, ExpandedPixelsAndVersion1GiveTheSameMap) {
 TEST(ValetudoMapTest, Version1ExportOfTheLargerSetHasNamedRooms) {
   TEST_DATA_FILE_OR_SKIP(path, "valetudo/dreame_d9_1093_multi_map.json");
   const auto map = ReadValetudoMap(path.string());
-  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  ASSERT_THAT(map, IsOk());
   EXPECT_EQ(map->version, 1);
   std::vector<std::string> names;
   for (const ValetudoLayer& layer : map->layers) {
@@ -205,10 +206,10 @@ std::string Deflate(const std::string& text) {
 TEST(ValetudoMapTest, ZlibDeflatedExportAsPublishedOverMqttImports) {
   const auto path = test_data::Sample() / "valetudo/dreame_d9_1058_with_segments.json";
   const auto plain = ReadValetudoMap(path.string());
-  ASSERT_TRUE(plain.ok());
+  ASSERT_THAT(plain, IsOk());
   const std::string deflated = Deflate(ReadText(path));
   const auto inflated = ParseValetudoMap(deflated, "mqtt");
-  ASSERT_TRUE(inflated.ok()) << inflated.status().ToString();
+  ASSERT_THAT(inflated, IsOk());
   EXPECT_TRUE(inflated->grid.cells == plain->grid.cells);
   EXPECT_EQ(inflated->AreaOf("segment"), plain->AreaOf("segment"));
 
@@ -225,7 +226,7 @@ TEST(ValetudoMapTest, ZlibDeflatedExportAsPublishedOverMqttImports) {
 
 TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
   const json valid = ReadJson(test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json");
-  ASSERT_TRUE(ParseValetudoMap(valid.dump(), "valid").ok());
+  ASSERT_THAT(ParseValetudoMap(valid.dump(), "valid"), IsOk());
   struct Case {
     const char* what;
     std::function<void(json&)> edit;
@@ -275,8 +276,7 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
     json broken = valid;
     test_case.edit(broken);
     const auto result = ParseValetudoMap(broken.dump(), "broken.json");
-    ASSERT_FALSE(result.ok());
-    EXPECT_EQ(result.status().code(), slamcore::StatusCode::kInvalidArgument);
+    ASSERT_THAT(result, StatusIs(slamcore::StatusCode::kInvalidArgument));
     EXPECT_NE(result.status().message().find(test_case.expected), std::string::npos) << result.status().message();
     EXPECT_EQ(result.status().message().rfind("broken.json: ", 0), 0u) << result.status().message();
   }
@@ -284,7 +284,7 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
                                   std::string("\x78\x9c garbage")}) {
     const auto result = ParseValetudoMap(text, "text");
     ASSERT_FALSE(result.ok()) << text;
-    EXPECT_EQ(result.status().code(), slamcore::StatusCode::kInvalidArgument);
+    EXPECT_THAT(result, StatusIs(slamcore::StatusCode::kInvalidArgument));
   }
   ValetudoLimits tight;
   tight.max_layers = 2;
@@ -307,11 +307,11 @@ TEST(ValetudoWrite, RoundTripsEveryExportCellForCell) {
     SCOPED_TRACE(entry.path().filename().string());
     ++files;
     const auto original = ReadValetudoMap(entry.path().string());
-    ASSERT_TRUE(original.ok()) << original.status().ToString();
+    ASSERT_THAT(original, IsOk());
     const auto written = WriteValetudoMap(original->grid, MetadataOf(*original));
-    ASSERT_TRUE(written.ok()) << written.status().ToString();
+    ASSERT_THAT(written, IsOk());
     const auto back = ParseValetudoMap(*written, "hand-back.json");
-    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    ASSERT_THAT(back, IsOk());
     EXPECT_EQ(back->version, 2);
     EXPECT_EQ(back->pixel_size_cm, original->pixel_size_cm);
     EXPECT_EQ(back->grid.width, original->grid.width);
@@ -333,7 +333,7 @@ TEST(ValetudoWrite, RoundTripsEveryExportCellForCell) {
 
 TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
   auto grid = slamcore::OccupancyGrid::Create(30, 20, 0.05, -10.0, -3.0);
-  ASSERT_TRUE(grid.ok());
+  ASSERT_THAT(grid, IsOk());
   grid->at(0, 0) = 100;
   grid->at(5, 7) = 0;
   grid->at(29, 19) = 0;
@@ -344,9 +344,9 @@ TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
   charger->set_y(-2.5);
   charger->set_theta(0.5);
   const auto written = WriteValetudoMap(*grid, dock);
-  ASSERT_TRUE(written.ok()) << written.status().ToString();
+  ASSERT_THAT(written, IsOk());
   const auto back = ParseValetudoMap(*written, "shifted.json");
-  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_THAT(back, IsOk());
   EXPECT_EQ(back->grid.CountCells(slamcore::CellState::kOccupied), 1);
   EXPECT_EQ(back->grid.CountCells(slamcore::CellState::kFree), 2);
   // Shifted by 10 m in x (pixels ≥ 0); the dock moved with the grid: 0.5 m right of the grid's left edge.
@@ -360,7 +360,7 @@ TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("grid.resolution"), std::string::npos) << refused.status().ToString();
   auto blank = slamcore::OccupancyGrid::Create(4, 4, 0.05);
-  ASSERT_TRUE(blank.ok());
+  ASSERT_THAT(blank, IsOk());
   refused = WriteValetudoMap(*blank, {});
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("no free or occupied cell"), std::string::npos);

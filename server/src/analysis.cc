@@ -10,17 +10,6 @@
 #include "fleet/v1/telemetry.pb.h"
 
 namespace server {
-storage::Status FromSlamcore(const slamcore::Status& status) {
-  switch (status.code()) {
-    case slamcore::StatusCode::kOk: return storage::Status::Ok();
-    case slamcore::StatusCode::kInvalidArgument: return storage::InvalidArgument(status.message());
-    case slamcore::StatusCode::kNotFound: return storage::NotFound(status.message());
-    case slamcore::StatusCode::kFailedPrecondition: return storage::FailedPrecondition(status.message());
-    case slamcore::StatusCode::kDataLoss: return storage::DataLoss(status.message());
-    case slamcore::StatusCode::kInternal: return storage::Internal(status.message());
-  }
-  return storage::Internal(status.message());
-}
 
 storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
   storage::ReportBundle bundle;
@@ -79,9 +68,8 @@ storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
 }
 
 storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes) {
-  auto loaded = slamcore::ProtrusionClassifier::LoadFromBytes(bytes);
-  if (!loaded.ok()) return FromSlamcore(loaded.status());
-  return std::move(loaded).value();
+  ASSIGN_OR_RETURN(auto loaded, slamcore::ProtrusionClassifier::LoadFromBytes(bytes));
+  return loaded;
 }
 
 std::shared_ptr<const slamcore::ProtrusionClassifier> DefaultClassifier() {
@@ -129,7 +117,7 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   const auto started = std::chrono::steady_clock::now();
   const std::string& run_id = key.run_id;
   auto run = repository.GetRun(key);
-  if (!run.ok()) return run.status();
+  RETURN_IF_ERROR(run.status());
   if (run->telemetry_pruned_at_ms) {
     return storage::FailedPrecondition("run " + run_id + " of robot " + key.robot_id +
                                        ": its events were pruned by retention (--retain-runs-days); nothing to rerun");
@@ -137,31 +125,27 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   fleet::v1::RunFile file;
   if (!file.ParseFromString(run->telemetry)) return storage::DataLoss("run " + run_id + ": telemetry does not parse");
   if (run->parent_snapshot_id) {
-    auto snapshot = repository.GetSnapshot(*run->parent_snapshot_id);
-    if (!snapshot.ok()) return snapshot.status();
-    if (!file.mutable_parent_snapshot()->ParseFromString(snapshot->bytes)) {
+    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run->parent_snapshot_id));
+    if (!file.mutable_parent_snapshot()->ParseFromString(snapshot.bytes)) {
       return storage::DataLoss("snapshot " + *run->parent_snapshot_id + " does not parse");
     }
   }
   if (run->child_snapshot_id) {
-    auto snapshot = repository.GetSnapshot(*run->child_snapshot_id);
-    if (!snapshot.ok()) return snapshot.status();
-    if (!file.mutable_child_snapshot()->ParseFromString(snapshot->bytes)) {
+    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run->child_snapshot_id));
+    if (!file.mutable_child_snapshot()->ParseFromString(snapshot.bytes)) {
       return storage::DataLoss("snapshot " + *run->child_snapshot_id + " does not parse");
     }
   }
-  auto stored_set = repository.GetParameterSet(parameter_set);
-  if (!stored_set.ok()) return stored_set.status();
+  ASSIGN_OR_RETURN(auto stored_set, repository.GetParameterSet(parameter_set));
   fleet::v1::ParameterSet set;
-  if (!set.ParseFromString(stored_set->serialized)) {
+  if (!set.ParseFromString(stored_set.serialized)) {
     return storage::DataLoss("parameter set " + parameter_set + " does not parse");
   }
-  auto mapper = analyzer::FromProto(set.mapper());
-  if (!mapper.ok()) return FromSlamcore(mapper.status());
+  ASSIGN_OR_RETURN(auto mapper, analyzer::FromProto(set.mapper()));
 
   analyzer::AnalysisOptions options;
   options.parameter_set_name = parameter_set;
-  options.mapper = *mapper;
+  options.mapper = mapper;
   options.classifier = classifier;
   options.keep_rerun_child = true;
   const auto deadline = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -176,18 +160,17 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
     if (budget.cancelled && budget.cancelled()) return slamcore::FailedPrecondition("analysis budget: job cancelled");
     return slamcore::Status::Ok();
   };
-  auto report = analyzer::AnalyzeRun(file, options);
-  if (!report.ok()) return FromSlamcore(report.status());
-  report->set_parameter_set(parameter_set);
+  ASSIGN_OR_RETURN(auto report, analyzer::AnalyzeRun(file, options));
+  report.set_parameter_set(parameter_set);
   // The stored identity, whatever the telemetry's header says.
-  report->set_robot_id(run->robot_id);
-  report->set_run_id(run->run_id);
-  const storage::ReportBundle bundle = ToReportBundle(*report);
-  STORAGE_RETURN_IF_ERROR(repository.PutReport(bundle));
+  report.set_robot_id(run->robot_id);
+  report.set_run_id(run->run_id);
+  const storage::ReportBundle bundle = ToReportBundle(report);
+  RETURN_IF_ERROR(repository.PutReport(bundle));
   AnalysisResult result;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   result.regions = static_cast<std::int64_t>(bundle.protrusion_regions.size());
-  result.report = std::move(report).value();
+  result.report = std::move(report);
   return result;
 }
 

@@ -67,10 +67,10 @@ bool Allows(Role role, Permission permission) {
   return false;
 }
 
-storage::Result<Principal> ParsePrincipal(const std::string& name) {
+slamcore::Result<Principal> ParsePrincipal(const std::string& name) {
   const std::size_t colon = name.find(':');
   if (colon == std::string::npos) {
-    return storage::InvalidArgument("principal: expected \"robot:<id>\", \"engineer:<name>\" or \"admin:<name>\"");
+    return slamcore::InvalidArgument("principal: expected \"robot:<id>\", \"engineer:<name>\" or \"admin:<name>\"");
   }
   const std::string kind = name.substr(0, colon), id = name.substr(colon + 1);
   Principal principal;
@@ -83,9 +83,9 @@ storage::Result<Principal> ParsePrincipal(const std::string& name) {
   } else if (kind == "admin") {
     principal.role = Role::kAdmin;
   } else {
-    return storage::InvalidArgument("principal: unknown role \"" + kind + "\" (robot, engineer or admin)");
+    return slamcore::InvalidArgument("principal: unknown role \"" + kind + "\" (robot, engineer or admin)");
   }
-  if (!ValidId(id)) return storage::InvalidArgument("principal: id must be 1-128 characters of [A-Za-z0-9_.-]");
+  if (!ValidId(id)) return slamcore::InvalidArgument("principal: id must be 1-128 characters of [A-Za-z0-9_.-]");
   return principal;
 }
 
@@ -257,9 +257,9 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
   return verdict;
 }
 
-storage::Result<std::string> Authenticator::IssueToken(const Principal& principal) {
+slamcore::Result<std::string> Authenticator::IssueToken(const Principal& principal) {
   const std::string secret = GenerateSecret();
-  STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal.name, secret));
+  RETURN_IF_ERROR(repository_.SetCredential(principal.name, secret));
   ForgetPrincipal(principal.name);
   return MakeToken(principal.name, secret);
 }
@@ -269,44 +269,41 @@ void Authenticator::ForgetPrincipal(const std::string& name) {
   DropCachedLocked(name);
 }
 
-storage::Result<std::string> Authenticator::RotateToken(const Principal& principal) {
-  auto existing = repository_.ListCredentials(principal.name, "", 1, /*active_only=*/true);
-  if (!existing.ok()) return existing.status();
-  if (existing->empty() || existing->front().principal != principal.name) {
-    return storage::NotFound("no unrevoked credential for " + principal.name + "; mint one with SetCredential");
+slamcore::Result<std::string> Authenticator::RotateToken(const Principal& principal) {
+  ASSIGN_OR_RETURN(auto existing, repository_.ListCredentials(principal.name, "", 1, /*active_only=*/true));
+  if (existing.empty() || existing.front().principal != principal.name) {
+    return slamcore::NotFound("no unrevoked credential for " + principal.name + "; mint one with SetCredential");
   }
   return IssueToken(principal);
 }
 
-storage::Status Authenticator::RevokeToken(const Principal& principal) {
-  STORAGE_RETURN_IF_ERROR(repository_.RevokeCredential(principal.name));
+slamcore::Status Authenticator::RevokeToken(const Principal& principal) {
+  RETURN_IF_ERROR(repository_.RevokeCredential(principal.name));
   ForgetPrincipal(principal.name);
-  return storage::Status::Ok();
+  return slamcore::Status::Ok();
 }
 
-storage::Result<Authenticator::BootstrapOutcome> Authenticator::InstallBootstrapToken(const std::string& token,
+slamcore::Result<Authenticator::BootstrapOutcome> Authenticator::InstallBootstrapToken(const std::string& token,
                                                                                       bool force) {
   const std::size_t dot = token.rfind('.');
   if (dot == std::string::npos) {
-    return storage::InvalidArgument("bootstrap_admin_token: expected admin:<name>.<secret>");
+    return slamcore::InvalidArgument("bootstrap_admin_token: expected admin:<name>.<secret>");
   }
   auto principal = ParsePrincipal(token.substr(0, dot));
-  if (!principal.ok()) return storage::InvalidArgument("bootstrap_admin_token: " + principal.status().message());
+  if (!principal.ok()) return slamcore::InvalidArgument("bootstrap_admin_token: " + principal.status().message());
   if (principal->role != Role::kAdmin) {
-    return storage::InvalidArgument("bootstrap_admin_token: names " + principal->name +
+    return slamcore::InvalidArgument("bootstrap_admin_token: names " + principal->name +
                                     ", not an admin (admin:<name>.<secret>)");
   }
   const std::string secret = token.substr(dot + 1);
-  STORAGE_RETURN_IF_ERROR(CheckSecretStrength("bootstrap_admin_token", secret, 32));
-  auto verified = repository_.VerifyCredential(principal->name, secret);
-  if (!verified.ok()) return verified.status();
-  if (*verified) return BootstrapOutcome::kAlreadyValid;
+  RETURN_IF_ERROR(CheckSecretStrength("bootstrap_admin_token", secret, 32));
+  ASSIGN_OR_RETURN(auto verified, repository_.VerifyCredential(principal->name, secret));
+  if (verified) return BootstrapOutcome::kAlreadyValid;
   if (!force) {
-    auto admins = repository_.ListCredentials("admin:", "", 1, /*active_only=*/true);
-    if (!admins.ok()) return admins.status();
-    if (!admins->empty()) return BootstrapOutcome::kSkippedAdminExists;
+    ASSIGN_OR_RETURN(auto admins, repository_.ListCredentials("admin:", "", 1, /*active_only=*/true));
+    if (!admins.empty()) return BootstrapOutcome::kSkippedAdminExists;
   }
-  STORAGE_RETURN_IF_ERROR(repository_.SetCredential(principal->name, secret));
+  RETURN_IF_ERROR(repository_.SetCredential(principal->name, secret));
   return BootstrapOutcome::kInstalled;
 }
 

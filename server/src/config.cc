@@ -12,70 +12,70 @@
 
 namespace server {
 
-storage::Status FleetdConfig::Validate() const {
-  if (db.empty()) return storage::InvalidArgument("db: required");
+slamcore::Status FleetdConfig::Validate() const {
+  if (db.empty()) return slamcore::InvalidArgument("db: required");
   if (role != "all" && role != "server" && role != "worker") {
-    return storage::InvalidArgument("role: expected all, server or worker, got \"" + role + "\"");
+    return slamcore::InvalidArgument("role: expected all, server or worker, got \"" + role + "\"");
   }
-  if (role != "worker" && listen.empty()) return storage::InvalidArgument("listen: required");
-  if (workers < 0 || workers > 256) return storage::InvalidArgument("workers: expected 0..256");
-  if (tls_cert.empty() != tls_key.empty()) return storage::InvalidArgument("tls_cert, tls_key: set both or neither");
+  if (role != "worker" && listen.empty()) return slamcore::InvalidArgument("listen: required");
+  if (workers < 0 || workers > 256) return slamcore::InvalidArgument("workers: expected 0..256");
+  if (tls_cert.empty() != tls_key.empty()) return slamcore::InvalidArgument("tls_cert, tls_key: set both or neither");
   if (max_message_bytes < 1024 || max_message_bytes > (1LL << 30)) {
-    return storage::InvalidArgument("max_message_bytes: expected 1 KiB..1 GiB");
+    return slamcore::InvalidArgument("max_message_bytes: expected 1 KiB..1 GiB");
   }
-  if (max_events_per_run < 1) return storage::InvalidArgument("max_events_per_run: must be positive");
-  if (max_run_bytes < max_message_bytes) return storage::InvalidArgument("max_run_bytes: below max_message_bytes");
+  if (max_events_per_run < 1) return slamcore::InvalidArgument("max_events_per_run: must be positive");
+  if (max_run_bytes < max_message_bytes) return slamcore::InvalidArgument("max_run_bytes: below max_message_bytes");
   if (max_upload_streams < 1 || max_upload_streams_per_principal < 1 ||
       max_upload_streams_per_principal > max_upload_streams) {
-    return storage::InvalidArgument(
+    return slamcore::InvalidArgument(
         "max_upload_streams, max_upload_streams_per_principal: expected 1 <= per principal <= in all");
   }
   // One run within max_run_bytes must fit when it is alone, so that RESOURCE_EXHAUSTED always means "later".
   if (max_upload_bytes_per_principal < max_run_bytes || max_upload_bytes_in_flight < max_upload_bytes_per_principal) {
-    return storage::InvalidArgument(
+    return slamcore::InvalidArgument(
         "max_upload_bytes_per_principal, max_upload_bytes_in_flight: expected max_run_bytes <= per principal <= in all");
   }
   if (!(health_probe_seconds >= 0.1 && health_probe_seconds <= 3600)) {
-    return storage::InvalidArgument("health_probe_seconds: expected 0.1..3600");
+    return slamcore::InvalidArgument("health_probe_seconds: expected 0.1..3600");
   }
   if (!bootstrap_admin_token.empty()) {
     const std::size_t dot = bootstrap_admin_token.rfind('.');
-    STORAGE_RETURN_IF_ERROR(CheckSecretStrength(
+    RETURN_IF_ERROR(CheckSecretStrength(
         "bootstrap_admin_token", dot == std::string::npos ? "" : bootstrap_admin_token.substr(dot + 1), 32));
   }
   for (const std::string& password : storage::DatabaseUrlPasswords(db)) {
-    STORAGE_RETURN_IF_ERROR(CheckSecretStrength("db: the URL's password", password, 16));
+    RETURN_IF_ERROR(CheckSecretStrength("db: the URL's password", password, 16));
   }
   if (rate_limit_per_second < 0 || rate_limit_burst < 1) {
-    return storage::InvalidArgument("rate_limit_per_second, rate_limit_burst: expected >= 0 and >= 1");
+    return slamcore::InvalidArgument("rate_limit_per_second, rate_limit_burst: expected >= 0 and >= 1");
   }
-  if (shutdown_grace_seconds < 0) return storage::InvalidArgument("shutdown_grace_seconds: must be >= 0");
-  if (default_parameter_set.empty()) return storage::InvalidArgument("default_parameter_set: required");
-  if (lease_seconds < 4) return storage::InvalidArgument("lease_seconds: at least 4");
-  if (!std::isfinite(analysis_budget_seconds)) return storage::InvalidArgument("analysis_budget_seconds: must be finite");
-  if (auth_cache_seconds < 0) return storage::InvalidArgument("auth_cache_seconds: must be >= 0");
+  if (shutdown_grace_seconds < 0) return slamcore::InvalidArgument("shutdown_grace_seconds: must be >= 0");
+  if (default_parameter_set.empty()) return slamcore::InvalidArgument("default_parameter_set: required");
+  if (lease_seconds < 4) return slamcore::InvalidArgument("lease_seconds: at least 4");
+  if (!std::isfinite(analysis_budget_seconds)) return slamcore::InvalidArgument("analysis_budget_seconds: must be finite");
+  if (auth_cache_seconds < 0) return slamcore::InvalidArgument("auth_cache_seconds: must be >= 0");
   for (const auto& [name, days] :
        {std::pair{"retain_runs_days", retain_runs_days}, {"retain_jobs_days", retain_jobs_days}}) {
     if (!std::isfinite(days) || days < 0 || days > 36500) {
-      return storage::InvalidArgument(std::string(name) + ": expected 0 (keep for ever) .. 36500 days");
+      return slamcore::InvalidArgument(std::string(name) + ": expected 0 (keep for ever) .. 36500 days");
     }
   }
   if (!std::isfinite(retention_interval_seconds) || retention_interval_seconds < 1 ||
       retention_interval_seconds > 86400 * 7) {
-    return storage::InvalidArgument("retention_interval_seconds: expected 1 .. 604800");
+    return slamcore::InvalidArgument("retention_interval_seconds: expected 1 .. 604800");
   }
-  if (log_format != "json" && log_format != "text") return storage::InvalidArgument("log_format: json or text");
+  if (log_format != "json" && log_format != "text") return slamcore::InvalidArgument("log_format: json or text");
   if (auto_repair != "none" && auto_repair != "cut_protrusions" && auto_repair != "repair_findings") {
-    return storage::InvalidArgument("auto_repair: expected none, cut_protrusions or repair_findings, got \"" +
+    return slamcore::InvalidArgument("auto_repair: expected none, cut_protrusions or repair_findings, got \"" +
                                     auto_repair + "\"");
   }
   if (!(auto_repair_min_severity >= 0.0 && auto_repair_min_severity <= 1.0)) {
-    return storage::InvalidArgument("auto_repair_min_severity: expected 0 .. 1");
+    return slamcore::InvalidArgument("auto_repair_min_severity: expected 0 .. 1");
   }
   if (log_level != "debug" && log_level != "info" && log_level != "warn" && log_level != "error") {
-    return storage::InvalidArgument("log_level: debug, info, warn or error");
+    return slamcore::InvalidArgument("log_level: debug, info, warn or error");
   }
-  return storage::Status::Ok();
+  return slamcore::Status::Ok();
 }
 
 std::vector<std::string> SplitList(const std::string& text) {
@@ -93,16 +93,16 @@ std::vector<std::string> SplitList(const std::string& text) {
   return items;
 }
 
-storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
+slamcore::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
   std::ifstream in(path);
-  if (!in) return storage::NotFound("config: cannot read " + path);
+  if (!in) return slamcore::NotFound("config: cannot read " + path);
   nlohmann::json json;
   try {
     json = nlohmann::json::parse(in);
   } catch (const std::exception& e) {
-    return storage::InvalidArgument("config " + path + ": " + e.what());
+    return slamcore::InvalidArgument("config " + path + ": " + e.what());
   }
-  if (!json.is_object()) return storage::InvalidArgument("config " + path + ": expected a JSON object");
+  if (!json.is_object()) return slamcore::InvalidArgument("config " + path + ": expected a JSON object");
   using Setter = std::function<void(const nlohmann::json&)>;
   const std::map<std::string, Setter> setters = {
       {"db", [&](const nlohmann::json& v) { config.db = v.get<std::string>(); }},
@@ -148,14 +148,14 @@ storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
   };
   for (const auto& [key, value] : json.items()) {
     auto setter = setters.find(key);
-    if (setter == setters.end()) return storage::InvalidArgument("config " + path + ": unknown key \"" + key + "\"");
+    if (setter == setters.end()) return slamcore::InvalidArgument("config " + path + ": unknown key \"" + key + "\"");
     try {
       setter->second(value);
     } catch (const std::exception& e) {
-      return storage::InvalidArgument("config " + path + ": key \"" + key + "\": " + e.what());
+      return slamcore::InvalidArgument("config " + path + ": key \"" + key + "\": " + e.what());
     }
   }
-  return storage::Status::Ok();
+  return slamcore::Status::Ok();
 }
 
 }  // namespace server

@@ -188,9 +188,8 @@ class MapRoutes {
 
  private:
   static slamcore::Result<analyzer::ImportedMap> ValetudoUpload(const std::string& body) {
-    auto map = analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export");
-    if (!map.ok()) return map.status();
-    return analyzer::ImportValetudo(*map);
+    ASSIGN_OR_RETURN(auto map, analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export"));
+    return analyzer::ImportValetudo(map);
   }
 
   /// The YAML may name only the uploaded image (no path): an upload never reads a file of the server.
@@ -230,7 +229,7 @@ class MapRoutes {
       }
       return image->body;
     });
-    if (!grid.ok()) return grid.status();
+    RETURN_IF_ERROR(grid.status());
     *source = "dashboard upload: " + (yaml->filename.empty() ? std::string("yaml") : yaml->filename) + " + " + image->filename;
     return analyzer::ImportMapServer(*grid);
   }
@@ -299,12 +298,10 @@ class MapRoutes {
   };
   storage::Result<VersionMap> LoadMap(const std::string& robot, std::int64_t version) {
     fleet::v1::MapSnapshot snapshot;
-    auto detail = history_.Get(robot, version, &snapshot);
-    if (!detail.ok()) return detail.status();
-    auto map = analyzer::FromProto(snapshot, "snapshot");
-    if (!map.ok()) return FromSlamcore(map.status());
-    return VersionMap{std::move(map).value(), detail->version.version(), detail->version.snapshot_id(),
-                      detail->version.run_id()};
+    ASSIGN_OR_RETURN(auto detail, history_.Get(robot, version, &snapshot));
+    ASSIGN_OR_RETURN(auto map, analyzer::FromProto(snapshot, "snapshot"));
+    return VersionMap{std::move(map), detail.version.version(), detail.version.snapshot_id(),
+                      detail.version.run_id()};
   }
 
   /// The home grid of a map, rendered once per snapshot (a version page asks for it several times: its
@@ -312,9 +309,8 @@ class MapRoutes {
   storage::Result<std::shared_ptr<const slamcore::OccupancyGrid>> HomeGrid(const std::string& snapshot_id,
                                                                            const slamcore::Map& map) {
     return grid_cache_.Get(snapshot_id, [&]() -> storage::Result<slamcore::OccupancyGrid> {
-      auto grid = analyzer::RenderHomeGrid(map);
-      if (!grid.ok()) return FromSlamcore(grid.status());
-      return std::move(grid).value();
+      ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(map));
+      return grid;
     });
   }
 
@@ -372,7 +368,7 @@ class MapRoutes {
       return Error(409, "version " + std::to_string(loaded->version) + " has no occupancy patches to draw");
     }
     auto png = slamcore::EncodePng(**grid);
-    if (!png.ok()) return Error(FromSlamcore(png.status()));
+    if (!png.ok()) return Error(png.status());
     HttpResponse response;
     response.content_type = "image/png";
     response.body = std::move(png).value();

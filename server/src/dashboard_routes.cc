@@ -157,7 +157,7 @@ class Dashboard {
   /// The run a /api/runs/{run} route names (?robot= picks among robots that share a run id; a robot reads its own).
   storage::Result<storage::RunKey> RunOf(const HttpRequest& request, const http::PathParams& path, const Query& query) {
     auto caller = CallerOf(request);
-    if (!caller.ok()) return caller.status();
+    RETURN_IF_ERROR(caller.status());
     return queries_.Run(*caller, Param(query, "robot"), path.at("run"));
   }
 

@@ -76,14 +76,12 @@ storage::RunFilter FleetQueries::Scoped(const Principal& caller, storage::RunFil
 storage::Result<StatisticsAnswer> FleetQueries::Statistics(const Principal& caller, const storage::RunFilter& filter,
                                                            std::optional<storage::GroupBy> group_by) {
   const storage::RunFilter scoped = Scoped(caller, filter);
-  auto total = repository_.Aggregate(scoped);
-  if (!total.ok()) return total.status();
+  ASSIGN_OR_RETURN(auto total, repository_.Aggregate(scoped));
   StatisticsAnswer answer;
-  answer.total = FiguresOf(*total);
+  answer.total = FiguresOf(total);
   if (!group_by) return answer;
-  auto groups = repository_.AggregateBy(scoped, *group_by);
-  if (!groups.ok()) return groups.status();
-  for (const auto& group : *groups) {
+  ASSIGN_OR_RETURN(auto groups, repository_.AggregateBy(scoped, *group_by));
+  for (const auto& group : groups) {
     answer.groups.push_back(
         {*group_by == storage::GroupBy::kDay ? DayKey(group.key) : group.key, FiguresOf(group.statistics)});
   }
@@ -91,10 +89,9 @@ storage::Result<StatisticsAnswer> FleetQueries::Statistics(const Principal& call
 }
 
 storage::Result<MapsFigure> FleetQueries::Maps(const Principal& caller, const storage::RunFilter& filter) {
-  auto robots = repository_.AggregateBy(Scoped(caller, filter), storage::GroupBy::kRobot);
-  if (!robots.ok()) return robots.status();
+  ASSIGN_OR_RETURN(auto robots, repository_.AggregateBy(Scoped(caller, filter), storage::GroupBy::kRobot));
   MapsFigure figure;
-  for (const auto& group : *robots) {
+  for (const auto& group : robots) {
     const storage::FleetStatistics& s = group.statistics;
     if (s.views_total <= 0) continue;
     ++figure.maps;
@@ -107,10 +104,9 @@ storage::Result<MapsFigure> FleetQueries::Maps(const Principal& caller, const st
 }
 
 storage::Result<ConfusionMatrix> FleetQueries::Confusion(const Principal& caller, const std::string& parameter_set) {
-  auto labelled = Labels(caller, parameter_set, kConfusionRegionLimit);
-  if (!labelled.ok()) return labelled.status();
+  ASSIGN_OR_RETURN(auto labelled, Labels(caller, parameter_set, kConfusionRegionLimit));
   ConfusionMatrix m;
-  for (const auto& region : *labelled) {
+  for (const auto& region : labelled) {
     if (!region.label) continue;
     ++m.labelled;
     if (region.predicted_class != "protrusion" && region.predicted_class != "new_space") {
@@ -132,10 +128,9 @@ storage::Result<RunsPage> FleetQueries::Runs(const Principal& caller, RunsQuery 
   RunsPage page;
   std::optional<storage::RunCursor> next = query.after;
   for (int pages = 0; pages < (query.only_with_regions ? 20 : 1); ++pages) {
-    auto runs = repository_.ListRuns(filter, query.page_size, next);
-    if (!runs.ok()) return runs.status();
-    next = runs->next;
-    for (auto& run : runs->runs) {
+    ASSIGN_OR_RETURN(auto runs, repository_.ListRuns(filter, query.page_size, next));
+    next = runs.next;
+    for (auto& run : runs.runs) {
       RunRow row;
       if (!query.report_set.empty()) {
         auto report = repository_.GetReport(run.key(), query.report_set);
@@ -147,15 +142,13 @@ storage::Result<RunsPage> FleetQueries::Runs(const Principal& caller, RunsQuery 
         }
       }
       if (query.with_report_sets) {
-        auto sets = repository_.ListReportParameterSets(run.key());
-        if (!sets.ok()) return sets.status();
-        row.report_sets = std::move(sets).value();
+        ASSIGN_OR_RETURN(auto sets, repository_.ListReportParameterSets(run.key()));
+        row.report_sets = std::move(sets);
       }
       if (query.with_regions || query.only_with_regions) {
-        auto regions = repository_.ListProtrusionRegions(run.key(), query.report_set);
-        if (!regions.ok()) return regions.status();
-        row.regions = static_cast<std::int64_t>(regions->size());
-        for (const auto& region : *regions) row.regions_labelled += region.label ? 1 : 0;
+        ASSIGN_OR_RETURN(auto regions, repository_.ListProtrusionRegions(run.key(), query.report_set));
+        row.regions = static_cast<std::int64_t>(regions.size());
+        for (const auto& region : regions) row.regions_labelled += region.label ? 1 : 0;
       }
       if (query.only_with_regions && row.regions == 0) continue;
       row.run = std::move(run);
@@ -183,7 +176,7 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
     if (!stored.ok() && stored.status().code() == storage::StatusCode::kNotFound) {
       return storage::NotFound(std::string(field) + ": no parameter set \"" + name + "\"");
     }
-    if (!stored.ok()) return stored.status();
+    RETURN_IF_ERROR(stored.status());
   }
   const storage::RunFilter scoped = Scoped(caller, filter);
   Comparison out;
@@ -191,12 +184,10 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
   for (const auto& [set, figures, side] : {std::tuple{set_a, &out.a, 0}, std::tuple{set_b, &out.b, 1}}) {
     storage::RunFilter one = scoped;
     one.parameter_set = set;
-    auto total = repository_.Aggregate(one);
-    if (!total.ok()) return total.status();
-    *figures = FiguresOf(*total);
-    auto groups = repository_.AggregateBy(one, storage::GroupBy::kFirmware);
-    if (!groups.ok()) return groups.status();
-    for (const auto& group : *groups) {
+    ASSIGN_OR_RETURN(auto total, repository_.Aggregate(one));
+    *figures = FiguresOf(total);
+    ASSIGN_OR_RETURN(auto groups, repository_.AggregateBy(one, storage::GroupBy::kFirmware));
+    for (const auto& group : groups) {
       (side == 0 ? by_firmware[group.key].first : by_firmware[group.key].second) = FiguresOf(group.statistics);
     }
   }
@@ -204,9 +195,8 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
 
   std::optional<storage::RunCursor> after;
   do {
-    auto page = repository_.ListReportPairs(scoped, set_a, set_b, 500, after);
-    if (!page.ok()) return page.status();
-    for (auto& pair : page->pairs) {
+    ASSIGN_OR_RETURN(auto page, repository_.ListReportPairs(scoped, set_a, set_b, 500, after));
+    for (auto& pair : page.pairs) {
       if (out.runs_compared >= kCompareScanLimit) {
         out.scan_truncated = true;
         break;
@@ -217,7 +207,7 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
       if (change.change > 0) ++out.runs_changed;
       out.most_changed.push_back(std::move(change));
     }
-    after = out.scan_truncated ? std::nullopt : page->next;
+    after = out.scan_truncated ? std::nullopt : page.next;
   } while (after);
   const std::size_t keep = std::min(top, out.most_changed.size());
   std::partial_sort(out.most_changed.begin(), out.most_changed.begin() + static_cast<std::ptrdiff_t>(keep),
@@ -239,11 +229,10 @@ storage::Result<JobsAnswer> FleetQueries::Jobs(const Principal& caller, const st
   if (limit < 1 || limit > 1000) return storage::InvalidArgument("limit: expected 1..1000");
   // Storage lists by id ascending; newest first is what people want, so keep the tail. Retention bounds the
   // table (--retain-jobs-days).
-  auto jobs = repository_.ListJobs(std::nullopt, 1000000);
-  if (!jobs.ok()) return jobs.status();
+  ASSIGN_OR_RETURN(auto jobs, repository_.ListJobs(std::nullopt, 1000000));
   JobsAnswer answer;
   std::map<std::string, std::int64_t> analyses;
-  for (auto it = jobs->rbegin(); it != jobs->rend(); ++it) {
+  for (auto it = jobs.rbegin(); it != jobs.rend(); ++it) {
     if (caller.role == Role::kRobot && it->robot_id != caller.id) continue;
     if (it->kind == kAnalyzeRunJob && !it->parent_job_id) ++analyses[storage::JobStateName(it->state)];
     if (kind != "all" && it->kind != kind) continue;
@@ -273,10 +262,9 @@ storage::Result<fleet::v1::RunReport> FleetQueries::Report(const storage::RunKey
   if (!report.ParseFromString(stored->report)) {
     return storage::DataLoss("stored report of run " + run.run_id + " does not parse");
   }
-  auto regions = repository_.ListProtrusionRegions(run, parameter_set);
-  if (!regions.ok()) return regions.status();
+  ASSIGN_OR_RETURN(auto regions, repository_.ListProtrusionRegions(run, parameter_set));
   std::map<std::int64_t, std::string> labels;
-  for (const auto& region : *regions) {
+  for (const auto& region : regions) {
     if (region.label) labels[region.region_id] = *region.label;
   }
   for (auto& region : *report.mutable_protrusion_regions()) {

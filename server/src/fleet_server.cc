@@ -18,9 +18,9 @@
 namespace server {
 namespace {
 
-storage::Result<std::string> ReadFile(const std::string& path) {
+slamcore::Result<std::string> ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return storage::NotFound("cannot read " + path);
+  if (!in) return slamcore::NotFound("cannot read " + path);
   std::ostringstream out;
   out << in.rdbuf();
   return out.str();
@@ -44,10 +44,10 @@ class FleetServer::Impl {
   std::string bound;
 };
 
-storage::Status EnsureDefaultParameterSet(storage::Repository& repository, const std::string& name) {
+slamcore::Status EnsureDefaultParameterSet(storage::Repository& repository, const std::string& name) {
   auto existing = repository.GetParameterSet(name);
-  if (existing.ok()) return storage::Status::Ok();
-  if (existing.status().code() != storage::StatusCode::kNotFound) return existing.status();
+  if (existing.ok()) return slamcore::Status::Ok();
+  if (existing.status().code() != slamcore::StatusCode::kNotFound) return existing.status();
   fleet::v1::ParameterSet set;
   set.set_name(name);
   set.set_description("slamcore's defaults");
@@ -55,12 +55,12 @@ storage::Status EnsureDefaultParameterSet(storage::Repository& repository, const
   bool already = false;
   grpc::Status stored = ReprocessingHandler::StoreParameterSet(repository, set, "default_parameter_set", &already);
   if (!stored.ok() && stored.error_code() != grpc::StatusCode::ALREADY_EXISTS) {
-    return storage::Internal(stored.error_message());
+    return slamcore::Internal(stored.error_message());
   }
-  return storage::Status::Ok();
+  return slamcore::Status::Ok();
 }
 
-storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdConfig& config,
+slamcore::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdConfig& config,
                                                                   storage::Repository& repository, Metrics& metrics,
                                                                   Authenticator& authenticator,
                                                                   std::function<void()> job_enqueued) {
@@ -100,9 +100,9 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
   if (!config.tls_cert.empty()) {
     auto cert = ReadFile(config.tls_cert);
-    if (!cert.ok()) return storage::InvalidArgument("tls_cert: " + cert.status().message());
+    if (!cert.ok()) return slamcore::InvalidArgument("tls_cert: " + cert.status().message());
     auto key = ReadFile(config.tls_key);
-    if (!key.ok()) return storage::InvalidArgument("tls_key: " + key.status().message());
+    if (!key.ok()) return slamcore::InvalidArgument("tls_key: " + key.status().message());
     grpc::SslServerCredentialsOptions ssl;
     ssl.pem_key_cert_pairs.push_back({*key, *cert});
     credentials = grpc::SslServerCredentials(ssl);
@@ -119,7 +119,7 @@ storage::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdCo
   builder.RegisterService(impl->admin.get());
   builder.RegisterService(impl->maps.get());
   impl->server = builder.BuildAndStart();
-  if (!impl->server || port == 0) return storage::Unavailable("listen: cannot bind gRPC to " + config.listen);
+  if (!impl->server || port == 0) return slamcore::Unavailable("listen: cannot bind gRPC to " + config.listen);
   const std::size_t colon = config.listen.rfind(':');
   impl->bound = config.listen.substr(0, colon) + ":" + std::to_string(port);
   impl->server->GetHealthCheckService()->SetServingStatus(true);

@@ -20,26 +20,27 @@ HttpResponse Error(int status, const std::string& message) { return Json(json{{"
 
 namespace {
 
-int HttpStatusOf(const storage::Status& status) {
+// The one mapping from the project's status codes to HTTP's.
+int HttpStatusOf(const slamcore::Status& status) {
   switch (status.code()) {
-    case storage::StatusCode::kOk: return 200;
-    case storage::StatusCode::kInvalidArgument: return 400;
-    case storage::StatusCode::kNotFound: return 404;
-    case storage::StatusCode::kAlreadyExists:
-    case storage::StatusCode::kFailedPrecondition:
-    case storage::StatusCode::kAborted: return 409;
-    case storage::StatusCode::kUnavailable: return 503;
-    case storage::StatusCode::kDataLoss:
-    case storage::StatusCode::kInternal: return 500;
+    case slamcore::StatusCode::kOk: return 200;
+    case slamcore::StatusCode::kInvalidArgument: return 400;
+    case slamcore::StatusCode::kNotFound: return 404;
+    case slamcore::StatusCode::kAlreadyExists:
+    case slamcore::StatusCode::kFailedPrecondition:
+    case slamcore::StatusCode::kAborted: return 409;
+    case slamcore::StatusCode::kUnavailable: return 503;
+    case slamcore::StatusCode::kDataLoss:
+    case slamcore::StatusCode::kInternal: return 500;
   }
   return 500;
 }
 
 }  // namespace
 
-HttpResponse Error(const storage::Status& status) {
+HttpResponse Error(const slamcore::Status& status) {
   // The code tells apart what shares an HTTP status (409: ABORTED — the map moved on — or FAILED_PRECONDITION).
-  return Json(json{{"error", status.message()}, {"code", storage::StatusCodeName(status.code())}}, HttpStatusOf(status));
+  return Json(json{{"error", status.message()}, {"code", slamcore::StatusCodeName(status.code())}}, HttpStatusOf(status));
 }
 
 namespace {

@@ -1,4 +1,4 @@
-// Helpers the dashboard's HTTP handlers share: JSON responses and errors (HTTP status from storage's Status
+// Helpers the dashboard's HTTP handlers share: JSON responses and errors (HTTP status from the Status
 // code), path and query parsing, and bearer-token authorisation for the few POST endpoints. Internal to
 // server/.
 //
@@ -23,7 +23,7 @@ HttpResponse Json(const nlohmann::json& body, int status = 200);
 HttpResponse Error(int status, const std::string& message);
 /// {"error": message, "code": "ABORTED"} with the HTTP status matching the code (NOT_FOUND 404, ABORTED and
 /// FAILED_PRECONDITION 409, ...).
-HttpResponse Error(const storage::Status& status);
+HttpResponse Error(const slamcore::Status& status);
 
 std::string UrlDecode(const std::string& text);
 std::map<std::string, std::string> ParseQuery(const std::string& query);

@@ -20,7 +20,7 @@ namespace {
 
 storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository, const std::string& snapshot_id) {
   auto stored = repository.GetSnapshot(snapshot_id);
-  if (!stored.ok()) return stored.status();
+  RETURN_IF_ERROR(stored.status());
   fleet::v1::MapSnapshot snapshot;
   if (!snapshot.ParseFromString(stored->bytes)) return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
   return snapshot;
@@ -28,7 +28,7 @@ storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& reposi
 
 storage::Result<slamcore::Map> LoadMap(storage::Repository& repository, const std::string& snapshot_id) {
   auto snapshot = LoadSnapshot(repository, snapshot_id);
-  if (!snapshot.ok()) return snapshot.status();
+  RETURN_IF_ERROR(snapshot.status());
   auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
   if (!map.ok()) return storage::DataLoss(map.status().message());
   return std::move(map).value();
@@ -43,10 +43,9 @@ struct RunContext {
 /// The map the run started from; empty for a robot's first run (or a version without a run).
 storage::Result<slamcore::Map> LoadRunParent(storage::Repository& repository, const storage::RunKey& key) {
   if (key.run_id.empty()) return slamcore::Map{};
-  auto run = repository.GetRun(key);
-  if (!run.ok()) return run.status();
-  if (!run->parent_snapshot_id) return slamcore::Map{};
-  return LoadMap(repository, *run->parent_snapshot_id);
+  ASSIGN_OR_RETURN(auto run, repository.GetRun(key));
+  if (!run.parent_snapshot_id) return slamcore::Map{};
+  return LoadMap(repository, *run.parent_snapshot_id);
 }
 
 storage::Result<RunContext> LoadRunContext(storage::Repository& repository, const storage::RunKey& key,
@@ -54,9 +53,8 @@ storage::Result<RunContext> LoadRunContext(storage::Repository& repository, cons
   RunContext context;
   const std::string& run_id = key.run_id;
   if (run_id.empty()) return context;
-  auto parent = LoadRunParent(repository, key);
-  if (!parent.ok()) return parent.status();
-  context.parent = std::move(parent).value();
+  ASSIGN_OR_RETURN(auto parent, LoadRunParent(repository, key));
+  context.parent = std::move(parent);
   auto report = repository.GetReport(key, parameter_set);
   if (report.ok()) {
     fleet::v1::RunReport parsed;
@@ -115,9 +113,8 @@ storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, 
   record.components = figures.components;
   record.chi2 = figures.chi2;
   if (with_known_area) {
-    auto area = analyzer::KnownArea(map);
-    if (!area.ok()) return FromSlamcore(area.status());
-    record.known_area_m2 = *area;
+    ASSIGN_OR_RETURN(auto area, analyzer::KnownArea(map));
+    record.known_area_m2 = area;
   }
   return record;
 }
@@ -198,12 +195,11 @@ struct ComparedMap {
 
 storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository, const std::string& snapshot_id) {
   auto snapshot = LoadSnapshot(repository, snapshot_id);
-  if (!snapshot.ok()) return snapshot.status();
+  RETURN_IF_ERROR(snapshot.status());
   auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
   if (!map.ok()) return storage::DataLoss(map.status().message());
-  auto grid = analyzer::RenderHomeGrid(*map);
-  if (!grid.ok()) return FromSlamcore(grid.status());
-  return ComparedMap{std::move(grid).value(), analyzer::DockOf(*snapshot)};
+  ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(*map));
+  return ComparedMap{std::move(grid), analyzer::DockOf(*snapshot)};
 }
 
 }  // namespace
@@ -268,10 +264,10 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
                                                             const std::string& uploader) {
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   auto versions = repository_.ListMapVersions(run.robot_id);
-  if (!versions.ok()) return versions.status();
+  RETURN_IF_ERROR(versions.status());
   const storage::MapVersionRecord* current = Current(*versions);
   auto record = NewVersion(child, *run.child_snapshot_id, /*with_known_area=*/false);
-  if (!record.ok()) return record.status();
+  RETURN_IF_ERROR(record.status());
   record->robot_id = run.robot_id;
   record->origin = "upload";
   record->run_id = run.run_id;
@@ -296,16 +292,15 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   }
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
   auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &child})));
-  if (!appended.ok()) return appended.status();
+  RETURN_IF_ERROR(appended.status());
   UploadMapOutcome outcome;
   outcome.version = appended->version;
   if (appended->approval == "approved" && appended->version > (versions->empty() ? 0 : versions->back().version)) {
     outcome.current_version = appended->version;  // just made, on the current map: it is the current one now
   } else {
     // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
-    auto after = repository_.ListMapVersions(run.robot_id);
-    if (!after.ok()) return after.status();
-    const storage::MapVersionRecord* now_current = Current(*after);
+    ASSIGN_OR_RETURN(auto after, repository_.ListMapVersions(run.robot_id));
+    const storage::MapVersionRecord* now_current = Current(after);
     outcome.current_version = now_current ? now_current->version : 0;
   }
   outcome.outdated = outcome.current_version != appended->version;
@@ -317,17 +312,14 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
   const std::string& run_id = run.run_id;
   auto version = repository_.GetMapVersionOfRun(run);
   if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
-  if (!version.ok()) return version.status();
-  auto loaded = LoadMap(repository_, version->snapshot_id);
-  if (!loaded.ok()) return loaded.status();
-  auto context = LoadRunContext(repository_, run, report.parameter_set());
-  if (!context.ok()) return context.status();
-  context->report = report;
-  const std::vector<fleet::v1::MapFinding> findings = Findings(*loaded, *context);
-  auto known_area = analyzer::KnownArea(*loaded);
-  if (!known_area.ok()) return FromSlamcore(known_area.status());
-  STORAGE_RETURN_IF_ERROR(
-      repository_.UpdateMapVersionHealth(version->robot_id, version->version, *known_area, ToRecords(findings)));
+  RETURN_IF_ERROR(version.status());
+  ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, version->snapshot_id));
+  ASSIGN_OR_RETURN(auto context, LoadRunContext(repository_, run, report.parameter_set()));
+  context.report = report;
+  const std::vector<fleet::v1::MapFinding> findings = Findings(loaded, context);
+  ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(loaded));
+  RETURN_IF_ERROR(
+      repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, ToRecords(findings)));
 
   if (policy_.auto_repair == "none") return storage::Status::Ok();
   const std::string requested_by = "policy:" + policy_.auto_repair;
@@ -393,22 +385,20 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
 storage::Result<std::vector<fleet::v1::MapVersion>> MapHistory::List(const std::string& robot_id,
                                                                      std::int64_t* current_version,
                                                                      std::int64_t* head_version) {
-  auto versions = repository_.ListMapVersions(robot_id);
-  if (!versions.ok()) return versions.status();
-  const storage::MapVersionRecord* current = Current(*versions);
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
+  const storage::MapVersionRecord* current = Current(versions);
   *current_version = current ? current->version : 0;
-  const storage::MapVersionRecord* head = Head(*versions);
+  const storage::MapVersionRecord* head = Head(versions);
   *head_version = head ? head->version : 0;
   std::vector<fleet::v1::MapVersion> out;
-  for (const storage::MapVersionRecord& record : *versions) out.push_back(ToProto(record, &record == current));
+  for (const storage::MapVersionRecord& record : versions) out.push_back(ToProto(record, &record == current));
   return out;
 }
 
 storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& robot_id, std::int64_t version,
                                                           std::int64_t finding_id) {
-  auto detail = Get(robot_id, version);
-  if (!detail.ok()) return detail.status();
-  for (const fleet::v1::MapFinding& finding : detail->findings) {
+  ASSIGN_OR_RETURN(auto detail, Get(robot_id, version));
+  for (const fleet::v1::MapFinding& finding : detail.findings) {
     if (finding.finding_id() != finding_id) continue;
     if (finding.world_bbox_size() != 4) {
       return storage::InvalidArgument("finding " + std::to_string(finding_id) + " is a " + finding.kind() +
@@ -421,35 +411,29 @@ storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& rob
 }
 
 storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id, std::int64_t version) {
-  auto versions = repository_.ListMapVersions(robot_id);
-  if (!versions.ok()) return versions.status();
-  return Find(*versions, robot_id, version);
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
+  return Find(versions, robot_id, version);
 }
 
 storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, std::int64_t version,
                                                   fleet::v1::MapSnapshot* snapshot) {
-  auto versions = repository_.ListMapVersions(robot_id);
-  if (!versions.ok()) return versions.status();
-  const storage::MapVersionRecord* current = Current(*versions);
-  auto record = Find(*versions, robot_id, version);
-  if (!record.ok()) return record.status();
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
+  const storage::MapVersionRecord* current = Current(versions);
+  auto record = Find(versions, robot_id, version);
+  RETURN_IF_ERROR(record.status());
   MapVersionDetail detail;
   detail.version = ToProto(*record, current && current->version == record->version);
-  auto findings = repository_.ListMapFindings(robot_id, record->version);
-  if (!findings.ok()) return findings.status();
-  auto parsed = FromRecords(*findings);
-  if (!parsed.ok()) return parsed.status();
-  detail.findings = std::move(parsed).value();
+  ASSIGN_OR_RETURN(auto findings, repository_.ListMapFindings(robot_id, record->version));
+  ASSIGN_OR_RETURN(auto parsed, FromRecords(findings));
+  detail.findings = std::move(parsed);
   if (snapshot) {
-    auto loaded = LoadSnapshot(repository_, record->snapshot_id);
-    if (!loaded.ok()) return loaded.status();
-    *snapshot = std::move(loaded).value();
+    ASSIGN_OR_RETURN(auto loaded, LoadSnapshot(repository_, record->snapshot_id));
+    *snapshot = std::move(loaded);
   }
-  auto metadata = repository_.GetMapMetadata(robot_id, record->version);
-  if (!metadata.ok()) return metadata.status();
-  if (!metadata->empty()) {
+  ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(robot_id, record->version));
+  if (!metadata.empty()) {
     detail.metadata.emplace();
-    if (!detail.metadata->ParseFromString(*metadata)) {
+    if (!detail.metadata->ParseFromString(metadata)) {
       return storage::DataLoss("metadata of map version " + std::to_string(record->version) + " does not parse");
     }
   }
@@ -457,13 +441,12 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
 }
 
 storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
-  auto versions = repository_.ListMapVersions(request.robot_id);
-  if (!versions.ok()) return versions.status();
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(request.robot_id));
   if (request.base_version <= 0) return storage::InvalidArgument("base_version: the version repaired is required");
-  auto base = Find(*versions, request.robot_id, request.base_version);
-  if (!base.ok()) return base.status();
+  auto base = Find(versions, request.robot_id, request.base_version);
+  RETURN_IF_ERROR(base.status());
   // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
-  const storage::MapVersionRecord* head = Head(*versions);
+  const storage::MapVersionRecord* head = Head(versions);
   if (head == nullptr || head->version != base->version) {
     return storage::Aborted("version " + std::to_string(base->version) + " of robot " + request.robot_id + " is " +
                             (base->approval == "rejected" || base->approval == "stale" ? base->approval + ", not" : "not") +
@@ -473,13 +456,12 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   // A map without a run (an import, or a repair of one) has no pose graph to edit: it is repaired against the
   // map before the import. Undo works the same for both.
   if (base->run_id.empty() && !std::holds_alternative<Undo>(request.action)) {
-    return RepairMapOnly(request, *base, *versions);
+    return RepairMapOnly(request, *base, versions);
   }
-  auto loaded = LoadMap(repository_, base->snapshot_id);
-  if (!loaded.ok()) return loaded.status();
+  ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, base->snapshot_id));
   auto context = LoadRunContext(repository_, {base->robot_id, base->run_id}, policy_.default_parameter_set);
-  if (!context.ok()) return context.status();
-  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(*loaded, context->parent);
+  RETURN_IF_ERROR(context.status());
+  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(loaded, context->parent);
 
   // The repaired map: computed for edits, an earlier stored map for rollback and undo.
   std::optional<slamcore::Map> repaired;
@@ -490,29 +472,26 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   if (reject_edge != nullptr || reject_hypothesis != nullptr || cut_finding != nullptr) {
     std::array<double, 4> cut_box{};
     if (cut_finding != nullptr) {
-      auto box = CutBox(request.robot_id, request.base_version, cut_finding->finding_id);
-      if (!box.ok()) return box.status();
-      cut_box = *box;
+      ASSIGN_OR_RETURN(auto box, CutBox(request.robot_id, request.base_version, cut_finding->finding_id));
+      cut_box = box;
     }
-    auto edited = reject_edge != nullptr
-                      ? analyzer::RejectEdge(*loaded, reject_edge->from, reject_edge->to, reject_edge->view, &detail)
+    ASSIGN_OR_RETURN(auto edited, reject_edge != nullptr
+                      ? analyzer::RejectEdge(loaded, reject_edge->from, reject_edge->to, reject_edge->view, &detail)
                   : reject_hypothesis != nullptr
-                      ? analyzer::RejectHypothesis(*loaded, run_nodes, reject_hypothesis->hypothesis, &detail)
-                      : analyzer::CutRegion(*loaded, run_nodes, cut_box, &detail);
-    if (!edited.ok()) return FromSlamcore(edited.status());
-    repaired = std::move(edited).value();
-    auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired)));
-    if (!stored.ok()) return stored.status();
-    snapshot_id = *stored;
+                      ? analyzer::RejectHypothesis(loaded, run_nodes, reject_hypothesis->hypothesis, &detail)
+                      : analyzer::CutRegion(loaded, run_nodes, cut_box, &detail));
+    repaired = std::move(edited);
+    ASSIGN_OR_RETURN(auto stored,
+                     repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired))));
+    snapshot_id = stored;
   } else if (std::holds_alternative<Rollback>(request.action)) {
-    auto run = repository_.GetRun({base->robot_id, base->run_id});
-    if (!run.ok()) return run.status();
-    if (!run->parent_snapshot_id) {
+    ASSIGN_OR_RETURN(auto run, repository_.GetRun({base->robot_id, base->run_id}));
+    if (!run.parent_snapshot_id) {
       return storage::FailedPrecondition("version " + std::to_string(base->version) +
                                          " was made by the robot's first run: there is no parent map to roll back to");
     }
     origin = "rollback";
-    snapshot_id = *run->parent_snapshot_id;
+    snapshot_id = *run.parent_snapshot_id;
     detail = "back to the map before run " + base->run_id;
   } else {  // Undo
     if (base->origin == "upload" || !base->parent_version) {
@@ -520,16 +499,15 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
                                          "nothing to undo (roll back instead)");
     }
     auto earlier = repository_.GetMapVersion(request.robot_id, *base->parent_version);
-    if (!earlier.ok()) return earlier.status();
+    RETURN_IF_ERROR(earlier.status());
     origin = "undo";
     snapshot_id = earlier->snapshot_id;
     detail = "undid version " + std::to_string(base->version) + " (" + base->action + "): the map of version " +
              std::to_string(earlier->version) + " again";
   }
   if (!repaired) {
-    auto restored = LoadMap(repository_, snapshot_id);
-    if (!restored.ok()) return restored.status();
-    repaired = std::move(restored).value();
+    ASSIGN_OR_RETURN(auto restored, LoadMap(repository_, snapshot_id));
+    repaired = std::move(restored);
   }
 
   // Rolling back leaves the run's nodes behind: its findings no longer apply.
@@ -547,10 +525,9 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
                                                            const std::vector<fleet::v1::MapFinding>& findings,
                                                            std::int64_t metadata_of, const CarriedRepair* carried) {
   auto record = NewVersion(repaired, snapshot_id, /*with_known_area=*/true);
-  if (!record.ok()) return record.status();
-  auto metadata = repository_.GetMapMetadata(request.robot_id, metadata_of);
-  if (!metadata.ok()) return metadata.status();
-  record->metadata = std::move(metadata).value();
+  RETURN_IF_ERROR(record.status());
+  ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(request.robot_id, metadata_of));
+  record->metadata = std::move(metadata);
   record->robot_id = request.robot_id;
   record->parent_version = base.version;
   record->origin = origin;
@@ -569,7 +546,7 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
   if (carried) record->supersedes_pending = carried->pending->version;
   auto appended = repository_.AppendMapVersion(*record, carried ? carried->expected_head : request.base_version,
                                                ToRecords(findings));
-  if (!appended.ok()) return appended.status();
+  RETURN_IF_ERROR(appended.status());
   log::Info("map_repaired", {{"robot_id", request.robot_id},
                              {"base_version", static_cast<long long>(request.base_version)},
                              {"version", static_cast<long long>(appended->version)},
@@ -590,24 +567,21 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
 storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version, bool approve,
                                                           const std::string& reviewed_by) {
   if (approve) {
-    auto versions = repository_.ListMapVersions(robot_id);
-    if (!versions.ok()) return versions.status();
-    const storage::MapVersionRecord* pending = FindRecord(*versions, version);
-    const storage::MapVersionRecord* current = Current(*versions);
+    ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
+    const storage::MapVersionRecord* pending = FindRecord(versions, version);
+    const storage::MapVersionRecord* current = Current(versions);
     if (pending != nullptr && pending->approval == "pending" && current != nullptr && current->version > version) {
-      return ApproveOvertaken(*versions, *pending, *current, reviewed_by);
+      return ApproveOvertaken(versions, *pending, *current, reviewed_by);
     }
   }
-  auto reviewed = repository_.ReviewMapVersion(robot_id, version, approve, reviewed_by);
-  if (!reviewed.ok()) return reviewed.status();
+  ASSIGN_OR_RETURN(auto reviewed, repository_.ReviewMapVersion(robot_id, version, approve, reviewed_by));
   log::Info("map_reviewed", {{"robot_id", robot_id},
                              {"version", static_cast<long long>(version)},
                              {"approved", approve},
                              {"by", reviewed_by}});
-  auto versions = repository_.ListMapVersions(robot_id);
-  if (!versions.ok()) return versions.status();
-  const storage::MapVersionRecord* current = Current(*versions);
-  return ToProto(*reviewed, current && current->version == version);
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
+  const storage::MapVersionRecord* current = Current(versions);
+  return ToProto(reviewed, current && current->version == version);
 }
 
 storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::vector<storage::MapVersionRecord>& versions,
@@ -632,19 +606,16 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
                                        (base ? std::to_string(base->version) : std::string("?")) +
                                        ", the one the repair was made on" + instead);
   }
-  auto base_map = LoadMap(repository_, base->snapshot_id);
-  if (!base_map.ok()) return base_map.status();
-  auto pending_map = LoadMap(repository_, pending.snapshot_id);
-  if (!pending_map.ok()) return pending_map.status();
-  auto current_map = LoadMap(repository_, current.snapshot_id);
-  if (!current_map.ok()) return current_map.status();
+  ASSIGN_OR_RETURN(const slamcore::Map base_map, LoadMap(repository_, base->snapshot_id));
+  ASSIGN_OR_RETURN(const slamcore::Map pending_map, LoadMap(repository_, pending.snapshot_id));
+  ASSIGN_OR_RETURN(const slamcore::Map current_map, LoadMap(repository_, current.snapshot_id));
   std::string carried_detail;
-  auto carried = analyzer::CarryRepairForward(*base_map, *pending_map, *current_map, &carried_detail);
+  auto carried = analyzer::CarryRepairForward(base_map, pending_map, current_map, &carried_detail);
   if (!carried.ok()) return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
-  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*carried)));
-  if (!stored.ok()) return stored.status();
-  auto context = LoadRunContext(repository_, {current.robot_id, current.run_id}, policy_.default_parameter_set);
-  if (!context.ok()) return context.status();
+  ASSIGN_OR_RETURN(const std::string stored,
+                   repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*carried))));
+  ASSIGN_OR_RETURN(const RunContext context, LoadRunContext(repository_, {current.robot_id, current.run_id},
+                                                            policy_.default_parameter_set));
   const storage::MapVersionRecord* head = Head(versions);
   const CarriedRepair carried_repair{.pending = &pending, .expected_head = head ? head->version : 0};
   const RepairRequest request{.robot_id = pending.robot_id,
@@ -653,37 +624,34 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
                               .reason = pending.reason,
                               .approve = true,
                               .requested_by = reviewed_by};
-  auto appended = AppendRepair(request, current, *carried, *stored, "repair",
-                               "carried forward from version " + std::to_string(pending.version) + " (" +
-                                   pending.action_detail + "): " + carried_detail,
-                               Findings(*carried, *context), current.version, &carried_repair);
-  if (!appended.ok()) return appended.status();
+  ASSIGN_OR_RETURN(const MapVersionDetail appended,
+                   AppendRepair(request, current, *carried, stored, "repair",
+                                "carried forward from version " + std::to_string(pending.version) + " (" +
+                                    pending.action_detail + "): " + carried_detail,
+                                Findings(*carried, context), current.version, &carried_repair));
   log::Info("map_repair_carried_forward", {{"robot_id", pending.robot_id},
                                            {"pending_version", static_cast<long long>(pending.version)},
                                            {"onto_version", static_cast<long long>(current.version)},
-                                           {"version", static_cast<long long>(appended->version.version())},
+                                           {"version", static_cast<long long>(appended.version.version())},
                                            {"by", reviewed_by}});
-  return appended->version;
+  return appended.version;
 }
 
 storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id, std::int64_t held_version,
                                                          bool* up_to_date, fleet::v1::MapSnapshot* snapshot) {
-  auto current = Resolve(robot_id, 0);
-  if (!current.ok()) return current.status();
-  *up_to_date = held_version == current->version;
+  ASSIGN_OR_RETURN(auto current, Resolve(robot_id, 0));
+  *up_to_date = held_version == current.version;
   if (!*up_to_date) {
-    auto loaded = LoadSnapshot(repository_, current->snapshot_id);
-    if (!loaded.ok()) return loaded.status();
-    *snapshot = std::move(loaded).value();
+    ASSIGN_OR_RETURN(auto loaded, LoadSnapshot(repository_, current.snapshot_id));
+    *snapshot = std::move(loaded);
   }
-  return ToProto(*current, true);
+  return ToProto(current, true);
 }
 
 storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const storage::RunKey& run,
                                                                        const slamcore::Map& map) {
-  auto parent = LoadRunParent(repository_, run);
-  if (!parent.ok()) return parent.status();
-  return analyzer::NodesAddedByRun(map, *parent);
+  ASSIGN_OR_RETURN(auto parent, LoadRunParent(repository_, run));
+  return analyzer::NodesAddedByRun(map, parent);
 }
 
 storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& robot_id,
@@ -691,10 +659,9 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
                                                           const fleet::v1::MapMetadata& metadata,
                                                           const std::string& source, const std::string& reason,
                                                           bool approve, const std::string& requested_by) {
-  if (auto bad = analyzer::ValidateMetadata(metadata); !bad.ok()) return FromSlamcore(bad);
-  auto map = analyzer::FromProto(snapshot, "snapshot");
-  if (!map.ok()) return FromSlamcore(map.status());
-  if (map->local_maps.empty()) {
+  RETURN_IF_ERROR(analyzer::ValidateMetadata(metadata));
+  ASSIGN_OR_RETURN(auto map, analyzer::FromProto(snapshot, "snapshot"));
+  if (map.local_maps.empty()) {
     return storage::InvalidArgument("snapshot: no local map on any node; an imported map needs its occupancy grid");
   }
   if (const fleet::v1::ImportedMapInfo& info = snapshot.imported(); snapshot.has_imported()) {
@@ -714,21 +681,18 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
     storage::RobotRecord robot_record;
     robot_record.robot_id = robot_id;
     robot_record.registered_at_ms = NowMillis();
-    STORAGE_RETURN_IF_ERROR(repository_.PutRobot(robot_record));
+    RETURN_IF_ERROR(repository_.PutRobot(robot_record));
   } else if (!robot.ok()) {
     return robot.status();
   }
-  fleet::v1::MapSnapshot stored_snapshot = analyzer::ToProto(*map);
+  fleet::v1::MapSnapshot stored_snapshot = analyzer::ToProto(map);
   if (snapshot.has_imported()) *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
-  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(stored_snapshot));
-  if (!stored.ok()) return stored.status();
-  auto versions = repository_.ListMapVersions(robot_id);
-  if (!versions.ok()) return versions.status();
-  const storage::MapVersionRecord* head = Head(*versions);
-  auto findings = MapOnlyFindings(stored_snapshot, *map, head);
-  if (!findings.ok()) return findings.status();
-  auto record = NewVersion(*map, *stored, /*with_known_area=*/true);
-  if (!record.ok()) return record.status();
+  ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(analyzer::SerializeDeterministic(stored_snapshot)));
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
+  const storage::MapVersionRecord* head = Head(versions);
+  ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(stored_snapshot, map, head));
+  auto record = NewVersion(map, stored, /*with_known_area=*/true);
+  RETURN_IF_ERROR(record.status());
   record->robot_id = robot_id;
   if (head) record->parent_version = head->version;
   record->origin = "import";
@@ -743,8 +707,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
     record->approved_at_ms = NowMillis();
   }
   auto appended = repository_.AppendMapVersion(*record, head ? std::optional(head->version) : std::nullopt,
-                                               ToRecords(*findings));
-  if (!appended.ok()) return appended.status();
+                                               ToRecords(findings));
+  RETURN_IF_ERROR(appended.status());
   log::Info("map_imported", {{"robot_id", robot_id},
                              {"version", static_cast<long long>(appended->version)},
                              {"source", source},
@@ -757,24 +721,21 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
     const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map, const storage::MapVersionRecord* reference) {
   std::vector<fleet::v1::MapFinding> findings = analyzer::FindMapFindings({.map = &map});
   if (reference == nullptr) return findings;
-  auto previous = LoadComparedMap(repository_, reference->snapshot_id);
-  if (!previous.ok()) return previous.status();
-  auto grid = analyzer::RenderHomeGrid(map);
-  if (!grid.ok()) return FromSlamcore(grid.status());
+  ASSIGN_OR_RETURN(auto previous, LoadComparedMap(repository_, reference->snapshot_id));
+  ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(map));
   // Regions are classed by the active model, as runs' regions are (AnalyzeStoredRun); none active: the
   // built-in default.
   std::shared_ptr<const slamcore::ProtrusionClassifier> classifier;
   if (auto active = repository_.GetActiveModel(policy_.model_name); active.ok()) {
-    auto loaded = LoadClassifier(active->bytes);
-    if (!loaded.ok()) return loaded.status();
-    classifier = std::move(loaded).value();
+    ASSIGN_OR_RETURN(auto loaded, LoadClassifier(active->bytes));
+    classifier = std::move(loaded);
   } else if (active.status().code() != storage::StatusCode::kNotFound) {
     return active.status();
   } else {
     classifier = DefaultClassifier();
   }
   auto comparison =
-      analyzer::CompareGrids(previous->grid, *grid, previous->dock, analyzer::DockOf(snapshot), classifier.get());
+      analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(snapshot), classifier.get());
   if (!comparison.ok()) {
     // Nothing to align by (a map without walls, another resolution): the version is kept, and says so.
     fleet::v1::MapFinding& finding = findings.emplace_back();
@@ -806,20 +767,17 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   }
   if (rollback) {
     auto restored = LoadMap(repository_, reference->snapshot_id);
-    if (!restored.ok()) return restored.status();
-    auto restored_snapshot = LoadSnapshot(repository_, reference->snapshot_id);
-    if (!restored_snapshot.ok()) return restored_snapshot.status();
-    auto findings = MapOnlyFindings(*restored_snapshot, *restored, reference);
-    if (!findings.ok()) return findings.status();
+    RETURN_IF_ERROR(restored.status());
+    ASSIGN_OR_RETURN(auto restored_snapshot, LoadSnapshot(repository_, reference->snapshot_id));
+    ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(restored_snapshot, *restored, reference));
     return AppendRepair(request, base, *restored, reference->snapshot_id, "rollback",
                         "back to version " + std::to_string(reference->version) + ", the map before the import",
-                        *findings, reference->version);
+                        findings, reference->version);
   }
   // cut_finding: the finding must be a new region of this version; its cells take the previous map's values.
-  auto detail = Get(request.robot_id, base.version);
-  if (!detail.ok()) return detail.status();
+  ASSIGN_OR_RETURN(auto detail, Get(request.robot_id, base.version));
   const fleet::v1::MapFinding* finding = nullptr;
-  for (const fleet::v1::MapFinding& candidate : detail->findings) {
+  for (const fleet::v1::MapFinding& candidate : detail.findings) {
     if (candidate.finding_id() == cut_finding->finding_id) finding = &candidate;
   }
   if (finding == nullptr) return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
@@ -832,54 +790,49 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
     return storage::DataLoss("finding " + std::to_string(cut_finding->finding_id) + ": evidence has no region_id");
   }
   const int region_id = evidence["region_id"].get<int>();
-  auto base_snapshot = LoadSnapshot(repository_, base.snapshot_id);
-  if (!base_snapshot.ok()) return base_snapshot.status();
-  auto base_map = LoadMap(repository_, base.snapshot_id);
-  if (!base_map.ok()) return base_map.status();
-  auto previous = LoadComparedMap(repository_, reference->snapshot_id);
-  if (!previous.ok()) return previous.status();
-  auto grid = analyzer::RenderHomeGrid(*base_map);
-  if (!grid.ok()) return FromSlamcore(grid.status());
+  ASSIGN_OR_RETURN(auto base_snapshot, LoadSnapshot(repository_, base.snapshot_id));
+  ASSIGN_OR_RETURN(auto base_map, LoadMap(repository_, base.snapshot_id));
+  ASSIGN_OR_RETURN(auto previous, LoadComparedMap(repository_, reference->snapshot_id));
+  ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(base_map));
   // The comparison again (deterministic: the same regions and ids as when the finding was made).
-  auto comparison = analyzer::CompareGrids(previous->grid, *grid, previous->dock, analyzer::DockOf(*base_snapshot),
-                                           nullptr);
-  if (!comparison.ok()) return FromSlamcore(comparison.status());
+  ASSIGN_OR_RETURN(auto comparison,
+                   analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(base_snapshot),
+                                           nullptr));
   const slamcore::ProtrusionRegion* region = nullptr;
-  for (const analyzer::ChangedRegion& changed : comparison->new_regions) {
+  for (const analyzer::ChangedRegion& changed : comparison.new_regions) {
     if (changed.region.id == region_id) region = &changed.region;
   }
   if (region == nullptr) return storage::DataLoss(name + " no longer shows region " + std::to_string(region_id));
   const slamcore::Map repaired = analyzer::MapOfGrid(
-      slamcore::RepairChild(comparison->aligned_previous, *grid, {region}, slamcore::RepairMode::kCutOut));
+      slamcore::RepairChild(comparison.aligned_previous, grid, {region}, slamcore::RepairMode::kCutOut));
   fleet::v1::MapSnapshot repaired_snapshot = analyzer::ToProto(repaired);
-  *repaired_snapshot.mutable_imported() = base_snapshot->imported();
+  *repaired_snapshot.mutable_imported() = base_snapshot.imported();
   auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(repaired_snapshot));
-  if (!stored.ok()) return stored.status();
-  auto findings = MapOnlyFindings(repaired_snapshot, repaired, reference);
-  if (!findings.ok()) return findings.status();
+  RETURN_IF_ERROR(stored.status());
+  ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(repaired_snapshot, repaired, reference));
   return AppendRepair(request, base, repaired, *stored, "repair",
                       "cut new region " + std::to_string(region_id) + " (" + std::to_string(region->cells.size()) +
                           " cells) back to version " + std::to_string(reference->version) + "'s cells",
-                      *findings, base.version);
+                      findings, base.version);
 }
 
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
                                                                          const std::string& format) {
   auto record = Resolve(robot_id, version);
-  if (!record.ok()) return record.status();
+  RETURN_IF_ERROR(record.status());
   auto snapshot = LoadSnapshot(repository_, record->snapshot_id);
-  if (!snapshot.ok()) return snapshot.status();
+  RETURN_IF_ERROR(snapshot.status());
   auto loaded = analyzer::FromProto(*snapshot, "snapshot " + record->snapshot_id);
   if (!loaded.ok()) return storage::DataLoss(loaded.status().message());
   // The metadata kept with the version; versions without (map_server imports) still hand back their poses.
   auto stored = repository_.GetMapMetadata(robot_id, record->version);
-  if (!stored.ok()) return stored.status();
+  RETURN_IF_ERROR(stored.status());
   fleet::v1::MapMetadata metadata;
   if (!metadata.ParseFromString(*stored)) return storage::DataLoss("metadata of map version " + std::to_string(record->version) + " does not parse");
   if (!analyzer::HasContent(metadata) && snapshot->has_imported()) metadata = analyzer::MetadataOfImported(snapshot->imported());
-  auto files = analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version), &metadata);
-  if (!files.ok()) return FromSlamcore(files.status());
-  return std::move(files).value();
+  ASSIGN_OR_RETURN(auto files,
+                   analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version), &metadata));
+  return files;
 }
 
 }  // namespace server

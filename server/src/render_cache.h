@@ -52,9 +52,8 @@ class RenderCache {
         self->rendering_done_.notify_all();
       }
     } done{this, key};
-    auto rendered = render();
-    if (!rendered.ok()) return rendered.status();
-    auto shared = std::make_shared<const Value>(std::move(rendered).value());
+    ASSIGN_OR_RETURN(auto rendered, render());
+    auto shared = std::make_shared<const Value>(std::move(rendered));
     const std::size_t bytes = size_of_(*shared);
     std::lock_guard lock(mutex_);
     if (bytes > max_bytes_) return shared;

@@ -11,7 +11,7 @@ storage::Result<storage::RunKey> ResolveRun(storage::Repository& repository, con
   }
   if (!robot_id.empty()) return storage::RunKey{robot_id, run_id};
   auto robots = repository.ListRunRobots(run_id, 2);
-  if (!robots.ok()) return robots.status();
+  RETURN_IF_ERROR(robots.status());
   if (robots->empty()) return storage::NotFound("run_id: no run \"" + run_id + "\"");
   if (robots->size() > 1) {
     return storage::InvalidArgument("run_id: robots " + (*robots)[0] + ", " + (*robots)[1] +

@@ -2,8 +2,9 @@
 
 namespace server {
 
-grpc::Status ToGrpc(const storage::Status& status) {
-  using storage::StatusCode;
+// The one mapping from the project's status codes to gRPC's (same names, same meaning).
+grpc::Status ToGrpc(const slamcore::Status& status) {
+  using slamcore::StatusCode;
   switch (status.code()) {
     case StatusCode::kOk: return grpc::Status::OK;
     case StatusCode::kInvalidArgument: return {grpc::StatusCode::INVALID_ARGUMENT, status.message()};
@@ -13,19 +14,6 @@ grpc::Status ToGrpc(const storage::Status& status) {
     case StatusCode::kAborted: return {grpc::StatusCode::ABORTED, status.message()};
     case StatusCode::kDataLoss: return {grpc::StatusCode::DATA_LOSS, status.message()};
     case StatusCode::kUnavailable: return {grpc::StatusCode::UNAVAILABLE, status.message()};
-    case StatusCode::kInternal: return {grpc::StatusCode::INTERNAL, status.message()};
-  }
-  return {grpc::StatusCode::INTERNAL, status.message()};
-}
-
-grpc::Status ToGrpc(const slamcore::Status& status) {
-  using slamcore::StatusCode;
-  switch (status.code()) {
-    case StatusCode::kOk: return grpc::Status::OK;
-    case StatusCode::kInvalidArgument: return {grpc::StatusCode::INVALID_ARGUMENT, status.message()};
-    case StatusCode::kNotFound: return {grpc::StatusCode::NOT_FOUND, status.message()};
-    case StatusCode::kFailedPrecondition: return {grpc::StatusCode::FAILED_PRECONDITION, status.message()};
-    case StatusCode::kDataLoss: return {grpc::StatusCode::DATA_LOSS, status.message()};
     case StatusCode::kInternal: return {grpc::StatusCode::INTERNAL, status.message()};
   }
   return {grpc::StatusCode::INTERNAL, status.message()};

@@ -1,5 +1,5 @@
 // What every RPC handler shares (storage, auth, limits, metrics), and the helpers each handler uses at its
-// boundary: authenticate + authorise + rate-limit a call, map storage/slamcore Status to grpc::Status, and
+// boundary: authenticate + authorise + rate-limit a call, map the project's Status to grpc::Status, and
 // count/time the call. Internal to server/.
 //
 // Thread safety: ServiceContext members are themselves thread-safe; RpcScope is per call.
@@ -39,7 +39,7 @@ struct ServiceContext {
   std::function<void()> job_enqueued;  // wakes in-process workers; may be empty
 };
 
-grpc::Status ToGrpc(const storage::Status& status);
+/// The one mapping of the project's status codes to gRPC's: each to the code of the same name, message kept.
 grpc::Status ToGrpc(const slamcore::Status& status);
 grpc::Status InvalidArgument(const std::string& message);
 

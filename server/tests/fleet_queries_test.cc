@@ -6,6 +6,7 @@
 
 #include "server/jobs.h"
 #include "sqlite_repository_test.h"
+#include "status_matchers.h"
 
 namespace server {
 namespace {
@@ -39,8 +40,8 @@ class FleetQueriesTest : public SqliteRepositoryTest {
   void SetUp() override {
     SqliteRepositoryTest::SetUp();
     if (HasFatalFailure()) return;
-    for (const char* set : {"default", "tuned"}) ASSERT_TRUE(repository_->PutParameterSet({set, set}).ok());
-    for (const char* robot : {"a", "b"}) ASSERT_TRUE(repository_->PutRobot({robot, "vac", "fw-1", 1}).ok());
+    for (const char* set : {"default", "tuned"}) ASSERT_THAT(repository_->PutParameterSet({set, set}), IsOk());
+    for (const char* robot : {"a", "b"}) ASSERT_THAT(repository_->PutRobot({robot, "vac", "fw-1", 1}), IsOk());
     // a: two runs on 2026-01-01 and 2026-01-02; b: one run on 2026-01-02 on another firmware.
     Run("a", "r1", k2026 * kDay + 5, "fw-1");
     Run("a", "r2", (k2026 + 1) * kDay, "fw-1");
@@ -61,9 +62,9 @@ class FleetQueriesTest : public SqliteRepositoryTest {
     run.robot_model = "vac";
     run.started_at_ms = start;
     run.ended_at_ms = start + 1000;
-    ASSERT_TRUE(repository_->InsertRun(run).ok());
+    ASSERT_THAT(repository_->InsertRun(run), IsOk());
   }
-  void Put(const storage::ReportBundle& bundle) { ASSERT_TRUE(repository_->PutReport(bundle).ok()); }
+  void Put(const storage::ReportBundle& bundle) { ASSERT_THAT(repository_->PutReport(bundle), IsOk()); }
   storage::RunFilter Set(const std::string& set) {
     storage::RunFilter filter;
     filter.parameter_set = set;
@@ -74,7 +75,7 @@ class FleetQueriesTest : public SqliteRepositoryTest {
 TEST_F(FleetQueriesTest, StatisticsByDayCarryDayKeysAndThePapersShares) {
   FleetQueries queries(*repository_, "default");
   auto answer = queries.Statistics(kEngineer, Set("default"), storage::GroupBy::kDay);
-  ASSERT_TRUE(answer.ok()) << answer.status().ToString();
+  ASSERT_THAT(answer, IsOk());
   EXPECT_EQ(answer->total.counts.reports, 3);
   EXPECT_EQ(answer->total.counts.robots, 2);
   EXPECT_DOUBLE_EQ(*answer->total.recovery_per_run, 12.0 / 3.0);
@@ -92,16 +93,16 @@ TEST_F(FleetQueriesTest, StatisticsByDayCarryDayKeysAndThePapersShares) {
 TEST_F(FleetQueriesTest, RobotsSeeOnlyTheirOwnRuns) {
   FleetQueries queries(*repository_, "default");
   auto own = queries.Statistics(kRobotA, Set("default"), std::nullopt);
-  ASSERT_TRUE(own.ok());
+  ASSERT_THAT(own, IsOk());
   EXPECT_EQ(own->total.counts.reports, 2) << "robot a's two runs, not b's";
   storage::RunFilter other = Set("default");
   other.robot_id = "b";
   auto others = queries.Statistics(kRobotA, other, std::nullopt);
-  ASSERT_TRUE(others.ok());
+  ASSERT_THAT(others, IsOk());
   EXPECT_EQ(others->total.counts.reports, 0) << "naming another robot finds nothing";
   RunsQuery query;
   auto runs = queries.Runs(kRobotA, query);
-  ASSERT_TRUE(runs.ok());
+  ASSERT_THAT(runs, IsOk());
   ASSERT_EQ(runs->rows.size(), 2u);
   for (const RunRow& row : runs->rows) EXPECT_EQ(row.run.robot_id, "a");
   auto key = queries.Run(kRobotA, "b", "r1");
@@ -109,14 +110,14 @@ TEST_F(FleetQueriesTest, RobotsSeeOnlyTheirOwnRuns) {
   auto shared = queries.Run(kEngineer, "", "r1");
   EXPECT_EQ(shared.status().code(), storage::StatusCode::kInvalidArgument) << "two robots have r1: name the robot";
   auto compared = queries.Compare(kRobotA, {}, "default", "tuned", 10);
-  ASSERT_TRUE(compared.ok());
+  ASSERT_THAT(compared, IsOk());
   EXPECT_EQ(compared->runs_compared, 2);
 }
 
 TEST_F(FleetQueriesTest, ComparisonScoresEveryCountAlikeAndRanksByChangeThenRun) {
   FleetQueries queries(*repository_, "default");
   auto comparison = queries.Compare(kEngineer, {}, "default", "tuned", 10);
-  ASSERT_TRUE(comparison.ok()) << comparison.status().ToString();
+  ASSERT_THAT(comparison, IsOk());
   EXPECT_EQ(comparison->runs_compared, 3);
   EXPECT_EQ(comparison->runs_changed, 2);
   EXPECT_FALSE(comparison->scan_truncated);
@@ -135,11 +136,11 @@ TEST_F(FleetQueriesTest, ComparisonScoresEveryCountAlikeAndRanksByChangeThenRun)
   EXPECT_EQ(comparison->by_firmware[1].first, "fw-2");
   EXPECT_EQ(comparison->by_firmware[1].second.second->counts.recovery_created, 3);
   auto top = queries.Compare(kEngineer, {}, "default", "tuned", 1);
-  ASSERT_TRUE(top.ok());
+  ASSERT_THAT(top, IsOk());
   EXPECT_EQ(top->most_changed.size(), 1u);
   EXPECT_EQ(top->runs_compared, 3) << "top bounds the rows, not the count";
   auto unknown = queries.Compare(kEngineer, {}, "default", "nope", 10);
-  EXPECT_EQ(unknown.status().code(), storage::StatusCode::kNotFound);
+  EXPECT_THAT(unknown, StatusIs(storage::StatusCode::kNotFound));
   EXPECT_NE(unknown.status().message().find("set_b"), std::string::npos) << unknown.status().message();
   EXPECT_EQ(queries.Compare(kEngineer, {}, "default", "tuned", 0).status().code(),
             storage::StatusCode::kInvalidArgument);
@@ -157,11 +158,11 @@ TEST_F(FleetQueriesTest, ConfusionMatrixCountsPredictionsAgainstLabels) {
     bundle.protrusion_regions.push_back(region);
   }
   Put(bundle);
-  ASSERT_TRUE(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 1, "protrusion", "engineer:ana").ok());
-  ASSERT_TRUE(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 2, "new_space", "engineer:ana").ok());
-  ASSERT_TRUE(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 3, "new_space", "engineer:ana").ok());
+  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 1, "protrusion", "engineer:ana"), IsOk());
+  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 2, "new_space", "engineer:ana"), IsOk());
+  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 3, "new_space", "engineer:ana"), IsOk());
   auto m = queries.Confusion(kEngineer, "default");
-  ASSERT_TRUE(m.ok());
+  ASSERT_THAT(m, IsOk());
   EXPECT_EQ(m->true_positive, 1);
   EXPECT_EQ(m->false_positive, 1);
   EXPECT_EQ(m->unclassified, 1);
@@ -171,11 +172,11 @@ TEST_F(FleetQueriesTest, ConfusionMatrixCountsPredictionsAgainstLabels) {
   EXPECT_DOUBLE_EQ(*m->false_positive_rate, 1.0);
   Principal robot_b{"robot:b", Role::kRobot, "b"};
   auto none = queries.Confusion(robot_b, "default");
-  ASSERT_TRUE(none.ok());
+  ASSERT_THAT(none, IsOk());
   EXPECT_EQ(none->labelled, 0) << "robot b sees no labels of robot a's runs";
   EXPECT_FALSE(none->precision.has_value());
   auto report = queries.Report({"a", "r1"}, "default");
-  ASSERT_TRUE(report.ok());
+  ASSERT_THAT(report, IsOk());
   EXPECT_EQ(report->protrusion_regions(0).label(), "protrusion") << "the report carries the current labels";
   EXPECT_EQ(queries.Report({"a", "r9"}, "default").status().code(), storage::StatusCode::kNotFound);
 }
@@ -187,7 +188,7 @@ TEST_F(FleetQueriesTest, RunsPagesCarryTheSetsCountersAndBoundThePageSize) {
   query.report_set = "tuned";
   query.with_report_sets = true;
   auto first = queries.Runs(kEngineer, query);
-  ASSERT_TRUE(first.ok());
+  ASSERT_THAT(first, IsOk());
   ASSERT_EQ(first->rows.size(), 2u);
   ASSERT_TRUE(first->rows[0].report);
   EXPECT_EQ(first->rows[0].report->recovery_created, 5);
@@ -196,13 +197,13 @@ TEST_F(FleetQueriesTest, RunsPagesCarryTheSetsCountersAndBoundThePageSize) {
   ASSERT_TRUE(first->next);
   query.after = first->next;
   auto second = queries.Runs(kEngineer, query);
-  ASSERT_TRUE(second.ok());
+  ASSERT_THAT(second, IsOk());
   EXPECT_EQ(second->rows.size(), 1u);
   EXPECT_FALSE(second->next);
   query.page_size = 1001;
   EXPECT_EQ(queries.Runs(kEngineer, query).status().code(), storage::StatusCode::kInvalidArgument);
   auto jobs = queries.Jobs(kEngineer, "all", 0);
-  EXPECT_EQ(jobs.status().code(), storage::StatusCode::kInvalidArgument);
+  EXPECT_THAT(jobs, StatusIs(storage::StatusCode::kInvalidArgument));
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "server/health.h"
+#include "status_matchers.h"
 
 namespace server {
 namespace {
@@ -22,7 +23,7 @@ TEST(HealthMonitorTest, ARefusedWriteIsUnhealthyUntilItAges) {
   storage::OpenOptions options;
   options.sqlite_busy_timeout = std::chrono::milliseconds(50);
   auto repository = storage::OpenRepository("sqlite:" + path, options);
-  ASSERT_TRUE(repository.ok()) << repository.status().ToString();
+  ASSERT_THAT(repository, IsOk());
   std::vector<bool> reported;
   HealthMonitor health(**repository, "test:1", std::chrono::minutes(1), [&](bool healthy) { reported.push_back(healthy); });
   health.Start();
@@ -39,7 +40,7 @@ TEST(HealthMonitorTest, ARefusedWriteIsUnhealthyUntilItAges) {
   EXPECT_EQ(state.reason.rfind("a write failed ", 0), 0u) << state.reason;
   ASSERT_EQ(sqlite3_exec(other, "COMMIT", nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(other);
-  EXPECT_TRUE((*repository)->PutRobot({"r1", "model", "fw", 0}).ok());
+  EXPECT_THAT((*repository)->PutRobot({"r1", "model", "fw", 0}), IsOk());
   EXPECT_FALSE(health.Current().healthy) << "still within three intervals of the failure";
   health.Stop();
 

@@ -13,6 +13,7 @@
 #include "analyzer/telemetry_codec.h"
 #include "server/analysis.h"
 #include "sqlite_repository_test.h"
+#include "status_matchers.h"
 
 namespace server {
 namespace {
@@ -35,7 +36,7 @@ slamcore::LocalMapEvent Patch() {
 void AddChain(slamcore::Map& map, slamcore::NodeId first, int count, double x0, bool join) {
   for (int i = 0; i < count; ++i) {
     const slamcore::NodeId id = first + i;
-    ASSERT_TRUE(map.graph.AddNode({.id = id, .pose = SE2(x0 + 0.5 * i, 0.0, 0.0)}).ok());
+    ASSERT_THAT(map.graph.AddNode({.id = id, .pose = SE2(x0 + 0.5 * i, 0.0, 0.0)}), IsOk());
     map.local_maps[id] = Patch();
     if (i == 0 && !join) continue;
     const slamcore::NodeId previous = id - 1;
@@ -44,7 +45,7 @@ void AddChain(slamcore::Map& map, slamcore::NodeId first, int count, double x0, 
     edge.to = id;
     edge.measurement = map.graph.node(previous).pose.inverse() * map.graph.node(id).pose;
     edge.information = slamcore::Matrix3::Identity() * 100.0;
-    ASSERT_TRUE(map.graph.AddEdge(edge).ok());
+    ASSERT_THAT(map.graph.AddEdge(edge), IsOk());
   }
 }
 
@@ -53,8 +54,8 @@ class MapHistoryTest : public SqliteRepositoryTest {
   void SetUp() override {
     SqliteRepositoryTest::SetUp();
     if (HasFatalFailure()) return;
-    ASSERT_TRUE(repository_->PutRobot({"r1", "vac", "fw", 0}).ok());
-    ASSERT_TRUE(repository_->PutParameterSet({"default", "-"}).ok());
+    ASSERT_THAT(repository_->PutRobot({"r1", "vac", "fw", 0}), IsOk());
+    ASSERT_THAT(repository_->PutParameterSet({"default", "-"}), IsOk());
 
     AddChain(parent_, 0, 10, 0.0, false);
     child_ = parent_;
@@ -68,7 +69,7 @@ class MapHistoryTest : public SqliteRepositoryTest {
     if (parent) run.parent_snapshot_id = *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*parent)));
     run.child_snapshot_id = *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(child)));
     run.telemetry = "telemetry of " + run_id;
-    EXPECT_TRUE(repository_->InsertRun(run).ok());
+    EXPECT_THAT(repository_->InsertRun(run), IsOk());
     return run;
   }
 
@@ -85,17 +86,17 @@ class MapHistoryTest : public SqliteRepositoryTest {
     region->set_predicted_class("protrusion");
     region->set_probability(0.93);
     for (const double value : {6.4, -0.4, 8.1, 0.4}) region->add_world_bbox(value);
-    EXPECT_TRUE(repository_->PutReport(ToReportBundle(report)).ok());
+    EXPECT_THAT(repository_->PutReport(ToReportBundle(report)), IsOk());
     return report;
   }
 
   void UploadBoth(MapHistory& history) {
     const storage::RunRecord first = StoreRun("run-0", nullptr, parent_);
     auto v1 = history.RecordUpload(first, parent_);
-    ASSERT_TRUE(v1.ok()) << v1.status().ToString();
+    ASSERT_THAT(v1, IsOk());
     const storage::RunRecord second = StoreRun("run-1", &parent_, child_);
     auto v2 = history.RecordUpload(second, child_);
-    ASSERT_TRUE(v2.ok()) << v2.status().ToString();
+    ASSERT_THAT(v2, IsOk());
     EXPECT_EQ(v2->version, 2);
     EXPECT_EQ(v2->current_version, 2);
     EXPECT_FALSE(v2->outdated);
@@ -109,9 +110,9 @@ class MapHistoryTest : public SqliteRepositoryTest {
 TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
   MapHistory history(*repository_, {});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto detail = history.Get("r1", 2);
-  ASSERT_TRUE(detail.ok());
+  ASSERT_THAT(detail, IsOk());
   ASSERT_EQ(detail->findings.size(), 1u);
   EXPECT_EQ(detail->findings[0].kind(), "protrusion");
   EXPECT_EQ(detail->findings[0].state(), "open");
@@ -125,9 +126,9 @@ TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
 TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
-  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  ASSERT_THAT(repaired, IsOk());
   EXPECT_EQ(repaired->version.action(), "cut_region");
   EXPECT_EQ(repaired->version.created_by(), "policy:cut_protrusions");
   EXPECT_EQ(repaired->version.approval(), "pending");
@@ -142,7 +143,7 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   EXPECT_EQ(history.Fetch("r1", 2, &up_to_date, &snapshot)->version(), 2);
   EXPECT_TRUE(up_to_date);
   // The worker may analyse the run again (a retry): the policy does not cut twice.
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   std::int64_t current = 0, head = 0;
   EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
   EXPECT_EQ(current, 2);
@@ -152,10 +153,10 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
 TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase) {
   MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
-  ASSERT_TRUE(history.Review("r1", 3, /*approve=*/false, "engineer:ana").ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
+  ASSERT_THAT(history.Review("r1", 3, /*approve=*/false, "engineer:ana"), IsOk());
   std::int64_t current = 0, head = 0;
-  ASSERT_TRUE(history.List("r1", &current, &head).ok());
+  ASSERT_THAT(history.List("r1", &current, &head), IsOk());
   EXPECT_EQ(head, 2);
   // The rejected version cannot be continued; its base can.
   RepairRequest rollback;
@@ -166,26 +167,26 @@ TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase
   EXPECT_EQ(history.Repair(rollback).status().code(), storage::StatusCode::kAborted);
   rollback.base_version = 2;
   auto rolled_back = history.Repair(rollback);
-  ASSERT_TRUE(rolled_back.ok()) << rolled_back.status().ToString();
+  ASSERT_THAT(rolled_back, IsOk());
   EXPECT_EQ(rolled_back->version.version(), 4);
   EXPECT_EQ(rolled_back->version.parent_version(), 2);
   // Approving it makes it current; an older pending version could then no longer become current.
   RepairRequest undo = rollback;
   undo.base_version = 4;
   undo.action = Undo{};
-  ASSERT_TRUE(history.Repair(undo).ok());                       // version 5, pending
-  ASSERT_TRUE(history.Review("r1", 5, true, "engineer:ana").ok());  // current: 5
+  ASSERT_THAT(history.Repair(undo), IsOk());                       // version 5, pending
+  ASSERT_THAT(history.Review("r1", 5, true, "engineer:ana"), IsOk());  // current: 5
   EXPECT_EQ(history.Review("r1", 4, true, "engineer:ana").status().code(), storage::StatusCode::kFailedPrecondition);
 }
 
 TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
   MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .auto_approve = true});
   UploadBoth(history);
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   bool up_to_date = true;
   fleet::v1::MapSnapshot snapshot;
   auto current = history.Fetch("r1", 2, &up_to_date, &snapshot);
-  ASSERT_TRUE(current.ok());
+  ASSERT_THAT(current, IsOk());
   EXPECT_FALSE(up_to_date);
   EXPECT_EQ(current->version(), 3);
   EXPECT_EQ(current->approved_by(), "policy:cut_protrusions");
@@ -196,21 +197,21 @@ TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereA
   {
     MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 1.0});
     UploadBoth(history);
-    ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+    ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
     std::int64_t current = 0, head = 0;
     EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u) << "a protrusion below severity 1 is left open";
     EXPECT_EQ(history.Get("r1", 2)->findings[0].state(), "open");
   }
   MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
-  ASSERT_TRUE(repaired.ok()) << repaired.status().ToString();
+  ASSERT_THAT(repaired, IsOk());
   EXPECT_EQ(repaired->version.action(), "cut_region");
   EXPECT_EQ(repaired->version.created_by(), "policy:repair_findings");
   EXPECT_EQ(repaired->version.approval(), "approved");
   EXPECT_EQ(repaired->version.open_findings(), 0);
   // Analysed again (a retried job): the repaired version is the head, nothing is left to repair.
-  ASSERT_TRUE(history.OnRunAnalysed({"r1", "run-1"}, Report()).ok());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   std::int64_t current = 0, head = 0;
   EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
   EXPECT_EQ(current, 3);
@@ -220,7 +221,7 @@ TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereA
 /// when `kitchen`), the dock at (1, 0.6).
 fleet::v1::MapSnapshot ImportedRooms(bool kitchen) {
   auto grid = slamcore::OccupancyGrid::Create(160, 100, 0.05);
-  EXPECT_TRUE(grid.ok());
+  EXPECT_THAT(grid, IsOk());
   const auto room = [&](double x0, double x1) {
     for (int row = 10; row <= 80; ++row) {
       for (int col = static_cast<int>(x0 / 0.05); col <= static_cast<int>(x1 / 0.05); ++col) {
@@ -272,7 +273,7 @@ std::vector<std::string> RoomNames(const std::optional<fleet::v1::MapMetadata>& 
 TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   MapHistory history(*repository_, MapPolicy{});
   auto v1 = history.Import("home", ImportedRooms(false), RoomsMetadata(false), "valetudo:a.json", "", true, "engineer:e");
-  ASSERT_TRUE(v1.ok()) << v1.status().ToString();
+  ASSERT_THAT(v1, IsOk());
   // The first import has nothing to compare with, nor to roll back to.
   EXPECT_TRUE(history.Get("home", 1)->findings.empty());
   RepairRequest rollback{.robot_id = "home", .base_version = 1, .action = Rollback{}, .requested_by = "engineer:e"};
@@ -299,10 +300,10 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
 
   // The second export: the same home, now with a kitchen.
   auto v2 = history.Import("home", ImportedRooms(true), RoomsMetadata(true), "valetudo:b.json", "", false, "engineer:e");
-  ASSERT_TRUE(v2.ok()) << v2.status().ToString();
+  ASSERT_THAT(v2, IsOk());
   EXPECT_EQ(v2->version(), 2);
   auto detail = history.Get("home", 2);
-  ASSERT_TRUE(detail.ok());
+  ASSERT_THAT(detail, IsOk());
   EXPECT_EQ(RoomNames(detail->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
   EXPECT_EQ(detail->metadata->zones_size(), 1);
   EXPECT_EQ(detail->metadata->virtual_walls_size(), 1);
@@ -329,19 +330,19 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   RepairRequest cut{.robot_id = "home", .base_version = 2, .action = CutFinding{kitchen}, .reason = "not ours",
                     .requested_by = "engineer:e"};
   auto cut_version = history.Repair(cut);
-  ASSERT_TRUE(cut_version.ok()) << cut_version.status().ToString();
+  ASSERT_THAT(cut_version, IsOk());
   EXPECT_EQ(cut_version->version.approval(), "pending");
   EXPECT_EQ(cut_version->version.action(), "cut_region");
   for (const fleet::v1::MapFinding& finding : cut_version->findings) EXPECT_NE(finding.kind(), "new_region");
   EXPECT_LT(cut_version->version.known_area_m2(), v2->known_area_m2() - 5.0);
   fleet::v1::MapSnapshot cut_snapshot;
-  ASSERT_TRUE(history.Get("home", 3, &cut_snapshot).ok());
+  ASSERT_THAT(history.Get("home", 3, &cut_snapshot), IsOk());
   EXPECT_TRUE(cut_snapshot.imported().has_dock());  // kept for the next comparison and the hand-back
   // The cut keeps the metadata of the version it cut (its rooms and zones), and hands it back.
   EXPECT_EQ(RoomNames(cut_version->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
   EXPECT_EQ(RoomNames(history.Get("home", 3)->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
   auto handed_back = history.Export("home", 3, "valetudo");
-  ASSERT_TRUE(handed_back.ok()) << handed_back.status().ToString();
+  ASSERT_THAT(handed_back, IsOk());
   EXPECT_NE(handed_back->front().content().find("\"name\":\"Living room\""), std::string::npos);
   EXPECT_NE(handed_back->front().content().find("\"no_go_area\""), std::string::npos);
   // A cut's region must be a new region.
@@ -352,7 +353,7 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   // Roll back: the map before the import, the very snapshot of version 1.
   rollback.base_version = 3;
   auto rolled = history.Repair(rollback);
-  ASSERT_TRUE(rolled.ok()) << rolled.status().ToString();
+  ASSERT_THAT(rolled, IsOk());
   EXPECT_EQ(rolled->version.origin(), "rollback");
   EXPECT_EQ(rolled->version.snapshot_id(), v1->snapshot_id());
   // …with version 1's metadata: the rooms of the map it restores.
@@ -360,7 +361,7 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   // Undoing the roll-back gives the cut map again, with its metadata.
   RepairRequest undo{.robot_id = "home", .base_version = 4, .action = Undo{}, .requested_by = "engineer:e"};
   auto undone = history.Repair(undo);
-  ASSERT_TRUE(undone.ok()) << undone.status().ToString();
+  ASSERT_THAT(undone, IsOk());
   EXPECT_EQ(RoomNames(undone->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
 }
 
@@ -368,11 +369,11 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
 TEST(RepairActionTest, NamesRoundTripAndUnknownNamesAreRefusedNamingTheField) {
   for (const char* name : {"reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"}) {
     auto action = RepairActionNamed(name, "action");
-    ASSERT_TRUE(action.ok()) << name;
+    ASSERT_THAT(action, IsOk()) << name;
     EXPECT_STREQ(RepairActionName(*action), name);
   }
   auto unknown = RepairActionNamed("explode", "action");
-  EXPECT_EQ(unknown.status().code(), storage::StatusCode::kInvalidArgument);
+  EXPECT_THAT(unknown, StatusIs(storage::StatusCode::kInvalidArgument));
   EXPECT_NE(unknown.status().message().find("action: \"explode\""), std::string::npos) << unknown.status().message();
 }
 

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "status_matchers.h"
+
 namespace server::http {
 namespace {
 
@@ -19,7 +21,7 @@ TEST(MultipartForm, ReadsNamedPartsWithBinaryBodies) {
   const std::string pgm = std::string("P5\n2 1\n255\n\xfe\x00", 13);
   const auto parts = ParseMultipartForm(kType, Part("yaml", "map.yaml", "image: map.pgm\n") + Part("image", "map.pgm", pgm) +
                                                    "------fleetd42--\r\n");
-  ASSERT_TRUE(parts.ok()) << parts.status().ToString();
+  ASSERT_THAT(parts, IsOk());
   ASSERT_EQ(parts->size(), 2u);
   EXPECT_EQ((*parts)[0].name, "yaml");
   EXPECT_EQ((*parts)[0].filename, "map.yaml");
@@ -27,14 +29,14 @@ TEST(MultipartForm, ReadsNamedPartsWithBinaryBodies) {
   EXPECT_EQ((*parts)[1].filename, "map.pgm");
   EXPECT_EQ((*parts)[1].body, pgm);
   // A quoted boundary, as some clients write it.
-  EXPECT_TRUE(ParseMultipartForm("multipart/form-data; boundary=\"----fleetd42\"", "------fleetd42--\r\n").ok());
+  EXPECT_THAT(ParseMultipartForm("multipart/form-data; boundary=\"----fleetd42\"", "------fleetd42--\r\n"), IsOk());
 }
 
 TEST(MultipartForm, RefusesMalformedAndOversizedFormsNamingWhy) {
   const auto refused = [](const std::string& type, const std::string& body, const std::string& why) {
     const auto parts = ParseMultipartForm(type, body, 3);
     ASSERT_FALSE(parts.ok()) << why;
-    EXPECT_EQ(parts.status().code(), storage::StatusCode::kInvalidArgument);
+    EXPECT_THAT(parts, StatusIs(storage::StatusCode::kInvalidArgument));
     EXPECT_NE(parts.status().message().find(why), std::string::npos) << parts.status().ToString();
   };
   const std::string closed = "------fleetd42--\r\n";

@@ -10,6 +10,8 @@
 #include <thread>
 #include <vector>
 
+#include "status_matchers.h"
+
 namespace server {
 namespace {
 
@@ -26,21 +28,21 @@ TEST(RenderCacheTest, EvictsLeastRecentlyUsedByBytes) {
       return std::string(n, c);
     };
   };
-  ASSERT_TRUE(cache.Get("a", render('a', 40)).ok());
-  ASSERT_TRUE(cache.Get("b", render('b', 40)).ok());
+  ASSERT_THAT(cache.Get("a", render('a', 40)), IsOk());
+  ASSERT_THAT(cache.Get("b", render('b', 40)), IsOk());
   EXPECT_EQ(cache.bytes(), 80u);
-  ASSERT_TRUE(cache.Get("a", render('a', 40)).ok());  // hit: "a" is now the most recent
+  ASSERT_THAT(cache.Get("a", render('a', 40)), IsOk());  // hit: "a" is now the most recent
   EXPECT_EQ(renders, 2);
-  ASSERT_TRUE(cache.Get("c", render('c', 40)).ok());  // 120 > 100: "b" (least recent) leaves
+  ASSERT_THAT(cache.Get("c", render('c', 40)), IsOk());  // 120 > 100: "b" (least recent) leaves
   EXPECT_EQ(cache.bytes(), 80u);
-  ASSERT_TRUE(cache.Get("a", render('a', 40)).ok());
+  ASSERT_THAT(cache.Get("a", render('a', 40)), IsOk());
   EXPECT_EQ(renders, 3);
-  ASSERT_TRUE(cache.Get("b", render('b', 40)).ok());
+  ASSERT_THAT(cache.Get("b", render('b', 40)), IsOk());
   EXPECT_EQ(renders, 4);
   // Larger than the whole budget: answered, not kept, nothing else evicted for it.
   const std::size_t before = cache.bytes();
   auto huge = cache.Get("huge", render('h', 1000));
-  ASSERT_TRUE(huge.ok());
+  ASSERT_THAT(huge, IsOk());
   EXPECT_EQ((*huge)->size(), 1000u);
   EXPECT_EQ(cache.bytes(), before);
 }
@@ -56,7 +58,7 @@ TEST(RenderCacheTest, ConcurrentRequestsForOneKeyRenderOnce) {
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
         return std::string("rendered");
       });
-      EXPECT_TRUE(value.ok());
+      EXPECT_THAT(value, IsOk());
       EXPECT_EQ(**value, "rendered");
     });
   }
@@ -69,7 +71,7 @@ TEST(RenderCacheTest, AFailedRenderingIsNotCachedAndWakesTheWaiters) {
   auto failed = cache.Get("x", []() -> storage::Result<std::string> { return storage::NotFound("no map"); });
   EXPECT_FALSE(failed.ok());
   auto later = cache.Get("x", []() -> storage::Result<std::string> { return std::string("ok"); });
-  ASSERT_TRUE(later.ok());
+  ASSERT_THAT(later, IsOk());
   EXPECT_EQ(**later, "ok");
 }
 

@@ -3,14 +3,15 @@
 #include <gtest/gtest.h>
 
 #include "server/secrets.h"
+#include "status_matchers.h"
 
 namespace server {
 namespace {
 
 TEST(SecretsTest, PlaceholdersAndLowEntropyAreRefusedNamingWhy) {
   const auto refused = [](const std::string& secret, std::size_t min_length = 32) {
-    const storage::Status status = CheckSecretStrength("bootstrap_admin_token", secret, min_length);
-    EXPECT_EQ(status.code(), storage::StatusCode::kInvalidArgument) << secret;
+    const slamcore::Status status = CheckSecretStrength("bootstrap_admin_token", secret, min_length);
+    EXPECT_EQ(status.code(), slamcore::StatusCode::kInvalidArgument) << secret;
     EXPECT_EQ(status.message().find(secret), std::string::npos) << "the secret is never quoted";
     return status.message();
   };
@@ -30,8 +31,7 @@ TEST(SecretsTest, PlaceholdersAndLowEntropyAreRefusedNamingWhy) {
 TEST(SecretsTest, RandomSecretsPass) {
   for (const std::string secret : {"3f9c2a7d1e0b4c8a9f6e5d4c3b2a1908", "e1b7a3f0c95d2846a7f1c3e9b0d5a286c4f7e2d1b9a03c58",
                                    "Xk9vQ2mLp7RtW4zN8bYc3HdJ6fGs1AeU"}) {
-    EXPECT_TRUE(CheckSecretStrength("secret", secret, 32).ok()) << secret << ": "
-                                                               << CheckSecretStrength("secret", secret, 32).ToString();
+    EXPECT_THAT(CheckSecretStrength("secret", secret, 32), IsOk()) << secret;
   }
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "storage/repository.h"
+#include "status_matchers.h"
 
 namespace server {
 
@@ -21,7 +22,7 @@ class SqliteRepositoryTest : public ::testing::Test {
     std::filesystem::remove_all(directory_);
     std::filesystem::create_directories(directory_);
     auto opened = storage::OpenRepository("sqlite:" + (directory_ / "fleet.db").string());
-    ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+    ASSERT_THAT(opened, IsOk());
     repository_ = std::move(opened).value();
   }
   void TearDown() override {

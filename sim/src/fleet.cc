@@ -129,7 +129,7 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
                                                 const std::function<void(int, int)>& progress) {
   if (options.worlds.empty()) return slamcore::InvalidArgument("no worlds to simulate");
   if (options.robots < 1 || options.runs < 1) return slamcore::InvalidArgument("robots and runs must be at least 1");
-  SLAMCORE_RETURN_IF_ERROR(options.params.Validate());
+  RETURN_IF_ERROR(options.params.Validate());
   SimParams params = options.params;
   if (!options.protrusion_data.empty()) {
     params.keep_truth_pairs = params.label_regions = true;
@@ -147,9 +147,9 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
   for (int robot = 0; robot < options.robots; ++robot) {
     const std::size_t index = static_cast<std::size_t>(robot) % options.worlds.size();
     if (worlds.contains(index)) continue;
-    auto world = LoadWorld(options.worlds[index], options.seed * 1000003ULL + index, params.home_clutter);
-    if (!world.ok()) return world.status();
-    worlds.emplace(index, std::move(world).value());
+    ASSIGN_OR_RETURN(auto world,
+                     LoadWorld(options.worlds[index], options.seed * 1000003ULL + index, params.home_clutter));
+    worlds.emplace(index, std::move(world));
   }
 
   const int total = options.robots * options.runs;
@@ -233,7 +233,7 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
   std::vector<std::thread> pool;
   for (int t = 0; t < std::min(threads, options.robots); ++t) pool.emplace_back(work);
   for (std::thread& thread : pool) thread.join();
-  if (!first_error.ok()) return first_error;
+  RETURN_IF_ERROR(first_error);
 
   // Aggregate in robot order, so the figures do not depend on thread timing.
   FleetStatistics statistics;

@@ -37,7 +37,7 @@ struct Follower {
   /// Takes the newest approved version when the robot holds an older one.
   slamcore::Status TakeNewestMap(RobotSimulator& robot, const std::string& robot_id) {
     auto fetched = client.FetchMap(TokenOf(robot_id), robot_id, robot.map_version());
-    if (!fetched.ok()) return fetched.status();
+    RETURN_IF_ERROR(fetched.status());
     if (fetched->up_to_date || fetched->version.version() <= 0) return slamcore::Status::Ok();
     if (const slamcore::Status taken = robot.TakeMap(fetched->snapshot, fetched->version.version()); !taken.ok()) {
       return slamcore::InvalidArgument("robot " + robot_id + ": version " + std::to_string(fetched->version.version()) +
@@ -59,8 +59,7 @@ void FollowService(const FollowServiceOptions& options, FleetOptions& fleet) {
     const std::string& robot_id = robot.robot_id();
     const FollowServiceOptions& o = follower->options;
     if (o.review_every_runs > 0 && run > 0 && run % o.review_every_runs == 0) {
-      auto approved = follower->client.ApprovePending(o.engineer_token, robot_id);
-      if (!approved.ok()) return approved.status();
+      RETURN_IF_ERROR(follower->client.ApprovePending(o.engineer_token, robot_id).status());
     }
     return follower->TakeNewestMap(robot, robot_id);
   };
@@ -73,9 +72,9 @@ void FollowService(const FollowServiceOptions& options, FleetOptions& fleet) {
     }
     robot.SetMapVersion(uploaded.map_version);  // the robot's map is now this version of its history
     if (!follower->options.engineer_token.empty() && uploaded.analysis_job_id > 0) {
-      SLAMCORE_RETURN_IF_ERROR(follower->client.WaitForJob(follower->options.engineer_token, uploaded.analysis_job_id,
+      RETURN_IF_ERROR(follower->client.WaitForJob(follower->options.engineer_token, uploaded.analysis_job_id,
                                                            follower->options.analysis_timeout_seconds));
-      SLAMCORE_RETURN_IF_ERROR(follower->TakeNewestMap(robot, robot_id));
+      RETURN_IF_ERROR(follower->TakeNewestMap(robot, robot_id));
     }
     std::lock_guard lock(follower->mutex);
     outcome.repairs_taken = std::exchange(follower->repairs_taken[robot_id], 0);

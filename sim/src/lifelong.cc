@@ -84,16 +84,15 @@ slamcore::Result<RegimeResult> RunRegime(const LifelongOptions& options, const s
   fleet.corruption = options.corruption;
   if (name == "none") fleet.params.mapper = UnprotectedMapperParams();
   if (name == "none" || name == "filter") {
-    auto statistics = SimulateFleet(fleet, progress);
-    if (!statistics.ok()) return statistics.status();
-    return Summarise(name, std::move(statistics).value(), options.runs);
+    ASSIGN_OR_RETURN(auto statistics, SimulateFleet(fleet, progress));
+    return Summarise(name, std::move(statistics), options.runs);
   }
 
   FleetdLauncher fleetd;
   std::vector<std::string> flags = {"--auto-repair", "repair_findings", "--auto-repair-min-severity",
                                     std::to_string(options.min_severity)};
   if (name == "service") flags.push_back("--auto-approve");
-  SLAMCORE_RETURN_IF_ERROR(fleetd.Start(options.fleetd, options.work_dir / name, flags));
+  RETURN_IF_ERROR(fleetd.Start(options.fleetd, options.work_dir / name, flags));
   ServiceClient client(fleetd.grpc_address());
   Tokens tokens(client, fleetd.admin_token());
   FollowServiceOptions follow;
@@ -105,7 +104,7 @@ slamcore::Result<RegimeResult> RunRegime(const LifelongOptions& options, const s
   FollowService(follow, fleet);
   auto statistics = SimulateFleet(fleet, progress);
   fleetd.Stop();
-  if (!statistics.ok()) return statistics.status();
+  RETURN_IF_ERROR(statistics.status());
   return Summarise(name, std::move(statistics).value(), options.runs);
 }
 
@@ -147,7 +146,7 @@ slamcore::Status ValidateLifelong(const LifelongOptions& options) {
 
 slamcore::Result<std::vector<RegimeResult>> RunLifelong(
     const LifelongOptions& options, const std::function<void(const std::string&, int, int)>& progress) {
-  SLAMCORE_RETURN_IF_ERROR(ValidateLifelong(options));
+  RETURN_IF_ERROR(ValidateLifelong(options));
   std::vector<RegimeResult> results;
   for (const std::string& regime : options.regimes) {
     auto result = RunRegime(options, regime, [&](int done, int total) {

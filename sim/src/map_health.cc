@@ -61,19 +61,17 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(const slamcore::Map& map,
     reference.push_back(pose.translation());
   }
   if (estimate.size() >= 2) {
-    auto world_T_map = slamcore::AlignRigidly(estimate, reference);
-    if (!world_T_map.ok()) return world_T_map.status();
-    auto grid = analyzer::RenderHomeGrid(map);
-    if (!grid.ok()) return grid.status();
+    ASSIGN_OR_RETURN(auto world_T_map, slamcore::AlignRigidly(estimate, reference));
+    ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(map));
     long false_cells = 0;
-    for (int row = 0; row < grid->height; ++row) {
-      for (int col = 0; col < grid->width; ++col) {
-        if (grid->at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
-        const Vector2 in_map(grid->origin_x + (col + 0.5) * grid->resolution, grid->origin_y + (row + 0.5) * grid->resolution);
-        if (!NearFloor(*world_T_map * in_map)) ++false_cells;
+    for (int row = 0; row < grid.height; ++row) {
+      for (int col = 0; col < grid.width; ++col) {
+        if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
+        const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution, grid.origin_y + (row + 0.5) * grid.resolution);
+        if (!NearFloor(world_T_map * in_map)) ++false_cells;
       }
     }
-    health.false_free_m2 = static_cast<double>(false_cells) * grid->resolution * grid->resolution;
+    health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
   }
   health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m || health.false_free_m2 > threshold_.false_free_m2;
   return health;

@@ -74,10 +74,9 @@ RobotSimulator::~RobotSimulator() = default;
 const RangeSensor& RobotSimulator::sensor() const { return state_->sensor; }
 
 slamcore::Status RobotSimulator::TakeMap(const fleet::v1::MapSnapshot& snapshot, std::int64_t version) {
-  auto map = analyzer::FromProto(snapshot, "snapshot");
-  if (!map.ok()) return map.status();
+  ASSIGN_OR_RETURN(auto map, analyzer::FromProto(snapshot, "snapshot"));
   State& s = *state_;
-  s.map = std::move(map).value();
+  s.map = std::move(map);
   s.taken_map = snapshot;
   s.map_version = version;
   // The front-end matches only views the map holds (a rollback or a rejected run drops some).
@@ -267,10 +266,10 @@ slamcore::Status Run::Keyframe() {
   // A floor on the covariance: the first node of a run (and one after a kidnap) has no motion behind it.
   const Matrix3 covariance =
       0.5 * (increment_covariance_ + increment_covariance_.transpose()) + Matrix3::Identity() * 1e-8;
-  SLAMCORE_RETURN_IF_ERROR(Emit(slamcore::OdometryEvent{.time = time_, .increment = measured_increment_,
+  RETURN_IF_ERROR(Emit(slamcore::OdometryEvent{.time = time_, .increment = measured_increment_,
                                                         .covariance = covariance}));
   const bool slipped = stuck_since_node_;
-  SLAMCORE_RETURN_IF_ERROR(Emit(slamcore::GroundTruthEvent{.time = time_, .world_T_robot = truth_},
+  RETURN_IF_ERROR(Emit(slamcore::GroundTruthEvent{.time = time_, .world_T_robot = truth_},
                                 [slipped](fleet::v1::Event& event) { event.mutable_ground_truth()->set_slipping(slipped); }));
   measured_increment_ = SE2();
   increment_covariance_.setZero();
@@ -281,9 +280,9 @@ slamcore::Status Run::Keyframe() {
     ++outcome_.stuck_nodes;
   }
   ++nodes_;
-  SLAMCORE_RETURN_IF_ERROR(ObserveLandmarks());
+  RETURN_IF_ERROR(ObserveLandmarks());
   const int patch_every = s_.sensor.model == kLidarModel ? p_.lidar_patch_every_nodes : p_.patch_every_nodes;
-  if (nodes_ % patch_every == 0) SLAMCORE_RETURN_IF_ERROR(EmitPatch());
+  if (nodes_ % patch_every == 0) RETURN_IF_ERROR(EmitPatch());
   // The first merge into the parent map: look only at the decisions made since the last node.
   const std::vector<slamcore::Decision>& decisions = mapper_->decisions();
   for (; first_merge_time_ < 0.0 && decisions_seen_ < decisions.size(); ++decisions_seen_) {
@@ -325,7 +324,7 @@ slamcore::Status Run::ObserveLandmarks() {
     if (known == s_.views_of_landmark.end() || known->second.empty()) {
       if (created_here) continue;  // the front-end creates at most one view per frame
       const ViewRecord record{s_.next_view_id++, landmark.id, truth_};
-      SLAMCORE_RETURN_IF_ERROR(Emit(slamcore::ViewCreatedEvent{.time = time_, .view = record.id}));
+      RETURN_IF_ERROR(Emit(slamcore::ViewCreatedEvent{.time = time_, .view = record.id}));
       s_.view_index.emplace(record.id, s_.views.size());
       s_.views_of_landmark[landmark.id].push_back(s_.views.size());
       s_.views.push_back(record);
@@ -376,7 +375,7 @@ slamcore::Status Run::ObserveLandmarks() {
     Matrix3 covariance = Matrix3::Zero();
     covariance.diagonal() << std::pow(p_.observation_sigma_xy, 2), std::pow(p_.observation_sigma_xy, 2),
         std::pow(p_.observation_sigma_theta, 2);
-    SLAMCORE_RETURN_IF_ERROR(Emit(
+    RETURN_IF_ERROR(Emit(
         slamcore::ViewObservedEvent{.time = time_, .view = matched->id, .robot_T_view = z, .covariance = covariance},
         [wrong](fleet::v1::Event& event) { event.mutable_view_observed()->set_truth_wrong(wrong); }));
     ++observations_here;
@@ -415,22 +414,19 @@ slamcore::Status Run::LabelRegions() {
   // The detector's regions between parent and child, labelled by the rule fleetd's reports use; the
   // per-cell truth marks a changed cell as protrusion when a stuck node's patch lies on it.
   if (parent_.local_maps.empty() || parent_.graph.num_nodes() == 0) return slamcore::Status::Ok();
-  const auto grids = analyzer::RenderComparedGrids(parent_, s_.map);
-  if (!grids.ok()) return grids.status();
-  const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
-  if (!regions.ok()) return regions.status();
-  const auto truth = analyzer::SlipTruthOf(s_.map, stuck_nodes_, *grids, *regions);
-  if (!truth.ok()) return truth.status();
-  for (const bool protrusion : truth->region_is_protrusion) ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
+  ASSIGN_OR_RETURN(const auto grids, analyzer::RenderComparedGrids(parent_, s_.map));
+  ASSIGN_OR_RETURN(const auto regions, slamcore::ExtractRegions(grids.parent, grids.child));
+  ASSIGN_OR_RETURN(const auto truth, analyzer::SlipTruthOf(s_.map, stuck_nodes_, grids, regions));
+  for (const bool protrusion : truth.region_is_protrusion) ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
   if (!p_.keep_truth_pairs) return slamcore::Status::Ok();
   slamcore::GeneratedPair pair;
-  pair.parent = grids->parent;
-  pair.child = grids->child;
-  pair.truth.assign(truth->covered.size(), static_cast<std::uint8_t>(slamcore::TruthLabel::kUnchanged));
-  for (std::size_t k = 0; k < regions->size(); ++k) {
-    for (const std::int32_t cell : (*regions)[k].cells) {
+  pair.parent = grids.parent;
+  pair.child = grids.child;
+  pair.truth.assign(truth.covered.size(), static_cast<std::uint8_t>(slamcore::TruthLabel::kUnchanged));
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    for (const std::int32_t cell : (regions)[k].cells) {
       pair.truth[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(
-          truth->covered[static_cast<std::size_t>(cell)] ? slamcore::TruthLabel::kProtrusion : slamcore::TruthLabel::kNewSpace);
+          truth.covered[static_cast<std::size_t>(cell)] ? slamcore::TruthLabel::kProtrusion : slamcore::TruthLabel::kNewSpace);
     }
   }
   pair.protrusions = outcome_.truth_protrusion_regions;
@@ -441,9 +437,8 @@ slamcore::Status Run::LabelRegions() {
 
 slamcore::Result<RunOutcome> Run::Simulate() {
   parent_ = s_.map;
-  auto mapper = slamcore::Mapper::Create(p_.mapper, s_.map);
-  if (!mapper.ok()) return mapper.status();
-  mapper_ = std::move(mapper).value();
+  ASSIGN_OR_RETURN(auto mapper, slamcore::Mapper::Create(p_.mapper, s_.map));
+  mapper_ = std::move(mapper);
   outcome_.had_parent = s_.map.graph.num_nodes() > 0;
   // A map taken from the service is named by the very bytes the service holds, so it knows the version.
   *outcome_.run.mutable_parent_snapshot() = s_.taken_map ? std::move(*s_.taken_map) : analyzer::ToProto(s_.map);
@@ -459,23 +454,23 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   const double duration = p_.run_minutes * 60.0;
   const double kidnap_at = s_.Chance(p_.kidnap_probability) ? s_.Uniform(0.2, 0.8) * duration : -1.0;
   const double reboot_at = s_.Chance(p_.reboot_probability) ? s_.Uniform(0.2, 0.8) * duration : -1.0;
-  SLAMCORE_RETURN_IF_ERROR(Keyframe());  // the first node, at the dock
+  RETURN_IF_ERROR(Keyframe());  // the first node, at the dock
   bool kidnapped = false, rebooted = false;
   while (time_ < duration) {
     StepPhysics();
     if (!kidnapped && kidnap_at > 0 && time_ >= kidnap_at) {
       kidnapped = true;
-      SLAMCORE_RETURN_IF_ERROR(Kidnap(false));
-      SLAMCORE_RETURN_IF_ERROR(Keyframe());
+      RETURN_IF_ERROR(Kidnap(false));
+      RETURN_IF_ERROR(Keyframe());
       continue;
     }
     if (!rebooted && reboot_at > 0 && time_ >= reboot_at) {
       rebooted = true;
-      SLAMCORE_RETURN_IF_ERROR(Kidnap(true));
-      SLAMCORE_RETURN_IF_ERROR(Keyframe());
+      RETURN_IF_ERROR(Kidnap(true));
+      RETURN_IF_ERROR(Keyframe());
       continue;
     }
-    SLAMCORE_RETURN_IF_ERROR(MaybeKeyframe());
+    RETURN_IF_ERROR(MaybeKeyframe());
   }
 
   outcome_.statistics = mapper_->Statistics();
@@ -489,7 +484,7 @@ slamcore::Result<RunOutcome> Run::Simulate() {
     if (view.ambiguous) ++outcome_.views_ambiguous;
   }
   *outcome_.run.mutable_child_snapshot() = analyzer::ToProto(s_.map);
-  if (p_.label_regions) SLAMCORE_RETURN_IF_ERROR(LabelRegions());
+  if (p_.label_regions) RETURN_IF_ERROR(LabelRegions());
 
   fleet::v1::RunHeader& header = *outcome_.run.mutable_header();
   header.set_format_version(analyzer::kTelemetryFormatVersion);

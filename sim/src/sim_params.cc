@@ -18,35 +18,35 @@ slamcore::Status SimParams::Validate() const {
     }
     return slamcore::Status::Ok();
   };
-  SLAMCORE_RETURN_IF_ERROR(positive(run_minutes, "run_minutes"));
-  SLAMCORE_RETURN_IF_ERROR(positive(step_seconds, "step_seconds"));
-  SLAMCORE_RETURN_IF_ERROR(positive(robot_radius, "robot_radius"));
-  SLAMCORE_RETURN_IF_ERROR(positive(speed, "speed"));
-  SLAMCORE_RETURN_IF_ERROR(positive(turn_rate, "turn_rate"));
-  SLAMCORE_RETURN_IF_ERROR(positive(keyframe_distance, "keyframe_distance"));
-  SLAMCORE_RETURN_IF_ERROR(positive(keyframe_rotation, "keyframe_rotation"));
-  SLAMCORE_RETURN_IF_ERROR(positive(view_range, "view_range"));
-  SLAMCORE_RETURN_IF_ERROR(positive(view_field_of_view, "view_field_of_view"));
-  SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_xy, "observation_sigma_xy"));
-  SLAMCORE_RETURN_IF_ERROR(positive(observation_sigma_theta, "observation_sigma_theta"));
-  SLAMCORE_RETURN_IF_ERROR(positive(tof_min_range, "tof_min_range"));
-  SLAMCORE_RETURN_IF_ERROR(positive(lidar_min_range, "lidar_min_range"));
-  SLAMCORE_RETURN_IF_ERROR(positive(tof_field_of_view, "tof_field_of_view"));
-  SLAMCORE_RETURN_IF_ERROR(positive(stuck_min_seconds, "stuck_min_seconds"));
+  RETURN_IF_ERROR(positive(run_minutes, "run_minutes"));
+  RETURN_IF_ERROR(positive(step_seconds, "step_seconds"));
+  RETURN_IF_ERROR(positive(robot_radius, "robot_radius"));
+  RETURN_IF_ERROR(positive(speed, "speed"));
+  RETURN_IF_ERROR(positive(turn_rate, "turn_rate"));
+  RETURN_IF_ERROR(positive(keyframe_distance, "keyframe_distance"));
+  RETURN_IF_ERROR(positive(keyframe_rotation, "keyframe_rotation"));
+  RETURN_IF_ERROR(positive(view_range, "view_range"));
+  RETURN_IF_ERROR(positive(view_field_of_view, "view_field_of_view"));
+  RETURN_IF_ERROR(positive(observation_sigma_xy, "observation_sigma_xy"));
+  RETURN_IF_ERROR(positive(observation_sigma_theta, "observation_sigma_theta"));
+  RETURN_IF_ERROR(positive(tof_min_range, "tof_min_range"));
+  RETURN_IF_ERROR(positive(lidar_min_range, "lidar_min_range"));
+  RETURN_IF_ERROR(positive(tof_field_of_view, "tof_field_of_view"));
+  RETURN_IF_ERROR(positive(stuck_min_seconds, "stuck_min_seconds"));
   if (tof_max_range < tof_min_range || lidar_max_range < lidar_min_range || lidar_max_range > 20.0) {
     return slamcore::InvalidArgument("sensor ranges: each model's max must be at least its min, and a lidar at most 20 m");
   }
   if (tof_field_of_view > 2 * 3.14159265358979) return slamcore::InvalidArgument("tof_field_of_view must be at most 2π");
-  SLAMCORE_RETURN_IF_ERROR(probability(lidar_share, "lidar_share"));
-  SLAMCORE_RETURN_IF_ERROR(probability(wall_wedge_probability, "wall_wedge_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(stuck_creep_share, "stuck_creep_share"));
-  SLAMCORE_RETURN_IF_ERROR(probability(wall_follow_share, "wall_follow_share"));
-  SLAMCORE_RETURN_IF_ERROR(probability(start_off_dock_probability, "start_off_dock_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(kidnap_probability, "kidnap_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(reboot_probability, "reboot_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(recognition_failure_probability, "recognition_failure_probability"));
-  SLAMCORE_RETURN_IF_ERROR(probability(lookalike_probability, "lookalike_probability"));
+  RETURN_IF_ERROR(probability(lidar_share, "lidar_share"));
+  RETURN_IF_ERROR(probability(wall_wedge_probability, "wall_wedge_probability"));
+  RETURN_IF_ERROR(probability(stuck_creep_share, "stuck_creep_share"));
+  RETURN_IF_ERROR(probability(wall_follow_share, "wall_follow_share"));
+  RETURN_IF_ERROR(probability(start_off_dock_probability, "start_off_dock_probability"));
+  RETURN_IF_ERROR(probability(kidnap_probability, "kidnap_probability"));
+  RETURN_IF_ERROR(probability(reboot_probability, "reboot_probability"));
+  RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));
+  RETURN_IF_ERROR(probability(recognition_failure_probability, "recognition_failure_probability"));
+  RETURN_IF_ERROR(probability(lookalike_probability, "lookalike_probability"));
   if (!(stuck_rate_scale >= 0.0 && stuck_rate_scale <= 1000.0)) {
     return slamcore::InvalidArgument("stuck_rate_scale must be in [0, 1000]");
   }

@@ -380,9 +380,8 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
 }
 
 slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
-  const auto map = slamcore::ReadMapServerYaml(path.string());
-  if (!map.ok()) return map.status();
-  const slamcore::OccupancyGrid& source = *map;
+  ASSIGN_OR_RETURN(const auto map, slamcore::ReadMapServerYaml(path.string()));
+  const slamcore::OccupancyGrid& source = map;
   World world;
   world.name = path.stem().string();
   world.grid = Grid(source.width, source.height, source.resolution, Vector2(source.origin_x, source.origin_y),

@@ -10,6 +10,7 @@
 
 #include "sim/run_simulator.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace sim {
 namespace {
@@ -40,9 +41,9 @@ std::vector<NodeTruth> NodesOf(const fleet::v1::RunFile& run) {
 
 World FirstWorld() {
   const auto worlds = ListWorlds(test_data::Sample() / "floorplans");
-  EXPECT_TRUE(worlds.ok());
+  EXPECT_THAT(worlds, IsOk());
   auto world = LoadWorld(worlds->front(), 3);
-  EXPECT_TRUE(world.ok()) << world.status().ToString();
+  EXPECT_THAT(world, IsOk());
   return std::move(world).value();
 }
 
@@ -55,7 +56,7 @@ TEST(PhysicsTest, OdometryFollowsTheConfiguredNoiseModel) {
   params.reboot_probability = 0.0;
   RobotSimulator robot(world, params, "robot", "fw", 21);
   const auto outcome = robot.SimulateRun("run", 0.0);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
   const std::vector<NodeTruth> nodes = NodesOf(outcome->run);
   ASSERT_GT(nodes.size(), 500u);
 
@@ -93,7 +94,7 @@ TEST(PhysicsTest, SlipTurnsTheWheelsButNotTheRobot) {
   params.reboot_probability = 0.0;
   RobotSimulator robot(world, params, "robot", "fw", 8);
   const auto outcome = robot.SimulateRun("run", 0.0);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
   ASSERT_GT(outcome->stuck_episodes(), 0);
   const std::vector<NodeTruth> nodes = NodesOf(outcome->run);
   int stuck_nodes = 0, moving_nodes = 0;
@@ -127,7 +128,7 @@ TEST(PhysicsTest, WrongMatchesAreFlippedSymmetricObjectsOrLookAlikes) {
   params.observation_sigma_theta = 0.01;
   RobotSimulator robot(world, params, "robot", "fw", 4);
   const auto outcome = robot.SimulateRun("run", 0.0);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
 
   // The true relative pose of each observation, from the ground truth at the view's node and now.
   std::unordered_map<std::int64_t, SE2> view_truth;

@@ -15,6 +15,7 @@
 #include "sim/sensor.h"
 #include "slamcore/protrusion_data.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace sim {
 namespace {
@@ -105,7 +106,7 @@ TEST(StuckTest, PushingAWallStartsAnEpisodeWhoseOdometryRunsOnThroughTheWall) {
   params.wall_wedge_probability = 1.0;
   RobotSimulator robot(world, params, "robot", "fw", 3);
   const auto outcome = robot.SimulateRun("run", 0.0);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
   EXPECT_GE(outcome->stuck_at_wall, 1);
   EXPECT_EQ(outcome->stuck_under_furniture + outcome->stuck_on_rug, 0);
   const std::vector<Node> episode = FirstEpisode(NodesOf(outcome->run));
@@ -139,7 +140,7 @@ TEST(StuckTest, HeadingDriftsWhileStuck) {
   params.odometry_heading_noise_per_metre = params.odometry_heading_noise_per_radian = 0.0;
   RobotSimulator robot(world, params, "robot", "fw", 5);
   const auto outcome = robot.SimulateRun("run", 0.0);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
   const std::vector<Node> episode = FirstEpisode(NodesOf(outcome->run));
   ASSERT_GE(episode.size(), 4u);
   // A constant claimed turn rate per metre: every full node (0.3 m) claims the same turn, not zero.
@@ -159,7 +160,7 @@ TEST(StuckTest, UnderFurnitureTheCameraIsBlindOnARugBorderItSees) {
     SimParams params = Scripted();
     RobotSimulator robot(world, params, "robot", "fw", 7);
     const auto outcome = robot.SimulateRun("run", 0.0);
-    ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+    ASSERT_THAT(outcome, IsOk());
     EXPECT_GE(under_furniture ? outcome->stuck_under_furniture : outcome->stuck_on_rug, 1);
     EXPECT_EQ(outcome->stuck_at_wall, 0);
     const std::vector<Node> nodes = NodesOf(outcome->run);
@@ -190,7 +191,7 @@ TEST(StuckTest, PatchesAtStuckNodesAreTheTruePlaceScanAtTheFalsePoses) {
   params.lidar_patch_every_nodes = 1;
   RobotSimulator robot(world, params, "robot", "fw", 3);
   const auto outcome = robot.SimulateRun("run", 0.0);
-  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  ASSERT_THAT(outcome, IsOk());
   const std::vector<Node> episode = FirstEpisode(NodesOf(outcome->run));
   ASSERT_GE(episode.size(), 6u);
   // What the lidar sees at the true place, cell for cell, in the robot's frame.
@@ -227,23 +228,23 @@ TEST(StuckTest, StuckNodesWithoutAPatchLabelNothingAndFailNothing) {
   slamcore::Map parent, child;
   for (slamcore::NodeId id = 0; id < 3; ++id) {
     const SE2 pose(1.0 + id, 1.5, 0.0);
-    ASSERT_TRUE(child.graph.AddNode({.id = id, .pose = pose}).ok());
+    ASSERT_THAT(child.graph.AddNode({.id = id, .pose = pose}), IsOk());
     if (id > 0) {
-      ASSERT_TRUE(child.graph.AddEdge(slamcore::Edge{.from = id - 1, .to = id, .measurement = SE2(1, 0, 0)}).ok());
+      ASSERT_THAT(child.graph.AddEdge(slamcore::Edge{.from = id - 1, .to = id, .measurement = SE2(1, 0, 0)}), IsOk());
     }
     if (id == 0) {
-      ASSERT_TRUE(parent.graph.AddNode({.id = id, .pose = pose}).ok());
+      ASSERT_THAT(parent.graph.AddNode({.id = id, .pose = pose}), IsOk());
       parent.local_maps.emplace(id, ScanAt(world.grid, pose, lidar, 0.17, 0.0));
       // The child holds the parent's patch drawn 1 m further: a region the parent did not know.
       child.local_maps.emplace(id, ScanAt(world.grid, SE2(2.0, 1.5, 0.0), lidar, 0.17, 0.0));
     }
   }
   const auto grids = analyzer::RenderComparedGrids(parent, child);
-  ASSERT_TRUE(grids.ok()) << grids.status().ToString();
+  ASSERT_THAT(grids, IsOk());
   const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
-  ASSERT_TRUE(regions.ok()) << regions.status().ToString();
+  ASSERT_THAT(regions, IsOk());
   const auto truth = analyzer::SlipTruthOf(child, {1, 2}, *grids, *regions);  // stuck nodes 1, 2: no patch
-  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+  ASSERT_THAT(truth, IsOk());
   for (const bool protrusion : truth->region_is_protrusion) EXPECT_FALSE(protrusion);
   for (const std::uint8_t covered : truth->covered) EXPECT_EQ(covered, 0);
 }
@@ -279,7 +280,7 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   // A small, cluttered fleet that gets stuck often: its maps have protrusions, the truth the simulator
   // counts is the truth fleetd's analysis reports, and the export reads back as a data set.
   const auto worlds = ListWorlds(test_data::Sample() / "floorplans");
-  ASSERT_TRUE(worlds.ok());
+  ASSERT_THAT(worlds, IsOk());
   const std::filesystem::path out = std::filesystem::path(::testing::TempDir()) / "stuck_fleet";
   std::filesystem::remove_all(out);
   FleetOptions options;
@@ -294,7 +295,7 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   options.params.home_clutter = HomeClutter::kHigh;
   options.params.stuck_rate_scale = 20.0;  // walls: one bump in 200; furniture and rugs: every contact
   const auto statistics = SimulateFleet(options);
-  ASSERT_TRUE(statistics.ok()) << statistics.status().ToString();
+  ASSERT_THAT(statistics, IsOk());
   EXPECT_GT(statistics->stuck_at_wall + statistics->stuck_under_furniture + statistics->stuck_on_rug, 10);
   EXPECT_GT(statistics->stuck_under_furniture, 0);
   EXPECT_GT(statistics->stuck_on_rug, 0);
@@ -307,7 +308,7 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
     std::ifstream input(entry.path(), std::ios::binary);
     if (!entry.is_regular_file() || !run.ParseFromIstream(&input)) continue;
     const auto report = analyzer::AnalyzeRun(run, {});
-    ASSERT_TRUE(report.ok()) << report.status().ToString();
+    ASSERT_THAT(report, IsOk());
     for (const auto& region : report->protrusion_regions()) {
       ++analyzer_regions;
       if (region.truth_protrusion()) ++analyzer_protrusions;
@@ -317,14 +318,14 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   EXPECT_EQ(analyzer_regions, statistics->truth_protrusion_regions + statistics->truth_new_space_regions);
 
   const auto index = slamcore::ReadDatasetIndex(options.protrusion_data.string());
-  ASSERT_TRUE(index.ok()) << index.status().ToString();
+  ASSERT_THAT(index, IsOk());
   EXPECT_EQ(static_cast<int>(index->size()), statistics->pairs_written);
   int labelled_protrusions = 0;
   for (const slamcore::DatasetEntry& entry : *index) {
     const auto pair = slamcore::ReadDatasetPair(options.protrusion_data.string(), entry);
-    ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+    ASSERT_THAT(pair, IsOk());
     const auto labelled = slamcore::ExtractAndLabel(*pair);
-    ASSERT_TRUE(labelled.ok()) << labelled.status().ToString();
+    ASSERT_THAT(labelled, IsOk());
     for (const int label : labelled->labels) labelled_protrusions += label;
   }
   EXPECT_EQ(labelled_protrusions, statistics->truth_protrusion_regions)

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace sim {
 namespace {
@@ -15,7 +16,7 @@ const std::filesystem::path kData = test_data::Sample();
 TEST(WorldTest, FloorPlanBecomesAHomeAtApartmentScale) {
   // The first 20 plans of the widest set at hand (data/ carries 16, the larger set 240).
   const auto worlds = ListWorlds(test_data::WidestDir("floorplans"));
-  ASSERT_TRUE(worlds.ok()) << worlds.status().ToString();
+  ASSERT_THAT(worlds, IsOk());
   ASSERT_GE(worlds->size(), 16u);
   const std::size_t tried = std::min<std::size_t>(20, worlds->size());
   int loaded = 0;
@@ -37,7 +38,8 @@ TEST(WorldTest, FloorPlanBecomesAHomeAtApartmentScale) {
 TEST(WorldTest, SameSeedGivesTheSameHome) {
   const auto path = *ListWorlds(kData / "floorplans")->begin();
   const auto a = LoadWorld(path, 3), b = LoadWorld(path, 3);
-  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_THAT(a, IsOk());
+  ASSERT_THAT(b, IsOk());
   ASSERT_EQ(a->landmarks.size(), b->landmarks.size());
   for (std::size_t k = 0; k < a->landmarks.size(); ++k) {
     EXPECT_EQ(a->landmarks[k].pose.vector(), b->landmarks[k].pose.vector());
@@ -48,7 +50,7 @@ TEST(WorldTest, SameSeedGivesTheSameHome) {
 TEST(WorldTest, HomesHaveSymmetricFurnitureAndLookAlikes) {
   const auto path = *ListWorlds(kData / "floorplans")->begin();
   const auto world = LoadWorld(path, 1);
-  ASSERT_TRUE(world.ok());
+  ASSERT_THAT(world, IsOk());
   int symmetric = 0;
   std::map<int, int> appearance_count;
   for (const Landmark& landmark : world->landmarks) {
@@ -62,7 +64,7 @@ TEST(WorldTest, HomesHaveSymmetricFurnitureAndLookAlikes) {
 
 TEST(WorldTest, RobotVacuumMapBecomesAHome) {
   const auto world = LoadWorld(kData / "maps/valetudo_dreame_d9_1058_with_segments.yaml", 1);
-  ASSERT_TRUE(world.ok()) << world.status().ToString();
+  ASSERT_THAT(world, IsOk());
   EXPECT_GE(world->rooms.size(), 2u);
   EXPECT_GE(world->landmarks.size(), 4u);
   EXPECT_TRUE(world->grid.DiscIsFree(world->dock.translation(), 0.17));

@@ -65,31 +65,29 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
 }
 
 Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams& params) {
-  const auto run = RunFromPoseGraph(graph);
-  if (!run.ok()) return run.status();
+  ASSIGN_OR_RETURN(const auto run, RunFromPoseGraph(graph));
   const auto start = std::chrono::steady_clock::now();
-  auto mapper = Mapper::Create(params);
-  if (!mapper.ok()) return mapper.status();
+  ASSIGN_OR_RETURN(auto mapper, Mapper::Create(params));
 
   // Observation events and the file edges they came from, keyed by (robot node, view) as the Mapper
   // reports accepted edges (views carry the file's vertex ids, nodes the Mapper's own).
   std::multimap<std::pair<NodeId, ViewId>, std::size_t> source_of;
   std::size_t observation = 0;
   NodeId robot = -1;
-  for (const Event& event : run->events) {
-    if (const Status status = (*mapper)->Process(event); !status.ok()) return status;
-    if (std::holds_alternative<OdometryEvent>(event)) robot = *(*mapper)->CurrentNode();
+  for (const Event& event : run.events) {
+    RETURN_IF_ERROR((mapper)->Process(event));
+    if (std::holds_alternative<OdometryEvent>(event)) robot = *(mapper)->CurrentNode();
     if (const auto* observed = std::get_if<ViewObservedEvent>(&event)) {
       source_of.emplace(std::pair{robot, observed->view}, observation++);
     }
   }
   // The run's end may still change what is accepted (the consistent-set check), so read after Finish.
   ReplayResult result;
-  result.graph = (*mapper)->Finish().graph;
+  result.graph = (mapper)->Finish().graph;
   result.mapper_chi2 = Chi2(result.graph);
-  result.statistics = (*mapper)->Statistics();
-  const std::vector<AcceptedObservation> accepted_edges = (*mapper)->accepted_observations();
-  std::vector<bool> accepted(run->observation_sources.size(), false);
+  result.statistics = (mapper)->Statistics();
+  const std::vector<AcceptedObservation> accepted_edges = (mapper)->accepted_observations();
+  std::vector<bool> accepted(run.observation_sources.size(), false);
   for (const AcceptedObservation& edge : accepted_edges) {
     const auto [begin, end] = source_of.equal_range({edge.robot_node, edge.view});
     for (auto it = begin; it != end; ++it) {
@@ -103,12 +101,11 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   OptimizerOptions final_options = params.optimizer;
   final_options.max_iterations = 100;
   final_options.relative_cost_decrease = 1e-10;  // a full solve: its χ² is the reference the back-ends meet
-  const auto summary = Optimize(result.graph, final_options);
-  if (!summary.ok()) return summary.status();
-  result.final_chi2 = summary->final_chi2;
+  ASSIGN_OR_RETURN(const auto summary, Optimize(result.graph, final_options));
+  result.final_chi2 = summary.final_chi2;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (std::size_t k = 0; k < accepted.size(); ++k) {
-    (accepted[k] ? result.accepted : result.rejected).push_back(run->observation_sources[k]);
+    (accepted[k] ? result.accepted : result.rejected).push_back(run.observation_sources[k]);
   }
   return result;
 }

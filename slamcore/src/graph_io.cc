@@ -65,7 +65,7 @@ class LineParser {
   }
 
   Status Numbers(std::size_t first, std::size_t count, double* out) const {
-    for (std::size_t k = 0; k < count; ++k) SLAMCORE_RETURN_IF_ERROR(Number(first + k, &out[k]));
+    for (std::size_t k = 0; k < count; ++k) RETURN_IF_ERROR(Number(first + k, &out[k]));
     return Status::Ok();
   }
 
@@ -148,11 +148,11 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
     format = line_format;
 
     if (tag == "VERTEX_SE2" || tag == "VERTEX2") {
-      SLAMCORE_RETURN_IF_ERROR(parser.ExpectCount(5));
+      RETURN_IF_ERROR(parser.ExpectCount(5));
       NodeId id;
       double pose[3];
-      SLAMCORE_RETURN_IF_ERROR(parser.Id(1, &id));
-      SLAMCORE_RETURN_IF_ERROR(parser.Numbers(2, 3, pose));
+      RETURN_IF_ERROR(parser.Id(1, &id));
+      RETURN_IF_ERROR(parser.Numbers(2, 3, pose));
       if (vertex_poses.contains(id)) {
         return InvalidArgument(location + ": vertex " + std::to_string(id) + " already declared at " +
                                vertex_locations[id]);
@@ -160,17 +160,17 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
       vertex_poses.emplace(id, SE2(pose[0], pose[1], pose[2]));
       vertex_locations.emplace(id, location);
     } else if (tag == "FIX") {
-      SLAMCORE_RETURN_IF_ERROR(parser.ExpectCount(2));
+      RETURN_IF_ERROR(parser.ExpectCount(2));
       NodeId id;
-      SLAMCORE_RETURN_IF_ERROR(parser.Id(1, &id));
+      RETURN_IF_ERROR(parser.Id(1, &id));
       fixes.emplace_back(id, location);
     } else {  // EDGE_SE2 or EDGE2
-      SLAMCORE_RETURN_IF_ERROR(parser.ExpectCount(12));
+      RETURN_IF_ERROR(parser.ExpectCount(12));
       Edge edge;
       double values[9];
-      SLAMCORE_RETURN_IF_ERROR(parser.Id(1, &edge.from));
-      SLAMCORE_RETURN_IF_ERROR(parser.Id(2, &edge.to));
-      SLAMCORE_RETURN_IF_ERROR(parser.Numbers(3, 9, values));
+      RETURN_IF_ERROR(parser.Id(1, &edge.from));
+      RETURN_IF_ERROR(parser.Id(2, &edge.to));
+      RETURN_IF_ERROR(parser.Numbers(3, 9, values));
       if (edge.from == edge.to) return InvalidArgument(location + ": edge joins vertex " + std::to_string(edge.from) + " to itself");
       edge.measurement = SE2(values[0], values[1], values[2]);
       Matrix3& info = edge.information;
@@ -206,7 +206,7 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
     Node node;
     node.id = id;
     node.pose = pose;
-    SLAMCORE_RETURN_IF_ERROR(graph.AddNode(node));
+    RETURN_IF_ERROR(graph.AddNode(node));
   }
   for (const auto& [id, location] : fixes) {
     if (!graph.HasNode(id)) return NotFound(location + ": FIX of vertex " + std::to_string(id) + ", which is not declared");

@@ -45,7 +45,7 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (const auto& [node, patch] : map.local_maps) {
     if (!map.graph.HasNode(node)) continue;  // a patch of a removed node is not part of the map
-    SLAMCORE_RETURN_IF_ERROR(ValidatePatch(node, patch));
+    RETURN_IF_ERROR(ValidatePatch(node, patch));
     for (const Vector2& corner : PatchCorners(map.graph.node(node).pose, patch)) {
       if (!corner.allFinite()) return InvalidArgument("node " + std::to_string(node) + ": pose is not finite");
       min_x = std::min(min_x, corner.x());
@@ -64,10 +64,10 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
     return InvalidArgument("renderer: the map spans an absurd area (" + std::to_string(width) + " x " +
                            std::to_string(height) + " cells)");
   }
-  auto grid = OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height), resolution_, origin_x,
-                                    origin_y);
-  if (!grid.ok()) return grid.status();
-  grid_ = std::move(*grid);
+  ASSIGN_OR_RETURN(auto grid,
+                   OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height), resolution_, origin_x,
+                                    origin_y));
+  grid_ = std::move(grid);
   free_votes_.assign(grid_.cells.size(), 0);
   occupied_votes_.assign(grid_.cells.size(), 0);
   contributions_.clear();
@@ -108,7 +108,7 @@ Status GlobalGridRenderer::Update(const Map& map, int* nodes_rerendered) {
         existing->second.patch_width == patch.width && existing->second.patch_height == patch.height) {
       continue;
     }
-    SLAMCORE_RETURN_IF_ERROR(ValidatePatch(node, patch));
+    RETURN_IF_ERROR(ValidatePatch(node, patch));
     Contribution contribution;
     if (!Vote(pose, patch, &contribution)) return RenderAll(map);  // left the bounds: grow them
     if (existing != contributions_.end()) retire(existing->second);

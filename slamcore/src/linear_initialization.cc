@@ -116,10 +116,9 @@ Status InitializeLinear(PoseGraph& graph, std::optional<ComponentId> component) 
       triplets.emplace_back(vj, vi, -weight);
     }
   }
-  const auto headings = SolveNormalEquations(triplets, rhs);
-  if (!headings.ok()) return headings.status();
+  ASSIGN_OR_RETURN(const auto headings, SolveNormalEquations(triplets, rhs));
   std::vector<double> heading(n);
-  for (std::size_t i = 0; i < n; ++i) heading[i] = variable[i] >= 0 ? (*headings)[variable[i]] : tree_heading[i];
+  for (std::size_t i = 0; i < n; ++i) heading[i] = variable[i] >= 0 ? (headings)[variable[i]] : tree_heading[i];
 
   // 3. Positions with headings fixed: e = M (t_j − t_i) − c, M = (R_i R_z)ᵀ, c = R_zᵀ t_z, weight Ω_tt.
   triplets.clear();
@@ -148,12 +147,11 @@ Status InitializeLinear(PoseGraph& graph, std::optional<ComponentId> component) 
       if (vi >= 0) position_rhs[2 * vi + r] -= g[r];
     }
   }
-  const auto positions = SolveNormalEquations(triplets, position_rhs);
-  if (!positions.ok()) return positions.status();
+  ASSIGN_OR_RETURN(const auto positions, SolveNormalEquations(triplets, position_rhs));
   for (std::size_t i = 0; i < n; ++i) {
     if (variable[i] < 0) continue;
     const long v = variable[i];
-    graph.mutable_nodes()[i].pose = SE2((*positions)[2 * v], (*positions)[2 * v + 1], heading[i]);
+    graph.mutable_nodes()[i].pose = SE2((positions)[2 * v], (positions)[2 * v + 1], heading[i]);
   }
   return Status::Ok();
 }

@@ -139,8 +139,7 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
       edge.measurement = measurement;
       edge.information = first_loop_closure->information;
       edge.kind = EdgeKind::kObservation;
-      const auto added = corrupted.graph.AddEdge(edge);
-      if (!added.ok()) return added.status();
+      RETURN_IF_ERROR(corrupted.graph.AddEdge(edge).status());
       corrupted.outliers.emplace_back(edge.from, edge.to);
     }
   }

@@ -45,7 +45,7 @@ std::int64_t CellKey(double x, double y, double cell) {
 }  // namespace
 
 Result<ManhattanWorld> GenerateManhattanWorld(const ManhattanOptions& options) {
-  SLAMCORE_RETURN_IF_ERROR(Validate(options));
+  RETURN_IF_ERROR(Validate(options));
   std::mt19937_64 random(options.seed);
   std::normal_distribution<double> unit_normal(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);

@@ -46,7 +46,7 @@ Mapper::Impl::Impl(const MapperParams& params, Map parent)
 }
 
 Status Mapper::Impl::Process(const Event& event) {
-  SLAMCORE_RETURN_IF_ERROR(std::visit([this](const auto& e) { return Validate(e); }, event));
+  RETURN_IF_ERROR(std::visit([this](const auto& e) { return Validate(e); }, event));
   // From here on nothing can fail on data.
   std::visit(
       [this](const auto& e) {
@@ -210,7 +210,7 @@ bool Mapper::Impl::SameComponentInView(NodeId a, NodeId b) const {
 // ---- Mapper --------------------------------------------------------------------------------------------
 
 Result<std::unique_ptr<Mapper>> Mapper::Create(const MapperParams& params, Map parent) {
-  SLAMCORE_RETURN_IF_ERROR(params.Validate());
+  RETURN_IF_ERROR(params.Validate());
   for (const auto& [node, local_map] : parent.local_maps) {
     if (!parent.graph.HasNode(node)) {
       return InvalidArgument("parent map: local map at node " + std::to_string(node) + ", which does not exist");

@@ -31,8 +31,8 @@ Status CheckPositiveCount(const char* field, int value, int max = MapperParamsLi
 /// distinct views than observations (each view needs at least one observation of its own).
 Status CheckCriteria(const std::string& name, const AcceptanceCriteria& criteria) {
   const std::string observations = name + ".min_observations", views = name + ".min_views";
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount(observations.c_str(), criteria.min_observations));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount(views.c_str(), criteria.min_views));
+  RETURN_IF_ERROR(CheckPositiveCount(observations.c_str(), criteria.min_observations));
+  RETURN_IF_ERROR(CheckPositiveCount(views.c_str(), criteria.min_views));
   if (criteria.min_views > criteria.min_observations) {
     return InvalidArgument(Describe(views.c_str(), criteria.min_views,
                                     ("must not exceed " + observations + " = " +
@@ -54,35 +54,35 @@ Status CheckRange(const char* field, T value, T low, T high) {
 /// The bounds keep every check's cost bounded too: caps on open hypotheses, judged hypotheses and
 /// continuation edges are what the per-observation work is proportional to.
 Status ValidateConsistency(const ConsistencyParams& c) {
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.pass_gap_seconds", c.pass_gap_seconds, 1e-3, 3600.0));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.pass_gap_distance", c.pass_gap_distance, 1e-3, 1000.0));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.map_gate_chi2", c.map_gate_chi2, 1e-3, 1e6));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_redundancy_for_scaling", c.min_redundancy_for_scaling, 0, 1 << 30));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_variance_factor", c.min_variance_factor, 1e-6, 1.0));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.aliasing_offset", c.aliasing_offset, 1e-3, 1000.0));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_passes_uninformative", c.min_passes_uninformative, 1, 100));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.min_passes_against_map", c.min_passes_against_map, 1, 100));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.retraction_confidence", c.retraction_confidence, 0.5, 0.999999));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_open_hypotheses", c.max_open_hypotheses, 1, 10000));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_continuation_edges", c.max_continuation_edges, 0, 1000));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_judged_per_check", c.max_judged_per_check, 1, 100));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_retractions_per_check", c.max_retractions_per_check, 0, 100));
-  SLAMCORE_RETURN_IF_ERROR(
+  RETURN_IF_ERROR(CheckRange("consistency.pass_gap_seconds", c.pass_gap_seconds, 1e-3, 3600.0));
+  RETURN_IF_ERROR(CheckRange("consistency.pass_gap_distance", c.pass_gap_distance, 1e-3, 1000.0));
+  RETURN_IF_ERROR(CheckRange("consistency.map_gate_chi2", c.map_gate_chi2, 1e-3, 1e6));
+  RETURN_IF_ERROR(CheckRange("consistency.min_redundancy_for_scaling", c.min_redundancy_for_scaling, 0, 1 << 30));
+  RETURN_IF_ERROR(CheckRange("consistency.min_variance_factor", c.min_variance_factor, 1e-6, 1.0));
+  RETURN_IF_ERROR(CheckRange("consistency.aliasing_offset", c.aliasing_offset, 1e-3, 1000.0));
+  RETURN_IF_ERROR(CheckRange("consistency.min_passes_uninformative", c.min_passes_uninformative, 1, 100));
+  RETURN_IF_ERROR(CheckRange("consistency.min_passes_against_map", c.min_passes_against_map, 1, 100));
+  RETURN_IF_ERROR(CheckRange("consistency.retraction_confidence", c.retraction_confidence, 0.5, 0.999999));
+  RETURN_IF_ERROR(CheckRange("consistency.max_open_hypotheses", c.max_open_hypotheses, 1, 10000));
+  RETURN_IF_ERROR(CheckRange("consistency.max_continuation_edges", c.max_continuation_edges, 0, 1000));
+  RETURN_IF_ERROR(CheckRange("consistency.max_judged_per_check", c.max_judged_per_check, 1, 100));
+  RETURN_IF_ERROR(CheckRange("consistency.max_retractions_per_check", c.max_retractions_per_check, 0, 100));
+  RETURN_IF_ERROR(
       CheckRange("consistency.consistent_set_confidence", c.consistent_set_confidence, 0.5, 0.999999));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.consistent_set_growth", c.consistent_set_growth, 1.01, 100.0));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.max_kept_refused", c.max_kept_refused, 0, 10000));
-  SLAMCORE_RETURN_IF_ERROR(CheckRange("consistency.gnc_max_iterations", c.gnc_max_iterations, 1, 1000));
+  RETURN_IF_ERROR(CheckRange("consistency.consistent_set_growth", c.consistent_set_growth, 1.01, 100.0));
+  RETURN_IF_ERROR(CheckRange("consistency.max_kept_refused", c.max_kept_refused, 0, 10000));
+  RETURN_IF_ERROR(CheckRange("consistency.gnc_max_iterations", c.gnc_max_iterations, 1, 1000));
   return Status::Ok();
 }
 
 }  // namespace
 
 Status MapperParams::Validate() const {
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("gate_chi2", gate_chi2, MapperParamsLimits::kMaxChi2));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma, MapperParamsLimits::kMaxMeters));
-  SLAMCORE_RETURN_IF_ERROR(CheckCriteria("recovery", recovery));
-  SLAMCORE_RETURN_IF_ERROR(CheckCriteria("merge_conditional", merge_conditional));
-  SLAMCORE_RETURN_IF_ERROR(CheckCriteria("merge_full", merge_full));
+  RETURN_IF_ERROR(CheckPositiveFinite("gate_chi2", gate_chi2, MapperParamsLimits::kMaxChi2));
+  RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma, MapperParamsLimits::kMaxMeters));
+  RETURN_IF_ERROR(CheckCriteria("recovery", recovery));
+  RETURN_IF_ERROR(CheckCriteria("merge_conditional", merge_conditional));
+  RETURN_IF_ERROR(CheckCriteria("merge_full", merge_full));
   // IV-B: the full merge cannot be undone, so it must ask for at least as much evidence as the
   // conditional one; otherwise the "permissive" set would be the strict one.
   if (merge_full.min_observations < merge_conditional.min_observations) {
@@ -97,16 +97,16 @@ Status MapperParams::Validate() const {
                                      std::to_string(merge_conditional.min_views))
                                         .c_str()));
   }
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("local_window_nodes", local_window_nodes, MapperParamsLimits::kMaxWindowNodes));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("full_optimization_every", full_optimization_every, MapperParamsLimits::kMaxOptimizationEvery));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_seconds", hypothesis_expiry_seconds, MapperParamsLimits::kMaxSeconds));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance, MapperParamsLimits::kMaxMeters));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance, MapperParamsLimits::kMaxMeters));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("ambiguity_min_rejections", ambiguity_min_rejections));
-  SLAMCORE_RETURN_IF_ERROR(ValidateConsistency(consistency));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("optimizer.max_iterations", optimizer.max_iterations,
+  RETURN_IF_ERROR(CheckPositiveCount("local_window_nodes", local_window_nodes, MapperParamsLimits::kMaxWindowNodes));
+  RETURN_IF_ERROR(CheckPositiveCount("full_optimization_every", full_optimization_every, MapperParamsLimits::kMaxOptimizationEvery));
+  RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_seconds", hypothesis_expiry_seconds, MapperParamsLimits::kMaxSeconds));
+  RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance, MapperParamsLimits::kMaxMeters));
+  RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance, MapperParamsLimits::kMaxMeters));
+  RETURN_IF_ERROR(CheckPositiveCount("ambiguity_min_rejections", ambiguity_min_rejections));
+  RETURN_IF_ERROR(ValidateConsistency(consistency));
+  RETURN_IF_ERROR(CheckPositiveCount("optimizer.max_iterations", optimizer.max_iterations,
                                               MapperParamsLimits::kMaxIterations));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveCount("optimizer.num_threads", optimizer.num_threads,
+  RETURN_IF_ERROR(CheckPositiveCount("optimizer.num_threads", optimizer.num_threads,
                                               MapperParamsLimits::kMaxThreads));
   if (const Status status = slamcore::Validate(optimizer); !status.ok()) {
     return InvalidArgument("MapperParams.optimizer: " + status.message());

@@ -53,10 +53,10 @@ Status Mapper::Impl::CheckHasNode(const char* name, double time) const {
 
 Status Mapper::Impl::Validate(const OdometryEvent& event) const {
   constexpr const char* kName = "OdometryEvent";
-  SLAMCORE_RETURN_IF_ERROR(CheckTime(kName, event.time));
+  RETURN_IF_ERROR(CheckTime(kName, event.time));
   const std::string prefix = Prefix(kName, event.time);
   if (!IsFinite(event.increment)) return InvalidArgument(prefix + "increment has a NaN or infinite entry");
-  SLAMCORE_RETURN_IF_ERROR(CheckCovariance(prefix, event.covariance));
+  RETURN_IF_ERROR(CheckCovariance(prefix, event.covariance));
   if (current_node_ && !start_new_component_) {
     const SE2 pose = map_.graph.node(*current_node_).pose * event.increment;
     if (!IsFinite(pose) || !std::isfinite(odometer_ + event.increment.translation().norm())) {
@@ -68,8 +68,8 @@ Status Mapper::Impl::Validate(const OdometryEvent& event) const {
 
 Status Mapper::Impl::Validate(const ViewCreatedEvent& event) const {
   constexpr const char* kName = "ViewCreatedEvent";
-  SLAMCORE_RETURN_IF_ERROR(CheckTime(kName, event.time));
-  SLAMCORE_RETURN_IF_ERROR(CheckHasNode(kName, event.time));
+  RETURN_IF_ERROR(CheckTime(kName, event.time));
+  RETURN_IF_ERROR(CheckHasNode(kName, event.time));
   if (map_.graph.HasView(event.view)) {
     return InvalidArgument(Prefix(kName, event.time) + "view " + std::to_string(event.view) + " already exists");
   }
@@ -78,8 +78,8 @@ Status Mapper::Impl::Validate(const ViewCreatedEvent& event) const {
 
 Status Mapper::Impl::Validate(const ViewObservedEvent& event) const {
   constexpr const char* kName = "ViewObservedEvent";
-  SLAMCORE_RETURN_IF_ERROR(CheckTime(kName, event.time));
-  SLAMCORE_RETURN_IF_ERROR(CheckHasNode(kName, event.time));
+  RETURN_IF_ERROR(CheckTime(kName, event.time));
+  RETURN_IF_ERROR(CheckHasNode(kName, event.time));
   const std::string prefix = Prefix(kName, event.time);
   if (!map_.graph.HasView(event.view)) {
     return NotFound(prefix + "view " + std::to_string(event.view) + " does not exist");
@@ -90,8 +90,8 @@ Status Mapper::Impl::Validate(const ViewObservedEvent& event) const {
 
 Status Mapper::Impl::Validate(const LocalMapEvent& event) const {
   constexpr const char* kName = "LocalMapEvent";
-  SLAMCORE_RETURN_IF_ERROR(CheckTime(kName, event.time));
-  SLAMCORE_RETURN_IF_ERROR(CheckHasNode(kName, event.time));
+  RETURN_IF_ERROR(CheckTime(kName, event.time));
+  RETURN_IF_ERROR(CheckHasNode(kName, event.time));
   const std::string prefix = Prefix(kName, event.time);
   if (!std::isfinite(event.resolution) || event.resolution <= 0.0) {
     return InvalidArgument(prefix + "resolution must be positive and finite");
@@ -114,7 +114,7 @@ Status Mapper::Impl::Validate(const LocalMapEvent& event) const {
 
 Status Mapper::Impl::Validate(const KidnapEvent& event) const {
   constexpr const char* kName = "KidnapEvent";
-  SLAMCORE_RETURN_IF_ERROR(CheckTime(kName, event.time));
+  RETURN_IF_ERROR(CheckTime(kName, event.time));
   if (event.cause != KidnapEvent::Cause::kKidnap && event.cause != KidnapEvent::Cause::kReboot) {
     return InvalidArgument(Prefix(kName, event.time) + "unknown cause " +
                            std::to_string(static_cast<int>(event.cause)));
@@ -124,7 +124,7 @@ Status Mapper::Impl::Validate(const KidnapEvent& event) const {
 
 Status Mapper::Impl::Validate(const GroundTruthEvent& event) const {
   constexpr const char* kName = "GroundTruthEvent";
-  SLAMCORE_RETURN_IF_ERROR(CheckTime(kName, event.time));
+  RETURN_IF_ERROR(CheckTime(kName, event.time));
   if (!IsFinite(event.world_T_robot)) {
     return InvalidArgument(Prefix(kName, event.time) + "world_T_robot has a NaN or infinite entry");
   }

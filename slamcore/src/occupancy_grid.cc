@@ -83,7 +83,7 @@ bool ParseInt(const std::string& text, std::int64_t* value) {
 
 Result<OccupancyGrid> OccupancyGrid::Create(int width, int height, double resolution, double origin_x,
                                             double origin_y) {
-  SLAMCORE_RETURN_IF_ERROR(CheckSize(width, height, "OccupancyGrid::Create"));
+  RETURN_IF_ERROR(CheckSize(width, height, "OccupancyGrid::Create"));
   if (!(resolution > 0.0) || !std::isfinite(resolution) || resolution > 100.0) {
     return InvalidArgument("OccupancyGrid::Create: resolution must be in (0, 100] m, got " +
                            std::to_string(resolution));
@@ -131,7 +131,7 @@ Status CheckThresholds(double occupied_thresh, double free_thresh, double resolu
 
 Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, double origin_x, double origin_y,
                                 double occupied_thresh, double free_thresh, bool negate) {
-  SLAMCORE_RETURN_IF_ERROR(CheckThresholds(occupied_thresh, free_thresh, resolution));
+  RETURN_IF_ERROR(CheckThresholds(occupied_thresh, free_thresh, resolution));
   std::size_t pos = 0;
   std::string magic, token;
   if (!NextPgmToken(bytes, &pos, &magic) || (magic != "P5" && magic != "P2")) {
@@ -144,7 +144,7 @@ Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, dou
       return DataLoss(std::string("PGM: header field ") + names[i] + " missing or not a number");
     }
   }
-  SLAMCORE_RETURN_IF_ERROR(CheckSize(values[0], values[1], "PGM"));
+  RETURN_IF_ERROR(CheckSize(values[0], values[1], "PGM"));
   if (values[2] <= 0 || values[2] > 255) {
     return DataLoss("PGM: maxval " + std::to_string(values[2]) + " unsupported (8-bit maps only, 1..255)");
   }
@@ -157,7 +157,7 @@ Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, dou
   }
   auto grid = OccupancyGrid::Create(static_cast<int>(values[0]), static_cast<int>(values[1]), resolution, origin_x,
                                     origin_y);
-  if (!grid.ok()) return grid.status();
+  RETURN_IF_ERROR(grid.status());
   const double scale = 255.0 / static_cast<double>(values[2]);
   auto store = [&](std::int64_t index, int pixel) {
     const int col = static_cast<int>(index % values[0]);
@@ -223,14 +223,12 @@ Status WriteFileBytes(const std::string& path, const std::string& bytes) {
 }
 
 Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path) {
-  auto text = ReadFileBytes(yaml_path);
-  if (!text.ok()) return text.status();
-  return ParseMapServerYaml(*text, yaml_path, [&](const std::string& name) -> Result<std::string> {
+  ASSIGN_OR_RETURN(auto text, ReadFileBytes(yaml_path));
+  return ParseMapServerYaml(text, yaml_path, [&](const std::string& name) -> Result<std::string> {
     std::filesystem::path image = name;
     if (image.is_relative()) image = std::filesystem::path(yaml_path).parent_path() / image;
-    auto bytes = ReadFileBytes(image.string());
-    if (!bytes.ok()) return bytes.status();
-    return std::move(bytes).value();
+    ASSIGN_OR_RETURN(auto bytes, ReadFileBytes(image.string()));
+    return bytes;
   });
 }
 
@@ -287,7 +285,7 @@ Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std
   const std::string image = Unquote(keys["image"]);
   if (image.empty()) return fail("image is empty");
   auto bytes = read_image(image);
-  if (!bytes.ok()) return bytes.status();
+  RETURN_IF_ERROR(bytes.status());
   const bool is_png = bytes->size() >= 8 && bytes->compare(0, 4, "\x89PNG") == 0;
   auto grid = is_png ? DecodePng(*bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
                                  free_thresh, negate != 0.0)
@@ -299,20 +297,19 @@ Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std
 }
 
 Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_path, bool png) {
-  SLAMCORE_RETURN_IF_ERROR(CheckSize(grid.width, grid.height, yaml_path));
+  RETURN_IF_ERROR(CheckSize(grid.width, grid.height, yaml_path));
   if (grid.cells.size() != static_cast<std::size_t>(grid.width) * grid.height) {
     return InvalidArgument(yaml_path + ": grid cells do not match width x height");
   }
   std::filesystem::path image = std::filesystem::path(yaml_path).replace_extension(png ? ".png" : ".pgm");
   std::string bytes;
   if (png) {
-    auto encoded = EncodePng(grid);
-    if (!encoded.ok()) return encoded.status();
-    bytes = std::move(*encoded);
+    ASSIGN_OR_RETURN(auto encoded, EncodePng(grid));
+    bytes = std::move(encoded);
   } else {
     bytes = EncodePgm(grid);
   }
-  SLAMCORE_RETURN_IF_ERROR(WriteFileBytes(image.string(), bytes));
+  RETURN_IF_ERROR(WriteFileBytes(image.string(), bytes));
   return WriteFileBytes(yaml_path, MapServerYaml(grid, image.filename().string()));
 }
 

@@ -21,7 +21,7 @@ std::uint32_t BigEndian32(const std::string& bytes, std::size_t at) {
 
 Result<OccupancyGrid> DecodePng(const std::string& bytes, double resolution, double origin_x, double origin_y,
                                 double occupied_thresh, double free_thresh, bool negate) {
-  SLAMCORE_RETURN_IF_ERROR(CheckThresholds(occupied_thresh, free_thresh, resolution));
+  RETURN_IF_ERROR(CheckThresholds(occupied_thresh, free_thresh, resolution));
   // Check the IHDR size before decoding so that an absurd header never reaches an allocation.
   if (bytes.size() < 33 || bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || bytes.compare(12, 4, "IHDR") != 0) {
     return DataLoss("PNG: not a PNG file (bad signature or IHDR)");

@@ -114,7 +114,7 @@ double Chi2(const PoseGraph& graph, std::optional<ComponentId> component) {
 }
 
 Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& options) {
-  SLAMCORE_RETURN_IF_ERROR(Validate(options));
+  RETURN_IF_ERROR(Validate(options));
   if (options.component && !graph.HasNode(*options.component)) {
     return NotFound("component " + std::to_string(*options.component) + " does not exist");
   }
@@ -154,7 +154,7 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
 
   OptimizerSummary summary;
   summary.initial_chi2 = included_chi2();
-  if (options.linear_initialization) SLAMCORE_RETURN_IF_ERROR(InitializeLinear(graph, component));
+  if (options.linear_initialization) RETURN_IF_ERROR(InitializeLinear(graph, component));
 
   // Parameter blocks: plain (x, y, θ) per node, θ kept wrapped by the residual, not by a manifold.
   std::vector<std::array<double, 3>> parameters(graph.num_nodes());

@@ -30,7 +30,7 @@ Status CheckPose(const SE2& pose, const std::string& what) {
 
 Status PoseGraph::AddNode(const Node& node) {
   if (index_of_.contains(node.id)) return InvalidArgument("node " + std::to_string(node.id) + " already exists");
-  SLAMCORE_RETURN_IF_ERROR(CheckPose(node.pose, "pose of node " + std::to_string(node.id)));
+  RETURN_IF_ERROR(CheckPose(node.pose, "pose of node " + std::to_string(node.id)));
   if (!std::isfinite(node.time) || !std::isfinite(node.odometer)) {
     return InvalidArgument("time or odometer of node " + std::to_string(node.id) + " is not finite");
   }
@@ -47,8 +47,8 @@ Result<std::size_t> PoseGraph::AddEdge(const Edge& edge) {
   if (!HasNode(edge.from)) return NotFound(name + ": node " + std::to_string(edge.from) + " does not exist");
   if (!HasNode(edge.to)) return NotFound(name + ": node " + std::to_string(edge.to) + " does not exist");
   if (edge.from == edge.to) return InvalidArgument(name + " joins a node to itself");
-  SLAMCORE_RETURN_IF_ERROR(CheckPose(edge.measurement, name + " measurement"));
-  SLAMCORE_RETURN_IF_ERROR(CheckPositiveDefinite(edge.information, (name + " information").c_str()));
+  RETURN_IF_ERROR(CheckPose(edge.measurement, name + " measurement"));
+  RETURN_IF_ERROR(CheckPositiveDefinite(edge.information, (name + " information").c_str()));
   if (edge.view && !HasView(*edge.view)) {
     return NotFound(name + ": view " + std::to_string(*edge.view) + " does not exist");
   }

@@ -305,12 +305,10 @@ Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& d
   for (int fold = 0; fold < folds; ++fold) {
     std::vector<LabelledRegion> train, test;
     for (const LabelledRegion& region : data) (fold_of[region.group] == fold ? test : train).push_back(region);
-    auto classifier = ProtrusionClassifier::Train(train, options);
-    if (!classifier.ok()) return classifier.status();
+    ASSIGN_OR_RETURN(auto classifier, ProtrusionClassifier::Train(train, options));
     for (const LabelledRegion& region : test) {
-      auto probability = (*classifier)->Probability(region.features);
-      if (!probability.ok()) return probability.status();
-      result.confusion.Add(region.label == 1, (*classifier)->IsProtrusion(*probability));
+      ASSIGN_OR_RETURN(auto probability, (classifier)->Probability(region.features));
+      result.confusion.Add(region.label == 1, (classifier)->IsProtrusion(probability));
     }
   }
   return result;

@@ -623,15 +623,15 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
   }
   // Pad by the farthest reach so that a slip out of the map's edge stays inside the child's image.
   const int pad = static_cast<int>(std::ceil((longest_reach + 1.0) / real_map.resolution));
-  auto base = OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad, real_map.resolution,
+  ASSIGN_OR_RETURN(auto base,
+                   OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad, real_map.resolution,
                                     real_map.origin_x - pad * real_map.resolution,
-                                    real_map.origin_y - pad * real_map.resolution);
-  if (!base.ok()) return base.status();
-  base->origin_yaw = real_map.origin_yaw;
+                                    real_map.origin_y - pad * real_map.resolution));
+  base.origin_yaw = real_map.origin_yaw;
   for (int row = 0; row < real_map.height; ++row) {
-    for (int col = 0; col < real_map.width; ++col) base->at(col + pad, row + pad) = real_map.at(col, row);
+    for (int col = 0; col < real_map.width; ++col) base.at(col + pad, row + pad) = real_map.at(col, row);
   }
-  return Generator(*base, seed, options).Run();
+  return Generator(base, seed, options).Run();
 }
 
 Result<GeneratorOptions> GeneratorFamily(const std::string& name) {

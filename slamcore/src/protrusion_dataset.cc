@@ -35,8 +35,8 @@ Status WriteDatasetPair(const std::string& root, const DatasetEntry& entry, cons
   std::filesystem::create_directories(dir, error);
   if (error) return NotFound(dir.string() + ": cannot create (" + error.message() + ")");
   // PNG images (map_server reads them too): the padded maps compress ~50× better than PGM.
-  SLAMCORE_RETURN_IF_ERROR(WriteMapServerYaml(pair.parent, (dir / "parent.yaml").string(), /*png=*/true));
-  SLAMCORE_RETURN_IF_ERROR(WriteMapServerYaml(pair.child, (dir / "child.yaml").string(), /*png=*/true));
+  RETURN_IF_ERROR(WriteMapServerYaml(pair.parent, (dir / "parent.yaml").string(), /*png=*/true));
+  RETURN_IF_ERROR(WriteMapServerYaml(pair.child, (dir / "child.yaml").string(), /*png=*/true));
   cv::Mat truth(pair.child.height, pair.child.width, CV_8U);
   for (int row = 0; row < pair.child.height; ++row) {
     const std::uint8_t* source = &pair.truth[static_cast<std::size_t>(row) * pair.child.width];
@@ -58,9 +58,8 @@ Status WriteDatasetPair(const std::string& root, const DatasetEntry& entry, cons
 
 Result<std::vector<DatasetEntry>> ReadDatasetIndex(const std::string& root) {
   const std::string path = (std::filesystem::path(root) / "index.csv").string();
-  auto text = ReadFileBytes(path);
-  if (!text.ok()) return text.status();
-  std::istringstream lines(*text);
+  ASSIGN_OR_RETURN(auto text, ReadFileBytes(path));
+  std::istringstream lines(text);
   std::string line;
   if (!std::getline(lines, line) || line != kIndexHeader) {
     return DataLoss(path + ": first line must be '" + std::string(kIndexHeader) + "'");
@@ -85,10 +84,8 @@ Result<std::vector<DatasetEntry>> ReadDatasetIndex(const std::string& root) {
 
 Result<GeneratedPair> ReadDatasetPair(const std::string& root, const DatasetEntry& entry) {
   const std::filesystem::path dir = std::filesystem::path(root) / "pairs" / entry.pair_id;
-  auto parent = ReadMapServerYaml((dir / "parent.yaml").string());
-  if (!parent.ok()) return parent.status();
-  auto child = ReadMapServerYaml((dir / "child.yaml").string());
-  if (!child.ok()) return child.status();
+  ASSIGN_OR_RETURN(auto parent, ReadMapServerYaml((dir / "parent.yaml").string()));
+  ASSIGN_OR_RETURN(auto child, ReadMapServerYaml((dir / "child.yaml").string()));
   const std::string truth_path = (dir / "truth.png").string();
   cv::Mat truth;
   try {
@@ -96,30 +93,29 @@ Result<GeneratedPair> ReadDatasetPair(const std::string& root, const DatasetEntr
   } catch (const cv::Exception& e) {
     return DataLoss(truth_path + ": " + e.what());
   }
-  if (truth.empty() || truth.cols != child->width || truth.rows != child->height) {
+  if (truth.empty() || truth.cols != child.width || truth.rows != child.height) {
     return DataLoss(truth_path + ": missing, corrupt, or not the child's size");
   }
   GeneratedPair pair;
-  pair.truth.resize(child->cells.size());
-  for (int row = 0; row < child->height; ++row) {
-    const std::uint8_t* source = truth.ptr<std::uint8_t>(child->ImageRowOf(row));
-    for (int col = 0; col < child->width; ++col) {
+  pair.truth.resize(child.cells.size());
+  for (int row = 0; row < child.height; ++row) {
+    const std::uint8_t* source = truth.ptr<std::uint8_t>(child.ImageRowOf(row));
+    for (int col = 0; col < child.width; ++col) {
       if (source[col] > 2) return DataLoss(truth_path + ": labels must be 0, 1 or 2");
-      pair.truth[static_cast<std::size_t>(row) * child->width + col] = source[col];
+      pair.truth[static_cast<std::size_t>(row) * child.width + col] = source[col];
     }
   }
-  pair.parent = std::move(*parent);
-  pair.child = std::move(*child);
+  pair.parent = std::move(parent);
+  pair.child = std::move(child);
   return pair;
 }
 
 Result<LabelledPair> ExtractAndLabel(const GeneratedPair& pair, const DetectorOptions& options) {
   if (pair.truth.size() != pair.child.cells.size()) return InvalidArgument("label: truth does not match the child");
-  auto regions = ExtractRegions(pair.parent, pair.child, options);
-  if (!regions.ok()) return regions.status();
+  ASSIGN_OR_RETURN(auto regions, ExtractRegions(pair.parent, pair.child, options));
   LabelledPair result;
   std::vector<std::uint8_t> covered(pair.truth.size(), 0);
-  for (ProtrusionRegion& region : *regions) {
+  for (ProtrusionRegion& region : regions) {
     long counts[3] = {0, 0, 0};
     for (const std::int32_t cell : region.cells) ++counts[pair.truth[static_cast<std::size_t>(cell)]];
     const bool protrusion = counts[1] > counts[2] && 2 * counts[1] >= counts[0];
@@ -150,9 +146,8 @@ Result<LabelledPair> ExtractAndLabel(const GeneratedPair& pair, const DetectorOp
 Status AccumulateConfusion(const ProtrusionClassifier& classifier, const LabelledPair& pair,
                            ConfusionMatrix* confusion) {
   for (std::size_t i = 0; i < pair.regions.size(); ++i) {
-    auto probability = classifier.Probability(pair.regions[i].features);
-    if (!probability.ok()) return probability.status();
-    confusion->Add(pair.labels[i] == 1, classifier.IsProtrusion(*probability));
+    ASSIGN_OR_RETURN(auto probability, classifier.Probability(pair.regions[i].features));
+    confusion->Add(pair.labels[i] == 1, classifier.IsProtrusion(probability));
   }
   confusion->false_negatives += pair.missed_protrusions;
   return Status::Ok();

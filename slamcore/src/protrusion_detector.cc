@@ -238,8 +238,8 @@ const std::vector<std::string>& ProtrusionFeatureNames() {
 }
 
 Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const OccupancyGrid& child) {
-  SLAMCORE_RETURN_IF_ERROR(CheckGrid(parent, "parent"));
-  SLAMCORE_RETURN_IF_ERROR(CheckGrid(child, "child"));
+  RETURN_IF_ERROR(CheckGrid(parent, "parent"));
+  RETURN_IF_ERROR(CheckGrid(child, "child"));
   const double resolution = child.resolution;
   if (std::abs(parent.resolution - resolution) > 1e-9 * resolution) {
     return InvalidArgument("parent and child maps have different resolutions (" + std::to_string(parent.resolution) +
@@ -259,7 +259,7 @@ Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const Occu
   }
   const int shift_x = static_cast<int>(std::lround(dx)), shift_y = static_cast<int>(std::lround(dy));
   auto aligned = OccupancyGrid::Create(child.width, child.height, resolution, child.origin_x, child.origin_y);
-  if (!aligned.ok()) return aligned.status();
+  RETURN_IF_ERROR(aligned.status());
   aligned->origin_yaw = child.origin_yaw;
   const int col_begin = std::max(0, shift_x), col_end = std::min(child.width, shift_x + parent.width);
   for (int row = std::max(0, shift_y); row < std::min(child.height, shift_y + parent.height); ++row) {
@@ -279,17 +279,16 @@ std::vector<std::uint8_t> DifferenceMask(const OccupancyGrid& aligned_parent, co
 
 Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent, const OccupancyGrid& child,
                                                      const DetectorOptions& options) {
-  auto aligned = AlignParentToChild(parent, child);
-  if (!aligned.ok()) return aligned.status();
+  ASSIGN_OR_RETURN(auto aligned, AlignParentToChild(parent, child));
   if (!(options.clean_up_size_m >= 0.0) || !(options.min_region_area_m2 >= 0.0)) {
     return InvalidArgument("detector options must be non-negative");
   }
   const double r = child.resolution;
-  std::vector<std::uint8_t> difference = DifferenceMask(*aligned, child);
+  std::vector<std::uint8_t> difference = DifferenceMask(aligned, child);
   const cv::Mat raw(child.height, child.width, CV_8U, difference.data());
   // The grids' int8 cells viewed as images, without copies (OpenCV only reads them).
   const cv::Mat child_cells(child.height, child.width, CV_8S, const_cast<std::int8_t*>(child.cells.data()));
-  const cv::Mat parent_cells(child.height, child.width, CV_8S, aligned->cells.data());
+  const cv::Mat parent_cells(child.height, child.width, CV_8S, aligned.cells.data());
 
   // An odd kernel, so that the opening is centred and does not shift regions by half a cell.
   const int kernel = static_cast<int>(std::lround(options.clean_up_size_m / r)) | 1;

@@ -30,10 +30,9 @@ Result<SE2> AlignRigidly(const std::vector<Vector2>& estimate, const std::vector
 }
 
 Result<double> AlignedRmse(const std::vector<Vector2>& estimate, const std::vector<Vector2>& reference) {
-  const auto alignment = AlignRigidly(estimate, reference);
-  if (!alignment.ok()) return alignment.status();
+  ASSIGN_OR_RETURN(const auto alignment, AlignRigidly(estimate, reference));
   double sum = 0.0;
-  for (std::size_t k = 0; k < estimate.size(); ++k) sum += ((*alignment) * estimate[k] - reference[k]).squaredNorm();
+  for (std::size_t k = 0; k < estimate.size(); ++k) sum += ((alignment) * estimate[k] - reference[k]).squaredNorm();
   return std::sqrt(sum / static_cast<double>(estimate.size()));
 }
 

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -35,7 +36,7 @@ constexpr char kSmallG2o[] =
 
 TEST(GraphIoTest, ReadsG2o) {
   const auto graph = Read(kSmallG2o);
-  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  ASSERT_THAT(graph, IsOk());
   EXPECT_EQ(graph->num_nodes(), 3u);
   EXPECT_EQ(graph->num_edges(), 3u);
   EXPECT_TRUE(graph->node(0).fixed);
@@ -54,7 +55,7 @@ TEST(GraphIoTest, ReadsG2o) {
 TEST(GraphIoTest, ReadsToroWithItsOwnInformationOrder) {
   // TORO: I11 I12 I22 I33 I13 I23
   const auto graph = Read("VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 500 1 400 5000 2 3\n");
-  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  ASSERT_THAT(graph, IsOk());
   const Matrix3& info = graph->edges()[0].information;
   EXPECT_EQ(info(0, 0), 500.0);
   EXPECT_EQ(info(0, 1), 1.0);
@@ -68,7 +69,7 @@ TEST(GraphIoTest, FileWithoutVerticesIsInitialisedFromOdometry) {
   const auto graph = Read("EDGE_SE2 0 1 1 0 1.5707963267948966 1 0 0 1 0 1\n"
                           "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
                           "EDGE_SE2 2 0 0 0 0 1 0 0 1 0 1\n");
-  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  ASSERT_THAT(graph, IsOk());
   EXPECT_NEAR(graph->node(2).pose.x(), 1.0, 1e-12);
   EXPECT_NEAR(graph->node(2).pose.y(), 1.0, 1e-12);
 }
@@ -76,12 +77,12 @@ TEST(GraphIoTest, FileWithoutVerticesIsInitialisedFromOdometry) {
 TEST(GraphIoTest, RoundTripIsIdentical) {
   for (const GraphFormat format : {GraphFormat::kG2o, GraphFormat::kToro}) {
     const auto original = Read(kSmallG2o);
-    ASSERT_TRUE(original.ok());
+    ASSERT_THAT(original, IsOk());
     std::ostringstream first;
     WritePoseGraph(*original, first, format);
     std::istringstream input(first.str());
     const auto reread = ReadPoseGraph(input, "written");
-    ASSERT_TRUE(reread.ok()) << reread.status().ToString();
+    ASSERT_THAT(reread, IsOk());
     std::ostringstream second;
     WritePoseGraph(*reread, second, format);
     EXPECT_EQ(first.str(), second.str());
@@ -105,11 +106,11 @@ TEST(GraphIoTest, RealGraphsRoundTripIdentically) {
   const std::filesystem::path data = test_data::Sample() / "posegraphs";
   for (const char* name : {"vertigo/ring.g2o", "vertigo/intel.g2o", "sesync/CSAIL.g2o"}) {
     const auto original = ReadPoseGraph(data / name);
-    ASSERT_TRUE(original.ok()) << original.status().ToString();
+    ASSERT_THAT(original, IsOk());
     const std::filesystem::path written = std::filesystem::path(::testing::TempDir()) / "roundtrip.g2o";
-    ASSERT_TRUE(WritePoseGraph(*original, written, GraphFormat::kG2o).ok());
+    ASSERT_THAT(WritePoseGraph(*original, written, GraphFormat::kG2o), IsOk());
     const auto reread = ReadPoseGraph(written);
-    ASSERT_TRUE(reread.ok()) << reread.status().ToString();
+    ASSERT_THAT(reread, IsOk());
     ASSERT_EQ(reread->num_nodes(), original->num_nodes()) << name;
     ASSERT_EQ(reread->num_edges(), original->num_edges()) << name;
     for (std::size_t k = 0; k < original->num_nodes(); ++k) {
@@ -148,7 +149,7 @@ TEST(GraphIoTest, MalformedInputIsRefusedWithFileLineAndReason) {
 
 TEST(GraphIoTest, MissingFileIsNotFound) {
   const auto result = ReadPoseGraph(std::filesystem::path("/nonexistent/graph.g2o"));
-  EXPECT_EQ(result.status().code(), StatusCode::kNotFound);
+  EXPECT_THAT(result, StatusIs(StatusCode::kNotFound));
   EXPECT_NE(result.status().message().find("cannot open"), std::string::npos);
 }
 

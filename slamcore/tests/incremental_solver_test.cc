@@ -15,6 +15,7 @@
 #include "slamcore/manhattan_world.h"
 #include "slamcore/optimizer.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace slamcore::internal {
 namespace {
@@ -24,7 +25,7 @@ double BatchChi2(PoseGraph graph) {
   options.max_iterations = 200;
   options.relative_cost_decrease = 1e-10;
   const auto summary = Optimize(graph, options);
-  EXPECT_TRUE(summary.ok());
+  EXPECT_THAT(summary, IsOk());
   return summary.ok() ? summary->final_chi2 : -1.0;
 }
 
@@ -38,7 +39,7 @@ Fed FeedIncrementally(const PoseGraph& world) {
   // The generator writes edges in pose order: the odometry into k, then k's loop closures.
   Fed fed;
   IncrementalSolver solver;
-  EXPECT_TRUE(fed.graph.AddNode(Node{.id = 0}).ok());
+  EXPECT_THAT(fed.graph.AddNode(Node{.id = 0}), IsOk());
   std::vector<NodeId> seeds;
   const auto update = [&] {
     if (!seeds.empty()) fed.updates.push_back(solver.Update(fed.graph, seeds));
@@ -47,11 +48,11 @@ Fed FeedIncrementally(const PoseGraph& world) {
   for (const Edge& edge : world.edges()) {
     if (edge.kind == EdgeKind::kMotion) {
       update();
-      EXPECT_TRUE(fed.graph.AddNode(Node{.id = edge.to, .pose = fed.graph.node(edge.from).pose * edge.measurement}).ok());
+      EXPECT_THAT(fed.graph.AddNode(Node{.id = edge.to, .pose = fed.graph.node(edge.from).pose * edge.measurement}), IsOk());
     } else {
       seeds.push_back(edge.from), seeds.push_back(edge.to);
     }
-    EXPECT_TRUE(fed.graph.AddEdge(edge).ok());
+    EXPECT_THAT(fed.graph.AddEdge(edge), IsOk());
   }
   update();
   return fed;
@@ -61,7 +62,7 @@ TEST(IncrementalSolverTest, ReachesTheBatchOptimumOnAGeneratedCity) {
   ManhattanOptions options;
   options.poses = 600;
   const auto world = GenerateManhattanWorld(options);
-  ASSERT_TRUE(world.ok());
+  ASSERT_THAT(world, IsOk());
   const Fed fed = FeedIncrementally(world->graph);
   ASSERT_EQ(fed.graph.num_edges(), world->graph.num_edges());
   const double incremental = Chi2(fed.graph), optimum = BatchChi2(fed.graph);
@@ -79,9 +80,9 @@ PoseGraph BentLoop(int size, double bend) {
   for (int k = 0; k < size; ++k) {
     SE2 pose = SE2::Identity();
     if (k > 0) pose = graph.node(k - 1).pose * SE2(1.0, 0.0, step + bend);
-    EXPECT_TRUE(graph.AddNode(Node{.id = k, .pose = pose}).ok());
+    EXPECT_THAT(graph.AddNode(Node{.id = k, .pose = pose}), IsOk());
     if (k > 0) {
-      EXPECT_TRUE(graph.AddEdge(Edge{.from = k - 1, .to = k, .measurement = SE2(1.0, 0.0, step)}).ok());
+      EXPECT_THAT(graph.AddEdge(Edge{.from = k - 1, .to = k, .measurement = SE2(1.0, 0.0, step)}), IsOk());
     }
   }
   return graph;
@@ -91,7 +92,7 @@ TEST(IncrementalSolverTest, ALongLoopClosedFarFromTheEstimateIsSolvedWholeWithTh
   PoseGraph graph = BentLoop(200, 0.002);  // the closing edge's χ² is far above whole_component_edge_chi2
   const SE2 first = graph.node(0).pose;
   const SE2 closing = SE2(1.0, 0.0, 2 * 3.14159265358979 / 200);
-  ASSERT_TRUE(graph.AddEdge(Edge{.from = 199, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}).ok());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 199, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}), IsOk());
   ASSERT_GT(EdgeChi2(graph, graph.edges().back()), IncrementalSolverOptions{}.whole_component_edge_chi2);
   IncrementalSolver solver;
   const IncrementalSummary summary = solver.Update(graph, {199, 0});
@@ -105,7 +106,7 @@ TEST(IncrementalSolverTest, ALongLoopClosedFarFromTheEstimateIsSolvedWholeWithTh
 TEST(IncrementalSolverTest, ASmallCorrectionSpreadsOnlyAsFarAsItMovesTheMap) {
   PoseGraph graph = BentLoop(2000, 2e-6);
   const SE2 closing = SE2(1.0, 0.0, 2 * 3.14159265358979 / 2000);
-  ASSERT_TRUE(graph.AddEdge(Edge{.from = 1999, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}).ok());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 1999, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}), IsOk());
   ASSERT_LT(EdgeChi2(graph, graph.edges().back()), IncrementalSolverOptions{}.whole_component_edge_chi2);
   const double before = Chi2(graph);
   IncrementalSolver solver;
@@ -124,7 +125,7 @@ TEST(IncrementalSolverTest, AnEdgeThatAgreesLeavesTheRegionSmall) {
   IncrementalSolver solver;
   // An exact closure between nodes 1990 and 1980: nothing moves, nothing spreads.
   const SE2 relative = graph.node(1980).pose.inverse() * graph.node(1990).pose;
-  ASSERT_TRUE(graph.AddEdge(Edge{.from = 1980, .to = 1990, .measurement = relative, .kind = EdgeKind::kObservation}).ok());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 1980, .to = 1990, .measurement = relative, .kind = EdgeKind::kObservation}), IsOk());
   const IncrementalSummary summary = solver.Update(graph, {1980, 1990});
   EXPECT_EQ(summary.rounds, 1);
   EXPECT_LE(summary.region_nodes, 32);
@@ -134,8 +135,8 @@ TEST(IncrementalSolverTest, AnEdgeThatAgreesLeavesTheRegionSmall) {
 TEST(IncrementalSolverTest, NoticesRemovedEdgesAndAReplacedGraph) {
   PoseGraph graph = BentLoop(100, 0.003);
   IncrementalSolver solver;
-  ASSERT_TRUE(graph.AddEdge(Edge{.from = 99, .to = 0, .measurement = SE2(1.0, 0.0, 2 * 3.14159265358979 / 100),
-                                 .kind = EdgeKind::kObservation}).ok());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 99, .to = 0, .measurement = SE2(1.0, 0.0, 2 * 3.14159265358979 / 100),
+                                 .kind = EdgeKind::kObservation}), IsOk());
   (void)solver.Update(graph, {99, 0});
   const PoseGraph before_removal = graph;
   // Retraction: the closure leaves; with it gone the odometry alone is the optimum (χ² 0).
@@ -144,8 +145,8 @@ TEST(IncrementalSolverTest, NoticesRemovedEdgesAndAReplacedGraph) {
   EXPECT_LT(Chi2(graph), 1e-8);
   // G replaced by an older copy (a refused acceptance restored), then a new edge.
   graph = before_removal;
-  ASSERT_TRUE(graph.AddEdge(Edge{.from = 50, .to = 10, .measurement = graph.node(50).pose.inverse() * graph.node(10).pose,
-                                 .kind = EdgeKind::kObservation}).ok());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 50, .to = 10, .measurement = graph.node(50).pose.inverse() * graph.node(10).pose,
+                                 .kind = EdgeKind::kObservation}), IsOk());
   (void)solver.Update(graph, {50, 10});
   EXPECT_NEAR(Chi2(graph), BatchChi2(graph), 1e-6 * BatchChi2(graph) + 1e-9);
 }
@@ -172,7 +173,7 @@ double FullSolveChi2(const PoseGraph& graph) {
     options.max_iterations = 200;
     options.relative_cost_decrease = 1e-10;
     const auto solved = Optimize(full, options);
-    EXPECT_TRUE(solved.ok());
+    EXPECT_THAT(solved, IsOk());
     return solved.ok() ? solved->final_chi2 : -1.0;
   };
   return std::min(solve(true), solve(false));
@@ -196,7 +197,8 @@ std::pair<ReplayResult, ReplayResult> ReplayWithBothBackends(const PoseGraph& gr
   batch.consistency.consistent_set_check = incremental.consistency.consistent_set_check = consistent_set_check;
   auto with_batch = ReplayPoseGraph(graph, batch);
   auto with_incremental = ReplayPoseGraph(graph, incremental);
-  EXPECT_TRUE(with_batch.ok() && with_incremental.ok());
+  EXPECT_THAT(with_batch, IsOk());
+  EXPECT_THAT(with_incremental, IsOk());
   if (!with_batch.ok() || !with_incremental.ok()) return {};
   return {std::move(*with_batch), std::move(*with_incremental)};
 }
@@ -208,7 +210,7 @@ std::pair<ReplayResult, ReplayResult> ReplayWithBothBackends(const PoseGraph& gr
 TEST_P(BackendEquivalenceTest, SameDecisionsAndTheOptimumAtTheEnd) {
   TEST_DATA_FILE_OR_SKIP(path, std::string("posegraphs/") + GetParam().graph);
   const auto graph = ReadPoseGraph(path);
-  ASSERT_TRUE(graph.ok());
+  ASSERT_THAT(graph, IsOk());
   const auto [with_batch, with_incremental] = ReplayWithBothBackends(*graph, /*consistent_set_check=*/false);
   const std::set<VertexPair> accepted_batch = Sorted(with_batch.accepted), accepted = Sorted(with_incremental.accepted);
   std::vector<VertexPair> differing;
@@ -232,7 +234,7 @@ TEST_P(BackendEquivalenceTest, SameDecisionsAndTheOptimumAtTheEnd) {
 TEST_P(BackendEquivalenceTest, WithTheConsistentSetCheckBothEndAtTheOptimum) {
   TEST_DATA_FILE_OR_SKIP(path, std::string("posegraphs/") + GetParam().graph);
   const auto graph = ReadPoseGraph(path);
-  ASSERT_TRUE(graph.ok());
+  ASSERT_THAT(graph, IsOk());
   const auto [with_batch, with_incremental] = ReplayWithBothBackends(*graph, /*consistent_set_check=*/true);
   const double optimum = FullSolveChi2(with_incremental.graph);
   EXPECT_NEAR(with_incremental.final_chi2, optimum, 1e-6 * optimum + 1e-9);

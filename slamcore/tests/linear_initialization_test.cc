@@ -9,6 +9,7 @@
 #include "slamcore/graph_io.h"
 #include "test_data.h"
 #include "test_matchers.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -20,12 +21,12 @@ TEST(LinearInitializationTest, RecoversNoiseFreeGraphExactly) {
   // must give the ground truth back, anchored at node 0 (to the file's six printed decimals).
   TEST_DATA_FILE_OR_SKIP(ring_truth, "posegraphs/vertigo/ring_groundTruth.g2o");
   const auto truth = ReadPoseGraph(ring_truth);
-  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+  ASSERT_THAT(truth, IsOk());
   PoseGraph scrambled = *truth;
   for (Node& node : scrambled.mutable_nodes()) {
     if (node.id != 0) node.pose = SE2(0.1 * static_cast<double>(node.id), -3.0, 2.0);
   }
-  ASSERT_TRUE(InitializeLinear(scrambled).ok());
+  ASSERT_THAT(InitializeLinear(scrambled), IsOk());
   for (const Node& node : truth->nodes()) EXPECT_THAT(scrambled.node(node.id).pose, IsNearlyPose(node.pose, 1e-4));
 }
 
@@ -39,7 +40,7 @@ TEST(LinearInitializationTest, UnwrapsHeadingsAcrossPi) {
     Node node;
     node.id = k;
     node.pose = k == 0 ? truth : SE2::Identity();
-    ASSERT_TRUE(graph.AddNode(node).ok());
+    ASSERT_THAT(graph.AddNode(node), IsOk());
     expected.push_back(truth);
     truth = truth * step;
   }
@@ -49,9 +50,9 @@ TEST(LinearInitializationTest, UnwrapsHeadingsAcrossPi) {
     edge.to = (k + 1) % 8;
     edge.measurement = step;
     edge.kind = k < 7 ? EdgeKind::kMotion : EdgeKind::kObservation;
-    ASSERT_TRUE(graph.AddEdge(edge).ok());
+    ASSERT_THAT(graph.AddEdge(edge), IsOk());
   }
-  ASSERT_TRUE(InitializeLinear(graph).ok());
+  ASSERT_THAT(InitializeLinear(graph), IsOk());
   for (int k = 0; k < 8; ++k) EXPECT_THAT(graph.node(k).pose, IsNearlyPose(expected[k], 1e-9)) << "node " << k;
 }
 

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "slamcore/loop_closure_outliers.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -15,11 +16,11 @@ using ::testing::HasSubstr;
 /// 60 poses along x with odometry, and true loop closures k → k + 40 for k = 10..14 (a second pass).
 PoseGraph Corridor() {
   PoseGraph graph;
-  for (int k = 0; k < 60; ++k) EXPECT_TRUE(graph.AddNode(Node{.id = k, .pose = SE2(k % 40, 0, 0)}).ok());
-  for (int k = 0; k + 1 < 60; ++k) EXPECT_TRUE(graph.AddEdge(Edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, 0)}).ok());
+  for (int k = 0; k < 60; ++k) EXPECT_THAT(graph.AddNode(Node{.id = k, .pose = SE2(k % 40, 0, 0)}), IsOk());
+  for (int k = 0; k + 1 < 60; ++k) EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, 0)}), IsOk());
   for (int k = 10; k < 15; ++k) {
-    EXPECT_TRUE(graph.AddEdge(Edge{.from = k, .to = k + 40, .measurement = SE2(0.01 * k, 0, 0),
-                                   .kind = EdgeKind::kObservation}).ok());
+    EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 40, .measurement = SE2(0.01 * k, 0, 0),
+                                   .kind = EdgeKind::kObservation}), IsOk());
   }
   return graph;
 }
@@ -30,7 +31,7 @@ TEST(LoopClosureOutliersTest, FirstPutsEveryGroupBeforeTheFirstTrueClosureNearIt
   options.group_size = 3;
   options.count = 20;
   const auto corrupted = AddLoopClosureOutliers(Corridor(), options);
-  ASSERT_TRUE(corrupted.ok()) << corrupted.status().ToString();
+  ASSERT_THAT(corrupted, IsOk());
   ASSERT_EQ(corrupted->outliers.size(), 60u);
   for (const auto& [from, to] : corrupted->outliers) {
     // Near vertices 7..17 (within the group size of 10..14) the first true closure arrives at vertex 50.
@@ -45,7 +46,7 @@ TEST(LoopClosureOutliersTest, ShiftedRepeatsATrueClosuresMeasurementAFewVertices
   options.group_size = 2;
   options.count = 10;
   const auto corrupted = AddLoopClosureOutliers(Corridor(), options);
-  ASSERT_TRUE(corrupted.ok()) << corrupted.status().ToString();
+  ASSERT_THAT(corrupted, IsOk());
   std::set<std::pair<NodeId, NodeId>> wrong(corrupted->outliers.begin(), corrupted->outliers.end());
   int checked = 0;
   for (const Edge& edge : corrupted->graph.edges()) {

@@ -7,6 +7,7 @@
 
 #include "slamcore/optimizer.h"
 #include "slamcore/trajectory_error.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -16,7 +17,7 @@ ManhattanWorld Generate(int poses, std::uint64_t seed) {
   options.poses = poses;
   options.seed = seed;
   auto world = GenerateManhattanWorld(options);
-  EXPECT_TRUE(world.ok()) << world.status().ToString();
+  EXPECT_THAT(world, IsOk());
   return std::move(*world);
 }
 
@@ -113,7 +114,7 @@ TEST(ManhattanWorldTest, TruthWalksTheGridInsideTheWorld) {
 TEST(ManhattanWorldTest, GroundTruthFileLetsTrajectoryErrorBeComputed) {
   ManhattanWorld world = Generate(800, 2);
   const std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / "manhattan_truth.txt";
-  ASSERT_TRUE(WriteGroundTruth(world.truth, path).ok());
+  ASSERT_THAT(WriteGroundTruth(world.truth, path), IsOk());
   std::ifstream input(path);
   std::vector<Vector2> read;
   for (double id, x, y, theta; input >> id >> x >> y >> theta;) {
@@ -126,7 +127,7 @@ TEST(ManhattanWorldTest, GroundTruthFileLetsTrajectoryErrorBeComputed) {
   const double drift = *AlignedRmse(Positions(world.graph), read);
   OptimizerOptions options;
   options.linear_initialization = true;
-  ASSERT_TRUE(Optimize(world.graph, options).ok());
+  ASSERT_THAT(Optimize(world.graph, options), IsOk());
   const double optimised = *AlignedRmse(Positions(world.graph), read);
   EXPECT_LT(optimised, 0.5 * drift);
   EXPECT_LT(optimised, 0.3);

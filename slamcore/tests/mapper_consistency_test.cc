@@ -12,6 +12,7 @@
 #include "mapper_test_util.h"
 #include "slamcore/optimizer.h"
 #include "test_matchers.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -48,11 +49,11 @@ TEST(PassesTest, ObservationsAreOnePassWhileEachFollowsThePreviousWithinBothGaps
 /// Nodes 0 → 1 → 2 one metre apart along x, each motion edge with left covariance diag(a, a, b).
 PoseGraph Chain(double a, double b) {
   PoseGraph graph;
-  for (int k = 0; k < 3; ++k) EXPECT_TRUE(graph.AddNode(Node{.id = k, .pose = SE2(k, 0, 0)}).ok());
+  for (int k = 0; k < 3; ++k) EXPECT_THAT(graph.AddNode(Node{.id = k, .pose = SE2(k, 0, 0)}), IsOk());
   for (int k = 0; k < 2; ++k) {
     Edge edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, 0)};
     edge.information = EdgeInformationFromLeftCovariance(edge.measurement, Vector3(a, a, b).asDiagonal());
-    EXPECT_TRUE(graph.AddEdge(edge).ok());
+    EXPECT_THAT(graph.AddEdge(edge), IsOk());
   }
   return graph;
 }
@@ -82,7 +83,7 @@ TEST(MarginalCovariancesTest, ALoopMakesTwoPlacesSurerOfEachOtherThanOdometry) {
   const Matrix3 closure_covariance = Vector3(0.004, 0.004, 0.001).asDiagonal();
   Edge closure{.from = 0, .to = 2, .measurement = SE2(2, 0, 0), .kind = EdgeKind::kObservation};
   closure.information = EdgeInformationFromLeftCovariance(closure.measurement, closure_covariance);
-  ASSERT_TRUE(graph.AddEdge(closure).ok());
+  ASSERT_THAT(graph.AddEdge(closure), IsOk());
   const auto marginals = internal::MarginalCovariances::Factorize(graph, 0);
   ASSERT_TRUE(marginals.has_value());
   Matrix3 chain;
@@ -184,8 +185,8 @@ TEST(RetractionTest, LaterPassesRetractAnAcceptedWrongPassAndGIsAsIfItNeverWasAc
   // G equals G never having accepted it: the same edges, and the same poses once both are optimised.
   PoseGraph retracted_graph = with_wrong->map().graph, clean_graph = without->map().graph;
   EXPECT_EQ(EdgeSet(retracted_graph), EdgeSet(clean_graph));
-  ASSERT_TRUE(Optimize(retracted_graph).ok());
-  ASSERT_TRUE(Optimize(clean_graph).ok());
+  ASSERT_THAT(Optimize(retracted_graph), IsOk());
+  ASSERT_THAT(Optimize(clean_graph), IsOk());
   ASSERT_EQ(retracted_graph.num_nodes(), clean_graph.num_nodes());
   for (const Node& node : clean_graph.nodes()) {
     EXPECT_THAT(retracted_graph.node(node.id).pose, IsNearlyPose(node.pose, 1e-6)) << "node " << node.id;
@@ -209,7 +210,7 @@ TEST(ConsistencyParamsTest, EveryNewFieldIsValidated) {
               HasSubstr("consistency.max_open_hypotheses"));
   EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_continuation_edges = -1; }).message(),
               HasSubstr("consistency.max_continuation_edges"));
-  EXPECT_TRUE(MapperParams{}.Validate().ok());
+  EXPECT_THAT(MapperParams{}.Validate(), IsOk());
 }
 
 TEST(ConsistencyParamsTest, OpenHypothesesAreCapped) {

@@ -9,6 +9,7 @@
 #include "mapper_test_util.h"
 #include "slamcore/optimizer.h"
 #include "test_matchers.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -87,8 +88,8 @@ TEST(ConsistentSetCheckTest, AtTheEndOfTheRunTheTruthIsAcceptedAndTheWrongPassRe
   // G equals the G of a run that never saw the wrong pass: the same edges, the same optimised poses.
   EXPECT_EQ(EdgeSet(corrected), EdgeSet(clean));
   PoseGraph corrected_optimized = corrected, clean_optimized = clean;
-  ASSERT_TRUE(Optimize(corrected_optimized).ok());
-  ASSERT_TRUE(Optimize(clean_optimized).ok());
+  ASSERT_THAT(Optimize(corrected_optimized), IsOk());
+  ASSERT_THAT(Optimize(clean_optimized), IsOk());
   for (const Node& node : clean_optimized.nodes()) {
     EXPECT_THAT(corrected_optimized.node(node.id).pose, IsNearlyPose(node.pose, 1e-6)) << "node " << node.id;
   }

@@ -7,6 +7,7 @@
 
 #include "mapper_test_util.h"
 #include "slamcore/mapper.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -40,9 +41,8 @@ std::unique_ptr<Mapper> Started() {
   robot.Drive(SE2(1.0, 0.0, 0.0));  // t = 11
   robot.CreateView(2);
   robot.ObserveRaw(1, SE2(3.0, 0.0, 0.0));
-  EXPECT_TRUE(mapper->Process(LocalMapEvent{.time = 11.0, .resolution = 0.05, .width = 1, .height = 1,
-                                            .node_T_origin = SE2(), .cells = {0}})
-                  .ok());
+  EXPECT_THAT(mapper->Process(LocalMapEvent{.time = 11.0, .resolution = 0.05, .width = 1, .height = 1,
+                                            .node_T_origin = SE2(), .cells = {0}}), IsOk());
   return mapper;
 }
 
@@ -121,7 +121,7 @@ TEST(MapperErrorsTest, BadEventsAreRefusedAndChangeNothing) {
     EXPECT_THAT(status.message(), HasSubstr(bad.message)) << bad.name;
     EXPECT_EQ(Snapshot(*mapper), before) << bad.name;
     // The time of the refused event was not taken either: an event at t = 11 is still accepted.
-    EXPECT_TRUE(mapper->Process(OdometryEvent{.time = 11.0, .increment = SE2(), .covariance = id}).ok()) << bad.name;
+    EXPECT_THAT(mapper->Process(OdometryEvent{.time = 11.0, .increment = SE2(), .covariance = id}), IsOk()) << bad.name;
   }
 }
 
@@ -141,10 +141,10 @@ TEST(MapperErrorsTest, EventsNeedingANodeAreRefusedBeforeTheFirstNodeAndAfterAKi
     EXPECT_EQ(Snapshot(*empty), before);
   }
   auto mapper = Started();
-  ASSERT_TRUE(mapper->Process(KidnapEvent{.time = 12.0, .cause = KidnapEvent::Cause::kKidnap}).ok());
+  ASSERT_THAT(mapper->Process(KidnapEvent{.time = 12.0, .cause = KidnapEvent::Cause::kKidnap}), IsOk());
   const std::string before = Snapshot(*mapper);
   const Status status = mapper->Process(ViewCreatedEvent{.time = 12.0, .view = 3});
-  EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
+  EXPECT_THAT(status, StatusIs(StatusCode::kFailedPrecondition));
   EXPECT_THAT(status.message(), HasSubstr("KidnapEvent"));
   EXPECT_EQ(Snapshot(*mapper), before);
 }

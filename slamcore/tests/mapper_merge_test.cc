@@ -6,6 +6,7 @@
 #include "mapper_test_util.h"
 #include "slamcore/mapper.h"
 #include "test_matchers.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -76,7 +77,7 @@ TEST(MapperMergeTest, ConditionalThenFullMerge) {
     edges.push_back(edge);
   }
   const FullCopyMergedGraph reference(mapper.map().graph, first, SE2(2.5, 0.5, 0.3), edges);
-  ASSERT_TRUE(reference.ok());
+  ASSERT_THAT(reference, IsOk());
   for (const Node& a : mapper.map().graph.nodes()) {
     EXPECT_THAT(mapper.PoseOf(a.id), IsNearlyPose(reference.PoseOf(a.id), 1e-9)) << "node " << a.id;
     for (const Node& b : mapper.map().graph.nodes()) {

@@ -7,13 +7,14 @@
 #include <limits>
 
 #include "slamcore/mapper.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
 
 using ::testing::HasSubstr;
 
-TEST(MapperParamsTest, DefaultsAreValid) { EXPECT_TRUE(MapperParams{}.Validate().ok()); }
+TEST(MapperParamsTest, DefaultsAreValid) { EXPECT_THAT(MapperParams{}.Validate(), IsOk()); }
 
 struct BadField {
   std::string field;
@@ -60,7 +61,7 @@ TEST(MapperParamsTest, EveryBadFieldIsNamedWithItsValue) {
     bad.spoil(params);
     const Status status = params.Validate();
     ASSERT_FALSE(status.ok()) << bad.field;
-    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
+    EXPECT_THAT(status, StatusIs(StatusCode::kInvalidArgument));
     EXPECT_THAT(status.message(), HasSubstr(bad.field)) << status.message();
     EXPECT_THAT(status.message(), HasSubstr(bad.value)) << status.message();
     // And a Mapper refuses them.
@@ -76,13 +77,13 @@ TEST(MapperParamsTest, TheDocumentedMaximaThemselvesAreAllowed) {
   params.full_optimization_every = MapperParamsLimits::kMaxOptimizationEvery;
   params.gate_chi2 = MapperParamsLimits::kMaxChi2;
   params.optimizer.max_iterations = MapperParamsLimits::kMaxIterations;
-  EXPECT_TRUE(params.Validate().ok()) << params.Validate().message();
+  EXPECT_THAT(params.Validate(), IsOk());
 }
 
 TEST(MapperParamsTest, EqualConditionalAndFullCriteriaAreAllowed) {
   MapperParams params;
   params.merge_conditional = params.merge_full;
-  EXPECT_TRUE(params.Validate().ok());
+  EXPECT_THAT(params.Validate(), IsOk());
 }
 
 }  // namespace

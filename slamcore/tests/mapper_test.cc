@@ -9,6 +9,7 @@
 
 #include "mapper_test_util.h"
 #include "test_matchers.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -25,9 +26,8 @@ TEST(MapperTest, OdometryBuildsAChainOfNodesJoinedByMotionEdges) {
   EXPECT_FALSE(mapper->CurrentPose().has_value());
   const Matrix3 covariance = Vector3(1e-4, 2e-4, 4e-4).asDiagonal();
   for (int i = 0; i < 3; ++i) {
-    ASSERT_TRUE(mapper->Process(OdometryEvent{.time = double(i), .increment = SE2(1.0, 0.0, std::numbers::pi / 2),
-                                              .covariance = covariance})
-                    .ok());
+    ASSERT_THAT(mapper->Process(OdometryEvent{.time = double(i), .increment = SE2(1.0, 0.0, std::numbers::pi / 2),
+                                              .covariance = covariance}), IsOk());
   }
   const PoseGraph& graph = mapper->map().graph;
   ASSERT_EQ(graph.num_nodes(), 3u);
@@ -208,9 +208,9 @@ TEST_F(RecoveryTest, HypothesisExpiresAfterTheTimeLimit) {
   ASSERT_EQ(mapper_->Statistics().recovery_created, 1);
   const double created = robot_->time();
   // Standing still: 120 s is not yet "more than 120 s".
-  ASSERT_TRUE(mapper_->Process(GroundTruthEvent{.time = created + 120.0, .world_T_robot = SE2()}).ok());
+  ASSERT_THAT(mapper_->Process(GroundTruthEvent{.time = created + 120.0, .world_T_robot = SE2()}), IsOk());
   EXPECT_EQ(mapper_->Statistics().recovery_expired, 0);
-  ASSERT_TRUE(mapper_->Process(GroundTruthEvent{.time = created + 120.5, .world_T_robot = SE2()}).ok());
+  ASSERT_THAT(mapper_->Process(GroundTruthEvent{.time = created + 120.5, .world_T_robot = SE2()}), IsOk());
   EXPECT_EQ(mapper_->Statistics().recovery_expired, 1);
   EXPECT_THAT(mapper_->decisions().back().reason, HasSubstr(" s"));
   EXPECT_EQ(mapper_->decisions().back().kind, DecisionKind::kExpired);
@@ -254,11 +254,11 @@ TEST(MapperTest, KidnapStartsANewComponentAndRejectsOpenHypotheses) {
 
 TEST(MapperTest, GroundTruthIsKeptAsideByNode) {
   auto mapper = MakeMapper();
-  ASSERT_TRUE(mapper->Process(GroundTruthEvent{.time = 0.0, .world_T_robot = SE2(1, 2, 3)}).ok());
-  ASSERT_TRUE(mapper->Process(OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}).ok());
-  ASSERT_TRUE(mapper->Process(OdometryEvent{.time = 2.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}).ok());
-  ASSERT_TRUE(mapper->Process(GroundTruthEvent{.time = 2.0, .world_T_robot = SE2(4, 5, 0)}).ok());
-  ASSERT_TRUE(mapper->Process(GroundTruthEvent{.time = 2.5, .world_T_robot = SE2(6, 7, 0)}).ok());
+  ASSERT_THAT(mapper->Process(GroundTruthEvent{.time = 0.0, .world_T_robot = SE2(1, 2, 3)}), IsOk());
+  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
+  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 2.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
+  ASSERT_THAT(mapper->Process(GroundTruthEvent{.time = 2.0, .world_T_robot = SE2(4, 5, 0)}), IsOk());
+  ASSERT_THAT(mapper->Process(GroundTruthEvent{.time = 2.5, .world_T_robot = SE2(6, 7, 0)}), IsOk());
   EXPECT_THAT(mapper->ground_truth().at(0), IsNearlyPose(SE2(1, 2, 3), 1e-12));
   EXPECT_THAT(mapper->ground_truth().at(1), IsNearlyPose(SE2(4, 5, 0), 1e-12));
   EXPECT_EQ(mapper->decisions().size(), 1u);  // ground truth decides nothing
@@ -266,11 +266,11 @@ TEST(MapperTest, GroundTruthIsKeptAsideByNode) {
 
 TEST(MapperTest, LocalMapsAttachToTheCurrentNode) {
   auto mapper = MakeMapper();
-  ASSERT_TRUE(mapper->Process(OdometryEvent{.time = 0.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}).ok());
-  ASSERT_TRUE(mapper->Process(OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}).ok());
+  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 0.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
+  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
   LocalMapEvent patch{.time = 1.0, .resolution = 0.1, .width = 2, .height = 1, .node_T_origin = SE2(),
                       .cells = {-1, 100}};
-  ASSERT_TRUE(mapper->Process(patch).ok());
+  ASSERT_THAT(mapper->Process(patch), IsOk());
   ASSERT_EQ(mapper->map().local_maps.count(1), 1u);
   EXPECT_EQ(mapper->map().local_maps.at(1).cells, (std::vector<std::int8_t>{-1, 100}));
 }

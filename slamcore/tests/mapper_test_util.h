@@ -16,6 +16,7 @@
 
 #include "slamcore/graph_io.h"
 #include "slamcore/mapper.h"
+#include "status_matchers.h"
 
 namespace slamcore::testing {
 
@@ -37,7 +38,7 @@ inline MapperParams CountsOnlyParams() {
 
 inline std::unique_ptr<Mapper> MakeMapper(const MapperParams& params = TestParams(), Map parent = {}) {
   auto mapper = Mapper::Create(params, std::move(parent));
-  EXPECT_TRUE(mapper.ok()) << mapper.status().ToString();
+  EXPECT_THAT(mapper, IsOk());
   return mapper.ok() ? std::move(mapper).value() : nullptr;
 }
 
@@ -79,7 +80,7 @@ class SimulatedRobot {
  private:
   void Process(const Event& event) {
     const Status status = mapper_->Process(event);
-    EXPECT_TRUE(status.ok()) << status.ToString();
+    EXPECT_THAT(status, IsOk());
   }
 
   Mapper* mapper_;

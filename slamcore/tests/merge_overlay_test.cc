@@ -8,6 +8,7 @@
 
 #include "full_copy_merged_graph.h"
 #include "slamcore/optimizer.h"
+#include "status_matchers.h"
 
 namespace slamcore::internal {
 namespace {
@@ -27,7 +28,7 @@ Edge MakeEdge(NodeId from, NodeId to, const SE2& measurement, EdgeKind kind) {
 /// Every read of the overlay equals the full copy's, for every node and every pair of nodes.
 void ExpectSameReads(const PoseGraph& base, const MergeOverlay& overlay, const std::string& step) {
   const FullCopyMergedGraph reference(base, overlay.source_node(), overlay.alignment(), overlay.edges());
-  ASSERT_TRUE(reference.ok()) << step;
+  ASSERT_THAT(reference, IsOk()) << step;
   for (const Node& a : base.nodes()) {
     const SE2 expected = reference.PoseOf(a.id), actual = overlay.PoseOf(a.id);
     // Bit-identical: both compute alignment · pose with the same operands.
@@ -48,9 +49,9 @@ PoseGraph ThreeComponents() {
       Node node;
       node.id = first + i;
       node.pose = pose;
-      EXPECT_TRUE(graph.AddNode(node).ok());
+      EXPECT_THAT(graph.AddNode(node), IsOk());
       if (i > 0) {
-        EXPECT_TRUE(graph.AddEdge(MakeEdge(first + i - 1, first + i, SE2(1.0, 0.0, 0.1), EdgeKind::kMotion)).ok());
+        EXPECT_THAT(graph.AddEdge(MakeEdge(first + i - 1, first + i, SE2(1.0, 0.0, 0.1), EdgeKind::kMotion)), IsOk());
       }
       pose = pose * SE2(1.0, 0.0, 0.1);
     }
@@ -90,8 +91,8 @@ TEST(MergeOverlayTest, EqualsTheFullCopyOverASequenceOfModifications) {
         Node node;
         node.id = next_id++;
         node.pose = graph.node(robot).pose * SE2(0.5, 0.0, value(random));
-        ASSERT_TRUE(graph.AddNode(node).ok());
-        ASSERT_TRUE(graph.AddEdge(MakeEdge(robot, node.id, SE2(0.5, 0.0, 0.0), EdgeKind::kMotion)).ok());
+        ASSERT_THAT(graph.AddNode(node), IsOk());
+        ASSERT_THAT(graph.AddEdge(MakeEdge(robot, node.id, SE2(0.5, 0.0, 0.0), EdgeKind::kMotion)), IsOk());
         robot = node.id;
         break;
       }
@@ -103,20 +104,20 @@ TEST(MergeOverlayTest, EqualsTheFullCopyOverASequenceOfModifications) {
         overlay.SetAlignment(SE2(value(random) * 3, value(random) * 3, value(random) * 3));
         break;
       case 3: {  // a direct observation edge inside C_s, then optimisation of C_s in G
-        ASSERT_TRUE(graph.AddEdge(MakeEdge(robot, 10, SE2(value(random), value(random), 0.2), EdgeKind::kObservation))
-                        .ok());
+        ASSERT_THAT(graph.AddEdge(MakeEdge(robot, 10, SE2(value(random), value(random), 0.2), EdgeKind::kObservation)),
+                    IsOk());
         OptimizerOptions options;
         options.component = robot;
         options.max_iterations = 5;
-        ASSERT_TRUE(Optimize(graph, options).ok());
+        ASSERT_THAT(Optimize(graph, options), IsOk());
         break;
       }
       case 4: {  // an unrelated component grows
         Node node;
         node.id = next_id++;
         node.pose = SE2(value(random), value(random), value(random));
-        ASSERT_TRUE(graph.AddNode(node).ok());
-        ASSERT_TRUE(graph.AddEdge(MakeEdge(21, node.id, SE2(1.0, 0.0, 0.0), EdgeKind::kMotion)).ok());
+        ASSERT_THAT(graph.AddNode(node), IsOk());
+        ASSERT_THAT(graph.AddEdge(MakeEdge(21, node.id, SE2(1.0, 0.0, 0.0), EdgeKind::kMotion)), IsOk());
         break;
       }
     }

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -30,7 +31,7 @@ TEST(OccupancyGridIo, ReadsEveryRealMapWithTheirPixelConvention) {
   for (const auto& entry : std::filesystem::directory_iterator(folder)) {
     if (entry.path().extension() != ".yaml") continue;
     auto grid = ReadMapServerYaml(entry.path().string());
-    ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+    ASSERT_THAT(grid, IsOk());
     EXPECT_DOUBLE_EQ(grid->resolution, 0.05);
     EXPECT_GT(grid->CountCells(CellState::kFree), 1000) << entry.path();
     EXPECT_GT(grid->CountCells(CellState::kOccupied), 100) << entry.path();
@@ -41,7 +42,7 @@ TEST(OccupancyGridIo, ReadsEveryRealMapWithTheirPixelConvention) {
 
 TEST(OccupancyGridIo, LowerLeftOriginMeansImageRowsAreFlipped) {
   auto grid = OccupancyGrid::Create(3, 2, 0.1, 1.0, 2.0);
-  ASSERT_TRUE(grid.ok());
+  ASSERT_THAT(grid, IsOk());
   grid->at(0, 0) = static_cast<std::int8_t>(CellState::kOccupied);  // lowest y: the image's bottom row
   const std::string pgm = EncodePgm(*grid);
   // Header then 6 pixels: the occupied one is the first pixel of the LAST image row.
@@ -53,12 +54,12 @@ TEST(OccupancyGridIo, LowerLeftOriginMeansImageRowsAreFlipped) {
 TEST(OccupancyGridIo, PgmAndPngRoundTripTheRealMaps) {
   const auto dir = TempDir("roundtrip");
   auto original = ReadMapServerYaml((test_data::Sample() / "maps/aws_small_house.yaml").string());
-  ASSERT_TRUE(original.ok());
+  ASSERT_THAT(original, IsOk());
   for (const bool png : {false, true}) {
     const auto yaml = dir / (png ? "png_map.yaml" : "pgm_map.yaml");
-    ASSERT_TRUE(WriteMapServerYaml(*original, yaml.string(), png).ok());
+    ASSERT_THAT(WriteMapServerYaml(*original, yaml.string(), png), IsOk());
     auto back = ReadMapServerYaml(yaml.string());
-    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    ASSERT_THAT(back, IsOk());
     EXPECT_EQ(back->cells, original->cells);
     EXPECT_EQ(back->width, original->width);
     EXPECT_DOUBLE_EQ(back->origin_x, original->origin_x);
@@ -84,7 +85,7 @@ TEST(OccupancyGridIo, RefusesCorruptPgmWithClearErrors) {
   // A header promising 10⁸ pixels over 10 bytes is refused before 100 MB are allocated for the grid.
   check("P5\n20000 5000\n255\n" + std::string(10, '\xfe'), "truncated pixel data (10 bytes for 100000000 pixels)");
   check("P2\n20000 5000\n255\n0 0 0", "truncated pixel data");
-  EXPECT_TRUE(DecodePgm("P2\n# comment\n2 1\n255\n254 0\n", 0.05, 0, 0).ok());
+  EXPECT_THAT(DecodePgm("P2\n# comment\n2 1\n255\n254 0\n", 0.05, 0, 0), IsOk());
 }
 
 TEST(OccupancyGridIo, YamlTextInMemoryReadsOnlyTheImageItsReaderGives) {
@@ -96,13 +97,12 @@ TEST(OccupancyGridIo, YamlTextInMemoryReadsOnlyTheImageItsReaderGives) {
     return pgm;
   };
   auto grid = ParseMapServerYaml("image: \"map.pgm\"\nresolution: 0.05\norigin: [1.0, 2.0, 0.0]\n", "upload.yaml", reader);
-  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  ASSERT_THAT(grid, IsOk());
   EXPECT_EQ(asked, "map.pgm");
   EXPECT_EQ(grid->width, 2);
   EXPECT_DOUBLE_EQ(grid->origin_y, 2.0);
   auto outside = ParseMapServerYaml("image: ../../etc/passwd\nresolution: 0.05\norigin: [0, 0, 0]\n", "upload.yaml", reader);
-  ASSERT_FALSE(outside.ok());
-  EXPECT_EQ(outside.status().code(), StatusCode::kInvalidArgument);
+  ASSERT_THAT(outside, StatusIs(StatusCode::kInvalidArgument));
   EXPECT_NE(outside.status().message().find("outside the upload"), std::string::npos);
   auto broken = ParseMapServerYaml("image: map.pgm\nresolution: fine\norigin: [0, 0, 0]\n", "upload.yaml", reader);
   ASSERT_FALSE(broken.ok());
@@ -113,9 +113,9 @@ TEST(OccupancyGridIo, YamlTextInMemoryReadsOnlyTheImageItsReaderGives) {
 TEST(OccupancyGridIo, RefusesCorruptPngAndYamlWithClearErrors) {
   EXPECT_FALSE(DecodePng("not a png", 0.05, 0, 0).ok());
   auto grid = OccupancyGrid::Create(20, 10, 0.05);
-  ASSERT_TRUE(grid.ok());
+  ASSERT_THAT(grid, IsOk());
   auto png = EncodePng(*grid);
-  ASSERT_TRUE(png.ok());
+  ASSERT_THAT(png, IsOk());
   std::string truncated = png->substr(0, png->size() / 2);
   auto decoded = DecodePng(truncated, 0.05, 0, 0);
   ASSERT_FALSE(decoded.ok());
@@ -128,12 +128,12 @@ TEST(OccupancyGridIo, RefusesCorruptPngAndYamlWithClearErrors) {
 
   const auto dir = TempDir("yaml");
   auto write_yaml = [&](const std::string& text) {
-    EXPECT_TRUE(WriteFileBytes((dir / "m.yaml").string(), text).ok());
+    EXPECT_THAT(WriteFileBytes((dir / "m.yaml").string(), text), IsOk());
     return ReadMapServerYaml((dir / "m.yaml").string());
   };
   const std::string pgm("P5\n2 2\n255\n\xfe\xfe\x00\xcd", 15);
-  ASSERT_TRUE(WriteFileBytes((dir / "m.pgm").string(), pgm).ok());
-  EXPECT_TRUE(write_yaml("image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n").ok());
+  ASSERT_THAT(WriteFileBytes((dir / "m.pgm").string(), pgm), IsOk());
+  EXPECT_THAT(write_yaml("image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"), IsOk());
   EXPECT_NE(write_yaml("resolution: 0.05\norigin: [0, 0, 0]\n").status().message().find("missing key 'image'"),
             std::string::npos);
   EXPECT_NE(write_yaml("image: m.pgm\nresolution: abc\norigin: [0, 0, 0]\n").status().message().find("resolution"),
@@ -154,7 +154,7 @@ Map MakeMap(int nodes) {
     Node node;
     node.id = i;
     node.pose = SE2(0.5 * i, 0.1 * std::sin(i), 0.05 * i);
-    EXPECT_TRUE(map.graph.AddNode(node).ok());
+    EXPECT_THAT(map.graph.AddNode(node), IsOk());
     LocalMapEvent patch;
     patch.width = 40;
     patch.height = 40;
@@ -189,7 +189,7 @@ void ExpectSameWorldCells(const OccupancyGrid& a, const OccupancyGrid& b) {
 TEST(OccupancyGridRender, IncrementalUpdateEqualsRenderFromScratch) {
   Map map = MakeMap(30);
   GlobalGridRenderer incremental;
-  ASSERT_TRUE(incremental.RenderAll(map).ok());
+  ASSERT_THAT(incremental.RenderAll(map), IsOk());
   EXPECT_GT(incremental.grid().CountCells(CellState::kOccupied), 0);
   std::mt19937 random(7);
   std::uniform_real_distribution<double> jitter(-0.3, 0.3);
@@ -198,10 +198,10 @@ TEST(OccupancyGridRender, IncrementalUpdateEqualsRenderFromScratch) {
     const SE2 old = map.graph.node(moved).pose;
     map.graph.mutable_node(moved).pose = SE2(old.x() + jitter(random), old.y() + jitter(random), old.theta() + 0.2);
     int rerendered = 0;
-    ASSERT_TRUE(incremental.Update(map, &rerendered).ok());
+    ASSERT_THAT(incremental.Update(map, &rerendered), IsOk());
     EXPECT_EQ(rerendered, 1);
     GlobalGridRenderer scratch;
-    ASSERT_TRUE(scratch.RenderAll(map).ok());
+    ASSERT_THAT(scratch.RenderAll(map), IsOk());
     SCOPED_TRACE(step);
     ExpectSameWorldCells(incremental.grid(), scratch.grid());
   }
@@ -210,15 +210,15 @@ TEST(OccupancyGridRender, IncrementalUpdateEqualsRenderFromScratch) {
 TEST(OccupancyGridRender, GrowsBoundsAndDropsRemovedPatches) {
   Map map = MakeMap(5);
   GlobalGridRenderer renderer;
-  ASSERT_TRUE(renderer.RenderAll(map).ok());
+  ASSERT_THAT(renderer.RenderAll(map), IsOk());
   map.graph.mutable_node(2).pose = SE2(40.0, -30.0, 1.0);  // far outside: the bounds must grow
-  ASSERT_TRUE(renderer.Update(map).ok());
+  ASSERT_THAT(renderer.Update(map), IsOk());
   GlobalGridRenderer scratch;
-  ASSERT_TRUE(scratch.RenderAll(map).ok());
+  ASSERT_THAT(scratch.RenderAll(map), IsOk());
   ExpectSameWorldCells(renderer.grid(), scratch.grid());
   map.local_maps.erase(3);
-  ASSERT_TRUE(renderer.Update(map).ok());
-  ASSERT_TRUE(scratch.RenderAll(map).ok());
+  ASSERT_THAT(renderer.Update(map), IsOk());
+  ASSERT_THAT(scratch.RenderAll(map), IsOk());
   ExpectSameWorldCells(renderer.grid(), scratch.grid());
 }
 

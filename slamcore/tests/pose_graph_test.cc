@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "status_matchers.h"
+
 namespace slamcore {
 namespace {
 
@@ -23,24 +25,24 @@ Edge MakeEdge(NodeId from, NodeId to, EdgeKind kind = EdgeKind::kMotion) {
 
 TEST(PoseGraphTest, NodesStartAsTheirOwnComponents) {
   PoseGraph graph;
-  for (NodeId id = 0; id < 4; ++id) ASSERT_TRUE(graph.AddNode(MakeNode(id)).ok());
+  for (NodeId id = 0; id < 4; ++id) ASSERT_THAT(graph.AddNode(MakeNode(id)), IsOk());
   EXPECT_EQ(graph.NumComponents(), 4u);
   EXPECT_FALSE(graph.SameComponent(0, 1));
 }
 
 TEST(PoseGraphTest, EdgesMergeComponents) {
   PoseGraph graph;
-  for (NodeId id = 0; id < 6; ++id) ASSERT_TRUE(graph.AddNode(MakeNode(id)).ok());
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(0, 1)).ok());
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(1, 2)).ok());
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(3, 4)).ok());
+  for (NodeId id = 0; id < 6; ++id) ASSERT_THAT(graph.AddNode(MakeNode(id)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(0, 1)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(1, 2)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(3, 4)), IsOk());
   EXPECT_EQ(graph.NumComponents(), 3u);  // {0,1,2} {3,4} {5}
   EXPECT_TRUE(graph.SameComponent(0, 2));
   EXPECT_FALSE(graph.SameComponent(2, 3));
   EXPECT_EQ(graph.ComponentSize(4), 2u);
 
   // Merging two components by an observation edge.
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(4, 1, EdgeKind::kObservation)).ok());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(4, 1, EdgeKind::kObservation)), IsOk());
   EXPECT_EQ(graph.NumComponents(), 2u);
   EXPECT_TRUE(graph.SameComponent(0, 3));
   EXPECT_EQ(graph.ComponentSize(3), 5u);
@@ -52,10 +54,10 @@ TEST(PoseGraphTest, EdgesMergeComponents) {
 
 TEST(PoseGraphTest, RemovingAnEdgeSplitsComponentsAgain) {
   PoseGraph graph;
-  for (NodeId id = 0; id < 4; ++id) ASSERT_TRUE(graph.AddNode(MakeNode(id)).ok());
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(0, 1)).ok());
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(2, 3)).ok());
-  ASSERT_TRUE(graph.AddEdge(MakeEdge(1, 2, EdgeKind::kObservation)).ok());
+  for (NodeId id = 0; id < 4; ++id) ASSERT_THAT(graph.AddNode(MakeNode(id)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(0, 1)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(2, 3)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(1, 2, EdgeKind::kObservation)), IsOk());
   EXPECT_EQ(graph.NumComponents(), 1u);
   EXPECT_EQ(graph.RemoveEdgesIf([](const Edge& edge) { return edge.kind == EdgeKind::kObservation; }), 1u);
   EXPECT_EQ(graph.NumComponents(), 2u);
@@ -64,10 +66,10 @@ TEST(PoseGraphTest, RemovingAnEdgeSplitsComponentsAgain) {
 
 TEST(PoseGraphTest, CopiesAreIndependent) {
   PoseGraph graph;
-  ASSERT_TRUE(graph.AddNode(MakeNode(0)).ok());
-  ASSERT_TRUE(graph.AddNode(MakeNode(1)).ok());
+  ASSERT_THAT(graph.AddNode(MakeNode(0)), IsOk());
+  ASSERT_THAT(graph.AddNode(MakeNode(1)), IsOk());
   PoseGraph copy = graph;
-  ASSERT_TRUE(copy.AddEdge(MakeEdge(0, 1)).ok());
+  ASSERT_THAT(copy.AddEdge(MakeEdge(0, 1)), IsOk());
   copy.mutable_node(0).pose = SE2(5.0, 0.0, 0.0);
   EXPECT_EQ(graph.NumComponents(), 2u);
   EXPECT_EQ(graph.num_edges(), 0u);
@@ -77,8 +79,8 @@ TEST(PoseGraphTest, CopiesAreIndependent) {
 
 TEST(PoseGraphTest, ViewsAttachToNodes) {
   PoseGraph graph;
-  ASSERT_TRUE(graph.AddNode(MakeNode(7)).ok());
-  ASSERT_TRUE(graph.AddView({.id = 70, .node = 7, .ambiguous = false}).ok());
+  ASSERT_THAT(graph.AddNode(MakeNode(7)), IsOk());
+  ASSERT_THAT(graph.AddView({.id = 70, .node = 7, .ambiguous = false}), IsOk());
   EXPECT_EQ(graph.view(70).node, 7);
   EXPECT_EQ(graph.FindView(71), nullptr);
   EXPECT_EQ(graph.AddView({.id = 71, .node = 8, .ambiguous = false}).code(), StatusCode::kNotFound);
@@ -87,8 +89,8 @@ TEST(PoseGraphTest, ViewsAttachToNodes) {
 
 TEST(PoseGraphTest, RejectsBadInputAndStaysUnchanged) {
   PoseGraph graph;
-  ASSERT_TRUE(graph.AddNode(MakeNode(0)).ok());
-  ASSERT_TRUE(graph.AddNode(MakeNode(1)).ok());
+  ASSERT_THAT(graph.AddNode(MakeNode(0)), IsOk());
+  ASSERT_THAT(graph.AddNode(MakeNode(1)), IsOk());
   EXPECT_EQ(graph.AddNode(MakeNode(0)).code(), StatusCode::kInvalidArgument);
 
   Node nan_node = MakeNode(2);
@@ -100,7 +102,7 @@ TEST(PoseGraphTest, RejectsBadInputAndStaysUnchanged) {
   Edge indefinite = MakeEdge(0, 1);
   indefinite.information(2, 2) = -1.0;
   const auto status = graph.AddEdge(indefinite).status();
-  EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
+  EXPECT_THAT(status, StatusIs(StatusCode::kInvalidArgument));
   EXPECT_NE(status.message().find("positive definite"), std::string::npos) << status.message();
   Edge asymmetric = MakeEdge(0, 1);
   asymmetric.information(0, 1) = 0.5;

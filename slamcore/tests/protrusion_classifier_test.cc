@@ -11,6 +11,7 @@
 
 #include "slamcore/protrusion_data.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -28,7 +29,7 @@ std::vector<RealMap> ReadRealMaps(const std::filesystem::path& folder) {
   for (const auto& entry : std::filesystem::directory_iterator(folder)) {
     if (entry.path().extension() != ".yaml") continue;
     auto grid = ReadMapServerYaml(entry.path().string());
-    EXPECT_TRUE(grid.ok()) << grid.status().ToString();
+    EXPECT_THAT(grid, IsOk());
     if (grid.ok()) maps.push_back({entry.path().stem().string(), std::move(*grid)});
   }
   std::sort(maps.begin(), maps.end(), [](const RealMap& a, const RealMap& b) { return a.id < b.id; });
@@ -44,13 +45,15 @@ std::filesystem::path TempDir(const std::string& name) {
 
 TEST(ProtrusionData, GeneratorIsSeededAndLabelsBothClasses) {
   auto map = ReadMapServerYaml((kMaps / "aws_small_house.yaml").string());
-  ASSERT_TRUE(map.ok());
+  ASSERT_THAT(map, IsOk());
   GeneratorOptions options;
   options.min_protrusions = 1;
   auto first = GeneratePair(*map, 42, options);
   auto again = GeneratePair(*map, 42, options);
   auto other = GeneratePair(*map, 43, options);
-  ASSERT_TRUE(first.ok() && again.ok() && other.ok()) << first.status().ToString();
+  ASSERT_THAT(first, IsOk());
+  ASSERT_THAT(again, IsOk());
+  ASSERT_THAT(other, IsOk());
   EXPECT_EQ(first->child.cells, again->child.cells);
   EXPECT_EQ(first->parent.cells, again->parent.cells);
   EXPECT_NE(first->child.cells, other->child.cells);
@@ -61,7 +64,7 @@ TEST(ProtrusionData, GeneratorIsSeededAndLabelsBothClasses) {
   // The parent is cropped to its known cells: another size and origin than the child, on the same grid.
   EXPECT_NE(first->parent.width, first->child.width);
   auto labelled = ExtractAndLabel(*first);
-  ASSERT_TRUE(labelled.ok()) << labelled.status().ToString();
+  ASSERT_THAT(labelled, IsOk());
   EXPECT_EQ(std::count(labelled->labels.begin(), labelled->labels.end(), 1), first->protrusions);
   EXPECT_EQ(labelled->missed_protrusions, 0);
   EXPECT_FALSE(GeneratePair(OccupancyGrid{}, 1).ok());
@@ -69,19 +72,19 @@ TEST(ProtrusionData, GeneratorIsSeededAndLabelsBothClasses) {
 
 TEST(ProtrusionData, DatasetRoundTripsAndRefusesBrokenIndexes) {
   auto map = ReadMapServerYaml((kMaps / "valetudo_roborock_S5_FW2008_with_segments.yaml").string());
-  ASSERT_TRUE(map.ok());
+  ASSERT_THAT(map, IsOk());
   auto pair = GeneratePair(*map, 7);
-  ASSERT_TRUE(pair.ok());
+  ASSERT_THAT(pair, IsOk());
   const auto dir = TempDir("dataset");
   const DatasetEntry entry{"s5_v7", "valetudo_roborock_S5_FW2008_with_segments", "valetudo_roborock_S5_FW2008",
                            "generator"};
-  ASSERT_TRUE(WriteDatasetPair(dir.string(), entry, *pair).ok());
+  ASSERT_THAT(WriteDatasetPair(dir.string(), entry, *pair), IsOk());
   auto entries = ReadDatasetIndex(dir.string());
-  ASSERT_TRUE(entries.ok()) << entries.status().ToString();
+  ASSERT_THAT(entries, IsOk());
   ASSERT_EQ(entries->size(), 1u);
   EXPECT_EQ((*entries)[0].home_id, entry.home_id);
   auto back = ReadDatasetPair(dir.string(), (*entries)[0]);
-  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_THAT(back, IsOk());
   EXPECT_EQ(back->child.cells, pair->child.cells);
   EXPECT_EQ(back->parent.cells, pair->parent.cells);
   EXPECT_EQ(back->truth, pair->truth);
@@ -97,10 +100,10 @@ std::vector<LabelledRegion> Regions(const std::vector<RealMap>& maps, int varian
   for (std::size_t m = 0; m < maps.size(); ++m) {
     for (int variant = 0; variant < variants; ++variant) {
       auto pair = GeneratePair(maps[m].grid, 1000003ULL * 7 + m * 10007ULL + static_cast<std::uint64_t>(variant));
-      EXPECT_TRUE(pair.ok()) << pair.status().ToString();
+      EXPECT_THAT(pair, IsOk());
       if (!pair.ok()) continue;
       auto labelled = ExtractAndLabel(*pair);
-      EXPECT_TRUE(labelled.ok()) << labelled.status().ToString();
+      EXPECT_THAT(labelled, IsOk());
       if (!labelled.ok()) continue;
       const std::string home = HomeOfRealMap(maps[m].id);
       for (std::size_t i = 0; i < labelled->regions.size(); ++i) {
@@ -123,11 +126,11 @@ TEST(ProtrusionClassifier, SavesLoadsAndRefusesMismatchedModels) {
     options.kind = kind;
     options.selected_features = {5, 6, 7, 12};
     auto trained = ProtrusionClassifier::Train(regions, options);
-    ASSERT_TRUE(trained.ok()) << trained.status().ToString();
+    ASSERT_THAT(trained, IsOk());
     const std::string path = (dir / "model.yml").string();
-    ASSERT_TRUE((*trained)->Save(path).ok());
+    ASSERT_THAT((*trained)->Save(path), IsOk());
     auto loaded = ProtrusionClassifier::Load(path);
-    ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+    ASSERT_THAT(loaded, IsOk());
     EXPECT_EQ((*loaded)->selected_features(), options.selected_features);
     for (const LabelledRegion& region : regions) {
       EXPECT_DOUBLE_EQ(*(*loaded)->Probability(region.features), *(*trained)->Probability(region.features));
@@ -136,7 +139,7 @@ TEST(ProtrusionClassifier, SavesLoadsAndRefusesMismatchedModels) {
   }
   // A model from a build with another feature list, or another version, is refused by name.
   auto saved = ReadFileBytes((dir / "model.yml").string());
-  ASSERT_TRUE(saved.ok());
+  ASSERT_THAT(saved, IsOk());
   const std::string text = *saved;
   auto write_and_load = [&](const std::string& contents) {
     std::ofstream(dir / "bad.yml") << contents;
@@ -174,7 +177,7 @@ TEST(ProtrusionHeldOut, MeetsThePaperTargetsOnHeldOutHomes) {
   for (const LabelledRegion& region : regions) ++homes[region.group];
   ASSERT_EQ(homes.size(), 10u);  // the two d9_1058 maps are one home
   auto result = CrossValidate(regions, options, static_cast<int>(homes.size()));
-  ASSERT_TRUE(result.ok()) << result.status().ToString();
+  ASSERT_THAT(result, IsOk());
   ConfusionMatrix confusion = result->confusion;
   for (const auto& [home, count] : missed) confusion.false_negatives += count;
   std::printf("held-out homes: TP %ld FP %ld TN %ld FN %ld precision %.4f recall %.4f FPR %.4f\n",

@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include "status_matchers.h"
+
 namespace slamcore {
 namespace {
 
@@ -43,7 +45,7 @@ Scene MakeScene() {
 TEST(ProtrusionDetector, FindsTheCorridorAndTheRoomWithTheirShapes) {
   const Scene scene = MakeScene();
   auto regions = ExtractRegions(scene.parent, scene.child);
-  ASSERT_TRUE(regions.ok()) << regions.status().ToString();
+  ASSERT_THAT(regions, IsOk());
   ASSERT_EQ(regions->size(), 2u);
   const ProtrusionRegion* corridor = nullptr;
   const ProtrusionRegion* room = nullptr;
@@ -77,7 +79,7 @@ TEST(ProtrusionDetector, CleanUpRemovesSpeckleAndFringes) {
   for (int i = 0; i < 30; ++i) FillRect(scene.child, 5 + 6 * i % 180, 5 + (i * 37) % 60, 2, 2, kFree);
   FillRect(scene.child, 40, 162, 60, 1, kFree);  // a 1-cell fringe along the known edge
   auto regions = ExtractRegions(scene.parent, scene.child);
-  ASSERT_TRUE(regions.ok());
+  ASSERT_THAT(regions, IsOk());
   EXPECT_TRUE(regions->empty());
 }
 
@@ -89,7 +91,7 @@ TEST(ProtrusionDetector, AlignsWholeCellShiftsAndRefusesWhatCannotBeAligned) {
     for (int col = 0; col < 170; ++col) cropped.at(col, row) = scene.parent.at(col + 30, row + 10);
   }
   auto regions = ExtractRegions(cropped, scene.child);
-  ASSERT_TRUE(regions.ok()) << regions.status().ToString();
+  ASSERT_THAT(regions, IsOk());
   EXPECT_EQ(regions->size(), 2u);
 
   OccupancyGrid coarse = scene.parent;
@@ -125,7 +127,7 @@ TEST(ProtrusionAnova, MatchesAHandComputedOneWayAnova) {
     labels.push_back(i <= 3 ? 0 : 1);
   }
   auto anova = AnovaFValues(features, labels);
-  ASSERT_TRUE(anova.ok()) << anova.status().ToString();
+  ASSERT_THAT(anova, IsOk());
   EXPECT_EQ((*anova)[0].name, "area_m2");
   EXPECT_NEAR((*anova)[0].f_value, 13.5, 1e-9);
   EXPECT_NEAR((*anova)[0].p_value, 0.021312, 1e-5);
@@ -138,9 +140,9 @@ TEST(ProtrusionAnova, MatchesAHandComputedOneWayAnova) {
 TEST(ProtrusionRepair, CutOutRestoresTheParentWhereTheProtrusionWas) {
   const Scene scene = MakeScene();
   auto aligned = AlignParentToChild(scene.parent, scene.child);
-  ASSERT_TRUE(aligned.ok());
+  ASSERT_THAT(aligned, IsOk());
   auto regions = ExtractRegions(scene.parent, scene.child);
-  ASSERT_TRUE(regions.ok());
+  ASSERT_THAT(regions, IsOk());
   const ProtrusionRegion* corridor = nullptr;
   for (const ProtrusionRegion& region : *regions) {
     if (region.bbox.width > region.bbox.height) corridor = &region;

@@ -11,6 +11,7 @@
 #include "slamcore/protrusion_data.h"
 #include "slamcore/protrusion_detector.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
@@ -60,7 +61,8 @@ TEST(RangeScan, AScanDrawnAtTheBelievedPoseCopiesTheWallBeyondIt) {
 TEST(ProtrusionPhysics, HeldOutFamilyUsesRangesTrainingNeverSees) {
   const auto physical = GeneratorFamily("physical");
   const auto heldout = GeneratorFamily("heldout");
-  ASSERT_TRUE(physical.ok() && heldout.ok());
+  ASSERT_THAT(physical, IsOk());
+  ASSERT_THAT(heldout, IsOk());
   EXPECT_FALSE(GeneratorFamily("unknown").ok());
   auto overlaps = [](const Interval& a, const Interval& b) { return a.low < b.high && b.low < a.high; };
   for (const auto& train : physical->stuck.sensors) {
@@ -79,25 +81,25 @@ TEST(ProtrusionPhysics, HeldOutFamilyUsesRangesTrainingNeverSees) {
 TEST(ProtrusionPhysics, StuckRobotsPaintBandsTheDetectorFinds) {
   TEST_DATA_FILE_OR_SKIP(map_path, "maps/aws_small_house.yaml");
   const auto map = ReadMapServerYaml(map_path.string());
-  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  ASSERT_THAT(map, IsOk());
   const auto options = GeneratorFamily("heldout");
-  ASSERT_TRUE(options.ok());
+  ASSERT_THAT(options, IsOk());
   int protrusions = 0, protrusion_regions = 0;
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {
     const auto pair = GeneratePair(*map, seed, *options);
-    ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+    ASSERT_THAT(pair, IsOk());
     const auto again = GeneratePair(*map, seed, *options);
     EXPECT_EQ(pair->child.cells, again->child.cells);  // seeded
     protrusions += pair->protrusions;
     // Every protrusion cell is a change the detector can see: newly known, or a wall turned to floor.
     const auto aligned = AlignParentToChild(pair->parent, pair->child);
-    ASSERT_TRUE(aligned.ok());
+    ASSERT_THAT(aligned, IsOk());
     const auto difference = DifferenceMask(*aligned, pair->child);
     for (std::size_t i = 0; i < pair->truth.size(); ++i) {
       if (pair->truth[i] != 0) ASSERT_EQ(difference[i], 1) << "cell " << i;
     }
     const auto labelled = ExtractAndLabel(*pair);
-    ASSERT_TRUE(labelled.ok());
+    ASSERT_THAT(labelled, IsOk());
     for (const int label : labelled->labels) protrusion_regions += label;
     EXPECT_EQ(labelled->missed_protrusions, 0);
   }
@@ -111,7 +113,7 @@ TEST(ProtrusionDetector, AWallTurnedToFloorSurvivesTheCleanUp) {
   // A 1 m stretch of the 1-cell east wall becomes floor (rows 40–59); the 3×3 opening alone would erase it.
   for (int row = 40; row < 60; ++row) child.at(99, row) = kFree;
   const auto regions = ExtractRegions(parent, child);
-  ASSERT_TRUE(regions.ok()) << regions.status().ToString();
+  ASSERT_THAT(regions, IsOk());
   ASSERT_EQ(regions->size(), 1u);
   EXPECT_EQ((*regions)[0].clean_area_cells, 20);
   const auto& names = ProtrusionFeatureNames();
@@ -131,7 +133,7 @@ TEST(ProtrusionDetector, ABandBeyondAWallIsUnreachableAndRepeatsTheRoom) {
     for (int col = 100; col < 140; ++col) child.at(col, row) = parent.at(col - 40, row);
   }
   const auto regions = ExtractRegions(parent, child);
-  ASSERT_TRUE(regions.ok()) << regions.status().ToString();
+  ASSERT_THAT(regions, IsOk());
   ASSERT_EQ(regions->size(), 1u);
   const auto& names = ProtrusionFeatureNames();
   const auto feature = [&](const char* name) {
@@ -146,7 +148,7 @@ TEST(ProtrusionDetector, ABandBeyondAWallIsUnreachableAndRepeatsTheRoom) {
   // The same band reached through a doorway in the wall is reachable.
   for (int row = 45; row < 55; ++row) child.at(99, row) = kFree, parent.at(99, row) = kFree;
   const auto through_door = ExtractRegions(parent, child);
-  ASSERT_TRUE(through_door.ok());
+  ASSERT_THAT(through_door, IsOk());
   ASSERT_EQ(through_door->size(), 1u);
   EXPECT_GT((*through_door)[0].features[static_cast<std::size_t>(
                 std::find(names.begin(), names.end(), "reachable_fraction") - names.begin())],
@@ -155,11 +157,11 @@ TEST(ProtrusionDetector, ABandBeyondAWallIsUnreachableAndRepeatsTheRoom) {
 
 TEST(DefaultProtrusionModel, IsBuiltInAndRoundTrips) {
   const auto model = DefaultProtrusionClassifier();
-  ASSERT_TRUE(model.ok()) << model.status().ToString();
+  ASSERT_THAT(model, IsOk());
   const auto bytes = (*model)->ToBytes();
-  ASSERT_TRUE(bytes.ok());
+  ASSERT_THAT(bytes, IsOk());
   const auto again = ProtrusionClassifier::LoadFromBytes(*bytes);
-  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  ASSERT_THAT(again, IsOk());
   EXPECT_EQ((*again)->kind(), (*model)->kind());
   EXPECT_EQ((*again)->selected_features(), (*model)->selected_features());
   std::vector<double> features(ProtrusionFeatureNames().size(), 0.5);

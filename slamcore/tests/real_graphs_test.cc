@@ -17,13 +17,14 @@
 #include "slamcore/graph_io.h"
 #include "slamcore/optimizer.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace slamcore {
 namespace {
 
 PoseGraph Load(const std::filesystem::path& path) {
   auto graph = ReadPoseGraph(path);
-  EXPECT_TRUE(graph.ok()) << graph.status().ToString();
+  EXPECT_THAT(graph, IsOk());
   return graph.ok() ? std::move(graph).value() : PoseGraph();
 }
 
@@ -32,7 +33,7 @@ double OptimisedChi2(PoseGraph graph, bool linear_initialization, int max_iterat
   options.linear_initialization = linear_initialization;
   options.max_iterations = max_iterations;
   const auto summary = Optimize(graph, options);
-  EXPECT_TRUE(summary.ok()) << summary.status().ToString();
+  EXPECT_THAT(summary, IsOk());
   if (!summary.ok()) return -1.0;
   EXPECT_TRUE(summary->converged) << summary->message;
   return summary->final_chi2;
@@ -124,7 +125,7 @@ TEST(RealGraphTest, MitFromOdometryNeedsTheLinearStartWithinTheDefaultIterationL
   const PoseGraph graph = Load(mit);
   PoseGraph warm = graph;
   const auto summary = Optimize(warm, {});
-  ASSERT_TRUE(summary.ok());
+  ASSERT_THAT(summary, IsOk());
   EXPECT_GT(summary->final_chi2, 1.1 * 770.664);
   EXPECT_NEAR(OptimisedChi2(graph, true), 770.664, 0.1);
 }

@@ -4,6 +4,8 @@
 
 #include <random>
 
+#include "status_matchers.h"
+
 namespace slamcore {
 namespace {
 
@@ -17,7 +19,7 @@ TEST(TrajectoryErrorTest, RecoversAKnownRigidMotion) {
     reference.push_back(motion * estimate.back());
   }
   const auto aligned = AlignRigidly(estimate, reference);
-  ASSERT_TRUE(aligned.ok());
+  ASSERT_THAT(aligned, IsOk());
   EXPECT_TRUE(aligned->IsApprox(motion, 1e-9));
   EXPECT_NEAR(*AlignedRmse(estimate, reference), 0.0, 1e-9);
 }

@@ -456,10 +456,9 @@ std::int64_t NowMs() {
 std::int64_t LatestSchemaVersionInternal() { return static_cast<std::int64_t>(Migrations().size()); }
 
 Result<std::int64_t> ReadSchemaVersion(SqlTransaction& transaction) {
-  auto rows = transaction.Query("SELECT MAX(version) FROM schema_version", {});
-  if (!rows.ok()) return rows.status();
-  if (rows->empty() || rows->front().IsNull(0)) return std::int64_t{0};
-  return rows->front().Int(0);
+  ASSIGN_OR_RETURN(auto rows, transaction.Query("SELECT MAX(version) FROM schema_version", {}));
+  if (rows.empty() || rows.front().IsNull(0)) return std::int64_t{0};
+  return rows.front().Int(0);
 }
 
 Status MigrateToLatest(SqlDatabase& database) { return MigrateTo(database, LatestSchemaVersionInternal()); }
@@ -471,12 +470,12 @@ Status MigrateTo(SqlDatabase& database, std::int64_t target_version) {
   return database.InTransaction(TransactionMode::kWrite, [&](SqlTransaction& transaction) -> Status {
     if (database.dialect() == Dialect::kPostgres) {
       // Several servers may start at once against one PostgreSQL: let one migrate, the others wait.
-      STORAGE_RETURN_IF_ERROR(transaction.Exec("SELECT pg_advisory_xact_lock(7140424601)", {}));
+      RETURN_IF_ERROR(transaction.Exec("SELECT pg_advisory_xact_lock(7140424601)", {}));
     }
-    STORAGE_RETURN_IF_ERROR(transaction.ExecScript(
+    RETURN_IF_ERROR(transaction.ExecScript(
         "CREATE TABLE IF NOT EXISTS schema_version (version BIGINT PRIMARY KEY, applied_at_ms BIGINT NOT NULL)"));
     auto current = ReadSchemaVersion(transaction);
-    if (!current.ok()) return current.status();
+    RETURN_IF_ERROR(current.status());
     const std::int64_t latest = target_version;
     if (*current > LatestSchemaVersionInternal()) {
       return FailedPrecondition("database schema version " + std::to_string(*current) +
@@ -489,7 +488,7 @@ Status MigrateTo(SqlDatabase& database, std::int64_t target_version) {
       if (!applied.ok()) {
         return Status(applied.code(), "schema migration " + std::to_string(version) + " failed: " + applied.message());
       }
-      STORAGE_RETURN_IF_ERROR(transaction.Exec("INSERT INTO schema_version (version, applied_at_ms) VALUES ($1, $2)",
+      RETURN_IF_ERROR(transaction.Exec("INSERT INTO schema_version (version, applied_at_ms) VALUES ($1, $2)",
                                                {SqlValue{version}, SqlValue{NowMs()}}));
     }
     return Status::Ok();

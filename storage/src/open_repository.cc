@@ -77,8 +77,8 @@ Result<std::unique_ptr<SqlRepository>> OpenSqlRepository(const std::string& url,
     if (options.postgres_pool_size < 1) return InvalidArgument("postgres_pool_size must be at least 1");
     database = OpenPostgresDatabase(url, options.postgres_pool_size);
   }
-  if (!database.ok()) return database.status();
-  STORAGE_RETURN_IF_ERROR(MigrateToLatest(**database));
+  RETURN_IF_ERROR(database.status());
+  RETURN_IF_ERROR(MigrateToLatest(**database));
   return std::make_unique<SqlRepository>(std::move(database).value());
 }
 

@@ -80,12 +80,11 @@ class PostgresDatabase final : public SqlDatabase {
   Status InTransaction(TransactionMode /*mode*/, const std::function<Status(SqlTransaction&)>& body) override {
     Status status;
     for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
-      auto connection = Acquire();
-      if (!connection.ok()) return connection.status();
+      ASSIGN_OR_RETURN(auto connection, Acquire());
       bool broken = false, retryable = false;
       try {
-        pqxx::work work(*(*connection)->connection);
-        PostgresTransaction transaction(*this, **connection, work);
+        pqxx::work work(*(connection)->connection);
+        PostgresTransaction transaction(*this, *connection, work);
         status = body(transaction);
         retryable = transaction.retryable();
         if (status.ok()) work.commit();
@@ -102,7 +101,7 @@ class PostgresDatabase final : public SqlDatabase {
       } catch (const std::exception& error) {
         status = Internal(std::string("postgresql: ") + error.what());
       }
-      Release(std::move(connection).value(), broken);
+      Release(std::move(connection), broken);
       if (status.ok() || !retryable) break;
     }
     return status;
@@ -227,9 +226,8 @@ Result<SqlRows> PostgresTransaction::Query(const std::string& sql, const std::ve
 Result<std::unique_ptr<SqlDatabase>> OpenPostgresDatabase(const std::string& connection_url, int pool_size) {
   auto database = std::make_unique<PostgresDatabase>(connection_url, pool_size);
   // Connect once now so a wrong URL or a down server is reported at open, not at first use.
-  auto connection = database->Acquire();
-  if (!connection.ok()) return connection.status();
-  database->Release(std::move(connection).value(), /*broken=*/false);
+  ASSIGN_OR_RETURN(auto connection, database->Acquire());
+  database->Release(std::move(connection), /*broken=*/false);
   return std::unique_ptr<SqlDatabase>(std::move(database));
 }
 

@@ -25,7 +25,7 @@ Result<InsertOutcome> SqlRepository::CompareExisting(SqlTransaction& transaction
                                                      const std::vector<SqlValue>& key, const std::string& sha256,
                                                      const std::string& what) {
   auto rows = transaction.Query(select_digest_sql, key);
-  if (!rows.ok()) return rows.status();
+  RETURN_IF_ERROR(rows.status());
   if (rows->empty()) return Internal(what + " vanished while being inserted");
   if (rows->front().Text(0) == sha256) return InsertOutcome::kAlreadyPresent;
   return AlreadyExists(what + " is already stored with different content");
@@ -34,12 +34,11 @@ Result<InsertOutcome> SqlRepository::CompareExisting(SqlTransaction& transaction
 Result<std::int64_t> SqlRepository::SchemaVersion() {
   std::int64_t version = 0;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    auto read = ReadSchemaVersion(transaction);
-    if (!read.ok()) return read.status();
-    version = *read;
+    ASSIGN_OR_RETURN(auto read, ReadSchemaVersion(transaction));
+    version = read;
     return Status::Ok();
   });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(status);
   return version;
 }
 
@@ -57,9 +56,9 @@ constexpr const char* kRobotColumns = "robot_id, robot_model, firmware, register
 
 Status SqlRepository::PutRobot(const RobotRecord& robot) {
   if (robot.robot_id.empty()) return InvalidArgument("robot_id is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(robot.robot_id, "robot_id", 128));
-  STORAGE_RETURN_IF_ERROR(CheckText(robot.robot_model, "robot_model"));
-  STORAGE_RETURN_IF_ERROR(CheckText(robot.firmware, "firmware"));
+  RETURN_IF_ERROR(CheckText(robot.robot_id, "robot_id", 128));
+  RETURN_IF_ERROR(CheckText(robot.robot_model, "robot_model"));
+  RETURN_IF_ERROR(CheckText(robot.firmware, "firmware"));
   const std::int64_t registered = robot.registered_at_ms != 0 ? robot.registered_at_ms : NowMs();
   return Write([&](SqlTransaction& transaction) {
     return transaction.Exec(
@@ -72,13 +71,13 @@ Status SqlRepository::PutRobot(const RobotRecord& robot) {
 Result<RobotRecord> SqlRepository::GetRobot(const std::string& robot_id) {
   std::optional<RobotRecord> robot;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots WHERE robot_id = $1",
-                                  {robot_id});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) robot = RobotFromRow(rows->front());
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots WHERE robot_id = $1",
+                                  {robot_id}));
+    if (!rows.empty()) robot = RobotFromRow(rows.front());
     return Status::Ok();
   });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(status);
   if (!robot) return NotFound("no robot " + robot_id);
   return *robot;
 }
@@ -86,12 +85,12 @@ Result<RobotRecord> SqlRepository::GetRobot(const std::string& robot_id) {
 Result<std::vector<RobotRecord>> SqlRepository::ListRobots() {
   std::vector<RobotRecord> robots;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots ORDER BY robot_id", {});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) robots.push_back(RobotFromRow(row));
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots ORDER BY robot_id", {}));
+    for (const SqlRow& row : rows) robots.push_back(RobotFromRow(row));
     return Status::Ok();
   });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(status);
   return robots;
 }
 
@@ -99,18 +98,17 @@ Result<std::vector<RobotRecord>> SqlRepository::ListRobots() {
 
 Status SqlRepository::SetCredential(const std::string& principal, const std::string& secret) {
   if (principal.empty()) return InvalidArgument("principal is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(principal, "principal", 256));
+  RETURN_IF_ERROR(CheckText(principal, "principal", 256));
   if (secret.empty()) return InvalidArgument("secret is empty");
   const PasswordHash hashed = HashTokenSecret(secret);
   return Write([&](SqlTransaction& transaction) -> Status {
-    auto epoch = NextCredentialEpoch(transaction);
-    if (!epoch.ok()) return epoch.status();
+    ASSIGN_OR_RETURN(auto epoch, NextCredentialEpoch(transaction));
     return transaction.Exec(
         "INSERT INTO credentials (principal, algorithm, iterations, salt, hash, updated_at_ms, epoch) "
         "VALUES ($1, 'salted-sha256', $2, $3, $4, $5, $6) ON CONFLICT (principal) DO UPDATE SET "
         "algorithm = excluded.algorithm, iterations = excluded.iterations, salt = excluded.salt, "
         "hash = excluded.hash, updated_at_ms = excluded.updated_at_ms, epoch = excluded.epoch",
-        {principal, hashed.iterations, SqlBlob{hashed.salt}, SqlBlob{hashed.hash}, NowMs(), *epoch});
+        {principal, hashed.iterations, SqlBlob{hashed.salt}, SqlBlob{hashed.hash}, NowMs(), epoch});
   });
 }
 
@@ -118,16 +116,16 @@ Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const
   std::optional<PasswordHash> stored;
   std::string algorithm;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT salt, hash, iterations, algorithm FROM credentials WHERE principal = $1",
-                                  {principal});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) {
-      stored = PasswordHash{rows->front().Text(0), rows->front().Text(1), rows->front().Int(2)};
-      algorithm = rows->front().Text(3);
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("SELECT salt, hash, iterations, algorithm FROM credentials WHERE principal = $1",
+                                  {principal}));
+    if (!rows.empty()) {
+      stored = PasswordHash{rows.front().Text(0), rows.front().Text(1), rows.front().Int(2)};
+      algorithm = rows.front().Text(3);
     }
     return Status::Ok();
   });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(status);
   if (!stored || algorithm == kRevokedAlgorithm) {
     // Equal work for an unknown principal: the same hash over a throwaway record, so timing says nothing.
     static const PasswordHash kDummy = HashTokenSecret("no such principal");
@@ -138,7 +136,7 @@ Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const
   if (algorithm != "pbkdf2-hmac-sha256") return false;
   // A credential from before "salted-sha256": verified the slow way once, then rewritten the fast way.
   if (!VerifySecret(secret, *stored)) return false;
-  STORAGE_RETURN_IF_ERROR(SetCredential(principal, secret));
+  RETURN_IF_ERROR(SetCredential(principal, secret));
   return true;
 }
 
@@ -147,10 +145,9 @@ Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const
 Result<std::string> SqlRepository::PutSnapshot(const std::string& bytes) {
   const std::string id = Sha256Hex(bytes);
   bool present = false;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {id});
-    if (!rows.ok()) return rows.status();
-    present = !rows->empty();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {id}));
+    present = !rows.empty();
     return Status::Ok();
   }));
   if (present) return id;  // deduplicated: skip compressing again
@@ -161,22 +158,22 @@ Result<std::string> SqlRepository::PutSnapshot(const std::string& bytes) {
         "ON CONFLICT (snapshot_id) DO NOTHING",
         {id, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs()});
   });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(status);
   return id;
 }
 
 Result<SnapshotRecord> SqlRepository::GetSnapshot(const std::string& snapshot_id) {
   std::optional<SqlRow> row;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT data, data_crc32, data_size FROM snapshots WHERE snapshot_id = $1",
-                                  {snapshot_id});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) row = rows->front();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("SELECT data, data_crc32, data_size FROM snapshots WHERE snapshot_id = $1",
+                                  {snapshot_id}));
+    if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no snapshot " + snapshot_id);
   auto bytes = DecodeBlob(row->Text(0), row->Int(1), row->Int(2), "snapshot " + snapshot_id);
-  if (!bytes.ok()) return bytes.status();
+  RETURN_IF_ERROR(bytes.status());
   if (Sha256Hex(*bytes) != snapshot_id) return DataLoss("snapshot " + snapshot_id + ": bytes do not match their id");
   return SnapshotRecord{snapshot_id, std::move(bytes).value()};
 }
@@ -185,21 +182,20 @@ Result<SnapshotRecord> SqlRepository::GetSnapshot(const std::string& snapshot_id
 
 Result<InsertOutcome> SqlRepository::PutParameterSet(const ParameterSetRecord& parameter_set) {
   if (parameter_set.name.empty()) return InvalidArgument("parameter set name is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(parameter_set.name, "parameter set name", 128));
+  RETURN_IF_ERROR(CheckText(parameter_set.name, "parameter set name", 128));
   const std::string sha256 = Sha256Hex(parameter_set.serialized);
   const EncodedBlob blob = EncodeBlob(parameter_set.serialized);
   InsertOutcome outcome = InsertOutcome::kInserted;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto inserted = transaction.Query(
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto inserted, transaction.Query(
         "INSERT INTO parameter_sets (name, data, data_crc32, data_size, data_sha256, created_at_ms) "
         "VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (name) DO NOTHING RETURNING name",
-        {parameter_set.name, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()});
-    if (!inserted.ok()) return inserted.status();
-    if (!inserted->empty()) return Status::Ok();
-    auto existing = CompareExisting(transaction, "SELECT data_sha256 FROM parameter_sets WHERE name = $1",
-                                    {parameter_set.name}, sha256, "parameter set " + parameter_set.name);
-    if (!existing.ok()) return existing.status();
-    outcome = *existing;
+        {parameter_set.name, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()}));
+    if (!inserted.empty()) return Status::Ok();
+    ASSIGN_OR_RETURN(auto existing,
+                     CompareExisting(transaction, "SELECT data_sha256 FROM parameter_sets WHERE name = $1",
+                                    {parameter_set.name}, sha256, "parameter set " + parameter_set.name));
+    outcome = existing;
     return Status::Ok();
   }));
   return outcome;
@@ -207,24 +203,22 @@ Result<InsertOutcome> SqlRepository::PutParameterSet(const ParameterSetRecord& p
 
 Result<ParameterSetRecord> SqlRepository::GetParameterSet(const std::string& name) {
   std::optional<SqlRow> row;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT data, data_crc32, data_size FROM parameter_sets WHERE name = $1", {name});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) row = rows->front();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("SELECT data, data_crc32, data_size FROM parameter_sets WHERE name = $1", {name}));
+    if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no parameter set " + name);
-  auto bytes = DecodeBlob(row->Text(0), row->Int(1), row->Int(2), "parameter set " + name);
-  if (!bytes.ok()) return bytes.status();
-  return ParameterSetRecord{name, std::move(bytes).value()};
+  ASSIGN_OR_RETURN(auto bytes, DecodeBlob(row->Text(0), row->Int(1), row->Int(2), "parameter set " + name));
+  return ParameterSetRecord{name, std::move(bytes)};
 }
 
 Result<std::vector<std::string>> SqlRepository::ListParameterSetNames() {
   std::vector<std::string> names;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT name FROM parameter_sets ORDER BY name", {});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) names.push_back(row.Text(0));
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query("SELECT name FROM parameter_sets ORDER BY name", {}));
+    for (const SqlRow& row : rows) names.push_back(row.Text(0));
     return Status::Ok();
   }));
   return names;
@@ -234,22 +228,21 @@ Result<std::vector<std::string>> SqlRepository::ListParameterSetNames() {
 
 Result<InsertOutcome> SqlRepository::PutModel(const ModelRecord& model) {
   if (model.name.empty()) return InvalidArgument("model name is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(model.name, "model name", 128));
+  RETURN_IF_ERROR(CheckText(model.name, "model name", 128));
   const std::string sha256 = Sha256Hex(model.bytes);
   const EncodedBlob blob = EncodeBlob(model.bytes);
   InsertOutcome outcome = InsertOutcome::kInserted;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto inserted = transaction.Query(
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto inserted, transaction.Query(
         "INSERT INTO models (name, version, data, data_crc32, data_size, data_sha256, active, created_at_ms) "
         "VALUES ($1, $2, $3, $4, $5, $6, 0, $7) ON CONFLICT (name, version) DO NOTHING RETURNING name",
-        {model.name, model.version, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()});
-    if (!inserted.ok()) return inserted.status();
-    if (inserted->empty()) {
-      auto existing = CompareExisting(transaction, "SELECT data_sha256 FROM models WHERE name = $1 AND version = $2",
+        {model.name, model.version, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()}));
+    if (inserted.empty()) {
+      ASSIGN_OR_RETURN(auto existing,
+                       CompareExisting(transaction, "SELECT data_sha256 FROM models WHERE name = $1 AND version = $2",
                                       {model.name, model.version}, sha256,
-                                      "model " + model.name + " version " + std::to_string(model.version));
-      if (!existing.ok()) return existing.status();
-      outcome = *existing;
+                                      "model " + model.name + " version " + std::to_string(model.version)));
+      outcome = existing;
     }
     if (!model.active) return Status::Ok();
     return transaction.Exec("UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
@@ -262,10 +255,9 @@ namespace {
 
 Result<ModelRecord> ModelFromRow(const SqlRow& row) {
   ModelRecord model{row.Text(0), row.Int(1), {}, row.Int(5) != 0};
-  auto bytes = DecodeBlob(row.Text(2), row.Int(3), row.Int(4),
-                          "model " + model.name + " version " + std::to_string(model.version));
-  if (!bytes.ok()) return bytes.status();
-  model.bytes = std::move(bytes).value();
+  ASSIGN_OR_RETURN(auto bytes, DecodeBlob(row.Text(2), row.Int(3), row.Int(4),
+                          "model " + model.name + " version " + std::to_string(model.version)));
+  model.bytes = std::move(bytes);
   return model;
 }
 
@@ -275,10 +267,10 @@ constexpr const char* kModelColumns = "SELECT name, version, data, data_crc32, d
 
 Result<ModelRecord> SqlRepository::GetModel(const std::string& name, std::int64_t version) {
   std::optional<SqlRow> row;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND version = $2", {name, version});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) row = rows->front();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND version = $2", {name, version}));
+    if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no model " + name + " version " + std::to_string(version));
@@ -287,10 +279,10 @@ Result<ModelRecord> SqlRepository::GetModel(const std::string& name, std::int64_
 
 Result<ModelRecord> SqlRepository::GetActiveModel(const std::string& name) {
   std::optional<SqlRow> row;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND active = 1", {name});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) row = rows->front();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND active = 1", {name}));
+    if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no active model " + name);
@@ -300,7 +292,7 @@ Result<ModelRecord> SqlRepository::GetActiveModel(const std::string& name) {
 Status SqlRepository::ActivateModel(const std::string& name, std::int64_t version) {
   return Write([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query("SELECT 1 FROM models WHERE name = $1 AND version = $2", {name, version});
-    if (!rows.ok()) return rows.status();
+    RETURN_IF_ERROR(rows.status());
     if (rows->empty()) return NotFound("no model " + name + " version " + std::to_string(version));
     return transaction.Exec("UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
                             {name, version});

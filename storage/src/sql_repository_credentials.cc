@@ -7,29 +7,28 @@ namespace storage::internal {
 Result<std::int64_t> NextCredentialEpoch(SqlTransaction& transaction) {
   auto rows = transaction.Query(
       "UPDATE credential_epoch SET epoch = epoch + 1 WHERE singleton = 1 RETURNING epoch", {});
-  if (!rows.ok()) return rows.status();
+  RETURN_IF_ERROR(rows.status());
   if (rows->empty()) return Internal("credential_epoch: its row is missing");
   return rows->front().Int(0);
 }
 
 Status SqlRepository::RevokeCredential(const std::string& principal) {
-  STORAGE_RETURN_IF_ERROR(CheckText(principal, "principal", 256));
+  RETURN_IF_ERROR(CheckText(principal, "principal", 256));
   return Write([&](SqlTransaction& transaction) -> Status {
     // The epoch first: its row lock serialises concurrent revocations, so two admins revoking each other at
     // once cannot both pass the last-admin check below.
     auto epoch = NextCredentialEpoch(transaction);
-    if (!epoch.ok()) return epoch.status();
+    RETURN_IF_ERROR(epoch.status());
     auto rows = transaction.Query("SELECT algorithm FROM credentials WHERE principal = $1", {principal});
-    if (!rows.ok()) return rows.status();
+    RETURN_IF_ERROR(rows.status());
     if (rows->empty()) return NotFound("no credential for " + principal);
     if (rows->front().Text(0) == kRevokedAlgorithm) return Status::Ok();
     if (principal.rfind("admin:", 0) == 0) {
-      auto others = transaction.Query(
+      ASSIGN_OR_RETURN(auto others, transaction.Query(
           "SELECT COUNT(*) FROM credentials WHERE substr(principal, 1, 6) = 'admin:' AND principal <> $1 "
           "AND algorithm <> $2",
-          {principal, std::string(kRevokedAlgorithm)});
-      if (!others.ok()) return others.status();
-      if (others->front().Int(0) == 0) {
+          {principal, std::string(kRevokedAlgorithm)}));
+      if (others.front().Int(0) == 0) {
         return FailedPrecondition(principal + " is the last admin with a credential; mint another admin first");
       }
     }
@@ -44,17 +43,16 @@ Result<std::vector<CredentialRecord>> SqlRepository::ListCredentials(const std::
                                                                      const std::string& after, int limit,
                                                                      bool active_only) {
   if (limit < 1 || limit > 1000) return InvalidArgument("limit: expected 1..1000");
-  STORAGE_RETURN_IF_ERROR(CheckText(prefix, "prefix", 256));
-  STORAGE_RETURN_IF_ERROR(CheckText(after, "after", 256));
+  RETURN_IF_ERROR(CheckText(prefix, "prefix", 256));
+  RETURN_IF_ERROR(CheckText(after, "after", 256));
   std::vector<CredentialRecord> credentials;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(
         "SELECT principal, updated_at_ms, algorithm FROM credentials WHERE substr(principal, 1, $1) = $2 "
         "AND principal > $3 AND ($4 = 0 OR algorithm <> $5) ORDER BY principal LIMIT $6",
         {static_cast<std::int64_t>(prefix.size()), prefix, after, std::int64_t{active_only ? 1 : 0},
-         std::string(kRevokedAlgorithm), std::int64_t{limit}});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) {
+         std::string(kRevokedAlgorithm), std::int64_t{limit}}));
+    for (const SqlRow& row : rows) {
       credentials.push_back(CredentialRecord{row.Text(0), row.Int(1), row.Text(2) == kRevokedAlgorithm});
     }
     return Status::Ok();
@@ -67,12 +65,12 @@ Result<CredentialChanges> SqlRepository::CredentialChangesSince(std::int64_t sin
   CredentialChanges changes;
   changes.epoch = since;
   // One statement, one snapshot: the counter and the changed rows are read together.
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto rows = transaction.Query(
         "SELECT e.epoch, c.principal, c.epoch FROM credential_epoch e LEFT JOIN (SELECT principal, epoch FROM "
         "credentials WHERE epoch > $1 ORDER BY epoch LIMIT $2) c ON 1 = 1 WHERE e.singleton = 1 ORDER BY c.epoch",
         {since, std::int64_t{limit}});
-    if (!rows.ok()) return rows.status();
+    RETURN_IF_ERROR(rows.status());
     if (rows->empty()) return Internal("credential_epoch: its row is missing");
     const std::int64_t counter = rows->front().Int(0);
     if (since < 0) {
@@ -99,7 +97,7 @@ Result<CredentialChanges> SqlRepository::CredentialChangesSince(std::int64_t sin
 }
 
 Status SqlRepository::ProbeWrite(const std::string& prober) {
-  STORAGE_RETURN_IF_ERROR(CheckText(prober, "prober", 256));
+  RETURN_IF_ERROR(CheckText(prober, "prober", 256));
   return Write([&](SqlTransaction& transaction) {
     return transaction.Exec(
         "INSERT INTO health_probe (singleton, prober, probed_at_ms) VALUES (1, $1, $2) ON CONFLICT (singleton) "

@@ -14,10 +14,9 @@ constexpr int kMaxBatch = 10000;
 /// Counts the rows `where_sql` selects in `table`, then deletes them.
 Result<std::int64_t> CountAndDelete(SqlTransaction& transaction, const std::string& table, const std::string& where_sql,
                                     const std::vector<SqlValue>& params) {
-  auto counted = transaction.Query("SELECT COUNT(*) FROM " + table + " WHERE " + where_sql, params);
-  if (!counted.ok()) return counted.status();
-  STORAGE_RETURN_IF_ERROR(transaction.Exec("DELETE FROM " + table + " WHERE " + where_sql, params));
-  return counted->front().Int(0);
+  ASSIGN_OR_RETURN(auto counted, transaction.Query("SELECT COUNT(*) FROM " + table + " WHERE " + where_sql, params));
+  RETURN_IF_ERROR(transaction.Exec("DELETE FROM " + table + " WHERE " + where_sql, params));
+  return counted.front().Int(0);
 }
 
 std::string ErasureJson(const RobotErasure& e) {
@@ -48,30 +47,28 @@ AuditEntry AuditFromRow(const SqlRow& row) {
 }  // namespace
 
 Result<AuditEntry> SqlRepository::AppendAuditIn(SqlTransaction& transaction, const AuditEntry& entry) {
-  STORAGE_RETURN_IF_ERROR(CheckText(entry.actor, "audit actor", 256));
-  STORAGE_RETURN_IF_ERROR(CheckText(entry.action, "audit action", 128));
-  STORAGE_RETURN_IF_ERROR(CheckText(entry.subject, "audit subject", 256));
-  STORAGE_RETURN_IF_ERROR(CheckText(entry.detail_json, "audit detail_json", 64 * 1024));
+  RETURN_IF_ERROR(CheckText(entry.actor, "audit actor", 256));
+  RETURN_IF_ERROR(CheckText(entry.action, "audit action", 128));
+  RETURN_IF_ERROR(CheckText(entry.subject, "audit subject", 256));
+  RETURN_IF_ERROR(CheckText(entry.detail_json, "audit detail_json", 64 * 1024));
   if (entry.actor.empty() || entry.action.empty()) {
     return InvalidArgument("an audit entry needs an actor and an action");
   }
   AuditEntry stored = entry;
   if (stored.at_ms == 0) stored.at_ms = NowMs();
-  auto rows = transaction.Query(
+  ASSIGN_OR_RETURN(auto rows, transaction.Query(
       "INSERT INTO audit_log (at_ms, actor, action, subject, detail_json) VALUES ($1, $2, $3, $4, $5) "
       "RETURNING entry_id",
-      {stored.at_ms, stored.actor, stored.action, stored.subject, stored.detail_json});
-  if (!rows.ok()) return rows.status();
-  stored.entry_id = rows->front().Int(0);
+      {stored.at_ms, stored.actor, stored.action, stored.subject, stored.detail_json}));
+  stored.entry_id = rows.front().Int(0);
   return stored;
 }
 
 Result<AuditEntry> SqlRepository::AppendAudit(const AuditEntry& entry) {
   AuditEntry stored;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto appended = AppendAuditIn(transaction, entry);
-    if (!appended.ok()) return appended.status();
-    stored = *appended;
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto appended, AppendAuditIn(transaction, entry));
+    stored = appended;
     return Status::Ok();
   }));
   return stored;
@@ -80,13 +77,12 @@ Result<AuditEntry> SqlRepository::AppendAudit(const AuditEntry& entry) {
 Result<std::vector<AuditEntry>> SqlRepository::ListAudit(int limit, std::optional<std::int64_t> before_id) {
   if (limit < 1 || limit > 1000) return InvalidArgument("limit must be in 1..1000");
   std::vector<AuditEntry> entries;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(
         "SELECT entry_id, at_ms, actor, action, subject, detail_json FROM audit_log WHERE entry_id < $1 "
         "ORDER BY entry_id DESC LIMIT $2",
-        {before_id.value_or(std::numeric_limits<std::int64_t>::max()), std::int64_t{limit}});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) entries.push_back(AuditFromRow(row));
+        {before_id.value_or(std::numeric_limits<std::int64_t>::max()), std::int64_t{limit}}));
+    for (const SqlRow& row : rows) entries.push_back(AuditFromRow(row));
     return Status::Ok();
   }));
   return entries;
@@ -94,23 +90,22 @@ Result<std::vector<AuditEntry>> SqlRepository::ListAudit(int limit, std::optiona
 
 Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, const std::string& actor) {
   if (robot_id.empty()) return InvalidArgument("robot_id is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(robot_id, "robot_id", 128));
+  RETURN_IF_ERROR(CheckText(robot_id, "robot_id", 128));
   RobotErasure erased;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock: a concurrent map append for it waits, then finds no robot.
     auto locked = transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
                                     {robot_id});
-    if (!locked.ok()) return locked.status();
+    RETURN_IF_ERROR(locked.status());
     if (locked->empty()) return NotFound("no robot " + robot_id);
     const std::vector<SqlValue> robot = {robot_id};
 
     // Snapshots the robot named; those nobody else names are deleted once its rows are gone.
-    auto candidates = transaction.Query(
+    ASSIGN_OR_RETURN(auto candidates, transaction.Query(
         "SELECT parent_snapshot_id FROM runs WHERE robot_id = $1 AND parent_snapshot_id IS NOT NULL UNION "
         "SELECT child_snapshot_id FROM runs WHERE robot_id = $1 AND child_snapshot_id IS NOT NULL UNION "
         "SELECT snapshot_id FROM map_versions WHERE robot_id = $1",
-        robot);
-    if (!candidates.ok()) return candidates.status();
+        robot));
 
     struct Step {
       const char* table;
@@ -118,11 +113,11 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
       std::int64_t* count;
     };
     // Children before parents (foreign keys); a job of another robot whose parent goes loses the link.
-    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+    RETURN_IF_ERROR(transaction.Exec(
         "UPDATE jobs SET parent_job_id = NULL WHERE parent_job_id IN (SELECT job_id FROM jobs WHERE robot_id = $1) "
         "AND (robot_id IS NULL OR robot_id <> $1)",
         robot));
-    STORAGE_RETURN_IF_ERROR(RemoveRobotFromRollup(transaction, robot_id));
+    RETURN_IF_ERROR(RemoveRobotFromRollup(transaction, robot_id));
     std::int64_t child_jobs = 0;
     const Step steps[] = {
         {"decisions", "robot_id = $1", &erased.decisions},
@@ -137,32 +132,29 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
         {"jobs", "robot_id = $1", &erased.jobs},
     };
     for (const Step& step : steps) {
-      auto count = CountAndDelete(transaction, step.table, step.where, robot);
-      if (!count.ok()) return count.status();
-      *step.count = *count;
+      ASSIGN_OR_RETURN(auto count, CountAndDelete(transaction, step.table, step.where, robot));
+      *step.count = count;
     }
     erased.jobs += child_jobs;
-    auto credentials = CountAndDelete(transaction, "credentials", "principal = $1", {"robot:" + robot_id});
-    if (!credentials.ok()) return credentials.status();
-    erased.credentials = *credentials;
+    ASSIGN_OR_RETURN(auto credentials,
+                     CountAndDelete(transaction, "credentials", "principal = $1", {"robot:" + robot_id}));
+    erased.credentials = credentials;
     if (erased.credentials > 0) {
       // The row is gone, so the epoch it takes tells every process polling the epochs to drop its cache.
-      auto epoch = NextCredentialEpoch(transaction);
-      if (!epoch.ok()) return epoch.status();
+      RETURN_IF_ERROR(NextCredentialEpoch(transaction).status());
     }
-    for (const SqlRow& row : *candidates) {
-      auto deleted = transaction.Query(
+    for (const SqlRow& row : candidates) {
+      ASSIGN_OR_RETURN(auto deleted, transaction.Query(
           "DELETE FROM snapshots WHERE snapshot_id = $1 "
           "AND NOT EXISTS (SELECT 1 FROM runs WHERE parent_snapshot_id = $1 OR child_snapshot_id = $1) "
           "AND NOT EXISTS (SELECT 1 FROM map_versions WHERE snapshot_id = $1) RETURNING snapshot_id",
-          {row.Text(0)});
-      if (!deleted.ok()) return deleted.status();
-      erased.snapshots += static_cast<std::int64_t>(deleted->size());
+          {row.Text(0)}));
+      erased.snapshots += static_cast<std::int64_t>(deleted.size());
     }
-    STORAGE_RETURN_IF_ERROR(transaction.Exec("DELETE FROM robots WHERE robot_id = $1", robot));
+    RETURN_IF_ERROR(transaction.Exec("DELETE FROM robots WHERE robot_id = $1", robot));
     Fault("delete_robot:before_audit");
-    auto audited = AppendAuditIn(transaction, AuditEntry{0, 0, actor, "delete_robot", robot_id, ErasureJson(erased)});
-    if (!audited.ok()) return audited.status();
+    ASSIGN_OR_RETURN(auto audited,
+                     AppendAuditIn(transaction, AuditEntry{0, 0, actor, "delete_robot", robot_id, ErasureJson(erased)}));
     return Status::Ok();
   }));
   return erased;
@@ -190,10 +182,9 @@ Result<std::int64_t> SqlRepository::PruneFinishedJobs(std::int64_t finished_befo
 
 Result<std::int64_t> SqlRepository::CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params) {
   std::int64_t count = 0;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(sql, params);
-    if (!rows.ok()) return rows.status();
-    count = static_cast<std::int64_t>(rows->size());
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(sql, params));
+    count = static_cast<std::int64_t>(rows.size());
     return Status::Ok();
   }));
   return count;

@@ -47,9 +47,9 @@ bool IsOneOf(const std::string& value, std::initializer_list<const char*> allowe
 
 Status CheckVersion(const MapVersionRecord& version) {
   if (version.robot_id.empty()) return InvalidArgument("map version robot_id is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(version.robot_id, "map version robot_id", 128));
+  RETURN_IF_ERROR(CheckText(version.robot_id, "map version robot_id", 128));
   if (version.snapshot_id.empty()) return InvalidArgument("map version snapshot_id is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(version.snapshot_id, "map version snapshot_id", 64));
+  RETURN_IF_ERROR(CheckText(version.snapshot_id, "map version snapshot_id", 64));
   if (!IsOneOf(version.origin, {"upload", "repair", "rollback", "undo", "import"})) {
     return InvalidArgument("map version origin \"" + version.origin +
                            "\" is not upload, repair, rollback, undo or import");
@@ -58,12 +58,12 @@ Status CheckVersion(const MapVersionRecord& version) {
   if (!IsOneOf(version.approval, {"approved", "pending", "rejected", "stale"})) {
     return InvalidArgument("map version approval \"" + version.approval + "\" is not approved, pending, rejected or stale");
   }
-  STORAGE_RETURN_IF_ERROR(CheckText(version.run_id, "map version run_id", 128));
-  STORAGE_RETURN_IF_ERROR(CheckText(version.action, "map version action"));
-  STORAGE_RETURN_IF_ERROR(CheckText(version.action_detail, "map version action_detail", 4096));
-  STORAGE_RETURN_IF_ERROR(CheckText(version.created_by, "map version created_by"));
-  STORAGE_RETURN_IF_ERROR(CheckText(version.reason, "map version reason", 4096));
-  STORAGE_RETURN_IF_ERROR(CheckText(version.approved_by, "map version approved_by"));
+  RETURN_IF_ERROR(CheckText(version.run_id, "map version run_id", 128));
+  RETURN_IF_ERROR(CheckText(version.action, "map version action"));
+  RETURN_IF_ERROR(CheckText(version.action_detail, "map version action_detail", 4096));
+  RETURN_IF_ERROR(CheckText(version.created_by, "map version created_by"));
+  RETURN_IF_ERROR(CheckText(version.reason, "map version reason", 4096));
+  RETURN_IF_ERROR(CheckText(version.approved_by, "map version approved_by"));
   if (version.metadata.size() > kMaxMapMetadataBytes) {
     return InvalidArgument("map version metadata: " + std::to_string(version.metadata.size()) +
                            " bytes, more than the limit " + std::to_string(kMaxMapMetadataBytes));
@@ -73,12 +73,12 @@ Status CheckVersion(const MapVersionRecord& version) {
 
 Status CheckFindings(const std::vector<MapFindingRecord>& findings) {
   for (const MapFindingRecord& finding : findings) {
-    STORAGE_RETURN_IF_ERROR(CheckText(finding.kind, "finding kind"));
-    STORAGE_RETURN_IF_ERROR(CheckText(finding.summary, "finding summary", 4096));
+    RETURN_IF_ERROR(CheckText(finding.kind, "finding kind"));
+    RETURN_IF_ERROR(CheckText(finding.summary, "finding summary", 4096));
     if (!IsOneOf(finding.state, {"open", "resolved", "info"})) {
       return InvalidArgument("finding state \"" + finding.state + "\" is not open, resolved or info");
     }
-    STORAGE_RETURN_IF_ERROR(CheckText(finding.detail_json, "finding detail_json", 1 << 20));
+    RETURN_IF_ERROR(CheckText(finding.detail_json, "finding detail_json", 1 << 20));
   }
   return Status::Ok();
 }
@@ -92,7 +92,7 @@ std::int64_t OpenCount(const std::vector<MapFindingRecord>& findings) {
 Status InsertFindings(SqlTransaction& transaction, const std::string& robot_id, std::int64_t version,
                       const std::vector<MapFindingRecord>& findings) {
   for (const MapFindingRecord& finding : findings) {
-    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+    RETURN_IF_ERROR(transaction.Exec(
         "INSERT INTO map_findings (robot_id, version, finding_id, kind, severity, summary, state, detail_json) "
         "VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
         {robot_id, version, finding.finding_id, finding.kind, finding.severity, finding.summary, finding.state,
@@ -106,46 +106,43 @@ Status InsertFindings(SqlTransaction& transaction, const std::string& robot_id, 
 Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord& version,
                                                          std::optional<std::int64_t> expected_head,
                                                          const std::vector<MapFindingRecord>& findings) {
-  STORAGE_RETURN_IF_ERROR(CheckVersion(version));
-  STORAGE_RETURN_IF_ERROR(CheckFindings(findings));
+  RETURN_IF_ERROR(CheckVersion(version));
+  RETURN_IF_ERROR(CheckFindings(findings));
   const EncodedBlob metadata = EncodeBlob(version.metadata);  // before the transaction: the lock is held briefly
   MapVersionRecord stored = version;
   stored.metadata.clear();
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock serialises appends for one robot across connections and processes (SQLite
     // serialises every write transaction anyway).
     auto locked = transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
                                     {version.robot_id});
-    if (!locked.ok()) return locked.status();
+    RETURN_IF_ERROR(locked.status());
     if (locked->empty()) return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
     if (version.origin == "upload") {
-      auto existing = transaction.Query(
+      ASSIGN_OR_RETURN(auto existing, transaction.Query(
           std::string(kVersionColumns) + "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
-          {version.robot_id, version.run_id});
-      if (!existing.ok()) return existing.status();
-      if (!existing->empty()) {
-        stored = VersionFromRow(existing->front());
+          {version.robot_id, version.run_id}));
+      if (!existing.empty()) {
+        stored = VersionFromRow(existing.front());
         return Status::Ok();
       }
     }
-    auto head = transaction.Query(
+    ASSIGN_OR_RETURN(auto head, transaction.Query(
         "SELECT MAX(version), MAX(CASE WHEN approval IN ('approved', 'pending') THEN version END) FROM map_versions "
         "WHERE robot_id = $1",
-        {version.robot_id});
-    if (!head.ok()) return head.status();
-    const std::int64_t newest = head->empty() || head->front().IsNull(0) ? 0 : head->front().Int(0);
-    const std::int64_t head_version = head->empty() || head->front().IsNull(1) ? 0 : head->front().Int(1);
+        {version.robot_id}));
+    const std::int64_t newest = head.empty() || head.front().IsNull(0) ? 0 : head.front().Int(0);
+    const std::int64_t head_version = head.empty() || head.front().IsNull(1) ? 0 : head.front().Int(1);
     if (expected_head && *expected_head != head_version) {
       return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(head_version) +
                      ", not " + std::to_string(*expected_head) + ": it changed meanwhile; look again and retry");
     }
     if (version.supersedes_pending) {
-      auto superseded = transaction.Query(
+      ASSIGN_OR_RETURN(auto superseded, transaction.Query(
           "UPDATE map_versions SET approval = 'stale', approved_by = $3, approved_at_ms = $4 "
           "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
-          {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()});
-      if (!superseded.ok()) return superseded.status();
-      if (superseded->empty()) {
+          {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()}));
+      if (superseded.empty()) {
         return Aborted("map version " + std::to_string(*version.supersedes_pending) + " of robot " + version.robot_id +
                        " is no longer pending: it was reviewed meanwhile");
       }
@@ -155,7 +152,7 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
                                 version.robot_id + " does not exist");
     }
     auto snapshot = transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {version.snapshot_id});
-    if (!snapshot.ok()) return snapshot.status();
+    RETURN_IF_ERROR(snapshot.status());
     if (snapshot->empty()) return FailedPrecondition("map version names snapshot " + version.snapshot_id + ", which is not stored");
     stored.version = newest + 1;
     stored.open_findings = OpenCount(findings);
@@ -164,7 +161,7 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
     if (stored.parent_version) parent = *stored.parent_version;
     SqlValue run = SqlNull{};
     if (!stored.run_id.empty()) run = stored.run_id;
-    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+    RETURN_IF_ERROR(transaction.Exec(
         "INSERT INTO map_versions (robot_id, version, parent_version, snapshot_id, origin, run_id, action, "
         "action_detail, created_by, reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, "
         "observation_edges, views, components, known_area_m2, chi2, open_findings) VALUES ($1, $2, $3, $4, $5, $6, "
@@ -173,9 +170,9 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
          stored.action_detail, stored.created_by, stored.reason, stored.created_at_ms, stored.approval,
          stored.approved_by, stored.approved_at_ms, stored.nodes, stored.edges, stored.observation_edges, stored.views,
          stored.components, stored.known_area_m2, stored.chi2, stored.open_findings}));
-    STORAGE_RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
+    RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
     if (!version.metadata.empty()) {
-      STORAGE_RETURN_IF_ERROR(transaction.Exec(
+      RETURN_IF_ERROR(transaction.Exec(
           "INSERT INTO map_metadata (robot_id, version, data, data_crc32, data_size) VALUES ($1, $2, $3, $4, $5)",
           {stored.robot_id, stored.version, SqlBlob{metadata.compressed}, metadata.crc32, metadata.raw_size}));
     }
@@ -187,10 +184,10 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
 
 Result<std::vector<MapVersionRecord>> SqlRepository::ListMapVersions(const std::string& robot_id) {
   std::vector<MapVersionRecord> versions;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 ORDER BY version", {robot_id});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) versions.push_back(VersionFromRow(row));
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 ORDER BY version", {robot_id}));
+    for (const SqlRow& row : rows) versions.push_back(VersionFromRow(row));
     return Status::Ok();
   }));
   return versions;
@@ -198,10 +195,10 @@ Result<std::vector<MapVersionRecord>> SqlRepository::ListMapVersions(const std::
 
 Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_id, std::int64_t version) {
   std::optional<MapVersionRecord> found;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2", {robot_id, version});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) found = VersionFromRow(rows->front());
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2", {robot_id, version}));
+    if (!rows.empty()) found = VersionFromRow(rows.front());
     return Status::Ok();
   }));
   if (!found) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
@@ -210,11 +207,11 @@ Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_i
 
 Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, std::int64_t version) {
   std::optional<SqlRow> row;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT data, data_crc32, data_size FROM map_metadata WHERE robot_id = $1 AND version = $2",
-                                  {robot_id, version});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) row = rows->front();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("SELECT data, data_crc32, data_size FROM map_metadata WHERE robot_id = $1 AND version = $2",
+                                  {robot_id, version}));
+    if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return std::string();
@@ -224,12 +221,11 @@ Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, s
 
 Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const RunKey& run) {
   std::optional<MapVersionRecord> found;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(
         std::string(kVersionColumns) + "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
-        {run.robot_id, run.run_id});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) found = VersionFromRow(rows->front());
+        {run.robot_id, run.run_id}));
+    if (!rows.empty()) found = VersionFromRow(rows.front());
     return Status::Ok();
   }));
   if (!found) return NotFound("run " + run.run_id + " of robot " + run.robot_id + " made no map version");
@@ -238,13 +234,12 @@ Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const RunKey& run) {
 
 Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::string& robot_id, std::int64_t version) {
   std::vector<MapFindingRecord> findings;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(
         "SELECT finding_id, kind, severity, summary, state, detail_json FROM map_findings "
         "WHERE robot_id = $1 AND version = $2 ORDER BY finding_id",
-        {robot_id, version});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) {
+        {robot_id, version}));
+    for (const SqlRow& row : rows) {
       findings.push_back({.finding_id = row.Int(0), .kind = row.Text(1), .severity = row.Real(2),
                           .summary = row.Text(3), .state = row.Text(4), .detail_json = row.Text(5)});
     }
@@ -255,15 +250,15 @@ Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::
 
 Status SqlRepository::UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
                                              const std::vector<MapFindingRecord>& findings) {
-  STORAGE_RETURN_IF_ERROR(CheckFindings(findings));
+  RETURN_IF_ERROR(CheckFindings(findings));
   return Write([&](SqlTransaction& transaction) -> Status {
     auto updated = transaction.Query(
         "UPDATE map_versions SET open_findings = $3, known_area_m2 = $4 WHERE robot_id = $1 AND version = $2 "
         "RETURNING version",
         {robot_id, version, OpenCount(findings), known_area_m2});
-    if (!updated.ok()) return updated.status();
+    RETURN_IF_ERROR(updated.status());
     if (updated->empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
-    STORAGE_RETURN_IF_ERROR(
+    RETURN_IF_ERROR(
         transaction.Exec("DELETE FROM map_findings WHERE robot_id = $1 AND version = $2", {robot_id, version}));
     return InsertFindings(transaction, robot_id, version, findings);
   });
@@ -271,34 +266,33 @@ Status SqlRepository::UpdateMapVersionHealth(const std::string& robot_id, std::i
 
 Result<MapVersionRecord> SqlRepository::ReviewMapVersion(const std::string& robot_id, std::int64_t version,
                                                          bool approve, const std::string& reviewed_by) {
-  STORAGE_RETURN_IF_ERROR(CheckText(reviewed_by, "reviewed_by"));
+  RETURN_IF_ERROR(CheckText(reviewed_by, "reviewed_by"));
   std::optional<MapVersionRecord> reviewed;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // Under the robot's row lock, like appends: a review and a repair of one map never interleave.
-    STORAGE_RETURN_IF_ERROR(
+    RETURN_IF_ERROR(
         transaction.Exec("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1", {robot_id}));
     if (approve) {
       auto newer = transaction.Query(
           "SELECT MAX(version) FROM map_versions WHERE robot_id = $1 AND approval = 'approved' AND version > $2",
           {robot_id, version});
-      if (!newer.ok()) return newer.status();
+      RETURN_IF_ERROR(newer.status());
       if (!newer->empty() && !newer->front().IsNull(0)) {
         return FailedPrecondition("version " + std::to_string(newer->front().Int(0)) + " of robot " + robot_id +
                                   " is approved and newer than " + std::to_string(version) +
                                   ": approving it would not make it the robot's map; repair the current version instead");
       }
     }
-    auto rows = transaction.Query(
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(
         "UPDATE map_versions SET approval = $3, approved_by = $4, approved_at_ms = $5 "
         "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
-        {robot_id, version, std::string(approve ? "approved" : "rejected"), reviewed_by, NowMs()});
-    if (!rows.ok()) return rows.status();
+        {robot_id, version, std::string(approve ? "approved" : "rejected"), reviewed_by, NowMs()}));
     auto current = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
                                      {robot_id, version});
-    if (!current.ok()) return current.status();
+    RETURN_IF_ERROR(current.status());
     if (current->empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
     reviewed = VersionFromRow(current->front());
-    if (rows->empty()) {
+    if (rows.empty()) {
       return FailedPrecondition("map version " + std::to_string(version) + " of robot " + robot_id + " is " +
                                 reviewed->approval + ", not pending: only pending versions are reviewed");
     }

@@ -69,7 +69,7 @@ struct RunCell {
 Result<RunCell> CellOfRun(SqlTransaction& transaction, const std::string& robot_id, const std::string& run_id) {
   auto rows = transaction.Query("SELECT started_at_ms, firmware, robot_model FROM runs WHERE robot_id = $1 AND run_id = $2",
                                 {robot_id, run_id});
-  if (!rows.ok()) return rows.status();
+  RETURN_IF_ERROR(rows.status());
   if (rows->empty()) return FailedPrecondition("no run " + run_id + " of robot " + robot_id);
   return RunCell{DayOf(rows->front().Int(0)), rows->front().Text(1), rows->front().Text(2)};
 }
@@ -78,33 +78,31 @@ Result<RunCell> CellOfRun(SqlTransaction& transaction, const std::string& robot_
 
 Status AddReportToRollup(SqlTransaction& transaction, const ReportRecord& report,
                          const std::optional<ReportRecord>& replaced) {
-  auto cell = CellOfRun(transaction, report.robot_id, report.run_id);
-  if (!cell.ok()) return cell.status();
+  ASSIGN_OR_RETURN(auto cell, CellOfRun(transaction, report.robot_id, report.run_id));
   std::array<std::int64_t, 10> delta = CountersOf(report);
   if (replaced) {
     const auto old = CountersOf(*replaced);
     for (std::size_t i = 0; i < delta.size(); ++i) delta[i] -= old[i];
   }
   const std::int64_t new_reports = replaced ? 0 : 1;
-  STORAGE_RETURN_IF_ERROR(AddToRow(transaction, "report_rollup", {"parameter_set", "day", "firmware", "robot_model"},
-                                   {report.parameter_set, cell->day, cell->firmware, cell->robot_model}, new_reports,
+  RETURN_IF_ERROR(AddToRow(transaction, "report_rollup", {"parameter_set", "day", "firmware", "robot_model"},
+                                   {report.parameter_set, cell.day, cell.firmware, cell.robot_model}, new_reports,
                                    delta));
-  STORAGE_RETURN_IF_ERROR(AddToRow(transaction, "report_robot_rollup", {"parameter_set", "robot_id"},
+  RETURN_IF_ERROR(AddToRow(transaction, "report_robot_rollup", {"parameter_set", "robot_id"},
                                    {report.parameter_set, report.robot_id}, new_reports, delta));
   if (replaced) return Status::Ok();  // a replacement keeps its run, so the robot's presence is unchanged
   // One presence row per dimension in one statement; the rows it inserted (reports = 1) are groups the robot
   // was not in yet, whose robot count rises.
-  const std::string day = std::to_string(cell->day);
-  auto presence = transaction.Query(
+  const std::string day = std::to_string(cell.day);
+  ASSIGN_OR_RETURN(auto presence, transaction.Query(
       "INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id, reports) "
       "VALUES ($1, 'day', $2, $5, 1), ($1, 'firmware', $3, $5, 1), ($1, 'robot_model', $4, $5, 1) "
       "ON CONFLICT (parameter_set, dimension, group_key, robot_id) "
       "DO UPDATE SET reports = report_robot_presence.reports + 1 RETURNING dimension, group_key, reports",
-      {report.parameter_set, day, cell->firmware, cell->robot_model, report.robot_id});
-  if (!presence.ok()) return presence.status();
-  for (const SqlRow& row : *presence) {
+      {report.parameter_set, day, cell.firmware, cell.robot_model, report.robot_id}));
+  for (const SqlRow& row : presence) {
     if (row.Int(2) != 1) continue;
-    STORAGE_RETURN_IF_ERROR(transaction.Exec(
+    RETURN_IF_ERROR(transaction.Exec(
         "INSERT INTO report_robot_counts (parameter_set, dimension, group_key, robots) VALUES ($1, $2, $3, 1) "
         "ON CONFLICT (parameter_set, dimension, group_key) DO UPDATE SET robots = report_robot_counts.robots + 1",
         {report.parameter_set, row.Text(0), row.Text(1)}));
@@ -115,27 +113,26 @@ Status AddReportToRollup(SqlTransaction& transaction, const ReportRecord& report
 Status RemoveRobotFromRollup(SqlTransaction& transaction, const std::string& robot_id) {
   std::string sums;
   for (const char* column : kCounterColumns) sums += std::string(", CAST(COALESCE(SUM(p.") + column + "), 0) AS BIGINT)";
-  auto cells = transaction.Query(
+  ASSIGN_OR_RETURN(auto cells, transaction.Query(
       "SELECT p.parameter_set, CASE WHEN r.started_at_ms >= 0 THEN r.started_at_ms / 86400000 "
       "ELSE (r.started_at_ms - 86399999) / 86400000 END, r.firmware, r.robot_model, COUNT(*)" + sums +
           " FROM reports p JOIN runs r ON r.robot_id = p.robot_id AND r.run_id = p.run_id WHERE p.robot_id = $1 "
           "GROUP BY 1, 2, 3, 4",
-      {robot_id});
-  if (!cells.ok()) return cells.status();
-  for (const SqlRow& row : *cells) {
+      {robot_id}));
+  for (const SqlRow& row : cells) {
     std::array<std::int64_t, 10> minus{};
     for (std::size_t i = 0; i < minus.size(); ++i) minus[i] = -row.Int(5 + i);
-    STORAGE_RETURN_IF_ERROR(AddToRow(transaction, "report_rollup", {"parameter_set", "day", "firmware", "robot_model"},
+    RETURN_IF_ERROR(AddToRow(transaction, "report_rollup", {"parameter_set", "day", "firmware", "robot_model"},
                                      {row.Text(0), row.Int(1), row.Text(2), row.Text(3)}, -row.Int(4), minus));
   }
-  STORAGE_RETURN_IF_ERROR(transaction.Exec("DELETE FROM report_rollup WHERE reports <= 0", {}));
-  STORAGE_RETURN_IF_ERROR(transaction.Exec(
+  RETURN_IF_ERROR(transaction.Exec("DELETE FROM report_rollup WHERE reports <= 0", {}));
+  RETURN_IF_ERROR(transaction.Exec(
       "UPDATE report_robot_counts SET robots = robots - 1 WHERE EXISTS (SELECT 1 FROM report_robot_presence pr "
       "WHERE pr.robot_id = $1 AND pr.parameter_set = report_robot_counts.parameter_set "
       "AND pr.dimension = report_robot_counts.dimension AND pr.group_key = report_robot_counts.group_key)",
       {robot_id}));
-  STORAGE_RETURN_IF_ERROR(transaction.Exec("DELETE FROM report_robot_counts WHERE robots <= 0", {}));
-  STORAGE_RETURN_IF_ERROR(transaction.Exec("DELETE FROM report_robot_presence WHERE robot_id = $1", {robot_id}));
+  RETURN_IF_ERROR(transaction.Exec("DELETE FROM report_robot_counts WHERE robots <= 0", {}));
+  RETURN_IF_ERROR(transaction.Exec("DELETE FROM report_robot_presence WHERE robot_id = $1", {robot_id}));
   return transaction.Exec("DELETE FROM report_robot_rollup WHERE robot_id = $1", {robot_id});
 }
 

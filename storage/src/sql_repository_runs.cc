@@ -38,14 +38,14 @@ SqlValue OptionalText(const std::optional<std::string>& value) {
 
 Status CheckRun(const RunRecord& run) {
   if (run.run_id.empty()) return InvalidArgument("run_id is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(run.run_id, "run_id", 128));
+  RETURN_IF_ERROR(CheckText(run.run_id, "run_id", 128));
   if (run.robot_id.empty()) return InvalidArgument("robot_id is empty");
-  STORAGE_RETURN_IF_ERROR(CheckText(run.robot_id, "robot_id", 128));
-  STORAGE_RETURN_IF_ERROR(CheckText(run.firmware, "firmware"));
-  STORAGE_RETURN_IF_ERROR(CheckText(run.robot_model, "robot_model"));
+  RETURN_IF_ERROR(CheckText(run.robot_id, "robot_id", 128));
+  RETURN_IF_ERROR(CheckText(run.firmware, "firmware"));
+  RETURN_IF_ERROR(CheckText(run.robot_model, "robot_model"));
   if (run.ended_at_ms < run.started_at_ms) return InvalidArgument("run " + run.run_id + " ends before it starts");
-  if (run.parent_snapshot_id) STORAGE_RETURN_IF_ERROR(CheckText(*run.parent_snapshot_id, "parent_snapshot_id", 64));
-  if (run.child_snapshot_id) STORAGE_RETURN_IF_ERROR(CheckText(*run.child_snapshot_id, "child_snapshot_id", 64));
+  if (run.parent_snapshot_id) RETURN_IF_ERROR(CheckText(*run.parent_snapshot_id, "parent_snapshot_id", 64));
+  if (run.child_snapshot_id) RETURN_IF_ERROR(CheckText(*run.child_snapshot_id, "child_snapshot_id", 64));
   return Status::Ok();
 }
 
@@ -137,30 +137,28 @@ std::string GroupKeySql(GroupBy group_by) {
 
 Result<InsertOutcome> SqlRepository::InsertRunIn(SqlTransaction& transaction, const RunRecord& run,
                                                 const std::string& digest, const EncodedBlob& telemetry) {
-  auto inserted = transaction.Query(
+  ASSIGN_OR_RETURN(auto inserted, transaction.Query(
       "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id, "
       "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
       "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (robot_id, run_id) DO NOTHING "
       "RETURNING run_id",
       {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
        OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id), SqlBlob{telemetry.compressed},
-       telemetry.crc32, telemetry.raw_size, digest, NowMs()});
-  if (!inserted.ok()) return inserted.status();
-  if (!inserted->empty()) return InsertOutcome::kInserted;
+       telemetry.crc32, telemetry.raw_size, digest, NowMs()}));
+  if (!inserted.empty()) return InsertOutcome::kInserted;
   return CompareExisting(transaction, "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
                          {run.robot_id, run.run_id}, digest, "run " + run.run_id + " of robot " + run.robot_id);
 }
 
 Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
-  STORAGE_RETURN_IF_ERROR(CheckRun(run));
+  RETURN_IF_ERROR(CheckRun(run));
   // Hashing and compressing happen before the transaction so the write lock is held briefly.
   const std::string digest = RunDigest(run);
   const EncodedBlob telemetry = EncodeBlob(run.telemetry);
   InsertOutcome outcome = InsertOutcome::kInserted;
-  STORAGE_RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    auto inserted = InsertRunIn(transaction, run, digest, telemetry);
-    if (!inserted.ok()) return inserted.status();
-    outcome = *inserted;
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto inserted, InsertRunIn(transaction, run, digest, telemetry));
+    outcome = inserted;
     Fault("insert_run:before_commit");
     return Status::Ok();
   }));
@@ -172,14 +170,13 @@ Status SqlRepository::InsertRuns(const std::vector<RunRecord>& runs) {
   std::vector<std::string> digests;
   std::vector<EncodedBlob> blobs;
   for (const RunRecord& run : runs) {
-    STORAGE_RETURN_IF_ERROR(CheckRun(run));
+    RETURN_IF_ERROR(CheckRun(run));
     digests.push_back(RunDigest(run));
     blobs.push_back(EncodeBlob(run.telemetry));
   }
   return Write([&](SqlTransaction& transaction) -> Status {
     for (std::size_t i = 0; i < runs.size(); ++i) {
-      auto inserted = InsertRunIn(transaction, runs[i], digests[i], blobs[i]);
-      if (!inserted.ok()) return inserted.status();
+      RETURN_IF_ERROR(InsertRunIn(transaction, runs[i], digests[i], blobs[i]).status());
     }
     return Status::Ok();
   });
@@ -187,31 +184,30 @@ Status SqlRepository::InsertRuns(const std::vector<RunRecord>& runs) {
 
 Result<RunRecord> SqlRepository::GetRun(const RunKey& key) {
   std::optional<SqlRow> row;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(std::string("SELECT ") + kRunColumns +
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(std::string("SELECT ") + kRunColumns +
                                       ", r.telemetry, r.telemetry_crc32 FROM runs r "
                                       "WHERE r.robot_id = $1 AND r.run_id = $2",
-                                  {key.robot_id, key.run_id});
-    if (!rows.ok()) return rows.status();
-    if (!rows->empty()) row = rows->front();
+                                  {key.robot_id, key.run_id}));
+    if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no run " + key.run_id + " of robot " + key.robot_id);
   RunRecord run = RunFromRow(*row);
-  auto telemetry = DecodeBlob(row->Text(10), row->Int(11), run.telemetry_size, "telemetry of run " + key.run_id);
-  if (!telemetry.ok()) return telemetry.status();
-  run.telemetry = std::move(telemetry).value();
+  ASSIGN_OR_RETURN(auto telemetry,
+                   DecodeBlob(row->Text(10), row->Int(11), run.telemetry_size, "telemetry of run " + key.run_id));
+  run.telemetry = std::move(telemetry);
   return run;
 }
 
 Result<std::vector<std::string>> SqlRepository::ListRunRobots(const std::string& run_id, int limit) {
   if (limit < 1 || limit > 1000) return InvalidArgument("limit must be in 1..1000");
   std::vector<std::string> robots;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT robot_id FROM runs WHERE run_id = $1 ORDER BY robot_id LIMIT $2",
-                                  {run_id, std::int64_t{limit}});
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) robots.push_back(row.Text(0));
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("SELECT robot_id FROM runs WHERE run_id = $1 ORDER BY robot_id LIMIT $2",
+                                  {run_id, std::int64_t{limit}}));
+    for (const SqlRow& row : rows) robots.push_back(row.Text(0));
     return Status::Ok();
   }));
   return robots;
@@ -232,10 +228,9 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
                           " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
                           " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
   RunPage page;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(sql, params);
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) page.runs.push_back(RunFromRow(row));
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(sql, params));
+    for (const SqlRow& row : rows) page.runs.push_back(RunFromRow(row));
     return Status::Ok();
   }));
   if (page.runs.size() > static_cast<std::size_t>(page_size)) {
@@ -248,11 +243,11 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
 Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReports(SqlTransaction& transaction,
                                                                         const RunFilter& filter,
                                                                         std::optional<GroupBy> group_by) {
-  auto rows = transaction.Query(StatisticsSql(group_by ? GroupKeySql(*group_by) : "''", group_by.has_value()),
-                                FilterParams(filter));
-  if (!rows.ok()) return rows.status();
+  ASSIGN_OR_RETURN(auto rows,
+                   transaction.Query(StatisticsSql(group_by ? GroupKeySql(*group_by) : "''", group_by.has_value()),
+                                FilterParams(filter)));
   std::vector<GroupStatistics> groups;
-  for (const SqlRow& row : *rows) {
+  for (const SqlRow& row : rows) {
     if (!group_by && row.Int(1) == 0) continue;  // the total over no reports
     groups.push_back(GroupStatistics{row.Text(0), StatisticsFromRow(row, 1)});
   }
@@ -262,19 +257,17 @@ Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReports(SqlTran
 Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReportsForTesting(const RunFilter& filter,
                                                                                    std::optional<GroupBy> group_by) {
   std::vector<GroupStatistics> groups;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto read = AggregateFromReports(transaction, filter, group_by);
-    if (!read.ok()) return read.status();
-    groups = std::move(read).value();
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto read, AggregateFromReports(transaction, filter, group_by));
+    groups = std::move(read);
     return Status::Ok();
   }));
   return groups;
 }
 
 Result<FleetStatistics> SqlRepository::Aggregate(const RunFilter& filter) {
-  auto groups = AggregateBy(filter, std::nullopt);
-  if (!groups.ok()) return groups.status();
-  return groups->empty() ? FleetStatistics{} : groups->front().statistics;
+  ASSIGN_OR_RETURN(auto groups, AggregateBy(filter, std::nullopt));
+  return groups.empty() ? FleetStatistics{} : groups.front().statistics;
 }
 
 Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter, GroupBy group_by) {
@@ -284,7 +277,7 @@ Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter&
 Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter,
                                                                std::optional<GroupBy> group_by) {
   std::vector<GroupStatistics> groups;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto read = AggregateFromRollup(transaction, filter, group_by);
     if (!read) read = AggregateFromReports(transaction, filter, group_by);
     if (!read->ok()) return read->status();
@@ -339,10 +332,9 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
     return report;
   };
   ReportPairPage page;
-  STORAGE_RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(sql, params);
-    if (!rows.ok()) return rows.status();
-    for (const SqlRow& row : *rows) {
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(sql, params));
+    for (const SqlRow& row : rows) {
       RunRecord run = RunFromRow(row);
       ReportRecord a = report_of(row, 10, run, set_a), b = report_of(row, 20, run, set_b);
       page.pairs.push_back(ReportPair{std::move(run), std::move(a), std::move(b)});

@@ -64,7 +64,7 @@ class SqliteDatabase final : public SqlDatabase {
     std::lock_guard<std::mutex> lock(mutex_);
     // IMMEDIATE takes the write lock now, so a write transaction never fails half-way on lock upgrade.
     const char* begin = mode == TransactionMode::kWrite ? "BEGIN IMMEDIATE" : "BEGIN DEFERRED";
-    STORAGE_RETURN_IF_ERROR(ExecLocked(begin));
+    RETURN_IF_ERROR(ExecLocked(begin));
     SqliteTransaction transaction(*this);
     Status status;
     try {
@@ -94,9 +94,8 @@ class SqliteDatabase final : public SqlDatabase {
 
   /// Caller holds mutex_.
   Result<SqlRows> QueryLocked(const std::string& sql, const std::vector<SqlValue>& params) {
-    auto statement = Prepare(sql);
-    if (!statement.ok()) return statement.status();
-    sqlite3_stmt* stmt = *statement;
+    ASSIGN_OR_RETURN(auto statement, Prepare(sql));
+    sqlite3_stmt* stmt = statement;
     // Reset on every exit so the cached statement releases its read snapshot and bindings.
     struct Resetter {
       sqlite3_stmt* stmt;

@@ -3,6 +3,7 @@
 
 #include "blob_codec.h"
 #include "crypto.h"
+#include "status_matchers.h"
 
 namespace storage::internal {
 namespace {
@@ -12,7 +13,7 @@ TEST(BlobCodecTest, RoundTripsBinaryAndEmptyPayloads) {
     const EncodedBlob blob = EncodeBlob(raw);
     EXPECT_EQ(blob.raw_size, static_cast<std::int64_t>(raw.size()));
     auto decoded = DecodeBlob(blob.compressed, blob.crc32, blob.raw_size, "test");
-    ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+    ASSERT_THAT(decoded, IsOk());
     EXPECT_EQ(*decoded, raw);
   }
 }

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -18,7 +19,7 @@ class CrashConsistencyTest : public BackendTest {
   void SetUp() override {
     BackendTest::SetUp();
     if (HasFatalFailure()) return;
-    ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-1", "vac-s", "fw-1.2", 1}).ok());
+    ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-1", "vac-s", "fw-1.2", 1}), IsOk());
     repo_.reset();  // no database handle crosses fork()
   }
 
@@ -29,7 +30,7 @@ class CrashConsistencyTest : public BackendTest {
       EXPECT_EQ(rows[0].Text(0), "ok");
     }
     auto version = repo().SchemaVersion();
-    ASSERT_TRUE(version.ok()) << version.status().ToString();
+    ASSERT_THAT(version, IsOk());
     EXPECT_EQ(*version, LatestSchemaVersion());
   }
 
@@ -87,8 +88,8 @@ TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
   version.origin = "upload";
   version.run_id = "run-1";
   version.approval = "approved";
-  ASSERT_TRUE(repo().AppendMapVersion(version, std::nullopt, {}).ok());
-  ASSERT_TRUE(repo().SetCredential("robot:robot-1", "secret").ok());
+  ASSERT_THAT(repo().AppendMapVersion(version, std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().SetCredential("robot:robot-1", "secret"), IsOk());
   repo_.reset();  // no database handle crosses fork()
   // Killed once every row of the robot is deleted, before the audit entry and COMMIT.
   KillWriterAt("delete_robot:before_audit",
@@ -97,14 +98,14 @@ TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
 
   Reopen();
   ExpectDatabaseValid();
-  EXPECT_TRUE(repo().GetRobot("robot-1").ok()) << "nothing half-deleted";
+  EXPECT_THAT(repo().GetRobot("robot-1"), IsOk()) << "nothing half-deleted";
   EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-1"})->telemetry, run.telemetry);
-  EXPECT_TRUE(repo().GetSnapshot(snapshot).ok());
+  EXPECT_THAT(repo().GetSnapshot(snapshot), IsOk());
   EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 1u);
   EXPECT_TRUE(*repo().VerifyCredential("robot:robot-1", "secret"));
   EXPECT_TRUE(repo().ListAudit(10, std::nullopt)->empty());
   auto erased = repo().DeleteRobot("robot-1", "admin:root");
-  ASSERT_TRUE(erased.ok()) << erased.status().ToString();
+  ASSERT_THAT(erased, IsOk());
   EXPECT_EQ(erased->runs, 1);
   EXPECT_EQ(erased->snapshots, 1);
 }
@@ -141,7 +142,7 @@ TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
   for (std::int64_t i = 0; i <= stored; ++i) {
     auto run = repo().GetRun(RunKey{"robot-1", "run-" + std::to_string(i)});
     if (i < stored) {
-      ASSERT_TRUE(run.ok()) << "run-" << i << ": " << run.status().ToString();
+      ASSERT_THAT(run, IsOk()) << "run-" << i << ": " << run.status().ToString();
       EXPECT_EQ(run->telemetry, MakeRun("run-" + std::to_string(i), i, kTelemetryBytes).telemetry);
     } else {
       EXPECT_EQ(run.status().code(), StatusCode::kNotFound) << "runs are stored in order";

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -10,17 +11,17 @@ namespace {
 class CredentialsContractTest : public BackendTest {};
 
 TEST_P(CredentialsContractTest, ARevokedSecretIsRefusedAndListedAsRevoked) {
-  ASSERT_TRUE(repo().SetCredential("robot:r1", "secret-one").ok());
-  ASSERT_TRUE(repo().SetCredential("admin:ops", "secret-admin").ok());
+  ASSERT_THAT(repo().SetCredential("robot:r1", "secret-one"), IsOk());
+  ASSERT_THAT(repo().SetCredential("admin:ops", "secret-admin"), IsOk());
   ASSERT_TRUE(*repo().VerifyCredential("robot:r1", "secret-one"));
-  ASSERT_TRUE(repo().RevokeCredential("robot:r1").ok());
+  ASSERT_THAT(repo().RevokeCredential("robot:r1"), IsOk());
   EXPECT_FALSE(*repo().VerifyCredential("robot:r1", "secret-one"));
   EXPECT_FALSE(*repo().VerifyCredential("robot:r1", ""));
-  EXPECT_TRUE(repo().RevokeCredential("robot:r1").ok()) << "revoking twice is fine";
+  EXPECT_THAT(repo().RevokeCredential("robot:r1"), IsOk()) << "revoking twice is fine";
   EXPECT_EQ(repo().RevokeCredential("robot:nobody").code(), StatusCode::kNotFound);
 
   auto all = repo().ListCredentials("", "", 100, false);
-  ASSERT_TRUE(all.ok()) << all.status().ToString();
+  ASSERT_THAT(all, IsOk());
   ASSERT_EQ(all->size(), 2u);
   EXPECT_EQ((*all)[0].principal, "admin:ops");
   EXPECT_FALSE((*all)[0].revoked);
@@ -31,49 +32,49 @@ TEST_P(CredentialsContractTest, ARevokedSecretIsRefusedAndListedAsRevoked) {
   EXPECT_EQ(repo().ListCredentials("", "admin:ops", 100, false)->size(), 1u) << "keyset page after admin:ops";
   EXPECT_EQ(repo().ListCredentials("", "", 0, false).status().code(), StatusCode::kInvalidArgument);
   // Minting again brings the principal back with the new secret only.
-  ASSERT_TRUE(repo().SetCredential("robot:r1", "secret-two").ok());
+  ASSERT_THAT(repo().SetCredential("robot:r1", "secret-two"), IsOk());
   EXPECT_TRUE(*repo().VerifyCredential("robot:r1", "secret-two"));
   EXPECT_FALSE(*repo().VerifyCredential("robot:r1", "secret-one"));
 }
 
 TEST_P(CredentialsContractTest, TheLastAdminCannotBeRevoked) {
-  ASSERT_TRUE(repo().SetCredential("admin:a", "secret-a").ok());
-  ASSERT_TRUE(repo().SetCredential("admin:b", "secret-b").ok());
-  EXPECT_TRUE(repo().RevokeCredential("admin:a").ok());
+  ASSERT_THAT(repo().SetCredential("admin:a", "secret-a"), IsOk());
+  ASSERT_THAT(repo().SetCredential("admin:b", "secret-b"), IsOk());
+  EXPECT_THAT(repo().RevokeCredential("admin:a"), IsOk());
   const Status last = repo().RevokeCredential("admin:b");
-  EXPECT_EQ(last.code(), StatusCode::kFailedPrecondition);
+  EXPECT_THAT(last, StatusIs(StatusCode::kFailedPrecondition));
   EXPECT_EQ(last.message(), "admin:b is the last admin with a credential; mint another admin first");
   EXPECT_TRUE(*repo().VerifyCredential("admin:b", "secret-b"));
 }
 
 TEST_P(CredentialsContractTest, ChangesAreReportedOnceInCommitOrder) {
-  ASSERT_TRUE(repo().SetCredential("robot:r0", "zero").ok());
+  ASSERT_THAT(repo().SetCredential("robot:r0", "zero"), IsOk());
   auto start = repo().CredentialChangesSince(-1, 100);
-  ASSERT_TRUE(start.ok()) << start.status().ToString();
+  ASSERT_THAT(start, IsOk());
   EXPECT_TRUE(start->principals.empty()) << "a new poller starts at the newest epoch";
   EXPECT_GT(start->epoch, 0);
-  ASSERT_TRUE(repo().SetCredential("robot:r1", "one").ok());
-  ASSERT_TRUE(repo().SetCredential("robot:r2", "two").ok());
+  ASSERT_THAT(repo().SetCredential("robot:r1", "one"), IsOk());
+  ASSERT_THAT(repo().SetCredential("robot:r2", "two"), IsOk());
   auto first = repo().CredentialChangesSince(start->epoch, 100);
-  ASSERT_TRUE(first.ok());
+  ASSERT_THAT(first, IsOk());
   EXPECT_EQ(first->principals, (std::vector<std::string>{"robot:r1", "robot:r2"}));
   EXPECT_FALSE(first->truncated);
   EXPECT_GT(first->epoch, start->epoch);
   EXPECT_TRUE(repo().CredentialChangesSince(first->epoch, 100)->principals.empty()) << "nothing new";
-  ASSERT_TRUE(repo().RevokeCredential("robot:r1").ok());
+  ASSERT_THAT(repo().RevokeCredential("robot:r1"), IsOk());
   auto revoked = repo().CredentialChangesSince(first->epoch, 100);
   EXPECT_EQ(revoked->principals, std::vector<std::string>{"robot:r1"});
   // More changes than the limit: the caller is told to drop everything.
-  ASSERT_TRUE(repo().SetCredential("robot:r3", "three").ok());
-  ASSERT_TRUE(repo().SetCredential("robot:r4", "four").ok());
+  ASSERT_THAT(repo().SetCredential("robot:r3", "three"), IsOk());
+  ASSERT_THAT(repo().SetCredential("robot:r4", "four"), IsOk());
   auto truncated = repo().CredentialChangesSince(revoked->epoch, 1);
   EXPECT_TRUE(truncated->truncated);
   EXPECT_EQ(truncated->principals.size(), 1u);
 }
 
 TEST_P(CredentialsContractTest, TheHealthProbeWritesAndNoFailureIsRecorded) {
-  EXPECT_TRUE(repo().ProbeWrite("host:1").ok());
-  EXPECT_TRUE(repo().ProbeWrite("host:2").ok());
+  EXPECT_THAT(repo().ProbeWrite("host:1"), IsOk());
+  EXPECT_THAT(repo().ProbeWrite("host:2"), IsOk());
   const auto rows = RawQuery("SELECT prober FROM health_probe");
   ASSERT_EQ(rows.size(), 1u) << "one row, however many probes";
   EXPECT_EQ(rows.front().Text(0), "host:2");

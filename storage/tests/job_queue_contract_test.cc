@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -21,12 +22,13 @@ class JobQueueContractTest : public BackendTest {
  protected:
   std::int64_t Enqueue(const std::string& kind = "analyze_run", std::int64_t max_attempts = 3) {
     auto id = repo().EnqueueJob(NewJob{kind, "payload-" + kind, max_attempts, std::nullopt, 0});
-    EXPECT_TRUE(id.ok()) << id.status().ToString();
+    EXPECT_THAT(id, IsOk());
     return id.ok() ? *id : -1;
   }
   JobLease MustLease(const std::string& worker, milliseconds duration = milliseconds(60000)) {
     auto lease = repo().LeaseJob(worker, duration, "");
-    EXPECT_TRUE(lease.ok() && lease->has_value()) << lease.status().ToString();
+    EXPECT_THAT(lease, IsOk());
+    EXPECT_TRUE(lease.ok() && lease->has_value()) << "no job to lease";
     return lease.ok() && lease->has_value() ? **lease : JobLease{};
   }
 };
@@ -41,7 +43,7 @@ TEST_P(JobQueueContractTest, EnqueueLeaseCompleteInOrder) {
   EXPECT_EQ(lease.job.attempts, 1);
   EXPECT_EQ(lease.job.payload, "payload-analyze_run");
   EXPECT_EQ(lease.job.lease_owner, "worker-a");
-  ASSERT_TRUE(repo().CompleteJob(lease).ok());
+  ASSERT_THAT(repo().CompleteJob(lease), IsOk());
   EXPECT_EQ(repo().GetJob(first)->state, JobState::kDone);
   EXPECT_EQ(repo().CompleteJob(lease).code(), StatusCode::kFailedPrecondition) << "completes exactly once";
   EXPECT_EQ(MustLease("worker-a").job.job_id, second);
@@ -53,7 +55,8 @@ TEST_P(JobQueueContractTest, LeaseCanBeLimitedToOneKind) {
   Enqueue("reprocess");
   const std::int64_t analyze = Enqueue("analyze_run");
   auto lease = repo().LeaseJob("worker", milliseconds(1000), "analyze_run");
-  ASSERT_TRUE(lease.ok() && lease->has_value());
+  ASSERT_THAT(lease, IsOk());
+  ASSERT_TRUE(lease->has_value());
   EXPECT_EQ((*lease)->job.job_id, analyze);
   EXPECT_FALSE(repo().LeaseJob("worker", milliseconds(1000), "analyze_run")->has_value());
 }
@@ -68,7 +71,7 @@ TEST_P(JobQueueContractTest, ExpiredLeaseGoesBackToTheQueue) {
   EXPECT_EQ(repo().HeartbeatJob(stale, milliseconds(1000)).code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(repo().CompleteJob(stale).code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(repo().FailJob(stale, "late").code(), StatusCode::kFailedPrecondition);
-  EXPECT_TRUE(repo().CompleteJob(fresh).ok());
+  EXPECT_THAT(repo().CompleteJob(fresh), IsOk());
 }
 
 TEST_P(JobQueueContractTest, HeartbeatKeepsTheLease) {
@@ -76,19 +79,19 @@ TEST_P(JobQueueContractTest, HeartbeatKeepsTheLease) {
   JobLease lease = MustLease("worker", milliseconds(150));
   for (int i = 0; i < 3; ++i) {
     std::this_thread::sleep_for(milliseconds(60));
-    ASSERT_TRUE(repo().HeartbeatJob(lease, milliseconds(150)).ok());
+    ASSERT_THAT(repo().HeartbeatJob(lease, milliseconds(150)), IsOk());
   }
   EXPECT_FALSE(repo().LeaseJob("thief", milliseconds(1000), "")->has_value());
-  EXPECT_TRUE(repo().CompleteJob(lease).ok());
+  EXPECT_THAT(repo().CompleteJob(lease), IsOk());
 }
 
 TEST_P(JobQueueContractTest, FailRetriesUntilMaxAttemptsThenFails) {
   const std::int64_t id = Enqueue("analyze_run", 2);
-  ASSERT_TRUE(repo().FailJob(MustLease("w"), "replay crashed").ok());
+  ASSERT_THAT(repo().FailJob(MustLease("w"), "replay crashed"), IsOk());
   auto job = repo().GetJob(id);
   EXPECT_EQ(job->state, JobState::kQueued);
   EXPECT_EQ(job->last_error, "replay crashed");
-  ASSERT_TRUE(repo().FailJob(MustLease("w"), "replay crashed again").ok());
+  ASSERT_THAT(repo().FailJob(MustLease("w"), "replay crashed again"), IsOk());
   job = repo().GetJob(id);
   EXPECT_EQ(job->state, JobState::kFailed);
   EXPECT_EQ(job->attempts, 2);
@@ -110,8 +113,8 @@ TEST_P(JobQueueContractTest, CancelStopsQueuedAndLeasedJobs) {
   const std::int64_t leased = Enqueue();
   JobLease lease = MustLease("w");  // takes `queued`, the older one
   ASSERT_EQ(lease.job.job_id, queued);
-  ASSERT_TRUE(repo().CancelJob(leased).ok());
-  ASSERT_TRUE(repo().CancelJob(queued).ok());
+  ASSERT_THAT(repo().CancelJob(leased), IsOk());
+  ASSERT_THAT(repo().CancelJob(queued), IsOk());
   EXPECT_EQ(repo().CompleteJob(lease).code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(repo().GetJob(queued)->state, JobState::kCancelled);
   EXPECT_EQ(repo().CancelJob(queued).code(), StatusCode::kFailedPrecondition);
@@ -121,15 +124,15 @@ TEST_P(JobQueueContractTest, CancelStopsQueuedAndLeasedJobs) {
 
 TEST_P(JobQueueContractTest, ProgressParentsAndListing) {
   auto parent = repo().EnqueueJob(NewJob{"reprocess", "all runs", 3, std::nullopt, 2});
-  ASSERT_TRUE(parent.ok());
+  ASSERT_THAT(parent, IsOk());
   auto child = repo().EnqueueJob(NewJob{"analyze_run", "run-1", 3, *parent, 0});
-  ASSERT_TRUE(child.ok());
+  ASSERT_THAT(child, IsOk());
   EXPECT_EQ(repo().GetJob(*child)->parent_job_id, *parent);
   EXPECT_EQ(repo().EnqueueJob(NewJob{"x", "", 3, 424242, 0}).status().code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(repo().EnqueueJob(NewJob{"", "", 3, std::nullopt, 0}).status().code(), StatusCode::kInvalidArgument);
   JobLease lease = MustLease("w");
   ASSERT_EQ(lease.job.job_id, *parent);
-  ASSERT_TRUE(repo().UpdateJobProgress(lease, 1, 2).ok());
+  ASSERT_THAT(repo().UpdateJobProgress(lease, 1, 2), IsOk());
   EXPECT_EQ(repo().GetJob(*parent)->progress_done, 1);
   EXPECT_EQ(repo().GetJob(*parent)->progress_total, 2);
   EXPECT_EQ(repo().ListJobs(std::nullopt, 10)->size(), 2u);
@@ -171,7 +174,7 @@ TEST_P(JobQueueContractTest, ConcurrentThreadsNeverShareAJob) {
     threads.emplace_back([&, t] {
       // Each thread has its own Repository: its own SQLite connection, or its own PostgreSQL pool.
       auto repository = OpenRepository(url_, OpenOptions{1, std::chrono::milliseconds(10000)});
-      ASSERT_TRUE(repository.ok()) << repository.status().ToString();
+      ASSERT_THAT(repository, IsOk());
       DrainQueue(**repository, "thread-" + std::to_string(t), [&](std::int64_t id) {
         std::lock_guard<std::mutex> lock(mutex);
         ++completions[id];

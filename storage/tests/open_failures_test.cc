@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -23,8 +24,7 @@ TEST(OpenFailuresTest, FileThatIsNotADatabaseIsRefused) {
     for (int i = 0; i < 5000; ++i) out << "this is a text file, not a database " << i << "\n";
   }
   auto opened = OpenRepository("sqlite:" + path);
-  ASSERT_FALSE(opened.ok());
-  EXPECT_EQ(opened.status().code(), StatusCode::kDataLoss);
+  ASSERT_THAT(opened, StatusIs(StatusCode::kDataLoss));
   EXPECT_NE(opened.status().message().find("not a SQLite database"), std::string::npos) << opened.status().ToString();
   fs::remove(path);
 }
@@ -33,7 +33,7 @@ TEST(OpenFailuresTest, DatabaseWithCorruptPagesIsRefused) {
   const std::string path = TempPath("corrupt.db");
   {
     auto opened = OpenRepository("sqlite:" + path);
-    ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+    ASSERT_THAT(opened, IsOk());
   }
   ASSERT_TRUE(fs::exists(path));
   {
@@ -67,8 +67,7 @@ TEST_P(SchemaVersionTest, DatabaseFromANewerProgramIsRefused) {
   RawQuery("INSERT INTO schema_version (version, applied_at_ms) VALUES ($1, 0)", {internal::SqlValue{newer}});
   repo_.reset();
   auto opened = OpenRepository(url_);
-  ASSERT_FALSE(opened.ok());
-  EXPECT_EQ(opened.status().code(), StatusCode::kFailedPrecondition);
+  ASSERT_THAT(opened, StatusIs(StatusCode::kFailedPrecondition));
   EXPECT_EQ(opened.status().message(), "database schema version " + std::to_string(newer) +
                                            " is newer than this program's " + std::to_string(LatestSchemaVersion()) +
                                            "; upgrade the program");

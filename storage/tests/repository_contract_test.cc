@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -19,10 +20,10 @@ class RepositoryContractTest : public BackendTest {
     BackendTest::SetUp();
     if (HasFatalFailure()) return;
     for (const char* robot : {"robot-1", "robot-2"}) {
-      ASSERT_TRUE(repo().PutRobot(RobotRecord{robot, "vac-s", "fw-1.2", 1000}).ok());
+      ASSERT_THAT(repo().PutRobot(RobotRecord{robot, "vac-s", "fw-1.2", 1000}), IsOk());
     }
-    ASSERT_TRUE(repo().PutParameterSet({"default", "params-a"}).ok());
-    ASSERT_TRUE(repo().PutParameterSet({"tuned", "params-b"}).ok());
+    ASSERT_THAT(repo().PutParameterSet({"default", "params-a"}), IsOk());
+    ASSERT_THAT(repo().PutParameterSet({"tuned", "params-b"}), IsOk());
   }
 
   static ReportBundle MakeReport(const std::string& run_id, const std::string& parameter_set, std::int64_t scale,
@@ -61,16 +62,16 @@ class RepositoryContractTest : public BackendTest {
 
 TEST_P(RepositoryContractTest, OpensAtTheLatestSchemaVersion) {
   auto version = repo().SchemaVersion();
-  ASSERT_TRUE(version.ok()) << version.status().ToString();
+  ASSERT_THAT(version, IsOk());
   EXPECT_EQ(*version, LatestSchemaVersion());
   Reopen();  // migrating an up-to-date database is a no-op
   EXPECT_EQ(*repo().SchemaVersion(), LatestSchemaVersion());
 }
 
 TEST_P(RepositoryContractTest, RobotsUpsertKeepingRegistrationTime) {
-  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-1", "vac-m", "fw-2.0", 5000}).ok());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-1", "vac-m", "fw-2.0", 5000}), IsOk());
   auto robot = repo().GetRobot("robot-1");
-  ASSERT_TRUE(robot.ok());
+  ASSERT_THAT(robot, IsOk());
   EXPECT_EQ(robot->robot_model, "vac-m");
   EXPECT_EQ(robot->firmware, "fw-2.0");
   EXPECT_EQ(robot->registered_at_ms, 1000);
@@ -79,8 +80,8 @@ TEST_P(RepositoryContractTest, RobotsUpsertKeepingRegistrationTime) {
 }
 
 TEST_P(RepositoryContractTest, CredentialsKeepOnlyASaltedHash) {
-  ASSERT_TRUE(repo().SetCredential("robot-1", "s3cret").ok());
-  ASSERT_TRUE(repo().SetCredential("robot-2", "s3cret").ok());
+  ASSERT_THAT(repo().SetCredential("robot-1", "s3cret"), IsOk());
+  ASSERT_THAT(repo().SetCredential("robot-2", "s3cret"), IsOk());
   EXPECT_TRUE(*repo().VerifyCredential("robot-1", "s3cret"));
   EXPECT_FALSE(*repo().VerifyCredential("robot-1", "wrong"));
   EXPECT_FALSE(*repo().VerifyCredential("stranger", "s3cret"));
@@ -95,12 +96,13 @@ TEST_P(RepositoryContractTest, SnapshotsAreContentAddressedAndStoredOnce) {
   const std::string bytes = std::string("map\0bytes", 9) + std::string(5000, 'x');
   auto first = repo().PutSnapshot(bytes);
   auto second = repo().PutSnapshot(bytes);
-  ASSERT_TRUE(first.ok() && second.ok());
+  ASSERT_THAT(first, IsOk());
+  ASSERT_THAT(second, IsOk());
   EXPECT_EQ(*first, *second);
   EXPECT_EQ(first->size(), 64u);
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM snapshots")[0].Int(0), 1);
   auto read = repo().GetSnapshot(*first);
-  ASSERT_TRUE(read.ok());
+  ASSERT_THAT(read, IsOk());
   EXPECT_EQ(read->bytes, bytes);
   EXPECT_EQ(repo().GetSnapshot(std::string(64, '0')).status().code(), StatusCode::kNotFound);
 }
@@ -111,7 +113,7 @@ TEST_P(RepositoryContractTest, RunRoundTripsWithItsTelemetry) {
   run.child_snapshot_id = *repo().PutSnapshot("child map");
   ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
   auto read = repo().GetRun(RunKey{"robot-1", "run-1"});
-  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_THAT(read, IsOk());
   EXPECT_EQ(read->telemetry, run.telemetry);
   EXPECT_EQ(read->telemetry_size, 200000);
   EXPECT_EQ(read->parent_snapshot_id, run.parent_snapshot_id);
@@ -130,7 +132,7 @@ TEST_P(RepositoryContractTest, SameRunTwiceStoresOneRun) {
 
 TEST_P(RepositoryContractTest, DifferentPayloadUnderTheSameRunIdIsAConflict) {
   RunRecord run = MakeRun("run-1", 10000);
-  ASSERT_TRUE(repo().InsertRun(run).ok());
+  ASSERT_THAT(repo().InsertRun(run), IsOk());
   run.telemetry[10] ^= 1;
   EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kAlreadyExists);
   run = MakeRun("run-1", 10001);
@@ -148,9 +150,9 @@ TEST_P(RepositoryContractTest, RunMustNameStoredRobotAndSnapshots) {
 }
 
 TEST_P(RepositoryContractTest, CorruptBlobsAreDataLossNeverData) {
-  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0, 5000)).ok());
+  ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0, 5000)), IsOk());
   const std::string snapshot = *repo().PutSnapshot("a map snapshot");
-  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
+  ASSERT_THAT(repo().PutReport(MakeReport("run-1", "default", 1)), IsOk());
   // Flip one stored byte of each blob behind the repository's back.
   auto flip = [&](const std::string& table, const std::string& column, const std::string& key_column,
                   const std::string& key) {
@@ -169,19 +171,19 @@ TEST_P(RepositoryContractTest, CorruptBlobsAreDataLossNeverData) {
   EXPECT_EQ(repo().GetSnapshot(snapshot).status().code(), StatusCode::kDataLoss);
   EXPECT_EQ(repo().GetReport(RunKey{"robot-1", "run-1"}, "default").status().code(), StatusCode::kDataLoss);
   // A checksum that no longer matches is caught too, even when the bytes themselves are intact.
-  ASSERT_TRUE(repo().PutParameterSet({"third", "params-c"}).ok());
+  ASSERT_THAT(repo().PutParameterSet({"third", "params-c"}), IsOk());
   RawQuery("UPDATE parameter_sets SET data_crc32 = data_crc32 + 1 WHERE name = 'third'");
   EXPECT_EQ(repo().GetParameterSet("third").status().code(), StatusCode::kDataLoss);
 }
 
 TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
-  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "tuned", 2)).ok());
+  ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0)), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("run-1", "default", 1)), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("run-1", "tuned", 2)), IsOk());
   EXPECT_EQ(*repo().ListReportParameterSets(RunKey{"robot-1", "run-1"}),
             (std::vector<std::string>{"default", "tuned"}));
   auto tuned = repo().GetReport(RunKey{"robot-1", "run-1"}, "tuned");
-  ASSERT_TRUE(tuned.ok()) << tuned.status().ToString();
+  ASSERT_THAT(tuned, IsOk());
   EXPECT_EQ(tuned->merge_created, 6);
   EXPECT_EQ(tuned->recovery_retracted, 10);
   EXPECT_FALSE(tuned->started_localized);
@@ -200,19 +202,19 @@ TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
 }
 
 TEST_P(RepositoryContractTest, ReportNeedsAStoredRunAndParameterSet) {
-  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
+  ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0)), IsOk());
   EXPECT_EQ(repo().PutReport(MakeReport("run-1", "unknown", 1)).code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(repo().PutReport(MakeReport("run-9", "default", 1)).code(), StatusCode::kFailedPrecondition);
 }
 
 TEST_P(RepositoryContractTest, ReplacingAReportKeepsEngineersLabels) {
-  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
-  ASSERT_TRUE(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 2, "shoe", "alice").ok());
+  ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0)), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("run-1", "default", 1)), IsOk());
+  ASSERT_THAT(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 2, "shoe", "alice"), IsOk());
   EXPECT_EQ(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 9, "shoe", "alice").code(), StatusCode::kNotFound);
   ReportBundle retried = MakeReport("run-1", "default", 3);
   retried.decisions.pop_back();
-  ASSERT_TRUE(repo().PutReport(retried).ok());
+  ASSERT_THAT(repo().PutReport(retried), IsOk());
   EXPECT_EQ(repo().GetReport(RunKey{"robot-1", "run-1"}, "default")->merge_created, 9);
   EXPECT_EQ(repo().ListDecisions(RunKey{"robot-1", "run-1"}, "default")->size(), 1u);
   auto labelled = repo().ListLabelledRegions("default", 10);
@@ -234,7 +236,7 @@ TEST_P(RepositoryContractTest, ParameterSetsAndModelsAreImmutableOnceStored) {
   ASSERT_EQ(*repo().PutModel({"protrusion", 2, "weights-2", false}), InsertOutcome::kInserted);
   EXPECT_EQ(repo().PutModel({"protrusion", 2, "other", false}).status().code(), StatusCode::kAlreadyExists);
   EXPECT_EQ(repo().GetActiveModel("protrusion")->version, 1);
-  ASSERT_TRUE(repo().ActivateModel("protrusion", 2).ok());
+  ASSERT_THAT(repo().ActivateModel("protrusion", 2), IsOk());
   auto active = repo().GetActiveModel("protrusion");
   EXPECT_EQ(active->version, 2);
   EXPECT_EQ(active->bytes, "weights-2");
@@ -246,14 +248,14 @@ TEST_P(RepositoryContractTest, ParameterSetsAndModelsAreImmutableOnceStored) {
 TEST_P(RepositoryContractTest, ListRunsPagesByStartTimeThenRunId) {
   // Ties on started_at_ms are broken by run_id, so no run is skipped or repeated across pages.
   for (int i = 0; i < 7; ++i) {
-    ASSERT_TRUE(repo().InsertRun(MakeRun("run-" + std::to_string(i), 1000 * (i / 2), 10, i % 3 == 0 ? "robot-2" : "robot-1")).ok());
+    ASSERT_THAT(repo().InsertRun(MakeRun("run-" + std::to_string(i), 1000 * (i / 2), 10, i % 3 == 0 ? "robot-2" : "robot-1")), IsOk());
   }
   std::vector<std::string> seen;
   std::optional<RunCursor> cursor;
   int pages = 0;
   do {
     auto page = repo().ListRuns(RunFilter{}, 3, cursor);
-    ASSERT_TRUE(page.ok()) << page.status().ToString();
+    ASSERT_THAT(page, IsOk());
     for (const RunRecord& run : page->runs) {
       seen.push_back(run.run_id);
       EXPECT_TRUE(run.telemetry.empty());
@@ -276,22 +278,22 @@ TEST_P(RepositoryContractTest, ListRunsPagesByStartTimeThenRunId) {
 }
 
 TEST_P(RepositoryContractTest, AggregatesFleetStatisticsInTheDatabase) {
-  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-3", "vac-m", "fw-2.0", 0}).ok());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-3", "vac-m", "fw-2.0", 0}), IsOk());
   const std::int64_t day = 86400000;
-  ASSERT_TRUE(repo().InsertRun(MakeRun("a", 0 * day + 5)).ok());
-  ASSERT_TRUE(repo().InsertRun(MakeRun("b", 1 * day + 5, 10, "robot-2")).ok());
+  ASSERT_THAT(repo().InsertRun(MakeRun("a", 0 * day + 5)), IsOk());
+  ASSERT_THAT(repo().InsertRun(MakeRun("b", 1 * day + 5, 10, "robot-2")), IsOk());
   RunRecord c = MakeRun("c", 1 * day + 9, 10, "robot-3");
   c.firmware = "fw-2.0";
-  ASSERT_TRUE(repo().InsertRun(c).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("a", "default", 1)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("b", "default", 2, "robot-2")).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("c", "default", 3, "robot-3")).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("a", "tuned", 10)).ok());
+  ASSERT_THAT(repo().InsertRun(c), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("a", "default", 1)), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("b", "default", 2, "robot-2")), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("c", "default", 3, "robot-3")), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("a", "tuned", 10)), IsOk());
 
   RunFilter defaults;
   defaults.parameter_set = "default";
   auto all = repo().Aggregate(defaults);
-  ASSERT_TRUE(all.ok()) << all.status().ToString();
+  ASSERT_THAT(all, IsOk());
   EXPECT_EQ(all->reports, 3);
   EXPECT_EQ(all->robots, 3);
   EXPECT_EQ(all->merge_created, 3 * (1 + 2 + 3));
@@ -332,8 +334,8 @@ TEST_P(RepositoryContractTest, AggregatesFleetStatisticsInTheDatabase) {
 TEST_P(RepositoryContractTest, InjectionAttemptsInValuesAreHarmless) {
   const std::string attacks[] = {"x'; DROP TABLE runs; --", "' OR '1'='1", "robot-1' --", "\"; DELETE FROM robots; --",
                                  "$1", "robot-1%"};
-  ASSERT_TRUE(repo().InsertRun(MakeRun("run-1", 0)).ok());
-  ASSERT_TRUE(repo().PutReport(MakeReport("run-1", "default", 1)).ok());
+  ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0)), IsOk());
+  ASSERT_THAT(repo().PutReport(MakeReport("run-1", "default", 1)), IsOk());
   for (const std::string& attack : attacks) {
     RunFilter filter;
     filter.robot_id = attack;
@@ -347,8 +349,8 @@ TEST_P(RepositoryContractTest, InjectionAttemptsInValuesAreHarmless) {
     EXPECT_FALSE(*repo().VerifyCredential(attack, attack));
   }
   // The same strings are stored and returned verbatim as data.
-  ASSERT_TRUE(repo().PutRobot(RobotRecord{attacks[0], attacks[1], attacks[2], 1}).ok());
-  ASSERT_TRUE(repo().InsertRun(MakeRun(attacks[1], 5, 10, attacks[0])).ok());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{attacks[0], attacks[1], attacks[2], 1}), IsOk());
+  ASSERT_THAT(repo().InsertRun(MakeRun(attacks[1], 5, 10, attacks[0])), IsOk());
   EXPECT_EQ(repo().GetRun(RunKey{attacks[0], attacks[1]})->robot_id, attacks[0]);
   RunFilter exact;
   exact.robot_id = attacks[0];
@@ -390,12 +392,12 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   auto first = repo().AppendMapVersion(MakeVersion("robot-1", a, "upload", "run-1"), std::nullopt,
                                        {{1, "protrusion", 0.8, "region 3", "open", R"({"x":1})"},
                                         {2, "ambiguous_view", 0.1, "4 views", "info", "{}"}});
-  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  ASSERT_THAT(first, IsOk());
   EXPECT_EQ(first->version, 1);
   EXPECT_EQ(first->open_findings, 1) << "info findings are not open";
   // Retrying the upload's version returns the one already made.
   auto retried = repo().AppendMapVersion(MakeVersion("robot-1", b, "upload", "run-1"), std::nullopt, {});
-  ASSERT_TRUE(retried.ok());
+  ASSERT_THAT(retried, IsOk());
   EXPECT_EQ(retried->version, 1);
   EXPECT_EQ(retried->snapshot_id, a);
 
@@ -403,15 +405,15 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   repair.parent_version = 1;
   repair.action = "cut_region";
   auto second = repo().AppendMapVersion(repair, 1, {});
-  ASSERT_TRUE(second.ok()) << second.status().ToString();
+  ASSERT_THAT(second, IsOk());
   EXPECT_EQ(second->version, 2);
   // Another robot counts from 1.
   auto other = repo().AppendMapVersion(MakeVersion("robot-2", b, "rollback"), std::nullopt, {});
-  ASSERT_TRUE(other.ok());
+  ASSERT_THAT(other, IsOk());
   EXPECT_EQ(other->version, 1);
 
   auto versions = repo().ListMapVersions("robot-1");
-  ASSERT_TRUE(versions.ok());
+  ASSERT_THAT(versions, IsOk());
   ASSERT_EQ(versions->size(), 2u);
   EXPECT_EQ((*versions)[1].parent_version, 1);
   EXPECT_EQ((*versions)[1].action, "cut_region");
@@ -419,17 +421,17 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   EXPECT_EQ(repo().GetMapVersionOfRun(RunKey{"robot-1", "run-1"})->version, 1);
   EXPECT_EQ(repo().GetMapVersionOfRun(RunKey{"robot-1", "run-9"}).status().code(), StatusCode::kNotFound);
   auto findings = repo().ListMapFindings("robot-1", 1);
-  ASSERT_TRUE(findings.ok());
+  ASSERT_THAT(findings, IsOk());
   ASSERT_EQ(findings->size(), 2u);
   EXPECT_EQ((*findings)[0].detail_json, R"({"x":1})");
 
   // Findings of a version are replaced as a whole, with its open count and known area.
-  ASSERT_TRUE(repo().UpdateMapVersionHealth("robot-1", 2, 40.25,
+  ASSERT_THAT(repo().UpdateMapVersionHealth("robot-1", 2, 40.25,
                                             {{1, "high_residual_edge", 0.7, "edge 3→9", "open", "{}"},
-                                             {2, "protrusion", 0.6, "region", "open", "{}"}}).ok());
+                                             {2, "protrusion", 0.6, "region", "open", "{}"}}), IsOk());
   EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 2);
   EXPECT_DOUBLE_EQ(repo().GetMapVersion("robot-1", 2)->known_area_m2, 40.25);
-  ASSERT_TRUE(repo().UpdateMapVersionHealth("robot-1", 2, 40.25, {}).ok());
+  ASSERT_THAT(repo().UpdateMapVersionHealth("robot-1", 2, 40.25, {}), IsOk());
   EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 0);
   EXPECT_TRUE(repo().ListMapFindings("robot-1", 2)->empty());
   EXPECT_EQ(repo().UpdateMapVersionHealth("robot-1", 7, 0.0, {}).code(), StatusCode::kNotFound);
@@ -437,21 +439,21 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
 
 TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {}).ok());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {}), IsOk());
   auto stale = repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {});
   EXPECT_EQ(stale.status().code(), StatusCode::kAborted) << stale.status().ToString();
   EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 2u) << "nothing written";
   // Rejected and stale versions are side branches: the head stays at the newest approved or pending one.
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {}).ok());  // 3, pending
-  ASSERT_TRUE(repo().ReviewMapVersion("robot-1", 3, false, "engineer:ana").ok());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {}), IsOk());  // 3, pending
+  ASSERT_THAT(repo().ReviewMapVersion("robot-1", 3, false, "engineer:ana"), IsOk());
   MapVersionRecord outdated_upload = MakeVersion("robot-1", a, "upload", "run-x");
   outdated_upload.approval = "stale";
   ASSERT_EQ(*repo().InsertRun(MakeRun("run-x", 5000, 10)), InsertOutcome::kInserted);
   ASSERT_EQ(repo().AppendMapVersion(outdated_upload, std::nullopt, {})->version, 4);
   EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 3, {}).status().code(), StatusCode::kAborted);
   auto continued = repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {});
-  ASSERT_TRUE(continued.ok()) << continued.status().ToString();
+  ASSERT_THAT(continued, IsOk());
   EXPECT_EQ(continued->version, 5);
   // References are checked.
   EXPECT_EQ(repo().AppendMapVersion(MakeVersion("nobody", a, "rollback"), std::nullopt, {}).status().code(),
@@ -472,15 +474,15 @@ TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
 
 TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTheSameTransaction) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());  // 1
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", b, "repair"), 1, {}).ok());               // 2, pending
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}), IsOk());  // 1
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", b, "repair"), 1, {}), IsOk());               // 2, pending
   MapVersionRecord carried = MakeVersion("robot-1", b, "repair");
   carried.parent_version = 1;
   carried.approval = "approved";
   carried.approved_by = "engineer:bo";
   carried.supersedes_pending = 2;
   auto appended = repo().AppendMapVersion(carried, 2, {});
-  ASSERT_TRUE(appended.ok()) << appended.status().ToString();
+  ASSERT_THAT(appended, IsOk());
   EXPECT_EQ(appended->version, 3);
   const auto superseded = repo().GetMapVersion("robot-1", 2);
   EXPECT_EQ(superseded->approval, "stale");
@@ -495,18 +497,18 @@ TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTh
 
 TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
-  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}).ok());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}), IsOk());
   MapVersionRecord imported = MakeVersion("robot-9", a, "import");
   imported.action = "import";
   imported.action_detail = "valetudo:home.json";
   auto first = repo().AppendMapVersion(imported, std::nullopt, {});
-  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  ASSERT_THAT(first, IsOk());
   imported.snapshot_id = b;
   imported.parent_version = 1;
   auto second = repo().AppendMapVersion(imported, 1, {});
-  ASSERT_TRUE(second.ok()) << second.status().ToString();
+  ASSERT_THAT(second, IsOk());
   auto versions = repo().ListMapVersions("robot-9");
-  ASSERT_TRUE(versions.ok());
+  ASSERT_THAT(versions, IsOk());
   ASSERT_EQ(versions->size(), 2u);
   EXPECT_EQ((*versions)[1].origin, "import");
   EXPECT_EQ((*versions)[1].action_detail, "valetudo:home.json");
@@ -516,14 +518,14 @@ TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
 
 TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMetadata) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}).ok());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}), IsOk());
   MapVersionRecord imported = MakeVersion("robot-9", a, "import");
   imported.metadata = std::string("rooms\0zones", 11) + std::string(100000, 'm');  // opaque bytes, NULs included
   auto first = repo().AppendMapVersion(imported, std::nullopt, {});
-  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  ASSERT_THAT(first, IsOk());
   EXPECT_TRUE(first->metadata.empty());
   imported.metadata.clear();
-  ASSERT_TRUE(repo().AppendMapVersion(imported, 1, {}).ok());
+  ASSERT_THAT(repo().AppendMapVersion(imported, 1, {}), IsOk());
   EXPECT_EQ(*repo().GetMapMetadata("robot-9", 1), std::string("rooms\0zones", 11) + std::string(100000, 'm'));
   EXPECT_EQ(*repo().GetMapMetadata("robot-9", 2), "");   // a version without metadata
   EXPECT_EQ(*repo().GetMapMetadata("robot-9", 99), "");  // no such version
@@ -532,14 +534,14 @@ TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMe
   // Past the bound: refused, and nothing is appended.
   imported.metadata.assign(kMaxMapMetadataBytes + 1, 'x');
   const auto refused = repo().AppendMapVersion(imported, 2, {});
-  EXPECT_EQ(refused.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_THAT(refused, StatusIs(StatusCode::kInvalidArgument));
   EXPECT_NE(refused.status().message().find("metadata"), std::string::npos);
   EXPECT_EQ(repo().ListMapVersions("robot-9")->size(), 2u);
 }
 
 TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}).ok());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}), IsOk());
   // Eight writers, each with its own connection, all read head 1 and try to append on it: one wins.
   constexpr int kWriters = 8;
   std::atomic<int> won{0}, aborted{0};
@@ -563,10 +565,10 @@ TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
 
 TEST_P(RepositoryContractTest, OnlyPendingVersionsAreReviewed) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}).ok());
-  ASSERT_TRUE(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}).ok());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}), IsOk());
   auto approved = repo().ReviewMapVersion("robot-1", 1, true, "engineer:ana");
-  ASSERT_TRUE(approved.ok()) << approved.status().ToString();
+  ASSERT_THAT(approved, IsOk());
   EXPECT_EQ(approved->approval, "approved");
   EXPECT_EQ(approved->approved_by, "engineer:ana");
   EXPECT_GT(approved->approved_at_ms, 0);

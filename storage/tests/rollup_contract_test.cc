@@ -11,6 +11,7 @@
 #include "postgres_database.h"
 #include "sqlite_database.h"
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -40,7 +41,7 @@ class RollupContractTest : public BackendTest {
   void SetUp() override {
     BackendTest::SetUp();
     if (HasFatalFailure()) return;
-    for (const char* set : kSets) ASSERT_TRUE(repo().PutParameterSet({set, std::string("params ") + set}).ok());
+    for (const char* set : kSets) ASSERT_THAT(repo().PutParameterSet({set, std::string("params ") + set}), IsOk());
   }
 
   /// Random counters for one report (seeded per call order, so every run of the test writes the same).
@@ -70,7 +71,7 @@ class RollupContractTest : public BackendTest {
   void Populate(int robots, int runs) {
     for (int robot = 0; robot < robots; ++robot) {
       const std::string robot_id = "robot-" + std::to_string(robot);
-      ASSERT_TRUE(repo().PutRobot(RobotRecord{robot_id, kModels[robot % 2], kFirmware[0], 1}).ok());
+      ASSERT_THAT(repo().PutRobot(RobotRecord{robot_id, kModels[robot % 2], kFirmware[0], 1}), IsOk());
       for (int i = 0; i < runs; ++i) {
         RunRecord run = MakeRun("run-" + std::to_string(i), (i % 5 - 1) * kDay + robot * 1000 + i, 50, robot_id);
         run.firmware = kFirmware[(robot + i / 3) % 3];
@@ -78,7 +79,7 @@ class RollupContractTest : public BackendTest {
         ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
         for (const char* set : kSets) {
           if ((i + robot) % 4 == 3 && std::string(set) == "tuned") continue;
-          ASSERT_TRUE(repo().PutReport(RandomReport(run, set)).ok());
+          ASSERT_THAT(repo().PutReport(RandomReport(run, set)), IsOk());
         }
         written_.push_back(run);
       }
@@ -117,15 +118,15 @@ class RollupContractTest : public BackendTest {
                                   (filter.started_from_ms ? " timed" : "") + " group " +
                                   std::to_string(group_by ? static_cast<int>(*group_by) : -1);
         auto expected = repo().AggregateFromReportsForTesting(filter, group_by);
-        ASSERT_TRUE(expected.ok()) << shape << ": " << expected.status().ToString();
+        ASSERT_THAT(expected, IsOk()) << shape << ": " << expected.status().ToString();
         if (!group_by) {
           auto total = repo().Aggregate(filter);
-          ASSERT_TRUE(total.ok()) << shape << ": " << total.status().ToString();
+          ASSERT_THAT(total, IsOk()) << shape << ": " << total.status().ToString();
           const FleetStatistics want = expected->empty() ? FleetStatistics{} : expected->front().statistics;
           EXPECT_EQ(Describe(*total), Describe(want)) << shape;
         } else {
           auto groups = repo().AggregateBy(filter, *group_by);
-          ASSERT_TRUE(groups.ok()) << shape << ": " << groups.status().ToString();
+          ASSERT_THAT(groups, IsOk()) << shape << ": " << groups.status().ToString();
           EXPECT_EQ(Describe(*groups), Describe(*expected)) << shape;
         }
       }
@@ -141,14 +142,14 @@ TEST_P(RollupContractTest, EveryFilterAndGroupingMatchesTheReportsThroughReplace
   ExpectRollupMatchesReports("after writing");
   // Retried analyses replace reports with other counters: the roll-up takes the difference.
   for (std::size_t i = 0; i < written_.size(); i += 3) {
-    ASSERT_TRUE(repo().PutReport(RandomReport(written_[i], "default")).ok());
+    ASSERT_THAT(repo().PutReport(RandomReport(written_[i], "default")), IsOk());
   }
   ExpectRollupMatchesReports("after replacing");
-  ASSERT_TRUE(repo().DeleteRobot("robot-2", "admin:test").ok());
+  ASSERT_THAT(repo().DeleteRobot("robot-2", "admin:test"), IsOk());
   ExpectRollupMatchesReports("after erasing robot-2");
-  ASSERT_TRUE(repo().DeleteRobot("robot-0", "admin:test").ok());
-  ASSERT_TRUE(repo().DeleteRobot("robot-1", "admin:test").ok());
-  ASSERT_TRUE(repo().DeleteRobot("robot-3", "admin:test").ok());
+  ASSERT_THAT(repo().DeleteRobot("robot-0", "admin:test"), IsOk());
+  ASSERT_THAT(repo().DeleteRobot("robot-1", "admin:test"), IsOk());
+  ASSERT_THAT(repo().DeleteRobot("robot-3", "admin:test"), IsOk());
   ExpectRollupMatchesReports("after erasing everyone");
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM report_rollup")[0].Int(0), 0) << "no empty cells are kept";
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM report_robot_counts")[0].Int(0), 0);
@@ -156,7 +157,7 @@ TEST_P(RollupContractTest, EveryFilterAndGroupingMatchesTheReportsThroughReplace
 }
 
 TEST_P(RollupContractTest, BulkBatchesAreAllOrNothingAndKeepTheRollup) {
-  ASSERT_TRUE(repo().PutRobot(RobotRecord{"robot-1", "vac-s", "fw-1", 1}).ok());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-1", "vac-s", "fw-1", 1}), IsOk());
   std::vector<RunRecord> runs;
   std::vector<ReportBundle> reports;
   for (int i = 0; i < 30; ++i) {
@@ -167,13 +168,13 @@ TEST_P(RollupContractTest, BulkBatchesAreAllOrNothingAndKeepTheRollup) {
   bad_runs.back().robot_id = "no-such-robot";
   EXPECT_FALSE(repo().InsertRuns(bad_runs).ok()) << "a run of an unknown robot fails the batch";
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 0) << "nothing of a failed batch is stored";
-  ASSERT_TRUE(repo().InsertRuns(runs).ok());
+  ASSERT_THAT(repo().InsertRuns(runs), IsOk());
   std::vector<ReportBundle> bad_reports = reports;
   bad_reports.back().report.parameter_set = "no-such-set";
   EXPECT_FALSE(repo().PutReports(bad_reports).ok());
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM reports")[0].Int(0), 0);
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM report_rollup")[0].Int(0), 0) << "the roll-up rolls back with them";
-  ASSERT_TRUE(repo().PutReports(reports).ok());
+  ASSERT_THAT(repo().PutReports(reports), IsOk());
   ExpectRollupMatchesReports("after the batches");
   EXPECT_FALSE(repo().InsertRuns(std::vector<RunRecord>(10001, runs[0])).ok()) << "batches are bounded";
 }
@@ -188,12 +189,13 @@ TEST_P(RollupContractTest, ReportPairsPageThroughRunsWithBothSets) {
   std::optional<RunCursor> after;
   do {
     auto page = repo().ListReportPairs(RunFilter{}, "default", "tuned", 5, after);
-    ASSERT_TRUE(page.ok()) << page.status().ToString();
+    ASSERT_THAT(page, IsOk());
     for (const ReportPair& pair : page->pairs) {
       ++seen;
       auto a = repo().GetReport(pair.run.key(), "default");
       auto b = repo().GetReport(pair.run.key(), "tuned");
-      ASSERT_TRUE(a.ok() && b.ok()) << pair.run.run_id;
+      ASSERT_THAT(a, IsOk()) << pair.run.run_id;
+      ASSERT_THAT(b, IsOk()) << pair.run.run_id;
       EXPECT_EQ(pair.a.recovery_created, a->recovery_created);
       EXPECT_EQ(pair.b.views_ambiguous, b->views_ambiguous);
       EXPECT_EQ(pair.b.started_localized, b->started_localized);
@@ -206,7 +208,7 @@ TEST_P(RollupContractTest, ReportPairsPageThroughRunsWithBothSets) {
   RunFilter fw;
   fw.firmware = "fw-2";
   auto filtered = repo().ListReportPairs(fw, "default", "tuned", 1000, std::nullopt);
-  ASSERT_TRUE(filtered.ok());
+  ASSERT_THAT(filtered, IsOk());
   for (const ReportPair& pair : filtered->pairs) EXPECT_EQ(pair.run.firmware, "fw-2");
   EXPECT_FALSE(repo().ListReportPairs(RunFilter{}, "default", "tuned", 0, std::nullopt).ok());
 }
@@ -217,19 +219,19 @@ TEST_P(RollupContractTest, MigrationSevenRollsUpTheReportsAlreadyStored) {
     auto database = GetParam() == Backend::kSqlite
                         ? internal::OpenSqliteDatabase(url.substr(7), std::chrono::milliseconds(5000))
                         : internal::OpenPostgresDatabase(url, 1);
-    ASSERT_TRUE(database.ok()) << database.status().ToString();
-    ASSERT_TRUE(internal::MigrateTo(**database, 6).ok());
+    ASSERT_THAT(database, IsOk());
+    ASSERT_THAT(internal::MigrateTo(**database, 6), IsOk());
     internal::SqlRepository old(std::move(database).value());
-    ASSERT_TRUE(old.PutParameterSet({"default", "p"}).ok());
+    ASSERT_THAT(old.PutParameterSet({"default", "p"}), IsOk());
     const internal::EncodedBlob blob = internal::EncodeBlob("bytes");
     for (int robot = 0; robot < 3; ++robot) {
       const std::string robot_id = "robot-" + std::to_string(robot);
-      ASSERT_TRUE(old.PutRobot(RobotRecord{robot_id, "vac-s", "fw-1", 1}).ok());
+      ASSERT_THAT(old.PutRobot(RobotRecord{robot_id, "vac-s", "fw-1", 1}), IsOk());
       for (int i = 0; i < 4; ++i) {
         RunRecord run = MakeRun("run-" + std::to_string(i), i * kDay, 10, robot_id);
         run.firmware = kFirmware[i % 2];
-        ASSERT_TRUE(old.InsertRun(run).ok());
-        ASSERT_TRUE(old.database().InTransaction(internal::TransactionMode::kWrite, [&](internal::SqlTransaction& t) {
+        ASSERT_THAT(old.InsertRun(run), IsOk());
+        ASSERT_THAT(old.database().InTransaction(internal::TransactionMode::kWrite, [&](internal::SqlTransaction& t) {
           return t.Exec(
               "INSERT INTO reports (robot_id, run_id, parameter_set, recovery_created, recovery_accepted, "
               "merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, views_total, "
@@ -237,12 +239,12 @@ TEST_P(RollupContractTest, MigrationSevenRollsUpTheReportsAlreadyStored) {
               "recovery_retracted) VALUES ($1, $2, 'default', $3, 1, 2, 1, 0, 12, $4, 1, 1, $5, $6, $7, 8, 0)",
               {robot_id, run.run_id, std::int64_t{robot + i}, std::int64_t{i}, internal::SqlBlob{blob.compressed},
                blob.crc32, blob.raw_size});
-        }).ok());
+        }), IsOk());
       }
     }
   }
   auto upgraded = internal::OpenSqlRepository(url, OpenOptions{});
-  ASSERT_TRUE(upgraded.ok()) << upgraded.status().ToString();
+  ASSERT_THAT(upgraded, IsOk());
   repo_ = std::move(upgraded).value();
   url_ = url;
   ASSERT_EQ(*repo().SchemaVersion(), 7);

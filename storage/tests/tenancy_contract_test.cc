@@ -13,6 +13,7 @@
 #include "postgres_database.h"
 #include "sqlite_database.h"
 #include "test_databases.h"
+#include "status_matchers.h"
 
 namespace storage::testing {
 namespace {
@@ -34,10 +35,10 @@ class TenancyContractTest : public BackendTest {
     BackendTest::SetUp();
     if (HasFatalFailure()) return;
     for (const char* robot : {kErased, kKept}) {
-      ASSERT_TRUE(repo().PutRobot(RobotRecord{robot, "vac-s", "fw-1.2", 1000}).ok());
+      ASSERT_THAT(repo().PutRobot(RobotRecord{robot, "vac-s", "fw-1.2", 1000}), IsOk());
     }
-    ASSERT_TRUE(repo().PutParameterSet({"default", "params-a"}).ok());
-    ASSERT_TRUE(repo().PutParameterSet({"tuned", "params-b"}).ok());
+    ASSERT_THAT(repo().PutParameterSet({"default", "params-a"}), IsOk());
+    ASSERT_THAT(repo().PutParameterSet({"tuned", "params-b"}), IsOk());
   }
 
   static ReportBundle Report(const std::string& robot, const std::string& run_id, const std::string& set) {
@@ -110,20 +111,20 @@ class TenancyContractTest : public BackendTest {
       if (run_id == "run-1") run.parent_snapshot_id = parent;
       run.child_snapshot_id = child;
       ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
-      for (const char* set : {"default", "tuned"}) ASSERT_TRUE(repo().PutReport(Report(robot, run_id, set)).ok());
+      for (const char* set : {"default", "tuned"}) ASSERT_THAT(repo().PutReport(Report(robot, run_id, set)), IsOk());
     }
-    ASSERT_TRUE(repo().LabelProtrusionRegion({robot, "run-1"}, "default", 1, "protrusion", "engineer:ana").ok());
-    ASSERT_TRUE(repo().AppendMapVersion(Version(robot, child, "run-1"), std::nullopt,
-                                        {{1, "protrusion", 0.5, "region of " + robot, "open", "{}"}}).ok());
+    ASSERT_THAT(repo().LabelProtrusionRegion({robot, "run-1"}, "default", 1, "protrusion", "engineer:ana"), IsOk());
+    ASSERT_THAT(repo().AppendMapVersion(Version(robot, child, "run-1"), std::nullopt,
+                                        {{1, "protrusion", 0.5, "region of " + robot, "open", "{}"}}), IsOk());
     MapVersionRecord repair = Version(robot, repaired, "run-1");
     repair.origin = "repair";
     repair.parent_version = 1;
     repair.metadata = "rooms of " + robot;
-    ASSERT_TRUE(repo().AppendMapVersion(repair, std::nullopt, {{1, "edge", 0.1, "edge", "open", "{}"}}).ok());
+    ASSERT_THAT(repo().AppendMapVersion(repair, std::nullopt, {{1, "edge", 0.1, "edge", "open", "{}"}}), IsOk());
     NewJob parent_job{"reprocess", "filter " + robot, 3, std::nullopt, 1, robot};
     const std::int64_t parent_id = *repo().EnqueueJob(parent_job);
-    ASSERT_TRUE(repo().EnqueueJob(NewJob{"analyze_run", "run-1 of " + robot, 3, parent_id, 0, robot}).ok());
-    ASSERT_TRUE(repo().SetCredential("robot:" + robot, "secret of " + robot).ok());
+    ASSERT_THAT(repo().EnqueueJob(NewJob{"analyze_run", "run-1 of " + robot, 3, parent_id, 0, robot}), IsOk());
+    ASSERT_THAT(repo().SetCredential("robot:" + robot, "secret of " + robot), IsOk());
     if (child_out) *child_out = child;
   }
 };
@@ -139,7 +140,7 @@ TEST_P(TenancyContractTest, RunIdsArePerRobot) {
   RunRecord changed = mine;
   changed.telemetry = "different events";
   auto conflict = repo().InsertRun(changed);
-  EXPECT_EQ(conflict.status().code(), StatusCode::kAlreadyExists);
+  EXPECT_THAT(conflict, StatusIs(StatusCode::kAlreadyExists));
   EXPECT_NE(conflict.status().message().find(kKept), std::string::npos) << conflict.status().message();
   EXPECT_EQ(repo().GetRun({kKept, "run-7"})->telemetry, mine.telemetry);
   EXPECT_EQ(repo().GetRun({kErased, "run-7"})->telemetry, squatted.telemetry);
@@ -147,24 +148,25 @@ TEST_P(TenancyContractTest, RunIdsArePerRobot) {
   EXPECT_TRUE(repo().ListRunRobots("run-8", 10)->empty());
 
   // Reports, labels and map versions of one run id stay apart per robot.
-  ASSERT_TRUE(repo().PutReport(Report(kKept, "run-7", "default")).ok());
+  ASSERT_THAT(repo().PutReport(Report(kKept, "run-7", "default")), IsOk());
   EXPECT_EQ(repo().GetReport({kErased, "run-7"}, "default").status().code(), StatusCode::kNotFound);
   EXPECT_TRUE(repo().ListProtrusionRegions({kErased, "run-7"}, "default")->empty());
   EXPECT_EQ(repo().LabelProtrusionRegion({kErased, "run-7"}, "default", 1, "x", "y").code(), StatusCode::kNotFound);
-  ASSERT_TRUE(repo().PutReport(Report(kErased, "run-7", "default")).ok());
+  ASSERT_THAT(repo().PutReport(Report(kErased, "run-7", "default")), IsOk());
   EXPECT_EQ(repo().GetReport({kKept, "run-7"}, "default")->report, "report of kept-robot/run-7/default");
   EXPECT_EQ(repo().ListProtrusionRegions({kKept, "run-7"}, "default")->front().robot_id, kKept);
   const std::string snapshot = *repo().PutSnapshot("map");
   EXPECT_EQ(repo().AppendMapVersion(Version(kErased, snapshot, "run-7"), std::nullopt, {})->version, 1);
   auto kept = repo().AppendMapVersion(Version(kKept, snapshot, "run-7"), std::nullopt, {});
-  ASSERT_TRUE(kept.ok()) << kept.status().ToString();
+  ASSERT_THAT(kept, IsOk());
   EXPECT_EQ(repo().GetMapVersionOfRun({kKept, "run-7"})->robot_id, kKept);
 
   // Both runs page apart even with the same start and id.
   auto first = repo().ListRuns(RunFilter{}, 1, std::nullopt);
-  ASSERT_TRUE(first.ok() && first->next);
+  ASSERT_THAT(first, IsOk());
+  ASSERT_TRUE(first->next);
   auto second = repo().ListRuns(RunFilter{}, 1, first->next);
-  ASSERT_TRUE(second.ok());
+  ASSERT_THAT(second, IsOk());
   ASSERT_EQ(second->runs.size(), 1u);
   EXPECT_NE(first->runs[0].robot_id, second->runs[0].robot_id);
   EXPECT_FALSE(second->next);
@@ -180,26 +182,26 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
     auto database = GetParam() == Backend::kSqlite
                         ? internal::OpenSqliteDatabase(url.substr(7), std::chrono::milliseconds(5000))
                         : internal::OpenPostgresDatabase(url, 1);
-    ASSERT_TRUE(database.ok()) << database.status().ToString();
-    ASSERT_TRUE(internal::MigrateTo(**database, 3).ok());
+    ASSERT_THAT(database, IsOk());
+    ASSERT_THAT(internal::MigrateTo(**database, 3), IsOk());
     internal::SqlRepository old(std::move(database).value());
-    ASSERT_TRUE(old.PutRobot(RobotRecord{kKept, "vac-s", "fw-1.2", 1}).ok());
-    ASSERT_TRUE(old.PutParameterSet({"default", "p"}).ok());
+    ASSERT_THAT(old.PutRobot(RobotRecord{kKept, "vac-s", "fw-1.2", 1}), IsOk());
+    ASSERT_THAT(old.PutParameterSet({"default", "p"}), IsOk());
     const std::string snapshot = *old.PutSnapshot("map");
     const internal::EncodedBlob blob = internal::EncodeBlob("bytes");
-    ASSERT_TRUE(old.database().InTransaction(internal::TransactionMode::kWrite, [&](internal::SqlTransaction& t) {
-      STORAGE_RETURN_IF_ERROR(t.Exec(
+    ASSERT_THAT(old.database().InTransaction(internal::TransactionMode::kWrite, [&](internal::SqlTransaction& t) {
+      RETURN_IF_ERROR(t.Exec(
           "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, child_snapshot_id, "
           "telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) VALUES ('old-run', $1, 'fw', "
           "'vac', 5, 6, $2, $3, $4, $5, 'digest', 7)",
           {std::string(kKept), snapshot, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size}));
-      STORAGE_RETURN_IF_ERROR(t.Exec(
+      RETURN_IF_ERROR(t.Exec(
           "INSERT INTO reports (run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
           "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
           "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, recovery_retracted) "
           "VALUES ('old-run', 'default', 4, 1, 0, 0, 0, 9, 2, 1, 1, $1, $2, $3, 8, 3)",
           {SqlBlob{blob.compressed}, blob.crc32, blob.raw_size}));
-      STORAGE_RETURN_IF_ERROR(t.Exec(
+      RETURN_IF_ERROR(t.Exec(
           "INSERT INTO protrusion_regions (run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
           "features_json, predicted_class, probability, label, labelled_by) VALUES ('old-run', 'default', 1, 0, 0, "
           "1, 1, '{}', 'protrusion', 0.9, 'new_space', 'engineer:ana')",
@@ -210,14 +212,14 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
           "components, known_area_m2, chi2, open_findings) VALUES ($1, 1, $2, 'upload', 'old-run', '', '', 'r', '', "
           "1, 'approved', '', 0, 0, 0, 0, 0, 0, 0, 0, 0)",
           {std::string(kKept), snapshot});
-    }).ok());
+    }), IsOk());
   }
   auto upgraded = internal::OpenSqlRepository(url, OpenOptions{});
-  ASSERT_TRUE(upgraded.ok()) << upgraded.status().ToString();
+  ASSERT_THAT(upgraded, IsOk());
   internal::SqlRepository& repository = **upgraded;
   EXPECT_EQ(*repository.SchemaVersion(), LatestSchemaVersion());
   auto report = repository.GetReport({kKept, "old-run"}, "default");
-  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  ASSERT_THAT(report, IsOk());
   EXPECT_EQ(report->recovery_created, 4);
   EXPECT_EQ(report->recovery_retracted, 3);
   EXPECT_EQ(repository.ListProtrusionRegions({kKept, "old-run"}, "default")->front().label, "new_space");
@@ -231,9 +233,9 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
   imported.parent_version = 1;
   imported.metadata = "rooms";
   auto appended = repository.AppendMapVersion(imported, std::nullopt, {});
-  ASSERT_TRUE(appended.ok()) << appended.status().ToString();
+  ASSERT_THAT(appended, IsOk());
   EXPECT_EQ(*repository.GetMapMetadata(kKept, appended->version), "rooms");
-  ASSERT_TRUE(repository.SetCredential("robot:" + std::string(kKept), "secret").ok());
+  ASSERT_THAT(repository.SetCredential("robot:" + std::string(kKept), "secret"), IsOk());
   EXPECT_EQ(repository.CredentialChangesSince(0, 10)->principals, std::vector<std::string>{"robot:" + std::string(kKept)});
 }
 
@@ -264,13 +266,13 @@ TEST_P(TenancyContractTest, DeletingARobotLeavesNothingOfItAndOthersWhole) {
   std::string erased_child;
   Populate(kErased, kept_child, &erased_child);
   ASSERT_FALSE(HasFatalFailure());
-  ASSERT_TRUE(repo().SetCredential("engineer:ana", "secret of ana").ok());
+  ASSERT_THAT(repo().SetCredential("engineer:ana", "secret of ana"), IsOk());
   const std::map<std::string, int> kept_before = RowsMentioning(kKept);
   const std::int64_t snapshots_before = Count("SELECT COUNT(*) FROM snapshots");
   const std::int64_t epoch_before = repo().CredentialChangesSince(-1, 100)->epoch;
 
   auto erased = repo().DeleteRobot(kErased, "admin:root");
-  ASSERT_TRUE(erased.ok()) << erased.status().ToString();
+  ASSERT_THAT(erased, IsOk());
   EXPECT_EQ(erased->runs, 2);
   EXPECT_EQ(erased->reports, 4) << "every parameter set";
   EXPECT_EQ(erased->decisions, 4);
@@ -284,7 +286,7 @@ TEST_P(TenancyContractTest, DeletingARobotLeavesNothingOfItAndOthersWhole) {
   EXPECT_EQ(erased->map_metadata, 1);
   // Its credential row is gone, so the erasure's epoch tells every poller to drop its cached tokens.
   auto changes = repo().CredentialChangesSince(epoch_before, 100);
-  ASSERT_TRUE(changes.ok()) << changes.status().ToString();
+  ASSERT_THAT(changes, IsOk());
   EXPECT_TRUE(changes->truncated) << "an erased credential leaves no row to name";
   EXPECT_GT(changes->epoch, epoch_before);
   EXPECT_FALSE(repo().CredentialChangesSince(changes->epoch, 100)->truncated) << "reported once";
@@ -302,7 +304,7 @@ TEST_P(TenancyContractTest, DeletingARobotLeavesNothingOfItAndOthersWhole) {
 
   // The other robot is whole, its shared snapshot included.
   EXPECT_EQ(RowsMentioning(kKept), kept_before);
-  EXPECT_TRUE(repo().GetSnapshot(kept_child).ok());
+  EXPECT_THAT(repo().GetSnapshot(kept_child), IsOk());
   EXPECT_EQ(repo().GetRun({kKept, "run-2"})->telemetry, "events of kept-robot run-2");
   EXPECT_EQ(*repo().ListReportParameterSets({kKept, "run-1"}), (std::vector<std::string>{"default", "tuned"}));
   EXPECT_EQ(repo().ListMapVersions(kKept)->size(), 2u);
@@ -331,16 +333,16 @@ TEST_P(TenancyContractTest, RetentionPrunesOldRunEventsInBatchesKeepingReportsAn
   EXPECT_EQ(*repo().PruneRunTelemetry(200, 1), 1);
   EXPECT_EQ(*repo().PruneRunTelemetry(200, 1), 0) << "only the two old runs";
   auto pruned = repo().GetRun({kKept, "run-1"});
-  ASSERT_TRUE(pruned.ok()) << pruned.status().ToString();
+  ASSERT_THAT(pruned, IsOk());
   EXPECT_TRUE(pruned->telemetry.empty());
   EXPECT_EQ(pruned->telemetry_size, 0);
   EXPECT_TRUE(pruned->telemetry_pruned_at_ms.has_value());
   EXPECT_EQ(pruned->child_snapshot_id, child);
   EXPECT_FALSE(repo().GetRun({kKept, "run-3"})->telemetry_pruned_at_ms.has_value());
   EXPECT_EQ(repo().GetRun({kKept, "run-3"})->telemetry.size(), 200u);
-  EXPECT_TRUE(repo().GetReport({kKept, "run-1"}, "tuned").ok()) << "reports are kept";
+  EXPECT_THAT(repo().GetReport({kKept, "run-1"}, "tuned"), IsOk()) << "reports are kept";
   EXPECT_EQ(repo().ListMapVersions(kKept)->size(), 2u) << "map versions are kept";
-  EXPECT_TRUE(repo().GetSnapshot(child).ok());
+  EXPECT_THAT(repo().GetSnapshot(child), IsOk());
   EXPECT_EQ(repo().ListRuns(RunFilter{}, 10, std::nullopt)->runs.size(), 3u);
   EXPECT_EQ(repo().PruneRunTelemetry(200, 0).status().code(), StatusCode::kInvalidArgument);
 }
@@ -348,22 +350,23 @@ TEST_P(TenancyContractTest, RetentionPrunesOldRunEventsInBatchesKeepingReportsAn
 TEST_P(TenancyContractTest, RetentionDeletesFinishedJobsChildrenBeforeParents) {
   const auto lease_and = [&](bool complete) {
     auto lease = repo().LeaseJob("worker", std::chrono::milliseconds(60000), "");
-    ASSERT_TRUE(lease.ok() && lease->has_value());
-    ASSERT_TRUE((complete ? repo().CompleteJob(**lease) : repo().FailJob(**lease, "no")).ok());
+    ASSERT_THAT(lease, IsOk());
+    ASSERT_TRUE(lease->has_value());
+    ASSERT_THAT(complete ? repo().CompleteJob(**lease) : repo().FailJob(**lease, "no"), IsOk());
   };
   const std::int64_t parent = *repo().EnqueueJob(NewJob{"reprocess", "p", 1});
   const std::int64_t child = *repo().EnqueueJob(NewJob{"analyze_run", "c", 1, parent});
   lease_and(true);
   lease_and(false);  // max_attempts 1: failed
   const std::int64_t cancelled = *repo().EnqueueJob(NewJob{"analyze_run", "x", 1});
-  ASSERT_TRUE(repo().CancelJob(cancelled).ok());
+  ASSERT_THAT(repo().CancelJob(cancelled), IsOk());
   const std::int64_t recent = *repo().EnqueueJob(NewJob{"analyze_run", "r", 1});
   lease_and(true);
   const std::int64_t queued = *repo().EnqueueJob(NewJob{"analyze_run", "q", 1});
   RawQuery("UPDATE jobs SET updated_at_ms = 100 WHERE job_id <> $1", {recent});
 
   EXPECT_EQ(*repo().PruneFinishedJobs(200, 1000), 2) << "the child and the cancelled job; the parent waits";
-  EXPECT_TRUE(repo().GetJob(parent).ok());
+  EXPECT_THAT(repo().GetJob(parent), IsOk());
   EXPECT_EQ(repo().GetJob(child).status().code(), StatusCode::kNotFound);
   EXPECT_EQ(*repo().PruneFinishedJobs(200, 1000), 1) << "then the parent";
   EXPECT_EQ(*repo().PruneFinishedJobs(200, 1000), 0);
@@ -377,9 +380,9 @@ TEST_P(TenancyContractTest, ErasureAndRetentionOfFiveHundredRunsAreMeasured) {
   for (int i = 0; i < kRuns; ++i) {
     const std::string run_id = "run-" + std::to_string(i);
     ASSERT_EQ(*repo().InsertRun(MakeRun(run_id, 1000 + i, 4096, kKept)), InsertOutcome::kInserted);
-    ASSERT_TRUE(repo().PutReport(Report(kKept, run_id, "default")).ok());
+    ASSERT_THAT(repo().PutReport(Report(kKept, run_id, "default")), IsOk());
     ASSERT_EQ(*repo().InsertRun(MakeRun(run_id, 1000 + i, 4096, kErased)), InsertOutcome::kInserted);
-    ASSERT_TRUE(repo().PutReport(Report(kErased, run_id, "default")).ok());
+    ASSERT_THAT(repo().PutReport(Report(kErased, run_id, "default")), IsOk());
   }
   auto started = std::chrono::steady_clock::now();
   std::int64_t pruned = 0;
@@ -389,7 +392,7 @@ TEST_P(TenancyContractTest, ErasureAndRetentionOfFiveHundredRunsAreMeasured) {
   started = std::chrono::steady_clock::now();
   auto erased = repo().DeleteRobot(kErased, "admin:root");
   const double delete_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  ASSERT_TRUE(erased.ok()) << erased.status().ToString();
+  ASSERT_THAT(erased, IsOk());
   EXPECT_EQ(erased->runs, kRuns);
   EXPECT_EQ(erased->reports, kRuns);
   std::printf("[ measured ] %s: retention of %d runs' events %.3f s (batches of 500); erasure of a robot with %d runs "
@@ -400,7 +403,7 @@ TEST_P(TenancyContractTest, ErasureAndRetentionOfFiveHundredRunsAreMeasured) {
 
 TEST_P(TenancyContractTest, AuditLogListsNewestFirstAndPages) {
   for (int i = 0; i < 3; ++i) {
-    ASSERT_TRUE(repo().AppendAudit(AuditEntry{0, 0, "fleetd:retention", "prune_jobs", "policy", "{}"}).ok());
+    ASSERT_THAT(repo().AppendAudit(AuditEntry{0, 0, "fleetd:retention", "prune_jobs", "policy", "{}"}), IsOk());
   }
   auto page = repo().ListAudit(2, std::nullopt);
   ASSERT_EQ(page->size(), 2u);

@@ -13,6 +13,8 @@
 #include <pqxx/pqxx>
 #include <random>
 
+#include "status_matchers.h"
+
 namespace storage::testing {
 namespace fs = std::filesystem;
 
@@ -55,7 +57,7 @@ class PostgresTestServer {
       failure = started->Start();
       if (failure.ok()) server = std::move(started);
     }
-    if (!failure.ok()) return failure;
+    RETURN_IF_ERROR(failure);
     return server.get();
   }
 
@@ -147,14 +149,13 @@ Result<std::string> NewDatabaseUrl(Backend backend) {
     if (dir.empty()) return Internal("cannot create a temp dir");
     return "sqlite:" + dir + "/fleet" + std::to_string(counter++) + ".db";
   }
-  auto server = PostgresTestServer::Instance();
-  if (!server.ok()) return server.status();
-  return (*server)->NewDatabase();
+  ASSIGN_OR_RETURN(auto server, PostgresTestServer::Instance());
+  return (server)->NewDatabase();
 }
 
 void BackendTest::SetUp() {
   auto url = NewDatabaseUrl(GetParam());
-  ASSERT_TRUE(url.ok()) << url.status().ToString();
+  ASSERT_THAT(url, IsOk());
   url_ = *url;
   Reopen();
 }
@@ -170,7 +171,7 @@ void BackendTest::TearDown() {
 void BackendTest::Reopen() {
   repo_.reset();
   auto opened = internal::OpenSqlRepository(url_, OpenOptions{});
-  ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+  ASSERT_THAT(opened, IsOk());
   repo_ = std::move(opened).value();
 }
 
@@ -178,12 +179,11 @@ internal::SqlRows BackendTest::RawQuery(const std::string& sql, const std::vecto
   internal::SqlRows rows;
   Status status = repo_->database().InTransaction(internal::TransactionMode::kWrite,
                                                   [&](internal::SqlTransaction& transaction) -> Status {
-                                                    auto result = transaction.Query(sql, params);
-                                                    if (!result.ok()) return result.status();
-                                                    rows = std::move(result).value();
+                                                    ASSIGN_OR_RETURN(auto result, transaction.Query(sql, params));
+                                                    rows = std::move(result);
                                                     return Status::Ok();
                                                   });
-  EXPECT_TRUE(status.ok()) << sql << ": " << status.ToString();
+  EXPECT_THAT(status, IsOk()) << sql << ": " << status.ToString();
   return rows;
 }
 

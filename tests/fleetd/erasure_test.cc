@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "fleetd_process.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 namespace {
@@ -74,7 +75,7 @@ std::vector<fleet::v1::RunSummary> RunsOf(fleet::v1::Queries::Stub& queries, con
   request.set_page_size(1000);
   fleet::v1::ListRunsResponse response;
   auto context = Context(token);
-  EXPECT_TRUE(queries.ListRuns(context.get(), request, &response).ok());
+  EXPECT_THAT(queries.ListRuns(context.get(), request, &response), IsOk());
   return {response.runs().begin(), response.runs().end()};
 }
 
@@ -84,7 +85,7 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
   auto first = std::make_unique<FleetdProcess>();  // kept until the end: its directory holds the database
   {
     FleetdProcess& server = *first;
-    ASSERT_TRUE(server.ok());
+    ASSERT_THAT(server, IsOk());
     database = server.directory() / "fleet.db";
     auto channel = server.Channel();
     auto ingest = fleet::v1::Ingest::NewStub(channel);
@@ -96,7 +97,7 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     for (const RunFile& run : SimulatedRuns()) {
       fleet::v1::UploadRunResponse response;
       const grpc::Status status = Upload(*ingest, RobotToken(*admin, run.header().robot_id()), run, &response);
-      ASSERT_TRUE(status.ok()) << status.error_message();
+      ASSERT_THAT(status, IsOk());
       if (erased.empty()) erased = run.header().robot_id();
       if (run.header().robot_id() != erased && kept.empty()) kept = run.header().robot_id();
     }
@@ -168,7 +169,7 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
   // The same database under a retention policy of a few seconds, applied every second.
   FleetdProcess server({"--db", "sqlite:" + database.string(), "--retain-runs-days", "0.00005", "--retain-jobs-days",
                         "0.00005", "--retention-interval-seconds", "1"});
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto queries = fleet::v1::Queries::NewStub(channel);
   auto reprocessing = fleet::v1::Reprocessing::NewStub(channel);
@@ -187,7 +188,7 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     request.set_run_id(run.run_id());
     fleet::v1::GetRunReportResponse report;
     auto context = Context(engineer);
-    EXPECT_TRUE(queries->GetRunReport(context.get(), request, &report).ok()) << "reports are kept";
+    EXPECT_THAT(queries->GetRunReport(context.get(), request, &report), IsOk()) << "reports are kept";
   }
   std::string body;
   EXPECT_EQ(HttpGet(server.http_address(), "/api/robots/" + kept + "/maps/current/export/map.g2o", &body, engineer), 200)
@@ -197,14 +198,14 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
   start.set_parameter_set("default");
   fleet::v1::Job job;
   auto start_context = Context(engineer);
-  ASSERT_TRUE(reprocessing->StartJob(start_context.get(), start, &job).ok());
+  ASSERT_THAT(reprocessing->StartJob(start_context.get(), start, &job), IsOk());
   for (const auto job_until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
        std::chrono::steady_clock::now() < job_until;) {
     fleet::v1::GetJobRequest get;
     get.set_job_id(job.job_id());
     fleet::v1::Job now;
     auto context = Context(engineer);
-    ASSERT_TRUE(reprocessing->GetJob(context.get(), get, &now).ok()) << "watched well within its retention";
+    ASSERT_THAT(reprocessing->GetJob(context.get(), get, &now), IsOk()) << "watched well within its retention";
     if (now.state() != "queued" && now.state() != "leased") {
       EXPECT_EQ(now.state(), "done") << now.last_error();
       EXPECT_EQ(now.progress_total(), 0) << "no run has events left to rerun";

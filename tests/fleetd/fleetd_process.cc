@@ -25,6 +25,7 @@
 #include "sim/run_simulator.h"
 #include "sim/world.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 
@@ -137,7 +138,7 @@ std::string IssueToken(fleet::v1::Admin::Stub& admin, const std::string& princip
   fleet::v1::SetCredentialResponse response;
   auto context = Context(FleetdProcess::AdminToken());
   const grpc::Status status = admin.SetCredential(context.get(), request, &response);
-  EXPECT_TRUE(status.ok()) << status.error_message();
+  EXPECT_THAT(status, IsOk());
   return response.token();
 }
 
@@ -153,7 +154,7 @@ int CountRuns(fleet::v1::Queries::Stub& queries, const std::string& token) {
   request.set_page_size(1000);
   fleet::v1::ListRunsResponse response;
   auto context = Context(token);
-  EXPECT_TRUE(queries.ListRuns(context.get(), request, &response).ok());
+  EXPECT_THAT(queries.ListRuns(context.get(), request, &response), IsOk());
   return response.runs_size();
 }
 

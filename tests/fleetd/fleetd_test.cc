@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "fleetd_process.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 namespace {
@@ -54,7 +55,7 @@ class FleetdTest : public ::testing::Test {
     for (const RunFile& run : SimulatedRuns()) {
       UploadRunResponse response;
       const grpc::Status status = Upload(*ingest_, RobotToken(run.header().robot_id()), run, &response);
-      ASSERT_TRUE(status.ok()) << status.error_message();
+      ASSERT_THAT(status, IsOk());
     }
   }
   static grpc::Status WaitForReport(const std::string& run_id, const std::string& set, fleet::v1::RunReport* out,
@@ -103,7 +104,7 @@ TEST_F(FleetdTest, UploadThenAnalysisReport) {
   const RunFile& first = runs.front();
   UploadRunResponse response;
   grpc::Status status = Upload(*ingest_, RobotToken(first.header().robot_id()), first, &response);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_EQ(response.run_id(), first.header().run_id());
   EXPECT_FALSE(response.already_present());
   EXPECT_EQ(response.events_stored(), static_cast<std::uint64_t>(first.events_size()));
@@ -113,7 +114,7 @@ TEST_F(FleetdTest, UploadThenAnalysisReport) {
   for (const RunFile& run : runs) {
     fleet::v1::RunReport report;
     status = WaitForReport(run.header().run_id(), "", &report);
-    ASSERT_TRUE(status.ok()) << run.header().run_id() << ": " << status.error_message();
+    ASSERT_THAT(status, IsOk()) << run.header().run_id() << ": " << status.error_message();
     EXPECT_EQ(report.run_id(), run.header().run_id());
     EXPECT_EQ(report.parameter_set(), "default");
     EXPECT_EQ(report.robot_id(), run.header().robot_id());
@@ -131,7 +132,7 @@ TEST_F(FleetdTest, DuplicateAndRetriedUploadsStoreOneRun) {
   const RunFile& run = SimulatedRuns()[1];  // has a parent map
   ASSERT_GT(run.parent_snapshot().nodes_size(), 0);
   UploadRunResponse first, again, by_id;
-  ASSERT_TRUE(Upload(*ingest_, RobotToken(run.header().robot_id()), run, &first).ok());
+  ASSERT_THAT(Upload(*ingest_, RobotToken(run.header().robot_id()), run, &first), IsOk());
   EXPECT_TRUE(first.already_present());
   EXPECT_EQ(first.analysis_job_id(), 0);
   // A retry that names the parent by id instead of sending it is the same run.
@@ -139,7 +140,7 @@ TEST_F(FleetdTest, DuplicateAndRetriedUploadsStoreOneRun) {
   options.send_parent = false;
   options.parent_id = first.parent_snapshot_id();
   grpc::Status status = Upload(*ingest_, RobotToken(run.header().robot_id()), run, &by_id, options);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_TRUE(by_id.already_present());
   // Concurrent duplicates: all succeed, one run.
   std::vector<std::thread> threads;
@@ -184,7 +185,7 @@ TEST_F(FleetdTest, CutStreamStoresNothingAndRetrySucceeds) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   EXPECT_EQ(CountRuns(), before) << "nothing half-stored";
   status = Upload(*ingest_, RobotToken(run.header().robot_id()), run, &response);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_FALSE(response.already_present());
   EXPECT_EQ(CountRuns(), before + 1);
 }
@@ -202,7 +203,7 @@ TEST_F(FleetdTest, ListRunsPagesAndFilters) {
     request.set_page_token(token);
     fleet::v1::ListRunsResponse response;
     auto context = Context(*engineer_);
-    ASSERT_TRUE(queries_->ListRuns(context.get(), request, &response).ok());
+    ASSERT_THAT(queries_->ListRuns(context.get(), request, &response), IsOk());
     for (const auto& run : response.runs()) seen.insert(run.run_id());
     token = response.next_page_token();
     ++pages;
@@ -215,7 +216,7 @@ TEST_F(FleetdTest, ListRunsPagesAndFilters) {
   request.mutable_filter()->set_started_before(1767225600.0 + 2 * 86400.0);
   fleet::v1::ListRunsResponse response;
   auto context = Context(*engineer_);
-  ASSERT_TRUE(queries_->ListRuns(context.get(), request, &response).ok());
+  ASSERT_THAT(queries_->ListRuns(context.get(), request, &response), IsOk());
   EXPECT_EQ(response.runs_size(), 2);
   for (const auto& run : response.runs()) {
     EXPECT_EQ(run.robot_id(), "robot-1");
@@ -226,13 +227,13 @@ TEST_F(FleetdTest, ListRunsPagesAndFilters) {
   request.mutable_filter()->set_parameter_set("default");
   response.Clear();
   context = Context(*engineer_);
-  ASSERT_TRUE(queries_->ListRuns(context.get(), request, &response).ok());
+  ASSERT_THAT(queries_->ListRuns(context.get(), request, &response), IsOk());
   for (const auto& run : response.runs()) EXPECT_EQ(run.firmware(), "1.4.2");
 }
 
 TEST_F(FleetdTest, FleetStatisticsTotalsAndTrends) {
   UploadAll();
-  for (const RunFile& run : SimulatedRuns()) ASSERT_TRUE(WaitForReport(run.header().run_id(), "", nullptr).ok());
+  for (const RunFile& run : SimulatedRuns()) ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
   fleet::v1::GetFleetStatisticsRequest request;
   request.mutable_filter()->set_parameter_set("default");
   request.mutable_filter()->set_started_before(1767225600.0 + 2 * 86400.0);
@@ -240,7 +241,7 @@ TEST_F(FleetdTest, FleetStatisticsTotalsAndTrends) {
   fleet::v1::GetFleetStatisticsResponse response;
   auto context = Context(*engineer_);
   grpc::Status status = queries_->GetFleetStatistics(context.get(), request, &response);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_EQ(response.total().reports(), 4);
   EXPECT_EQ(response.total().robots(), 2);
   EXPECT_GT(response.total().views_total(), 0);
@@ -252,7 +253,7 @@ TEST_F(FleetdTest, FleetStatisticsTotalsAndTrends) {
   request.set_group_by(fleet::v1::GROUP_BY_FIRMWARE);
   response.Clear();
   context = Context(*engineer_);
-  ASSERT_TRUE(queries_->GetFleetStatistics(context.get(), request, &response).ok());
+  ASSERT_THAT(queries_->GetFleetStatistics(context.get(), request, &response), IsOk());
   ASSERT_EQ(response.groups_size(), 2);
   EXPECT_EQ(response.groups(0).key(), "1.4.2");
 }
@@ -267,10 +268,10 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   fleet::v1::PutParameterSetResponse put_response;
   auto context = Context(*engineer_);
   grpc::Status status = reprocessing_->PutParameterSet(context.get(), put, &put_response);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   // Same set again is fine; same name with other values is a conflict.
   context = Context(*engineer_);
-  ASSERT_TRUE(reprocessing_->PutParameterSet(context.get(), put, &put_response).ok());
+  ASSERT_THAT(reprocessing_->PutParameterSet(context.get(), put, &put_response), IsOk());
   EXPECT_TRUE(put_response.already_present());
   put.mutable_parameter_set()->mutable_mapper()->set_gate_chi2(5.0);
   context = Context(*engineer_);
@@ -283,7 +284,7 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   fleet::v1::Job job;
   context = Context(*engineer_);
   status = reprocessing_->StartJob(context.get(), start, &job);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_EQ(job.kind(), "reprocess");
   EXPECT_EQ(job.parameter_set(), "strict-merge");
 
@@ -299,7 +300,7 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
     ++updates;
   }
   status = reader->Finish();
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_GE(updates, 1);
   EXPECT_EQ(last.state(), "done");
   EXPECT_EQ(last.progress_total(), 4);
@@ -308,15 +309,15 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   // Results sit beside the originals.
   const std::string run_id = SimulatedRuns()[1].header().run_id();
   fleet::v1::RunReport strict, original;
-  ASSERT_TRUE(WaitForReport(run_id, "strict-merge", &strict, 5).ok());
-  ASSERT_TRUE(WaitForReport(run_id, "default", &original, 5).ok());
+  ASSERT_THAT(WaitForReport(run_id, "strict-merge", &strict, 5), IsOk());
+  ASSERT_THAT(WaitForReport(run_id, "default", &original, 5), IsOk());
   EXPECT_EQ(strict.parameter_set(), "strict-merge");
   EXPECT_EQ(original.parameter_set(), "default");
   fleet::v1::ListRunsRequest list;
   list.mutable_filter()->set_parameter_set("strict-merge");
   fleet::v1::ListRunsResponse listed;
   context = Context(*engineer_);
-  ASSERT_TRUE(queries_->ListRuns(context.get(), list, &listed).ok());
+  ASSERT_THAT(queries_->ListRuns(context.get(), list, &listed), IsOk());
   ASSERT_EQ(listed.runs_size(), 4);
   EXPECT_EQ(listed.runs(0).report_parameter_sets_size(), 2);
 
@@ -328,7 +329,7 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   fleet::v1::CompareParameterSetsResponse compared;
   context = Context(*engineer_);
   status = queries_->CompareParameterSets(context.get(), compare, &compared);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_EQ(compared.runs_compared(), 4);
   EXPECT_EQ(compared.a().reports(), compared.b().reports());
   EXPECT_EQ(compared.most_changed_size(), 4);
@@ -342,7 +343,7 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   jobs_request.set_kind("reprocess");
   fleet::v1::ListJobsResponse jobs;
   context = Context(*engineer_);
-  ASSERT_TRUE(reprocessing_->ListJobs(context.get(), jobs_request, &jobs).ok());
+  ASSERT_THAT(reprocessing_->ListJobs(context.get(), jobs_request, &jobs), IsOk());
   ASSERT_GE(jobs.jobs_size(), 1);
   EXPECT_EQ(jobs.jobs(0).job_id(), job.job_id());
   fleet::v1::CancelJobRequest cancel;
@@ -353,7 +354,7 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
             grpc::StatusCode::FAILED_PRECONDITION) << "a finished job cannot be cancelled";
   start.set_parameter_set("default");
   context = Context(*engineer_);
-  ASSERT_TRUE(reprocessing_->StartJob(context.get(), start, &job).ok());
+  ASSERT_THAT(reprocessing_->StartJob(context.get(), start, &job), IsOk());
   cancel.set_job_id(job.job_id());
   context = Context(*engineer_);
   status = reprocessing_->CancelJob(context.get(), cancel, &cancelled);
@@ -372,12 +373,12 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
   };
   std::vector<Found> regions;
   for (const RunFile& run : SimulatedRuns()) {
-    ASSERT_TRUE(WaitForReport(run.header().run_id(), "", nullptr).ok());
+    ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
     fleet::v1::ListRegionsRequest request;
     request.set_run_id(run.header().run_id());
     fleet::v1::ListRegionsResponse response;
     auto context = Context(*engineer_);
-    ASSERT_TRUE(labels_->ListRegions(context.get(), request, &response).ok());
+    ASSERT_THAT(labels_->ListRegions(context.get(), request, &response), IsOk());
     for (const auto& region : response.regions()) regions.push_back({region.run_id(), region.region_id()});
   }
   fleet::v1::LabelRegionRequest label;
@@ -402,7 +403,7 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
     label.set_label(i % 2 == 0 ? "protrusion" : "new_space");
     context = Context(*engineer_);
     status = labels_->LabelRegion(context.get(), label, &labelled);
-    ASSERT_TRUE(status.ok()) << status.error_message();
+    ASSERT_THAT(status, IsOk());
     EXPECT_EQ(labelled.region().label(), label.label());
     EXPECT_EQ(labelled.region().labelled_by(), "engineer:alice");
   }
@@ -410,7 +411,7 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
   report_request.set_run_id(regions[0].run_id);
   fleet::v1::GetRunReportResponse report;
   context = Context(*engineer_);
-  ASSERT_TRUE(queries_->GetRunReport(context.get(), report_request, &report).ok());
+  ASSERT_THAT(queries_->GetRunReport(context.get(), report_request, &report), IsOk());
   bool label_seen = false;
   for (const auto& region : report.report().protrusion_regions()) label_seen |= region.label() == "protrusion";
   EXPECT_TRUE(label_seen) << "reports show current labels";
@@ -424,7 +425,7 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
       << "models are for admins";
   context = Context(FleetdProcess::AdminToken(), 120);
   status = models_->TrainModel(context.get(), train, &trained);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_EQ(trained.model().version(), 1);
   EXPECT_EQ(trained.model().classifier(), "decision_tree");
   EXPECT_EQ(trained.training_regions(), static_cast<std::int64_t>(regions.size()));
@@ -434,20 +435,20 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
   activate.set_version(1);
   fleet::v1::Model model;
   context = Context(FleetdProcess::AdminToken());
-  ASSERT_TRUE(models_->ActivateModel(context.get(), activate, &model).ok());
+  ASSERT_THAT(models_->ActivateModel(context.get(), activate, &model), IsOk());
   EXPECT_TRUE(model.active());
   fleet::v1::EvaluateModelRequest evaluate;
   evaluate.set_name("protrusion");
   fleet::v1::EvaluateModelResponse evaluation;
   context = Context(*engineer_);
-  ASSERT_TRUE(models_->EvaluateModel(context.get(), evaluate, &evaluation).ok());
+  ASSERT_THAT(models_->EvaluateModel(context.get(), evaluate, &evaluation), IsOk());
   EXPECT_EQ(evaluation.regions(), static_cast<std::int64_t>(regions.size()));
   EXPECT_EQ(evaluation.model().version(), 1);
   fleet::v1::ListModelsRequest list;
   list.set_name("protrusion");
   fleet::v1::ListModelsResponse listed;
   context = Context(*engineer_);
-  ASSERT_TRUE(models_->ListModels(context.get(), list, &listed).ok());
+  ASSERT_THAT(models_->ListModels(context.get(), list, &listed), IsOk());
   ASSERT_EQ(listed.models_size(), 1);
   EXPECT_TRUE(listed.models(0).active());
 }
@@ -478,7 +479,7 @@ TEST_F(FleetdTest, AuthenticationAndPermissionFailures) {
   context = Context(old_token);
   EXPECT_EQ(queries_->ListRuns(context.get(), list, &listed).error_code(), grpc::StatusCode::UNAUTHENTICATED);
   context = Context(new_token);
-  EXPECT_TRUE(queries_->ListRuns(context.get(), list, &listed).ok());
+  EXPECT_THAT(queries_->ListRuns(context.get(), list, &listed), IsOk());
 }
 
 // Every malformed upload gets INVALID_ARGUMENT (or the code given) naming the field, and stores nothing.
@@ -707,7 +708,7 @@ TEST_F(FleetdTest, MetricsHealthzAndGrpcHealth) {
 TEST(FleetdLimitsTest, EventsMessageSizeAndRateLimits) {
   FleetdProcess server({"--max-events-per-run", "100", "--max-message-bytes", "20000", "--rate-limit", "1",
                         "--rate-burst", "6"});
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto ingest = fleet::v1::Ingest::NewStub(channel);
   const RunFile& run = SimulatedRuns()[0];
@@ -747,7 +748,7 @@ TEST(FleetdShutdownTest, SigtermMidWorkThenRestartFinishes) {
     auto ingest = fleet::v1::Ingest::NewStub(server->Channel());
     for (const RunFile& run : SimulatedRuns()) {
       UploadRunResponse response;
-      ASSERT_TRUE(Upload(*ingest, FleetdProcess::AdminToken(), run, &response).ok());
+      ASSERT_THAT(Upload(*ingest, FleetdProcess::AdminToken(), run, &response), IsOk());
     }
   }
   const auto started = std::chrono::steady_clock::now();
@@ -756,7 +757,7 @@ TEST(FleetdShutdownTest, SigtermMidWorkThenRestartFinishes) {
   // Keep the database: restart on it (fresh process object over the same file).
   const std::string db = "sqlite:" + (directory / "fleet.db").string();
   FleetdProcess second({"--db", db});
-  ASSERT_TRUE(second.ok());
+  ASSERT_THAT(second, IsOk());
   auto queries = fleet::v1::Queries::NewStub(second.Channel());
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   int reported = 0;
@@ -781,13 +782,13 @@ TEST(FleetdShutdownTest, SigtermMidWorkThenRestartFinishes) {
 // Runs after ReprocessWithSecondParameterSetAndCompare, which stored the second set's reports.
 TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   UploadAll();
-  for (const RunFile& run : SimulatedRuns()) ASSERT_TRUE(WaitForReport(run.header().run_id(), "", nullptr).ok());
+  for (const RunFile& run : SimulatedRuns()) ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
   fleet::v1::GetFleetStatisticsRequest request;
   request.mutable_filter()->set_parameter_set("default");
   request.set_group_by(fleet::v1::GROUP_BY_DAY);
   fleet::v1::GetFleetStatisticsResponse grpc_stats;
   auto context = Context(*engineer_);
-  ASSERT_TRUE(queries_->GetFleetStatistics(context.get(), request, &grpc_stats).ok());
+  ASSERT_THAT(queries_->GetFleetStatistics(context.get(), request, &grpc_stats), IsOk());
   std::string body;
   ASSERT_EQ(HttpGet(server_->http_address(), "/api/stats?parameter_set=default", &body, *engineer_), 200) << body;
   const auto http_stats = nlohmann::json::parse(body);
@@ -812,7 +813,7 @@ TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   fleet::v1::CompareParameterSetsResponse grpc_compare;
   context = Context(*engineer_);
   const grpc::Status status = queries_->CompareParameterSets(context.get(), compare, &grpc_compare);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   ASSERT_EQ(HttpGet(server_->http_address(), "/api/compare?a=default&b=strict-merge&limit=10", &body, *engineer_), 200)
       << body;
   const auto http_compare = nlohmann::json::parse(body);

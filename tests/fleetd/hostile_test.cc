@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "fleetd_process.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 namespace {
@@ -43,7 +44,7 @@ class HostileTest : public ::testing::Test {
       if (robots_.contains(run.header().robot_id())) continue;
       UploadRunResponse response;
       const grpc::Status status = Upload(*ingest_, RobotToken(run.header().robot_id()), run, &response);
-      ASSERT_TRUE(status.ok()) << status.error_message();
+      ASSERT_THAT(status, IsOk());
       robots_[run.header().robot_id()] = response.child_snapshot_id();
       if (robots_.size() == 2) break;
     }
@@ -221,7 +222,7 @@ TEST(AddressFloodTest, WrongSecretsCostLittleAndAreLimitedBeforeHashing) {
   // 300 wrong secrets for an existing principal, and 300 for unknown ones: both answer fast (no PBKDF2),
   // and after a burst the known one is refused before any hashing.
   FleetdProcess server;
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto admin = fleet::v1::Admin::NewStub(channel);
   auto queries = fleet::v1::Queries::NewStub(channel);
@@ -307,17 +308,17 @@ TEST_F(HostileTest, ARobotTakingAnotherRobotsNextRunIdTakesNothing) {
   // Robot A uploads first, under the id robot B will use for its next run.
   UploadRunResponse squatted;
   grpc::Status status = Upload(*ingest_, RobotToken(a), RunOf(0, next), &squatted);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   // B's real upload of that id is stored and acknowledged OK; a retry of it is the same run.
   const RunFile real = RunOf(1, next);
   UploadRunResponse response;
   status = Upload(*ingest_, RobotToken(b), real, &response);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_FALSE(response.already_present());
   EXPECT_EQ(response.run_id(), next);
   EXPECT_EQ(CountRuns(), before + 2) << "both runs are stored";
   status = Upload(*ingest_, RobotToken(b), real, &response);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_TRUE(response.already_present());
   // The same robot, the same id, other content: a clear refusal, nothing stored.
   RunFile changed = real;
@@ -391,7 +392,7 @@ TEST_F(HostileTest, AnEngineersUploadForARobotIsTheirsAndWaitsForReview) {
   options.parent_id = robots_.at(robot);  // built on the robot's current map
   UploadRunResponse response;
   const grpc::Status status = Upload(*ingest_, *engineer_, run, &response, options);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   std::string body;
   ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps", &body, *engineer_), 200);
   const auto history = nlohmann::json::parse(body);
@@ -411,13 +412,13 @@ TEST_F(HostileTest, AnEngineersUploadForARobotIsTheirsAndWaitsForReview) {
 // lease forever; fleetd keeps serving.
 TEST(HostileBudgetTest, AnAnalysisPastItsBudgetFailsWithAClearError) {
   FleetdProcess server({"--analysis-budget-seconds", "0.000001"});
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto ingest = fleet::v1::Ingest::NewStub(channel);
   auto admin = fleet::v1::Admin::NewStub(channel);
   const RunFile& run = SimulatedRuns().front();
   UploadRunResponse response;
-  ASSERT_TRUE(Upload(*ingest, FleetdProcess::AdminToken(), run, &response).ok());
+  ASSERT_THAT(Upload(*ingest, FleetdProcess::AdminToken(), run, &response), IsOk());
   std::string body, state;
   nlohmann::json job;
   for (int k = 0; k < 240 && state != "failed"; ++k) {

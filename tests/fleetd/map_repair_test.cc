@@ -23,6 +23,7 @@
 #include "sim/uploader.h"
 #include "slamcore/graph_io.h"
 #include "test_data.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 namespace {
@@ -53,18 +54,18 @@ std::set<std::pair<slamcore::NodeId, std::int64_t>> WrongObservations(const RunF
 /// Ground truth of the run's nodes, from a replay with the robot's parameters (the same map, node for node).
 NodeTruth TruthOf(const RunFile& run, const slamcore::MapperParams& params) {
   auto parent = analyzer::FromProto(run.parent_snapshot(), "parent");
-  EXPECT_TRUE(parent.ok());
+  EXPECT_THAT(parent, IsOk());
   auto mapper = slamcore::Mapper::Create(params, *parent);
-  EXPECT_TRUE(mapper.ok());
+  EXPECT_THAT(mapper, IsOk());
   auto events = analyzer::FromProto(run.events(), "events");
-  EXPECT_TRUE(events.ok());
-  for (const auto& event : *events) EXPECT_TRUE((*mapper)->Process(event).ok());
+  EXPECT_THAT(events, IsOk());
+  for (const auto& event : *events) EXPECT_THAT((*mapper)->Process(event), IsOk());
   return (*mapper)->ground_truth();
 }
 
 double Rmse(const fleet::v1::MapSnapshot& snapshot, const NodeTruth& truth) {
   auto map = analyzer::FromProto(snapshot, "map");
-  EXPECT_TRUE(map.ok());
+  EXPECT_THAT(map, IsOk());
   int count = 0;
   return analyzer::ComponentwiseRmse(map->graph, truth, &count).value_or(-1.0);
 }
@@ -80,7 +81,7 @@ struct Scenario {
 /// two components (a wrong merge). Deterministic: the same seeds find the same run every time.
 Scenario FindWrongMerge() {
   const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-  EXPECT_TRUE(worlds.ok());
+  EXPECT_THAT(worlds, IsOk());
   sim::SimParams params;
   params.run_minutes = 6.0;
   params.start_off_dock_probability = 1.0;  // every run has to merge into the home map
@@ -92,7 +93,7 @@ Scenario FindWrongMerge() {
   params.mapper = PermissiveParameters();
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     auto world = sim::LoadWorld((*worlds)[seed % worlds->size()], seed);
-    EXPECT_TRUE(world.ok());
+    EXPECT_THAT(world, IsOk());
     // Only look-alikes mislead the front-end here (no symmetric object seen from the other side), so that a
     // run with exactly one wrong merge is common.
     for (sim::Landmark& landmark : world->landmarks) landmark.symmetric = false;
@@ -123,7 +124,7 @@ Scenario FindWrongMerge() {
       }
       // A merge: without the hypothesis's edges the run's first node is not connected to the home map.
       auto child = analyzer::FromProto(run.child_snapshot(), "child");
-      EXPECT_TRUE(child.ok());
+      EXPECT_THAT(child, IsOk());
       const std::int64_t hypothesis = wrong_by_hypothesis.begin()->first;
       slamcore::PoseGraph without = child->graph;
       without.RemoveEdgesIf(
@@ -161,7 +162,7 @@ class DailyRobot {
 
   std::pair<sim::RunOutcome, sim::UploadOutcome> RunAndUpload(int day) {
     auto outcome = robot_.SimulateRun(prefix_ + "-" + std::to_string(day), 1.76e9 + 86400.0 * day);
-    EXPECT_TRUE(outcome.ok()) << outcome.status().ToString();
+    EXPECT_THAT(outcome, IsOk());
     const sim::UploadOutcome uploaded = uploader_->Upload(outcome->run);
     EXPECT_TRUE(uploaded.ok) << uploaded.message;
     robot_.SetMapVersion(uploaded.map_version);
@@ -172,9 +173,10 @@ class DailyRobot {
  private:
   static sim::World LoadFirstWorld() {
     const auto worlds = sim::ListWorlds(test_data::Sample() / "floorplans");
-    EXPECT_TRUE(worlds.ok() && !worlds->empty());
+    EXPECT_THAT(worlds, IsOk());
+    EXPECT_FALSE(worlds->empty());
     auto world = sim::LoadWorld(worlds->front(), 5);
-    EXPECT_TRUE(world.ok()) << world.status().ToString();
+    EXPECT_THAT(world, IsOk());
     return std::move(world).value();
   }
   static sim::SimParams Params() {
@@ -192,7 +194,7 @@ class DailyRobot {
 class MapRepairTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(server_.ok());
+    ASSERT_THAT(server_, IsOk());
     auto channel = server_.Channel();
     ingest_ = fleet::v1::Ingest::NewStub(channel);
     maps_ = fleet::v1::Maps::NewStub(channel);
@@ -206,7 +208,7 @@ class MapRepairTest : public ::testing::Test {
     request.set_principal(principal);
     fleet::v1::SetCredentialResponse response;
     auto context = Context(FleetdProcess::AdminToken());
-    EXPECT_TRUE(admin_->SetCredential(context.get(), request, &response).ok());
+    EXPECT_THAT(admin_->SetCredential(context.get(), request, &response), IsOk());
     return response.token();
   }
 
@@ -224,7 +226,7 @@ class MapRepairTest : public ::testing::Test {
     fleet::v1::GetMapVersionResponse response;
     auto context = Context(engineer_);
     const grpc::Status status = maps_->GetMapVersion(context.get(), request, &response);
-    EXPECT_TRUE(status.ok()) << status.error_message();
+    EXPECT_THAT(status, IsOk());
     return response;
   }
 
@@ -245,7 +247,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   for (const RunFile& run : scenario.runs) {
     fleet::v1::UploadRunResponse response;
     const grpc::Status status = Upload(*ingest_, robot_, run, &response);
-    ASSERT_TRUE(status.ok()) << status.error_message();
+    ASSERT_THAT(status, IsOk());
     EXPECT_FALSE(response.map_outdated());
     EXPECT_EQ(response.current_map_version(), response.map_version());
     merged_version = response.map_version();
@@ -276,7 +278,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   reject.set_reason("look-alike merged the run into the wrong room");
   fleet::v1::RepairMapResponse repaired;
   grpc::Status status = Repair(reject, &repaired);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   const std::int64_t repaired_version = repaired.version().version();
   EXPECT_EQ(repaired_version, merged_version + 1);
   EXPECT_EQ(repaired.version().approval(), "pending");
@@ -293,7 +295,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   fetch.set_held_version(merged_version);
   fleet::v1::GetMapResponse held;
   auto context = Context(robot_);
-  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &held).ok());
+  ASSERT_THAT(maps_->GetMap(context.get(), fetch, &held), IsOk());
   EXPECT_TRUE(held.up_to_date()) << "a pending repair is not handed to the robot";
 
   fleet::v1::ReviewMapVersionRequest approve;
@@ -302,13 +304,13 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   approve.set_approve(true);
   fleet::v1::MapVersion approved;
   context = Context(engineer_);
-  ASSERT_TRUE(maps_->ReviewMapVersion(context.get(), approve, &approved).ok());
+  ASSERT_THAT(maps_->ReviewMapVersion(context.get(), approve, &approved), IsOk());
   EXPECT_EQ(approved.approval(), "approved");
   EXPECT_TRUE(approved.current());
 
   fleet::v1::GetMapResponse downloaded;
   context = Context(robot_);
-  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &downloaded).ok());
+  ASSERT_THAT(maps_->GetMap(context.get(), fetch, &downloaded), IsOk());
   ASSERT_FALSE(downloaded.up_to_date());
   EXPECT_EQ(downloaded.version().version(), repaired_version);
   EXPECT_EQ(analyzer::SerializeDeterministic(downloaded.snapshot()).size(),
@@ -320,7 +322,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   const double wrong = Rmse(merged_run.child_snapshot(), scenario.truth);
   const double after = Rmse(downloaded.snapshot(), scenario.truth);
   auto default_report = analyzer::AnalyzeRun(merged_run, {});
-  ASSERT_TRUE(default_report.ok());
+  ASSERT_THAT(default_report, IsOk());
   const double default_rerun = Rmse(default_report->rerun_child(), scenario.truth);
   std::printf("trajectory RMSE vs ground truth (m): parent %.3f, with the wrong merge %.3f, repaired %.3f, "
               "default-parameter rerun %.3f\n", before, wrong, after, default_rerun);
@@ -337,7 +339,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   undo.set_base_version(repaired_version);
   undo.set_undo(true);
   fleet::v1::RepairMapResponse undone;
-  ASSERT_TRUE(Repair(undo, &undone).ok());
+  ASSERT_THAT(Repair(undo, &undone), IsOk());
   EXPECT_EQ(undone.version().snapshot_id(), merged.version().snapshot_id());
   EXPECT_EQ(undone.version().origin(), "undo");
   EXPECT_EQ(analyzer::SerializeDeterministic(Version(undone.version().version()).snapshot()),
@@ -368,7 +370,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   *next.mutable_parent_snapshot() = merged_run.child_snapshot();
   fleet::v1::UploadRunResponse outdated;
   status = Upload(*ingest_, robot_, next, &outdated);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_THAT(status, IsOk());
   EXPECT_TRUE(outdated.map_outdated());
   EXPECT_EQ(outdated.current_map_version(), repaired_version);
 
@@ -380,13 +382,13 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
     request.set_format(format);
     fleet::v1::ExportMapResponse exported;
     context = Context(engineer_);
-    ASSERT_TRUE(maps_->ExportMap(context.get(), request, &exported).ok());
+    ASSERT_THAT(maps_->ExportMap(context.get(), request, &exported), IsOk());
     ASSERT_EQ(exported.files_size(), format == "g2o" ? 1 : 2);
     for (const auto& file : exported.files()) EXPECT_FALSE(file.content().empty()) << file.name();
     if (format == "g2o") {
       std::istringstream in(exported.files(0).content());
       auto graph = slamcore::ReadPoseGraph(in, "export");
-      ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+      ASSERT_THAT(graph, IsOk());
       EXPECT_EQ(static_cast<std::int64_t>(graph->num_nodes()), repaired.version().nodes());
     }
   }
@@ -398,7 +400,7 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   const RunFile& run = runs.front();
   const std::string owner = Token("robot:" + run.header().robot_id());
   fleet::v1::UploadRunResponse uploaded;
-  ASSERT_TRUE(Upload(*ingest_, owner, run, &uploaded).ok());
+  ASSERT_THAT(Upload(*ingest_, owner, run, &uploaded), IsOk());
   ASSERT_EQ(uploaded.map_version(), 1);
 
   fleet::v1::GetMapRequest fetch;
@@ -407,7 +409,7 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   auto context = Context(robot_);  // another robot's token
   EXPECT_EQ(maps_->GetMap(context.get(), fetch, &response).error_code(), grpc::StatusCode::PERMISSION_DENIED);
   context = Context(owner);
-  ASSERT_TRUE(maps_->GetMap(context.get(), fetch, &response).ok());
+  ASSERT_THAT(maps_->GetMap(context.get(), fetch, &response), IsOk());
   EXPECT_FALSE(response.up_to_date());
   EXPECT_EQ(response.snapshot().nodes_size(), run.child_snapshot().nodes_size());
 
@@ -471,7 +473,7 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
 
   // Nothing newer than what the robot holds: up to date.
   auto fetched = service.FetchMap(robot_, kRobot, robot.map_version());
-  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  ASSERT_THAT(fetched, IsOk());
   EXPECT_TRUE(fetched->up_to_date);
 
   // The engineer repairs version 2 (back to the map before its run) and approves it.
@@ -480,19 +482,19 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   rollback.set_rollback(true);
   rollback.set_reason("the second run's map is not trusted");
   fleet::v1::RepairMapResponse repaired;
-  ASSERT_TRUE(Repair(rollback, &repaired).ok());
+  ASSERT_THAT(Repair(rollback, &repaired), IsOk());
   const std::int64_t repaired_version = repaired.version().version();
   auto approved = service.ApprovePending(engineer_, kRobot);
-  ASSERT_TRUE(approved.ok()) << approved.status().ToString();
+  ASSERT_THAT(approved, IsOk());
   ASSERT_EQ(*approved, repaired_version);
 
   // Before its next run the robot takes it.
   fetched = service.FetchMap(robot_, kRobot, robot.map_version());
-  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  ASSERT_THAT(fetched, IsOk());
   ASSERT_FALSE(fetched->up_to_date);
   EXPECT_EQ(fetched->version.version(), repaired_version);
   EXPECT_EQ(fetched->version.origin(), "rollback");
-  ASSERT_TRUE(robot.TakeMap(fetched->snapshot, fetched->version.version()).ok());
+  ASSERT_THAT(robot.TakeMap(fetched->snapshot, fetched->version.version()), IsOk());
   EXPECT_EQ(robot.map().graph.num_nodes(), static_cast<std::size_t>(first.run.child_snapshot().nodes_size()))
       << "the rolled-back map is the first run's";
   fleet::v1::MapSnapshot broken;
@@ -512,14 +514,14 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   EXPECT_EQ(recorded.version().approval(), "approved");
 
   // The analysis' report names the version the run ran on.
-  ASSERT_TRUE(service.WaitForJob(engineer_, third_upload.analysis_job_id, 120).ok());
+  ASSERT_THAT(service.WaitForJob(engineer_, third_upload.analysis_job_id, 120), IsOk());
   auto queries = fleet::v1::Queries::NewStub(server_.Channel());
   fleet::v1::GetRunReportRequest request;
   request.set_run_id("follow-run-2");
   request.set_robot_id(kRobot);
   fleet::v1::GetRunReportResponse report;
   auto context = Context(engineer_);
-  ASSERT_TRUE(queries->GetRunReport(context.get(), request, &report).ok());
+  ASSERT_THAT(queries->GetRunReport(context.get(), request, &report), IsOk());
   EXPECT_EQ(report.report().map_version(), repaired_version);
 }
 
@@ -558,7 +560,7 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   }
   ASSERT_TRUE(proposal.has_reject_edge()) << "the second run added an observation edge";
   fleet::v1::RepairMapResponse proposed;
-  ASSERT_TRUE(Repair(proposal, &proposed).ok());
+  ASSERT_THAT(Repair(proposal, &proposed), IsOk());
   ASSERT_EQ(proposed.version().version(), 3);
   ASSERT_EQ(proposed.version().approval(), "pending");
 
@@ -569,7 +571,7 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
 
   fleet::v1::MapVersion carried;
   const grpc::Status approved = review(3, &carried);
-  ASSERT_TRUE(approved.ok()) << approved.error_message();
+  ASSERT_THAT(approved, IsOk());
   EXPECT_EQ(carried.version(), 5);
   EXPECT_EQ(carried.parent_version(), 4);
   EXPECT_EQ(carried.origin(), "repair");
@@ -591,7 +593,7 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   }
   sim::ServiceClient service(server_.grpc_address());
   auto fetched = service.FetchMap(robot_, kRobot, robot.map_version());
-  ASSERT_TRUE(fetched.ok()) << fetched.status().ToString();
+  ASSERT_THAT(fetched, IsOk());
   EXPECT_EQ(fetched->version.version(), 5) << "the robot gets the carried repair next";
   EXPECT_EQ(review(3, &carried).error_code(), grpc::StatusCode::FAILED_PRECONDITION) << "reviewed already";
 
@@ -599,9 +601,9 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   fleet::v1::RepairMapRequest rollback;
   rollback.set_base_version(5);
   rollback.set_rollback(true);
-  ASSERT_TRUE(Repair(rollback, &proposed).ok());
+  ASSERT_THAT(Repair(rollback, &proposed), IsOk());
   ASSERT_EQ(proposed.version().version(), 6);
-  ASSERT_TRUE(robot.TakeMap(fetched->snapshot, fetched->version.version()).ok());
+  ASSERT_THAT(robot.TakeMap(fetched->snapshot, fetched->version.version()), IsOk());
   ASSERT_EQ(run_and_upload(3), 7);
   const grpc::Status refused = review(6, &carried);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
@@ -611,7 +613,7 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
 
   // The simulated engineer's weekly review: approves what can be carried, rejects what cannot.
   auto reviewed = service.ApprovePending(engineer_, kRobot);
-  ASSERT_TRUE(reviewed.ok()) << reviewed.status().ToString();
+  ASSERT_THAT(reviewed, IsOk());
   EXPECT_EQ(*reviewed, 0) << "nothing was approved";
   EXPECT_EQ(Version(6).version().approval(), "rejected");
 }

@@ -24,6 +24,7 @@
 
 #include "fleetd_process.h"
 #include "sim/uploader.h"
+#include "status_matchers.h"
 
 namespace fleetd_test {
 namespace {
@@ -86,15 +87,15 @@ grpc::Status Rotate(fleet::v1::Admin::Stub& admin, const std::string& token, con
 
 TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   FleetdProcess a;
-  ASSERT_TRUE(a.ok());
+  ASSERT_THAT(a, IsOk());
   FleetdProcess b({"--db", "sqlite:" + (a.directory() / "fleet.db").string()});
-  ASSERT_TRUE(b.ok());
+  ASSERT_THAT(b, IsOk());
   auto admin = AdminOf(a);
   const std::string engineer = IssueToken(*admin, "engineer:ops");
   ASSERT_EQ(ListRunsCode(a.Channel(), engineer), grpc::StatusCode::OK);
   ASSERT_EQ(ListRunsCode(b.Channel(), engineer), grpc::StatusCode::OK) << "now cached by b";
 
-  ASSERT_TRUE(Revoke(*admin, FleetdProcess::AdminToken(), "engineer:ops").ok());
+  ASSERT_THAT(Revoke(*admin, FleetdProcess::AdminToken(), "engineer:ops"), IsOk());
   EXPECT_EQ(ListRunsCode(a.Channel(), engineer), grpc::StatusCode::UNAUTHENTICATED) << "refused at once where revoked";
   const double seen = SecondsUntil(
       [&] { return ListRunsCode(b.Channel(), engineer) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
@@ -107,7 +108,7 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   ASSERT_EQ(ListRunsCode(a.Channel(), robot), grpc::StatusCode::PERMISSION_DENIED) << "authenticated (and cached)";
   std::string rotated;
   auto admin_b = AdminOf(b);
-  ASSERT_TRUE(Rotate(*admin_b, robot, "robot:ops-r1", &rotated).ok());
+  ASSERT_THAT(Rotate(*admin_b, robot, "robot:ops-r1", &rotated), IsOk());
   EXPECT_NE(rotated, robot);
   EXPECT_EQ(ListRunsCode(b.Channel(), rotated), grpc::StatusCode::PERMISSION_DENIED) << "the new token authenticates";
   const double old_refused = SecondsUntil(
@@ -128,7 +129,7 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   list.set_include_revoked(true);
   fleet::v1::ListCredentialsResponse listed;
   auto context = Context(FleetdProcess::AdminToken());
-  ASSERT_TRUE(admin->ListCredentials(context.get(), list, &listed).ok());
+  ASSERT_THAT(admin->ListCredentials(context.get(), list, &listed), IsOk());
   ASSERT_EQ(listed.credentials_size(), 3);
   EXPECT_EQ(listed.credentials(1).principal(), "engineer:ops");
   EXPECT_TRUE(listed.credentials(1).revoked());
@@ -138,7 +139,7 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   // Each change is in the audit log, with who made it.
   fleet::v1::ListAuditLogResponse audit;
   auto audit_context = Context(FleetdProcess::AdminToken());
-  ASSERT_TRUE(admin->ListAuditLog(audit_context.get(), fleet::v1::ListAuditLogRequest(), &audit).ok());
+  ASSERT_THAT(admin->ListAuditLog(audit_context.get(), fleet::v1::ListAuditLogRequest(), &audit), IsOk());
   std::vector<std::tuple<std::string, std::string, std::string>> changes;  // oldest first
   for (const auto& entry : audit.entries()) changes.emplace(changes.begin(), entry.action(), entry.subject(), entry.actor());
   EXPECT_EQ(changes, (std::vector<std::tuple<std::string, std::string, std::string>>{
@@ -169,14 +170,14 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   const std::string uploader = IssueToken(*admin, "robot:" + run.header().robot_id());
   auto ingest = fleet::v1::Ingest::NewStub(a.Channel());
   fleet::v1::UploadRunResponse uploaded;
-  ASSERT_TRUE(Upload(*ingest, uploader, run, &uploaded).ok());
+  ASSERT_THAT(Upload(*ingest, uploader, run, &uploaded), IsOk());
   ASSERT_EQ(ListRunsCode(b.Channel(), uploader), grpc::StatusCode::PERMISSION_DENIED) << "authenticated (and cached)";
   fleet::v1::DeleteRobotRequest erase;
   erase.set_robot_id(run.header().robot_id());
   erase.set_confirm(run.header().robot_id());
   fleet::v1::DeleteRobotResponse erased;
   auto erase_context = Context(FleetdProcess::AdminToken());
-  ASSERT_TRUE(admin->DeleteRobot(erase_context.get(), erase, &erased).ok());
+  ASSERT_THAT(admin->DeleteRobot(erase_context.get(), erase, &erased), IsOk());
   EXPECT_EQ(erased.credentials(), 1);
   const double erased_refused = SecondsUntil(
       [&] { return ListRunsCode(b.Channel(), uploader) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
@@ -192,7 +193,7 @@ TEST(OperationsTest, TheBootstrapTokenDoesNotUndoARotationUnlessForced) {
   ASSERT_TRUE(first->ok());
   const std::string db = "sqlite:" + (first->directory() / "fleet.db").string();
   std::string rotated;
-  ASSERT_TRUE(Rotate(*AdminOf(*first), FleetdProcess::AdminToken(), "admin:root", &rotated).ok());
+  ASSERT_THAT(Rotate(*AdminOf(*first), FleetdProcess::AdminToken(), "admin:root", &rotated), IsOk());
   EXPECT_EQ(ListRunsCode(first->Channel(), FleetdProcess::AdminToken()), grpc::StatusCode::UNAUTHENTICATED);
   EXPECT_EQ(first->Stop(), 0);
 
@@ -205,7 +206,7 @@ TEST(OperationsTest, TheBootstrapTokenDoesNotUndoARotationUnlessForced) {
   EXPECT_NE(ReadAll(second->directory() / "fleetd.log").find("bootstrap_token_skipped"), std::string::npos);
 
   FleetdProcess forced({"--db", db, "--bootstrap-admin-force"});
-  ASSERT_TRUE(forced.ok());
+  ASSERT_THAT(forced, IsOk());
   EXPECT_EQ(ListRunsCode(forced.Channel(), FleetdProcess::AdminToken()), grpc::StatusCode::OK) << "explicitly asked";
   EXPECT_EQ(forced.Stop(), 0);
 }
@@ -298,7 +299,7 @@ TEST(OperationsTest, TlsServesTlsClientsOnlyAndFleetctlReadsItsTokenFromAFile) {
   ASSERT_TRUE(MakeCertificate(directory, "server")) << "openssl req failed (deploy/bootstrap.sh installs openssl)";
   ASSERT_TRUE(MakeCertificate(directory, "other"));
   FleetdProcess server({"--tls-cert", directory + "/server.crt", "--tls-key", directory + "/server.key"});
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
 
   sim::UploaderOptions options;
   options.server = server.grpc_address();
@@ -366,14 +367,14 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
                            _exit(111);
                          }
                        });
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   std::string body;
   ASSERT_EQ(HttpGet(server.http_address(), "/healthz", &body), 200) << body;
   ASSERT_EQ(HealthStatus(channel), 1);
   auto ingest = fleet::v1::Ingest::NewStub(channel);
   fleet::v1::UploadRunResponse response;
-  ASSERT_TRUE(Upload(*ingest, FleetdProcess::AdminToken(), SimulatedRuns().front(), &response).ok());
+  ASSERT_THAT(Upload(*ingest, FleetdProcess::AdminToken(), SimulatedRuns().front(), &response), IsOk());
 
   // The file system as fleetd sees it, through its root in /proc.
   const std::string filler = "/proc/" + std::to_string(server.pid()) + "/root" + mount_point + "/filler";
@@ -460,7 +461,7 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   FleetdProcess server({"--max-message-bytes", "4194304", "--max-run-bytes", "25165824",
                         "--max-upload-bytes-per-principal", "25165824", "--max-upload-bytes-in-flight", "50331648",
                         "--max-upload-streams-per-principal", "2", "--rate-limit", "0", "--workers", "1"});
-  ASSERT_TRUE(server.ok());
+  ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto ingest = fleet::v1::Ingest::NewStub(channel);
   auto admin = AdminOf(server);
@@ -491,7 +492,7 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   // Meanwhile a small upload and a listing are answered.
   fleet::v1::UploadRunResponse small;
   const grpc::Status stored = Upload(*ingest, FleetdProcess::AdminToken(), SimulatedRuns().front(), &small);
-  EXPECT_TRUE(stored.ok()) << stored.error_message();
+  EXPECT_THAT(stored, IsOk());
   EXPECT_EQ(ListRunsCode(channel, FleetdProcess::AdminToken()), grpc::StatusCode::OK);
   std::string metrics;
   ASSERT_EQ(HttpGet(server.http_address(), "/metrics", &metrics, FleetdProcess::AdminToken()), 200);

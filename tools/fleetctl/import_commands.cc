@@ -18,13 +18,11 @@ constexpr std::size_t kMaxFiles = 1000;
 /// The file as a map-only snapshot with its metadata (the dashboard's upload makes the same).
 slamcore::Result<analyzer::ImportedMap> ReadImport(const std::string& path, bool valetudo) {
   if (!valetudo) {
-    auto grid = slamcore::ReadMapServerYaml(path);
-    if (!grid.ok()) return grid.status();
-    return analyzer::ImportMapServer(*grid);
+    ASSIGN_OR_RETURN(auto grid, slamcore::ReadMapServerYaml(path));
+    return analyzer::ImportMapServer(grid);
   }
-  auto map = analyzer::ReadValetudoMap(path);
-  if (!map.ok()) return map.status();
-  return analyzer::ImportValetudo(*map);
+  ASSIGN_OR_RETURN(auto map, analyzer::ReadValetudoMap(path));
+  return analyzer::ImportValetudo(map);
 }
 
 }  // namespace

@@ -146,12 +146,11 @@ struct MakeDataArguments {
 /// doors, fixtures and furniture; every room known).
 slamcore::Result<slamcore::OccupancyGrid> LoadHome(const std::filesystem::path& path) {
   if (path.extension() == ".yaml") return slamcore::ReadMapServerYaml(path.string());
-  auto world = sim::LoadWorld(path, 1);
-  if (!world.ok()) return world.status();
-  const sim::Grid& grid = world->grid;
+  ASSIGN_OR_RETURN(auto world, sim::LoadWorld(path, 1));
+  const sim::Grid& grid = world.grid;
   auto home = slamcore::OccupancyGrid::Create(grid.width(), grid.height(), grid.resolution(), grid.origin().x(),
                                               grid.origin().y());
-  if (!home.ok()) return home.status();
+  RETURN_IF_ERROR(home.status());
   for (int row = 0; row < grid.height(); ++row) {
     for (int col = 0; col < grid.width(); ++col) {
       const sim::Cell cell = grid.at(col, row);

@@ -21,9 +21,6 @@ namespace server {
 /// The rows storage keeps for a report (counters, decisions, ambiguous views, regions) plus the report.
 storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report);
 
-/// slamcore's Status as storage's (same code names; slamcore has no ALREADY_EXISTS, UNAVAILABLE or ABORTED).
-storage::Status FromSlamcore(const slamcore::Status& status);
-
 /// A classifier model from storage (bytes = the model file).
 storage::Result<std::unique_ptr<slamcore::ProtrusionClassifier>> LoadClassifier(const std::string& bytes);
 

@@ -56,7 +56,7 @@ struct Principal {
 };
 
 /// Parses and checks "robot:<id>" etc.; ids are 1..128 characters of [A-Za-z0-9_.-].
-storage::Result<Principal> ParsePrincipal(const std::string& name);
+slamcore::Result<Principal> ParsePrincipal(const std::string& name);
 
 /// 32 random bytes from the OS, as 64 hex characters.
 std::string GenerateSecret();
@@ -85,18 +85,18 @@ class Authenticator {
   static constexpr std::size_t kCacheCapacity = 10000;
 
   /// Stores a new secret for `principal` and returns the token.
-  storage::Result<std::string> IssueToken(const Principal& principal);
+  slamcore::Result<std::string> IssueToken(const Principal& principal);
   /// A new secret for a principal that has an unrevoked credential (NOT_FOUND otherwise); the old token
   /// is refused from now on.
-  storage::Result<std::string> RotateToken(const Principal& principal);
+  slamcore::Result<std::string> RotateToken(const Principal& principal);
   /// Revokes the principal's token (storage::Repository::RevokeCredential's errors).
-  storage::Status RevokeToken(const Principal& principal);
+  slamcore::Status RevokeToken(const Principal& principal);
 
   enum class BootstrapOutcome { kInstalled, kAlreadyValid, kSkippedAdminExists };
   /// The bootstrap admin token from config: "admin:<name>.<secret>" with a strong secret (server/secrets.h).
   /// Installed only while no admin has an unrevoked credential, so a rotation or revocation survives
   /// restarts; `force` installs it anyway (the operator's explicit recovery).
-  storage::Result<BootstrapOutcome> InstallBootstrapToken(const std::string& token, bool force);
+  slamcore::Result<BootstrapOutcome> InstallBootstrapToken(const std::string& token, bool force);
   /// Drops the principal's verified tokens from this process's cache (its credential was replaced, revoked
   /// or erased); other processes drop them when they poll the credential epochs.
   void ForgetPrincipal(const std::string& name);

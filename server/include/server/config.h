@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "storage/status.h"
+#include "slamcore/status.h"
 
 namespace server {
 
@@ -53,13 +53,13 @@ struct FleetdConfig {
 
   /// Checks ranges and enumerations, naming the key, and refuses placeholder or weak secrets (the bootstrap
   /// token's secret, the database URL's password; server/secrets.h).
-  storage::Status Validate() const;
+  slamcore::Status Validate() const;
 };
 
 /// "a, b,c" → {"a", "b", "c"} (empty items dropped).
 std::vector<std::string> SplitList(const std::string& text);
 
 /// Reads a JSON object of config keys over `config`.
-storage::Status LoadConfigFile(const std::string& path, FleetdConfig& config);
+slamcore::Status LoadConfigFile(const std::string& path, FleetdConfig& config);
 
 }  // namespace server

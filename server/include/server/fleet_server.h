@@ -19,7 +19,7 @@ namespace server {
 class FleetServer {
  public:
   /// Binds config.listen (port 0: a free port) and starts serving. `job_enqueued` wakes local workers.
-  static storage::Result<std::unique_ptr<FleetServer>> Create(const FleetdConfig& config,
+  static slamcore::Result<std::unique_ptr<FleetServer>> Create(const FleetdConfig& config,
                                                               storage::Repository& repository, Metrics& metrics,
                                                               Authenticator& authenticator,
                                                               std::function<void()> job_enqueued);
@@ -38,6 +38,6 @@ class FleetServer {
 };
 
 /// Stores the default parameter set (slamcore's defaults) under `name` unless a set of that name exists.
-storage::Status EnsureDefaultParameterSet(storage::Repository& repository, const std::string& name);
+slamcore::Status EnsureDefaultParameterSet(storage::Repository& repository, const std::string& name);
 
 }  // namespace server

@@ -21,11 +21,10 @@ bool ValidName(const std::string& name) {
 /// Labelled regions as training rows (features in ProtrusionFeatureNames() order; group = run).
 storage::Result<std::vector<slamcore::LabelledRegion>> LabelledData(storage::Repository& repository,
                                                                    const std::string& parameter_set) {
-  auto regions = repository.ListLabelledRegions(parameter_set, 1000000);
-  if (!regions.ok()) return regions.status();
+  ASSIGN_OR_RETURN(auto regions, repository.ListLabelledRegions(parameter_set, 1000000));
   const auto& names = slamcore::ProtrusionFeatureNames();
   std::vector<slamcore::LabelledRegion> data;
-  for (const auto& region : *regions) {
+  for (const auto& region : regions) {
     if (!region.label || (*region.label != "protrusion" && *region.label != "new_space")) continue;
     nlohmann::json features;
     try {
