@@ -9,6 +9,9 @@
 #     deploy/sanitizers/tsan.cmake says why slamcore/ stays uninstrumented): server_tests and the same
 #     fleetd integration tests.
 #
+# Both lanes use the repository's data/ only (SHARED_DATA_DIR points at nothing), as in a user's clone: the
+# tests over the larger set (whole-dataset replays such as slamcore's SharedGraphs/BackendEquivalenceTest)
+# cover no other code and take tens of minutes instrumented (one such case ran over 7 min under ASan).
 # The unit binaries run as one process each, two at a time, not one process per test case under ctest: each
 # storage_tests process starts its own PostgreSQL server (~3 s, more under ASan). The fleetd tests run under
 # ctest (they are one process each anyway).
@@ -80,6 +83,7 @@ if [[ $lanes == *asan* ]]; then
   lane_start=$SECONDS
   flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+    -DSHARED_DATA_DIR="$root/build-asan/no-shared-data" \
     -DCMAKE_CXX_FLAGS="$flags -fno-omit-frame-pointer" -DCMAKE_EXE_LINKER_FLAGS="$flags" \
     -DCMAKE_SHARED_LINKER_FLAGS="$flags" >/dev/null
   rm -rf build-asan/sanitizer-logs && mkdir -p build-asan/sanitizer-logs
@@ -101,6 +105,7 @@ if [[ $lanes == *tsan* ]]; then
   echo "== TSan (build-tsan/) =="
   lane_start=$SECONDS
   cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=thread \
+    -DSHARED_DATA_DIR="$root/build-tsan/no-shared-data" \
     -DCMAKE_PROJECT_INCLUDE="$supp/tsan.cmake" >/dev/null
   rm -rf build-tsan/sanitizer-logs && mkdir -p build-tsan/sanitizer-logs
   export TSAN_OPTIONS="log_path=$root/build-tsan/sanitizer-logs/report:halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp"
