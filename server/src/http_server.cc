@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -198,7 +199,9 @@ class HttpServer::Impl {
         continue;
       }
       ++connections_;
-      std::thread([this, s = std::move(socket)]() mutable { Serve(std::move(s)); }).detach();
+      std::thread([this, owned = std::make_unique<tcp::socket>(std::move(socket))]() mutable {
+        Serve(std::move(owned));
+      }).detach();
     }
   }
 
@@ -237,7 +240,8 @@ class HttpServer::Impl {
     return std::nullopt;
   }
 
-  void Serve(tcp::socket socket) {
+  void Serve(std::unique_ptr<tcp::socket> owned) {
+    tcp::socket& socket = *owned;
     {
       std::lock_guard lock(mutex_);
       sockets_.push_back(&socket);
@@ -302,6 +306,9 @@ class HttpServer::Impl {
     socket.shutdown(tcp::socket::shutdown_both, ignored);
     std::lock_guard lock(mutex_);
     sockets_.erase(std::remove(sockets_.begin(), sockets_.end(), &socket), sockets_.end());
+    // Destroyed before the count drops: once it is 0 the server may destroy io_, whose socket service a
+    // socket's destructor uses.
+    owned.reset();
     --connections_;
     idle_.notify_all();
   }
