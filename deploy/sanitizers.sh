@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Sanitizer lane (issue #20), run by .ci/run after the test command; not part of the README's test command.
+# Sanitizer lane (issue #20), run by hand for now (not yet by .ci/run: a cold build of it takes about an hour on
+# 2 cores); not part of the README's test command.
 #
 #   ASan+UBSan, build-asan/ (-O1 -g, asserts on, -fsanitize=address,undefined, every UBSan finding fatal):
 #     the unit test binaries slamcore_tests, storage_tests (SQLite and a throwaway PostgreSQL server),
