@@ -176,6 +176,16 @@ const storage::MapVersionRecord* ComparisonReference(const std::vector<storage::
   return FindRecord(versions, *at->parent_version);
 }
 
+/// Whether `record` is `ancestor` or built on it, following parents.
+bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& record,
+               std::int64_t ancestor) {
+  for (const storage::MapVersionRecord* at = &record; at != nullptr;
+       at = at->parent_version ? FindRecord(versions, *at->parent_version) : nullptr) {
+    if (at->version == ancestor) return true;
+  }
+  return false;
+}
+
 /// Both lists in one, by severity (highest first) and numbered from 1 again.
 std::vector<fleet::v1::MapFinding> MergeFindings(std::vector<fleet::v1::MapFinding> first,
                                                  const std::vector<fleet::v1::MapFinding>& second) {
@@ -596,12 +606,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
                                        " cannot be carried onto a later map (it would drop the runs since)" + instead);
   }
   const storage::MapVersionRecord* base = pending.parent_version ? FindRecord(versions, *pending.parent_version) : nullptr;
-  bool descends = false;  // the current version is built on the repair's base, through its parents
-  for (const storage::MapVersionRecord* at = &current; base != nullptr && at != nullptr && !descends;
-       at = at->parent_version ? FindRecord(versions, *at->parent_version) : nullptr) {
-    descends = at->version == base->version;
-  }
-  if (!descends || current.run_id.empty()) {
+  if (base == nullptr || !IsBuiltOn(versions, current, base->version) || current.run_id.empty()) {
     return storage::FailedPrecondition(overtaken + ", which is not a run's map built on version " +
                                        (base ? std::to_string(base->version) : std::string("?")) +
                                        ", the one the repair was made on" + instead);
