@@ -83,7 +83,7 @@ if [[ $lanes == *asan* ]]; then
   echo "== ASan+UBSan (build-asan/) =="
   lane_start=$SECONDS
   flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
-  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
     -DSHARED_DATA_DIR="$root/build-asan/no-shared-data" \
     -DCMAKE_CXX_FLAGS="$flags -fno-omit-frame-pointer" -DCMAKE_EXE_LINKER_FLAGS="$flags" \
     -DCMAKE_SHARED_LINKER_FLAGS="$flags" >/dev/null

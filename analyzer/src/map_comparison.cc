@@ -256,10 +256,9 @@ slamcore::Result<MapComparison> CompareGrids(const OccupancyGrid& previous, cons
     changed.area_m2 = static_cast<double>(region.clean_area_cells) * cell_area;
     changed.predicted_class = "unclassified";
     if (classifier) {
-      auto probability = classifier->Probability(region.features);
-      RETURN_IF_ERROR(probability.status());
-      changed.probability = *probability;
-      changed.predicted_class = *probability >= options.protrusion_probability ? "protrusion" : "new_space";
+      ASSIGN_OR_RETURN(auto probability, classifier->Probability(region.features));
+      changed.probability = probability;
+      changed.predicted_class = probability >= options.protrusion_probability ? "protrusion" : "new_space";
     }
     changed.region = std::move(region);
   }

@@ -499,11 +499,10 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
     return slamcore::InvalidArgument("format \"" + format +
                                      "\": expected \"map_server\" (PGM + YAML), \"g2o\" or \"valetudo\" (ValetudoMap JSON)");
   }
-  auto grid = RenderHomeGrid(map);
-  RETURN_IF_ERROR(grid.status());
-  if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
+  ASSIGN_OR_RETURN(auto grid, RenderHomeGrid(map));
+  if (grid.width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
   if (format == "valetudo") {
-    ASSIGN_OR_RETURN(auto json, WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata()));
+    ASSIGN_OR_RETURN(auto json, WriteValetudoMap(grid, metadata ? *metadata : fleet::v1::MapMetadata()));
     fleet::v1::ExportedFile& file = files.emplace_back();
     file.set_name(stem + ".json");
     file.set_content(std::move(json));
@@ -511,10 +510,10 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
   }
   fleet::v1::ExportedFile& image = files.emplace_back();
   image.set_name(stem + ".pgm");
-  image.set_content(slamcore::EncodePgm(*grid));
+  image.set_content(slamcore::EncodePgm(grid));
   fleet::v1::ExportedFile& yaml = files.emplace_back();
   yaml.set_name(stem + ".yaml");
-  yaml.set_content(slamcore::MapServerYaml(*grid, stem + ".pgm"));
+  yaml.set_content(slamcore::MapServerYaml(grid, stem + ".pgm"));
   return files;
 }
 

@@ -121,12 +121,10 @@ Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::stri
   RETURN_IF_ERROR(CheckTime(time, field + ".time"));
   switch (event.kind_case()) {
     case fleet::v1::Event::kOdometry: {
-      const auto increment =
-          PoseFromProto(event.odometry().increment(), event.odometry().has_increment(), field + ".odometry.increment");
-      RETURN_IF_ERROR(increment.status());
+      ASSIGN_OR_RETURN(const auto increment, PoseFromProto(event.odometry().increment(), event.odometry().has_increment(), field + ".odometry.increment"));
       ASSIGN_OR_RETURN(const auto covariance,
                        MatrixFromProto(event.odometry().covariance(), field + ".odometry.covariance"));
-      return slamcore::Event(slamcore::OdometryEvent{.time = time, .increment = *increment, .covariance = covariance});
+      return slamcore::Event(slamcore::OdometryEvent{.time = time, .increment = increment, .covariance = covariance});
     }
     case fleet::v1::Event::kViewCreated:
       return slamcore::Event(slamcore::ViewCreatedEvent{.time = time, .view = event.view_created().view()});

@@ -317,16 +317,14 @@ slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map, cons
   const double resolution = map.pixel_size_cm / 100.0;
   const int left = min_x - margin, bottom = max_y + margin;
   // Pixel (px, py) has its lower-left corner at (px·s, −py·s): the lowest row of the grid is py = bottom.
-  auto grid = slamcore::OccupancyGrid::Create(max_x - min_x + 1 + 2 * margin, max_y - min_y + 1 + 2 * margin,
-                                              resolution, left * resolution, -bottom * resolution);
-  RETURN_IF_ERROR(grid.status());
+  ASSIGN_OR_RETURN(auto grid, slamcore::OccupancyGrid::Create(max_x - min_x + 1 + 2 * margin, max_y - min_y + 1 + 2 * margin, resolution, left * resolution, -bottom * resolution));
   for (const bool walls : {false, true}) {
     for (const DecodedLayer& decoded : layers) {
       if ((decoded.layer.type == "wall") != walls) continue;
       const auto state = static_cast<std::int8_t>(walls ? slamcore::CellState::kOccupied : slamcore::CellState::kFree);
       for (const std::int64_t cell : decoded.cells) {
         const int x = static_cast<int>(cell % map.size_x), y = static_cast<int>(cell / map.size_x);
-        grid->at(x - left, bottom - y) = state;
+        grid.at(x - left, bottom - y) = state;
       }
     }
   }

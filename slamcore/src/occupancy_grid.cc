@@ -155,14 +155,12 @@ Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, dou
     return DataLoss("PGM: truncated pixel data (" + std::to_string(std::max<std::int64_t>(available - 1, 0)) +
                     " bytes for " + std::to_string(count) + " pixels)");
   }
-  auto grid = OccupancyGrid::Create(static_cast<int>(values[0]), static_cast<int>(values[1]), resolution, origin_x,
-                                    origin_y);
-  RETURN_IF_ERROR(grid.status());
+  ASSIGN_OR_RETURN(auto grid, OccupancyGrid::Create(static_cast<int>(values[0]), static_cast<int>(values[1]), resolution, origin_x, origin_y));
   const double scale = 255.0 / static_cast<double>(values[2]);
   auto store = [&](std::int64_t index, int pixel) {
     const int col = static_cast<int>(index % values[0]);
     const int image_row = static_cast<int>(index / values[0]);
-    grid->at(col, grid->ImageRowOf(image_row)) =
+    grid.at(col, grid.ImageRowOf(image_row)) =
         CellFromPixel(static_cast<int>(std::lround(pixel * scale)), occupied_thresh, free_thresh, negate);
   };
   if (magic == "P5") {
@@ -284,12 +282,11 @@ Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std
   }
   const std::string image = Unquote(keys["image"]);
   if (image.empty()) return fail("image is empty");
-  auto bytes = read_image(image);
-  RETURN_IF_ERROR(bytes.status());
-  const bool is_png = bytes->size() >= 8 && bytes->compare(0, 4, "\x89PNG") == 0;
-  auto grid = is_png ? DecodePng(*bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
+  ASSIGN_OR_RETURN(auto bytes, read_image(image));
+  const bool is_png = bytes.size() >= 8 && bytes.compare(0, 4, "\x89PNG") == 0;
+  auto grid = is_png ? DecodePng(bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
                                  free_thresh, negate != 0.0)
-                     : DecodePgm(*bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
+                     : DecodePgm(bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
                                  free_thresh, negate != 0.0);
   if (!grid.ok()) return Status(grid.status().code(), yaml_path + ": image " + image + ": " + grid.status().message());
   grid->origin_yaw = origin_values[2];

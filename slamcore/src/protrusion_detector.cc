@@ -258,12 +258,11 @@ Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const Occu
     return InvalidArgument("parent and child origins are absurdly far apart");
   }
   const int shift_x = static_cast<int>(std::lround(dx)), shift_y = static_cast<int>(std::lround(dy));
-  auto aligned = OccupancyGrid::Create(child.width, child.height, resolution, child.origin_x, child.origin_y);
-  RETURN_IF_ERROR(aligned.status());
-  aligned->origin_yaw = child.origin_yaw;
+  ASSIGN_OR_RETURN(auto aligned, OccupancyGrid::Create(child.width, child.height, resolution, child.origin_x, child.origin_y));
+  aligned.origin_yaw = child.origin_yaw;
   const int col_begin = std::max(0, shift_x), col_end = std::min(child.width, shift_x + parent.width);
   for (int row = std::max(0, shift_y); row < std::min(child.height, shift_y + parent.height); ++row) {
-    for (int col = col_begin; col < col_end; ++col) aligned->at(col, row) = parent.at(col - shift_x, row - shift_y);
+    for (int col = col_begin; col < col_end; ++col) aligned.at(col, row) = parent.at(col - shift_x, row - shift_y);
   }
   return aligned;
 }

@@ -148,13 +148,11 @@ slamcore::Result<slamcore::OccupancyGrid> LoadHome(const std::filesystem::path& 
   if (path.extension() == ".yaml") return slamcore::ReadMapServerYaml(path.string());
   ASSIGN_OR_RETURN(auto world, sim::LoadWorld(path, 1));
   const sim::Grid& grid = world.grid;
-  auto home = slamcore::OccupancyGrid::Create(grid.width(), grid.height(), grid.resolution(), grid.origin().x(),
-                                              grid.origin().y());
-  RETURN_IF_ERROR(home.status());
+  ASSIGN_OR_RETURN(auto home, slamcore::OccupancyGrid::Create(grid.width(), grid.height(), grid.resolution(), grid.origin().x(), grid.origin().y()));
   for (int row = 0; row < grid.height(); ++row) {
     for (int col = 0; col < grid.width(); ++col) {
       const sim::Cell cell = grid.at(col, row);
-      home->at(col, row) = static_cast<std::int8_t>(cell == sim::Cell::kFree       ? slamcore::CellState::kFree
+      home.at(col, row) = static_cast<std::int8_t>(cell == sim::Cell::kFree       ? slamcore::CellState::kFree
                                                     : cell == sim::Cell::kOccupied ? slamcore::CellState::kOccupied
                                                                                    : slamcore::CellState::kUnknown);
     }
