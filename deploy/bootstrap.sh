@@ -5,7 +5,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config ccache git
+  build-essential cmake ninja-build pkg-config ccache git clang-format clang libclang-rt-14-dev
   libeigen3-dev libceres-dev libsuitesparse-dev libopencv-dev
   libboost-dev libboost-math-dev
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc
