@@ -27,10 +27,10 @@
 #include "analyzer/run_analysis.h"
 #include "bench_report.h"
 #include "fleet_client/local_fleetd.h"
+#include "fleet_client/uploader.h"
 #include "server/analysis.h"
 #include "server/fleet_server.h"
 #include "sim/run_simulator.h"
-#include "fleet_client/uploader.h"
 #include "sim/world.h"
 #include "storage/repository.h"
 

@@ -22,8 +22,8 @@
 #include <tuple>
 #include <vector>
 
-#include "fleetd_process.h"
 #include "fleet_client/uploader.h"
+#include "fleetd_process.h"
 #include "status_matchers.h"
 
 namespace fleetd_test {
