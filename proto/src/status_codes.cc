@@ -26,10 +26,11 @@ constexpr SameName kSameName[] = {
 }  // namespace
 
 const char* GrpcCodeName(int code) {
-  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
-                                 "UNAUTHENTICATED"};
+  static const char* kNames[] = {
+      "OK",        "CANCELLED",      "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
+      "NOT_FOUND", "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+      "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
+      "DATA_LOSS", "UNAUTHENTICATED"};
   return code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
 }
 
@@ -47,15 +48,11 @@ StatusCode FromGrpcCode(grpc::StatusCode code) {
   switch (code) {
     case grpc::StatusCode::DEADLINE_EXCEEDED:
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
-    case grpc::StatusCode::CANCELLED:
-      return StatusCode::kUnavailable;
-    case grpc::StatusCode::OUT_OF_RANGE:
-      return StatusCode::kInvalidArgument;
+    case grpc::StatusCode::CANCELLED: return StatusCode::kUnavailable;
+    case grpc::StatusCode::OUT_OF_RANGE: return StatusCode::kInvalidArgument;
     case grpc::StatusCode::PERMISSION_DENIED:
-    case grpc::StatusCode::UNAUTHENTICATED:
-      return StatusCode::kFailedPrecondition;
-    default:
-      return StatusCode::kInternal;
+    case grpc::StatusCode::UNAUTHENTICATED: return StatusCode::kFailedPrecondition;
+    default: return StatusCode::kInternal;
   }
 }
 

@@ -19,11 +19,13 @@
 namespace server {
 namespace {
 
-storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository, const std::string& snapshot_id) {
+storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository,
+                                                     const std::string& snapshot_id) {
   auto stored = repository.GetSnapshot(snapshot_id);
   RETURN_IF_ERROR(stored.status());
   fleet::v1::MapSnapshot snapshot;
-  if (!snapshot.ParseFromString(stored->bytes)) return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
+  if (!snapshot.ParseFromString(stored->bytes))
+    return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
   return snapshot;
 }
 
@@ -59,7 +61,8 @@ storage::Result<RunContext> LoadRunContext(storage::Repository& repository, cons
   auto report = repository.GetReport(key, parameter_set);
   if (report.ok()) {
     fleet::v1::RunReport parsed;
-    if (!parsed.ParseFromString(report->report)) return storage::DataLoss("report of run " + run_id + " does not parse");
+    if (!parsed.ParseFromString(report->report))
+      return storage::DataLoss("report of run " + run_id + " does not parse");
     context.report = std::move(parsed);
   } else if (report.status().code() != storage::StatusCode::kNotFound) {
     return report.status();
@@ -88,7 +91,8 @@ std::vector<storage::MapFindingRecord> ToRecords(const std::vector<fleet::v1::Ma
   return records;
 }
 
-storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(const std::vector<storage::MapFindingRecord>& records) {
+storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(
+    const std::vector<storage::MapFindingRecord>& records) {
   std::vector<fleet::v1::MapFinding> findings;
   for (const storage::MapFindingRecord& record : records) {
     fleet::v1::MapFinding& finding = findings.emplace_back();
@@ -102,8 +106,8 @@ storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(const std::vecto
 
 /// A new version's record with its map's figures. The known area needs a rendering: uploads leave it to
 /// the run's analysis (OnRunAnalysed) to keep ingest fast.
-storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, const std::string& snapshot_id,
-                                                      bool with_known_area) {
+storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map,
+                                                      const std::string& snapshot_id, bool with_known_area) {
   const analyzer::MapFigures figures = analyzer::ComputeFigures(map);
   storage::MapVersionRecord record;
   record.snapshot_id = snapshot_id;
@@ -121,7 +125,8 @@ storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, 
 }
 
 std::int64_t NowMillis() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -135,7 +140,8 @@ const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRe
 /// `version` of a robot's versions, or its current one for 0.
 storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVersionRecord>& versions,
                                                 const std::string& robot_id, std::int64_t version) {
-  if (version < 0) return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
+  if (version < 0)
+    return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
   if (version == 0) {
     const storage::MapVersionRecord* current = Current(versions);
     if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
@@ -178,8 +184,8 @@ const storage::MapVersionRecord* ComparisonReference(const std::vector<storage::
 }
 
 /// Whether `record` is `ancestor` or built on it, following parents.
-bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& record,
-               std::int64_t ancestor) {
+bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions,
+               const storage::MapVersionRecord& record, std::int64_t ancestor) {
   for (const storage::MapVersionRecord* at = &record; at != nullptr;
        at = at->parent_version ? FindRecord(versions, *at->parent_version) : nullptr) {
     if (at->version == ancestor) return true;
@@ -191,9 +197,10 @@ bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions, const sto
 std::vector<fleet::v1::MapFinding> MergeFindings(std::vector<fleet::v1::MapFinding> first,
                                                  const std::vector<fleet::v1::MapFinding>& second) {
   first.insert(first.end(), second.begin(), second.end());
-  std::stable_sort(first.begin(), first.end(), [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
-    return a.severity() > b.severity();
-  });
+  std::stable_sort(first.begin(), first.end(),
+                   [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
+                     return a.severity() > b.severity();
+                   });
   for (std::size_t i = 0; i < first.size(); ++i) first[i].set_finding_id(static_cast<std::int64_t>(i) + 1);
   return first;
 }
@@ -204,7 +211,8 @@ struct ComparedMap {
   std::optional<slamcore::SE2> dock;
 };
 
-storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository, const std::string& snapshot_id) {
+storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository,
+                                             const std::string& snapshot_id) {
   auto snapshot = LoadSnapshot(repository, snapshot_id);
   RETURN_IF_ERROR(snapshot.status());
   auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
@@ -244,7 +252,8 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
 }
 
 const char* RepairActionName(const RepairAction& action) {
-  static constexpr const char* kNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"};
+  static constexpr const char* kNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback",
+                                           "undo"};
   static_assert(std::size(kNames) == std::variant_size_v<RepairAction>);
   return kNames[action.index()];
 }
@@ -255,9 +264,10 @@ storage::Result<RepairAction> RepairActionNamed(const std::string& name, const s
   if (name == "cut_finding") return RepairAction{CutFinding{}};
   if (name == "rollback") return RepairAction{Rollback{}};
   if (name == "undo") return RepairAction{Undo{}};
-  return storage::InvalidArgument(field + ": \"" + name.substr(0, 64) +
-                                  "\" is not an action; expected reject_edge, reject_hypothesis, cut_finding, rollback "
-                                  "or undo");
+  return storage::InvalidArgument(
+      field + ": \"" + name.substr(0, 64) +
+      "\" is not an action; expected reject_edge, reject_hypothesis, cut_finding, rollback "
+      "or undo");
 }
 
 MapPolicy MapPolicyOf(const FleetdConfig& config) {
@@ -271,8 +281,9 @@ MapPolicy MapPolicyOf(const FleetdConfig& config) {
 MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
     : repository_(repository), policy_(std::move(policy)) {}
 
-storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
-                                                            const std::string& uploader) {
+storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run,
+                                                           const slamcore::Map& child,
+                                                           const std::string& uploader) {
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   auto versions = repository_.ListMapVersions(run.robot_id);
   RETURN_IF_ERROR(versions.status());
@@ -302,11 +313,13 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
     record->approved_at_ms = run.ended_at_ms;
   }
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
-  auto appended = repository_.AppendMapVersion(*record, std::nullopt, ToRecords(analyzer::FindMapFindings({.map = &child})));
+  auto appended = repository_.AppendMapVersion(*record, std::nullopt,
+                                               ToRecords(analyzer::FindMapFindings({.map = &child})));
   RETURN_IF_ERROR(appended.status());
   UploadMapOutcome outcome;
   outcome.version = appended->version;
-  if (appended->approval == "approved" && appended->version > (versions->empty() ? 0 : versions->back().version)) {
+  if (appended->approval == "approved" &&
+      appended->version > (versions->empty() ? 0 : versions->back().version)) {
     outcome.current_version = appended->version;  // just made, on the current map: it is the current one now
   } else {
     // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
@@ -329,8 +342,8 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
   context.report = report;
   const std::vector<fleet::v1::MapFinding> findings = Findings(loaded, context);
   ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(loaded));
-  RETURN_IF_ERROR(
-      repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, ToRecords(findings)));
+  RETURN_IF_ERROR(repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area,
+                                                     ToRecords(findings)));
 
   if (policy_.auto_repair == "none") return storage::Status::Ok();
   const std::string requested_by = "policy:" + policy_.auto_repair;
@@ -346,11 +359,12 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
     std::string key;
     for (const fleet::v1::MapFinding& finding : open) {
       if (finding.state() != "open" || finding.severity() < policy_.min_severity) continue;
-      const bool repairable = finding.kind() == "protrusion" ||
-                              (all_findings && (finding.kind() == "unconfirmed_hypothesis" ||
-                                                finding.kind() == "high_residual_edge"));
-      key = finding.kind() + ":" + std::to_string(finding.hypothesis()) + ":" + std::to_string(finding.edge_from()) +
-            ":" + std::to_string(finding.edge_to()) + ":" + finding.summary();
+      const bool repairable =
+          finding.kind() == "protrusion" || (all_findings && (finding.kind() == "unconfirmed_hypothesis" ||
+                                                              finding.kind() == "high_residual_edge"));
+      key = finding.kind() + ":" + std::to_string(finding.hypothesis()) + ":" +
+            std::to_string(finding.edge_from()) + ":" + std::to_string(finding.edge_to()) + ":" +
+            finding.summary();
       if (repairable && !tried.contains(key)) {
         next = &finding;
         break;
@@ -376,14 +390,15 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
       // The map breaks where it cannot be repaired finding by finding: back to the map before this run.
       RepairRequest rollback = repair;
       rollback.action = Rollback{};
-      rollback.reason = "policy " + policy_.auto_repair + ": " + next->summary() + " could not be repaired (" +
-                        repaired.status().ToString() + ")";
+      rollback.reason = "policy " + policy_.auto_repair + ": " + next->summary() +
+                        " could not be repaired (" + repaired.status().ToString() + ")";
       repaired = Repair(rollback);
       if (repaired.ok()) break;
     }
     // The robot's map moved on meanwhile (ABORTED): the newer version gets its own analysis.
     if (!repaired.ok()) {
-      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(next->finding_id())},
+      log::Warn("auto_repair_skipped", {{"run_id", run_id},
+                                        {"finding", static_cast<long long>(next->finding_id())},
                                         {"error", repaired.status().ToString()}});
       break;
     }
@@ -418,10 +433,12 @@ storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& rob
     return std::array<double, 4>{finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2),
                                  finding.world_bbox(3)};
   }
-  return storage::NotFound("version " + std::to_string(version) + " has no finding " + std::to_string(finding_id));
+  return storage::NotFound("version " + std::to_string(version) + " has no finding " +
+                           std::to_string(finding_id));
 }
 
-storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id, std::int64_t version) {
+storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id,
+                                                               std::int64_t version) {
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   return Find(versions, robot_id, version);
 }
@@ -445,7 +462,8 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
   if (!metadata.empty()) {
     detail.metadata.emplace();
     if (!detail.metadata->ParseFromString(metadata)) {
-      return storage::DataLoss("metadata of map version " + std::to_string(record->version) + " does not parse");
+      return storage::DataLoss("metadata of map version " + std::to_string(record->version) +
+                               " does not parse");
     }
   }
   return detail;
@@ -453,16 +471,18 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
 
 storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(request.robot_id));
-  if (request.base_version <= 0) return storage::InvalidArgument("base_version: the version repaired is required");
+  if (request.base_version <= 0)
+    return storage::InvalidArgument("base_version: the version repaired is required");
   auto base = Find(versions, request.robot_id, request.base_version);
   RETURN_IF_ERROR(base.status());
   // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   const storage::MapVersionRecord* head = Head(versions);
   if (head == nullptr || head->version != base->version) {
-    return storage::Aborted("version " + std::to_string(base->version) + " of robot " + request.robot_id + " is " +
-                            (base->approval == "rejected" || base->approval == "stale" ? base->approval + ", not" : "not") +
-                            " the version repairs start from" +
-                            (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
+    return storage::Aborted(
+        "version " + std::to_string(base->version) + " of robot " + request.robot_id + " is " +
+        (base->approval == "rejected" || base->approval == "stale" ? base->approval + ", not" : "not") +
+        " the version repairs start from" +
+        (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
   }
   // A map without a run (an import, or a repair of one) has no pose graph to edit: it is repaired against the
   // map before the import. Undo works the same for both.
@@ -486,11 +506,13 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
       ASSIGN_OR_RETURN(auto box, CutBox(request.robot_id, request.base_version, cut_finding->finding_id));
       cut_box = box;
     }
-    ASSIGN_OR_RETURN(auto edited, reject_edge != nullptr
-                      ? analyzer::RejectEdge(loaded, reject_edge->from, reject_edge->to, reject_edge->view, &detail)
-                  : reject_hypothesis != nullptr
-                      ? analyzer::RejectHypothesis(loaded, run_nodes, reject_hypothesis->hypothesis, &detail)
-                      : analyzer::CutRegion(loaded, run_nodes, cut_box, &detail));
+    ASSIGN_OR_RETURN(
+        auto edited,
+        reject_edge != nullptr
+            ? analyzer::RejectEdge(loaded, reject_edge->from, reject_edge->to, reject_edge->view, &detail)
+        : reject_hypothesis != nullptr
+            ? analyzer::RejectHypothesis(loaded, run_nodes, reject_hypothesis->hypothesis, &detail)
+            : analyzer::CutRegion(loaded, run_nodes, cut_box, &detail));
     repaired = std::move(edited);
     ASSIGN_OR_RETURN(auto stored,
                      repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*repaired))));
@@ -498,23 +520,25 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   } else if (std::holds_alternative<Rollback>(request.action)) {
     ASSIGN_OR_RETURN(auto run, repository_.GetRun({base->robot_id, base->run_id}));
     if (!run.parent_snapshot_id) {
-      return storage::FailedPrecondition("version " + std::to_string(base->version) +
-                                         " was made by the robot's first run: there is no parent map to roll back to");
+      return storage::FailedPrecondition(
+          "version " + std::to_string(base->version) +
+          " was made by the robot's first run: there is no parent map to roll back to");
     }
     origin = "rollback";
     snapshot_id = *run.parent_snapshot_id;
     detail = "back to the map before run " + base->run_id;
   } else {  // Undo
     if (base->origin == "upload" || !base->parent_version) {
-      return storage::FailedPrecondition("version " + std::to_string(base->version) + " is an upload, not a repair: " +
-                                         "nothing to undo (roll back instead)");
+      return storage::FailedPrecondition(
+          "version " + std::to_string(base->version) +
+          " is an upload, not a repair: " + "nothing to undo (roll back instead)");
     }
     auto earlier = repository_.GetMapVersion(request.robot_id, *base->parent_version);
     RETURN_IF_ERROR(earlier.status());
     origin = "undo";
     snapshot_id = earlier->snapshot_id;
-    detail = "undid version " + std::to_string(base->version) + " (" + base->action + "): the map of version " +
-             std::to_string(earlier->version) + " again";
+    detail = "undid version " + std::to_string(base->version) + " (" + base->action +
+             "): the map of version " + std::to_string(earlier->version) + " again";
   }
   if (!repaired) {
     ASSIGN_OR_RETURN(auto restored, LoadMap(repository_, snapshot_id));
@@ -525,16 +549,15 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   RunContext findings_context = origin == "rollback" ? RunContext{} : std::move(context).value();
   if (origin == "rollback") findings_context.parent = *repaired;
   const std::int64_t metadata_of = origin == "undo" ? *base->parent_version : base->version;
-  return AppendRepair(request, *base, *repaired, snapshot_id, origin, detail, Findings(*repaired, findings_context),
-                      metadata_of);
+  return AppendRepair(request, *base, *repaired, snapshot_id, origin, detail,
+                      Findings(*repaired, findings_context), metadata_of);
 }
 
-storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& request,
-                                                           const storage::MapVersionRecord& base,
-                                                           const slamcore::Map& repaired, const std::string& snapshot_id,
-                                                           const std::string& origin, const std::string& detail,
-                                                           const std::vector<fleet::v1::MapFinding>& findings,
-                                                           std::int64_t metadata_of, const CarriedRepair* carried) {
+storage::Result<MapVersionDetail> MapHistory::AppendRepair(
+    const RepairRequest& request, const storage::MapVersionRecord& base, const slamcore::Map& repaired,
+    const std::string& snapshot_id, const std::string& origin, const std::string& detail,
+    const std::vector<fleet::v1::MapFinding>& findings, std::int64_t metadata_of,
+    const CarriedRepair* carried) {
   auto record = NewVersion(repaired, snapshot_id, /*with_known_area=*/true);
   RETURN_IF_ERROR(record.status());
   ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(request.robot_id, metadata_of));
@@ -543,9 +566,9 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
   record->parent_version = base.version;
   record->origin = origin;
   record->run_id = base.run_id;
-  record->action = carried ? carried->pending->action
+  record->action = carried                                              ? carried->pending->action
                    : std::holds_alternative<CutFinding>(request.action) ? "cut_region"
-                                                                       : RepairActionName(request.action);
+                                                                        : RepairActionName(request.action);
   record->action_detail = detail;
   record->created_by = carried ? carried->pending->created_by : request.requested_by;
   record->reason = carried ? carried->pending->reason : request.reason;
@@ -555,8 +578,8 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
     record->approved_at_ms = NowMillis();
   }
   if (carried) record->supersedes_pending = carried->pending->version;
-  auto appended = repository_.AppendMapVersion(*record, carried ? carried->expected_head : request.base_version,
-                                               ToRecords(findings));
+  auto appended = repository_.AppendMapVersion(
+      *record, carried ? carried->expected_head : request.base_version, ToRecords(findings));
   RETURN_IF_ERROR(appended.status());
   log::Info("map_repaired", {{"robot_id", request.robot_id},
                              {"base_version", static_cast<long long>(request.base_version)},
@@ -575,13 +598,14 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRequest& 
   return result;
 }
 
-storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version, bool approve,
-                                                          const std::string& reviewed_by) {
+storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version,
+                                                          bool approve, const std::string& reviewed_by) {
   if (approve) {
     ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
     const storage::MapVersionRecord* pending = FindRecord(versions, version);
     const storage::MapVersionRecord* current = Current(versions);
-    if (pending != nullptr && pending->approval == "pending" && current != nullptr && current->version > version) {
+    if (pending != nullptr && pending->approval == "pending" && current != nullptr &&
+        current->version > version) {
       return ApproveOvertaken(versions, *pending, *current, reviewed_by);
     }
   }
@@ -595,18 +619,21 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& rob
   return ToProto(reviewed, current && current->version == version);
 }
 
-storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::vector<storage::MapVersionRecord>& versions,
-                                                                    const storage::MapVersionRecord& pending,
-                                                                    const storage::MapVersionRecord& current,
-                                                                    const std::string& reviewed_by) {
-  const std::string overtaken = "version " + std::to_string(pending.version) + " of robot " + pending.robot_id +
-                                " was overtaken by version " + std::to_string(current.version);
-  const std::string instead = "; reject it, or repair version " + std::to_string(current.version) + " instead";
+storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(
+    const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& pending,
+    const storage::MapVersionRecord& current, const std::string& reviewed_by) {
+  const std::string overtaken = "version " + std::to_string(pending.version) + " of robot " +
+                                pending.robot_id + " was overtaken by version " +
+                                std::to_string(current.version);
+  const std::string instead =
+      "; reject it, or repair version " + std::to_string(current.version) + " instead";
   if (pending.origin != "repair") {
     return storage::FailedPrecondition(overtaken + ": a " + pending.origin +
-                                       " cannot be carried onto a later map (it would drop the runs since)" + instead);
+                                       " cannot be carried onto a later map (it would drop the runs since)" +
+                                       instead);
   }
-  const storage::MapVersionRecord* base = pending.parent_version ? FindRecord(versions, *pending.parent_version) : nullptr;
+  const storage::MapVersionRecord* base =
+      pending.parent_version ? FindRecord(versions, *pending.parent_version) : nullptr;
   if (base == nullptr || !IsBuiltOn(versions, current, base->version) || current.run_id.empty()) {
     return storage::FailedPrecondition(overtaken + ", which is not a run's map built on version " +
                                        (base ? std::to_string(base->version) : std::string("?")) +
@@ -617,7 +644,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
   ASSIGN_OR_RETURN(const slamcore::Map current_map, LoadMap(repository_, current.snapshot_id));
   std::string carried_detail;
   auto carried = analyzer::CarryRepairForward(base_map, pending_map, current_map, &carried_detail);
-  if (!carried.ok()) return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
+  if (!carried.ok())
+    return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
   ASSIGN_OR_RETURN(const std::string stored,
                    repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*carried))));
   ASSIGN_OR_RETURN(const RunContext context, LoadRunContext(repository_, {current.robot_id, current.run_id},
@@ -643,8 +671,9 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
   return appended.version;
 }
 
-storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id, std::int64_t held_version,
-                                                         bool* up_to_date, fleet::v1::MapSnapshot* snapshot) {
+storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id,
+                                                         std::int64_t held_version, bool* up_to_date,
+                                                         fleet::v1::MapSnapshot* snapshot) {
   ASSIGN_OR_RETURN(auto current, Resolve(robot_id, 0));
   *up_to_date = held_version == current.version;
   if (!*up_to_date) {
@@ -655,7 +684,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robo
 }
 
 storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const storage::RunKey& run,
-                                                                       const slamcore::Map& map) {
+                                                                        const slamcore::Map& map) {
   ASSIGN_OR_RETURN(auto parent, LoadRunParent(repository_, run));
   return analyzer::NodesAddedByRun(map, parent);
 }
@@ -663,12 +692,14 @@ storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const st
 storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& robot_id,
                                                           const fleet::v1::MapSnapshot& snapshot,
                                                           const fleet::v1::MapMetadata& metadata,
-                                                          const std::string& source, const std::string& reason,
-                                                          bool approve, const std::string& requested_by) {
+                                                          const std::string& source,
+                                                          const std::string& reason, bool approve,
+                                                          const std::string& requested_by) {
   RETURN_IF_ERROR(analyzer::ValidateMetadata(metadata));
   ASSIGN_OR_RETURN(auto map, analyzer::FromProto(snapshot, "snapshot"));
   if (map.local_maps.empty()) {
-    return storage::InvalidArgument("snapshot: no local map on any node; an imported map needs its occupancy grid");
+    return storage::InvalidArgument(
+        "snapshot: no local map on any node; an imported map needs its occupancy grid");
   }
   if (const fleet::v1::ImportedMapInfo& info = snapshot.imported(); snapshot.has_imported()) {
     if (info.format() != "valetudo" && info.format() != "map_server") {
@@ -679,7 +710,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
                                           std::tuple{"robot", info.has_robot(), info.robot()}}) {
       if (has && !(std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta()) &&
                    std::abs(pose.x()) < 1e6 && std::abs(pose.y()) < 1e6)) {
-        return storage::InvalidArgument(std::string("snapshot.imported.") + name + ": not a finite pose within 1000 km");
+        return storage::InvalidArgument(std::string("snapshot.imported.") + name +
+                                        ": not a finite pose within 1000 km");
       }
     }
   }
@@ -692,7 +724,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
     return robot.status();
   }
   fleet::v1::MapSnapshot stored_snapshot = analyzer::ToProto(map);
-  if (snapshot.has_imported()) *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
+  if (snapshot.has_imported())
+    *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
   ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(fleet::SerializeDeterministic(stored_snapshot)));
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   const storage::MapVersionRecord* head = Head(versions);
@@ -724,7 +757,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
 }
 
 storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
-    const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map, const storage::MapVersionRecord* reference) {
+    const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map,
+    const storage::MapVersionRecord* reference) {
   std::vector<fleet::v1::MapFinding> findings = analyzer::FindMapFindings({.map = &map});
   if (reference == nullptr) return findings;
   ASSIGN_OR_RETURN(auto previous, LoadComparedMap(repository_, reference->snapshot_id));
@@ -740,8 +774,8 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
   } else {
     classifier = DefaultClassifier();
   }
-  auto comparison =
-      analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(snapshot), classifier.get());
+  auto comparison = analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(snapshot),
+                                           classifier.get());
   if (!comparison.ok()) {
     // Nothing to align by (a map without walls, another resolution): the version is kept, and says so.
     fleet::v1::MapFinding& finding = findings.emplace_back();
@@ -755,30 +789,32 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
   return MergeFindings(std::move(findings), analyzer::ComparisonFindings(*comparison, reference->version));
 }
 
-storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest& request,
-                                                            const storage::MapVersionRecord& base,
-                                                            const std::vector<storage::MapVersionRecord>& versions) {
+storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(
+    const RepairRequest& request, const storage::MapVersionRecord& base,
+    const std::vector<storage::MapVersionRecord>& versions) {
   const std::string name = "version " + std::to_string(base.version);
   const auto* cut_finding = std::get_if<CutFinding>(&request.action);
   const bool rollback = std::holds_alternative<Rollback>(request.action);
   if (!rollback && cut_finding == nullptr) {
-    return storage::FailedPrecondition(name + " is a map without a run (imported): \"" +
-                                       RepairActionName(request.action) +
-                                       "\" does not apply; rollback, cut_finding of a new_region and undo do");
+    return storage::FailedPrecondition(
+        name + " is a map without a run (imported): \"" + RepairActionName(request.action) +
+        "\" does not apply; rollback, cut_finding of a new_region and undo do");
   }
   const storage::MapVersionRecord* reference = ComparisonReference(versions, base);
   if (reference == nullptr) {
-    return storage::FailedPrecondition(name + " comes from the robot's first imported map: there is no earlier map to " +
-                                       (rollback ? "roll back to" : "cut back to"));
+    return storage::FailedPrecondition(
+        name + " comes from the robot's first imported map: there is no earlier map to " +
+        (rollback ? "roll back to" : "cut back to"));
   }
   if (rollback) {
     auto restored = LoadMap(repository_, reference->snapshot_id);
     RETURN_IF_ERROR(restored.status());
     ASSIGN_OR_RETURN(auto restored_snapshot, LoadSnapshot(repository_, reference->snapshot_id));
     ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(restored_snapshot, *restored, reference));
-    return AppendRepair(request, base, *restored, reference->snapshot_id, "rollback",
-                        "back to version " + std::to_string(reference->version) + ", the map before the import",
-                        findings, reference->version);
+    return AppendRepair(
+        request, base, *restored, reference->snapshot_id, "rollback",
+        "back to version " + std::to_string(reference->version) + ", the map before the import", findings,
+        reference->version);
   }
   // cut_finding: the finding must be a new region of this version; its cells take the previous map's values.
   ASSIGN_OR_RETURN(auto detail, Get(request.robot_id, base.version));
@@ -786,14 +822,17 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   for (const fleet::v1::MapFinding& candidate : detail.findings) {
     if (candidate.finding_id() == cut_finding->finding_id) finding = &candidate;
   }
-  if (finding == nullptr) return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
+  if (finding == nullptr)
+    return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
   if (finding->kind() != "new_region") {
-    return storage::InvalidArgument("finding " + std::to_string(cut_finding->finding_id) + " is a " + finding->kind() +
-                                    ", not a new_region that can be cut");
+    return storage::InvalidArgument("finding " + std::to_string(cut_finding->finding_id) + " is a " +
+                                    finding->kind() + ", not a new_region that can be cut");
   }
   const nlohmann::json evidence = nlohmann::json::parse(finding->evidence_json(), nullptr, false);
-  if (!evidence.is_object() || !evidence.contains("region_id") || !evidence["region_id"].is_number_integer()) {
-    return storage::DataLoss("finding " + std::to_string(cut_finding->finding_id) + ": evidence has no region_id");
+  if (!evidence.is_object() || !evidence.contains("region_id") ||
+      !evidence["region_id"].is_number_integer()) {
+    return storage::DataLoss("finding " + std::to_string(cut_finding->finding_id) +
+                             ": evidence has no region_id");
   }
   const int region_id = evidence["region_id"].get<int>();
   ASSIGN_OR_RETURN(auto base_snapshot, LoadSnapshot(repository_, base.snapshot_id));
@@ -801,14 +840,14 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   ASSIGN_OR_RETURN(auto previous, LoadComparedMap(repository_, reference->snapshot_id));
   ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(base_map));
   // The comparison again (deterministic: the same regions and ids as when the finding was made).
-  ASSIGN_OR_RETURN(auto comparison,
-                   analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(base_snapshot),
-                                           nullptr));
+  ASSIGN_OR_RETURN(auto comparison, analyzer::CompareGrids(previous.grid, grid, previous.dock,
+                                                           analyzer::DockOf(base_snapshot), nullptr));
   const slamcore::ProtrusionRegion* region = nullptr;
   for (const analyzer::ChangedRegion& changed : comparison.new_regions) {
     if (changed.region.id == region_id) region = &changed.region;
   }
-  if (region == nullptr) return storage::DataLoss(name + " no longer shows region " + std::to_string(region_id));
+  if (region == nullptr)
+    return storage::DataLoss(name + " no longer shows region " + std::to_string(region_id));
   const slamcore::Map repaired = analyzer::MapOfGrid(
       slamcore::RepairChild(comparison.aligned_previous, grid, {region}, slamcore::RepairMode::kCutOut));
   fleet::v1::MapSnapshot repaired_snapshot = analyzer::ToProto(repaired);
@@ -817,12 +856,14 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   RETURN_IF_ERROR(stored.status());
   ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(repaired_snapshot, repaired, reference));
   return AppendRepair(request, base, repaired, *stored, "repair",
-                      "cut new region " + std::to_string(region_id) + " (" + std::to_string(region->cells.size()) +
-                          " cells) back to version " + std::to_string(reference->version) + "'s cells",
+                      "cut new region " + std::to_string(region_id) + " (" +
+                          std::to_string(region->cells.size()) + " cells) back to version " +
+                          std::to_string(reference->version) + "'s cells",
                       findings, base.version);
 }
 
-storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
+storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id,
+                                                                         std::int64_t version,
                                                                          const std::string& format) {
   auto record = Resolve(robot_id, version);
   RETURN_IF_ERROR(record.status());
@@ -834,10 +875,14 @@ storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const s
   auto stored = repository_.GetMapMetadata(robot_id, record->version);
   RETURN_IF_ERROR(stored.status());
   fleet::v1::MapMetadata metadata;
-  if (!metadata.ParseFromString(*stored)) return storage::DataLoss("metadata of map version " + std::to_string(record->version) + " does not parse");
-  if (!analyzer::HasContent(metadata) && snapshot->has_imported()) metadata = analyzer::MetadataOfImported(snapshot->imported());
-  ASSIGN_OR_RETURN(auto files,
-                   analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version), &metadata));
+  if (!metadata.ParseFromString(*stored))
+    return storage::DataLoss("metadata of map version " + std::to_string(record->version) +
+                             " does not parse");
+  if (!analyzer::HasContent(metadata) && snapshot->has_imported())
+    metadata = analyzer::MetadataOfImported(snapshot->imported());
+  ASSIGN_OR_RETURN(
+      auto files,
+      analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version), &metadata));
   return files;
 }
 

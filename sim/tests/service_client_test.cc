@@ -22,7 +22,8 @@ using slamcore::StatusCode;
 class RefusingMaps final : public fleet::v1::Maps::Service {
  public:
   std::atomic<int> code{grpc::StatusCode::UNAVAILABLE};
-  grpc::Status GetMap(grpc::ServerContext*, const fleet::v1::GetMapRequest*, fleet::v1::GetMapResponse*) override {
+  grpc::Status GetMap(grpc::ServerContext*, const fleet::v1::GetMapRequest*,
+                      fleet::v1::GetMapResponse*) override {
     return {static_cast<grpc::StatusCode>(code.load()), "told to refuse"};
   }
   grpc::Status ListMapVersions(grpc::ServerContext*, const fleet::v1::ListMapVersionsRequest*,
@@ -96,8 +97,10 @@ TEST_F(ServiceClientTest, SameNamedCodesStayTheirNameOthersTheNearestMeaning) {
     EXPECT_THAT(client.ApprovePending("engineer:e.secret", "r1"), StatusIs(code, "Maps.ListMapVersions: "));
   }
   EXPECT_THAT(client.MintToken("admin:root.secret", "robot:r1"),
-              StatusIs(StatusCode::kFailedPrecondition, "Admin.SetCredential: PERMISSION_DENIED: needs the admin role"));
-  EXPECT_THAT(client.WaitForJob("engineer:e.secret", 7), StatusIs(StatusCode::kNotFound, "Reprocessing.GetJob: NOT_FOUND"));
+              StatusIs(StatusCode::kFailedPrecondition,
+                       "Admin.SetCredential: PERMISSION_DENIED: needs the admin role"));
+  EXPECT_THAT(client.WaitForJob("engineer:e.secret", 7),
+              StatusIs(StatusCode::kNotFound, "Reprocessing.GetJob: NOT_FOUND"));
 }
 
 TEST_F(ServiceClientTest, NoApprovedMapYetIsUpToDate) {

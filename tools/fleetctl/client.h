@@ -95,7 +95,8 @@ class Client {
 };
 
 inline int Fail(const grpc::Status& status) {
-  std::cerr << "fleetctl: " << fleet::GrpcCodeName(status.error_code()) << ": " << status.error_message() << "\n";
+  std::cerr << "fleetctl: " << fleet::GrpcCodeName(status.error_code()) << ": " << status.error_message()
+            << "\n";
   return 1;
 }
 

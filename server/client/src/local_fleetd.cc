@@ -99,7 +99,8 @@ slamcore::Status LocalFleetd::Start(const LocalFleetdOptions& options) {
     if (http != addresses.end() && http->is_string()) http_ = http->get<std::string>();
   } catch (const std::exception&) {
     Stop();
-    return slamcore::FailedPrecondition("fleetd " + binary.string() + " did not start (see " + log_path_.string() +
+    return slamcore::FailedPrecondition("fleetd " + binary.string() + " did not start (see " +
+                                        log_path_.string() +
                                         (line.empty() ? ")" : "; it printed \"" + line + "\")"));
   }
   return slamcore::Status::Ok();

@@ -21,13 +21,11 @@ bool RetryableUpload(int code, const std::string& message) {
   switch (static_cast<grpc::StatusCode>(code)) {
     case grpc::StatusCode::UNAVAILABLE:
     case grpc::StatusCode::DEADLINE_EXCEEDED:
-    case grpc::StatusCode::ABORTED:
-      return true;
+    case grpc::StatusCode::ABORTED: return true;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
       // gRPC itself refuses a message over the peer's size limit with this code; it never fits.
       return message.find("larger than max") == std::string::npos;
-    default:
-      return false;
+    default: return false;
   }
 }
 
@@ -110,7 +108,8 @@ class Uploader::Impl {
         break;
       }
       outcome.message = std::string(fleet::GrpcCodeName(status.error_code())) + ": " + status.error_message();
-      if (!RetryableUpload(status.error_code(), status.error_message()) || attempt == options_.max_attempts) break;
+      if (!RetryableUpload(status.error_code(), status.error_message()) || attempt == options_.max_attempts)
+        break;
       std::uniform_int_distribution<long> jitter(0, backoff.count() / 2);
       std::this_thread::sleep_for(backoff + std::chrono::milliseconds(jitter(random)));
       backoff = std::min(backoff * 2, std::chrono::milliseconds(10000));
@@ -156,7 +155,7 @@ class Uploader::Impl {
 
   const UploaderOptions options_;
   std::unique_ptr<fleet::v1::Ingest::Stub> stub_;
-  std::mutex mutex_;  // guards known_
+  std::mutex mutex_;                       // guards known_
   std::unordered_set<std::string> known_;  // snapshot ids the server confirmed
 };
 

@@ -21,7 +21,8 @@ TEST(RetryableUploadTest, RetriesWhatMaySucceedLaterOnly) {
   EXPECT_TRUE(RetryableUpload(grpc::StatusCode::UNAVAILABLE, "database is read-only"));
   EXPECT_TRUE(RetryableUpload(grpc::StatusCode::DEADLINE_EXCEEDED, ""));
   EXPECT_TRUE(RetryableUpload(grpc::StatusCode::ABORTED, ""));
-  EXPECT_TRUE(RetryableUpload(grpc::StatusCode::RESOURCE_EXHAUSTED, "rate limit exceeded for robot:r1; retry later"));
+  EXPECT_TRUE(
+      RetryableUpload(grpc::StatusCode::RESOURCE_EXHAUSTED, "rate limit exceeded for robot:r1; retry later"));
   EXPECT_FALSE(RetryableUpload(grpc::StatusCode::RESOURCE_EXHAUSTED,
                                "Received message larger than max (70000000 vs. 67108864)"));
   EXPECT_FALSE(RetryableUpload(grpc::StatusCode::INVALID_ARGUMENT, "events[3]: not finite"));

@@ -57,7 +57,7 @@ struct RunRecord {
   std::int64_t ended_at_ms = 0;
   std::optional<std::string> parent_snapshot_id;  // must name a stored snapshot when set
   std::optional<std::string> child_snapshot_id;   // must name a stored snapshot when set
-  std::string telemetry;  // raw event stream; ListRuns leaves it empty (see telemetry_size)
+  std::string telemetry;            // raw event stream; ListRuns leaves it empty (see telemetry_size)
   std::int64_t telemetry_size = 0;  // filled on read: uncompressed size in bytes
   // Filled on read: when retention pruned the run's events (telemetry is then empty); the run's metadata,
   // reports and map versions stay.
@@ -119,9 +119,9 @@ struct BoundingBox {
 /// A protrusion region found in a run with a parameter set, with its features, the classifier's guess and,
 /// once an engineer looked at it, a label.
 struct ProtrusionRegionRecord {
-  std::string robot_id;       // filled on read; taken from the report on write
-  std::string run_id;         // filled on read; taken from the report on write
-  std::string parameter_set;  // filled on read; taken from the report on write
+  std::string robot_id;        // filled on read; taken from the report on write
+  std::string run_id;          // filled on read; taken from the report on write
+  std::string parameter_set;   // filled on read; taken from the report on write
   std::int64_t region_id = 0;  // unique within the report
   BoundingBox bbox;
   std::string features_json;
@@ -209,7 +209,7 @@ struct RunCursor {
 };
 
 struct RunPage {
-  std::vector<RunRecord> runs;  // ordered by (started_at_ms, run_id, robot_id); telemetry not loaded
+  std::vector<RunRecord> runs;    // ordered by (started_at_ms, run_id, robot_id); telemetry not loaded
   std::optional<RunCursor> next;  // absent on the last page
 };
 
@@ -253,15 +253,15 @@ struct MapVersionRecord {
   std::string robot_id;
   std::int64_t version = 0;  // assigned by AppendMapVersion
   std::optional<std::int64_t> parent_version;
-  std::string snapshot_id;   // must name a stored snapshot
-  std::string origin;        // "upload", "repair", "rollback", "undo"
-  std::string run_id;        // uploads: their run (one version per run); repairs: the run their chain started from
-  std::string action;        // repairs: what was done ("reject_edge", ...); empty for uploads
+  std::string snapshot_id;  // must name a stored snapshot
+  std::string origin;       // "upload", "repair", "rollback", "undo"
+  std::string run_id;  // uploads: their run (one version per run); repairs: the run their chain started from
+  std::string action;  // repairs: what was done ("reject_edge", ...); empty for uploads
   std::string action_detail;
   std::string created_by;
   std::string reason;
   std::int64_t created_at_ms = 0;
-  std::string approval;      // "approved", "pending", "rejected", "stale"
+  std::string approval;  // "approved", "pending", "rejected", "stale"
   std::string approved_by;
   std::int64_t approved_at_ms = 0;
   // Size and health figures, computed when the version is made.
@@ -288,7 +288,7 @@ struct MapFindingRecord {
   std::string kind;
   double severity = 0.0;
   std::string summary;
-  std::string state;            // "open", "resolved" or "info" (evidence, nothing to repair)
+  std::string state;  // "open", "resolved" or "info" (evidence, nothing to repair)
   std::string detail_json;
 };
 
@@ -297,16 +297,16 @@ enum class InsertOutcome { kInserted, kAlreadyPresent };
 /// What Repository::DeleteRobot removed, table by table.
 struct RobotErasure {
   std::int64_t runs = 0;
-  std::int64_t reports = 0;            // of every parameter set
+  std::int64_t reports = 0;  // of every parameter set
   std::int64_t decisions = 0;
   std::int64_t ambiguous_views = 0;
   std::int64_t protrusion_regions = 0;  // with their labels
   std::int64_t map_versions = 0;
   std::int64_t map_findings = 0;
-  std::int64_t snapshots = 0;          // those no other robot's run or map version names
+  std::int64_t snapshots = 0;  // those no other robot's run or map version names
   std::int64_t jobs = 0;
-  std::int64_t credentials = 0;      // deleted; the erasure takes a credential epoch so other processes drop it
-  std::int64_t map_metadata = 0;     // imported maps' metadata of its versions
+  std::int64_t credentials = 0;   // deleted; the erasure takes a credential epoch so other processes drop it
+  std::int64_t map_metadata = 0;  // imported maps' metadata of its versions
 };
 
 /// One entry of the audit log: who did what to which subject, when, with counts (JSON, opaque to storage).
@@ -316,7 +316,7 @@ struct AuditEntry {
   std::string actor;          // the principal, or "fleetd:retention"
   std::string action;         // "delete_robot", "prune_run_events", "prune_jobs", "set_credential",
                               // "rotate_credential", "revoke_credential"
-  std::string subject;        // the robot id or principal; for retention the policy, e.g. "uploaded before <ms>"
+  std::string subject;  // the robot id or principal; for retention the policy, e.g. "uploaded before <ms>"
   std::string detail_json;
 };
 

@@ -16,13 +16,13 @@
 namespace fleet_client {
 
 struct LocalFleetdOptions {
-  std::filesystem::path binary;      // the fleetd executable
-  std::filesystem::path directory;   // created when missing; holds fleet.db and fleetd.log
+  std::filesystem::path binary;     // the fleetd executable
+  std::filesystem::path directory;  // created when missing; holds fleet.db and fleetd.log
   /// After the defaults `--db sqlite:DIRECTORY/fleet.db --listen 127.0.0.1:0 --http 127.0.0.1:0`; a flag named
   /// here replaces the default of that name (`--http ""`: no HTTP listener).
   std::vector<std::string> flags;
-  std::string admin_token;           // FLEETD_BOOTSTRAP_ADMIN_TOKEN in the child's environment; empty: not set
-  std::function<void()> in_child;    // runs in the child just before exec (e.g. to enter a mount namespace)
+  std::string admin_token;         // FLEETD_BOOTSTRAP_ADMIN_TOKEN in the child's environment; empty: not set
+  std::function<void()> in_child;  // runs in the child just before exec (e.g. to enter a mount namespace)
 };
 
 class LocalFleetd {
