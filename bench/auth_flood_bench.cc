@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "fleet/v1/service.grpc.pb.h"
-#include "fleetd_child.h"
+#include "fleet_client/local_fleetd.h"
 
 namespace {
 
@@ -71,12 +71,17 @@ int main(int argc, char** argv) {
   const std::filesystem::path directory = mkdtemp(pattern);
   int exit_code = 0;
   {
-    bench::FleetdChild fleetd(binary, directory, kAdmin, {"--workers", "1", "--rate-limit", "0"});
-    if (fleetd.grpc.empty()) {
-      std::fprintf(stderr, "fleetd did not start (log in %s)\n", directory.c_str());
+    fleet_client::LocalFleetdOptions options;
+    options.binary = binary;
+    options.directory = directory;
+    options.flags = {"--http", "", "--workers", "1", "--rate-limit", "0"};
+    options.admin_token = kAdmin;
+    fleet_client::LocalFleetd fleetd;
+    if (const slamcore::Status started = fleetd.Start(options); !started.ok()) {
+      std::fprintf(stderr, "%s\n", started.ToString().c_str());
       return 1;
     }
-    auto channel = grpc::CreateChannel(fleetd.grpc, grpc::InsecureChannelCredentials());
+    auto channel = grpc::CreateChannel(fleetd.grpc_address(), grpc::InsecureChannelCredentials());
     auto queries = fleet::v1::Queries::NewStub(channel);
     auto admin = fleet::v1::Admin::NewStub(channel);
     const std::string engineer = Mint(*admin, "engineer:bench");
@@ -99,7 +104,7 @@ int main(int argc, char** argv) {
         grpc::ChannelArguments arguments;
         arguments.SetInt("flood_thread", t);  // a channel (connection) of its own
         auto own = fleet::v1::Queries::NewStub(
-            grpc::CreateCustomChannel(fleetd.grpc, grpc::InsecureChannelCredentials(), arguments));
+            grpc::CreateCustomChannel(fleetd.grpc_address(), grpc::InsecureChannelCredentials(), arguments));
         while (sent.fetch_add(1) < kBadTokens) {
           const auto [seconds, status] = ListRuns(*own, victim_principal + "." + std::string(64, '0'));
           if (status.error_message().find("too many failed attempts") != std::string::npos) ++refused_fast;

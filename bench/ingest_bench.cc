@@ -26,11 +26,11 @@
 
 #include "analyzer/run_analysis.h"
 #include "bench_report.h"
-#include "fleetd_child.h"
+#include "fleet_client/local_fleetd.h"
+#include "fleet_client/uploader.h"
 #include "server/analysis.h"
 #include "server/fleet_server.h"
 #include "sim/run_simulator.h"
-#include "sim/uploader.h"
 #include "sim/world.h"
 #include "storage/repository.h"
 
@@ -72,11 +72,19 @@ std::filesystem::path TempDirectory() {
   return mkdtemp(pattern);
 }
 
-// A fleetd process with analysis workers off (role=server).
-struct Fleetd : bench::FleetdChild {
-  explicit Fleetd(const std::filesystem::path& directory)
-      : FleetdChild(FLEETD_BINARY, directory, kAdmin, {"--role", "server", "--rate-limit", "0"}) {}
-};
+// A fleetd process with analysis workers off (role=server), without HTTP; its log in `directory`.
+std::unique_ptr<fleet_client::LocalFleetd> StartFleetd(const std::filesystem::path& directory) {
+  fleet_client::LocalFleetdOptions options;
+  options.binary = FLEETD_BINARY;
+  options.directory = directory;
+  options.flags = {"--http", "", "--role", "server", "--rate-limit", "0"};
+  options.admin_token = kAdmin;
+  auto fleetd = std::make_unique<fleet_client::LocalFleetd>();
+  if (const slamcore::Status started = fleetd->Start(options); !started.ok()) {
+    std::fprintf(stderr, "%s\n", started.ToString().c_str());
+  }
+  return fleetd;
+}
 
 std::mutex g_latency_mutex;
 std::vector<double> g_latencies;
@@ -126,15 +134,15 @@ void Ingest_candidate(benchmark::State& state) {
   for (auto _ : state) {
     state.PauseTiming();
     const auto directory = TempDirectory();
-    auto server = std::make_unique<Fleetd>(directory);
-    if (server->grpc.empty()) {
+    auto server = StartFleetd(directory);
+    if (!server->running()) {
       state.SkipWithError("fleetd did not start");
       return;
     }
-    sim::UploaderOptions options;
-    options.server = server->grpc;
+    fleet_client::UploaderOptions options;
+    options.server = server->grpc_address();
     options.token = kAdmin;
-    sim::Uploader uploader(options);
+    fleet_client::Uploader uploader(options);
     state.ResumeTiming();
     std::atomic<std::size_t> next{0};
     std::vector<std::thread> threads;

@@ -10,8 +10,9 @@
 // 2. Baseline: one robot at a time uploads back to back for --baseline-seconds (default min(10 s,
 //    seconds / 4)), split evenly over the servers in turn (a robot stays with one server, as in the load). A
 //    server that acknowledges none of its uploads is named and the program exits 1.
-// 3. Load: --robots robots, one thread and one sim::Uploader (own connection) each, round-robin over the servers,
-//    upload back to back until --seconds have passed; uploads in flight at the deadline finish and count.
+// 3. Load: --robots robots, one thread and one fleet_client::Uploader (own connection) each, round-robin over
+//    the servers, upload back to back until --seconds have passed; uploads in flight at the deadline finish and
+//    count.
 //
 // Every upload is a distinct run: robot i replays pool run i mod pool (the same home every time) with its own
 // robot id, a new run id, and all clocks (header, events, map nodes) an hour after the previous upload.
@@ -48,9 +49,10 @@
 #include <unistd.h>
 #include <vector>
 
+#include "fleet/status_codes.h"
+#include "fleet_client/uploader.h"
 #include "sim/run_simulator.h"
 #include "sim/sim_params.h"
-#include "sim/uploader.h"
 #include "sim/world.h"
 
 namespace {
@@ -136,7 +138,7 @@ struct UploadStats {
   std::map<std::string, std::int64_t> acknowledged_by_server, errors_by_server;
   std::map<std::string, std::string> first_error_by_server;
 
-  void Add(const std::string& server, const sim::UploadOutcome& outcome, std::int64_t upload_bytes) {
+  void Add(const std::string& server, const fleet_client::UploadOutcome& outcome, std::int64_t upload_bytes) {
     if (outcome.attempts > 1) ++retried;
     if (outcome.ok) {
       latencies.push_back(outcome.seconds);
@@ -147,7 +149,7 @@ struct UploadStats {
       bytes += upload_bytes;
       return;
     }
-    const std::string code = sim::StatusCodeName(outcome.code);
+    const std::string code = fleet::GrpcCodeName(outcome.code);
     ++errors_by_code[code];
     first_error_by_code.try_emplace(code, outcome.message);
     ++errors_by_server[server];
@@ -235,21 +237,21 @@ struct RobotPlan {
 };
 
 /// One robot uploading back to back to `server` until the deadline.
-void UploadUntilDeadline(const RobotPlan& robot, sim::Uploader& uploader, const std::string& server,
+void UploadUntilDeadline(const RobotPlan& robot, fleet_client::Uploader& uploader, const std::string& server,
                          SharedUploadState& shared, UploadStats& stats) {
   const fleet::v1::RunFile& pooled = shared.pool[robot.pool_index % shared.pool.size()];
   for (std::size_t k = 0; Clock::now() < shared.deadline; ++k) {
     const fleet::v1::RunFile run = RelabelRun(
         pooled, robot.robot_id, robot.robot_id + "-run-" + std::to_string(k), shared.next_sequence++);
     const auto bytes = static_cast<std::int64_t>(run.ByteSizeLong());
-    const sim::UploadOutcome outcome = uploader.Upload(run);
+    const fleet_client::UploadOutcome outcome = uploader.Upload(run);
     stats.Add(server, outcome, bytes);
     ++(outcome.ok ? shared.acknowledged : shared.errors);
   }
 }
 
-sim::UploaderOptions MakeUploaderOptions(const LoadOptions& options, const std::string& server) {
-  sim::UploaderOptions uploader;
+fleet_client::UploaderOptions MakeUploaderOptions(const LoadOptions& options, const std::string& server) {
+  fleet_client::UploaderOptions uploader;
   uploader.server = server;
   uploader.token = options.token;
   uploader.max_attempts = options.max_attempts;
@@ -263,7 +265,7 @@ PhaseResult RunBaseline(const LoadOptions& options, const std::string& run_tag, 
   const auto start = Clock::now();
   const double share = options.baseline_seconds / static_cast<double>(options.servers.size());
   for (std::size_t s = 0; s < options.servers.size(); ++s) {
-    sim::Uploader uploader(MakeUploaderOptions(options, options.servers[s]));
+    fleet_client::Uploader uploader(MakeUploaderOptions(options, options.servers[s]));
     shared.deadline = start + std::chrono::duration_cast<Clock::duration>(
                                   std::chrono::duration<double>(share * static_cast<double>(s + 1)));
     UploadUntilDeadline({run_tag + "-baseline-" + std::to_string(s), s}, uploader, options.servers[s], shared,
@@ -277,12 +279,12 @@ PhaseResult RunBaseline(const LoadOptions& options, const std::string& run_tag, 
 /// `options.robots` robots, one thread and one uploader each, servers round-robin.
 PhaseResult RunLoad(const LoadOptions& options, const std::string& run_tag, SharedUploadState& shared) {
   const auto robot_count = static_cast<std::size_t>(options.robots);
-  std::vector<std::unique_ptr<sim::Uploader>> uploaders;
+  std::vector<std::unique_ptr<fleet_client::Uploader>> uploaders;
   std::vector<std::string> server_of_robot;
   for (std::size_t i = 0; i < robot_count; ++i) {
     server_of_robot.push_back(options.servers[i % options.servers.size()]);
     uploaders.push_back(
-        std::make_unique<sim::Uploader>(MakeUploaderOptions(options, server_of_robot.back())));
+        std::make_unique<fleet_client::Uploader>(MakeUploaderOptions(options, server_of_robot.back())));
   }
   std::vector<UploadStats> stats(robot_count);
   shared.acknowledged = 0;

@@ -8,8 +8,8 @@
 //
 //   fleetsim ... --upload HOST:PORT --token T [--upload-threads K]
 //
-// also uploads every run to fleetd like a robot (sim/uploader.h: retries with backoff; runs of one robot in
-// order, robots in parallel); the token comes from --token-file, FLEET_TOKEN_FILE, FLEET_TOKEN or --token.
+// also uploads every run to fleetd like a robot (fleet_client/upload_files.h: retries with backoff; runs of one
+// robot in order, robots in parallel); the token comes from --token-file, FLEET_TOKEN_FILE, FLEET_TOKEN or --token.
 //
 //   fleetsim ... [--home-clutter typical|high] [--stuck-rate-scale X] [--lidar-share F] [--protrusion-data DIR]
 //
@@ -31,12 +31,12 @@
 #include <fstream>
 #include <iostream>
 
+#include "fleet_client/local_fleetd.h"
+#include "fleet_client/upload_files.h"
+#include "fleet_client/uploader.h"
 #include "sim/fleet.h"
 #include "sim/follow_service.h"
-#include "sim/fleetd_launcher.h"
 #include "sim/lifelong.h"
-#include "sim/upload_files.h"
-#include "sim/uploader.h"
 
 namespace {
 
@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
   app.add_option("--protrusion-data", protrusion_data,
                  "write each run's parent/child maps with per-cell truth here (protrusion data-set layout)");
   app.add_flag("--json", json, "print the statistics as one JSON object on the last line");
-  sim::UploadFilesOptions upload;
+  fleet_client::UploadFilesOptions upload;
   app.add_option("--upload", upload.uploader.server, "also upload every run to this fleetd (host:port)");
   std::string token_file;
   app.add_option("--token", upload.uploader.token,
@@ -169,7 +169,7 @@ int main(int argc, char** argv) {
       if (comma > start) life.regimes.push_back(regimes.substr(start, comma - start));
       start = comma + 1;
     }
-    life.fleetd = fleetd.empty() ? sim::FleetdBesideThisProgram() : std::filesystem::path(fleetd);
+    life.fleetd = fleetd.empty() ? fleet_client::FleetdBesideThisProgram() : std::filesystem::path(fleetd);
     life.work_dir = work_dir.empty() ? std::filesystem::temp_directory_path() /
                                            ("fleetsim-lifelong-" + std::to_string(getpid()))
                                      : std::filesystem::path(work_dir);
@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
       token_file = std::getenv("FLEET_TOKEN_FILE");
     if (!token_file.empty()) {
       std::string error;
-      auto token = sim::ReadTokenFile(token_file, &error);
+      auto token = fleet_client::ReadTokenFile(token_file, &error);
       if (!token) {
         std::cerr << "fleetsim: " << error << "\n";
         return 2;
@@ -223,7 +223,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (!upload.uploader.server.empty() && !follow) {
-    const auto uploaded = sim::UploadFiles({out}, upload);
+    const auto uploaded = fleet_client::UploadFiles({out}, upload);
     std::fprintf(stderr, "fleetsim: %s\n", uploaded.Summary().c_str());
     if (uploaded.failed > 0) return 1;
   }

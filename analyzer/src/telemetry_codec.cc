@@ -4,9 +4,6 @@
 #include <optional>
 #include <sstream>
 
-#include <google/protobuf/io/coded_stream.h>
-#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
-
 #include <cmath>
 
 namespace analyzer {
@@ -323,16 +320,6 @@ fleet::v1::MapSnapshot ToProto(const slamcore::Map& map) {
     *proto->mutable_local_map() = LocalMapToProto(it->second);
   }
   return snapshot;
-}
-
-std::string SerializeDeterministic(const google::protobuf::Message& message) {
-  std::string bytes;
-  google::protobuf::io::StringOutputStream stream(&bytes);
-  google::protobuf::io::CodedOutputStream coded(&stream);
-  coded.SetSerializationDeterministic(true);
-  message.SerializeToCodedStream(&coded);
-  coded.Trim();
-  return bytes;
 }
 
 std::optional<std::string> FindUnknownField(const google::protobuf::Message& message,

@@ -12,6 +12,7 @@
 #include "analyzer/map_metadata.h"
 #include "analyzer/map_repair.h"
 #include "analyzer/telemetry_codec.h"
+#include "fleet/serialization.h"
 #include "server/analysis.h"
 #include "server/log.h"
 
@@ -514,7 +515,7 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
             : analyzer::CutRegion(loaded, run_nodes, cut_box, &detail));
     repaired = std::move(edited);
     ASSIGN_OR_RETURN(auto stored,
-                     repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*repaired))));
+                     repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*repaired))));
     snapshot_id = stored;
   } else if (std::holds_alternative<Rollback>(request.action)) {
     ASSIGN_OR_RETURN(auto run, repository_.GetRun({base->robot_id, base->run_id}));
@@ -646,7 +647,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(
   if (!carried.ok())
     return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
   ASSIGN_OR_RETURN(const std::string stored,
-                   repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*carried))));
+                   repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*carried))));
   ASSIGN_OR_RETURN(const RunContext context, LoadRunContext(repository_, {current.robot_id, current.run_id},
                                                             policy_.default_parameter_set));
   const storage::MapVersionRecord* head = Head(versions);
@@ -725,7 +726,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   fleet::v1::MapSnapshot stored_snapshot = analyzer::ToProto(map);
   if (snapshot.has_imported())
     *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
-  ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(analyzer::SerializeDeterministic(stored_snapshot)));
+  ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(fleet::SerializeDeterministic(stored_snapshot)));
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   const storage::MapVersionRecord* head = Head(versions);
   ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(stored_snapshot, map, head));
@@ -735,7 +736,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   if (head) record->parent_version = head->version;
   record->origin = "import";
   record->action = "import";
-  if (analyzer::HasContent(metadata)) record->metadata = analyzer::SerializeDeterministic(metadata);
+  if (analyzer::HasContent(metadata)) record->metadata = fleet::SerializeDeterministic(metadata);
   record->action_detail = source;
   record->created_by = requested_by;
   record->reason = reason;
@@ -851,7 +852,7 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(
       slamcore::RepairChild(comparison.aligned_previous, grid, {region}, slamcore::RepairMode::kCutOut));
   fleet::v1::MapSnapshot repaired_snapshot = analyzer::ToProto(repaired);
   *repaired_snapshot.mutable_imported() = base_snapshot.imported();
-  auto stored = repository_.PutSnapshot(analyzer::SerializeDeterministic(repaired_snapshot));
+  auto stored = repository_.PutSnapshot(fleet::SerializeDeterministic(repaired_snapshot));
   RETURN_IF_ERROR(stored.status());
   ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(repaired_snapshot, repaired, reference));
   return AppendRepair(request, base, repaired, *stored, "repair",

@@ -1,22 +1,13 @@
 #include "service_context.h"
 
+#include "fleet/status_codes.h"
+
 namespace server {
 
-// The one mapping from the project's status codes to gRPC's (same names, same meaning).
+// The project's status codes to gRPC's by the one table (fleet/status_codes.h: same names, same meaning).
 grpc::Status ToGrpc(const slamcore::Status& status) {
-  using slamcore::StatusCode;
-  switch (status.code()) {
-    case StatusCode::kOk: return grpc::Status::OK;
-    case StatusCode::kInvalidArgument: return {grpc::StatusCode::INVALID_ARGUMENT, status.message()};
-    case StatusCode::kNotFound: return {grpc::StatusCode::NOT_FOUND, status.message()};
-    case StatusCode::kAlreadyExists: return {grpc::StatusCode::ALREADY_EXISTS, status.message()};
-    case StatusCode::kFailedPrecondition: return {grpc::StatusCode::FAILED_PRECONDITION, status.message()};
-    case StatusCode::kAborted: return {grpc::StatusCode::ABORTED, status.message()};
-    case StatusCode::kDataLoss: return {grpc::StatusCode::DATA_LOSS, status.message()};
-    case StatusCode::kUnavailable: return {grpc::StatusCode::UNAVAILABLE, status.message()};
-    case StatusCode::kInternal: return {grpc::StatusCode::INTERNAL, status.message()};
-  }
-  return {grpc::StatusCode::INTERNAL, status.message()};
+  if (status.ok()) return grpc::Status::OK;
+  return {fleet::ToGrpcCode(status.code()), status.message()};
 }
 
 grpc::Status InvalidArgument(const std::string& message) {
@@ -56,38 +47,14 @@ grpc::Status Authorize(ServiceContext& context, grpc::ServerContext* call, Permi
   return grpc::Status::OK;
 }
 
-namespace {
-const char* CodeName(grpc::StatusCode code) {
-  switch (code) {
-    case grpc::StatusCode::OK: return "OK";
-    case grpc::StatusCode::CANCELLED: return "CANCELLED";
-    case grpc::StatusCode::UNKNOWN: return "UNKNOWN";
-    case grpc::StatusCode::INVALID_ARGUMENT: return "INVALID_ARGUMENT";
-    case grpc::StatusCode::DEADLINE_EXCEEDED: return "DEADLINE_EXCEEDED";
-    case grpc::StatusCode::NOT_FOUND: return "NOT_FOUND";
-    case grpc::StatusCode::ALREADY_EXISTS: return "ALREADY_EXISTS";
-    case grpc::StatusCode::PERMISSION_DENIED: return "PERMISSION_DENIED";
-    case grpc::StatusCode::RESOURCE_EXHAUSTED: return "RESOURCE_EXHAUSTED";
-    case grpc::StatusCode::FAILED_PRECONDITION: return "FAILED_PRECONDITION";
-    case grpc::StatusCode::ABORTED: return "ABORTED";
-    case grpc::StatusCode::OUT_OF_RANGE: return "OUT_OF_RANGE";
-    case grpc::StatusCode::UNIMPLEMENTED: return "UNIMPLEMENTED";
-    case grpc::StatusCode::INTERNAL: return "INTERNAL";
-    case grpc::StatusCode::UNAVAILABLE: return "UNAVAILABLE";
-    case grpc::StatusCode::DATA_LOSS: return "DATA_LOSS";
-    case grpc::StatusCode::UNAUTHENTICATED: return "UNAUTHENTICATED";
-    default: return "UNKNOWN";
-  }
-}
-}  // namespace
-
 RpcScope::RpcScope(Metrics* metrics, const char* method)
     : metrics_(metrics), method_(method), started_(std::chrono::steady_clock::now()) {}
 
 grpc::Status RpcScope::Done(grpc::Status status) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   const std::string method = std::string("method=\"") + method_ + "\"";
-  metrics_->Increment("fleetd_rpc_total", method + ",code=\"" + CodeName(status.error_code()) + "\"");
+  metrics_->Increment("fleetd_rpc_total",
+                      method + ",code=\"" + fleet::GrpcCodeName(status.error_code()) + "\"");
   metrics_->Observe("fleetd_rpc_latency_seconds", method, seconds);
   return status;
 }

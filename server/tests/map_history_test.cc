@@ -11,6 +11,7 @@
 
 #include "analyzer/map_comparison.h"
 #include "analyzer/telemetry_codec.h"
+#include "fleet/serialization.h"
 #include "server/analysis.h"
 #include "sqlite_repository_test.h"
 #include "status_matchers.h"
@@ -69,9 +70,9 @@ class MapHistoryTest : public SqliteRepositoryTest {
     run.robot_id = "r1";
     if (parent)
       run.parent_snapshot_id =
-          *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*parent)));
+          *repository_->PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*parent)));
     run.child_snapshot_id =
-        *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(child)));
+        *repository_->PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(child)));
     run.telemetry = "telemetry of " + run_id;
     EXPECT_THAT(repository_->InsertRun(run), IsOk());
     return run;

@@ -5,10 +5,15 @@
 #include <mutex>
 #include <utility>
 
+#include "fleet/status_codes.h"
 #include "sim/service_client.h"
 
 namespace sim {
 namespace {
+
+using fleet_client::Uploader;
+using fleet_client::UploaderOptions;
+using fleet_client::UploadOutcome;
 
 struct Follower {
   FollowServiceOptions options;
@@ -70,8 +75,9 @@ void FollowService(const FollowServiceOptions& options, FleetOptions& fleet) {
     const std::string& robot_id = robot.robot_id();
     const UploadOutcome uploaded = follower->UploaderOf(robot_id).Upload(outcome.run);
     if (!uploaded.ok) {
-      return slamcore::Internal("robot " + robot_id + " run " + outcome.run.header().run_id() +
-                                ": upload failed: " + uploaded.message);
+      return slamcore::Status(fleet::FromGrpcCode(static_cast<grpc::StatusCode>(uploaded.code)),
+                              "robot " + robot_id + " run " + outcome.run.header().run_id() +
+                                  ": upload failed: " + uploaded.message);
     }
     robot.SetMapVersion(uploaded.map_version);  // the robot's map is now this version of its history
     if (!follower->options.engineer_token.empty() && uploaded.analysis_job_id > 0) {

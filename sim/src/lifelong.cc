@@ -8,8 +8,9 @@
 #include <optional>
 
 #include <nlohmann/json.hpp>
+#include <unistd.h>
 
-#include "sim/fleetd_launcher.h"
+#include "fleet_client/local_fleetd.h"
 #include "sim/follow_service.h"
 #include "sim/service_client.h"
 
@@ -88,13 +89,26 @@ slamcore::Result<RegimeResult> RunRegime(const LifelongOptions& options, const s
     return Summarise(name, std::move(statistics), options.runs);
   }
 
-  FleetdLauncher fleetd;
-  std::vector<std::string> flags = {"--auto-repair", "repair_findings", "--auto-repair-min-severity",
-                                    std::to_string(options.min_severity)};
-  if (name == "service") flags.push_back("--auto-approve");
-  RETURN_IF_ERROR(fleetd.Start(options.fleetd, options.work_dir / name, flags));
+  // A fleetd of the regime's own: a fresh database and log in work_dir/<regime>, text logs.
+  if (access(options.fleetd.c_str(), X_OK) != 0) {
+    return slamcore::FailedPrecondition("fleetd: " + options.fleetd.string() +
+                                        " is not an executable (build fleetd, or pass --fleetd)");
+  }
+  fleet_client::LocalFleetdOptions service;
+  service.binary = options.fleetd;
+  service.directory = options.work_dir / name;
+  service.flags = {"--log-format",
+                   "text",
+                   "--auto-repair",
+                   "repair_findings",
+                   "--auto-repair-min-severity",
+                   std::to_string(options.min_severity)};
+  if (name == "service") service.flags.push_back("--auto-approve");
+  service.admin_token = fleet_client::RandomToken("admin:lifelong");
+  fleet_client::LocalFleetd fleetd;
+  RETURN_IF_ERROR(fleetd.Start(service));
   ServiceClient client(fleetd.grpc_address());
-  Tokens tokens(client, fleetd.admin_token());
+  Tokens tokens(client, service.admin_token);
   FollowServiceOptions follow;
   follow.uploader.server = fleetd.grpc_address();
   follow.robot_token = [&tokens](const std::string& robot) { return tokens.Of("robot:" + robot); };

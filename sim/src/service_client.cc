@@ -5,8 +5,9 @@
 #include <chrono>
 #include <thread>
 
+#include "fleet/status_codes.h"
 #include "fleet/v1/service.grpc.pb.h"
-#include "sim/uploader.h"
+#include "fleet_client/channel.h"
 
 namespace sim {
 namespace {
@@ -18,9 +19,11 @@ std::unique_ptr<grpc::ClientContext> Context(const std::string& token, int secon
   return context;
 }
 
+// The project's code of gRPC's (the one table, fleet/status_codes.h); the message names the call and gRPC's code.
 slamcore::Status Failed(const char* call, const grpc::Status& status) {
-  return slamcore::Internal(std::string(call) + ": " + StatusCodeName(status.error_code()) + ": " +
-                            status.error_message());
+  return slamcore::Status(
+      fleet::FromGrpcCode(status.error_code()),
+      std::string(call) + ": " + fleet::GrpcCodeName(status.error_code()) + ": " + status.error_message());
 }
 
 }  // namespace
@@ -28,7 +31,7 @@ slamcore::Status Failed(const char* call, const grpc::Status& status) {
 class ServiceClient::Impl {
  public:
   Impl(const std::string& server, const std::string& tls_ca) {
-    auto channel = CreateFleetChannel(server, tls_ca, 64 << 20);
+    auto channel = fleet_client::CreateFleetChannel(server, tls_ca, 64 << 20);
     maps = fleet::v1::Maps::NewStub(channel);
     jobs = fleet::v1::Reprocessing::NewStub(channel);
     admin = fleet::v1::Admin::NewStub(channel);

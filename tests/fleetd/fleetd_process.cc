@@ -6,11 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
-#include <fcntl.h>
 #include <netinet/in.h>
-#include <signal.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,7 +16,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "sim/run_simulator.h"
@@ -38,50 +34,22 @@ const std::string& FleetdProcess::AdminToken() {
 FleetdProcess::FleetdProcess(std::vector<std::string> extra, std::function<void()> in_child) {
   char pattern[] = "/tmp/fleetd-test-XXXXXX";
   directory_ = mkdtemp(pattern);
-  int out[2];
-  if (pipe(out) != 0) return;
-  // Flags in `extra` replace the defaults of the same name.
-  std::vector<std::pair<std::string, std::string>> defaults = {
-      {"--db", "sqlite:" + (directory_ / "fleet.db").string()},
-      {"--listen", "127.0.0.1:0"},
-      {"--http", "127.0.0.1:0"},
-      {"--workers", "2"},
-      {"--shutdown-grace", "10"}};
-  std::vector<std::string> args = {FLEETD_BINARY};
-  for (const auto& [flag, value] : defaults) {
+  fleet_client::LocalFleetdOptions options;
+  options.binary = FLEETD_BINARY;
+  options.directory = directory_;
+  // The tests' defaults beside LocalFleetd's (--db, --listen, --http); `extra` replaces them by name.
+  for (const auto& [flag, value] :
+       {std::pair<std::string, std::string>{"--workers", "2"}, {"--shutdown-grace", "10"}}) {
     if (std::find(extra.begin(), extra.end(), flag) == extra.end()) {
-      args.push_back(flag);
-      args.push_back(value);
+      options.flags.push_back(flag);
+      options.flags.push_back(value);
     }
   }
-  args.insert(args.end(), extra.begin(), extra.end());
-  const std::string log_path = (directory_ / "fleetd.log").string();
-  pid_ = fork();
-  if (pid_ == 0) {
-    dup2(out[1], 1);
-    const int log = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (log >= 0) dup2(log, 2);
-    close(out[0]);
-    close(out[1]);
-    setenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN", AdminToken().c_str(), 1);
-    if (in_child) in_child();
-    std::vector<char*> argv;
-    for (auto& arg : args) argv.push_back(arg.data());
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  close(out[1]);
-  std::string line;
-  char c;
-  while (read(out[0], &c, 1) == 1 && c != '\n') line += c;
-  close(out[0]);
-  try {
-    const auto json = nlohmann::json::parse(line);
-    grpc_ = json.at("grpc").get<std::string>();
-    http_ = json.at("http").get<std::string>();
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "fleetd did not print its addresses (got \"%s\"): %s\n", line.c_str(), e.what());
+  options.flags.insert(options.flags.end(), extra.begin(), extra.end());
+  options.admin_token = AdminToken();
+  options.in_child = std::move(in_child);
+  if (const slamcore::Status started = process_.Start(options); !started.ok()) {
+    std::fprintf(stderr, "%s\n", started.ToString().c_str());
   }
 }
 
@@ -91,19 +59,10 @@ FleetdProcess::~FleetdProcess() {
   if (std::getenv("FLEETD_TEST_KEEP") == nullptr) std::filesystem::remove_all(directory_, ignored);
 }
 
-int FleetdProcess::Stop() {
-  if (pid_ <= 0) return -1;
-  kill(pid_, SIGTERM);
-  int status = 0;
-  waitpid(pid_, &status, 0);
-  pid_ = -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 std::shared_ptr<grpc::Channel> FleetdProcess::Channel() const {
   grpc::ChannelArguments arguments;
   arguments.SetMaxReceiveMessageSize(64 << 20);
-  return grpc::CreateCustomChannel(grpc_, grpc::InsecureChannelCredentials(), arguments);
+  return grpc::CreateCustomChannel(grpc_address(), grpc::InsecureChannelCredentials(), arguments);
 }
 
 std::string HttpRaw(const std::string& address, const std::string& request) {

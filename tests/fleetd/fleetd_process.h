@@ -1,5 +1,5 @@
-// Test support: a real fleetd process on loopback (temp SQLite file), its addresses from stdout's first
-// line, a tiny HTTP GET, and the simulated runs the tests upload.
+// Test support: a real fleetd process on loopback (temp SQLite file; fleet_client::LocalFleetd), a tiny HTTP
+// GET, and the simulated runs the tests upload.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -10,31 +10,33 @@
 #include <vector>
 
 #include "fleet/v1/service.grpc.pb.h"
+#include "fleet_client/local_fleetd.h"
 
 namespace fleetd_test {
 
 class FleetdProcess {
  public:
-  /// Starts fleetd with `--db sqlite:DIR/fleet.db --listen 127.0.0.1:0 --http 127.0.0.1:0` plus `extra`;
-  /// the bootstrap admin token comes through the environment. `in_child` runs in the child just before exec
-  /// (e.g. to change the environment or enter a mount namespace).
+  /// Starts fleetd with `--db sqlite:DIR/fleet.db --listen 127.0.0.1:0 --http 127.0.0.1:0 --workers 2
+  /// --shutdown-grace 10` plus `extra` (whose flags replace the defaults of the same name) in a new temporary
+  /// DIR, removed afterwards unless FLEETD_TEST_KEEP is set; the bootstrap admin token comes through the
+  /// environment. `in_child` runs in the child just before exec (e.g. to change the environment or enter a
+  /// mount namespace).
   explicit FleetdProcess(std::vector<std::string> extra = {}, std::function<void()> in_child = {});
   ~FleetdProcess();
-  bool ok() const { return pid_ > 0 && !grpc_.empty(); }
-  int pid() const { return pid_; }
-  const std::string& grpc_address() const { return grpc_; }
-  const std::string& http_address() const { return http_; }
+  bool ok() const { return process_.running() && !process_.grpc_address().empty(); }
+  int pid() const { return process_.pid(); }
+  const std::string& grpc_address() const { return process_.grpc_address(); }
+  const std::string& http_address() const { return process_.http_address(); }
   const std::filesystem::path& directory() const { return directory_; }
   /// SIGTERM and wait; returns the exit status (or -1).
-  int Stop();
+  int Stop() { return process_.Stop(); }
   std::shared_ptr<grpc::Channel> Channel() const;
 
   static const std::string& AdminToken();
 
  private:
   std::filesystem::path directory_;
-  int pid_ = -1;
-  std::string grpc_, http_;
+  fleet_client::LocalFleetd process_;
 };
 
 /// GET http://address/path (Host: address, with `token` as a bearer token when given); returns the status

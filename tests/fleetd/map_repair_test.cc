@@ -17,10 +17,11 @@
 
 #include "analyzer/run_analysis.h"
 #include "analyzer/telemetry_codec.h"
+#include "fleet/serialization.h"
+#include "fleet_client/uploader.h"
 #include "fleetd_process.h"
 #include "sim/run_simulator.h"
 #include "sim/service_client.h"
-#include "sim/uploader.h"
 #include "slamcore/graph_io.h"
 #include "test_data.h"
 #include "status_matchers.h"
@@ -159,16 +160,16 @@ class DailyRobot {
       : world_(LoadFirstWorld()),
         robot_(world_, Params(), kRobot, "fw-follow", 5),
         prefix_(std::move(prefix)) {
-    sim::UploaderOptions options;
+    fleet_client::UploaderOptions options;
     options.server = server;
     options.token = token;
-    uploader_ = std::make_unique<sim::Uploader>(options);
+    uploader_ = std::make_unique<fleet_client::Uploader>(options);
   }
 
-  std::pair<sim::RunOutcome, sim::UploadOutcome> RunAndUpload(int day) {
+  std::pair<sim::RunOutcome, fleet_client::UploadOutcome> RunAndUpload(int day) {
     auto outcome = robot_.SimulateRun(prefix_ + "-" + std::to_string(day), 1.76e9 + 86400.0 * day);
     EXPECT_THAT(outcome, IsOk());
-    const sim::UploadOutcome uploaded = uploader_->Upload(outcome->run);
+    const fleet_client::UploadOutcome uploaded = uploader_->Upload(outcome->run);
     EXPECT_TRUE(uploaded.ok) << uploaded.message;
     robot_.SetMapVersion(uploaded.map_version);
     return {std::move(outcome).value(), uploaded};
@@ -193,7 +194,7 @@ class DailyRobot {
   sim::World world_;
   sim::RobotSimulator robot_;
   std::string prefix_;
-  std::unique_ptr<sim::Uploader> uploader_;
+  std::unique_ptr<fleet_client::Uploader> uploader_;
 };
 
 class MapRepairTest : public ::testing::Test {
@@ -320,8 +321,8 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   ASSERT_THAT(maps_->GetMap(context.get(), fetch, &downloaded), IsOk());
   ASSERT_FALSE(downloaded.up_to_date());
   EXPECT_EQ(downloaded.version().version(), repaired_version);
-  EXPECT_EQ(analyzer::SerializeDeterministic(downloaded.snapshot()).size(),
-            analyzer::SerializeDeterministic(Version(repaired_version).snapshot()).size());
+  EXPECT_EQ(fleet::SerializeDeterministic(downloaded.snapshot()).size(),
+            fleet::SerializeDeterministic(Version(repaired_version).snapshot()).size());
 
   // Error against ground truth: before the wrong merge (the parent map), with it, after the repair, and the
   // same run mapped by the default parameters (no wrong merge at all).
@@ -352,8 +353,8 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   ASSERT_THAT(Repair(undo, &undone), IsOk());
   EXPECT_EQ(undone.version().snapshot_id(), merged.version().snapshot_id());
   EXPECT_EQ(undone.version().origin(), "undo");
-  EXPECT_EQ(analyzer::SerializeDeterministic(Version(undone.version().version()).snapshot()),
-            analyzer::SerializeDeterministic(merged.snapshot()));
+  EXPECT_EQ(fleet::SerializeDeterministic(Version(undone.version().version()).snapshot()),
+            fleet::SerializeDeterministic(merged.snapshot()));
 
   // Concurrent repairs of one map: all start from the same newest version; exactly one is appended.
   const std::int64_t head = undone.version().version();
@@ -521,7 +522,7 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
 
   auto [third, third_upload] = run_and_upload(2);
   EXPECT_EQ(third.run.header().map_version(), repaired_version);
-  EXPECT_EQ(sim::SnapshotId(third.run.parent_snapshot()), repaired.version().snapshot_id());
+  EXPECT_EQ(fleet_client::SnapshotId(third.run.parent_snapshot()), repaired.version().snapshot_id());
   EXPECT_FALSE(third_upload.map_outdated) << "built on the current map";
   EXPECT_EQ(third_upload.current_map_version, third_upload.map_version);
   const fleet::v1::GetMapVersionResponse recorded = Version(third_upload.map_version);

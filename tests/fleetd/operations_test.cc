@@ -22,8 +22,8 @@
 #include <tuple>
 #include <vector>
 
+#include "fleet_client/uploader.h"
 #include "fleetd_process.h"
-#include "sim/uploader.h"
 #include "status_matchers.h"
 
 namespace fleetd_test {
@@ -318,18 +318,20 @@ TEST(OperationsTest, TlsServesTlsClientsOnlyAndFleetctlReadsItsTokenFromAFile) {
   FleetdProcess server({"--tls-cert", directory + "/server.crt", "--tls-key", directory + "/server.key"});
   ASSERT_THAT(server, IsOk());
 
-  sim::UploaderOptions options;
+  fleet_client::UploaderOptions options;
   options.server = server.grpc_address();
   options.token = FleetdProcess::AdminToken();
   options.tls_ca = directory + "/server.crt";
   options.max_attempts = 1;
-  const sim::UploadOutcome uploaded = sim::Uploader(options).Upload(SimulatedRuns().front());
+  const fleet_client::UploadOutcome uploaded =
+      fleet_client::Uploader(options).Upload(SimulatedRuns().front());
   EXPECT_TRUE(uploaded.ok) << uploaded.message;
 
   // A plaintext client, and a TLS client that trusts another certificate, get nowhere.
   EXPECT_EQ(ListRunsCode(server.Channel(), FleetdProcess::AdminToken()), grpc::StatusCode::UNAVAILABLE);
   options.tls_ca = directory + "/other.crt";
-  const sim::UploadOutcome untrusted = sim::Uploader(options).Upload(SimulatedRuns().front());
+  const fleet_client::UploadOutcome untrusted =
+      fleet_client::Uploader(options).Upload(SimulatedRuns().front());
   EXPECT_FALSE(untrusted.ok);
   EXPECT_EQ(untrusted.code, static_cast<int>(grpc::StatusCode::UNAVAILABLE)) << untrusted.message;
 
@@ -398,16 +400,16 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
   // The file system as fleetd sees it, through its root in /proc.
   const std::string filler = "/proc/" + std::to_string(server.pid()) + "/root" + mount_point + "/filler";
   Fill(filler);
-  sim::UploaderOptions options;
+  fleet_client::UploaderOptions options;
   options.server = server.grpc_address();
   options.token = FleetdProcess::AdminToken();
   options.max_attempts = 2;
   options.initial_backoff = std::chrono::milliseconds(50);
-  sim::UploadOutcome outcome;
+  fleet_client::UploadOutcome outcome;
   for (int k = 0; k < 12 && (k == 0 || outcome.ok); ++k) {
     fleet::v1::RunFile run = SimulatedRuns()[static_cast<std::size_t>(k) % SimulatedRuns().size()];
     run.mutable_header()->set_run_id("full-" + std::to_string(k));
-    outcome = sim::Uploader(options).Upload(run);
+    outcome = fleet_client::Uploader(options).Upload(run);
   }
   ASSERT_FALSE(outcome.ok) << "a full file system took every upload";
   EXPECT_EQ(outcome.code, static_cast<int>(grpc::StatusCode::UNAVAILABLE)) << outcome.message;
@@ -423,7 +425,7 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
   EXPECT_GE(SecondsUntil([&] { return HealthStatus(channel) == 1; }, 3.0), 0.0);
   fleet::v1::RunFile again = SimulatedRuns().back();
   again.mutable_header()->set_run_id("after-freeing");
-  EXPECT_TRUE(sim::Uploader(options).Upload(again).ok);
+  EXPECT_TRUE(fleet_client::Uploader(options).Upload(again).ok);
   EXPECT_EQ(server.Stop(), 0);
   std::filesystem::remove_all(directory);
 }
@@ -546,10 +548,10 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   huge.mutable_header()->set_run_id("too-big");
   while (huge.ByteSizeLong() < 26u << 20) huge.mutable_events()->MergeFrom(chunk.events().events());
   huge.mutable_header()->set_event_count(static_cast<std::uint64_t>(huge.events_size()));
-  sim::UploaderOptions options;
+  fleet_client::UploaderOptions options;
   options.server = server.grpc_address();
   options.token = FleetdProcess::AdminToken();
-  const sim::UploadOutcome outcome = sim::Uploader(options).Upload(huge);
+  const fleet_client::UploadOutcome outcome = fleet_client::Uploader(options).Upload(huge);
   EXPECT_EQ(outcome.code, static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT)) << outcome.message;
   EXPECT_NE(outcome.message.find("max_run_bytes"), std::string::npos) << outcome.message;
   EXPECT_EQ(outcome.attempts, 1);

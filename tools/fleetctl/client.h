@@ -12,8 +12,9 @@
 #include <string>
 #include <thread>
 
+#include "fleet/status_codes.h"
 #include "fleet/v1/service.grpc.pb.h"
-#include "sim/uploader.h"
+#include "fleet_client/channel.h"
 
 namespace fleetctl {
 
@@ -51,7 +52,7 @@ struct Filter {
 class Client {
  public:
   explicit Client(const Global& global) : global_(global) {
-    channel_ = sim::CreateFleetChannel(global.server, global.tls_ca, 256 << 20);
+    channel_ = fleet_client::CreateFleetChannel(global.server, global.tls_ca, 256 << 20);
     queries = fleet::v1::Queries::NewStub(channel_);
     reprocessing = fleet::v1::Reprocessing::NewStub(channel_);
     labels = fleet::v1::Labels::NewStub(channel_);
@@ -94,7 +95,7 @@ class Client {
 };
 
 inline int Fail(const grpc::Status& status) {
-  std::cerr << "fleetctl: " << sim::StatusCodeName(status.error_code()) << ": " << status.error_message()
+  std::cerr << "fleetctl: " << fleet::GrpcCodeName(status.error_code()) << ": " << status.error_message()
             << "\n";
   return 1;
 }

@@ -29,13 +29,13 @@
 #include "admin_commands.h"
 #include "client.h"
 #include "credential_commands.h"
+#include "fleet_client/upload_files.h"
+#include "fleet_client/uploader.h"
 #include "import_commands.h"
 #include "job_commands.h"
 #include "label_commands.h"
 #include "map_commands.h"
 #include "query_commands.h"
-#include "sim/upload_files.h"
-#include "sim/uploader.h"
 
 namespace {
 
@@ -44,19 +44,19 @@ using fleetctl::Global;
 
 /// upload PATH... [--threads N]: .runpb files or directories, robots in parallel, retried safely.
 int Upload(const Global& global, const std::vector<std::string>& upload_paths, int upload_threads) {
-  sim::UploadFilesOptions options;
+  fleet_client::UploadFilesOptions options;
   options.uploader.server = global.server;
   options.uploader.token = global.token;
   options.uploader.tls_ca = global.tls_ca;
   options.threads = upload_threads;
   const bool interactive = isatty(fileno(stderr)) && !global.json;
-  options.progress = [interactive](int done, int total, const sim::UploadOutcome& outcome) {
+  options.progress = [interactive](int done, int total, const fleet_client::UploadOutcome& outcome) {
     if (!outcome.ok)
       std::fprintf(stderr, "%sfleetctl: %s\n", interactive ? "\n" : "", outcome.message.c_str());
     if (interactive) std::fprintf(stderr, "\ruploaded %d/%d runs", done, total);
   };
   std::vector<std::filesystem::path> paths(upload_paths.begin(), upload_paths.end());
-  const sim::UploadSummary summary = sim::UploadFiles(paths, options);
+  const fleet_client::UploadSummary summary = fleet_client::UploadFiles(paths, options);
   if (interactive) std::fprintf(stderr, "\n");
   if (global.json) {
     std::cout << summary.ToJson() << "\n";
@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (!token_file.empty()) {
     std::string error;
-    auto token = sim::ReadTokenFile(token_file, &error);
+    auto token = fleet_client::ReadTokenFile(token_file, &error);
     if (!token) {
       std::cerr << "fleetctl: " << error << "\n";
       return 2;

@@ -56,10 +56,6 @@ slamcore::Result<std::vector<slamcore::Event>> FromProto(
 slamcore::Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const std::string& field);
 fleet::v1::MapSnapshot ToProto(const slamcore::Map& map);
 
-/// The message's bytes with deterministic serialisation (map fields in key order), so that equal messages give
-/// equal bytes everywhere: snapshots are content-addressed by these bytes, by robots and by the server alike.
-std::string SerializeDeterministic(const google::protobuf::Message& message);
-
 /// Checks a run header: format version, ids present, times ordered.
 slamcore::Status Validate(const fleet::v1::RunHeader& header);
 

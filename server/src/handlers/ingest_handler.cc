@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "analyzer/telemetry_codec.h"
+#include "fleet/serialization.h"
 #include "server/jobs.h"
 #include "server/log.h"
 
@@ -127,7 +128,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   // The parent map: sent (an empty one means "first run"), or named by id and already stored.
   std::string parent_bytes, parent_id;
   if (have_parent && run.parent_snapshot().nodes_size() > 0) {
-    parent_bytes = analyzer::SerializeDeterministic(run.parent_snapshot());
+    parent_bytes = fleet::SerializeDeterministic(run.parent_snapshot());
     parent_id = Sha256Hex(parent_bytes);
     if (!header.parent_snapshot_id().empty() && header.parent_snapshot_id() != parent_id) {
       return InvalidArgument("parent_snapshot: its SHA-256 " + parent_id +
@@ -155,7 +156,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
     }
   }
   header.set_parent_snapshot_id(parent_id);  // the stored run names its parent the same way on every retry
-  const std::string child_bytes = analyzer::SerializeDeterministic(run.child_snapshot());
+  const std::string child_bytes = fleet::SerializeDeterministic(run.child_snapshot());
 
   // Enqueue first, store second: a stored run always has its analysis job (a job whose store failed finds no
   // run and completes as a no-op); a duplicate upload cancels its job again.
@@ -170,7 +171,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   record.started_at_ms = ToMillis(header.started_at());
   record.ended_at_ms = ToMillis(header.ended_at());
   if (!parent_id.empty()) record.parent_snapshot_id = parent_id;
-  record.telemetry = analyzer::SerializeDeterministic(telemetry);
+  record.telemetry = fleet::SerializeDeterministic(telemetry);
 
   storage::RobotRecord robot;
   robot.robot_id = header.robot_id();

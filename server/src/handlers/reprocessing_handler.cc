@@ -5,7 +5,7 @@
 
 #include "analyzer/parameters.h"
 #include "convert.h"
-#include "analyzer/telemetry_codec.h"
+#include "fleet/serialization.h"
 #include "server/jobs.h"
 #include "server/log.h"
 
@@ -37,7 +37,7 @@ grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& reposit
   }
   storage::ParameterSetRecord record;
   record.name = set.name();
-  record.serialized = analyzer::SerializeDeterministic(set);
+  record.serialized = fleet::SerializeDeterministic(set);
   auto stored = repository.PutParameterSet(record);
   if (!stored.ok()) {
     if (stored.status().code() == storage::StatusCode::kAlreadyExists) {

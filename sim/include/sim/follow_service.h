@@ -11,13 +11,13 @@
 #include <functional>
 #include <string>
 
+#include "fleet_client/uploader.h"
 #include "sim/fleet.h"
-#include "sim/uploader.h"
 
 namespace sim {
 
 struct FollowServiceOptions {
-  UploaderOptions uploader;  // server, TLS, and the token used when robot_token is not set
+  fleet_client::UploaderOptions uploader;  // server, TLS, and the token used when robot_token is not set
   /// The token robot `robot_id` uploads and fetches with (its own "robot:<id>" credential).
   std::function<std::string(const std::string& robot_id)> robot_token;
   /// Set: wait for each run's analysis job with this (engineer) token, then take a repaired map at once.

@@ -1,6 +1,7 @@
 // What a simulated robot (and the lifelong experiment's simulated engineer) asks fleetd besides uploads:
 // the newest approved map (Maps.GetMap), an analysis job's end, a review of a pending version, a token.
-// Errors are slamcore Statuses naming the call and gRPC's status ("Maps.GetMap: UNAVAILABLE: …").
+// A failed call is the project's status of gRPC's code (fleet/status_codes.h: UNAVAILABLE is kUnavailable, …),
+// its message naming the call and gRPC's status ("Maps.GetMap: UNAVAILABLE: …").
 //
 // Thread safety: one ServiceClient may be used from several threads (the gRPC stubs are thread-safe).
 #pragma once

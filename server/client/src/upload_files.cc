@@ -1,4 +1,4 @@
-#include "sim/upload_files.h"
+#include "fleet_client/upload_files.h"
 
 #include <algorithm>
 #include <atomic>
@@ -9,7 +9,7 @@
 #include <mutex>
 #include <thread>
 
-namespace sim {
+namespace fleet_client {
 
 double UploadSummary::Percentile(double p) const {
   if (latencies.empty()) return 0.0;
@@ -109,4 +109,4 @@ UploadSummary UploadFiles(const std::vector<std::filesystem::path>& paths,
   return summary;
 }
 
-}  // namespace sim
+}  // namespace fleet_client

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "sim/uploader.h"
+#include "fleet_client/uploader.h"
 
-namespace sim {
+namespace fleet_client {
 
 struct UploadFilesOptions {
   UploaderOptions uploader;
@@ -37,4 +37,4 @@ struct UploadSummary {
 
 UploadSummary UploadFiles(const std::vector<std::filesystem::path>& paths, const UploadFilesOptions& options);
 
-}  // namespace sim
+}  // namespace fleet_client

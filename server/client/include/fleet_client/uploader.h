@@ -17,16 +17,7 @@
 
 #include "fleet/v1/telemetry.pb.h"
 
-namespace grpc {
-class Channel;
-}  // namespace grpc
-
-namespace sim {
-
-/// A channel to fleetd: plaintext, or TLS trusting the CA in `tls_ca` (a PEM file) when it is not empty.
-/// Messages up to `max_message_bytes` both ways.
-std::shared_ptr<grpc::Channel> CreateFleetChannel(const std::string& server, const std::string& tls_ca,
-                                                  int max_message_bytes);
+namespace fleet_client {
 
 struct UploaderOptions {
   std::string server;  // host:port
@@ -71,10 +62,7 @@ std::optional<std::string> ReadTokenFile(const std::string& path, std::string* e
 /// True when a failed attempt with this status may succeed if sent again unchanged.
 bool RetryableUpload(int code, const std::string& message);
 
-/// "UNAVAILABLE" for grpc::StatusCode 14, … (the names gRPC's documentation uses).
-const char* StatusCodeName(int code);
-
 /// Hex SHA-256 of the deterministic serialization: the id fleetd gives a snapshot.
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot);
 
-}  // namespace sim
+}  // namespace fleet_client

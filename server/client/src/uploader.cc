@@ -1,6 +1,4 @@
-#include "sim/uploader.h"
-
-#include "analyzer/telemetry_codec.h"
+#include "fleet_client/uploader.h"
 
 #include <grpcpp/grpcpp.h>
 #include <openssl/sha.h>
@@ -12,10 +10,12 @@
 #include <thread>
 #include <unordered_set>
 
+#include "fleet/serialization.h"
+#include "fleet/status_codes.h"
 #include "fleet/v1/service.grpc.pb.h"
+#include "fleet_client/channel.h"
 
-namespace sim {
-namespace {}  // namespace
+namespace fleet_client {
 
 bool RetryableUpload(int code, const std::string& message) {
   switch (static_cast<grpc::StatusCode>(code)) {
@@ -51,17 +51,8 @@ std::optional<std::string> ReadTokenFile(const std::string& path, std::string* e
   return token;
 }
 
-const char* StatusCodeName(int code) {
-  static const char* kNames[] = {
-      "OK",        "CANCELLED",      "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
-      "NOT_FOUND", "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-      "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
-      "DATA_LOSS", "UNAUTHENTICATED"};
-  return code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
-}
-
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
-  const std::string bytes = analyzer::SerializeDeterministic(snapshot);
+  const std::string bytes = fleet::SerializeDeterministic(snapshot);
   unsigned char digest[SHA256_DIGEST_LENGTH];
   SHA256(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), digest);
   static const char* kDigits = "0123456789abcdef";
@@ -71,26 +62,6 @@ std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
     hex.push_back(kDigits[byte & 15]);
   }
   return hex;
-}
-
-std::shared_ptr<grpc::Channel> CreateFleetChannel(const std::string& server, const std::string& tls_ca,
-                                                  int max_message_bytes) {
-  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
-  if (!tls_ca.empty()) {
-    std::ifstream in(tls_ca);
-    std::ostringstream pem;
-    pem << in.rdbuf();
-    grpc::SslCredentialsOptions ssl;
-    ssl.pem_root_certs = pem.str();
-    credentials = grpc::SslCredentials(ssl);
-  }
-  grpc::ChannelArguments arguments;
-  arguments.SetMaxSendMessageSize(max_message_bytes);
-  arguments.SetMaxReceiveMessageSize(max_message_bytes);
-  // A channel of its own connection, as each robot has: gRPC would otherwise share one connection between
-  // all channels to the same server in a process (a load test's 500 robots would be one TCP stream).
-  arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(server, credentials, arguments);
 }
 
 class Uploader::Impl {
@@ -136,7 +107,7 @@ class Uploader::Impl {
         if (!response.parent_snapshot_id().empty()) known_.insert(response.parent_snapshot_id());
         break;
       }
-      outcome.message = std::string(StatusCodeName(status.error_code())) + ": " + status.error_message();
+      outcome.message = std::string(fleet::GrpcCodeName(status.error_code())) + ": " + status.error_message();
       if (!RetryableUpload(status.error_code(), status.error_message()) || attempt == options_.max_attempts)
         break;
       std::uniform_int_distribution<long> jitter(0, backoff.count() / 2);
@@ -192,4 +163,4 @@ Uploader::Uploader(const UploaderOptions& options) : impl_(std::make_unique<Impl
 Uploader::~Uploader() = default;
 UploadOutcome Uploader::Upload(const fleet::v1::RunFile& run) { return impl_->Upload(run); }
 
-}  // namespace sim
+}  // namespace fleet_client
