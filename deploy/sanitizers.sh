@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# Sanitizer lane (issue #20), run by hand for now (not yet by .ci/run: a cold build of it takes about an hour on
-# 2 cores); not part of the README's test command.
+# Sanitizer lanes (issue #20), run by .ci/run after the README's test command; not part of the test command
+# itself (a cold build of the instrumented targets takes most of an hour on 2 cores; with the ccache warm,
+# minutes).
 #
-#   ASan+UBSan, build-asan/ (-O1 -g, asserts on, -fsanitize=address,undefined, every UBSan finding fatal):
+#   ASan+UBSan, build-asan/ (-O1 -g1, asserts on, -fsanitize=address,undefined, every UBSan finding fatal):
 #     the unit test binaries slamcore_tests, storage_tests (SQLite and a throwaway PostgreSQL server),
-#     analyzer_tests, server_tests, and the fleetd integration tests on loopback (fleetd_integration,
-#     _map_repair, _hostile, _operations, _erasure), whose fleetd and fleetctl children are instrumented too.
-#   TSan, build-tsan/ (Release plus -fsanitize=thread on server/, storage/, analyzer/ and the executables;
-#     deploy/sanitizers/tsan.cmake says why slamcore/ stays uninstrumented): server_tests and the same
-#     fleetd integration tests.
+#     analyzer_tests, server_tests, proto_tests, fleet_client_tests, and the fleetd integration tests on
+#     loopback (fleetd_integration, _map_repair, _hostile, _operations, _erasure), whose fleetd and fleetctl
+#     children are instrumented too.
+#   TSan, build-tsan/ (Release plus -fsanitize=thread on server/, storage/, analyzer/, the client library and
+#     the executables; deploy/sanitizers/tsan.cmake says why slamcore/ stays uninstrumented): server_tests,
+#     fleet_client_tests and the same fleetd integration tests.
 #
 # Both lanes use the repository's data/ only (SHARED_DATA_DIR points at nothing), as in a user's clone: the
 # tests over the larger set (whole-dataset replays such as slamcore's SharedGraphs/BackendEquivalenceTest)
@@ -36,7 +38,7 @@ export CCACHE_NOHASHDIR=1
 jobs=${SANITIZER_JOBS:-2}
 lanes=${SANITIZER_LANES:-asan,tsan}
 supp=$root/deploy/sanitizers
-unit_binaries=(storage_tests slamcore_tests analyzer_tests server_tests)
+unit_binaries=(storage_tests slamcore_tests analyzer_tests server_tests proto_tests fleet_client_tests)
 fleetd_tests=(fleetd_integration fleetd_map_repair fleetd_hostile fleetd_operations fleetd_erasure)
 fleetd_targets=(fleetd_integration_tests fleetd_map_repair_tests fleetd_hostile_tests fleetd_operations_tests
                 fleetd_erasure_tests)
@@ -110,10 +112,10 @@ if [[ $lanes == *tsan* ]]; then
     -DCMAKE_PROJECT_INCLUDE="$supp/tsan.cmake" >/dev/null
   rm -rf build-tsan/sanitizer-logs && mkdir -p build-tsan/sanitizer-logs
   export TSAN_OPTIONS="log_path=$root/build-tsan/sanitizer-logs/report:halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp"
-  cmake --build build-tsan -j "$jobs" --target server_tests "${fleetd_targets[@]}"
+  cmake --build build-tsan -j "$jobs" --target server_tests fleet_client_tests "${fleetd_targets[@]}"
   rm -f build-tsan/sanitizer-logs/report.*
   echo "TSan build: $((SECONDS - lane_start)) s"
-  run_lane build-tsan server_tests "${fleetd_tests[@]}"
+  run_lane build-tsan server_tests fleet_client_tests "${fleetd_tests[@]}"
   echo "TSan lane: $((SECONDS - lane_start)) s"
   unset TSAN_OPTIONS
 fi

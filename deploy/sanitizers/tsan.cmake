@@ -6,7 +6,7 @@
 # executable links libtsan.
 cmake_language(DEFER CALL fleet_instrument_for_tsan)
 function(fleet_instrument_for_tsan)
-  set(instrumented server storage analyzer fleet_client sim_service fleetd fleetctl server_tests
+  set(instrumented server storage analyzer fleet_client sim_service fleetd fleetctl server_tests fleet_client_tests
                    fleetd_integration_tests fleetd_map_repair_tests fleetd_hostile_tests fleetd_operations_tests fleetd_erasure_tests)
   foreach(target IN LISTS instrumented)
     target_compile_options(${target} PRIVATE -fsanitize=thread -O1 -g1 -fno-omit-frame-pointer)
