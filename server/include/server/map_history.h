@@ -192,12 +192,12 @@ class MapHistory {
     std::optional<std::int64_t> supersedes_pending;  // the carried repair, marked stale in the same transaction
     std::int64_t metadata_of = 0;  // the version whose metadata the new one keeps (whose map it derives from)
   };
-  /// `request`'s record of a version made by `origin` from `base`.
+  /// How the version that `request` makes (by `origin`; `detail`: what was done, in words) is recorded.
   static RepairRecord RecordOf(const RepairRequest& request, storage::MapOrigin origin, std::string detail,
                                std::int64_t metadata_of);
-  /// Appends `repaired` (stored as `snapshot_id`) as the new version made from `base`, recorded as `record`
+  /// Appends `repaired` (stored as `snapshot_id`) as the new version made from `base`, recorded as `made`
   /// says, with `findings`.
-  storage::Result<MapVersionDetail> AppendRepair(const RepairRecord& record, const storage::MapVersionRecord& base,
+  storage::Result<MapVersionDetail> AppendRepair(const RepairRecord& made, const storage::MapVersionRecord& base,
                                                  const slamcore::Map& repaired, const std::string& snapshot_id,
                                                  const std::vector<fleet::v1::MapFinding>& findings);
   /// Review's approval of `pending` once `current` (newer) overtook it.
