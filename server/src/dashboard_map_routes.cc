@@ -225,7 +225,7 @@ class MapRoutes {
     if (yaml == nullptr) return slamcore::InvalidArgument("yaml: missing (the map_server YAML file)");
     if (image == nullptr) return slamcore::InvalidArgument("image: missing (the PGM or PNG image the YAML names)");
     if (image->filename.empty()) return slamcore::InvalidArgument("image: the part has no filename");
-    auto grid = slamcore::ParseMapServerYaml(yaml->body, "yaml", [&](const std::string& name) -> slamcore::Result<std::string> {
+    const auto read_image = [&](const std::string& name) -> slamcore::Result<std::string> {
       if (name != image->filename || name.find_first_of("/\\") != std::string::npos) {
         return slamcore::InvalidArgument("yaml: image \"" + name.substr(0, 128) +
                                          "\" names a file outside the upload (the uploaded image is \"" +
@@ -244,10 +244,10 @@ class MapRoutes {
         }
       }
       return image->body;
-    });
-    RETURN_IF_ERROR(grid.status());
+    };
+    ASSIGN_OR_RETURN(auto grid, slamcore::ParseMapServerYaml(yaml->body, "yaml", read_image));
     *source = "dashboard upload: " + (yaml->filename.empty() ? std::string("yaml") : yaml->filename) + " + " + image->filename;
-    return analyzer::ImportMapServer(*grid);
+    return analyzer::ImportMapServer(grid);
   }
 
   /// Cells a map_server upload may decode to (a PNG inflates; a PGM is bounded by the 1 MiB body already).
