@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
     bool fresh_tried = false;
     while (sent.load() < kBadTokens) {
       const auto [seconds, status] = ListRuns(*queries, engineer);
-      if (!status.ok()) std::fprintf(stderr, "valid request failed during the flood: %s\n", status.error_message().c_str());
+      if (!status.ok())
+        std::fprintf(stderr, "valid request failed during the flood: %s\n", status.error_message().c_str());
       flooded.push_back(seconds);
       if (!fresh_tried && sent.load() > kBadTokens / 2) {
         fresh_result = ListRuns(*queries, fresh);
@@ -120,15 +121,18 @@ int main(int argc, char** argv) {
       }
     }
     for (auto& thread : threads) thread.join();
-    const double flood_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - flood_start).count();
+    const double flood_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - flood_start).count();
     const double worst = flooded.empty() ? 0.0 : *std::max_element(flooded.begin(), flooded.end());
 
-    std::printf("auth flood: %d wrong secrets for %s from %d threads in %.3f s (%.0f/s); %d refused by the "
-                "failed-attempt limit before hashing\n",
-                kBadTokens, victim_principal.c_str(), kThreads, flood_seconds, kBadTokens / flood_seconds,
-                refused_fast.load());
+    std::printf(
+        "auth flood: %d wrong secrets for %s from %d threads in %.3f s (%.0f/s); %d refused by the "
+        "failed-attempt limit before hashing\n",
+        kBadTokens, victim_principal.c_str(), kThreads, flood_seconds, kBadTokens / flood_seconds,
+        refused_fast.load());
     std::printf("valid ListRuns, unflooded baseline: median %.3f ms, max %.3f ms (%zu requests)\n",
-                1e3 * Median(baseline), 1e3 * *std::max_element(baseline.begin(), baseline.end()), baseline.size());
+                1e3 * Median(baseline), 1e3 * *std::max_element(baseline.begin(), baseline.end()),
+                baseline.size());
     std::printf("valid ListRuns, during the flood:   median %.3f ms, max %.3f ms (%zu requests)\n",
                 1e3 * Median(flooded), 1e3 * worst, flooded.size());
     std::printf("ratio flooded/baseline: median %.2f, max %.2f\n", Median(flooded) / Median(baseline),

@@ -51,7 +51,8 @@ Timing Replay(const slamcore::PoseGraph& graph, MapperBackend backend, double de
       std::fprintf(stderr, "event %zu refused\n", k);
       std::exit(1);
     }
-    if (k % 256 == 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > deadline) {
+    if (k % 256 == 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > deadline) {
       return timing;
     }
   }
@@ -81,12 +82,13 @@ std::string Ratio(const Timing& baseline, const Timing& ours, double deadline) {
   return text;
 }
 
-slamcore::PoseGraph Corrupt(const slamcore::PoseGraph& graph, const std::string& mode, double fraction, int group,
-                            std::uint64_t seed) {
+slamcore::PoseGraph Corrupt(const slamcore::PoseGraph& graph, const std::string& mode, double fraction,
+                            int group, std::uint64_t seed) {
   slamcore::OutlierOptions options;
   options.mode = *slamcore::ParseOutlierMode(mode);
   options.group_size = group;
-  options.total_edges = std::max(1, static_cast<int>(std::lround(fraction * slamcore::CountLoopClosures(graph))));
+  options.total_edges =
+      std::max(1, static_cast<int>(std::lround(fraction * slamcore::CountLoopClosures(graph))));
   options.seed = seed;
   auto corrupted = slamcore::AddLoopClosureOutliers(graph, options);
   if (!corrupted.ok()) {
@@ -111,7 +113,8 @@ slamcore::PoseGraph City(int poses, std::uint64_t seed) {
 void PrintRow(const std::string& work, const Timing& batch, const Timing& incremental, double deadline,
               const std::string& goal) {
   std::printf("| %s | %s | %s | %s | %s |\n", work.c_str(), Seconds(batch, deadline).c_str(),
-              Seconds(incremental, deadline).c_str(), Ratio(batch, incremental, deadline).c_str(), goal.c_str());
+              Seconds(incremental, deadline).c_str(), Ratio(batch, incremental, deadline).c_str(),
+              goal.c_str());
   std::fflush(stdout);
 }
 
@@ -119,24 +122,29 @@ void PrintRow(const std::string& work, const Timing& batch, const Timing& increm
 
 int main(int argc, char** argv) {
   CLI::App app{"backend_bench: the Mapper's incremental back-end against the batch baseline, same run"};
-  std::vector<std::string> rows{"manhattan-random", "manhattan-grouped", "city-random", "city-local", "scaling"};
+  std::vector<std::string> rows{"manhattan-random", "manhattan-grouped", "city-random", "city-local",
+                                "scaling"};
   double deadline = 300.0;
   std::uint64_t seed = 1;
   std::string data = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
   app.add_option("--row", rows, "manhattan-random, manhattan-grouped, city-random, city-local, scaling")
-      ->check(CLI::IsMember({"manhattan-random", "manhattan-grouped", "city-random", "city-local", "scaling"}));
-  app.add_option("--deadline", deadline, "seconds after which a replay is stopped")->check(CLI::Range(1.0, 3600.0));
+      ->check(
+          CLI::IsMember({"manhattan-random", "manhattan-grouped", "city-random", "city-local", "scaling"}));
+  app.add_option("--deadline", deadline, "seconds after which a replay is stopped")
+      ->check(CLI::Range(1.0, 3600.0));
   app.add_option("--seed", seed, "seed of the outliers and generated cities");
   app.add_option("--data", data, "the posegraphs directory (for Manhattan 3500)");
   CLI11_PARSE(app, argc, argv);
   const auto has = [&](const char* row) { return std::find(rows.begin(), rows.end(), row) != rows.end(); };
   const auto both = [&](const slamcore::PoseGraph& graph) {
-    return std::pair{Replay(graph, MapperBackend::kBatch, deadline), Replay(graph, MapperBackend::kIncremental, deadline)};
+    return std::pair{Replay(graph, MapperBackend::kBatch, deadline),
+                     Replay(graph, MapperBackend::kIncremental, deadline)};
   };
 
   std::printf("| work | batch s | incremental s | batch / incremental | goal |\n|---|---|---|---|---|\n");
   if (has("manhattan-random") || has("manhattan-grouped")) {
-    const auto manhattan = slamcore::ReadPoseGraph(std::filesystem::path(data) / "vertigo/manhattanOlson3500_olson.g2o");
+    const auto manhattan =
+        slamcore::ReadPoseGraph(std::filesystem::path(data) / "vertigo/manhattanOlson3500_olson.g2o");
     if (!manhattan.ok()) {
       std::fprintf(stderr, "%s\n", manhattan.status().ToString().c_str());
       return 1;
@@ -152,14 +160,16 @@ int main(int argc, char** argv) {
       char goal[96];
       std::snprintf(goal, sizeof goal, "≤ 3× outlier-free: batch %.2f×, incremental %.2f×",
                     batch.seconds && clean_batch.seconds ? *batch.seconds / *clean_batch.seconds : NAN,
-                    incremental.seconds && clean_incremental.seconds ? *incremental.seconds / *clean_incremental.seconds
-                                                                     : NAN);
+                    incremental.seconds && clean_incremental.seconds
+                        ? *incremental.seconds / *clean_incremental.seconds
+                        : NAN);
       PrintRow("Manhattan 3500, 50 % grouped outliers (10)", batch, incremental, deadline, goal);
     }
   }
   if (has("city-random") || has("city-local")) {
     const slamcore::PoseGraph city = City(10000, seed);
-    const std::string name = "city 10,000 poses (" + std::to_string(slamcore::CountLoopClosures(city)) + " closures)";
+    const std::string name =
+        "city 10,000 poses (" + std::to_string(slamcore::CountLoopClosures(city)) + " closures)";
     if (has("city-random")) {
       const auto [batch, incremental] = both(Corrupt(city, "random", 1.0, 1, seed));
       PrintRow(name + ", 100 % random outliers", batch, incremental, deadline, "≤ 8 s");
@@ -170,30 +180,37 @@ int main(int argc, char** argv) {
     }
   }
   if (has("scaling")) {
-    std::printf("\n| poses | events | batch events/s | incremental events/s | batch / incremental |\n|---|---|---|---|---|\n");
+    std::printf(
+        "\n| poses | events | batch events/s | incremental events/s | batch / incremental "
+        "|\n|---|---|---|---|---|\n");
     std::vector<std::pair<double, double>> per_event;  // (poses, incremental seconds per event)
     std::vector<std::pair<double, double>> batch_per_event;
     for (const int poses : {1000, 3500, 10000, 30000}) {
       const auto [batch, incremental] = both(City(poses, seed));
       const auto rate = [&](const Timing& timing) {
         char text[32];
-        if (!timing.seconds) return std::string("< ") + std::to_string(static_cast<long>(timing.events / deadline));
+        if (!timing.seconds)
+          return std::string("< ") + std::to_string(static_cast<long>(timing.events / deadline));
         std::snprintf(text, sizeof text, "%.0f", static_cast<double>(timing.events) / *timing.seconds);
         return std::string(text);
       };
-      std::printf("| %d | %zu | %s | %s | %s |\n", poses, incremental.events, rate(batch).c_str(), rate(incremental).c_str(),
-                  Ratio(batch, incremental, deadline).c_str());
+      std::printf("| %d | %zu | %s | %s | %s |\n", poses, incremental.events, rate(batch).c_str(),
+                  rate(incremental).c_str(), Ratio(batch, incremental, deadline).c_str());
       std::fflush(stdout);
-      if (incremental.seconds) per_event.emplace_back(poses, *incremental.seconds / static_cast<double>(incremental.events));
-      if (batch.seconds) batch_per_event.emplace_back(poses, *batch.seconds / static_cast<double>(batch.events));
+      if (incremental.seconds)
+        per_event.emplace_back(poses, *incremental.seconds / static_cast<double>(incremental.events));
+      if (batch.seconds)
+        batch_per_event.emplace_back(poses, *batch.seconds / static_cast<double>(batch.events));
     }
     const auto exponent = [](const std::vector<std::pair<double, double>>& points) {
       if (points.size() < 2) return std::nan("");
-      return std::log(points.back().second / points.front().second) / std::log(points.back().first / points.front().first);
+      return std::log(points.back().second / points.front().second) /
+             std::log(points.back().first / points.front().first);
     };
     std::printf("\ngrowth exponent of the time per event (%g → %g poses): incremental %.2f, batch %.2f%s\n",
-                per_event.empty() ? 0.0 : per_event.front().first, per_event.empty() ? 0.0 : per_event.back().first,
-                exponent(per_event), exponent(batch_per_event),
+                per_event.empty() ? 0.0 : per_event.front().first,
+                per_event.empty() ? 0.0 : per_event.back().first, exponent(per_event),
+                exponent(batch_per_event),
                 batch_per_event.size() < per_event.size() ? " (batch over the sizes it finished)" : "");
   }
   return 0;

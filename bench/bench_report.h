@@ -35,8 +35,8 @@ class RatioReporter : public benchmark::ConsoleReporter {
 
   /// One line per pair: ratio = baseline time / candidate time, and both runs' "chi2" counters if set.
   void PrintRatios(const char* title) const {
-    std::printf("\n%-36s %12s %12s %10s %14s %14s\n", "benchmark", baseline_.c_str(), candidate_.c_str(), "ratio",
-                (baseline_ + " chi2").c_str(), (candidate_ + " chi2").c_str());
+    std::printf("\n%-36s %12s %12s %10s %14s %14s\n", "benchmark", baseline_.c_str(), candidate_.c_str(),
+                "ratio", (baseline_ + " chi2").c_str(), (candidate_ + " chi2").c_str());
     for (const auto& [name, entry] : entries_) {
       if (entry.baseline.time <= 0 || entry.candidate.time <= 0) continue;
       std::printf("%-36s %12.3f %12.3f %10.2f %14.6g %14.6g\n", name.c_str(), entry.baseline.time,

@@ -26,7 +26,8 @@ struct Graph {
 };
 
 const std::map<std::string, Graph> kGraphs = {
-    {"manhattan", {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat"}},
+    {"manhattan",
+     {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat"}},
     {"ring", {"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt"}},
     {"ringCity", {"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt"}},
     {"intel", {"vertigo/intel.g2o", ""}},
@@ -34,24 +35,27 @@ const std::map<std::string, Graph> kGraphs = {
     {"csail", {"sesync/CSAIL.g2o", ""}},
 };
 
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"filter_accuracy: the hypothesis filter against seeded wrong loop closures on real pose graphs"};
+  CLI::App app{
+      "filter_accuracy: the hypothesis filter against seeded wrong loop closures on real pose graphs"};
   std::vector<std::string> graphs{"manhattan", "ring", "ringCity", "intel", "intel-sesync", "csail"};
   std::vector<std::string> modes{"random", "local", "grouped", "variable", "mixed", "first"};
   std::vector<double> fractions{0.1, 0.5, 1.0};
   std::vector<int> seeds{1, 2, 3};
   std::string data = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
   app.add_option("--graph", graphs, "manhattan, ring, ringCity, intel, intel-sesync, csail");
-  app.add_option("--mode", modes, "random, local, grouped, variable, mixed, first, shifted (held out: never tuned on)")
+  app.add_option("--mode", modes,
+                 "random, local, grouped, variable, mixed, first, shifted (held out: never tuned on)")
       ->check(CLI::IsMember({"random", "local", "grouped", "variable", "mixed", "first", "shifted"}));
-  app.add_option("--fraction", fractions, "wrong edges per true loop closure")->check(CLI::Range(0.001, 10.0));
+  app.add_option("--fraction", fractions, "wrong edges per true loop closure")
+      ->check(CLI::Range(0.001, 10.0));
   app.add_option("--seeds", seeds, "seeds, summed per row")->delimiter(',');
   app.add_option("--data", data, "the posegraphs directory");
   bool counts_only = false;
-  app.add_flag("--counts-only", counts_only, "the paper's filter alone (consistency checks off), for comparison");
+  app.add_flag("--counts-only", counts_only,
+               "the paper's filter alone (consistency checks off), for comparison");
   std::string backend = "incremental";
   app.add_option("--backend", backend, "the Mapper's back-end: incremental, or batch (the baseline)")
       ->check(CLI::IsMember({"incremental", "batch"}));
@@ -63,8 +67,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.01, 100.0));
   CLI11_PARSE(app, argc, argv);
 
-  std::printf("| graph | outliers | fraction | precision | recall | wrong accepted | retracted | trajectory RMSE (m): ours "
-              "/ outlier-free replay | replay s (× outlier-free) |\n|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| graph | outliers | fraction | precision | recall | wrong accepted | retracted | trajectory RMSE "
+      "(m): ours "
+      "/ outlier-free replay | replay s (× outlier-free) |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& name : graphs) {
     const auto graph = kGraphs.find(name);
     if (graph == kGraphs.end()) {
@@ -86,10 +92,12 @@ int main(int argc, char** argv) {
           params.consistency.enabled = !counts_only;
           params.consistency.verify_after_optimization = !no_verify;
           params.consistency.consistent_set_growth = consistent_set_growth;
-          params.backend = backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
+          params.backend =
+              backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
           const auto outcome = bench::EvaluateFilter(data, test_case, params);
           if (!outcome.ok()) {
-            std::fprintf(stderr, "%s %s: %s\n", name.c_str(), mode.c_str(), outcome.status().ToString().c_str());
+            std::fprintf(stderr, "%s %s: %s\n", name.c_str(), mode.c_str(),
+                         outcome.status().ToString().c_str());
             return 1;
           }
           total.true_accepted += outcome->score.true_accepted;
@@ -107,9 +115,10 @@ int main(int argc, char** argv) {
         }
         char rmse[64] = "—";
         if (has_truth) std::snprintf(rmse, sizeof rmse, "%.3f / %.3f", replay_rmse, clean_replay_rmse);
-        std::printf("| %s | %s | %.0f %% | %.2f %% | %.2f %% | %d of %d | %d | %s | %.2f (%.2f) |\n", name.c_str(),
-                    mode.c_str(), 100 * fraction, 100 * total.Precision(), 100 * total.Recall(), total.wrong_accepted,
-                    total.wrong_total, retracted, rmse, seconds, clean_seconds > 0 ? seconds / clean_seconds : 0.0);
+        std::printf("| %s | %s | %.0f %% | %.2f %% | %.2f %% | %d of %d | %d | %s | %.2f (%.2f) |\n",
+                    name.c_str(), mode.c_str(), 100 * fraction, 100 * total.Precision(), 100 * total.Recall(),
+                    total.wrong_accepted, total.wrong_total, retracted, rmse, seconds,
+                    clean_seconds > 0 ? seconds / clean_seconds : 0.0);
         std::fflush(stdout);
       }
     }

@@ -35,8 +35,8 @@ inline slamcore::OutlierOptions OutlierCase(const std::string& mode) {
 }
 
 struct FilterCase {
-  std::string graph;                 // relative to the posegraphs directory
-  std::string truth;                 // ground-truth poses (id x y θ per line, or x y θ), or empty
+  std::string graph;  // relative to the posegraphs directory
+  std::string truth;  // ground-truth poses (id x y θ per line, or x y θ), or empty
   slamcore::OutlierOptions outliers;
   /// When > 0: this many wrong edges per true loop closure of the graph (overrides outliers.count).
   double fraction = 0.0;
@@ -83,9 +83,9 @@ inline std::map<std::string, std::pair<double, double>>& CleanReplays() {
 /// The outlier-free replay of a graph, once per graph and parameter set (CleanReplays().clear() measures
 /// its time again, e.g. beside each row of a table when the machine's load may have changed).
 inline slamcore::Result<std::pair<double, double>> CleanReplay(const std::filesystem::path& graphs,
-                                                             const FilterCase& test_case,
-                                                             const slamcore::PoseGraph& clean,
-                                                             const slamcore::MapperParams& params) {
+                                                               const FilterCase& test_case,
+                                                               const slamcore::PoseGraph& clean,
+                                                               const slamcore::MapperParams& params) {
   auto& cache = CleanReplays();
   std::ostringstream key;
   key << test_case.graph << "|" << params.consistency.enabled << params.consistency.verify_after_optimization;
@@ -100,7 +100,8 @@ inline slamcore::Result<std::pair<double, double>> CleanReplay(const std::filesy
   return cache[key.str()] = {replay.seconds, rmse};
 }
 
-inline slamcore::Result<FilterOutcome> EvaluateFilter(const std::filesystem::path& graphs, const FilterCase& test_case,
+inline slamcore::Result<FilterOutcome> EvaluateFilter(const std::filesystem::path& graphs,
+                                                      const FilterCase& test_case,
                                                       const slamcore::MapperParams& params = {}) {
   ASSIGN_OR_RETURN(auto clean, slamcore::ReadPoseGraph(graphs / test_case.graph));
   slamcore::OutlierOptions outliers = test_case.outliers;

@@ -20,10 +20,11 @@ struct FleetdChild {
   int pid = -1;
   std::string grpc;  // empty when it did not start
 
-  FleetdChild(const std::string& binary, const std::filesystem::path& directory, const std::string& admin_token,
-              std::vector<std::string> extra) {
-    std::vector<std::string> args = {binary, "--db", "sqlite:" + (directory / "fleet.db").string(),
-                                     "--listen", "127.0.0.1:0", "--http", ""};
+  FleetdChild(const std::string& binary, const std::filesystem::path& directory,
+              const std::string& admin_token, std::vector<std::string> extra) {
+    std::vector<std::string> args = {binary,     "--db",        "sqlite:" + (directory / "fleet.db").string(),
+                                     "--listen", "127.0.0.1:0", "--http",
+                                     ""};
     args.insert(args.end(), extra.begin(), extra.end());
     int out[2];
     if (pipe(out) != 0) return;
@@ -46,8 +47,7 @@ struct FleetdChild {
     close(out[0]);
     try {
       grpc = nlohmann::json::parse(line).at("grpc").get<std::string>();
-    } catch (const std::exception&) {
-    }
+    } catch (const std::exception&) {}
   }
   ~FleetdChild() {
     if (pid > 0) {

@@ -46,7 +46,8 @@ std::vector<fleet::v1::RunFile>& Runs() {
     sim::SimParams params;
     params.run_minutes = 2.0;
     for (int robot = 0; robot < 8; ++robot) {
-      auto world = sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot)], 3 + static_cast<std::uint64_t>(robot));
+      auto world =
+          sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot)], 3 + static_cast<std::uint64_t>(robot));
       if (!world.ok()) continue;
       sim::RobotSimulator simulator(*world, params, "bench-" + std::to_string(robot), "1.0", 5 + robot);
       for (int run = 0; run < 3; ++run) {
@@ -93,7 +94,8 @@ void Ingest_baseline(benchmark::State& state) {
     auto repository = storage::OpenRepository("sqlite:" + (directory / "fleet.db").string());
     state.ResumeTiming();
     for (const auto& run : Runs()) {
-      storage::RobotRecord robot{run.header().robot_id(), run.header().robot_model(), run.header().firmware(), 0};
+      storage::RobotRecord robot{run.header().robot_id(), run.header().robot_model(), run.header().firmware(),
+                                 0};
       (void)(*repository)->PutRobot(robot);
       storage::RunRecord record;
       record.run_id = run.header().run_id();
@@ -181,11 +183,13 @@ void Analysis_candidate(benchmark::State& state) {
     return;
   }
   for (const auto& run : Runs()) {
-    (void)(*repository)->PutRobot({run.header().robot_id(), run.header().robot_model(), run.header().firmware(), 0});
+    (void)(*repository)
+        ->PutRobot({run.header().robot_id(), run.header().robot_model(), run.header().firmware(), 0});
     storage::RunRecord record;
     record.run_id = run.header().run_id();
     record.robot_id = run.header().robot_id();
-    if (run.parent_snapshot().nodes_size() > 0) record.parent_snapshot_id = *(*repository)->PutSnapshot(run.parent_snapshot().SerializeAsString());
+    if (run.parent_snapshot().nodes_size() > 0)
+      record.parent_snapshot_id = *(*repository)->PutSnapshot(run.parent_snapshot().SerializeAsString());
     record.child_snapshot_id = *(*repository)->PutSnapshot(run.child_snapshot().SerializeAsString());
     fleet::v1::RunFile telemetry;
     *telemetry.mutable_header() = run.header();
@@ -208,10 +212,26 @@ void Analysis_candidate(benchmark::State& state) {
   std::filesystem::remove_all(directory);
 }
 
-BENCHMARK(Ingest_baseline)->Name("Ingest/baseline")->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
-BENCHMARK(Ingest_candidate)->Name("Ingest/candidate")->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
-BENCHMARK(Analysis_baseline)->Name("Analysis/baseline")->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
-BENCHMARK(Analysis_candidate)->Name("Analysis/candidate")->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+BENCHMARK(Ingest_baseline)
+    ->Name("Ingest/baseline")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
+BENCHMARK(Ingest_candidate)
+    ->Name("Ingest/candidate")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
+BENCHMARK(Analysis_baseline)
+    ->Name("Analysis/baseline")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2)
+    ->UseRealTime();
+BENCHMARK(Analysis_candidate)
+    ->Name("Analysis/candidate")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2)
+    ->UseRealTime();
 
 }  // namespace
 
@@ -225,10 +245,12 @@ int main(int argc, char** argv) {
   std::sort(g_latencies.begin(), g_latencies.end());
   if (!g_latencies.empty()) {
     auto percentile = [](double p) {
-      return g_latencies[std::min(g_latencies.size() - 1, static_cast<std::size_t>(p / 100.0 * static_cast<double>(g_latencies.size())))];
+      return g_latencies[std::min(
+          g_latencies.size() - 1,
+          static_cast<std::size_t>(p / 100.0 * static_cast<double>(g_latencies.size())))];
     };
-    std::printf("upload latency over %zu uploads (4 parallel streams): p50 %.1f ms, p99 %.1f ms\n", g_latencies.size(),
-                1000 * percentile(50), 1000 * percentile(99));
+    std::printf("upload latency over %zu uploads (4 parallel streams): p50 %.1f ms, p99 %.1f ms\n",
+                g_latencies.size(), 1000 * percentile(50), 1000 * percentile(99));
   }
   return 0;
 }

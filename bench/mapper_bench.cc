@@ -36,12 +36,14 @@ void RegisterReplay(const std::string& name, const slamcore::G2oRun& run) {
                                    for (auto _ : state) {
                                      auto mapper = slamcore::Mapper::Create(params);
                                      for (const slamcore::Event& event : run.events) {
-                                       if (!(*mapper)->Process(event).ok()) state.SkipWithError("event refused");
+                                       if (!(*mapper)->Process(event).ok())
+                                         state.SkipWithError("event refused");
                                      }
                                      benchmark::DoNotOptimize((*mapper)->Statistics());
                                    }
-                                   state.counters["events_per_s"] = benchmark::Counter(
-                                       static_cast<double>(run.events.size()), benchmark::Counter::kIsIterationInvariantRate);
+                                   state.counters["events_per_s"] =
+                                       benchmark::Counter(static_cast<double>(run.events.size()),
+                                                          benchmark::Counter::kIsIterationInvariantRate);
                                  })
         ->Unit(benchmark::kMillisecond)
         ->MinTime(1.0);
@@ -73,7 +75,7 @@ PoseGraph TwoComponents(int size) {
 Edge HypothesisEdge(int size) {
   Edge edge;
   edge.from = 2 * size - 1;  // the robot's newest node
-  edge.to = 0;                // a view node in the target component
+  edge.to = 0;               // a view node in the target component
   edge.measurement = SE2(1.0, 0.0, 0.0);
   edge.kind = EdgeKind::kObservation;
   return edge;
@@ -126,9 +128,11 @@ void RegisterMerge(int size) {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   const std::filesystem::path graphs = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
-  for (const char* file : {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/intel.g2o", "vertigo/ringCity.g2o"}) {
+  for (const char* file :
+       {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/intel.g2o", "vertigo/ringCity.g2o"}) {
     const auto graph = slamcore::ReadPoseGraph(graphs / file);
-    const auto run = graph.ok() ? slamcore::RunFromPoseGraph(*graph) : slamcore::Result<slamcore::G2oRun>(graph.status());
+    const auto run =
+        graph.ok() ? slamcore::RunFromPoseGraph(*graph) : slamcore::Result<slamcore::G2oRun>(graph.status());
     if (!run.ok()) {
       std::fprintf(stderr, "%s\n", run.status().ToString().c_str());
       return 1;

@@ -59,7 +59,8 @@ double TextbookSolve(PoseGraph& graph) {
     const slamcore::Matrix3 sqrt_information = Eigen::LLT<slamcore::Matrix3>(edge.information).matrixU();
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AutoDiffEdgeError, 3, 3, 3>(
                                  new AutoDiffEdgeError(edge.measurement, sqrt_information)),
-                             nullptr, poses[graph.IndexOf(edge.from)].data(), poses[graph.IndexOf(edge.to)].data());
+                             nullptr, poses[graph.IndexOf(edge.from)].data(),
+                             poses[graph.IndexOf(edge.to)].data());
   }
   problem.SetParameterBlockConstant(poses[0].data());
   ceres::Solver::Options options;
@@ -80,16 +81,19 @@ double OurSolve(PoseGraph& graph) {
 
 void Register(const std::string& name, const PoseGraph& graph) {
   for (const bool ours : {false, true}) {
-    benchmark::RegisterBenchmark((name + (ours ? "/ours" : "/textbook")).c_str(), [graph, ours](benchmark::State& state) {
-      double chi2 = 0.0;
-      for (auto _ : state) {
-        state.PauseTiming();
-        PoseGraph copy = graph;
-        state.ResumeTiming();
-        chi2 = ours ? OurSolve(copy) : TextbookSolve(copy);
-      }
-      state.counters["chi2"] = chi2;
-    })->Unit(benchmark::kMillisecond)->MinTime(0.5);
+    benchmark::RegisterBenchmark((name + (ours ? "/ours" : "/textbook")).c_str(),
+                                 [graph, ours](benchmark::State& state) {
+                                   double chi2 = 0.0;
+                                   for (auto _ : state) {
+                                     state.PauseTiming();
+                                     PoseGraph copy = graph;
+                                     state.ResumeTiming();
+                                     chi2 = ours ? OurSolve(copy) : TextbookSolve(copy);
+                                   }
+                                   state.counters["chi2"] = chi2;
+                                 })
+        ->Unit(benchmark::kMillisecond)
+        ->MinTime(0.5);
   }
 }
 
@@ -98,14 +102,16 @@ void Register(const std::string& name, const PoseGraph& graph) {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   const std::filesystem::path data = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
-  for (const char* file : {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/intel.g2o", "sesync/intel.g2o",
-                           "sesync/CSAIL.g2o", "sesync/MIT.g2o", "sesync/manhattan.g2o", "vertigo/ringCity.g2o"}) {
+  for (const char* file :
+       {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/intel.g2o", "sesync/intel.g2o", "sesync/CSAIL.g2o",
+        "sesync/MIT.g2o", "sesync/manhattan.g2o", "vertigo/ringCity.g2o"}) {
     auto graph = slamcore::ReadPoseGraph(data / file);
     if (!graph.ok()) {
       std::fprintf(stderr, "%s\n", graph.status().ToString().c_str());
       return 1;
     }
-    Register(std::filesystem::path(file).stem().string() + "(" + std::filesystem::path(file).parent_path().string() + ")",
+    Register(std::filesystem::path(file).stem().string() + "(" +
+                 std::filesystem::path(file).parent_path().string() + ")",
              *graph);
   }
   bench::RatioReporter reporter("textbook", "ours");

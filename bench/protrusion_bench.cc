@@ -29,8 +29,9 @@ struct Pair {
 };
 
 OccupancyGrid Crop(const OccupancyGrid& grid, int col0, int row0, int size) {
-  OccupancyGrid out = *OccupancyGrid::Create(size, size, grid.resolution, grid.origin_x + col0 * grid.resolution,
-                                             grid.origin_y + row0 * grid.resolution);
+  OccupancyGrid out =
+      *OccupancyGrid::Create(size, size, grid.resolution, grid.origin_x + col0 * grid.resolution,
+                             grid.origin_y + row0 * grid.resolution);
   for (int row = 0; row < size; ++row) {
     for (int col = 0; col < size; ++col) {
       if (grid.InBounds(col + col0, row + row0)) out.at(col, row) = grid.at(col + col0, row + row0);
@@ -41,7 +42,8 @@ OccupancyGrid Crop(const OccupancyGrid& grid, int col0, int row0, int size) {
 
 const Pair& BenchPair() {
   static const Pair pair = [] {
-    const auto path = std::filesystem::path(SHARED_DATA_DIR) / "maps" / "valetudo_dreame_l10su_3031_giant.yaml";
+    const auto path =
+        std::filesystem::path(SHARED_DATA_DIR) / "maps" / "valetudo_dreame_l10su_3031_giant.yaml";
     const auto map = slamcore::ReadMapServerYaml(path.string());
     if (!map.ok()) {
       std::fprintf(stderr, "%s\n", map.status().ToString().c_str());
@@ -143,7 +145,8 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   bench::RatioReporter reporter("baseline", "candidate");
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  reporter.PrintRatios("baseline: bare OpenCV difference + labelling / render from scratch; ratio < 1 = slower");
+  reporter.PrintRatios(
+      "baseline: bare OpenCV difference + labelling / render from scratch; ratio < 1 = slower");
   benchmark::Shutdown();
   return 0;
 }

@@ -41,7 +41,9 @@ std::vector<std::string> Split(const std::string& text) {
   return out;
 }
 
-double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+double Seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
 
 void Check(const storage::Status& status, const char* what) {
   if (!status.ok()) {
@@ -121,9 +123,12 @@ std::vector<Query> Queries(storage::Repository& repo, server::FleetQueries& quer
   storage::RunFilter by_default;
   by_default.parameter_set = "default";
   return {
-      {"statistics by day", [=, &queries] { must(queries.Statistics(engineer, by_default, storage::GroupBy::kDay), "by day"); }},
+      {"statistics by day",
+       [=, &queries] { must(queries.Statistics(engineer, by_default, storage::GroupBy::kDay), "by day"); }},
       {"statistics by firmware",
-       [=, &queries] { must(queries.Statistics(engineer, by_default, storage::GroupBy::kFirmware), "by firmware"); }},
+       [=, &queries] {
+         must(queries.Statistics(engineer, by_default, storage::GroupBy::kFirmware), "by firmware");
+       }},
       {"statistics by parameter set",
        [=, &queries] { must(queries.Statistics(engineer, {}, storage::GroupBy::kParameterSet), "by set"); }},
       {"runs page (25, with reports)",
@@ -150,8 +155,8 @@ std::vector<Query> Queries(storage::Repository& repo, server::FleetQueries& quer
 
 void PrintTable(const std::string& backend, const Options& options, const std::vector<long>& sizes,
                 const std::map<std::string, std::vector<double>>& times) {
-  std::printf("\n%s, %d robots, %d days; median of %d calls; ratio = time / time at %ld runs\n", backend.c_str(),
-              options.robots, options.days, options.repeats, sizes.front());
+  std::printf("\n%s, %d robots, %d days; median of %d calls; ratio = time / time at %ld runs\n",
+              backend.c_str(), options.robots, options.days, options.repeats, sizes.front());
   std::printf("%-32s", "query");
   for (const long size : sizes) std::printf(" %10ld runs", size);
   std::printf("   ratio\n");
@@ -192,7 +197,8 @@ int main(int argc, char** argv) {
     auto repo = storage::OpenRepository(*url);
     Check(repo.status(), "open");
     storage::Repository& repository = **repo;
-    for (const char* set : {"default", "candidate"}) Check(repository.PutParameterSet({set, set}).status(), "set");
+    for (const char* set : {"default", "candidate"})
+      Check(repository.PutParameterSet({set, set}).status(), "set");
     for (int robot = 0; robot < options.robots; ++robot) {
       Check(repository.PutRobot({"robot-" + std::to_string(robot), "vac-s", "fw-3.1", 1}), "robot");
     }

@@ -22,7 +22,8 @@ void RegisterHour(const std::string& name, const sim::World& world) {
                                    for (auto _ : state) {
                                      sim::RobotSimulator robot(world, params, "robot", "fw", seed++);
                                      const auto outcome = robot.SimulateRun("run", 0.0);
-                                     if (!outcome.ok()) state.SkipWithError(outcome.status().ToString().c_str());
+                                     if (!outcome.ok())
+                                       state.SkipWithError(outcome.status().ToString().c_str());
                                    }
                                  })
         ->Unit(benchmark::kMillisecond)
@@ -49,7 +50,8 @@ int main(int argc, char** argv) {
   for (const sim::World& world : worlds) RegisterHour("one_hour_" + world.name.substr(0, 20), world);
   bench::RatioReporter reporter("no_optimisation", "mapper");
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  reporter.PrintRatios("time without optimisation / with (the Mapper's optimisation share); target: mapper < 1000 ms");
+  reporter.PrintRatios(
+      "time without optimisation / with (the Mapper's optimisation share); target: mapper < 1000 ms");
   benchmark::Shutdown();
   return 0;
 }

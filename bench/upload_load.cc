@@ -91,15 +91,18 @@ slamcore::Result<std::vector<fleet::v1::RunFile>> GenerateRunPool(const LoadOpti
   for (int i = 0; i < options.pool_size; ++i) {
     const auto& path = (worlds)[static_cast<std::size_t>(i) % worlds.size()];
     auto world = sim::LoadWorld(path, options.seed + static_cast<std::uint64_t>(i));
-    if (!world.ok()) return slamcore::Status(world.status().code(), path.string() + ": " + world.status().message());
+    if (!world.ok())
+      return slamcore::Status(world.status().code(), path.string() + ": " + world.status().message());
     const std::string robot_id = "pool-" + std::to_string(i);
-    sim::RobotSimulator simulator(*world, params, robot_id, "1.0", options.seed * 1000 + static_cast<std::uint64_t>(i));
+    sim::RobotSimulator simulator(*world, params, robot_id, "1.0",
+                                  options.seed * 1000 + static_cast<std::uint64_t>(i));
     auto outcome = simulator.SimulateRun(robot_id + "-run-0", kPoolEpoch);
     if (!outcome.ok()) {
       return slamcore::Status(outcome.status().code(), path.string() + ": " + outcome.status().message());
     }
     if (outcome->run.parent_snapshot().nodes_size() != 0) {
-      return slamcore::Internal("a robot's first simulated run came with a parent map; it cannot be relabelled");
+      return slamcore::Internal(
+          "a robot's first simulated run came with a parent map; it cannot be relabelled");
     }
     pool.push_back(std::move(outcome->run));
   }
@@ -108,8 +111,8 @@ slamcore::Result<std::vector<fleet::v1::RunFile>> GenerateRunPool(const LoadOpti
 
 /// `pooled` as upload number `sequence` of robot `robot_id`: new ids, and every clock moved by
 /// sequence × kUploadSpacingSeconds so the child snapshot differs from every other upload's.
-fleet::v1::RunFile RelabelRun(const fleet::v1::RunFile& pooled, const std::string& robot_id, const std::string& run_id,
-                              std::int64_t sequence) {
+fleet::v1::RunFile RelabelRun(const fleet::v1::RunFile& pooled, const std::string& robot_id,
+                              const std::string& run_id, std::int64_t sequence) {
   fleet::v1::RunFile run = pooled;
   const double shift = static_cast<double>(sequence) * kUploadSpacingSeconds;
   fleet::v1::RunHeader& header = *run.mutable_header();
@@ -159,7 +162,8 @@ struct UploadStats {
     events += other.events;
     bytes += other.bytes;
     for (const auto& [code, count] : other.errors_by_code) errors_by_code[code] += count;
-    for (const auto& [code, message] : other.first_error_by_code) first_error_by_code.try_emplace(code, message);
+    for (const auto& [code, message] : other.first_error_by_code)
+      first_error_by_code.try_emplace(code, message);
     for (const auto& [server, count] : other.acknowledged_by_server) acknowledged_by_server[server] += count;
     for (const auto& [server, count] : other.errors_by_server) errors_by_server[server] += count;
     for (const auto& [server, message] : other.first_error_by_server) {
@@ -187,7 +191,9 @@ struct PhaseResult {
   double seconds = 0.0;  // from the start until the last upload finished
   UploadStats stats;
 
-  double RunsPerSecond() const { return seconds > 0 ? static_cast<double>(stats.acknowledged) / seconds : 0.0; }
+  double RunsPerSecond() const {
+    return seconds > 0 ? static_cast<double>(stats.acknowledged) / seconds : 0.0;
+  }
   double EventsPerSecond() const { return seconds > 0 ? static_cast<double>(stats.events) / seconds : 0.0; }
   double BytesPerSecond() const { return seconds > 0 ? static_cast<double>(stats.bytes) / seconds : 0.0; }
   double LatencyPercentile(double percent) const { return Percentile(stats.latencies, percent); }
@@ -205,16 +211,17 @@ struct PhaseResult {
             {"runs_per_second", RunsPerSecond()},
             {"events_per_second", EventsPerSecond()},
             {"bytes_per_second", BytesPerSecond()},
-            {"latency_ms", {{"p50", 1000 * LatencyPercentile(50)},
-                            {"p99", 1000 * LatencyPercentile(99)},
-                            {"max", 1000 * MaxLatency()}}}};
+            {"latency_ms",
+             {{"p50", 1000 * LatencyPercentile(50)},
+              {"p99", 1000 * LatencyPercentile(99)},
+              {"max", 1000 * MaxLatency()}}}};
   }
 };
 
 /// What every robot of a phase shares. The counters are read by the progress line while robots upload.
 struct SharedUploadState {
   const std::vector<fleet::v1::RunFile>& pool;
-  Clock::time_point deadline{};               // no upload starts after it
+  Clock::time_point deadline{};                // no upload starts after it
   std::atomic<std::int64_t> next_sequence{0};  // numbers every upload of the whole program
   std::atomic<std::int64_t> acknowledged{0}, errors{0};
   std::atomic<int> robots_uploading{0};
@@ -232,8 +239,8 @@ void UploadUntilDeadline(const RobotPlan& robot, sim::Uploader& uploader, const 
                          SharedUploadState& shared, UploadStats& stats) {
   const fleet::v1::RunFile& pooled = shared.pool[robot.pool_index % shared.pool.size()];
   for (std::size_t k = 0; Clock::now() < shared.deadline; ++k) {
-    const fleet::v1::RunFile run = RelabelRun(pooled, robot.robot_id, robot.robot_id + "-run-" + std::to_string(k),
-                                              shared.next_sequence++);
+    const fleet::v1::RunFile run = RelabelRun(
+        pooled, robot.robot_id, robot.robot_id + "-run-" + std::to_string(k), shared.next_sequence++);
     const auto bytes = static_cast<std::int64_t>(run.ByteSizeLong());
     const sim::UploadOutcome outcome = uploader.Upload(run);
     stats.Add(server, outcome, bytes);
@@ -274,7 +281,8 @@ PhaseResult RunLoad(const LoadOptions& options, const std::string& run_tag, Shar
   std::vector<std::string> server_of_robot;
   for (std::size_t i = 0; i < robot_count; ++i) {
     server_of_robot.push_back(options.servers[i % options.servers.size()]);
-    uploaders.push_back(std::make_unique<sim::Uploader>(MakeUploaderOptions(options, server_of_robot.back())));
+    uploaders.push_back(
+        std::make_unique<sim::Uploader>(MakeUploaderOptions(options, server_of_robot.back())));
   }
   std::vector<UploadStats> stats(robot_count);
   shared.acknowledged = 0;
@@ -288,13 +296,14 @@ PhaseResult RunLoad(const LoadOptions& options, const std::string& run_tag, Shar
   for (std::size_t i = 0; i < robot_count; ++i) {
     threads.emplace_back([&, i] {
       start_signal.wait();
-      UploadUntilDeadline({run_tag + "-robot-" + std::to_string(i), i}, *uploaders[i], server_of_robot[i], shared,
-                          stats[i]);
+      UploadUntilDeadline({run_tag + "-robot-" + std::to_string(i), i}, *uploaders[i], server_of_robot[i],
+                          shared, stats[i]);
       --shared.robots_uploading;
     });
   }
   const auto start = Clock::now();
-  shared.deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.seconds));
+  shared.deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.seconds));
   start_signal.count_down();
 
   auto last_report = start;
@@ -324,11 +333,11 @@ PhaseResult RunLoad(const LoadOptions& options, const std::string& run_tag, Shar
 // ---- Reporting -----------------------------------------------------------------------------------------
 
 void PrintPhaseRow(const PhaseResult& phase) {
-  std::printf("%-9s %7d %8.1f %8lld %7lld %8.2f %10.0f %7.2f %8.1f %8.1f %8.1f\n", phase.name.c_str(), phase.robots,
-              phase.seconds, static_cast<long long>(phase.stats.acknowledged),
+  std::printf("%-9s %7d %8.1f %8lld %7lld %8.2f %10.0f %7.2f %8.1f %8.1f %8.1f\n", phase.name.c_str(),
+              phase.robots, phase.seconds, static_cast<long long>(phase.stats.acknowledged),
               static_cast<long long>(phase.stats.Errors()), phase.RunsPerSecond(), phase.EventsPerSecond(),
-              phase.BytesPerSecond() / 1e6, 1000 * phase.LatencyPercentile(50), 1000 * phase.LatencyPercentile(99),
-              1000 * phase.MaxLatency());
+              phase.BytesPerSecond() / 1e6, 1000 * phase.LatencyPercentile(50),
+              1000 * phase.LatencyPercentile(99), 1000 * phase.MaxLatency());
 }
 
 void PrintPhaseDetails(const PhaseResult& phase) {
@@ -345,7 +354,8 @@ void PrintPhaseDetails(const PhaseResult& phase) {
   for (const auto& [server, count] : phase.stats.acknowledged_by_server) {
     std::printf(" %s %lld", server.c_str(), static_cast<long long>(count));
   }
-  std::printf("; %lld already present, %lld needed a retry\n", static_cast<long long>(phase.stats.already_present),
+  std::printf("; %lld already present, %lld needed a retry\n",
+              static_cast<long long>(phase.stats.already_present),
               static_cast<long long>(phase.stats.retried));
 }
 
@@ -386,31 +396,42 @@ std::vector<std::string> ParseServers(const std::string& list, std::string& erro
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"upload_load: many simulated robots uploading to fleetd at once, against a one-robot baseline"};
+  CLI::App app{
+      "upload_load: many simulated robots uploading to fleetd at once, against a one-robot baseline"};
   LoadOptions options;
   std::string server_list;
-  app.add_option("--server", server_list, "fleetd gRPC address(es), host:port[,host:port...]; robots round-robin")
+  app.add_option("--server", server_list,
+                 "fleetd gRPC address(es), host:port[,host:port...]; robots round-robin")
       ->required();
   app.add_option("--token", options.token, "token every robot uploads with (default: $FLEET_TOKEN)");
-  app.add_option("--robots", options.robots, "concurrent robots in the load phase")->check(CLI::Range(1, 100000))
+  app.add_option("--robots", options.robots, "concurrent robots in the load phase")
+      ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  app.add_option("--seconds", options.seconds, "duration of the load phase")->check(CLI::PositiveNumber)
+  app.add_option("--seconds", options.seconds, "duration of the load phase")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--baseline-seconds", options.baseline_seconds,
                  "duration of the one-robot baseline (0: min(10, seconds/4))")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--run-minutes", options.run_minutes, "simulated minutes per run")->check(CLI::PositiveNumber)
+  app.add_option("--run-minutes", options.run_minutes, "simulated minutes per run")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_option("--pool", options.pool_size, "distinct simulated runs to relabel")->check(CLI::Range(1, 10000))
+  app.add_option("--pool", options.pool_size, "distinct simulated runs to relabel")
+      ->check(CLI::Range(1, 10000))
       ->capture_default_str();
   app.add_option("--seed", options.seed, "seed of the simulated runs")->capture_default_str();
   app.add_option("--max-attempts", options.max_attempts, "attempts per upload (1: every refusal is an error)")
-      ->check(CLI::Range(1, 100))->capture_default_str();
-  app.add_option("--upload-timeout", options.upload_timeout_seconds, "deadline of one upload attempt, seconds")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  app.add_option("--upload-timeout", options.upload_timeout_seconds,
+                 "deadline of one upload attempt, seconds")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--progress-seconds", options.progress_seconds, "interval of the progress line on stderr")
-      ->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--world", options.world_dir, "floor plans (.txt) and/or maps (.yaml) the runs are simulated in")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--world", options.world_dir,
+                 "floor plans (.txt) and/or maps (.yaml) the runs are simulated in")
       ->capture_default_str();
   app.add_flag("--json", options.json, "also print one JSON object on the last line");
   CLI11_PARSE(app, argc, argv);
@@ -421,7 +442,8 @@ int main(int argc, char** argv) {
     std::cerr << "upload_load: " << error << "\n";
     return 2;
   }
-  if (options.token.empty() && std::getenv("FLEET_TOKEN") != nullptr) options.token = std::getenv("FLEET_TOKEN");
+  if (options.token.empty() && std::getenv("FLEET_TOKEN") != nullptr)
+    options.token = std::getenv("FLEET_TOKEN");
   if (options.token.empty()) {
     std::cerr << "upload_load: no token: pass --token or set FLEET_TOKEN\n";
     return 2;
@@ -441,17 +463,19 @@ int main(int argc, char** argv) {
   }
   std::string servers_text;
   for (const auto& server : options.servers) servers_text += (servers_text.empty() ? "" : ", ") + server;
-  std::printf("upload_load: %zu simulated runs of %.2g simulated minutes (mean %.0f events, %.1f kB) in %.1f s;"
-              " servers %s; at most %d attempt(s) per upload\n",
-              pool->size(), options.run_minutes, pool_events / static_cast<double>(pool->size()),
-              pool_bytes / static_cast<double>(pool->size()) / 1e3, SecondsBetween(generation_start, Clock::now()),
-              servers_text.c_str(), options.max_attempts);
+  std::printf(
+      "upload_load: %zu simulated runs of %.2g simulated minutes (mean %.0f events, %.1f kB) in %.1f s;"
+      " servers %s; at most %d attempt(s) per upload\n",
+      pool->size(), options.run_minutes, pool_events / static_cast<double>(pool->size()),
+      pool_bytes / static_cast<double>(pool->size()) / 1e3, SecondsBetween(generation_start, Clock::now()),
+      servers_text.c_str(), options.max_attempts);
   std::fflush(stdout);
 
   // Run ids must be new to the database even when it is reused: tag them with the time and process.
-  const std::string run_tag = "load-" + std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
-                                                           std::chrono::system_clock::now().time_since_epoch())
-                                                           .count()) +
+  const std::string run_tag = "load-" +
+                              std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
+                                                 std::chrono::system_clock::now().time_since_epoch())
+                                                 .count()) +
                               "-" + std::to_string(getpid());
   SharedUploadState shared{.pool = *pool};
 
@@ -463,7 +487,7 @@ int main(int argc, char** argv) {
     const auto first_error = baseline.stats.first_error_by_server.find(server);
     std::cerr << "upload_load: server " << server << " acknowledged none of the baseline's uploads: "
               << (first_error == baseline.stats.first_error_by_server.end() ? "no upload was tried"
-                                                                             : first_error->second)
+                                                                            : first_error->second)
               << "\n";
     unreachable = true;
   }
@@ -472,8 +496,8 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "upload_load: load: %d robots for %.1f s\n", options.robots, options.seconds);
   const PhaseResult load = RunLoad(options, run_tag, shared);
 
-  std::printf("\n%-9s %7s %8s %8s %7s %8s %10s %7s %8s %8s %8s\n", "phase", "robots", "seconds", "acked", "errors",
-              "runs/s", "events/s", "MB/s", "p50 ms", "p99 ms", "max ms");
+  std::printf("\n%-9s %7s %8s %8s %7s %8s %10s %7s %8s %8s %8s\n", "phase", "robots", "seconds", "acked",
+              "errors", "runs/s", "events/s", "MB/s", "p50 ms", "p99 ms", "max ms");
   PrintPhaseRow(baseline);
   PrintPhaseRow(load);
   PrintPhaseDetails(baseline);
@@ -483,9 +507,9 @@ int main(int argc, char** argv) {
       {"p50_latency", Ratio(load.LatencyPercentile(50), baseline.LatencyPercentile(50))},
       {"p99_latency", Ratio(load.LatencyPercentile(99), baseline.LatencyPercentile(99))},
   };
-  std::printf("\nratios, %d robots / 1 robot: throughput %s, p50 latency %s, p99 latency %s\n", options.robots,
-              FormatRatio(ratios["throughput"]).c_str(), FormatRatio(ratios["p50_latency"]).c_str(),
-              FormatRatio(ratios["p99_latency"]).c_str());
+  std::printf("\nratios, %d robots / 1 robot: throughput %s, p50 latency %s, p99 latency %s\n",
+              options.robots, FormatRatio(ratios["throughput"]).c_str(),
+              FormatRatio(ratios["p50_latency"]).c_str(), FormatRatio(ratios["p99_latency"]).c_str());
   // The storage check of upload_load.sh: runs stored = acknowledged - already present, over both phases.
   const std::int64_t acknowledged = baseline.stats.acknowledged + load.stats.acknowledged;
   const std::int64_t already_present = baseline.stats.already_present + load.stats.already_present;

@@ -19,7 +19,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const std::filesystem::path directory = [] {
     auto dir = std::filesystem::temp_directory_path() / ("map-server-fuzz-" + std::to_string(getpid()));
     std::filesystem::create_directories(dir);
-    std::ofstream(dir / "map.pgm", std::ios::binary) << "P5\n2 2\n255\n" << std::string("\xfe\x00\xcd\xfe", 4);
+    std::ofstream(dir / "map.pgm", std::ios::binary) << "P5\n2 2\n255\n"
+                                                     << std::string("\xfe\x00\xcd\xfe", 4);
     return dir;
   }();
   std::ofstream(directory / "map.yaml", std::ios::binary | std::ios::trunc) << bytes;

@@ -59,18 +59,25 @@ int main(int argc, char** argv) {
   CLI::App app{"fleetd: fleet telemetry analysis server"};
   std::string config_path;
   app.add_option("--config", config_path, "JSON config file (flags override it)");
-  app.add_option("--db", config.db,
-                 "storage URL: sqlite:PATH or postgresql://... (default $FLEETD_DB_URL; a URL with a password "
-                 "belongs in the environment, not on the command line; default sqlite:fleet.db)");
-  app.add_option("--listen", config.listen, "gRPC address host:port (port 0: any free port)")->capture_default_str();
-  app.add_option("--http", config.http, "HTTP address for /metrics and /healthz (empty: off)")->capture_default_str();
+  app.add_option(
+      "--db", config.db,
+      "storage URL: sqlite:PATH or postgresql://... (default $FLEETD_DB_URL; a URL with a password "
+      "belongs in the environment, not on the command line; default sqlite:fleet.db)");
+  app.add_option("--listen", config.listen, "gRPC address host:port (port 0: any free port)")
+      ->capture_default_str();
+  app.add_option("--http", config.http, "HTTP address for /metrics and /healthz (empty: off)")
+      ->capture_default_str();
   app.add_option("--http-allowed-hosts", config.http_allowed_hosts,
                  "comma-separated Host header names the HTTP side answers besides its bound address");
-  app.add_flag("--metrics-open", config.metrics_open, "serve /metrics without a token (default: engineer token)");
-  app.add_option("--lifelong-results", config.lifelong_results,
-                 "serve this fleetsim --lifelong --results file to the dashboard's fleet page (/api/lifelong)");
-  app.add_option("--role", config.role, "all, server (API only) or worker (workers only)")->capture_default_str();
-  app.add_option("--workers", config.workers, "analysis worker threads (0: one per core)")->capture_default_str();
+  app.add_flag("--metrics-open", config.metrics_open,
+               "serve /metrics without a token (default: engineer token)");
+  app.add_option(
+      "--lifelong-results", config.lifelong_results,
+      "serve this fleetsim --lifelong --results file to the dashboard's fleet page (/api/lifelong)");
+  app.add_option("--role", config.role, "all, server (API only) or worker (workers only)")
+      ->capture_default_str();
+  app.add_option("--workers", config.workers, "analysis worker threads (0: one per core)")
+      ->capture_default_str();
   app.add_option("--tls-cert", config.tls_cert, "PEM certificate chain: serve gRPC over TLS");
   app.add_option("--tls-key", config.tls_key, "PEM private key for --tls-cert");
   app.add_option("--bootstrap-admin-token", config.bootstrap_admin_token,
@@ -78,9 +85,12 @@ int main(int argc, char** argv) {
                  "$FLEETD_BOOTSTRAP_ADMIN_TOKEN");
   app.add_flag("--bootstrap-admin-force", config.bootstrap_admin_force,
                "install the bootstrap admin token even when an admin exists (recovery; undoes its rotation)");
-  app.add_option("--max-message-bytes", config.max_message_bytes, "largest gRPC message")->capture_default_str();
-  app.add_option("--max-events-per-run", config.max_events_per_run, "largest run, in events")->capture_default_str();
-  app.add_option("--max-run-bytes", config.max_run_bytes, "largest upload stream, in bytes")->capture_default_str();
+  app.add_option("--max-message-bytes", config.max_message_bytes, "largest gRPC message")
+      ->capture_default_str();
+  app.add_option("--max-events-per-run", config.max_events_per_run, "largest run, in events")
+      ->capture_default_str();
+  app.add_option("--max-run-bytes", config.max_run_bytes, "largest upload stream, in bytes")
+      ->capture_default_str();
   app.add_option("--max-upload-streams", config.max_upload_streams, "upload streams in flight, in all")
       ->capture_default_str();
   app.add_option("--max-upload-streams-per-principal", config.max_upload_streams_per_principal,
@@ -97,7 +107,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--rate-limit", config.rate_limit_per_second, "requests per second per principal (0: off)")
       ->capture_default_str();
-  app.add_option("--rate-burst", config.rate_limit_burst, "burst size of the rate limit")->capture_default_str();
+  app.add_option("--rate-burst", config.rate_limit_burst, "burst size of the rate limit")
+      ->capture_default_str();
   app.add_option("--shutdown-grace", config.shutdown_grace_seconds, "seconds in-flight work gets on SIGTERM")
       ->capture_default_str();
   app.add_option("--default-parameter-set", config.default_parameter_set, "set every upload is analysed with")
@@ -112,20 +123,24 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--log-level", config.log_level, "debug, info, warn, error")->capture_default_str();
   app.add_option("--log-format", config.log_format, "json or text")->capture_default_str();
-  app.add_option("--auto-repair", config.auto_repair,
-                 "none; cut_protrusions: cut protrusions out of maps after analysis; repair_findings: also reject "
-                 "unconfirmed hypotheses and high-residual edges, rolling back when one cannot be repaired")
+  app.add_option(
+         "--auto-repair", config.auto_repair,
+         "none; cut_protrusions: cut protrusions out of maps after analysis; repair_findings: also reject "
+         "unconfirmed hypotheses and high-residual edges, rolling back when one cannot be repaired")
       ->capture_default_str();
   app.add_option("--auto-repair-min-severity", config.auto_repair_min_severity,
                  "the repair policy acts only on findings at least this severe (0..1)")
       ->capture_default_str();
-  app.add_flag("--auto-approve", config.auto_approve, "policy repairs reach robots without an engineer's review");
-  app.add_option("--retain-runs-days", config.retain_runs_days,
-                 "drop run events (telemetry) uploaded longer ago; reports and map versions are kept (0: never)")
+  app.add_flag("--auto-approve", config.auto_approve,
+               "policy repairs reach robots without an engineer's review");
+  app.add_option(
+         "--retain-runs-days", config.retain_runs_days,
+         "drop run events (telemetry) uploaded longer ago; reports and map versions are kept (0: never)")
       ->capture_default_str();
   app.add_option("--retain-jobs-days", config.retain_jobs_days, "delete jobs finished longer ago (0: never)")
       ->capture_default_str();
-  app.add_option("--retention-interval-seconds", config.retention_interval_seconds, "how often retention runs")
+  app.add_option("--retention-interval-seconds", config.retention_interval_seconds,
+                 "how often retention runs")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (slamcore::Status valid = config.Validate(); !valid.ok()) {
@@ -143,18 +158,20 @@ int main(int argc, char** argv) {
 
   auto repository = storage::OpenRepository(config.db);
   if (!repository.ok()) {
-    server::log::Error("open_failed",
-                       {{"db", storage::RedactDatabaseUrl(config.db)}, {"error", repository.status().ToString()}});
+    server::log::Error("open_failed", {{"db", storage::RedactDatabaseUrl(config.db)},
+                                       {"error", repository.status().ToString()}});
     return 1;
   }
   storage::Repository& repo = **repository;
-  if (slamcore::Status ensured = server::EnsureDefaultParameterSet(repo, config.default_parameter_set); !ensured.ok()) {
+  if (slamcore::Status ensured = server::EnsureDefaultParameterSet(repo, config.default_parameter_set);
+      !ensured.ok()) {
     server::log::Error("default_parameter_set_failed", {{"error", ensured.ToString()}});
     return 1;
   }
   server::Authenticator authenticator(repo, std::chrono::seconds(config.auth_cache_seconds));
   if (!config.bootstrap_admin_token.empty() && config.role != "worker") {
-    auto installed = authenticator.InstallBootstrapToken(config.bootstrap_admin_token, config.bootstrap_admin_force);
+    auto installed =
+        authenticator.InstallBootstrapToken(config.bootstrap_admin_token, config.bootstrap_admin_force);
     if (!installed.ok()) {
       server::log::Error("bootstrap_token_failed", {{"error", installed.status().ToString()}});
       return 2;
@@ -164,8 +181,9 @@ int main(int argc, char** argv) {
       server::log::Info("bootstrap_token_installed", {{"forced", config.bootstrap_admin_force}});
     } else if (*installed == Outcome::kSkippedAdminExists) {
       server::log::Info("bootstrap_token_skipped",
-                        {{"reason", "an admin credential exists (a rotation or revocation is kept); "
-                                    "--bootstrap-admin-force installs it anyway"}});
+                        {{"reason",
+                          "an admin credential exists (a rotation or revocation is kept); "
+                          "--bootstrap-admin-force installs it anyway"}});
     }
   }
 
@@ -214,7 +232,8 @@ int main(int argc, char** argv) {
     server::RetentionPolicy policy;
     policy.retain_runs_days = config.retain_runs_days;
     policy.retain_jobs_days = config.retain_jobs_days;
-    policy.interval = std::chrono::milliseconds(static_cast<long long>(config.retention_interval_seconds * 1000));
+    policy.interval =
+        std::chrono::milliseconds(static_cast<long long>(config.retention_interval_seconds * 1000));
     retention = std::make_unique<server::RetentionTask>(repo, metrics, policy);
     retention->Start();
   }
@@ -227,12 +246,13 @@ int main(int argc, char** argv) {
     return response;
   });
   server::FleetServer* health_target = grpc_server.get();
-  server::HealthMonitor health(repo, std::string(host) + ":" + std::to_string(::getpid()),
-                               std::chrono::milliseconds(static_cast<long long>(config.health_probe_seconds * 1000)),
-                               [health_target](bool healthy) {
-                                 if (health_target != nullptr) health_target->SetServing(healthy);
-                                 if (!healthy) server::log::Warn("unhealthy", {{"hint", "see /healthz"}});
-                               });
+  server::HealthMonitor health(
+      repo, std::string(host) + ":" + std::to_string(::getpid()),
+      std::chrono::milliseconds(static_cast<long long>(config.health_probe_seconds * 1000)),
+      [health_target](bool healthy) {
+        if (health_target != nullptr) health_target->SetServing(healthy);
+        if (!healthy) server::log::Warn("unhealthy", {{"hint", "see /healthz"}});
+      });
   health.Start();
   router.AddRoute("GET", "/healthz", [&health](const server::HttpRequest&) {
     server::HttpResponse response;
@@ -268,8 +288,9 @@ int main(int argc, char** argv) {
     http->Start();
   }
 
-  std::string line = "{\"grpc\": " + (grpc_server ? JsonQuoted(grpc_server->BoundAddress()) : std::string("null")) +
-                     ", \"http\": " + (http ? JsonQuoted(http->BoundAddress()) : std::string("null")) + "}";
+  std::string line =
+      "{\"grpc\": " + (grpc_server ? JsonQuoted(grpc_server->BoundAddress()) : std::string("null")) +
+      ", \"http\": " + (http ? JsonQuoted(http->BoundAddress()) : std::string("null")) + "}";
   std::cout << line << std::endl;
   server::log::Info("started", {{"grpc", grpc_server ? grpc_server->BoundAddress() : ""},
                                 {"http", http ? http->BoundAddress() : ""},
@@ -279,8 +300,9 @@ int main(int argc, char** argv) {
   int signal_number = 0;
   sigwait(&signals, &signal_number);
   server::log::Info("shutting_down", {{"signal", signal_number}});
-  const auto deadline = std::chrono::system_clock::now() +
-                        std::chrono::milliseconds(static_cast<long long>(config.shutdown_grace_seconds * 1000));
+  const auto deadline =
+      std::chrono::system_clock::now() +
+      std::chrono::milliseconds(static_cast<long long>(config.shutdown_grace_seconds * 1000));
   health.Stop();
   if (retention) retention->Stop();
   if (grpc_server) grpc_server->Shutdown(deadline);

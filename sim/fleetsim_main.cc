@@ -109,15 +109,18 @@ int main(int argc, char** argv) {
   app.add_option("--runs", options.runs, "runs per robot")->check(CLI::Range(1, 100000));
   app.add_option("--seed", options.seed, "seed: the same seed gives the same fleet");
   app.add_option("--out", out, "write each run's telemetry here");
-  app.add_option("--minutes", options.params.run_minutes, "simulated minutes per run")->check(CLI::PositiveNumber);
-  app.add_option("--threads", options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--minutes", options.params.run_minutes, "simulated minutes per run")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--threads", options.threads, "worker threads (0: all cores)")
+      ->check(CLI::NonNegativeNumber);
   std::string clutter = "typical", protrusion_data;
   app.add_option("--home-clutter", clutter, "rugs and low furniture in the homes: typical or high")
       ->check(CLI::IsMember({"typical", "high"}));
   app.add_option("--stuck-rate-scale", options.params.stuck_rate_scale,
                  "multiplies the per-contact probabilities of getting stuck (0: never)")
       ->check(CLI::Range(0.0, 1000.0));
-  app.add_option("--lidar-share", options.params.lidar_share, "share of robots with a lidar (the rest: a front ToF)")
+  app.add_option("--lidar-share", options.params.lidar_share,
+                 "share of robots with a lidar (the rest: a front ToF)")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--protrusion-data", protrusion_data,
                  "write each run's parent/child maps with per-cell truth here (protrusion data-set layout)");
@@ -127,23 +130,30 @@ int main(int argc, char** argv) {
   std::string token_file;
   app.add_option("--token", upload.uploader.token,
                  "token for --upload (default: $FLEET_TOKEN); prefer --token-file or the environment");
-  app.add_option("--token-file", token_file, "read the token for --upload from this file (default $FLEET_TOKEN_FILE)");
+  app.add_option("--token-file", token_file,
+                 "read the token for --upload from this file (default $FLEET_TOKEN_FILE)");
   app.add_option("--upload-threads", upload.threads, "parallel upload streams")->check(CLI::Range(1, 256));
   bool follow = false;
-  app.add_flag("--follow-service", follow,
-               "with --upload: each robot uploads after each run and takes the newest approved map before the next");
-  app.add_flag("--map-health", options.measure_map_health,
-               "measure every robot's map against ground truth after each run (docs/fleetsim.md, Map health)");
+  app.add_flag(
+      "--follow-service", follow,
+      "with --upload: each robot uploads after each run and takes the newest approved map before the next");
+  app.add_flag(
+      "--map-health", options.measure_map_health,
+      "measure every robot's map against ground truth after each run (docs/fleetsim.md, Map health)");
   bool lifelong = false;
   sim::LifelongOptions life;
   std::string regimes = "none,filter,service,review", results_file, fleetd, work_dir;
-  app.add_flag("--lifelong", lifelong, "the lifelong experiment: four regimes side by side (docs/fleetsim.md)");
+  app.add_flag("--lifelong", lifelong,
+               "the lifelong experiment: four regimes side by side (docs/fleetsim.md)");
   app.add_option("--regimes", regimes, "--lifelong: the regimes to run, comma-separated");
-  app.add_option("--review-every", life.review_every_runs, "--lifelong review: an engineer approves every K runs");
-  app.add_option("--min-severity", life.min_severity, "--lifelong: the repair policy acts on findings this severe");
+  app.add_option("--review-every", life.review_every_runs,
+                 "--lifelong review: an engineer approves every K runs");
+  app.add_option("--min-severity", life.min_severity,
+                 "--lifelong: the repair policy acts on findings this severe");
   app.add_option("--results", results_file, "--lifelong: also write the JSON object to this file");
   app.add_option("--fleetd", fleetd, "--lifelong: the fleetd binary (default: beside fleetsim)");
-  app.add_option("--work-dir", work_dir, "--lifelong: where the service regimes' fleetd keep their databases");
+  app.add_option("--work-dir", work_dir,
+                 "--lifelong: where the service regimes' fleetd keep their databases");
   CLI11_PARSE(app, argc, argv);
   if (lifelong) {
     life.robots = app.count("--robots") ? options.robots : 20;
@@ -160,7 +170,8 @@ int main(int argc, char** argv) {
       start = comma + 1;
     }
     life.fleetd = fleetd.empty() ? sim::FleetdBesideThisProgram() : std::filesystem::path(fleetd);
-    life.work_dir = work_dir.empty() ? std::filesystem::temp_directory_path() / ("fleetsim-lifelong-" + std::to_string(getpid()))
+    life.work_dir = work_dir.empty() ? std::filesystem::temp_directory_path() /
+                                           ("fleetsim-lifelong-" + std::to_string(getpid()))
                                      : std::filesystem::path(work_dir);
     return RunLifelongCommand(world, life, json, results_file, work_dir.empty());
   }
@@ -173,7 +184,8 @@ int main(int argc, char** argv) {
 
   if (!HomesOf(world, &options.worlds)) return 1;
   if (!upload.uploader.server.empty()) {
-    if (token_file.empty() && std::getenv("FLEET_TOKEN_FILE") != nullptr) token_file = std::getenv("FLEET_TOKEN_FILE");
+    if (token_file.empty() && std::getenv("FLEET_TOKEN_FILE") != nullptr)
+      token_file = std::getenv("FLEET_TOKEN_FILE");
     if (!token_file.empty()) {
       std::string error;
       auto token = sim::ReadTokenFile(token_file, &error);
@@ -183,7 +195,8 @@ int main(int argc, char** argv) {
       }
       upload.uploader.token = *token;
     }
-    if (upload.uploader.token.empty() && std::getenv("FLEET_TOKEN") != nullptr) upload.uploader.token = std::getenv("FLEET_TOKEN");
+    if (upload.uploader.token.empty() && std::getenv("FLEET_TOKEN") != nullptr)
+      upload.uploader.token = std::getenv("FLEET_TOKEN");
     if (out.empty() && !follow) {
       out = (std::filesystem::temp_directory_path() / ("fleetsim-" + std::to_string(getpid()))).string();
     }

@@ -16,15 +16,16 @@ namespace {
 struct AccuracyCase {
   const char* graph;  // under posegraphs/
   const char* truth;
-  const char* mode;   // bench::OutlierCase: random, local, grouped, variable, mixed, first, shifted
-  double fraction;    // wrong edges per true loop closure
+  const char* mode;  // bench::OutlierCase: random, local, grouped, variable, mixed, first, shifted
+  double fraction;   // wrong edges per true loop closure
 };
 
 class FilterAccuracyTest : public ::testing::TestWithParam<AccuracyCase> {};
 
 TEST_P(FilterAccuracyTest, RejectsWrongLoopClosuresAndKeepsTrueOnes) {
   const auto graph = test_data::Find(std::string("posegraphs/") + GetParam().graph);
-  if (!graph) GTEST_SKIP() << "needs posegraphs/" << GetParam().graph << " (the larger data set, ../shared/data)";
+  if (!graph)
+    GTEST_SKIP() << "needs posegraphs/" << GetParam().graph << " (the larger data set, ../shared/data)";
   const std::filesystem::path graphs = graph->parent_path().parent_path();
   bench::FilterCase test_case{GetParam().graph, GetParam().truth, bench::OutlierCase(GetParam().mode)};
   test_case.fraction = GetParam().fraction;
@@ -33,11 +34,13 @@ TEST_P(FilterAccuracyTest, RejectsWrongLoopClosuresAndKeepsTrueOnes) {
   ASSERT_THAT(outcome, IsOk());
   EXPECT_GT(outcome->score.wrong_total, 0);
   EXPECT_GE(outcome->score.Precision(), 0.99) << outcome->score.wrong_accepted << " wrong accepted";
-  EXPECT_GE(outcome->score.Recall(), 0.95) << outcome->score.true_accepted << " of " << outcome->score.true_total;
+  EXPECT_GE(outcome->score.Recall(), 0.95)
+      << outcome->score.true_accepted << " of " << outcome->score.true_total;
   if (outcome->replay_rmse) {
     // The outliers may cost at most 5 % of trajectory accuracy against the same filter without them.
     EXPECT_LE(*outcome->replay_rmse, 1.05 * *outcome->clean_replay_rmse)
-        << "trajectory RMSE " << *outcome->replay_rmse << " m vs outlier-free " << *outcome->clean_replay_rmse << " m";
+        << "trajectory RMSE " << *outcome->replay_rmse << " m vs outlier-free " << *outcome->clean_replay_rmse
+        << " m";
   }
 }
 
@@ -58,14 +61,15 @@ INSTANTIATE_TEST_SUITE_P(
         AccuracyCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", "shifted", 1.0},
         AccuracyCase{"vertigo/intel.g2o", "", "shifted", 1.0},
         // The larger data set.
-        AccuracyCase{"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat", "random",
-                     0.5},
-        AccuracyCase{"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat",
-                     "grouped", 0.5},
+        AccuracyCase{"vertigo/manhattanOlson3500_olson.g2o",
+                     "vertigo/manhattanOlson3500_nodes_groundTruth.dat", "random", 0.5},
+        AccuracyCase{"vertigo/manhattanOlson3500_olson.g2o",
+                     "vertigo/manhattanOlson3500_nodes_groundTruth.dat", "grouped", 0.5},
         AccuracyCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt", "local", 1.0}),
     [](const auto& test_case) {
-      std::string name = std::filesystem::path(test_case.param.graph).stem().string() + "_" + test_case.param.mode +
-                         "_" + std::to_string(static_cast<int>(100 * test_case.param.fraction));
+      std::string name = std::filesystem::path(test_case.param.graph).stem().string() + "_" +
+                         test_case.param.mode + "_" +
+                         std::to_string(static_cast<int>(100 * test_case.param.fraction));
       for (char& c : name) {
         if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
       }

@@ -29,8 +29,8 @@ bool Accept(std::string_view text, std::size_t& at, std::string_view choices) {
   return false;
 }
 
-std::optional<std::int64_t> ToMillis(int year, int month, int day, int hour, int minute, int second, int millis,
-                                     int offset_minutes) {
+std::optional<std::int64_t> ToMillis(int year, int month, int day, int hour, int minute, int second,
+                                     int millis, int offset_minutes) {
   using namespace std::chrono;
   if (year < 1970 || year > 2099 || hour > 23 || minute > 59 || second > 60) return std::nullopt;
   const year_month_day date{std::chrono::year(year), std::chrono::month(static_cast<unsigned>(month)),

@@ -44,7 +44,8 @@ cv::Mat SoftWalls(const OccupancyGrid& grid, double cells) {
 
 /// The pixel (column, row) of a world point, continuous, cell centres at integers.
 cv::Point2d PixelOf(const OccupancyGrid& grid, const slamcore::Vector2& world) {
-  return {(world.x() - grid.origin_x) / grid.resolution - 0.5, (world.y() - grid.origin_y) / grid.resolution - 0.5};
+  return {(world.x() - grid.origin_x) / grid.resolution - 0.5,
+          (world.y() - grid.origin_y) / grid.resolution - 0.5};
 }
 slamcore::Vector2 WorldOf(const OccupancyGrid& grid, double col, double row) {
   return {grid.origin_x + (col + 0.5) * grid.resolution, grid.origin_y + (row + 0.5) * grid.resolution};
@@ -75,16 +76,17 @@ SE2 TransformOf(const OccupancyGrid& previous, const OccupancyGrid& next, const 
 /// Refines `warp` in place by ECC; the correlation coefficient, or −1 when ECC did not converge.
 double RefineByEcc(const cv::Mat& next_soft, const cv::Mat& previous_soft, cv::Mat& warp, int iterations) {
   try {
-    return cv::findTransformECC(next_soft, previous_soft, warp, cv::MOTION_EUCLIDEAN,
-                                cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, iterations, 1e-5),
-                                cv::noArray(), 5);
+    return cv::findTransformECC(
+        next_soft, previous_soft, warp, cv::MOTION_EUCLIDEAN,
+        cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, iterations, 1e-5), cv::noArray(),
+        5);
   } catch (const cv::Exception&) {
     return -1.0;
   }
 }
 
-void MeasureQuality(const OccupancyGrid& previous, const OccupancyGrid& next, const ComparisonOptions& options,
-                    MapAlignment* alignment) {
+void MeasureQuality(const OccupancyGrid& previous, const OccupancyGrid& next,
+                    const ComparisonOptions& options, MapAlignment* alignment) {
   cv::Mat not_wall;
   cv::bitwise_not(MaskOf(next, CellState::kOccupied), not_wall);
   cv::Mat distance;
@@ -119,8 +121,10 @@ cv::Point2d WallCentroid(const OccupancyGrid& grid) {
 
 std::array<double, 4> WorldBox(const OccupancyGrid& grid, const slamcore::ImageBox& box) {
   // ImageBox rows count from the top of the image; grid rows from the bottom (OccupancyGrid::ImageRowOf).
-  return {grid.origin_x + box.x * grid.resolution, grid.origin_y + (grid.height - box.y - box.height) * grid.resolution,
-          grid.origin_x + (box.x + box.width) * grid.resolution, grid.origin_y + (grid.height - box.y) * grid.resolution};
+  return {grid.origin_x + box.x * grid.resolution,
+          grid.origin_y + (grid.height - box.y - box.height) * grid.resolution,
+          grid.origin_x + (box.x + box.width) * grid.resolution,
+          grid.origin_y + (grid.height - box.y) * grid.resolution};
 }
 
 std::string Box(const std::array<double, 4>& box) {
@@ -132,7 +136,8 @@ std::string Box(const std::array<double, 4>& box) {
 }  // namespace
 
 slamcore::Result<MapAlignment> AlignGrids(const OccupancyGrid& previous, const OccupancyGrid& next,
-                                          const std::optional<SE2>& previous_dock, const std::optional<SE2>& next_dock,
+                                          const std::optional<SE2>& previous_dock,
+                                          const std::optional<SE2>& next_dock,
                                           const ComparisonOptions& options) {
   if (previous.width <= 0 || previous.height <= 0) return InvalidArgument("previous map: empty grid");
   if (next.width <= 0 || next.height <= 0) return InvalidArgument("new map: empty grid");
@@ -140,7 +145,8 @@ slamcore::Result<MapAlignment> AlignGrids(const OccupancyGrid& previous, const O
     return InvalidArgument("resolution: the previous map has " + std::to_string(previous.resolution) +
                            " m, the new one " + std::to_string(next.resolution) + " m; they must be equal");
   }
-  if (previous.CountCells(CellState::kOccupied) == 0) return InvalidArgument("previous map: no wall cell to align by");
+  if (previous.CountCells(CellState::kOccupied) == 0)
+    return InvalidArgument("previous map: no wall cell to align by");
   if (next.CountCells(CellState::kOccupied) == 0) return InvalidArgument("new map: no wall cell to align by");
   if (!(options.rotation_step_deg > 0.0)) return InvalidArgument("rotation_step_deg: must be positive");
 
@@ -175,8 +181,9 @@ slamcore::Result<MapAlignment> AlignGrids(const OccupancyGrid& previous, const O
     for (double degrees = 0.0; degrees < 360.0; degrees += options.rotation_step_deg) {
       const double theta = degrees * std::numbers::pi / 180.0, c = std::cos(theta), s = std::sin(theta);
       // p_prev = R (p_next − next_centre) + previous_centre
-      starts.push_back((cv::Mat_<float>(2, 3) << c, -s, previous_centre.x - (c * next_centre.x - s * next_centre.y), s,
-                        c, previous_centre.y - (s * next_centre.x + c * next_centre.y)));
+      starts.push_back((cv::Mat_<float>(2, 3) << c, -s,
+                        previous_centre.x - (c * next_centre.x - s * next_centre.y), s, c,
+                        previous_centre.y - (s * next_centre.x + c * next_centre.y)));
     }
     for (cv::Mat& warp : starts) {
       double correlation = RefineByEcc(next_wide, previous_wide, warp, 50);
@@ -206,14 +213,15 @@ slamcore::Result<MapAlignment> AlignGrids(const OccupancyGrid& previous, const O
       candidates.push_back(identity);
     }
   }
-  return *std::max_element(candidates.begin(), candidates.end(), [](const MapAlignment& a, const MapAlignment& b) {
-    return a.wall_overlap < b.wall_overlap;
-  });
+  return *std::max_element(
+      candidates.begin(), candidates.end(),
+      [](const MapAlignment& a, const MapAlignment& b) { return a.wall_overlap < b.wall_overlap; });
 }
 
 slamcore::Result<OccupancyGrid> ResampleOnto(const OccupancyGrid& previous, const OccupancyGrid& next,
                                              const SE2& new_T_previous) {
-  if (std::abs(previous.resolution - next.resolution) > 1e-9) return InvalidArgument("resolution: must be equal");
+  if (std::abs(previous.resolution - next.resolution) > 1e-9)
+    return InvalidArgument("resolution: must be equal");
   // Codes 0 unknown, 1 free, 2 occupied, so that the border (0) is unknown.
   cv::Mat codes(previous.height, previous.width, CV_8U);
   for (int row = 0; row < previous.height; ++row) {
@@ -221,7 +229,7 @@ slamcore::Result<OccupancyGrid> ResampleOnto(const OccupancyGrid& previous, cons
       const std::int8_t cell = previous.at(col, row);
       codes.at<std::uint8_t>(row, col) = cell == static_cast<std::int8_t>(CellState::kFree)       ? 1
                                          : cell == static_cast<std::int8_t>(CellState::kOccupied) ? 2
-                                                                                                   : 0;
+                                                                                                  : 0;
     }
   }
   cv::Mat resampled;
@@ -240,7 +248,8 @@ slamcore::Result<OccupancyGrid> ResampleOnto(const OccupancyGrid& previous, cons
 }
 
 slamcore::Result<MapComparison> CompareGrids(const OccupancyGrid& previous, const OccupancyGrid& next,
-                                             const std::optional<SE2>& previous_dock, const std::optional<SE2>& next_dock,
+                                             const std::optional<SE2>& previous_dock,
+                                             const std::optional<SE2>& next_dock,
                                              const slamcore::ProtrusionClassifier* classifier,
                                              const ComparisonOptions& options) {
   ASSIGN_OR_RETURN(auto alignment, AlignGrids(previous, next, previous_dock, next_dock, options));
@@ -275,63 +284,71 @@ slamcore::Result<MapComparison> CompareGrids(const OccupancyGrid& previous, cons
   return comparison;
 }
 
-std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& comparison, std::int64_t previous_version) {
+std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& comparison,
+                                                      std::int64_t previous_version) {
   std::vector<fleet::v1::MapFinding> findings;
   const MapAlignment& alignment = comparison.alignment;
   char text[256];
   {
     fleet::v1::MapFinding& finding = findings.emplace_back();
-    finding.set_finding_kind(alignment.good ? fleet::v1::FINDING_KIND_ALIGNMENT : fleet::v1::FINDING_KIND_MISALIGNED);
+    finding.set_finding_kind(alignment.good ? fleet::v1::FINDING_KIND_ALIGNMENT
+                                            : fleet::v1::FINDING_KIND_MISALIGNED);
     finding.set_severity(alignment.good ? 0.05 : 0.9);
     finding.set_finding_state(alignment.good ? fleet::v1::FINDING_STATE_INFO : fleet::v1::FINDING_STATE_OPEN);
     std::snprintf(text, sizeof(text),
                   "aligned with version %lld by %s: %.0f %% of its walls on walls, mean distance %.3f m, "
                   "shift (%.2f, %.2f) m, %.1f°",
-                  static_cast<long long>(previous_version), alignment.method.c_str(), 100.0 * alignment.wall_overlap,
-                  alignment.residual_m, alignment.new_T_previous.x(), alignment.new_T_previous.y(),
-                  alignment.new_T_previous.theta() * 180.0 / std::numbers::pi);
+                  static_cast<long long>(previous_version), alignment.method.c_str(),
+                  100.0 * alignment.wall_overlap, alignment.residual_m, alignment.new_T_previous.x(),
+                  alignment.new_T_previous.y(), alignment.new_T_previous.theta() * 180.0 / std::numbers::pi);
     finding.set_summary(text);
-    finding.set_evidence_json(nlohmann::json{{"previous_version", previous_version},
-                                             {"method", alignment.method},
-                                             {"wall_overlap", alignment.wall_overlap},
-                                             {"residual_m", alignment.residual_m},
-                                             {"correlation", alignment.correlation},
-                                             {"previous_wall_cells", alignment.previous_wall_cells},
-                                             {"new_T_previous",
-                                              {alignment.new_T_previous.x(), alignment.new_T_previous.y(),
-                                               alignment.new_T_previous.theta()}}}
+    finding.set_evidence_json(nlohmann::json{
+        {"previous_version", previous_version},
+        {"method", alignment.method},
+        {"wall_overlap", alignment.wall_overlap},
+        {"residual_m", alignment.residual_m},
+        {"correlation", alignment.correlation},
+        {"previous_wall_cells", alignment.previous_wall_cells},
+        {"new_T_previous",
+         {alignment.new_T_previous.x(), alignment.new_T_previous.y(), alignment.new_T_previous.theta()}}}
                                   .dump());
   }
   for (const bool lost : {false, true}) {
     for (const ChangedRegion& changed : lost ? comparison.lost_regions : comparison.new_regions) {
       fleet::v1::MapFinding& finding = findings.emplace_back();
-      finding.set_finding_kind(lost ? fleet::v1::FINDING_KIND_LOST_REGION : fleet::v1::FINDING_KIND_NEW_REGION);
+      finding.set_finding_kind(lost ? fleet::v1::FINDING_KIND_LOST_REGION
+                                    : fleet::v1::FINDING_KIND_NEW_REGION);
       const bool protrusion = changed.predicted_class == "protrusion";
       finding.set_severity(lost ? 0.6 : protrusion ? 0.5 + 0.3 * changed.probability : 0.2);
-      finding.set_finding_state(lost || protrusion ? fleet::v1::FINDING_STATE_OPEN : fleet::v1::FINDING_STATE_INFO);
+      finding.set_finding_state(lost || protrusion ? fleet::v1::FINDING_STATE_OPEN
+                                                   : fleet::v1::FINDING_STATE_INFO);
       std::snprintf(text, sizeof(text), "%s region %d: %s%s, %.2f m² at %s", lost ? "lost" : "new",
                     changed.region.id, changed.predicted_class.c_str(),
-                    changed.probability >= 0.0 ? (" (p " + std::to_string(changed.probability).substr(0, 4) + ")").c_str()
-                                               : "",
+                    changed.probability >= 0.0
+                        ? (" (p " + std::to_string(changed.probability).substr(0, 4) + ")").c_str()
+                        : "",
                     changed.area_m2, Box(changed.world_bbox).c_str());
       finding.set_summary(text);
       for (const double value : changed.world_bbox) finding.add_world_bbox(value);
       const slamcore::ImageBox& box = changed.region.bbox;
-      finding.set_evidence_json(nlohmann::json{{"region_id", changed.region.id},
-                                               {"class", changed.predicted_class},
-                                               {"probability", changed.probability},
-                                               {"area_m2", changed.area_m2},
-                                               {"cells", changed.region.cells.size()},
-                                               {"image_bbox", {box.x, box.y, box.width, box.height}},
-                                               {"features", changed.region.features},
-                                               {"previous_version", previous_version}}
-                                    .dump());
+      finding.set_evidence_json(nlohmann::json{
+          {"region_id", changed.region.id},
+          {"class", changed.predicted_class},
+          {"probability", changed.probability},
+          {"area_m2", changed.area_m2},
+          {"cells", changed.region.cells.size()},
+          {"image_bbox", {box.x, box.y, box.width, box.height}},
+          {"features", changed.region.features},
+          {"previous_version",
+           previous_version}}.dump());
     }
   }
-  std::stable_sort(findings.begin(), findings.end(), [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
-    return a.severity() > b.severity();
-  });
-  for (std::size_t i = 0; i < findings.size(); ++i) findings[i].set_finding_id(static_cast<std::int64_t>(i) + 1);
+  std::stable_sort(findings.begin(), findings.end(),
+                   [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
+                     return a.severity() > b.severity();
+                   });
+  for (std::size_t i = 0; i < findings.size(); ++i)
+    findings[i].set_finding_id(static_cast<std::int64_t>(i) + 1);
   return findings;
 }
 

@@ -32,9 +32,13 @@ json EdgeJson(const Edge& edge, double chi2) {
 }
 
 json DecisionJson(const fleet::v1::Decision& decision) {
-  return {{"time", decision.time()},        {"kind", decision.kind()}, {"node", decision.node()},
-          {"view", decision.view()},        {"hypothesis", decision.hypothesis()},
-          {"hypothesis_kind", decision.hypothesis_kind()}, {"reason", decision.reason()}};
+  return {{"time", decision.time()},
+          {"kind", decision.kind()},
+          {"node", decision.node()},
+          {"view", decision.view()},
+          {"hypothesis", decision.hypothesis()},
+          {"hypothesis_kind", decision.hypothesis_kind()},
+          {"reason", decision.reason()}};
 }
 
 std::string Fixed(double value, int digits) {
@@ -58,17 +62,21 @@ bool SplitsComponents(const slamcore::PoseGraph& graph, const std::set<std::size
 /// Calls `visit(node, cell_index, world_centre)` for every known cell of the patches of `nodes` that lie in
 /// the component `component`, with the cell's centre in that component's frame.
 template <typename Visit>
-void ForEachKnownPatchCell(const Map& map, const std::set<NodeId>& nodes, slamcore::ComponentId component, Visit visit) {
+void ForEachKnownPatchCell(const Map& map, const std::set<NodeId>& nodes, slamcore::ComponentId component,
+                           Visit visit) {
   for (const NodeId node : nodes) {
     const auto patch = map.local_maps.find(node);
-    if (patch == map.local_maps.end() || !map.graph.HasNode(node) || map.graph.ComponentOf(node) != component) continue;
+    if (patch == map.local_maps.end() || !map.graph.HasNode(node) || map.graph.ComponentOf(node) != component)
+      continue;
     const slamcore::SE2 world_T_patch = map.graph.node(node).pose * patch->second.node_T_origin;
     const slamcore::LocalMapEvent& cells = patch->second;
     for (int row = 0; row < cells.height; ++row) {
       for (int col = 0; col < cells.width; ++col) {
         const std::size_t index = static_cast<std::size_t>(row) * cells.width + col;
         if (cells.cells[index] < 0) continue;
-        visit(node, index, world_T_patch * slamcore::Vector2((col + 0.5) * cells.resolution, (row + 0.5) * cells.resolution));
+        visit(node, index,
+              world_T_patch *
+                  slamcore::Vector2((col + 0.5) * cells.resolution, (row + 0.5) * cells.resolution));
       }
     }
   }
@@ -79,11 +87,13 @@ bool Inside(const slamcore::Vector2& point, const std::array<double, 4>& box, do
          point.y() <= box[3] + margin;
 }
 
-std::int64_t RunCellsInside(const Map& map, const std::set<NodeId>& run_nodes, const std::array<double, 4>& box) {
+std::int64_t RunCellsInside(const Map& map, const std::set<NodeId>& run_nodes,
+                            const std::array<double, 4>& box) {
   if (map.graph.num_nodes() == 0) return 0;
   std::int64_t count = 0;
-  ForEachKnownPatchCell(map, run_nodes, HomeComponent(map.graph),
-                        [&](NodeId, std::size_t, const slamcore::Vector2& centre) { count += Inside(centre, box, 0.0); });
+  ForEachKnownPatchCell(
+      map, run_nodes, HomeComponent(map.graph),
+      [&](NodeId, std::size_t, const slamcore::Vector2& centre) { count += Inside(centre, box, 0.0); });
   return count;
 }
 
@@ -98,7 +108,8 @@ void ResidualFindings(const Map& map, const std::set<NodeId>& run_nodes, const F
     observation_chi2.push_back(chi2[i]);
   }
   if (observation_chi2.empty()) return;
-  std::nth_element(observation_chi2.begin(), observation_chi2.begin() + observation_chi2.size() / 2, observation_chi2.end());
+  std::nth_element(observation_chi2.begin(), observation_chi2.begin() + observation_chi2.size() / 2,
+                   observation_chi2.end());
   const double median = observation_chi2[observation_chi2.size() / 2];
   const double threshold = std::max(options.residual_chi2, options.residual_peer_factor * median);
   // One finding per hypothesis of the run (its edges stand or fall together), else one per edge.
@@ -107,7 +118,8 @@ void ResidualFindings(const Map& map, const std::set<NodeId>& run_nodes, const F
     const Edge& edge = graph.edges()[i];
     if (edge.kind != EdgeKind::kObservation || chi2[i] <= threshold) continue;
     const bool of_run_hypothesis = edge.hypothesis && run_nodes.contains(edge.from);
-    groups[of_run_hypothesis ? std::pair{*edge.hypothesis, std::size_t{0}} : std::pair{std::int64_t{-1}, i}].push_back(i);
+    groups[of_run_hypothesis ? std::pair{*edge.hypothesis, std::size_t{0}} : std::pair{std::int64_t{-1}, i}]
+        .push_back(i);
   }
   for (const auto& [key, members] : groups) {
     std::size_t worst = members.front();
@@ -121,24 +133,29 @@ void ResidualFindings(const Map& map, const std::set<NodeId>& run_nodes, const F
     finding.set_finding_kind(fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE);
     finding.set_severity(std::clamp(0.5 + 0.1 * std::log2(chi2[worst] / threshold), 0.5, 0.95));
     finding.set_finding_state(fleet::v1::FINDING_STATE_OPEN);
-    const std::string subject = key.first >= 0 ? std::to_string(members.size()) + " edge(s) of hypothesis " +
-                                                     std::to_string(key.first)
-                                               : "edge " + std::to_string(edge.from) + "→" + std::to_string(edge.to);
-    finding.set_summary(subject + ": χ² up to " + Fixed(chi2[worst], 1) + " after optimisation (observation edges' median " +
-                        Fixed(median, 2) + ")");
+    const std::string subject =
+        key.first >= 0
+            ? std::to_string(members.size()) + " edge(s) of hypothesis " + std::to_string(key.first)
+            : "edge " + std::to_string(edge.from) + "→" + std::to_string(edge.to);
+    finding.set_summary(subject + ": χ² up to " + Fixed(chi2[worst], 1) +
+                        " after optimisation (observation edges' median " + Fixed(median, 2) + ")");
     if (key.first >= 0) finding.set_hypothesis(key.first);
     finding.set_edge_from(edge.from);
     finding.set_edge_to(edge.to);
-    finding.set_evidence_json(json{{"edges", edges}, {"median_chi2", median}, {"threshold", threshold}}.dump());
+    finding.set_evidence_json(
+        json{{"edges", edges}, {"median_chi2", median}, {"threshold", threshold}}.dump());
     findings->push_back(std::move(finding));
   }
 }
 
-void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_nodes, const fleet::v1::RunReport& report,
+void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_nodes,
+                                   const fleet::v1::RunReport& report,
                                    std::vector<fleet::v1::MapFinding>* findings) {
-  std::set<std::pair<NodeId, std::int64_t>> rerun_edges;  // (robot node, view) of the rerun's observation edges
+  std::set<std::pair<NodeId, std::int64_t>>
+      rerun_edges;  // (robot node, view) of the rerun's observation edges
   for (const fleet::v1::Edge& edge : report.rerun_child().edges()) {
-    if (edge.kind() == fleet::v1::Edge::KIND_OBSERVATION && edge.has_view()) rerun_edges.emplace(edge.from(), edge.view());
+    if (edge.kind() == fleet::v1::Edge::KIND_OBSERVATION && edge.has_view())
+      rerun_edges.emplace(edge.from(), edge.view());
   }
   std::map<std::int64_t, std::set<std::size_t>> by_hypothesis;
   for (std::size_t i = 0; i < map.graph.num_edges(); ++i) {
@@ -172,19 +189,21 @@ void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_n
     finding.set_finding_kind(fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS);
     finding.set_severity(merge ? 0.8 : 0.7);
     finding.set_finding_state(fleet::v1::FINDING_STATE_OPEN);
-    finding.set_summary(std::string(merge ? "merge" : "loop closure") + " by hypothesis " + std::to_string(hypothesis) +
-                        " (" + std::to_string(members.size()) + " edges, " + std::to_string(confirmed) +
-                        " confirmed): the robot accepted it, the server's rerun with '" + report.parameter_set() +
-                        "' did not");
+    finding.set_summary(std::string(merge ? "merge" : "loop closure") + " by hypothesis " +
+                        std::to_string(hypothesis) + " (" + std::to_string(members.size()) + " edges, " +
+                        std::to_string(confirmed) +
+                        " confirmed): the robot accepted it, the server's rerun with '" +
+                        report.parameter_set() + "' did not");
     finding.set_hypothesis(hypothesis);
     finding.set_edge_from(first.from);
     finding.set_edge_to(first.to);
-    finding.set_evidence_json(json{{"edges", edges},
-                                   {"joins_components", merge},
-                                   {"confirmed_edges", confirmed},
-                                   {"parameter_set", report.parameter_set()},
-                                   {"rerun_decisions", decisions}}
-                                  .dump());
+    finding.set_evidence_json(json{
+        {"edges", edges},
+        {"joins_components", merge},
+        {"confirmed_edges", confirmed},
+        {"parameter_set", report.parameter_set()},
+        {"rerun_decisions",
+         decisions}}.dump());
     findings->push_back(std::move(finding));
   }
 }
@@ -196,7 +215,8 @@ void ProtrusionFindings(const Map& map, const std::set<NodeId>& run_nodes, const
         region.world_bbox_size() != 4) {
       continue;
     }
-    const std::array<double, 4> box = {region.world_bbox(0), region.world_bbox(1), region.world_bbox(2), region.world_bbox(3)};
+    const std::array<double, 4> box = {region.world_bbox(0), region.world_bbox(1), region.world_bbox(2),
+                                       region.world_bbox(3)};
     const std::int64_t cells = RunCellsInside(map, run_nodes, box);
     fleet::v1::MapFinding finding;
     finding.set_finding_kind(fleet::v1::FINDING_KIND_PROTRUSION);
@@ -206,11 +226,12 @@ void ProtrusionFindings(const Map& map, const std::set<NodeId>& run_nodes, const
                         Fixed((box[2] - box[0]) * (box[3] - box[1]), 2) + " m², probability " +
                         Fixed(region.probability(), 2) + ")" + (cells > 0 ? "" : ": cut out"));
     for (const double value : box) finding.add_world_bbox(value);
-    finding.set_evidence_json(json{{"region_id", region.id()},
-                                   {"probability", region.probability()},
-                                   {"run_cells_inside", cells},
-                                   {"image_bbox", std::vector<int>(region.bbox().begin(), region.bbox().end())}}
-                                  .dump());
+    finding.set_evidence_json(
+        json{{"region_id", region.id()},
+             {"probability", region.probability()},
+             {"run_cells_inside", cells},
+             {"image_bbox", std::vector<int>(region.bbox().begin(), region.bbox().end())}}
+            .dump());
     findings->push_back(std::move(finding));
   }
 }
@@ -229,9 +250,11 @@ void UndoneMergeFindings(const fleet::v1::RunReport& report, std::vector<fleet::
     finding.set_finding_kind(fleet::v1::FINDING_KIND_UNDONE_MERGE);
     finding.set_severity(0.3);
     finding.set_finding_state(fleet::v1::FINDING_STATE_INFO);
-    finding.set_summary("the rerun merged conditionally at t=" + Fixed(accepted_at, 1) + " s and undid it at t=" +
-                        Fixed(decision.time(), 1) + " s (" + decision.reason() + ")");
-    finding.set_evidence_json(json{{"rerun_hypothesis", decision.hypothesis()}, {"rerun_decisions", it->second}}.dump());
+    finding.set_summary("the rerun merged conditionally at t=" + Fixed(accepted_at, 1) +
+                        " s and undid it at t=" + Fixed(decision.time(), 1) + " s (" + decision.reason() +
+                        ")");
+    finding.set_evidence_json(
+        json{{"rerun_hypothesis", decision.hypothesis()}, {"rerun_decisions", it->second}}.dump());
     findings->push_back(std::move(finding));
     conditional.erase(it);
   }
@@ -240,7 +263,8 @@ void UndoneMergeFindings(const fleet::v1::RunReport& report, std::vector<fleet::
 /// Recovery hypotheses the rerun accepted and later retracted when better-supported evidence contradicted
 /// them (correlated wrong observations: slamcore/src/mapper_consistency.cc). Informational: the rerun's map
 /// no longer holds them; where the robot's map still does, "unconfirmed_hypothesis" says so.
-void RetractedHypothesisFindings(const fleet::v1::RunReport& report, std::vector<fleet::v1::MapFinding>* findings) {
+void RetractedHypothesisFindings(const fleet::v1::RunReport& report,
+                                 std::vector<fleet::v1::MapFinding>* findings) {
   std::map<std::int64_t, json> accepted;  // hypothesis → its acceptance decision
   for (const fleet::v1::Decision& decision : report.decisions()) {
     if (decision.hypothesis_kind() != "recovery") continue;
@@ -251,13 +275,15 @@ void RetractedHypothesisFindings(const fleet::v1::RunReport& report, std::vector
     finding.set_severity(0.4);
     finding.set_finding_state(fleet::v1::FINDING_STATE_INFO);
     const auto it = accepted.find(decision.hypothesis());
-    finding.set_summary("the rerun accepted recovery hypothesis " + std::to_string(decision.hypothesis()) +
-                        (it != accepted.end() ? " at t=" + Fixed(it->second["time"].get<double>(), 1) + " s" : "") +
-                        " and retracted it at t=" + Fixed(decision.time(), 1) + " s: " + decision.reason());
-    finding.set_evidence_json(json{{"rerun_hypothesis", decision.hypothesis()},
-                                   {"accepted", it != accepted.end() ? it->second : json(nullptr)},
-                                   {"retracted", DecisionJson(decision)}}
-                                  .dump());
+    finding.set_summary(
+        "the rerun accepted recovery hypothesis " + std::to_string(decision.hypothesis()) +
+        (it != accepted.end() ? " at t=" + Fixed(it->second["time"].get<double>(), 1) + " s" : "") +
+        " and retracted it at t=" + Fixed(decision.time(), 1) + " s: " + decision.reason());
+    finding.set_evidence_json(json{
+        {"rerun_hypothesis", decision.hypothesis()},
+        {"accepted", it != accepted.end() ? it->second : json(nullptr)},
+        {"retracted",
+         DecisionJson(decision)}}.dump());
     findings->push_back(std::move(finding));
   }
 }
@@ -295,7 +321,8 @@ MapFigures ComputeFigures(const Map& map) {
   MapFigures figures;
   figures.nodes = static_cast<std::int64_t>(map.graph.num_nodes());
   figures.edges = static_cast<std::int64_t>(map.graph.num_edges());
-  for (const Edge& edge : map.graph.edges()) figures.observation_edges += edge.kind == EdgeKind::kObservation ? 1 : 0;
+  for (const Edge& edge : map.graph.edges())
+    figures.observation_edges += edge.kind == EdgeKind::kObservation ? 1 : 0;
   figures.views = static_cast<std::int64_t>(map.graph.views().size());
   figures.components = static_cast<std::int64_t>(map.graph.NumComponents());
   figures.chi2 = slamcore::Chi2(map.graph);
@@ -304,7 +331,8 @@ MapFigures ComputeFigures(const Map& map) {
 
 Result<double> KnownArea(const Map& map) {
   ASSIGN_OR_RETURN(auto grid, RenderHomeGrid(map));
-  const std::int64_t known = static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(slamcore::CellState::kUnknown);
+  const std::int64_t known =
+      static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(slamcore::CellState::kUnknown);
   return static_cast<double>(known) * grid.resolution * grid.resolution;
 }
 
@@ -316,7 +344,8 @@ std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {
   return added;
 }
 
-std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, const FindingOptions& options) {
+std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs,
+                                                   const FindingOptions& options) {
   std::vector<fleet::v1::MapFinding> findings;
   if (!inputs.map || inputs.map->graph.num_nodes() == 0) return findings;
   const Map& map = *inputs.map;
@@ -332,7 +361,8 @@ std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, 
   AmbiguousViewFinding(map, &findings);
   std::stable_sort(findings.begin(), findings.end(),
                    [](const auto& a, const auto& b) { return a.severity() > b.severity(); });
-  for (std::size_t i = 0; i < findings.size(); ++i) findings[i].set_finding_id(static_cast<std::int64_t>(i + 1));
+  for (std::size_t i = 0; i < findings.size(); ++i)
+    findings[i].set_finding_id(static_cast<std::int64_t>(i + 1));
   return findings;
 }
 
@@ -345,7 +375,8 @@ Status Reoptimize(Map& map) {
   return summary.ok() ? Status::Ok() : summary.status();
 }
 
-Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<slamcore::ViewId> view, std::string* detail) {
+Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<slamcore::ViewId> view,
+                       std::string* detail) {
   bool motion_only = false;
   std::optional<std::size_t> target;
   for (std::size_t i = 0; i < map.graph.num_edges() && !target; ++i) {
@@ -360,8 +391,9 @@ Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<sla
   const std::string name = "edge " + std::to_string(from) + "→" + std::to_string(to) +
                            (view ? " (view " + std::to_string(*view) + ")" : "");
   if (!target) {
-    return slamcore::InvalidArgument(motion_only ? name + " is a motion (odometry) edge; only observation edges can be rejected"
-                                                 : "the map has no observation " + name);
+    return slamcore::InvalidArgument(
+        motion_only ? name + " is a motion (odometry) edge; only observation edges can be rejected"
+                    : "the map has no observation " + name);
   }
   Map repaired = map;
   const std::size_t components_before = repaired.graph.NumComponents();
@@ -373,11 +405,13 @@ Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<sla
   return repaired;
 }
 
-Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, std::int64_t hypothesis, std::string* detail) {
+Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, std::int64_t hypothesis,
+                             std::string* detail) {
   Map repaired = map;
   const std::size_t components_before = repaired.graph.NumComponents();
   const std::size_t removed = repaired.graph.RemoveEdgesIf([&](const Edge& edge) {
-    return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis && run_nodes.contains(edge.from);
+    return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis &&
+           run_nodes.contains(edge.from);
   });
   if (removed == 0) {
     return slamcore::InvalidArgument("the map has no edge that hypothesis " + std::to_string(hypothesis) +
@@ -390,8 +424,8 @@ Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, 
   return repaired;
 }
 
-Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes, const std::array<double, 4>& world_bbox,
-                      std::string* detail) {
+Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes,
+                      const std::array<double, 4>& world_bbox, std::string* detail) {
   if (!(world_bbox[0] < world_bbox[2] && world_bbox[1] < world_bbox[3])) {
     return slamcore::InvalidArgument("region: min_x < max_x and min_y < max_y are required");
   }
@@ -409,10 +443,11 @@ Result<Map> CutRegion(const Map& map, const std::set<NodeId>& run_nodes, const s
                           ++cleared;
                           touched.insert(node);
                         });
-  if (cleared == 0) return slamcore::InvalidArgument("the run's occupancy patches have no known cells in the region");
-  *detail = "cut region [" + Fixed(world_bbox[0], 2) + ", " + Fixed(world_bbox[1], 2) + "] – [" + Fixed(world_bbox[2], 2) +
-            ", " + Fixed(world_bbox[3], 2) + "]: " + std::to_string(cleared) + " cells of " + std::to_string(touched.size()) +
-            " patches made unknown";
+  if (cleared == 0)
+    return slamcore::InvalidArgument("the run's occupancy patches have no known cells in the region");
+  *detail = "cut region [" + Fixed(world_bbox[0], 2) + ", " + Fixed(world_bbox[1], 2) + "] – [" +
+            Fixed(world_bbox[2], 2) + ", " + Fixed(world_bbox[3], 2) + "]: " + std::to_string(cleared) +
+            " cells of " + std::to_string(touched.size()) + " patches made unknown";
   return repaired;
 }
 
@@ -423,12 +458,19 @@ namespace {
 using EdgeKey = std::tuple<NodeId, NodeId, int, std::int64_t, std::int64_t, double, double, double>;
 
 EdgeKey KeyOf(const Edge& edge) {
-  return {edge.from, edge.to, static_cast<int>(edge.kind), edge.view.value_or(-1), edge.hypothesis.value_or(-1),
-          edge.measurement.x(), edge.measurement.y(), edge.measurement.theta()};
+  return {edge.from,
+          edge.to,
+          static_cast<int>(edge.kind),
+          edge.view.value_or(-1),
+          edge.hypothesis.value_or(-1),
+          edge.measurement.x(),
+          edge.measurement.y(),
+          edge.measurement.theta()};
 }
 
 bool SamePatchShape(const slamcore::LocalMapEvent& a, const slamcore::LocalMapEvent& b) {
-  return a.width == b.width && a.height == b.height && a.resolution == b.resolution && a.cells.size() == b.cells.size();
+  return a.width == b.width && a.height == b.height && a.resolution == b.resolution &&
+         a.cells.size() == b.cells.size();
 }
 
 }  // namespace
@@ -473,17 +515,20 @@ Result<Map> CarryRepairForward(const Map& base, const Map& repaired, const Map& 
   }
   if (edges_removed == 0 && cells_changed == 0) {
     return slamcore::InvalidArgument(
-        "nothing of the repair applies to the later version: the edges it removed and the cells it changed are gone "
+        "nothing of the repair applies to the later version: the edges it removed and the cells it changed "
+        "are gone "
         "or were observed again");
   }
   if (edges_removed > 0) RETURN_IF_ERROR(Reoptimize(carried));
-  *detail = std::to_string(edges_removed) + " edge(s) removed and " + std::to_string(cells_changed) + " cells of " +
-            std::to_string(patches.size()) + " patches changed as the repair did" +
-            (cells_kept > 0 ? "; " + std::to_string(cells_kept) + " cells observed again since kept" : std::string());
+  *detail = std::to_string(edges_removed) + " edge(s) removed and " + std::to_string(cells_changed) +
+            " cells of " + std::to_string(patches.size()) + " patches changed as the repair did" +
+            (cells_kept > 0 ? "; " + std::to_string(cells_kept) + " cells observed again since kept"
+                            : std::string());
   return carried;
 }
 
-Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format, const std::string& stem,
+Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std::string& format,
+                                                       const std::string& stem,
                                                        const fleet::v1::MapMetadata* metadata) {
   if (map.graph.num_nodes() == 0) return slamcore::InvalidArgument("the map is empty: nothing to export");
   std::vector<fleet::v1::ExportedFile> files;
@@ -496,12 +541,14 @@ Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const Map& map, const std
     return files;
   }
   if (format != "map_server" && format != "valetudo") {
-    return slamcore::InvalidArgument("format \"" + format +
-                                     "\": expected \"map_server\" (PGM + YAML), \"g2o\" or \"valetudo\" (ValetudoMap JSON)");
+    return slamcore::InvalidArgument(
+        "format \"" + format +
+        "\": expected \"map_server\" (PGM + YAML), \"g2o\" or \"valetudo\" (ValetudoMap JSON)");
   }
   auto grid = RenderHomeGrid(map);
   RETURN_IF_ERROR(grid.status());
-  if (grid->width == 0) return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
+  if (grid->width == 0)
+    return slamcore::InvalidArgument("the map has no occupancy patches: no " + format + " image");
   if (format == "valetudo") {
     ASSIGN_OR_RETURN(auto json, WriteValetudoMap(*grid, metadata ? *metadata : fleet::v1::MapMetadata()));
     fleet::v1::ExportedFile& file = files.emplace_back();

@@ -55,7 +55,8 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
 slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParameters& proto) {
   slamcore::MapperParams params;
   if (proto.has_gate_chi2()) params.gate_chi2 = proto.gate_chi2();
-  if (proto.has_direct_max_position_sigma()) params.direct_max_position_sigma = proto.direct_max_position_sigma();
+  if (proto.has_direct_max_position_sigma())
+    params.direct_max_position_sigma = proto.direct_max_position_sigma();
   auto criteria = [](const fleet::v1::AcceptanceCriteria& from, slamcore::AcceptanceCriteria* to) {
     if (from.has_min_observations()) to->min_observations = from.min_observations();
     if (from.has_min_views()) to->min_views = from.min_views();
@@ -64,10 +65,14 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   criteria(proto.merge_conditional(), &params.merge_conditional);
   criteria(proto.merge_full(), &params.merge_full);
   if (proto.has_conditional_merge()) params.conditional_merge = proto.conditional_merge();
-  if (proto.has_hypothesis_expiry_seconds()) params.hypothesis_expiry_seconds = proto.hypothesis_expiry_seconds();
-  if (proto.has_hypothesis_expiry_distance()) params.hypothesis_expiry_distance = proto.hypothesis_expiry_distance();
-  if (proto.has_ambiguity_window_distance()) params.ambiguity_window_distance = proto.ambiguity_window_distance();
-  if (proto.has_ambiguity_min_rejections()) params.ambiguity_min_rejections = proto.ambiguity_min_rejections();
+  if (proto.has_hypothesis_expiry_seconds())
+    params.hypothesis_expiry_seconds = proto.hypothesis_expiry_seconds();
+  if (proto.has_hypothesis_expiry_distance())
+    params.hypothesis_expiry_distance = proto.hypothesis_expiry_distance();
+  if (proto.has_ambiguity_window_distance())
+    params.ambiguity_window_distance = proto.ambiguity_window_distance();
+  if (proto.has_ambiguity_min_rejections())
+    params.ambiguity_min_rejections = proto.ambiguity_min_rejections();
   if (proto.has_discount_ambiguous_in_merge()) {
     params.discount_ambiguous_in_merge = proto.discount_ambiguous_in_merge();
   }
@@ -100,7 +105,8 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   return params;
 }
 
-slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json, const std::string& source) {
+slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json,
+                                                                const std::string& source) {
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;
   fleet::v1::ParameterSet set;

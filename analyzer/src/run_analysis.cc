@@ -31,7 +31,9 @@ struct ReportedObservation {
   std::optional<bool> truth_wrong;
 };
 
-double Seconds(std::chrono::steady_clock::duration duration) { return std::chrono::duration<double>(duration).count(); }
+double Seconds(std::chrono::steady_clock::duration duration) {
+  return std::chrono::duration<double>(duration).count();
+}
 
 fleet::v1::MapperCounts CountsToProto(const slamcore::MapperStatistics& stats) {
   fleet::v1::MapperCounts counts;
@@ -69,15 +71,16 @@ fleet::v1::Decision DecisionToProto(const Decision& decision) {
 /// Seconds from the first event to the first merge decision of `kind`, or −1.
 double SecondsToMerge(const std::vector<Decision>& decisions, DecisionKind kind, double start) {
   for (const Decision& decision : decisions) {
-    if (decision.kind == kind && decision.hypothesis_kind == HypothesisKind::kMerge) return decision.time - start;
+    if (decision.kind == kind && decision.hypothesis_kind == HypothesisKind::kMerge)
+      return decision.time - start;
   }
   return -1.0;
 }
 
 /// Protrusion regions between the parent map and the rerun child (RenderComparedGrids).
-slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::Map& child, bool has_ground_truth,
-                                   const std::set<NodeId>& slipping_nodes, const AnalysisOptions& options,
-                                   fleet::v1::RunReport* report) {
+slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::Map& child,
+                                   bool has_ground_truth, const std::set<NodeId>& slipping_nodes,
+                                   const AnalysisOptions& options, fleet::v1::RunReport* report) {
   for (const std::string& name : slamcore::ProtrusionFeatureNames()) report->add_feature_names(name);
   if (parent.local_maps.empty() || parent.graph.num_nodes() == 0) return slamcore::Status::Ok();
   ASSIGN_OR_RETURN(const auto grids, RenderComparedGrids(parent, child));
@@ -99,7 +102,8 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
     const slamcore::ProtrusionRegion& region = (*regions)[index];
     fleet::v1::ProtrusionRegion* proto = report->add_protrusion_regions();
     proto->set_id(region.id);
-    for (const int value : {region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height}) proto->add_bbox(value);
+    for (const int value : {region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height})
+      proto->add_bbox(value);
     for (const double feature : region.features) proto->add_features(feature);
     if (!region.cells.empty()) {
       double min_x = std::numeric_limits<double>::max(), min_y = min_x, max_x = -min_x, max_y = -min_x;
@@ -130,7 +134,8 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
 
 std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
                                         const std::unordered_map<NodeId, slamcore::SE2>& truth, int* count) {
-  std::map<slamcore::ComponentId, std::pair<std::vector<slamcore::Vector2>, std::vector<slamcore::Vector2>>> pairs;
+  std::map<slamcore::ComponentId, std::pair<std::vector<slamcore::Vector2>, std::vector<slamcore::Vector2>>>
+      pairs;
   for (const auto& [node, pose] : truth) {
     if (!graph.HasNode(node)) continue;
     auto& [estimate, reference] = pairs[graph.ComponentOf(node)];
@@ -154,16 +159,19 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
   for (const NodeId node : nodes) {
     if (!map.graph.HasNode(node)) continue;
     (void)part.graph.AddNode(map.graph.node(node));
-    if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) part.local_maps.emplace(node, it->second);
+    if (const auto it = map.local_maps.find(node); it != map.local_maps.end())
+      part.local_maps.emplace(node, it->second);
   }
   return part;
 }
 
 Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<NodeId>& slipping_nodes,
-                              const ComparedGrids& grids, const std::vector<slamcore::ProtrusionRegion>& regions) {
+                              const ComparedGrids& grids,
+                              const std::vector<slamcore::ProtrusionRegion>& regions) {
   const slamcore::OccupancyGrid& child_grid = grids.child;
   SlipTruth truth;
-  truth.covered.assign(static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
+  truth.covered.assign(
+      static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
   std::set<NodeId> slip_nodes;
   for (const NodeId node : grids.child_nodes) {
     // Only nodes with a local map paint anything (a lidar robot attaches one to every 6th node).
@@ -250,12 +258,14 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
     }
     if (proto.has_view_observed()) {
       ReportedObservation observation{*(mapper)->CurrentNode(), proto.view_observed().view(), std::nullopt};
-      if (proto.view_observed().has_truth_wrong()) observation.truth_wrong = proto.view_observed().truth_wrong();
+      if (proto.view_observed().has_truth_wrong())
+        observation.truth_wrong = proto.view_observed().truth_wrong();
       observations.push_back(observation);
     }
     if (proto.has_ground_truth()) {
       has_ground_truth = true;
-      if (proto.ground_truth().slipping() && (mapper)->CurrentNode()) slipping_nodes.insert(*(mapper)->CurrentNode());
+      if (proto.ground_truth().slipping() && (mapper)->CurrentNode())
+        slipping_nodes.insert(*(mapper)->CurrentNode());
     }
   }
   if (options.keep_going) {
@@ -299,9 +309,9 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
   // Divergence from the map the robot uploaded: sizes, and node positions over the nodes both hold.
   fleet::v1::Divergence& divergence = *report.mutable_divergence();
   auto observation_edges = [](const slamcore::PoseGraph& graph) {
-    return static_cast<int>(std::count_if(graph.edges().begin(), graph.edges().end(), [](const slamcore::Edge& edge) {
-      return edge.kind == slamcore::EdgeKind::kObservation;
-    }));
+    return static_cast<int>(std::count_if(
+        graph.edges().begin(), graph.edges().end(),
+        [](const slamcore::Edge& edge) { return edge.kind == slamcore::EdgeKind::kObservation; }));
   };
   divergence.set_robot_nodes(static_cast<int>(uploaded_child.graph.num_nodes()));
   divergence.set_rerun_nodes(static_cast<int>(child.graph.num_nodes()));
@@ -329,7 +339,8 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Ana
         if (was_accepted) errors.set_wrong_observations_accepted(errors.wrong_observations_accepted() + 1);
       } else {
         errors.set_correct_observations(errors.correct_observations() + 1);
-        if (was_accepted) errors.set_correct_observations_accepted(errors.correct_observations_accepted() + 1);
+        if (was_accepted)
+          errors.set_correct_observations_accepted(errors.correct_observations_accepted() + 1);
       }
     }
   }

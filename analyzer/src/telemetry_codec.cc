@@ -34,7 +34,8 @@ fleet::v1::Pose2 PoseToProto(const SE2& pose) {
   return proto;
 }
 
-Result<Matrix3> MatrixFromProto(const google::protobuf::RepeatedField<double>& values, const std::string& field) {
+Result<Matrix3> MatrixFromProto(const google::protobuf::RepeatedField<double>& values,
+                                const std::string& field) {
   if (values.size() != 9) {
     return InvalidArgument(field + ": expected 9 values, found " + std::to_string(values.size()));
   }
@@ -63,19 +64,22 @@ Status CheckTime(double time, const std::string& field) {
   return Status::Ok();
 }
 
-Result<slamcore::LocalMapEvent> LocalMapFromProto(const fleet::v1::LocalMap& proto, const std::string& field) {
+Result<slamcore::LocalMapEvent> LocalMapFromProto(const fleet::v1::LocalMap& proto,
+                                                  const std::string& field) {
   // A patch's cost is its cells, and the renderer's is its footprint in the map's cells: both are bounded.
   if (!std::isfinite(proto.resolution()) || proto.resolution() < kMinPatchResolution ||
       proto.resolution() > kMaxPatchResolution) {
     return InvalidArgument(field + ".resolution: " + Number(proto.resolution()) + " m/cell is outside [" +
                            Number(kMinPatchResolution) + ", " + Number(kMaxPatchResolution) + "]");
   }
-  if (proto.width() <= 0 || proto.height() <= 0 || proto.width() > kMaxPatchSide || proto.height() > kMaxPatchSide) {
-    return InvalidArgument(field + ": size " + std::to_string(proto.width()) + "x" + std::to_string(proto.height()) +
-                           " is empty or larger than " + std::to_string(kMaxPatchSide) + "x" +
-                           std::to_string(kMaxPatchSide) + " cells");
+  if (proto.width() <= 0 || proto.height() <= 0 || proto.width() > kMaxPatchSide ||
+      proto.height() > kMaxPatchSide) {
+    return InvalidArgument(field + ": size " + std::to_string(proto.width()) + "x" +
+                           std::to_string(proto.height()) + " is empty or larger than " +
+                           std::to_string(kMaxPatchSide) + "x" + std::to_string(kMaxPatchSide) + " cells");
   }
-  if (proto.width() * proto.resolution() > kMaxPatchExtent || proto.height() * proto.resolution() > kMaxPatchExtent) {
+  if (proto.width() * proto.resolution() > kMaxPatchExtent ||
+      proto.height() * proto.resolution() > kMaxPatchExtent) {
     return InvalidArgument(field + ": footprint " + Number(proto.width() * proto.resolution()) + " x " +
                            Number(proto.height() * proto.resolution()) + " m is larger than " +
                            Number(kMaxPatchExtent) + " m on a side");
@@ -121,19 +125,20 @@ Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::stri
   RETURN_IF_ERROR(CheckTime(time, field + ".time"));
   switch (event.kind_case()) {
     case fleet::v1::Event::kOdometry: {
-      const auto increment =
-          PoseFromProto(event.odometry().increment(), event.odometry().has_increment(), field + ".odometry.increment");
+      const auto increment = PoseFromProto(event.odometry().increment(), event.odometry().has_increment(),
+                                           field + ".odometry.increment");
       RETURN_IF_ERROR(increment.status());
       ASSIGN_OR_RETURN(const auto covariance,
                        MatrixFromProto(event.odometry().covariance(), field + ".odometry.covariance"));
-      return slamcore::Event(slamcore::OdometryEvent{.time = time, .increment = *increment, .covariance = covariance});
+      return slamcore::Event(
+          slamcore::OdometryEvent{.time = time, .increment = *increment, .covariance = covariance});
     }
     case fleet::v1::Event::kViewCreated:
       return slamcore::Event(slamcore::ViewCreatedEvent{.time = time, .view = event.view_created().view()});
     case fleet::v1::Event::kViewObserved: {
       const auto& observed = event.view_observed();
       ASSIGN_OR_RETURN(const auto z, PoseFromProto(observed.robot_t_view(), observed.has_robot_t_view(),
-                                   field + ".view_observed.robot_t_view"));
+                                                   field + ".view_observed.robot_t_view"));
       ASSIGN_OR_RETURN(const auto covariance,
                        MatrixFromProto(observed.covariance(), field + ".view_observed.covariance"));
       return slamcore::Event(slamcore::ViewObservedEvent{
@@ -151,13 +156,12 @@ Result<slamcore::Event> FromProto(const fleet::v1::Event& event, const std::stri
       return slamcore::Event(slamcore::KidnapEvent{.time = time, .cause = cause});
     }
     case fleet::v1::Event::kGroundTruth: {
-      ASSIGN_OR_RETURN(const auto pose,
-                       PoseFromProto(event.ground_truth().world_t_robot(), event.ground_truth().has_world_t_robot(),
-                                      field + ".ground_truth.world_t_robot"));
+      ASSIGN_OR_RETURN(const auto pose, PoseFromProto(event.ground_truth().world_t_robot(),
+                                                      event.ground_truth().has_world_t_robot(),
+                                                      field + ".ground_truth.world_t_robot"));
       return slamcore::Event(slamcore::GroundTruthEvent{.time = time, .world_T_robot = pose});
     }
-    case fleet::v1::Event::KIND_NOT_SET:
-      break;
+    case fleet::v1::Event::KIND_NOT_SET: break;
   }
   return InvalidArgument(field + ": no event kind set");
 }
@@ -192,8 +196,8 @@ fleet::v1::Event ToProto(const slamcore::Event& event) {
   return proto;
 }
 
-Result<std::vector<slamcore::Event>> FromProto(const google::protobuf::RepeatedPtrField<fleet::v1::Event>& events,
-                                               const std::string& field) {
+Result<std::vector<slamcore::Event>> FromProto(
+    const google::protobuf::RepeatedPtrField<fleet::v1::Event>& events, const std::string& field) {
   std::vector<slamcore::Event> converted;
   converted.reserve(static_cast<std::size_t>(events.size()));
   for (int k = 0; k < events.size(); ++k) {
@@ -204,7 +208,8 @@ Result<std::vector<slamcore::Event>> FromProto(const google::protobuf::RepeatedP
 }
 
 Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const std::string& field) {
-  if (snapshot.format_version() != kTelemetryFormatVersion && !(snapshot.format_version() == 0 && snapshot.nodes_size() == 0)) {
+  if (snapshot.format_version() != kTelemetryFormatVersion &&
+      !(snapshot.format_version() == 0 && snapshot.nodes_size() == 0)) {
     return InvalidArgument(field + ".format_version: " + std::to_string(snapshot.format_version()) +
                            " is not supported (this program reads version " +
                            std::to_string(kTelemetryFormatVersion) + ")");
@@ -221,7 +226,8 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
     }
   }
   std::int64_t cells = 0;
-  for (const auto& patch : snapshot.local_maps()) cells += static_cast<std::int64_t>(patch.local_map().cells().size());
+  for (const auto& patch : snapshot.local_maps())
+    cells += static_cast<std::int64_t>(patch.local_map().cells().size());
   if (cells > kMaxSnapshotCells) {
     return InvalidArgument(field + ".local_maps: " + std::to_string(cells) + " cells in all, more than " +
                            std::to_string(kMaxSnapshotCells));
@@ -233,10 +239,11 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
     ASSIGN_OR_RETURN(const auto pose, PoseFromProto(proto.pose(), proto.has_pose(), node_field + ".pose"));
     RETURN_IF_ERROR(CheckTime(proto.time(), node_field + ".time"));
     if (!std::isfinite(proto.odometer()) || proto.odometer() < 0.0) {
-      return InvalidArgument(node_field + ".odometer: must be finite and >= 0, found " + Number(proto.odometer()));
+      return InvalidArgument(node_field + ".odometer: must be finite and >= 0, found " +
+                             Number(proto.odometer()));
     }
-    slamcore::Node node{.id = proto.id(), .pose = pose, .time = proto.time(), .odometer = proto.odometer(),
-                        .fixed = false};
+    slamcore::Node node{
+        .id = proto.id(), .pose = pose, .time = proto.time(), .odometer = proto.odometer(), .fixed = false};
     if (const Status status = map.graph.AddNode(node); !status.ok()) {
       return InvalidArgument(node_field + ": " + status.message());
     }
@@ -251,16 +258,17 @@ Result<slamcore::Map> FromProto(const fleet::v1::MapSnapshot& snapshot, const st
   for (int k = 0; k < snapshot.edges_size(); ++k) {
     const auto& proto = snapshot.edges(k);
     const std::string edge_field = field + ".edges[" + std::to_string(k) + "]";
-    ASSIGN_OR_RETURN(const auto measurement,
-                     PoseFromProto(proto.measurement(), proto.has_measurement(), edge_field + ".measurement"));
-    ASSIGN_OR_RETURN(const auto information, MatrixFromProto(proto.information(), edge_field + ".information"));
+    ASSIGN_OR_RETURN(const auto measurement, PoseFromProto(proto.measurement(), proto.has_measurement(),
+                                                           edge_field + ".measurement"));
+    ASSIGN_OR_RETURN(const auto information,
+                     MatrixFromProto(proto.information(), edge_field + ".information"));
     slamcore::Edge edge;
     edge.from = proto.from();
     edge.to = proto.to();
     edge.measurement = measurement;
     edge.information = information;
     edge.kind = proto.kind() == fleet::v1::Edge::KIND_MOTION ? slamcore::EdgeKind::kMotion
-                                                              : slamcore::EdgeKind::kObservation;
+                                                             : slamcore::EdgeKind::kObservation;
     if (proto.has_view()) edge.view = proto.view();
     if (proto.has_hypothesis()) edge.hypothesis = proto.hypothesis();
     if (const auto added = map.graph.AddEdge(edge); !added.ok()) {
@@ -327,7 +335,8 @@ std::string SerializeDeterministic(const google::protobuf::Message& message) {
   return bytes;
 }
 
-std::optional<std::string> FindUnknownField(const google::protobuf::Message& message, const std::string& field) {
+std::optional<std::string> FindUnknownField(const google::protobuf::Message& message,
+                                            const std::string& field) {
   const google::protobuf::Reflection* reflection = message.GetReflection();
   if (!reflection->GetUnknownFields(message).empty()) return field;
   std::vector<const google::protobuf::FieldDescriptor*> fields;
@@ -355,8 +364,8 @@ Status ValidateId(const std::string& value, const std::string& field) {
     return InvalidArgument(field + ": longer than " + std::to_string(kMaxIdLength) + " characters");
   }
   const bool valid = std::all_of(value.begin(), value.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
-           c == ':' || c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '_' || c == ':' || c == '-';
   });
   if (!valid) return InvalidArgument(field + ": only letters, digits and . _ : - are allowed");
   return Status::Ok();
@@ -373,15 +382,16 @@ Status ValidateText(const std::string& value, const std::string& field) {
 }
 
 bool IsSnapshotId(const std::string& value) {
-  return value.size() == 64 &&
-         std::all_of(value.begin(), value.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+  return value.size() == 64 && std::all_of(value.begin(), value.end(), [](char c) {
+           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
+         });
 }
 
 Status Validate(const fleet::v1::RunHeader& header) {
   if (header.format_version() != kTelemetryFormatVersion) {
     return InvalidArgument("header.format_version: " + std::to_string(header.format_version()) +
-                           " is not supported (this program reads version " + std::to_string(kTelemetryFormatVersion) +
-                           ")");
+                           " is not supported (this program reads version " +
+                           std::to_string(kTelemetryFormatVersion) + ")");
   }
   RETURN_IF_ERROR(ValidateId(header.robot_id(), "header.robot_id"));
   RETURN_IF_ERROR(ValidateId(header.run_id(), "header.run_id"));
@@ -400,7 +410,8 @@ Status Validate(const fleet::v1::RunHeader& header) {
   }
   if (header.ended_at() < header.started_at()) return InvalidArgument("header.ended_at: before started_at");
   if (header.map_version() < 0) {
-    return InvalidArgument("header.map_version: " + std::to_string(header.map_version()) + " is negative (0: none)");
+    return InvalidArgument("header.map_version: " + std::to_string(header.map_version()) +
+                           " is negative (0: none)");
   }
   return Status::Ok();
 }

@@ -44,27 +44,29 @@ slamcore::Result<std::string> Inflate(std::string_view bytes, const std::string&
     out.append(buffer, sizeof(buffer) - stream.avail_out);
     if (out.size() > limit) {
       inflateEnd(&stream);
-      return InvalidArgument(source + ": deflated map inflates to more than " + std::to_string(limit) + " bytes");
+      return InvalidArgument(source + ": deflated map inflates to more than " + std::to_string(limit) +
+                             " bytes");
     }
     if (code == Z_BUF_ERROR && stream.avail_in == 0) break;  // input ended before the stream did
   }
   inflateEnd(&stream);
   if (code != Z_STREAM_END) {
-    return InvalidArgument(source + ": zlib stream is corrupt or truncated (" + (stream.msg ? stream.msg : "no message") + ")");
+    return InvalidArgument(source + ": zlib stream is corrupt or truncated (" +
+                           (stream.msg ? stream.msg : "no message") + ")");
   }
   return out;
 }
 
 /// Reads field `key` of `object` as an integer in [lo, hi]; `where` names the object in errors.
-slamcore::Result<std::int64_t> IntField(const json& object, const char* key, const std::string& where, std::int64_t lo,
-                                        std::int64_t hi) {
+slamcore::Result<std::int64_t> IntField(const json& object, const char* key, const std::string& where,
+                                        std::int64_t lo, std::int64_t hi) {
   const auto it = object.find(key);
   if (it == object.end()) return InvalidArgument(where + "." + key + ": missing");
   if (!it->is_number_integer()) return InvalidArgument(where + "." + key + ": not an integer");
   const std::int64_t value = it->get<std::int64_t>();
   if (value < lo || value > hi) {
-    return InvalidArgument(where + "." + key + ": " + std::to_string(value) + " is outside [" + std::to_string(lo) +
-                           ", " + std::to_string(hi) + "]");
+    return InvalidArgument(where + "." + key + ": " + std::to_string(value) + " is outside [" +
+                           std::to_string(lo) + ", " + std::to_string(hi) + "]");
   }
   return value;
 }
@@ -91,11 +93,12 @@ class LayerPixels {
   /// `pixels`: [x, y, x, y, ...].
   Status AddExpanded(const json& array, const std::string& where, std::int64_t max_pixels) {
     if (array.size() % 2 != 0) {
-      return InvalidArgument(where + ": length " + std::to_string(array.size()) + " is not a multiple of 2 (x, y pairs)");
+      return InvalidArgument(where + ": length " + std::to_string(array.size()) +
+                             " is not a multiple of 2 (x, y pairs)");
     }
     if (static_cast<std::int64_t>(array.size() / 2) > max_pixels) {
-      return InvalidArgument(where + ": " + std::to_string(array.size() / 2) + " pixels, more than the limit " +
-                             std::to_string(max_pixels));
+      return InvalidArgument(where + ": " + std::to_string(array.size() / 2) +
+                             " pixels, more than the limit " + std::to_string(max_pixels));
     }
     for (std::size_t i = 0; i < array.size(); i += 2) {
       int x = 0, y = 0;
@@ -123,14 +126,15 @@ class LayerPixels {
       const std::int64_t count = count_value.get<std::int64_t>();
       if (count < 1) return InvalidArgument(at + ": run length " + std::to_string(count) + " < 1");
       if (x + count > size_x_) {
-        return InvalidArgument(at + ": run leaves the map (x " + std::to_string(x) + " + count " + std::to_string(count) +
-                               " > size.x " + std::to_string(size_x_) + ")");
+        return InvalidArgument(at + ": run leaves the map (x " + std::to_string(x) + " + count " +
+                               std::to_string(count) + " > size.x " + std::to_string(size_x_) + ")");
       }
       total += count;
       if (total > max_pixels) {
         return InvalidArgument(where + ": more than the limit of " + std::to_string(max_pixels) + " pixels");
       }
-      for (std::int64_t k = 0; k < count; ++k) cells_.push_back(static_cast<std::int64_t>(y) * size_x_ + x + k);
+      for (std::int64_t k = 0; k < count; ++k)
+        cells_.push_back(static_cast<std::int64_t>(y) * size_x_ + x + k);
     }
     return Status::Ok();
   }
@@ -172,10 +176,12 @@ slamcore::Result<DecodedLayer> DecodeLayer(const json& value, std::size_t index,
   DecodedLayer decoded;
   ValetudoLayer& layer = decoded.layer;
   const auto type = value.find("type");
-  if (type == value.end() || !type->is_string()) return InvalidArgument(where + ".type: missing or not a string");
+  if (type == value.end() || !type->is_string())
+    return InvalidArgument(where + ".type: missing or not a string");
   layer.type = type->get<std::string>();
   if (layer.type != "floor" && layer.type != "segment" && layer.type != "wall") {
-    return InvalidArgument(where + ".type: unknown layer type \"" + layer.type + "\" (floor, segment or wall)");
+    return InvalidArgument(where + ".type: unknown layer type \"" + layer.type +
+                           "\" (floor, segment or wall)");
   }
   const json empty = json::object();
   const auto meta_it = value.find("metaData");
@@ -193,12 +199,14 @@ slamcore::Result<DecodedLayer> DecodeLayer(const json& value, std::size_t index,
     return InvalidArgument(where + ": both pixels and compressedPixels are set; a layer has one encoding");
   }
   if (has_compressed && !has_expanded) {
-    if (Status status = pixels.AddCompressed(*compressed, where + ".compressedPixels", limits.max_layer_pixels);
+    if (Status status =
+            pixels.AddCompressed(*compressed, where + ".compressedPixels", limits.max_layer_pixels);
         !status.ok()) {
       return status;
     }
   } else if (expanded != value.end() && expanded->is_array()) {
-    if (Status status = pixels.AddExpanded(*expanded, where + ".pixels", limits.max_layer_pixels); !status.ok()) {
+    if (Status status = pixels.AddExpanded(*expanded, where + ".pixels", limits.max_layer_pixels);
+        !status.ok()) {
       return status;
     }
   } else {
@@ -206,7 +214,8 @@ slamcore::Result<DecodedLayer> DecodeLayer(const json& value, std::size_t index,
   }
   decoded.cells = pixels.Cells();
   // Valetudo refuses to build a layer without pixels (MapLayer.js), so an empty one is a broken file.
-  if (decoded.cells.empty()) return InvalidArgument(where + ": no pixels (pixels and compressedPixels are empty)");
+  if (decoded.cells.empty())
+    return InvalidArgument(where + ": no pixels (pixels and compressedPixels are empty)");
   layer.pixel_count = static_cast<std::int64_t>(decoded.cells.size());
   layer.area_cm2 = layer.pixel_count * map.pixel_size_cm * map.pixel_size_cm;
   if (!decoded.cells.empty()) {
@@ -239,24 +248,29 @@ Status DecodeEntity(const json& value, std::size_t index, const ValetudoLimits& 
   if (!value.is_object()) return InvalidArgument(where + ": not an object");
   const auto cls = value.find("__class");
   const auto type_it = value.find("type");
-  if (cls == value.end() || !cls->is_string()) return InvalidArgument(where + ".__class: missing or not a string");
-  if (type_it == value.end() || !type_it->is_string()) return InvalidArgument(where + ".type: missing or not a string");
+  if (cls == value.end() || !cls->is_string())
+    return InvalidArgument(where + ".__class: missing or not a string");
+  if (type_it == value.end() || !type_it->is_string())
+    return InvalidArgument(where + ".type: missing or not a string");
   const std::string kind = cls->get<std::string>(), type = type_it->get<std::string>();
   const auto points_it = value.find("points");
-  if (points_it == value.end() || !points_it->is_array()) return InvalidArgument(where + ".points: missing or not an array");
+  if (points_it == value.end() || !points_it->is_array())
+    return InvalidArgument(where + ".points: missing or not an array");
   const json& raw = *points_it;
   if (raw.size() % 2 != 0) {
-    return InvalidArgument(where + ".points: length " + std::to_string(raw.size()) + " is not a multiple of 2");
+    return InvalidArgument(where + ".points: length " + std::to_string(raw.size()) +
+                           " is not a multiple of 2");
   }
   if (raw.size() > limits.max_points) {
-    return InvalidArgument(where + ".points: " + std::to_string(raw.size()) + " coordinates, more than the limit " +
-                           std::to_string(limits.max_points));
+    return InvalidArgument(where + ".points: " + std::to_string(raw.size()) +
+                           " coordinates, more than the limit " + std::to_string(limits.max_points));
   }
   std::vector<slamcore::Vector2> points;
   points.reserve(raw.size() / 2);
   for (std::size_t i = 0; i < raw.size(); i += 2) {
     if (!raw[i].is_number() || !raw[i + 1].is_number()) {
-      return InvalidArgument(where + ".points[" + std::to_string(raw[i].is_number() ? i + 1 : i) + "]: not a number");
+      return InvalidArgument(where + ".points[" + std::to_string(raw[i].is_number() ? i + 1 : i) +
+                             "]: not a number");
     }
     const double x = raw[i].get<double>(), y = raw[i + 1].get<double>();
     if (!std::isfinite(x) || !std::isfinite(y) || std::abs(x) > 1e7 || std::abs(y) > 1e7) {
@@ -267,7 +281,8 @@ Status DecodeEntity(const json& value, std::size_t index, const ValetudoLimits& 
 
   if (kind == "PointMapEntity") {
     if (points.size() != 1) {
-      return InvalidArgument(where + ".points: a point entity has one point, this has " + std::to_string(points.size()));
+      return InvalidArgument(where + ".points: a point entity has one point, this has " +
+                             std::to_string(points.size()));
     }
     ValetudoPose pose{type, slamcore::SE2(points[0], 0.0), false};
     const auto meta = value.find("metaData");
@@ -303,8 +318,8 @@ Status DecodeEntity(const json& value, std::size_t index, const ValetudoLimits& 
 }
 
 /// Floor and segments free, walls occupied (walls win where layers overlap), cropped with a margin.
-slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map, const std::vector<DecodedLayer>& layers,
-                                                    int margin) {
+slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map,
+                                                    const std::vector<DecodedLayer>& layers, int margin) {
   int min_x = std::numeric_limits<int>::max(), min_y = min_x, max_x = -1, max_y = -1;
   for (const DecodedLayer& decoded : layers) {
     if (decoded.layer.pixel_count == 0) continue;
@@ -323,7 +338,8 @@ slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map, cons
   for (const bool walls : {false, true}) {
     for (const DecodedLayer& decoded : layers) {
       if ((decoded.layer.type == "wall") != walls) continue;
-      const auto state = static_cast<std::int8_t>(walls ? slamcore::CellState::kOccupied : slamcore::CellState::kFree);
+      const auto state =
+          static_cast<std::int8_t>(walls ? slamcore::CellState::kOccupied : slamcore::CellState::kFree);
       for (const std::int64_t cell : decoded.cells) {
         const int x = static_cast<int>(cell % map.size_x), y = static_cast<int>(cell / map.size_x);
         grid->at(x - left, bottom - y) = state;
@@ -364,18 +380,21 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   }
   ValetudoMap map;
   const auto meta = root.find("metaData");
-  if (meta == root.end() || !meta->is_object()) return InvalidArgument(where + "metaData: missing or not an object");
+  if (meta == root.end() || !meta->is_object())
+    return InvalidArgument(where + "metaData: missing or not an object");
   auto version = IntField(*meta, "version", "metaData", 0, std::numeric_limits<int>::max());
   if (!version.ok()) return InvalidArgument(where + version.status().message());
   if (*version != 1 && *version != 2) {
-    return InvalidArgument(where + "metaData.version: " + std::to_string(*version) + " is not supported (1 or 2)");
+    return InvalidArgument(where + "metaData.version: " + std::to_string(*version) +
+                           " is not supported (1 or 2)");
   }
   map.version = static_cast<int>(*version);
   map.declared_total_area_cm2 = OptionalInt(*meta, "totalLayerArea");
   for (const json* holder : {&*meta, &root}) {
     const auto stamp = holder->find("timestamp");
     if (stamp == holder->end() || map.timestamp_ms) continue;
-    if (stamp->is_number_integer() && stamp->get<std::int64_t>() >= 0 && stamp->get<std::int64_t>() <= kLatestTimeMs) {
+    if (stamp->is_number_integer() && stamp->get<std::int64_t>() >= 0 &&
+        stamp->get<std::int64_t>() <= kLatestTimeMs) {
       map.timestamp_ms = stamp->get<std::int64_t>();
     }
     if (stamp->is_string()) map.timestamp_ms = ParseIsoDateTime(stamp->get<std::string>());
@@ -388,7 +407,8 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   if (!pixel_size.ok()) return InvalidArgument(where + pixel_size.status().message());
   map.pixel_size_cm = static_cast<int>(*pixel_size);
   const auto size = root.find("size");
-  if (size == root.end() || !size->is_object()) return InvalidArgument(where + "size: missing or not an object");
+  if (size == root.end() || !size->is_object())
+    return InvalidArgument(where + "size: missing or not an object");
   auto size_x = IntField(*size, "x", "size", 1, limits.max_map_side);
   if (!size_x.ok()) return InvalidArgument(where + size_x.status().message());
   auto size_y = IntField(*size, "y", "size", 1, limits.max_map_side);
@@ -397,10 +417,11 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   map.size_y = static_cast<int>(*size_y);
 
   const auto layers = root.find("layers");
-  if (layers == root.end() || !layers->is_array()) return InvalidArgument(where + "layers: missing or not an array");
+  if (layers == root.end() || !layers->is_array())
+    return InvalidArgument(where + "layers: missing or not an array");
   if (layers->size() > limits.max_layers) {
-    return InvalidArgument(where + "layers: " + std::to_string(layers->size()) + " layers, more than the limit " +
-                           std::to_string(limits.max_layers));
+    return InvalidArgument(where + "layers: " + std::to_string(layers->size()) +
+                           " layers, more than the limit " + std::to_string(limits.max_layers));
   }
   std::vector<DecodedLayer> decoded;
   for (std::size_t i = 0; i < layers->size(); ++i) {
@@ -413,8 +434,8 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   if (entities != root.end()) {
     if (!entities->is_array()) return InvalidArgument(where + "entities: not an array");
     if (entities->size() > limits.max_entities) {
-      return InvalidArgument(where + "entities: " + std::to_string(entities->size()) + " entities, more than the limit " +
-                             std::to_string(limits.max_entities));
+      return InvalidArgument(where + "entities: " + std::to_string(entities->size()) +
+                             " entities, more than the limit " + std::to_string(limits.max_entities));
     }
     for (std::size_t i = 0; i < entities->size(); ++i) {
       if (Status status = DecodeEntity((*entities)[i], i, limits, map); !status.ok()) {

@@ -28,7 +28,9 @@ using slamcore::SE2;
 struct Room {
   double x0, y0, x1, y1;
   bool Inside(double x, double y) const { return x >= x0 && x <= x1 && y >= y0 && y <= y1; }
-  bool Interior(double x, double y) const { return x > x0 + 0.1 && x < x1 - 0.1 && y > y0 + 0.1 && y < y1 - 0.1; }
+  bool Interior(double x, double y) const {
+    return x > x0 + 0.1 && x < x1 - 0.1 && y > y0 + 0.1 && y < y1 - 0.1;
+  }
 };
 
 /// A grid whose cell centres, carried into the home frame by home_T_grid, are free inside a room's interior
@@ -45,7 +47,8 @@ OccupancyGrid Draw(const std::vector<Room>& rooms, const SE2& home_T_grid, doubl
           grid->at(col, row) = static_cast<std::int8_t>(CellState::kFree);
           break;
         }
-        if (room.Inside(home.x(), home.y())) grid->at(col, row) = static_cast<std::int8_t>(CellState::kOccupied);
+        if (room.Inside(home.x(), home.y()))
+          grid->at(col, row) = static_cast<std::int8_t>(CellState::kOccupied);
       }
     }
   }
@@ -77,7 +80,8 @@ TEST(MapComparison, RegistrationFindsAMovedHomeAndTheNewRoom) {
   EXPECT_EQ(comparison->new_regions[0].predicted_class, "unclassified");
   EXPECT_TRUE(comparison->lost_regions.empty());
   const auto& box = comparison->new_regions[0].world_bbox;
-  const slamcore::Vector2 centre = home_T_new.inverse() * slamcore::Vector2(6.25, 1.75);  // kitchen centre, new frame
+  const slamcore::Vector2 centre =
+      home_T_new.inverse() * slamcore::Vector2(6.25, 1.75);  // kitchen centre, new frame
   EXPECT_GT(centre.x(), box[0]);
   EXPECT_LT(centre.x(), box[2]);
   EXPECT_GT(centre.y(), box[1]);
@@ -89,8 +93,7 @@ TEST(MapComparison, DockAlignsAndALostRoomIsReported) {
   const OccupancyGrid previous = Draw({kHall, kKitchen}, SE2(), 0.0, 0.0);
   const OccupancyGrid next = Draw({kHall}, home_T_new, 0.0, 0.0);
   const SE2 dock_home(2.0, 0.7, std::numbers::pi / 2);
-  const auto comparison =
-      CompareGrids(previous, next, dock_home, home_T_new.inverse() * dock_home, nullptr);
+  const auto comparison = CompareGrids(previous, next, dock_home, home_T_new.inverse() * dock_home, nullptr);
   ASSERT_THAT(comparison, IsOk());
   EXPECT_EQ(comparison->alignment.method.rfind("dock", 0), 0u) << comparison->alignment.method;
   // The kitchen's own walls (7.5 of 23.5 m of wall) are gone: they count as misses.
@@ -148,10 +151,12 @@ TEST(MapComparison, RefusesWhatCannotBeCompared) {
   ASSERT_THAT(blank, IsOk());
   refused = AlignGrids(*blank, room, std::nullopt, std::nullopt);
   ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.status().message().find("previous map: no wall"), std::string::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().message().find("previous map: no wall"), std::string::npos)
+      << refused.status().ToString();
   refused = AlignGrids(room, OccupancyGrid{}, std::nullopt, std::nullopt);
   ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.status().message().find("new map: empty"), std::string::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().message().find("new map: empty"), std::string::npos)
+      << refused.status().ToString();
 }
 
 /// The real home d9_1058 exported at two times (data/valetudo/SOURCES.md): the later export knows more of
@@ -164,16 +169,18 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
   ASSERT_THAT(before, IsOk());
   ASSERT_THAT(after, IsOk());
   ASSERT_TRUE(before->dock && after->dock);
-  const auto by_dock = CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, nullptr);
+  const auto by_dock =
+      CompareGrids(before->grid, after->grid, before->dock->pose, after->dock->pose, nullptr);
   ASSERT_THAT(by_dock, IsOk());
   const auto by_image = CompareGrids(before->grid, after->grid, std::nullopt, std::nullopt, nullptr);
   ASSERT_THAT(by_image, IsOk());
   for (const MapComparison* comparison : {&*by_dock, &*by_image}) {
     const MapAlignment& a = comparison->alignment;
-    std::printf("%s: overlap %.3f residual %.3f m correlation %.3f shift (%.3f, %.3f) m %.2f°; %zu new, %zu lost\n",
-                a.method.c_str(), a.wall_overlap, a.residual_m, a.correlation, a.new_T_previous.x(),
-                a.new_T_previous.y(), a.new_T_previous.theta() * 180 / std::numbers::pi,
-                comparison->new_regions.size(), comparison->lost_regions.size());
+    std::printf(
+        "%s: overlap %.3f residual %.3f m correlation %.3f shift (%.3f, %.3f) m %.2f°; %zu new, %zu lost\n",
+        a.method.c_str(), a.wall_overlap, a.residual_m, a.correlation, a.new_T_previous.x(),
+        a.new_T_previous.y(), a.new_T_previous.theta() * 180 / std::numbers::pi,
+        comparison->new_regions.size(), comparison->lost_regions.size());
     // The dock moved 0.53 m along x (charger_location 3303 → 3356 cm): the home moved with it, not rotated.
     EXPECT_NEAR(a.new_T_previous.x(), 0.55, 0.05);
     EXPECT_NEAR(a.new_T_previous.y(), 0.0, 0.05);
@@ -223,7 +230,8 @@ TEST(MapComparison, RealHomeRegionsClassedByAModelOfOtherHomes) {
   std::vector<slamcore::LabelledRegion> training;
   for (const char* id : {"aws_small_house", "valetudo_dreame_1c_1096_fullcleanup",
                          "valetudo_roborock_S5_FW2008_with_segments"}) {
-    const auto map = slamcore::ReadMapServerYaml((test_data::Sample() / "maps" / (std::string(id) + ".yaml")).string());
+    const auto map =
+        slamcore::ReadMapServerYaml((test_data::Sample() / "maps" / (std::string(id) + ".yaml")).string());
     ASSERT_THAT(map, IsOk());
     for (std::uint64_t variant = 0; variant < 6; ++variant) {
       const auto pair = slamcore::GeneratePair(*map, 1000 + variant);
@@ -241,20 +249,20 @@ TEST(MapComparison, RealHomeRegionsClassedByAModelOfOtherHomes) {
   ASSERT_THAT(comparison, IsOk());
   int protrusions = 0;
   for (const ChangedRegion& region : comparison->new_regions) {
-    std::printf("region %d: %.2f m², %s (p %.2f)\n", region.region.id, region.area_m2, region.predicted_class.c_str(),
-                region.probability);
+    std::printf("region %d: %.2f m², %s (p %.2f)\n", region.region.id, region.area_m2,
+                region.predicted_class.c_str(), region.probability);
     EXPECT_TRUE(region.predicted_class == "protrusion" || region.predicted_class == "new_space");
     EXPECT_GE(region.probability, 0.0);
     EXPECT_LE(region.probability, 1.0);
     protrusions += region.predicted_class == "protrusion" ? 1 : 0;
   }
-  const auto largest = std::max_element(
-      comparison->new_regions.begin(), comparison->new_regions.end(),
-      [](const ChangedRegion& a, const ChangedRegion& b) { return a.area_m2 < b.area_m2; });
+  const auto largest =
+      std::max_element(comparison->new_regions.begin(), comparison->new_regions.end(),
+                       [](const ChangedRegion& a, const ChangedRegion& b) { return a.area_m2 < b.area_m2; });
   ASSERT_NE(largest, comparison->new_regions.end());
   EXPECT_EQ(largest->predicted_class, "new_space") << largest->probability;
-  std::printf("%zu training regions; %d of %zu new regions classed protrusion\n", training.size(), protrusions,
-              comparison->new_regions.size());
+  std::printf("%zu training regions; %d of %zu new regions classed protrusion\n", training.size(),
+              protrusions, comparison->new_regions.size());
 }
 
 /// The same real pair classed by the built-in default model (what fleetd uses when no model is active):
@@ -269,15 +277,16 @@ TEST(MapComparison, RealHomeRegionsClassedByTheDefaultModel) {
   const auto& names = slamcore::ProtrusionFeatureNames();
   int protrusions = 0;
   for (const ChangedRegion& region : comparison->new_regions) {
-    std::printf("region %d: %.2f m², %s (p %.2f):", region.region.id, region.area_m2, region.predicted_class.c_str(),
-                region.probability);
-    for (std::size_t f = 0; f < names.size(); ++f) std::printf(" %s=%.3g", names[f].c_str(), region.region.features[f]);
+    std::printf("region %d: %.2f m², %s (p %.2f):", region.region.id, region.area_m2,
+                region.predicted_class.c_str(), region.probability);
+    for (std::size_t f = 0; f < names.size(); ++f)
+      std::printf(" %s=%.3g", names[f].c_str(), region.region.features[f]);
     std::printf("\n");
     protrusions += region.predicted_class == "protrusion" ? 1 : 0;
   }
-  const auto largest = std::max_element(
-      comparison->new_regions.begin(), comparison->new_regions.end(),
-      [](const ChangedRegion& a, const ChangedRegion& b) { return a.area_m2 < b.area_m2; });
+  const auto largest =
+      std::max_element(comparison->new_regions.begin(), comparison->new_regions.end(),
+                       [](const ChangedRegion& a, const ChangedRegion& b) { return a.area_m2 < b.area_m2; });
   ASSERT_NE(largest, comparison->new_regions.end());
   EXPECT_NEAR(largest->area_m2, 13.75, 0.5);
   // What the default model calls these real changes is reported, not asserted: it calls most of them
@@ -287,7 +296,8 @@ TEST(MapComparison, RealHomeRegionsClassedByTheDefaultModel) {
     EXPECT_GE(region.probability, 0.0);
     EXPECT_LE(region.probability, 1.0);
   }
-  std::printf("default model: %d of %zu new regions classed protrusion\n", protrusions, comparison->new_regions.size());
+  std::printf("default model: %d of %zu new regions classed protrusion\n", protrusions,
+              comparison->new_regions.size());
 }
 
 }  // namespace

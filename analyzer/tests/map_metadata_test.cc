@@ -13,8 +13,9 @@ namespace analyzer {
 namespace {
 
 fleet::v1::MapMetadata ViomiMetadata() {
-  const auto map =
-      ReadValetudoMap((test_data::Sample() / "valetudo/3irobotix_viomi_v6_41_virtual_restrictions_and_active_zones.json").string());
+  const auto map = ReadValetudoMap(
+      (test_data::Sample() / "valetudo/3irobotix_viomi_v6_41_virtual_restrictions_and_active_zones.json")
+          .string());
   EXPECT_THAT(map, IsOk());
   return map.ok() ? MetadataOf(*map) : fleet::v1::MapMetadata();
 }
@@ -114,7 +115,8 @@ TEST(ImportOrder, DateTimesAreReadAsISO8601InUTCOrWithTheirOffset) {
 
 TEST(ImportOrder, TimeOrderPrefersTheExportsOwnTimestampsThenNamesElseKeepsTheGivenOrder) {
   // Own timestamps decide when every file has one, whatever the names say.
-  ImportOrder order = OrderImports({{"b_2020-01-01.json", 300}, {"a_2030-01-01.json", 100}, {"c.json", 200}}, true);
+  ImportOrder order =
+      OrderImports({{"b_2020-01-01.json", 300}, {"a_2030-01-01.json", 100}, {"c.json", 200}}, true);
   EXPECT_EQ(order.basis, "export timestamps");
   EXPECT_EQ(order.order, (std::vector<std::size_t>{1, 2, 0}));
   // Dates in every name.
@@ -138,7 +140,8 @@ TEST(ImportOrder, TimeOrderPrefersTheExportsOwnTimestampsThenNamesElseKeepsTheGi
 
 TEST(ImportOrder, AValetudoExportsOwnTimestampIsReadAndAMalformedOneRefused) {
   const std::string head = R"({"__class":"ValetudoMap","metaData":{"version":2,)";
-  const std::string tail = R"(},"size":{"x":10,"y":10},"pixelSize":5,"layers":[{"__class":"MapLayer","type":"floor","compressedPixels":[1,1,3]}],"entities":[]})";
+  const std::string tail =
+      R"(},"size":{"x":10,"y":10},"pixelSize":5,"layers":[{"__class":"MapLayer","type":"floor","compressedPixels":[1,1,3]}],"entities":[]})";
   auto map = ParseValetudoMap(head + R"("timestamp":"2024-03-05T10:20:30Z")" + tail, "stamped.json");
   ASSERT_THAT(map, IsOk());
   EXPECT_EQ(map->timestamp_ms, 1709634030000);

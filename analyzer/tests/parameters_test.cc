@@ -34,7 +34,8 @@ TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
 
 TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   // A what-if parameter set: the paper's filter alone, or other caps.
-  const auto off = ParseParameterSetJson(R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2}})", "off.json");
+  const auto off =
+      ParseParameterSetJson(R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2}})", "off.json");
   ASSERT_THAT(off, IsOk());
   const auto params = FromProto(off->mapper());
   ASSERT_THAT(params, IsOk());
@@ -46,7 +47,8 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   EXPECT_EQ(round_trip->consistency.min_passes_against_map, 2);
   EXPECT_FALSE(round_trip->consistency.enabled);
   // Unbounded caps are refused, naming the field.
-  const auto unbounded = ParseParameterSetJson(R"({"consistency": {"maxOpenHypotheses": 2147483647}})", "cap.json");
+  const auto unbounded =
+      ParseParameterSetJson(R"({"consistency": {"maxOpenHypotheses": 2147483647}})", "cap.json");
   ASSERT_FALSE(unbounded.ok());
   EXPECT_NE(unbounded.status().message().find("consistency.max_open_hypotheses"), std::string::npos)
       << unbounded.status().message();
@@ -70,7 +72,8 @@ TEST(ParametersTest, UnknownKeysAndBadValuesAreRefusedNamingThem) {
 
   set = ParseParameterSetJson(R"({"mergeConditional": {"minViews": 5}})", "views.json");
   ASSERT_FALSE(set.ok());
-  EXPECT_NE(set.status().message().find("merge_conditional.min_views"), std::string::npos) << set.status().message();
+  EXPECT_NE(set.status().message().find("merge_conditional.min_views"), std::string::npos)
+      << set.status().message();
 
   EXPECT_EQ(ReadParameterSetFile("/nonexistent.json").status().code(), slamcore::StatusCode::kNotFound);
 }

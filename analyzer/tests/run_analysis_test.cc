@@ -46,7 +46,8 @@ TEST(RunAnalysisTest, RerunWithTheRobotsParametersReproducesTheRobotsMap) {
   ASSERT_TRUE(report->has_ground_truth());
   EXPECT_GT(report->ground_truth().nodes_with_truth(), 100);
   EXPECT_GT(report->ground_truth().correct_observations(), 0);
-  EXPECT_LE(report->ground_truth().wrong_observations_accepted(), report->ground_truth().wrong_observations());
+  EXPECT_LE(report->ground_truth().wrong_observations_accepted(),
+            report->ground_truth().wrong_observations());
   EXPECT_EQ(report->feature_names_size(), static_cast<int>(slamcore::ProtrusionFeatureNames().size()));
   for (const auto& region : report->protrusion_regions()) {
     // No model given: the built-in default classes every region.
@@ -77,13 +78,14 @@ TEST(RunAnalysisTest, TheBudgetEndsTheReplayWhereItRunsOut) {
   AnalysisOptions options;
   int asked = 0;
   options.keep_going = [&]() -> slamcore::Status {
-    return ++asked <= 2 ? slamcore::Status::Ok() : slamcore::FailedPrecondition("analysis budget: out of time");
+    return ++asked <= 2 ? slamcore::Status::Ok()
+                        : slamcore::FailedPrecondition("analysis budget: out of time");
   };
   const auto report = AnalyzeRun(runs[1], options);
   ASSERT_THAT(report, StatusIs(slamcore::StatusCode::kFailedPrecondition));
   // Asked at events 0 and 256 (fine), then at 512: the replay stops there.
-  EXPECT_EQ(report.status().message(), "analysis budget: out of time (at events[512] of " +
-                                           std::to_string(runs[1].events_size()) + ")");
+  EXPECT_EQ(report.status().message(),
+            "analysis budget: out of time (at events[512] of " + std::to_string(runs[1].events_size()) + ")");
   EXPECT_EQ(asked, 3);
   // A budget that always allows changes nothing.
   options.keep_going = [] { return slamcore::Status::Ok(); };

@@ -25,8 +25,8 @@ std::vector<slamcore::Event> SampleEvents() {
   return {
       slamcore::OdometryEvent{.time = 1.0, .increment = SE2(0.2, 0.01, 0.05), .covariance = covariance},
       slamcore::ViewCreatedEvent{.time = 1.5, .view = 7},
-      slamcore::ViewObservedEvent{.time = 2.0, .view = 7, .robot_T_view = SE2(1.0, -0.5, 3.0),
-                                  .covariance = covariance * 2.0},
+      slamcore::ViewObservedEvent{
+          .time = 2.0, .view = 7, .robot_T_view = SE2(1.0, -0.5, 3.0), .covariance = covariance * 2.0},
       patch,
       slamcore::KidnapEvent{.time = 4.0, .cause = slamcore::KidnapEvent::Cause::kReboot},
       slamcore::GroundTruthEvent{.time = 5.0, .world_T_robot = SE2(4.0, 5.0, -1.0)},
@@ -47,8 +47,12 @@ TEST(TelemetryCodecTest, EventsRoundTripExactly) {
 TEST(TelemetryCodecTest, MapSnapshotRoundTripsAndSerialisesDeterministically) {
   slamcore::Map map;
   for (int k = 0; k < 3; ++k) {
-    ASSERT_THAT(map.graph.AddNode({.id = k, .pose = SE2(k, 0.5 * k, 0.1 * k), .time = 1.0 * k, .odometer = 1.0 * k,
-                                   .fixed = false}), IsOk());
+    ASSERT_THAT(map.graph.AddNode({.id = k,
+                                   .pose = SE2(k, 0.5 * k, 0.1 * k),
+                                   .time = 1.0 * k,
+                                   .odometer = 1.0 * k,
+                                   .fixed = false}),
+                IsOk());
   }
   ASSERT_THAT(map.graph.AddView({.id = 10, .node = 0, .ambiguous = true}), IsOk());
   slamcore::Edge motion;
@@ -140,7 +144,8 @@ TEST(TelemetryCodecTest, SnapshotsOfUnknownVersionOrBrokenReferencesAreRefused) 
   snapshot.add_nodes()->set_id(1);
   auto result = FromProto(snapshot, "child_snapshot");
   ASSERT_FALSE(result.ok());
-  EXPECT_NE(result.status().message().find("child_snapshot.format_version: 2 is not supported"), std::string::npos);
+  EXPECT_NE(result.status().message().find("child_snapshot.format_version: 2 is not supported"),
+            std::string::npos);
 
   snapshot.set_format_version(1);
   snapshot.mutable_nodes(0)->mutable_pose();
@@ -179,7 +184,8 @@ TEST(TelemetryCodecTest, HeaderValidation) {
   EXPECT_EQ(Validate(header).message(), "header.home_id: longer than 128 characters");
   header.set_home_id("home-1");
   header.set_parent_snapshot_id("../../etc");
-  EXPECT_EQ(Validate(header).message(), "header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
+  EXPECT_EQ(Validate(header).message(),
+            "header.parent_snapshot_id: expected 64 lowercase hex characters (SHA-256)");
   header.set_parent_snapshot_id("");
   // Times: 2000-01-01..2100-01-01 (issue 16: started_at = -9.2e15 made day keys like "-291534425-09-").
   header.set_started_at(-9.2e15);

@@ -40,11 +40,13 @@ std::pair<std::int64_t, std::int64_t> FreeAndWallPixels(const json& map) {
     if (layer.contains("compressedPixels") && !layer["compressedPixels"].empty()) {
       const json& runs = layer["compressedPixels"];
       for (std::size_t i = 0; i < runs.size(); i += 3) {
-        for (int k = 0; k < runs[i + 2].get<int>(); ++k) target.insert({runs[i].get<int>() + k, runs[i + 1].get<int>()});
+        for (int k = 0; k < runs[i + 2].get<int>(); ++k)
+          target.insert({runs[i].get<int>() + k, runs[i + 1].get<int>()});
       }
     } else {
       const json& pixels = layer["pixels"];
-      for (std::size_t i = 0; i < pixels.size(); i += 2) target.insert({pixels[i].get<int>(), pixels[i + 1].get<int>()});
+      for (std::size_t i = 0; i < pixels.size(); i += 2)
+        target.insert({pixels[i].get<int>(), pixels[i + 1].get<int>()});
     }
   }
   std::int64_t free_only = 0;
@@ -103,10 +105,11 @@ TEST(ValetudoMapTest, GridEqualsTheMapServerConversionOfTheSameExport) {
   // data/maps holds these two exports converted to PGM/YAML (data/maps/SOURCES.md): same cells, same frame.
   for (const char* name : {"dreame_d9_1058_no_segments", "dreame_d9_1058_with_segments"}) {
     SCOPED_TRACE(name);
-    const auto map = ReadValetudoMap((test_data::Sample() / "valetudo" / (std::string(name) + ".json")).string());
+    const auto map =
+        ReadValetudoMap((test_data::Sample() / "valetudo" / (std::string(name) + ".json")).string());
     ASSERT_THAT(map, IsOk());
-    const auto converted =
-        slamcore::ReadMapServerYaml((test_data::Sample() / "maps" / ("valetudo_" + std::string(name) + ".yaml")).string());
+    const auto converted = slamcore::ReadMapServerYaml(
+        (test_data::Sample() / "maps" / ("valetudo_" + std::string(name) + ".yaml")).string());
     ASSERT_THAT(converted, IsOk());
     EXPECT_EQ(map->grid.width, converted->width);
     EXPECT_EQ(map->grid.height, converted->height);
@@ -117,8 +120,8 @@ TEST(ValetudoMapTest, GridEqualsTheMapServerConversionOfTheSameExport) {
 }
 
 TEST(ValetudoMapTest, EntitiesBecomePosesWallsAndZonesInMetres) {
-  const auto map =
-      ReadValetudoMap((test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json").string());
+  const auto map = ReadValetudoMap(
+      (test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json").string());
   ASSERT_THAT(map, IsOk());
   // robot_position [3250, 3203] cm, angle 90°; charger_location [3340, 3220] cm, angle 228°.
   ASSERT_TRUE(map->robot && map->dock);
@@ -159,7 +162,8 @@ json ExpandedVersion1(json map) {
     }
     layer.erase("compressedPixels");
     layer["pixels"] = pixels;
-    if (layer["type"] == "segment" && layer["metaData"]["segmentId"] == "2") layer["metaData"]["name"] = "Küche";
+    if (layer["type"] == "segment" && layer["metaData"]["segmentId"] == "2")
+      layer["metaData"]["name"] = "Küche";
   }
   return map;
 }
@@ -196,8 +200,8 @@ TEST(ValetudoMapTest, Version1ExportOfTheLargerSetHasNamedRooms) {
 std::string Deflate(const std::string& text) {
   uLongf size = compressBound(static_cast<uLong>(text.size()));
   std::string out(size, '\0');
-  EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(out.data()), &size, reinterpret_cast<const Bytef*>(text.data()),
-                      static_cast<uLong>(text.size()), 9),
+  EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(out.data()), &size,
+                      reinterpret_cast<const Bytef*>(text.data()), static_cast<uLong>(text.size()), 9),
             Z_OK);
   out.resize(size);
   return out;
@@ -225,7 +229,8 @@ TEST(ValetudoMapTest, ZlibDeflatedExportAsPublishedOverMqttImports) {
 }
 
 TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
-  const json valid = ReadJson(test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json");
+  const json valid =
+      ReadJson(test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json");
   ASSERT_THAT(ParseValetudoMap(valid.dump(), "valid"), IsOk());
   struct Case {
     const char* what;
@@ -240,13 +245,17 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
       {"absurd size", [](json& m) { m["size"]["x"] = 10'000'000; }, "size.x: 10000000 is outside [1, 20000]"},
       {"size type", [](json& m) { m["size"]["y"] = "big"; }, "size.y: not an integer"},
       {"layers", [](json& m) { m["layers"] = 5; }, "layers: missing or not an array"},
-      {"layer type", [](json& m) { m["layers"][1]["type"] = "carpet"; }, "layers[1].type: unknown layer type \"carpet\""},
+      {"layer type", [](json& m) { m["layers"][1]["type"] = "carpet"; },
+       "layers[1].type: unknown layer type \"carpet\""},
       {"truncated runs",
-       [](json& m) { m["layers"][0]["compressedPixels"].erase(m["layers"][0]["compressedPixels"].size() - 1); },
+       [](json& m) {
+         m["layers"][0]["compressedPixels"].erase(m["layers"][0]["compressedPixels"].size() - 1);
+       },
        "layers[0].compressedPixels: length 56 is not a multiple of 3"},
       {"run off the map", [](json& m) { m["layers"][0]["compressedPixels"][2] = 100000; },
        "layers[0].compressedPixels[2]: run leaves the map"},
-      {"zero run", [](json& m) { m["layers"][0]["compressedPixels"][2] = 0; }, "layers[0].compressedPixels[2]: run length 0 < 1"},
+      {"zero run", [](json& m) { m["layers"][0]["compressedPixels"][2] = 0; },
+       "layers[0].compressedPixels[2]: run length 0 < 1"},
       {"negative pixel", [](json& m) { m["layers"][2]["compressedPixels"][1] = -4; },
        "layers[2].compressedPixels[1]: -4 is outside the map"},
       {"odd pixels",
@@ -262,13 +271,22 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
          m["layers"][1].erase("pixels");
        },
        "layers[1]: neither pixels nor compressedPixels"},
-      {"both encodings", [](json& m) { m["layers"][0]["pixels"] = {1, 2}; }, "layers[0]: both pixels and compressedPixels"},
+      {"both encodings",
+       [](json& m) {
+         m["layers"][0]["pixels"] = {1, 2};
+       },
+       "layers[0]: both pixels and compressedPixels"},
       {"entity class", [](json& m) { m["entities"][0]["__class"] = "BlobMapEntity"; },
        "entities[0].__class: unknown entity class \"BlobMapEntity\""},
-      {"point entity", [](json& m) { m["entities"][0]["points"] = {1, 2, 3, 4}; },
+      {"point entity",
+       [](json& m) {
+         m["entities"][0]["points"] = {1, 2, 3, 4};
+       },
        "entities[0].points: a point entity has one point"},
-      {"odd points", [](json& m) { m["entities"][2]["points"].erase(0); }, "entities[2].points: length 7 is not a multiple of 2"},
-      {"angle", [](json& m) { m["entities"][1]["metaData"]["angle"] = "north"; }, "entities[1].metaData.angle: not a number"},
+      {"odd points", [](json& m) { m["entities"][2]["points"].erase(0); },
+       "entities[2].points: length 7 is not a multiple of 2"},
+      {"angle", [](json& m) { m["entities"][1]["metaData"]["angle"] = "north"; },
+       "entities[1].metaData.angle: not a number"},
       {"no layers", [](json& m) { m["layers"] = json::array(); }, "layers: no layer covers any pixel"},
   };
   for (const Case& test_case : cases) {
@@ -277,11 +295,12 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
     test_case.edit(broken);
     const auto result = ParseValetudoMap(broken.dump(), "broken.json");
     ASSERT_THAT(result, StatusIs(slamcore::StatusCode::kInvalidArgument));
-    EXPECT_NE(result.status().message().find(test_case.expected), std::string::npos) << result.status().message();
+    EXPECT_NE(result.status().message().find(test_case.expected), std::string::npos)
+        << result.status().message();
     EXPECT_EQ(result.status().message().rfind("broken.json: ", 0), 0u) << result.status().message();
   }
-  for (const std::string& text : {std::string("{\"__class\": \"ValetudoMap\", "), std::string("[1, 2]"), std::string(""),
-                                  std::string("\x78\x9c garbage")}) {
+  for (const std::string& text : {std::string("{\"__class\": \"ValetudoMap\", "), std::string("[1, 2]"),
+                                  std::string(""), std::string("\x78\x9c garbage")}) {
     const auto result = ParseValetudoMap(text, "text");
     ASSERT_FALSE(result.ok()) << text;
     EXPECT_THAT(result, StatusIs(slamcore::StatusCode::kInvalidArgument));
@@ -319,7 +338,8 @@ TEST(ValetudoWrite, RoundTripsEveryExportCellForCell) {
     EXPECT_DOUBLE_EQ(back->grid.origin_x, original->grid.origin_x);
     EXPECT_DOUBLE_EQ(back->grid.origin_y, original->grid.origin_y);
     EXPECT_TRUE(back->grid.cells == original->grid.cells);
-    EXPECT_EQ(back->AreaOf("floor") + back->AreaOf("segment") + back->AreaOf("wall"), *back->declared_total_area_cm2);
+    EXPECT_EQ(back->AreaOf("floor") + back->AreaOf("segment") + back->AreaOf("wall"),
+              *back->declared_total_area_cm2);
     ASSERT_EQ(back->dock.has_value(), original->dock.has_value());
     if (original->dock) {
       EXPECT_NEAR(back->dock->pose.x(), original->dock->pose.x(), 0.005);
@@ -358,7 +378,8 @@ TEST(ValetudoWrite, ShiftsNegativeOriginsAndRefusesWhatItCannotWrite) {
   odd.resolution = 0.025;
   auto refused = WriteValetudoMap(odd, {});
   ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.status().message().find("grid.resolution"), std::string::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().message().find("grid.resolution"), std::string::npos)
+      << refused.status().ToString();
   auto blank = slamcore::OccupancyGrid::Create(4, 4, 0.05);
   ASSERT_THAT(blank, IsOk());
   refused = WriteValetudoMap(*blank, {});

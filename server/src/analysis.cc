@@ -53,7 +53,8 @@ storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
     row.region_id = region.id();
     if (region.bbox_size() == 4) {
       row.bbox = {static_cast<double>(region.bbox(0)), static_cast<double>(region.bbox(1)),
-                  static_cast<double>(region.bbox(0) + region.bbox(2)), static_cast<double>(region.bbox(1) + region.bbox(3))};
+                  static_cast<double>(region.bbox(0) + region.bbox(2)),
+                  static_cast<double>(region.bbox(1) + region.bbox(3))};
     }
     nlohmann::json features = nlohmann::json::object();
     for (int i = 0; i < region.features_size() && i < report.feature_names_size(); ++i) {
@@ -99,8 +100,9 @@ std::shared_ptr<const slamcore::ProtrusionClassifier> ClassifierCache::Get() {
   if (active->version == version_ && classifier_) return classifier_;
   auto loaded = LoadClassifier(active->bytes);
   if (!loaded.ok()) {
-    std::fprintf(stderr, "fleetd: model %s v%lld does not load (the built-in default classifies instead): %s\n",
-                 model_name_.c_str(), static_cast<long long>(active->version), loaded.status().ToString().c_str());
+    std::fprintf(
+        stderr, "fleetd: model %s v%lld does not load (the built-in default classifies instead): %s\n",
+        model_name_.c_str(), static_cast<long long>(active->version), loaded.status().ToString().c_str());
     classifier_ = DefaultClassifier();
     version_ = 0;
     return classifier_;
@@ -118,11 +120,13 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   const std::string& run_id = key.run_id;
   ASSIGN_OR_RETURN(auto run, repository.GetRun(key));
   if (run.telemetry_pruned_at_ms) {
-    return storage::FailedPrecondition("run " + run_id + " of robot " + key.robot_id +
-                                       ": its events were pruned by retention (--retain-runs-days); nothing to rerun");
+    return storage::FailedPrecondition(
+        "run " + run_id + " of robot " + key.robot_id +
+        ": its events were pruned by retention (--retain-runs-days); nothing to rerun");
   }
   fleet::v1::RunFile file;
-  if (!file.ParseFromString(run.telemetry)) return storage::DataLoss("run " + run_id + ": telemetry does not parse");
+  if (!file.ParseFromString(run.telemetry))
+    return storage::DataLoss("run " + run_id + ": telemetry does not parse");
   if (run.parent_snapshot_id) {
     ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run.parent_snapshot_id));
     if (!file.mutable_parent_snapshot()->ParseFromString(snapshot.bytes)) {
@@ -156,7 +160,8 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
               << " s (--analysis-budget-seconds)";
       return slamcore::FailedPrecondition(message.str());
     }
-    if (budget.cancelled && budget.cancelled()) return slamcore::FailedPrecondition("analysis budget: job cancelled");
+    if (budget.cancelled && budget.cancelled())
+      return slamcore::FailedPrecondition("analysis budget: job cancelled");
     return slamcore::Status::Ok();
   };
   ASSIGN_OR_RETURN(auto report, analyzer::AnalyzeRun(file, options));

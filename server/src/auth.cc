@@ -26,8 +26,8 @@ std::string Hex(const unsigned char* data, std::size_t size) {
 bool ValidId(const std::string& id) {
   if (id.empty() || id.size() > 128) return false;
   return std::all_of(id.begin(), id.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-           c == '.';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.';
   });
 }
 
@@ -70,7 +70,8 @@ bool Allows(Role role, Permission permission) {
 slamcore::Result<Principal> ParsePrincipal(const std::string& name) {
   const std::size_t colon = name.find(':');
   if (colon == std::string::npos) {
-    return slamcore::InvalidArgument("principal: expected \"robot:<id>\", \"engineer:<name>\" or \"admin:<name>\"");
+    return slamcore::InvalidArgument(
+        "principal: expected \"robot:<id>\", \"engineer:<name>\" or \"admin:<name>\"");
   }
   const std::string kind = name.substr(0, colon), id = name.substr(colon + 1);
   Principal principal;
@@ -85,7 +86,8 @@ slamcore::Result<Principal> ParsePrincipal(const std::string& name) {
   } else {
     return slamcore::InvalidArgument("principal: unknown role \"" + kind + "\" (robot, engineer or admin)");
   }
-  if (!ValidId(id)) return slamcore::InvalidArgument("principal: id must be 1-128 characters of [A-Za-z0-9_.-]");
+  if (!ValidId(id))
+    return slamcore::InvalidArgument("principal: id must be 1-128 characters of [A-Za-z0-9_.-]");
   return principal;
 }
 
@@ -99,7 +101,9 @@ std::string GenerateSecret() {
   return Hex(bytes, sizeof bytes);
 }
 
-std::string MakeToken(const std::string& principal, const std::string& secret) { return principal + "." + secret; }
+std::string MakeToken(const std::string& principal, const std::string& secret) {
+  return principal + "." + secret;
+}
 
 std::string Sha256Hex(const std::string& bytes) {
   unsigned char digest[SHA256_DIGEST_LENGTH];
@@ -147,7 +151,8 @@ void Authenticator::RefreshRevocations(std::chrono::steady_clock::time_point now
   credential_epoch_ = changes->epoch;
 }
 
-std::optional<Principal> Authenticator::CachedLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
+std::optional<Principal> Authenticator::CachedLocked(const std::string& key,
+                                                     std::chrono::steady_clock::time_point now) {
   auto it = cache_.find(key);
   if (it == cache_.end()) return std::nullopt;
   if (it->second.expires <= now) {
@@ -188,13 +193,14 @@ bool Authenticator::BlockedLocked(const std::string& key, std::chrono::steady_cl
 
 void Authenticator::RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
   if (failures_.size() > 100000) failures_.clear();  // bound memory against spraying many names
-  BlockedLocked(key, now);                            // decays the earlier failures first
+  BlockedLocked(key, now);                           // decays the earlier failures first
   FailureBucket& bucket = failures_[key];
   bucket.failures += 1.0;
   bucket.last = now;
 }
 
-Authenticator::Verdict Authenticator::Authenticate(const std::string& authorization, const std::string& peer) {
+Authenticator::Verdict Authenticator::Authenticate(const std::string& authorization,
+                                                   const std::string& peer) {
   Verdict verdict;
   static const std::string kBearer = "Bearer ";
   if (authorization.empty()) {
@@ -272,7 +278,8 @@ void Authenticator::ForgetPrincipal(const std::string& name) {
 slamcore::Result<std::string> Authenticator::RotateToken(const Principal& principal) {
   ASSIGN_OR_RETURN(auto existing, repository_.ListCredentials(principal.name, "", 1, /*active_only=*/true));
   if (existing.empty() || existing.front().principal != principal.name) {
-    return slamcore::NotFound("no unrevoked credential for " + principal.name + "; mint one with SetCredential");
+    return slamcore::NotFound("no unrevoked credential for " + principal.name +
+                              "; mint one with SetCredential");
   }
   return IssueToken(principal);
 }
@@ -283,17 +290,18 @@ slamcore::Status Authenticator::RevokeToken(const Principal& principal) {
   return slamcore::Status::Ok();
 }
 
-slamcore::Result<Authenticator::BootstrapOutcome> Authenticator::InstallBootstrapToken(const std::string& token,
-                                                                                      bool force) {
+slamcore::Result<Authenticator::BootstrapOutcome> Authenticator::InstallBootstrapToken(
+    const std::string& token, bool force) {
   const std::size_t dot = token.rfind('.');
   if (dot == std::string::npos) {
     return slamcore::InvalidArgument("bootstrap_admin_token: expected admin:<name>.<secret>");
   }
   auto principal = ParsePrincipal(token.substr(0, dot));
-  if (!principal.ok()) return slamcore::InvalidArgument("bootstrap_admin_token: " + principal.status().message());
+  if (!principal.ok())
+    return slamcore::InvalidArgument("bootstrap_admin_token: " + principal.status().message());
   if (principal->role != Role::kAdmin) {
     return slamcore::InvalidArgument("bootstrap_admin_token: names " + principal->name +
-                                    ", not an admin (admin:<name>.<secret>)");
+                                     ", not an admin (admin:<name>.<secret>)");
   }
   const std::string secret = token.substr(dot + 1);
   RETURN_IF_ERROR(CheckSecretStrength("bootstrap_admin_token", secret, 32));

@@ -82,8 +82,9 @@ json RegionJson(const storage::ProtrusionRegionRecord& region) {
               {"parameter_set", region.parameter_set},
               {"region_id", region.region_id},
               // x, y, width, height in child image cells (y down), as the map images are drawn.
-              {"bbox", {region.bbox.min_x, region.bbox.min_y, region.bbox.max_x - region.bbox.min_x,
-                        region.bbox.max_y - region.bbox.min_y}},
+              {"bbox",
+               {region.bbox.min_x, region.bbox.min_y, region.bbox.max_x - region.bbox.min_x,
+                region.bbox.max_y - region.bbox.min_y}},
               {"features", features},
               {"predicted_class", region.predicted_class},
               {"probability", region.probability},

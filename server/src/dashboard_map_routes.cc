@@ -67,7 +67,8 @@ json FindingJson(const fleet::v1::MapFinding& finding) {
               {"edge_to", finding.edge_to()}};
   if (finding.has_hypothesis()) out["hypothesis"] = finding.hypothesis();
   if (finding.world_bbox_size() == 4) {
-    out["world_bbox"] = {finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2), finding.world_bbox(3)};
+    out["world_bbox"] = {finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2),
+                         finding.world_bbox(3)};
   }
   return out;
 }
@@ -77,14 +78,19 @@ json FindingJson(const fleet::v1::MapFinding& finding) {
 json MetadataJson(const fleet::v1::MapMetadata& metadata) {
   const auto shapes = [](const google::protobuf::RepeatedPtrField<fleet::v1::MapShape>& list) {
     json out = json::array();
-    for (const fleet::v1::MapShape& shape : list) out.push_back({{"type", shape.type()}, {"xy", std::vector<double>(shape.xy().begin(), shape.xy().end())}});
+    for (const fleet::v1::MapShape& shape : list)
+      out.push_back(
+          {{"type", shape.type()}, {"xy", std::vector<double>(shape.xy().begin(), shape.xy().end())}});
     return out;
   };
   json rooms = json::array(), points = json::array();
   for (const fleet::v1::MapRoom& room : metadata.rooms()) {
-    json row = {{"segment_id", room.segment_id()}, {"name", room.name()}, {"pixel_count", room.pixel_count()},
+    json row = {{"segment_id", room.segment_id()},
+                {"name", room.name()},
+                {"pixel_count", room.pixel_count()},
                 {"area_m2", room.area_m2()}};
-    if (const auto centre = analyzer::RoomCentre(room, metadata.resolution())) row["centre"] = {(*centre)[0], (*centre)[1]};
+    if (const auto centre = analyzer::RoomCentre(room, metadata.resolution()))
+      row["centre"] = {(*centre)[0], (*centre)[1]};
     rooms.push_back(row);
   }
   for (const fleet::v1::MapPoint& point : metadata.points()) {
@@ -92,7 +98,7 @@ json MetadataJson(const fleet::v1::MapMetadata& metadata) {
     if (point.has_theta()) row["theta"] = point.theta();
     points.push_back(row);
   }
-  return {{"format", metadata.format()},     {"rooms", rooms},
+  return {{"format", metadata.format()},       {"rooms", rooms},
           {"paths", shapes(metadata.paths())}, {"virtual_walls", shapes(metadata.virtual_walls())},
           {"zones", shapes(metadata.zones())}, {"points", points}};
 }
@@ -107,7 +113,8 @@ class MapRoutes {
 
   HttpResponse Get(const HttpRequest& request) {
     if (http::MatchPath("/api/robots", request.path)) return Robots();
-    if (auto path = http::MatchPath("/api/robots/{robot}/maps", request.path)) return Versions(path->at("robot"));
+    if (auto path = http::MatchPath("/api/robots/{robot}/maps", request.path))
+      return Versions(path->at("robot"));
     // The routes of one version: {version} is a number or "current".
     using VersionRoute = HttpResponse (MapRoutes::*)(const std::string& robot, std::int64_t version,
                                                      const http::PathParams& path);
@@ -122,7 +129,8 @@ class MapRoutes {
       if (!path) continue;
       const std::string& text = path->at("version");
       const auto version = VersionOf(text);
-      if (!version) return Error(400, "version: expected a positive integer or \"current\", got \"" + text + "\"");
+      if (!version)
+        return Error(400, "version: expected a positive integer or \"current\", got \"" + text + "\"");
       return (this->*route)(path->at("robot"), *version, *path);
     }
     return Error(404, "no such endpoint: " + request.path);
@@ -136,18 +144,21 @@ class MapRoutes {
     if (!path) return Error(404, "no such endpoint: POST " + request.path);
     const std::string& robot = path->at("robot");
     HttpResponse refusal;
-    const auto principal = http::AuthorizeRequest(authenticator_, request, Permission::kRepairMap, "repairing maps", &refusal);
+    const auto principal =
+        http::AuthorizeRequest(authenticator_, request, Permission::kRepairMap, "repairing maps", &refusal);
     if (!principal) return refusal;
     if (!limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
     if (import_path) return Import(robot, request, principal->name);
     const std::string& version_text = path->at("version");
     const auto version = http::ParseInt(version_text);
-    if (!version || *version <= 0) return Error(400, "version: expected a positive integer, got \"" + version_text + "\"");
+    if (!version || *version <= 0)
+      return Error(400, "version: expected a positive integer, got \"" + version_text + "\"");
     const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
     if (body.is_discarded() || !body.is_object()) return Error(400, "body: expected a JSON object");
     try {
       if (review_path) {
-        if (!body.contains("approve") || !body["approve"].is_boolean()) return Error(400, "approve: expected true or false");
+        if (!body.contains("approve") || !body["approve"].is_boolean())
+          return Error(400, "approve: expected true or false");
         auto reviewed = history_.Review(robot, *version, body["approve"].get<bool>(), principal->name);
         if (!reviewed.ok()) return Error(reviewed.status());
         return Json(VersionJson(*reviewed));
@@ -159,19 +170,20 @@ class MapRoutes {
       if (!action.ok()) return Error(action.status());
       repair.action = *action;
       // Each action's own fields, beside "action" in the body.
-      std::visit(Overloaded{[&](RejectEdge& edge) {
-                              edge.from = body.value("from", std::int64_t{0});
-                              edge.to = body.value("to", std::int64_t{0});
-                              if (body.contains("view") && !body["view"].is_null()) {
-                                edge.view = body["view"].get<std::int64_t>();
-                              }
-                            },
-                            [&](RejectHypothesis& rejected) {
-                              rejected.hypothesis = body.value("hypothesis", std::int64_t{0});
-                            },
-                            [&](CutFinding& cut) { cut.finding_id = body.value("finding_id", std::int64_t{0}); },
-                            [](Rollback&) {}, [](Undo&) {}},
-                 repair.action);
+      std::visit(
+          Overloaded{[&](RejectEdge& edge) {
+                       edge.from = body.value("from", std::int64_t{0});
+                       edge.to = body.value("to", std::int64_t{0});
+                       if (body.contains("view") && !body["view"].is_null()) {
+                         edge.view = body["view"].get<std::int64_t>();
+                       }
+                     },
+                     [&](RejectHypothesis& rejected) {
+                       rejected.hypothesis = body.value("hypothesis", std::int64_t{0});
+                     },
+                     [&](CutFinding& cut) { cut.finding_id = body.value("finding_id", std::int64_t{0}); },
+                     [](Rollback&) {}, [](Undo&) {}},
+          repair.action);
       repair.reason = body.value("reason", "");
       repair.approve = body.value("approve", false);
       repair.requested_by = principal->name;
@@ -188,12 +200,14 @@ class MapRoutes {
   /// A map uploaded from the robot's map page: a ValetudoMap export (the body, as the file), or a map_server
   /// pair as multipart/form-data (parts "yaml" and "image"). Either becomes a pending version of the robot's
   /// history, compared with the previous one as `fleetctl import` does (MapHistory::Import).
-  HttpResponse Import(const std::string& robot_id, const HttpRequest& request, const std::string& requested_by) {
+  HttpResponse Import(const std::string& robot_id, const HttpRequest& request,
+                      const std::string& requested_by) {
     if (auto bad = analyzer::ValidateId(robot_id, "robot_id"); !bad.ok()) return Error(400, bad.message());
     const auto type = request.headers.find("content-type");
     const bool form = type != request.headers.end() && type->second.rfind("multipart/form-data", 0) == 0;
     std::string source = "dashboard upload";
-    auto imported = form ? MapServerUpload(type->second, request.body, &source) : ValetudoUpload(request.body);
+    auto imported =
+        form ? MapServerUpload(type->second, request.body, &source) : ValetudoUpload(request.body);
     // Everything wrong with an upload is the uploader's (DATA_LOSS from a malformed PGM included): 400.
     if (!imported.ok()) return Error(400, imported.status().message());
     auto version = history_.Import(robot_id, imported->snapshot, imported->metadata, source,
@@ -209,21 +223,25 @@ class MapRoutes {
   }
 
   /// The YAML may name only the uploaded image (no path): an upload never reads a file of the server.
-  static slamcore::Result<analyzer::ImportedMap> MapServerUpload(const std::string& content_type, const std::string& body,
+  static slamcore::Result<analyzer::ImportedMap> MapServerUpload(const std::string& content_type,
+                                                                 const std::string& body,
                                                                  std::string* source) {
     auto parts = http::ParseMultipartForm(content_type, body, /*max_parts=*/4);
     if (!parts.ok()) return slamcore::InvalidArgument(parts.status().message());
     const http::FormPart *yaml = nullptr, *image = nullptr;
     for (const http::FormPart& part : *parts) {
       if (part.name != "yaml" && part.name != "image") {
-        return slamcore::InvalidArgument("multipart: unknown part \"" + part.name + "\" (expected yaml and image)");
+        return slamcore::InvalidArgument("multipart: unknown part \"" + part.name +
+                                         "\" (expected yaml and image)");
       }
       const http::FormPart*& slot = part.name == "yaml" ? yaml : image;
-      if (slot != nullptr) return slamcore::InvalidArgument("multipart: part \"" + part.name + "\" given twice");
+      if (slot != nullptr)
+        return slamcore::InvalidArgument("multipart: part \"" + part.name + "\" given twice");
       slot = &part;
     }
     if (yaml == nullptr) return slamcore::InvalidArgument("yaml: missing (the map_server YAML file)");
-    if (image == nullptr) return slamcore::InvalidArgument("image: missing (the PGM or PNG image the YAML names)");
+    if (image == nullptr)
+      return slamcore::InvalidArgument("image: missing (the PGM or PNG image the YAML names)");
     if (image->filename.empty()) return slamcore::InvalidArgument("image: the part has no filename");
     const auto read_image = [&](const std::string& name) -> slamcore::Result<std::string> {
       if (name != image->filename || name.find_first_of("/\\") != std::string::npos) {
@@ -235,18 +253,21 @@ class MapRoutes {
       if (image->body.size() >= 24 && image->body.compare(0, 4, "\x89PNG") == 0) {
         const auto be32 = [&](std::size_t at) {
           std::uint64_t value = 0;
-          for (std::size_t i = 0; i < 4; ++i) value = value << 8 | static_cast<unsigned char>(image->body[at + i]);
+          for (std::size_t i = 0; i < 4; ++i)
+            value = value << 8 | static_cast<unsigned char>(image->body[at + i]);
           return value;
         };
         if (be32(16) * be32(20) > kMaxUploadCells) {
-          return slamcore::InvalidArgument("image: " + std::to_string(be32(16)) + " x " + std::to_string(be32(20)) +
-                                           " pixels, more than the upload limit of " + std::to_string(kMaxUploadCells));
+          return slamcore::InvalidArgument(
+              "image: " + std::to_string(be32(16)) + " x " + std::to_string(be32(20)) +
+              " pixels, more than the upload limit of " + std::to_string(kMaxUploadCells));
         }
       }
       return image->body;
     };
     ASSIGN_OR_RETURN(auto grid, slamcore::ParseMapServerYaml(yaml->body, "yaml", read_image));
-    *source = "dashboard upload: " + (yaml->filename.empty() ? std::string("yaml") : yaml->filename) + " + " + image->filename;
+    *source = "dashboard upload: " + (yaml->filename.empty() ? std::string("yaml") : yaml->filename) + " + " +
+              image->filename;
     return analyzer::ImportMapServer(grid);
   }
 
@@ -270,9 +291,11 @@ class MapRoutes {
       auto versions = history_.List(robot.robot_id, &current, &head);
       if (!versions.ok()) return Error(versions.status());
       std::int64_t pending = 0;
-      for (const auto& version : *versions) pending += version.approval_state() == fleet::v1::MAP_APPROVAL_PENDING ? 1 : 0;
-      json row = {{"robot_id", robot.robot_id}, {"robot_model", robot.robot_model}, {"firmware", robot.firmware},
-                  {"versions", versions->size()}, {"current_version", current}, {"head_version", head},
+      for (const auto& version : *versions)
+        pending += version.approval_state() == fleet::v1::MAP_APPROVAL_PENDING ? 1 : 0;
+      json row = {{"robot_id", robot.robot_id}, {"robot_model", robot.robot_model},
+                  {"firmware", robot.firmware}, {"versions", versions->size()},
+                  {"current_version", current}, {"head_version", head},
                   {"pending", pending}};
       if (!versions->empty()) {
         row["head_version"] = versions->back().version();
@@ -293,7 +316,8 @@ class MapRoutes {
     }
     json out = json::array();
     for (const auto& version : *versions) out.push_back(VersionJson(version));
-    return Json({{"robot_id", robot}, {"current_version", current}, {"head_version", head}, {"versions", out}});
+    return Json(
+        {{"robot_id", robot}, {"current_version", current}, {"head_version", head}, {"versions", out}});
   }
 
   HttpResponse Version(const std::string& robot, std::int64_t version, const http::PathParams&) {
@@ -340,8 +364,8 @@ class MapRoutes {
     const slamcore::PoseGraph& graph = loaded->map.graph;
     json nodes = json::array(), edges = json::array(), components = json::array();
     for (const slamcore::Node& node : graph.nodes()) {
-      nodes.push_back(json::array({node.id, node.pose.x(), node.pose.y(), node.pose.theta(), graph.ComponentOf(node.id),
-                                   run_nodes->contains(node.id) ? 1 : 0}));
+      nodes.push_back(json::array({node.id, node.pose.x(), node.pose.y(), node.pose.theta(),
+                                   graph.ComponentOf(node.id), run_nodes->contains(node.id) ? 1 : 0}));
     }
     for (const slamcore::Edge& edge : graph.edges()) {
       json row = {{"from", edge.from},
@@ -395,11 +419,12 @@ class MapRoutes {
 
   HttpResponse Export(const std::string& robot, std::int64_t version, const http::PathParams& path) {
     const std::string& file = path.at("file");
-    const std::string format = file == "map.g2o"                         ? "g2o"
+    const std::string format = file == "map.g2o"                           ? "g2o"
                                : (file == "map.pgm" || file == "map.yaml") ? "map_server"
                                : file == "map.json"                        ? "valetudo"
                                                                            : "";
-    if (format.empty()) return Error(404, "export: expected map.pgm, map.yaml, map.g2o or map.json, got \"" + file + "\"");
+    if (format.empty())
+      return Error(404, "export: expected map.pgm, map.yaml, map.g2o or map.json, got \"" + file + "\"");
     auto files = history_.Export(robot, version, format);
     if (!files.ok()) return Error(files.status());
     const std::string extension = file.substr(file.rfind('.'));
@@ -410,7 +435,8 @@ class MapRoutes {
                               : extension == ".json" ? "application/json"
                                                      : "text/plain; charset=utf-8";
       response.body = exported.content();
-      response.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + exported.name() + "\"");
+      response.headers.emplace_back("Content-Disposition",
+                                    "attachment; filename=\"" + exported.name() + "\"");
       return response;
     }
     return Error(500, "export made no " + extension + " file");
@@ -420,7 +446,8 @@ class MapRoutes {
   Authenticator& authenticator_;
   MapHistory history_;
   RateLimiter limiter_;
-  RenderCache<slamcore::OccupancyGrid> grid_cache_{  // by snapshot id
+  RenderCache<slamcore::OccupancyGrid> grid_cache_{
+      // by snapshot id
       256u << 20, [](const slamcore::OccupancyGrid& grid) { return sizeof grid + grid.cells.size(); }};
 };
 
@@ -429,8 +456,10 @@ class MapRoutes {
 void RegisterMapRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
                        const FleetdConfig& config) {
   auto routes = std::make_shared<MapRoutes>(repository, authenticator, config);
-  router.AddRoute("GET", "/api/robots", [routes](const HttpRequest& request) { return routes->Get(request); });
-  router.AddRoute("POST", "/api/robots/", [routes](const HttpRequest& request) { return routes->Post(request); });
+  router.AddRoute("GET", "/api/robots",
+                  [routes](const HttpRequest& request) { return routes->Get(request); });
+  router.AddRoute("POST", "/api/robots/",
+                  [routes](const HttpRequest& request) { return routes->Post(request); });
 }
 
 }  // namespace server

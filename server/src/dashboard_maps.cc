@@ -38,8 +38,10 @@ storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const st
   ASSIGN_OR_RETURN(auto run, repository.GetRun(key));
   ASSIGN_OR_RETURN(auto stored, repository.GetReport(key, parameter_set));
   fleet::v1::RunReport report;
-  if (!report.ParseFromString(stored.report)) return storage::DataLoss("report of run " + run_id + " does not parse");
-  if (!report.has_rerun_child()) return storage::FailedPrecondition("report of run " + run_id + " keeps no child map");
+  if (!report.ParseFromString(stored.report))
+    return storage::DataLoss("report of run " + run_id + " does not parse");
+  if (!report.has_rerun_child())
+    return storage::FailedPrecondition("report of run " + run_id + " keeps no child map");
   auto child = analyzer::FromProto(report.rerun_child(), "rerun_child");
   if (!child.ok()) return CorruptRecord(child.status(), "rerun_child");
 
@@ -74,9 +76,10 @@ storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const st
   slamcore::OccupancyGrid difference = child_grid;
   for (std::size_t i = 0; i < difference.cells.size(); ++i) {
     const bool known = child_grid.cells[i] != static_cast<std::int8_t>(slamcore::CellState::kUnknown);
-    difference.cells[i] = static_cast<std::int8_t>(i < mask.size() && mask[i] != 0 ? slamcore::CellState::kOccupied
-                                                   : known                          ? slamcore::CellState::kFree
-                                                                                    : slamcore::CellState::kUnknown);
+    difference.cells[i] =
+        static_cast<std::int8_t>(i < mask.size() && mask[i] != 0 ? slamcore::CellState::kOccupied
+                                 : known                         ? slamcore::CellState::kFree
+                                                                 : slamcore::CellState::kUnknown);
   }
 
   RunMaps maps;

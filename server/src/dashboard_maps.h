@@ -14,7 +14,7 @@
 namespace server::dashboard {
 
 struct RunMaps {
-  std::string parent_png;      // trinary PNG (254 free, 0 occupied, 205 unknown); all unknown on a first run
+  std::string parent_png;  // trinary PNG (254 free, 0 occupied, 205 unknown); all unknown on a first run
   std::string child_png;
   std::string difference_png;  // black: new in the child; white: known in both; grey: unknown
   int width = 0, height = 0;   // cells (= pixels) of all three images

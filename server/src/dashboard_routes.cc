@@ -43,14 +43,15 @@ constexpr int kMaxPageSize = 200;
 // ---- HTTP helpers ---------------------------------------------------------------------------------------
 
 /// Reads an integer parameter; `error` gets a message naming it when it is malformed or out of range.
-std::optional<std::int64_t> IntParam(const std::map<std::string, std::string>& params, const std::string& name,
-                                     std::int64_t low, std::int64_t high, std::string* error) {
+std::optional<std::int64_t> IntParam(const std::map<std::string, std::string>& params,
+                                     const std::string& name, std::int64_t low, std::int64_t high,
+                                     std::string* error) {
   const auto it = params.find(name);
   if (it == params.end() || it->second.empty()) return std::nullopt;
   const auto value = ParseInt(it->second);
   if (!value || *value < low || *value > high) {
-    *error = name + ": expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) + "], got \"" +
-             it->second + "\"";
+    *error = name + ": expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) +
+             "], got \"" + it->second + "\"";
     return std::nullopt;
   }
   return value;
@@ -69,14 +70,14 @@ class Dashboard {
       : repository_(repository),
         authenticator_(authenticator),
         default_set_(config.default_parameter_set),
-        label_limiter_(config.rate_limit_per_second, config.rate_limit_burst) {
-  }
+        label_limiter_(config.rate_limit_per_second, config.rate_limit_burst) {}
 
   /// GET /api/...: the first template that fits the path.
   HttpResponse Api(const HttpRequest& request) {
     const auto query = ParseQuery(request.query);
     for (const ReadRoute& route : read_routes_) {
-      if (auto path = http::MatchPath(route.pattern, request.path)) return (this->*route.handler)(request, *path, query);
+      if (auto path = http::MatchPath(route.pattern, request.path))
+        return (this->*route.handler)(request, *path, query);
     }
     return Error(404, "no such endpoint: " + request.path);
   }
@@ -93,7 +94,8 @@ class Dashboard {
     if (!principal) return refusal;
     if (!label_limiter_.Allow(principal->name)) return Error(429, "rate limit exceeded; retry later");
     const auto region_id = ParseInt(region_text);
-    if (!region_id || *region_id < 0) return Error(400, "region: expected a non-negative integer, got \"" + region_text + "\"");
+    if (!region_id || *region_id < 0)
+      return Error(400, "region: expected a non-negative integer, got \"" + region_text + "\"");
     const json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
     if (body.is_discarded() || !body.is_object()) return Error(400, "body: expected a JSON object");
     const std::string label = body.value("label", "");
@@ -104,10 +106,12 @@ class Dashboard {
     if (set.empty()) set = default_set_;
     auto run = queries_.Run(*principal, Param(ParseQuery(request.query), "robot"), run_id);
     if (!run.ok()) return Error(run.status());
-    storage::Status labelled = repository_.LabelProtrusionRegion(*run, set, *region_id, label, principal->name);
+    storage::Status labelled =
+        repository_.LabelProtrusionRegion(*run, set, *region_id, label, principal->name);
     if (!labelled.ok()) {
       if (labelled.code() == storage::StatusCode::kNotFound) {
-        return Error(404, "run \"" + run_id + "\" has no region " + region_text + " with parameter set \"" + set + "\"");
+        return Error(404, "run \"" + run_id + "\" has no region " + region_text + " with parameter set \"" +
+                              set + "\"");
       }
       return Error(labelled);
     }
@@ -155,7 +159,8 @@ class Dashboard {
   }
 
   /// The run a /api/runs/{run} route names (?robot= picks among robots that share a run id; a robot reads its own).
-  storage::Result<storage::RunKey> RunOf(const HttpRequest& request, const http::PathParams& path, const Query& query) {
+  storage::Result<storage::RunKey> RunOf(const HttpRequest& request, const http::PathParams& path,
+                                         const Query& query) {
     ASSIGN_OR_RETURN(auto caller, CallerOf(request));
     return queries_.Run(caller, Param(query, "robot"), path.at("run"));
   }
@@ -166,7 +171,8 @@ class Dashboard {
   }
 
   /// The filter from ?firmware=&robot=&model=&parameter_set=&from_ms=&to_ms=.
-  std::optional<storage::RunFilter> FilterOf(const std::map<std::string, std::string>& params, std::string* error) {
+  std::optional<storage::RunFilter> FilterOf(const std::map<std::string, std::string>& params,
+                                             std::string* error) {
     storage::RunFilter filter;
     filter.firmware = Param(params, "firmware");
     filter.robot_id = Param(params, "robot");
@@ -185,7 +191,8 @@ class Dashboard {
     if (!firmware.ok()) return Error(firmware.status());
     json firmware_keys = json::array();
     for (const auto& group : *firmware) firmware_keys.push_back(group.key);
-    return Json(json{{"parameter_sets", *sets}, {"firmware", firmware_keys}, {"default_parameter_set", default_set_}});
+    return Json(json{
+        {"parameter_sets", *sets}, {"firmware", firmware_keys}, {"default_parameter_set", default_set_}});
   }
 
   HttpResponse Stats(const HttpRequest& request, const http::PathParams&, const Query& params) {
@@ -204,19 +211,24 @@ class Dashboard {
     auto confusion = queries_.Confusion(*caller, filter->parameter_set);
     if (!confusion.ok()) return Error(confusion.status());
     const ConfusionMatrix& m = *confusion;
-    return Json(json{
-        {"parameter_set", filter->parameter_set},
-        {"total", FiguresJson(by_day->total)},
-        {"by_day", GroupsJson(by_day->groups)},
-        {"by_firmware", GroupsJson(by_firmware->groups)},
-        {"maps", {{"maps", maps->maps},
-                  {"maps_with_ambiguous_views", maps->maps_with_ambiguous_views},
-                  {"share_with_ambiguous_views", Optional(maps->share_with_ambiguous_views)},
-                  {"ambiguous_share_histogram", maps->ambiguous_share_histogram}}},
-        {"confusion", {{"true_positive", m.true_positive}, {"false_positive", m.false_positive},
-                       {"false_negative", m.false_negative}, {"true_negative", m.true_negative},
-                       {"unclassified", m.unclassified}, {"labelled", m.labelled},
-                       {"recall", Optional(m.recall)}, {"precision", Optional(m.precision)},
+    return Json(json{{"parameter_set", filter->parameter_set},
+                     {"total", FiguresJson(by_day->total)},
+                     {"by_day", GroupsJson(by_day->groups)},
+                     {"by_firmware", GroupsJson(by_firmware->groups)},
+                     {"maps",
+                      {{"maps", maps->maps},
+                       {"maps_with_ambiguous_views", maps->maps_with_ambiguous_views},
+                       {"share_with_ambiguous_views", Optional(maps->share_with_ambiguous_views)},
+                       {"ambiguous_share_histogram", maps->ambiguous_share_histogram}}},
+                     {"confusion",
+                      {{"true_positive", m.true_positive},
+                       {"false_positive", m.false_positive},
+                       {"false_negative", m.false_negative},
+                       {"true_negative", m.true_negative},
+                       {"unclassified", m.unclassified},
+                       {"labelled", m.labelled},
+                       {"recall", Optional(m.recall)},
+                       {"precision", Optional(m.precision)},
                        {"false_positive_rate", Optional(m.false_positive_rate)}}}});
   }
 
@@ -231,7 +243,8 @@ class Dashboard {
     RunsQuery query;
     query.filter = *filter;
     query.page_size = static_cast<int>(limit.value_or(50));
-    if (after_ms) query.after = storage::RunCursor{*after_ms, Param(params, "after_id"), Param(params, "after_robot")};
+    if (after_ms)
+      query.after = storage::RunCursor{*after_ms, Param(params, "after_id"), Param(params, "after_robot")};
     query.report_set = SetOf(params);
     query.with_regions = true;
     query.only_with_regions = Param(params, "with_regions") == "1";
@@ -247,7 +260,8 @@ class Dashboard {
     }
     json out{{"parameter_set", query.report_set}, {"runs", runs}, {"next", nullptr}};
     if (page->next) {
-      out["next"] = json{{"after_ms", page->next->started_at_ms}, {"after_id", page->next->run_id},
+      out["next"] = json{{"after_ms", page->next->started_at_ms},
+                         {"after_id", page->next->run_id},
                          {"after_robot", page->next->robot_id}};
     }
     return Json(out);
@@ -274,39 +288,47 @@ class Dashboard {
     fleet::v1::RunReport report;
     if (report.ParseFromString(stored->report)) {
       const auto& d = report.divergence();
-      out["analysis"] = json{
-          {"map_version", report.map_version()},
-          {"seconds_to_conditional_relocalization", report.seconds_to_conditional_relocalization()},
-          {"seconds_to_full_relocalization", report.seconds_to_full_relocalization()},
-          {"replay_seconds", report.replay_seconds()},
-          {"detection_seconds", report.detection_seconds()},
-          {"feature_names", std::vector<std::string>(report.feature_names().begin(), report.feature_names().end())},
-          {"divergence", {{"robot_nodes", d.robot_nodes()}, {"rerun_nodes", d.rerun_nodes()},
-                          {"robot_observation_edges", d.robot_observation_edges()},
-                          {"rerun_observation_edges", d.rerun_observation_edges()},
-                          {"node_position_rms", d.node_position_rms()}}},
-          {"counts", {{"direct_edges", report.counts().direct_edges()},
-                      {"recovery_expired", report.counts().recovery_expired()},
-                      {"recovery_rejected", report.counts().recovery_rejected()},
-                      {"merge_accepted", report.counts().merge_accepted()},
-                      {"merge_expired", report.counts().merge_expired()},
-                      {"merge_rejected", report.counts().merge_rejected()},
-                      {"components_created", report.counts().components_created()}}}};
+      out["analysis"] =
+          json{{"map_version", report.map_version()},
+               {"seconds_to_conditional_relocalization", report.seconds_to_conditional_relocalization()},
+               {"seconds_to_full_relocalization", report.seconds_to_full_relocalization()},
+               {"replay_seconds", report.replay_seconds()},
+               {"detection_seconds", report.detection_seconds()},
+               {"feature_names",
+                std::vector<std::string>(report.feature_names().begin(), report.feature_names().end())},
+               {"divergence",
+                {{"robot_nodes", d.robot_nodes()},
+                 {"rerun_nodes", d.rerun_nodes()},
+                 {"robot_observation_edges", d.robot_observation_edges()},
+                 {"rerun_observation_edges", d.rerun_observation_edges()},
+                 {"node_position_rms", d.node_position_rms()}}},
+               {"counts",
+                {{"direct_edges", report.counts().direct_edges()},
+                 {"recovery_expired", report.counts().recovery_expired()},
+                 {"recovery_rejected", report.counts().recovery_rejected()},
+                 {"merge_accepted", report.counts().merge_accepted()},
+                 {"merge_expired", report.counts().merge_expired()},
+                 {"merge_rejected", report.counts().merge_rejected()},
+                 {"components_created", report.counts().components_created()}}}};
       if (report.has_ground_truth()) {
         const auto& g = report.ground_truth();
-        out["analysis"]["ground_truth"] = {{"trajectory_rmse", g.trajectory_rmse()},
-                                           {"wrong_observations", g.wrong_observations()},
-                                           {"wrong_observations_accepted", g.wrong_observations_accepted()},
-                                           {"correct_observations", g.correct_observations()},
-                                           {"correct_observations_accepted", g.correct_observations_accepted()}};
+        out["analysis"]["ground_truth"] = {
+            {"trajectory_rmse", g.trajectory_rmse()},
+            {"wrong_observations", g.wrong_observations()},
+            {"wrong_observations_accepted", g.wrong_observations_accepted()},
+            {"correct_observations", g.correct_observations()},
+            {"correct_observations_accepted", g.correct_observations_accepted()}};
       }
     }
     auto decisions = repository_.ListDecisions(key, set);
     if (!decisions.ok()) return Error(decisions.status());
     json timeline = json::array();
     for (const auto& decision : *decisions) {
-      timeline.push_back({{"sequence", decision.sequence}, {"time_s", decision.time_s}, {"kind", decision.kind},
-                          {"outcome", decision.outcome}, {"subject_id", decision.subject_id},
+      timeline.push_back({{"sequence", decision.sequence},
+                          {"time_s", decision.time_s},
+                          {"kind", decision.kind},
+                          {"outcome", decision.outcome},
+                          {"subject_id", decision.subject_id},
                           {"detail", decision.detail}});
     }
     out["decisions"] = std::move(timeline);
@@ -349,7 +371,8 @@ class Dashboard {
       const auto from = index.find(edge.from()), to = index.find(edge.to());
       if (from == index.end() || to == index.end()) continue;
       parent[find(from->second)] = find(to->second);
-      edges.push_back({{"from", edge.from()}, {"to", edge.to()},
+      edges.push_back({{"from", edge.from()},
+                       {"to", edge.to()},
                        {"kind", edge.kind() == fleet::v1::Edge::KIND_MOTION ? "motion" : "observation"},
                        {"view", edge.has_view() ? json(edge.view()) : json(nullptr)}});
     }
@@ -361,8 +384,12 @@ class Dashboard {
       const auto [it, inserted] = component_ids.emplace(root, map.nodes(i).id());
       ++component_sizes[it->second];
       const auto& node = map.nodes(i);
-      nodes.push_back({{"id", node.id()}, {"x", node.pose().x()}, {"y", node.pose().y()},
-                       {"theta", node.pose().theta()}, {"time", node.time()}, {"component", it->second}});
+      nodes.push_back({{"id", node.id()},
+                       {"x", node.pose().x()},
+                       {"y", node.pose().y()},
+                       {"theta", node.pose().theta()},
+                       {"time", node.time()},
+                       {"component", it->second}});
     }
     std::unordered_map<std::int64_t, std::int64_t> view_node;
     json views = json::array();
@@ -386,20 +413,29 @@ class Dashboard {
       if (decision.hypothesis_kind().empty() || decision.hypothesis() < 0) continue;
       if (decision.kind() != "hypothesis_created" && decision.kind() != "hypothesis_updated") continue;
       const auto target = view_node.find(decision.view());
-      if (!index.contains(decision.node()) || target == view_node.end() || !index.contains(target->second)) continue;
+      if (!index.contains(decision.node()) || target == view_node.end() || !index.contains(target->second))
+        continue;
       const auto ended = outcome.find(decision.hypothesis());
       const std::string status = ended == outcome.end() ? "open" : ended->second;
-      hypothesis_edges.push_back({{"from", decision.node()}, {"to", target->second}, {"view", decision.view()},
-                                  {"hypothesis", decision.hypothesis()}, {"kind", decision.hypothesis_kind()},
+      hypothesis_edges.push_back({{"from", decision.node()},
+                                  {"to", target->second},
+                                  {"view", decision.view()},
+                                  {"hypothesis", decision.hypothesis()},
+                                  {"kind", decision.hypothesis_kind()},
                                   {"status", status},
                                   {"conditional_merge", was_conditional.contains(decision.hypothesis())},
                                   {"time", decision.time()}});
     }
     json components = json::array();
     for (const auto& [id, size] : component_sizes) components.push_back({{"id", id}, {"nodes", size}});
-    return Json(json{{"run_id", run_id}, {"robot_id", run.robot_id}, {"parameter_set", SetOf(params)},
-                     {"nodes", nodes}, {"edges", edges},
-                     {"views", views}, {"components", components}, {"hypothesis_edges", hypothesis_edges}});
+    return Json(json{{"run_id", run_id},
+                     {"robot_id", run.robot_id},
+                     {"parameter_set", SetOf(params)},
+                     {"nodes", nodes},
+                     {"edges", edges},
+                     {"views", views},
+                     {"components", components},
+                     {"hypothesis_edges", hypothesis_edges}});
   }
 
   HttpResponse MapImage(const HttpRequest& request, const http::PathParams& path, const Query& params) {
@@ -413,12 +449,14 @@ class Dashboard {
     if (!maps.ok()) return Error(maps.status());
     const dashboard::RunMaps& images = **maps;
     if (file == "info.json") {
-      return Json(json{{"width", images.width}, {"height", images.height}, {"resolution", images.resolution}});
+      return Json(
+          json{{"width", images.width}, {"height", images.height}, {"resolution", images.resolution}});
     }
     HttpResponse response;
     response.content_type = "image/png";
-    response.body = file == "parent.png" ? images.parent_png : file == "child.png" ? images.child_png
-                                                                                   : images.difference_png;
+    response.body = file == "parent.png"  ? images.parent_png
+                    : file == "child.png" ? images.child_png
+                                          : images.difference_png;
     response.headers.emplace_back("Cache-Control", "no-cache");
     return response;
   }
@@ -436,7 +474,8 @@ class Dashboard {
     if (!error.empty()) return Error(400, error);
     auto caller = CallerOf(request);
     if (!caller.ok()) return Error(caller.status());
-    auto regions = queries_.Labels(*caller, Param(params, "parameter_set"), static_cast<int>(limit.value_or(200)));
+    auto regions =
+        queries_.Labels(*caller, Param(params, "parameter_set"), static_cast<int>(limit.value_or(200)));
     if (!regions.ok()) return Error(regions.status());
     json rows = json::array();
     for (const auto& region : *regions) rows.push_back(RegionJson(region));
@@ -463,20 +502,31 @@ class Dashboard {
     for (const RunChange& change : comparison->most_changed) {
       const json ca = ReportCountersJson(change.a), cb = ReportCountersJson(change.b);
       json delta = json::object();
-      for (const char* key : {"recovery_created", "recovery_accepted", "merge_created", "merge_conditionally_accepted",
-                              "merge_conditional_then_rejected", "views_ambiguous", "protrusions_found",
-                              "recovery_retracted"}) {
+      for (const char* key : {"recovery_created", "recovery_accepted", "merge_created",
+                              "merge_conditionally_accepted", "merge_conditional_then_rejected",
+                              "views_ambiguous", "protrusions_found", "recovery_retracted"}) {
         delta[key] = cb[key].get<std::int64_t>() - ca[key].get<std::int64_t>();
       }
-      delta["started_localized"] = (change.b.started_localized ? 1 : 0) - (change.a.started_localized ? 1 : 0);
-      rows.push_back(json{{"run_id", change.run.run_id}, {"robot_id", change.run.robot_id},
-                          {"firmware", change.run.firmware}, {"started_at_ms", change.run.started_at_ms},
-                          {"score", change.change}, {"a", ca}, {"b", cb}, {"delta", delta}});
+      delta["started_localized"] =
+          (change.b.started_localized ? 1 : 0) - (change.a.started_localized ? 1 : 0);
+      rows.push_back(json{{"run_id", change.run.run_id},
+                          {"robot_id", change.run.robot_id},
+                          {"firmware", change.run.firmware},
+                          {"started_at_ms", change.run.started_at_ms},
+                          {"score", change.change},
+                          {"a", ca},
+                          {"b", cb},
+                          {"delta", delta}});
     }
-    return Json(json{{"a", a}, {"b", b}, {"stats_a", FiguresJson(comparison->a)},
-                     {"stats_b", FiguresJson(comparison->b)}, {"by_firmware", by_firmware},
-                     {"changed_most", rows}, {"runs_compared", comparison->runs_compared},
-                     {"runs_changed", comparison->runs_changed}, {"runs_scanned", comparison->runs_compared},
+    return Json(json{{"a", a},
+                     {"b", b},
+                     {"stats_a", FiguresJson(comparison->a)},
+                     {"stats_b", FiguresJson(comparison->b)},
+                     {"by_firmware", by_firmware},
+                     {"changed_most", rows},
+                     {"runs_compared", comparison->runs_compared},
+                     {"runs_changed", comparison->runs_changed},
+                     {"runs_scanned", comparison->runs_compared},
                      {"scan_truncated", comparison->scan_truncated}});
   }
 
@@ -484,7 +534,8 @@ class Dashboard {
     std::string error;
     const auto limit = IntParam(params, "limit", 1, 500, &error);
     if (!error.empty()) return Error(400, error);
-    const std::string kind = Param(params, "kind").empty() ? std::string(kReprocessJob) : Param(params, "kind");
+    const std::string kind =
+        Param(params, "kind").empty() ? std::string(kReprocessJob) : Param(params, "kind");
     auto caller = CallerOf(request);
     if (!caller.ok()) return Error(caller.status());
     auto jobs = queries_.Jobs(*caller, kind, static_cast<int>(limit.value_or(50)));
@@ -502,19 +553,21 @@ class Dashboard {
   FleetQueries queries_{repository_, default_set_};
   RateLimiter label_limiter_;
   RenderCache<dashboard::RunMaps> map_cache_{64u << 20, [](const dashboard::RunMaps& maps) {
-                                                 return sizeof maps + maps.parent_png.size() + maps.child_png.size() +
-                                                        maps.difference_png.size();
-                                               }};
+                                               return sizeof maps + maps.parent_png.size() +
+                                                      maps.child_png.size() + maps.difference_png.size();
+                                             }};
 };
 
 }  // namespace
 
-void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
-                             const FleetdConfig& config) {
+void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository,
+                             Authenticator& authenticator, const FleetdConfig& config) {
   auto dashboard = std::make_shared<Dashboard>(repository, authenticator, config);
   RegisterStaticRoutes(router);
-  router.AddRoute("GET", "/api/", [dashboard](const HttpRequest& request) { return dashboard->Api(request); });
-  router.AddRoute("POST", "/api/runs/", [dashboard](const HttpRequest& request) { return dashboard->Label(request); });
+  router.AddRoute("GET", "/api/",
+                  [dashboard](const HttpRequest& request) { return dashboard->Api(request); });
+  router.AddRoute("POST", "/api/runs/",
+                  [dashboard](const HttpRequest& request) { return dashboard->Label(request); });
 }
 
 }  // namespace server

@@ -21,11 +21,15 @@ using http::Error;
 using http::SplitPath;
 
 std::string ContentTypeOf(const std::string& path) {
-  static const std::map<std::string, std::string> kTypes = {
-      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
-      {".mjs", "text/javascript; charset=utf-8"}, {".css", "text/css; charset=utf-8"},
-      {".json", "application/json"}, {".png", "image/png"}, {".svg", "image/svg+xml"},
-      {".map", "application/json"}, {".ico", "image/x-icon"}};
+  static const std::map<std::string, std::string> kTypes = {{".html", "text/html; charset=utf-8"},
+                                                            {".js", "text/javascript; charset=utf-8"},
+                                                            {".mjs", "text/javascript; charset=utf-8"},
+                                                            {".css", "text/css; charset=utf-8"},
+                                                            {".json", "application/json"},
+                                                            {".png", "image/png"},
+                                                            {".svg", "image/svg+xml"},
+                                                            {".map", "application/json"},
+                                                            {".ico", "image/x-icon"}};
   const std::string extension = std::filesystem::path(path).extension().string();
   const auto it = kTypes.find(extension);
   return it == kTypes.end() ? "application/octet-stream" : it->second;
@@ -38,8 +42,8 @@ bool SafeRelativePath(const std::string& path) {
     if (part.empty() || part[0] == '.') return false;
   }
   return std::all_of(path.begin(), path.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
-           c == '-' || c == '/';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '_' || c == '-' || c == '/';
   });
 }
 
@@ -82,7 +86,8 @@ HttpResponse Static(const std::filesystem::path& web_dir, const HttpRequest& req
 
 void RegisterStaticRoutes(HttpRouter& router) {
   const std::filesystem::path web_dir = ResolveWebDir();
-  log::Info("dashboard_web_dir", {{"path", web_dir.string()}, {"found", std::filesystem::exists(web_dir / "index.html")}});
+  log::Info("dashboard_web_dir",
+            {{"path", web_dir.string()}, {"found", std::filesystem::exists(web_dir / "index.html")}});
   router.AddRoute("GET", "/", [web_dir](const HttpRequest& request) { return Static(web_dir, request); });
 }
 

@@ -49,18 +49,20 @@ std::string DayKey(const std::string& days_since_epoch) {
   if (used != days_since_epoch.size()) return days_since_epoch;
   const std::chrono::year_month_day ymd{std::chrono::sys_days{std::chrono::days{day}}};
   char text[16];
-  std::snprintf(text, sizeof text, "%04d-%02u-%02u", static_cast<int>(ymd.year()), static_cast<unsigned>(ymd.month()),
-                static_cast<unsigned>(ymd.day()));
+  std::snprintf(text, sizeof text, "%04d-%02u-%02u", static_cast<int>(ymd.year()),
+                static_cast<unsigned>(ymd.month()), static_cast<unsigned>(ymd.day()));
   return text;
 }
 
 double ChangeScore(const storage::ReportRecord& a, const storage::ReportRecord& b) {
   const auto d = [](std::int64_t x, std::int64_t y) { return static_cast<double>(std::llabs(x - y)); };
   return d(a.recovery_created, b.recovery_created) + d(a.recovery_accepted, b.recovery_accepted) +
-         d(a.merge_created, b.merge_created) + d(a.merge_conditionally_accepted, b.merge_conditionally_accepted) +
+         d(a.merge_created, b.merge_created) +
+         d(a.merge_conditionally_accepted, b.merge_conditionally_accepted) +
          d(a.merge_conditional_then_rejected, b.merge_conditional_then_rejected) +
          d(a.views_ambiguous, b.views_ambiguous) + d(a.protrusions_found, b.protrusions_found) +
-         d(a.recovery_retracted, b.recovery_retracted) + (a.started_localized != b.started_localized ? 1.0 : 0.0);
+         d(a.recovery_retracted, b.recovery_retracted) +
+         (a.started_localized != b.started_localized ? 1.0 : 0.0);
 }
 
 FleetQueries::FleetQueries(storage::Repository& repository, std::string default_parameter_set)
@@ -73,7 +75,8 @@ storage::RunFilter FleetQueries::Scoped(const Principal& caller, storage::RunFil
   return filter;
 }
 
-storage::Result<StatisticsAnswer> FleetQueries::Statistics(const Principal& caller, const storage::RunFilter& filter,
+storage::Result<StatisticsAnswer> FleetQueries::Statistics(const Principal& caller,
+                                                           const storage::RunFilter& filter,
                                                            std::optional<storage::GroupBy> group_by) {
   const storage::RunFilter scoped = Scoped(caller, filter);
   ASSIGN_OR_RETURN(auto total, repository_.Aggregate(scoped));
@@ -97,13 +100,15 @@ storage::Result<MapsFigure> FleetQueries::Maps(const Principal& caller, const st
     ++figure.maps;
     if (s.views_ambiguous > 0) ++figure.maps_with_ambiguous_views;
     const double share = static_cast<double>(s.views_ambiguous) / static_cast<double>(s.views_total);
-    ++figure.ambiguous_share_histogram[static_cast<std::size_t>(std::clamp(static_cast<int>(share * 10.0), 0, 9))];
+    ++figure.ambiguous_share_histogram[static_cast<std::size_t>(
+        std::clamp(static_cast<int>(share * 10.0), 0, 9))];
   }
   figure.share_with_ambiguous_views = Ratio(figure.maps_with_ambiguous_views, figure.maps);
   return figure;
 }
 
-storage::Result<ConfusionMatrix> FleetQueries::Confusion(const Principal& caller, const std::string& parameter_set) {
+storage::Result<ConfusionMatrix> FleetQueries::Confusion(const Principal& caller,
+                                                         const std::string& parameter_set) {
   ASSIGN_OR_RETURN(auto labelled, Labels(caller, parameter_set, kConfusionRegionLimit));
   ConfusionMatrix m;
   for (const auto& region : labelled) {
@@ -114,7 +119,8 @@ storage::Result<ConfusionMatrix> FleetQueries::Confusion(const Principal& caller
       continue;
     }
     const bool truth = *region.label == "protrusion", predicted = region.predicted_class == "protrusion";
-    ++(truth ? (predicted ? m.true_positive : m.false_negative) : (predicted ? m.false_positive : m.true_negative));
+    ++(truth ? (predicted ? m.true_positive : m.false_negative)
+             : (predicted ? m.false_positive : m.true_negative));
   }
   m.recall = Ratio(m.true_positive, m.true_positive + m.false_negative);
   m.precision = Ratio(m.true_positive, m.true_positive + m.false_positive);
@@ -123,7 +129,8 @@ storage::Result<ConfusionMatrix> FleetQueries::Confusion(const Principal& caller
 }
 
 storage::Result<RunsPage> FleetQueries::Runs(const Principal& caller, RunsQuery query) {
-  if (query.page_size < 1 || query.page_size > 1000) return storage::InvalidArgument("page_size: expected 1..1000");
+  if (query.page_size < 1 || query.page_size > 1000)
+    return storage::InvalidArgument("page_size: expected 1..1000");
   const storage::RunFilter filter = Scoped(caller, query.filter);
   RunsPage page;
   std::optional<storage::RunCursor> next = query.after;
@@ -155,7 +162,8 @@ storage::Result<RunsPage> FleetQueries::Runs(const Principal& caller, RunsQuery 
       page.rows.push_back(std::move(row));
       if (static_cast<int>(page.rows.size()) >= query.page_size) {
         const storage::RunRecord& last = page.rows.back().run;
-        if (query.only_with_regions) next = storage::RunCursor{last.started_at_ms, last.run_id, last.robot_id};
+        if (query.only_with_regions)
+          next = storage::RunCursor{last.started_at_ms, last.run_id, last.robot_id};
         break;
       }
     }
@@ -188,7 +196,8 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
     *figures = FiguresOf(total);
     ASSIGN_OR_RETURN(auto groups, repository_.AggregateBy(one, storage::GroupBy::kFirmware));
     for (const auto& group : groups) {
-      (side == 0 ? by_firmware[group.key].first : by_firmware[group.key].second) = FiguresOf(group.statistics);
+      (side == 0 ? by_firmware[group.key].first : by_firmware[group.key].second) =
+          FiguresOf(group.statistics);
     }
   }
   out.by_firmware.assign(by_firmware.begin(), by_firmware.end());
@@ -216,9 +225,8 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
   return out;
 }
 
-storage::Result<std::vector<storage::ProtrusionRegionRecord>> FleetQueries::Labels(const Principal& caller,
-                                                                                   const std::string& parameter_set,
-                                                                                   int limit) {
+storage::Result<std::vector<storage::ProtrusionRegionRecord>> FleetQueries::Labels(
+    const Principal& caller, const std::string& parameter_set, int limit) {
   auto regions = repository_.ListLabelledRegions(parameter_set, limit);
   if (!regions.ok() || caller.role != Role::kRobot) return regions;
   std::erase_if(*regions, [&caller](const auto& region) { return region.robot_id != caller.id; });
@@ -247,7 +255,8 @@ storage::Result<storage::RunKey> FleetQueries::Run(const Principal& caller, cons
   return ResolveRun(repository_, caller, robot_id, run_id);
 }
 
-storage::Result<fleet::v1::RunReport> FleetQueries::Report(const storage::RunKey& run, const std::string& parameter_set) {
+storage::Result<fleet::v1::RunReport> FleetQueries::Report(const storage::RunKey& run,
+                                                           const std::string& parameter_set) {
   auto stored = repository_.GetReport(run, parameter_set);
   if (!stored.ok()) {
     if (stored.status().code() != storage::StatusCode::kNotFound) return stored.status();

@@ -53,7 +53,8 @@ slamcore::Status EnsureDefaultParameterSet(storage::Repository& repository, cons
   set.set_description("slamcore's defaults");
   set.mutable_mapper();
   bool already = false;
-  grpc::Status stored = ReprocessingHandler::StoreParameterSet(repository, set, "default_parameter_set", &already);
+  grpc::Status stored =
+      ReprocessingHandler::StoreParameterSet(repository, set, "default_parameter_set", &already);
   if (!stored.ok() && stored.error_code() != grpc::StatusCode::ALREADY_EXISTS) {
     return slamcore::Internal(stored.error_message());
   }
@@ -61,9 +62,10 @@ slamcore::Status EnsureDefaultParameterSet(storage::Repository& repository, cons
 }
 
 slamcore::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdConfig& config,
-                                                                  storage::Repository& repository, Metrics& metrics,
-                                                                  Authenticator& authenticator,
-                                                                  std::function<void()> job_enqueued) {
+                                                                   storage::Repository& repository,
+                                                                   Metrics& metrics,
+                                                                   Authenticator& authenticator,
+                                                                   std::function<void()> job_enqueued) {
   auto impl = std::make_unique<Impl>();
   impl->rate_limiter = std::make_unique<RateLimiter>(config.rate_limit_per_second, config.rate_limit_burst);
   ServiceContext& context = impl->context;
@@ -119,7 +121,8 @@ slamcore::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdC
   builder.RegisterService(impl->admin.get());
   builder.RegisterService(impl->maps.get());
   impl->server = builder.BuildAndStart();
-  if (!impl->server || port == 0) return slamcore::Unavailable("listen: cannot bind gRPC to " + config.listen);
+  if (!impl->server || port == 0)
+    return slamcore::Unavailable("listen: cannot bind gRPC to " + config.listen);
   const std::size_t colon = config.listen.rfind(':');
   impl->bound = config.listen.substr(0, colon) + ":" + std::to_string(port);
   impl->server->GetHealthCheckService()->SetServingStatus(true);

@@ -4,9 +4,12 @@
 
 namespace server {
 
-HealthMonitor::HealthMonitor(storage::Repository& repository, std::string prober, std::chrono::milliseconds interval,
-                             std::function<void(bool healthy)> on_change)
-    : repository_(repository), prober_(std::move(prober)), interval_(interval), on_change_(std::move(on_change)) {}
+HealthMonitor::HealthMonitor(storage::Repository& repository, std::string prober,
+                             std::chrono::milliseconds interval, std::function<void(bool healthy)> on_change)
+    : repository_(repository),
+      prober_(std::move(prober)),
+      interval_(interval),
+      on_change_(std::move(on_change)) {}
 
 HealthMonitor::~HealthMonitor() { Stop(); }
 
@@ -32,7 +35,8 @@ HealthMonitor::State HealthMonitor::Current() const {
   }
   if (auto failure = repository_.LastWriteFailure()) {
     const auto now = std::chrono::duration_cast<std::chrono::milliseconds>(
-                         std::chrono::system_clock::now().time_since_epoch()).count();
+                         std::chrono::system_clock::now().time_since_epoch())
+                         .count();
     const std::int64_t age = now - failure->at_ms;
     if (age < 3 * interval_.count()) {
       char seconds[32];

@@ -40,7 +40,8 @@ int HttpStatusOf(const slamcore::Status& status) {
 
 HttpResponse Error(const slamcore::Status& status) {
   // The code tells apart what shares an HTTP status (409: ABORTED — the map moved on — or FAILED_PRECONDITION).
-  return Json(json{{"error", status.message()}, {"code", slamcore::StatusCodeName(status.code())}}, HttpStatusOf(status));
+  return Json(json{{"error", status.message()}, {"code", slamcore::StatusCodeName(status.code())}},
+              HttpStatusOf(status));
 }
 
 namespace {
@@ -59,7 +60,8 @@ std::string UrlDecode(const std::string& text) {
   for (std::size_t i = 0; i < text.size(); ++i) {
     if (text[i] == '+') {
       out += ' ';
-    } else if (text[i] == '%' && i + 2 < text.size() && HexValue(text[i + 1]) >= 0 && HexValue(text[i + 2]) >= 0) {
+    } else if (text[i] == '%' && i + 2 < text.size() && HexValue(text[i + 1]) >= 0 &&
+               HexValue(text[i + 2]) >= 0) {
       out += static_cast<char>(HexValue(text[i + 1]) * 16 + HexValue(text[i + 2]));
       i += 2;
     } else {
@@ -77,7 +79,8 @@ std::map<std::string, std::string> ParseQuery(const std::string& query) {
     const std::string pair = query.substr(start, end - start);
     if (!pair.empty()) {
       const std::size_t equals = pair.find('=');
-      params[UrlDecode(pair.substr(0, equals))] = equals == std::string::npos ? "" : UrlDecode(pair.substr(equals + 1));
+      params[UrlDecode(pair.substr(0, equals))] =
+          equals == std::string::npos ? "" : UrlDecode(pair.substr(equals + 1));
     }
     start = end + 1;
   }
@@ -118,11 +121,12 @@ std::optional<std::int64_t> ParseInt(const std::string& text) {
   return value;
 }
 
-
 std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const HttpRequest& request,
-                                          Permission permission, const std::string& what, HttpResponse* refusal) {
+                                          Permission permission, const std::string& what,
+                                          HttpResponse* refusal) {
   const auto header = request.headers.find("authorization");
-  Authenticator::Verdict verdict = authenticator.Authenticate(header == request.headers.end() ? "" : header->second, request.peer);
+  Authenticator::Verdict verdict =
+      authenticator.Authenticate(header == request.headers.end() ? "" : header->second, request.peer);
   if (verdict.outcome == Authenticator::Outcome::kUnavailable) {
     *refusal = Error(503, verdict.message);
     return std::nullopt;
@@ -133,7 +137,8 @@ std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const Ht
     return std::nullopt;
   }
   if (!Allows(verdict.principal.role, permission)) {
-    *refusal = Error(403, verdict.principal.name + " (role " + RoleName(verdict.principal.role) + ") may not do " + what);
+    *refusal = Error(
+        403, verdict.principal.name + " (role " + RoleName(verdict.principal.role) + ") may not do " + what);
     return std::nullopt;
   }
   return verdict.principal;

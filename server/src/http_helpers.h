@@ -39,6 +39,7 @@ std::optional<std::int64_t> ParseInt(const std::string& text);
 /// Authenticates the request's bearer token and checks `permission`; on failure `*refusal` is the 401/403/503
 /// response, naming `what` the caller tried ("labelling", "repairing maps").
 std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const HttpRequest& request,
-                                          Permission permission, const std::string& what, HttpResponse* refusal);
+                                          Permission permission, const std::string& what,
+                                          HttpResponse* refusal);
 
 }  // namespace server::http

@@ -30,7 +30,8 @@ std::string HostPart(const std::string& host_header) {
     return close == std::string::npos ? host : host.substr(1, close - 1);
   }
   const std::size_t colon = host.find(':');
-  if (colon != std::string::npos && host.find(':', colon + 1) == std::string::npos) host = host.substr(0, colon);
+  if (colon != std::string::npos && host.find(':', colon + 1) == std::string::npos)
+    host = host.substr(0, colon);
   return host;
 }
 
@@ -163,8 +164,9 @@ class HttpServer::Impl {
       auto endpoint = acceptor_.local_endpoint(ec);
       if (!ec) {
         if (endpoint.address().is_unspecified()) {
-          endpoint.address(endpoint.protocol() == tcp::v6() ? asio::ip::address(asio::ip::address_v6::loopback())
-                                                            : asio::ip::address(asio::ip::address_v4::loopback()));
+          endpoint.address(endpoint.protocol() == tcp::v6()
+                               ? asio::ip::address(asio::ip::address_v6::loopback())
+                               : asio::ip::address(asio::ip::address_v4::loopback()));
         }
         tcp::socket waker(io_);
         waker.connect(endpoint, ec);
@@ -273,20 +275,23 @@ class HttpServer::Impl {
       request.query = question == std::string::npos ? "" : request.target.substr(question + 1);
       for (const auto& field : message) {
         std::string name(field.name_string());
-        std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+        std::transform(name.begin(), name.end(), name.begin(),
+                       [](unsigned char c) { return std::tolower(c); });
         request.headers[name] = std::string(field.value());
       }
       request.body = message.body();
       request.peer = peer;
       auto screened = Screen(request);
       HttpResponse handled = screened ? std::move(*screened) : router_.Handle(request);
-      const bool unsafe_header = std::any_of(handled.headers.begin(), handled.headers.end(), [](const auto& header) {
-        return HasControlCharacters(header.first) || HasControlCharacters(header.second);
-      });
+      const bool unsafe_header =
+          std::any_of(handled.headers.begin(), handled.headers.end(), [](const auto& header) {
+            return HasControlCharacters(header.first) || HasControlCharacters(header.second);
+          });
       if (unsafe_header || HasControlCharacters(handled.content_type)) {
         handled = Refusal(500, "internal error: a response header carried control characters");
       }
-      http::response<http::string_body> response{static_cast<http::status>(handled.status), message.version()};
+      http::response<http::string_body> response{static_cast<http::status>(handled.status),
+                                                 message.version()};
       response.set(http::field::server, "fleetd");
       response.set(http::field::content_type, handled.content_type);
       for (const auto& [name, value] : handled.headers) response.set(name, value);

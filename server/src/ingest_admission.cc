@@ -29,16 +29,17 @@ grpc::Status IngestAdmission::Ticket::Reserve(std::int64_t bytes) {
   const IngestAdmissionLimits& limits = admission_->limits_;
   Usage& mine = admission_->by_principal_[principal_];
   if (mine.bytes + bytes > limits.max_bytes_per_principal) {
-    return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-            principal_ + "'s uploads in flight would hold " + std::to_string(mine.bytes + bytes) +
-                " bytes, more than max_upload_bytes_per_principal (" +
-                std::to_string(limits.max_bytes_per_principal) + "); retry when its other uploads have finished"};
+    return {grpc::StatusCode::RESOURCE_EXHAUSTED, principal_ + "'s uploads in flight would hold " +
+                                                      std::to_string(mine.bytes + bytes) +
+                                                      " bytes, more than max_upload_bytes_per_principal (" +
+                                                      std::to_string(limits.max_bytes_per_principal) +
+                                                      "); retry when its other uploads have finished"};
   }
   if (admission_->total_.bytes + bytes > limits.max_bytes) {
-    return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-            "uploads in flight would hold " + std::to_string(admission_->total_.bytes + bytes) +
-                " bytes, more than max_upload_bytes_in_flight (" + std::to_string(limits.max_bytes) +
-                "); retry later"};
+    return {grpc::StatusCode::RESOURCE_EXHAUSTED, "uploads in flight would hold " +
+                                                      std::to_string(admission_->total_.bytes + bytes) +
+                                                      " bytes, more than max_upload_bytes_in_flight (" +
+                                                      std::to_string(limits.max_bytes) + "); retry later"};
   }
   mine.bytes += bytes;
   admission_->total_.bytes += bytes;

@@ -18,9 +18,9 @@
 namespace server {
 
 struct IngestAdmissionLimits {
-  int max_streams = 64;                             // --max-upload-streams
-  int max_streams_per_principal = 4;                // --max-upload-streams-per-principal
-  std::int64_t max_bytes = 1LL << 30;               // --max-upload-bytes-in-flight
+  int max_streams = 64;                                // --max-upload-streams
+  int max_streams_per_principal = 4;                   // --max-upload-streams-per-principal
+  std::int64_t max_bytes = 1LL << 30;                  // --max-upload-bytes-in-flight
   std::int64_t max_bytes_per_principal = 512LL << 20;  // --max-upload-bytes-per-principal
 };
 

@@ -5,8 +5,9 @@
 namespace server {
 
 std::string EncodeAnalyzePayload(const AnalyzePayload& payload) {
-  return nlohmann::json{{"robot_id", payload.robot_id}, {"run_id", payload.run_id},
-                        {"parameter_set", payload.parameter_set}}.dump();
+  return nlohmann::json{
+      {"robot_id", payload.robot_id}, {"run_id", payload.run_id}, {"parameter_set", payload.parameter_set}}
+      .dump();
 }
 
 storage::Result<AnalyzePayload> DecodeAnalyzePayload(const std::string& json) {
@@ -42,7 +43,8 @@ storage::Result<ReprocessPayload> DecodeReprocessPayload(const std::string& json
     payload.filter.firmware = filter.value("firmware", "");
     payload.filter.robot_model = filter.value("robot_model", "");
     payload.filter.parameter_set = filter.value("parameter_set", "");
-    if (filter.contains("started_from_ms")) payload.filter.started_from_ms = filter["started_from_ms"].get<std::int64_t>();
+    if (filter.contains("started_from_ms"))
+      payload.filter.started_from_ms = filter["started_from_ms"].get<std::int64_t>();
     if (filter.contains("started_before_ms")) {
       payload.filter.started_before_ms = filter["started_before_ms"].get<std::int64_t>();
     }

@@ -13,8 +13,9 @@ constexpr std::uintmax_t kMaxResultsBytes = 32u << 20;
 
 HttpResponse Lifelong(const std::string& path) {
   if (path.empty()) {
-    return http::Error(404, "no lifelong results: start fleetd with --lifelong-results FILE, written by "
-                            "fleetsim --lifelong --results FILE");
+    return http::Error(404,
+                       "no lifelong results: start fleetd with --lifelong-results FILE, written by "
+                       "fleetsim --lifelong --results FILE");
   }
   std::error_code error;
   const std::uintmax_t size = std::filesystem::file_size(path, error);
@@ -24,7 +25,8 @@ HttpResponse Lifelong(const std::string& path) {
   std::ostringstream text;
   text << in.rdbuf();
   nlohmann::json results = nlohmann::json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
-  if (results.is_discarded() || !results.is_object() || !results.contains("regimes") || !results["regimes"].is_object()) {
+  if (results.is_discarded() || !results.is_object() || !results.contains("regimes") ||
+      !results["regimes"].is_object()) {
     return http::Error(500, "the lifelong results file is not a fleetsim --lifelong object (no \"regimes\")");
   }
   for (auto& [name, regime] : results["regimes"].items()) {

@@ -59,11 +59,15 @@ void Configure(const std::string& level, const std::string& format) {
   g_json = format != "text";
   Logger()->set_level(spdlog::level::from_str(level == "warn" ? "warning" : level));
   // Timestamps are ours (ISO 8601 UTC); spdlog prints the line as given.
-  Logger()->set_pattern(g_json ? "{\"ts\":\"%Y-%m-%dT%H:%M:%S.%eZ\",%v}" : "%Y-%m-%dT%H:%M:%S.%eZ %v", spdlog::pattern_time_type::utc);
+  Logger()->set_pattern(g_json ? "{\"ts\":\"%Y-%m-%dT%H:%M:%S.%eZ\",%v}" : "%Y-%m-%dT%H:%M:%S.%eZ %v",
+                        spdlog::pattern_time_type::utc);
 }
 
 Field::Field(std::string_view k, std::string_view value)
-    : key(k), json(JsonString(value)), text(value.find(' ') == std::string_view::npos && !value.empty() ? std::string(value) : JsonString(value)) {}
+    : key(k),
+      json(JsonString(value)),
+      text(value.find(' ') == std::string_view::npos && !value.empty() ? std::string(value)
+                                                                       : JsonString(value)) {}
 Field::Field(std::string_view k, long long value) : key(k), json(std::to_string(value)), text(json) {}
 Field::Field(std::string_view k, double value) : key(k) {
   char buffer[32];
@@ -73,8 +77,8 @@ Field::Field(std::string_view k, double value) : key(k) {
 Field::Field(std::string_view k, bool value) : key(k), json(value ? "true" : "false"), text(json) {}
 
 void Write(Level level, std::string_view event, std::initializer_list<Field> fields) {
-  static const spdlog::level::level_enum kLevels[] = {spdlog::level::debug, spdlog::level::info, spdlog::level::warn,
-                                                      spdlog::level::err};
+  static const spdlog::level::level_enum kLevels[] = {spdlog::level::debug, spdlog::level::info,
+                                                      spdlog::level::warn, spdlog::level::err};
   const auto spd_level = kLevels[static_cast<int>(level)];
   auto logger = Logger();
   if (!logger->should_log(spd_level)) return;

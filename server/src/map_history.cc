@@ -18,10 +18,12 @@
 namespace server {
 namespace {
 
-storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository, const std::string& snapshot_id) {
+storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository,
+                                                     const std::string& snapshot_id) {
   ASSIGN_OR_RETURN(auto stored, repository.GetSnapshot(snapshot_id));
   fleet::v1::MapSnapshot snapshot;
-  if (!snapshot.ParseFromString(stored.bytes)) return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
+  if (!snapshot.ParseFromString(stored.bytes))
+    return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
   return snapshot;
 }
 
@@ -56,7 +58,8 @@ storage::Result<RunContext> LoadRunContext(storage::Repository& repository, cons
   auto report = repository.GetReport(key, parameter_set);
   if (report.ok()) {
     fleet::v1::RunReport parsed;
-    if (!parsed.ParseFromString(report->report)) return storage::DataLoss("report of run " + run_id + " does not parse");
+    if (!parsed.ParseFromString(report->report))
+      return storage::DataLoss("report of run " + run_id + " does not parse");
     context.report = std::move(parsed);
   } else if (report.status().code() != storage::StatusCode::kNotFound) {
     return report.status();
@@ -71,7 +74,8 @@ std::vector<fleet::v1::MapFinding> Findings(const slamcore::Map& map, const RunC
 
 /// The records of findings the analysis made; INTERNAL for a finding without a kind or state (a bug there).
 /// Kind and state are the records' columns, so the JSON of the rest leaves them out.
-storage::Result<std::vector<storage::MapFindingRecord>> ToRecords(const std::vector<fleet::v1::MapFinding>& findings) {
+storage::Result<std::vector<storage::MapFindingRecord>> ToRecords(
+    const std::vector<fleet::v1::MapFinding>& findings) {
   std::vector<storage::MapFindingRecord> records;
   google::protobuf::util::JsonPrintOptions options;
   options.preserve_proto_field_names = true;
@@ -95,7 +99,8 @@ storage::Result<std::vector<storage::MapFindingRecord>> ToRecords(const std::vec
   return records;
 }
 
-storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(const std::vector<storage::MapFindingRecord>& records) {
+storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(
+    const std::vector<storage::MapFindingRecord>& records) {
   std::vector<fleet::v1::MapFinding> findings;
   // Findings stored before kind and state were enums spell them as strings in their JSON: the columns say.
   google::protobuf::util::JsonParseOptions options;
@@ -121,7 +126,8 @@ storage::Result<StorageEnum> FromWire(ProtoEnum value, const std::array<StorageE
                                       const std::string& field) {
   const int index = static_cast<int>(value) - 1;
   if (index < 0 || index >= static_cast<int>(N)) {
-    const std::string what = value == ProtoEnum{} ? "unspecified" : std::to_string(value) + " is not a known value";
+    const std::string what =
+        value == ProtoEnum{} ? "unspecified" : std::to_string(value) + " is not a known value";
     return storage::InvalidArgument(field + ": " + what);
   }
   return values[static_cast<std::size_t>(index)];
@@ -134,8 +140,8 @@ std::string ActionText(const std::optional<storage::MapAction>& action) {
 
 /// A new version's record with its map's figures. The known area needs a rendering: uploads leave it to
 /// the run's analysis (OnRunAnalysed) to keep ingest fast.
-storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, const std::string& snapshot_id,
-                                                      bool with_known_area) {
+storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map,
+                                                      const std::string& snapshot_id, bool with_known_area) {
   const analyzer::MapFigures figures = analyzer::ComputeFigures(map);
   storage::MapVersionRecord record;
   record.snapshot_id = snapshot_id;
@@ -153,7 +159,8 @@ storage::Result<storage::MapVersionRecord> NewVersion(const slamcore::Map& map, 
 }
 
 std::int64_t NowMillis() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -167,7 +174,8 @@ const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRe
 /// `version` of a robot's versions, or its current one for 0.
 storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVersionRecord>& versions,
                                                 const std::string& robot_id, std::int64_t version) {
-  if (version < 0) return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
+  if (version < 0)
+    return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
   if (version == 0) {
     const storage::MapVersionRecord* current = Current(versions);
     if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
@@ -182,7 +190,8 @@ storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVe
 /// What repairs continue: the newest approved or pending version (rejected and stale ones are side branches).
 const storage::MapVersionRecord* Head(const std::vector<storage::MapVersionRecord>& versions) {
   for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
-    if (it->approval == storage::MapApproval::kApproved || it->approval == storage::MapApproval::kPending) return &*it;
+    if (it->approval == storage::MapApproval::kApproved || it->approval == storage::MapApproval::kPending)
+      return &*it;
   }
   return nullptr;
 }
@@ -210,8 +219,8 @@ const storage::MapVersionRecord* ComparisonReference(const std::vector<storage::
 }
 
 /// Whether `record` is `ancestor` or built on it, following parents.
-bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& record,
-               std::int64_t ancestor) {
+bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions,
+               const storage::MapVersionRecord& record, std::int64_t ancestor) {
   for (const storage::MapVersionRecord* at = &record; at != nullptr;
        at = at->parent_version ? FindRecord(versions, *at->parent_version) : nullptr) {
     if (at->version == ancestor) return true;
@@ -223,9 +232,10 @@ bool IsBuiltOn(const std::vector<storage::MapVersionRecord>& versions, const sto
 std::vector<fleet::v1::MapFinding> MergeFindings(std::vector<fleet::v1::MapFinding> first,
                                                  const std::vector<fleet::v1::MapFinding>& second) {
   first.insert(first.end(), second.begin(), second.end());
-  std::stable_sort(first.begin(), first.end(), [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
-    return a.severity() > b.severity();
-  });
+  std::stable_sort(first.begin(), first.end(),
+                   [](const fleet::v1::MapFinding& a, const fleet::v1::MapFinding& b) {
+                     return a.severity() > b.severity();
+                   });
   for (std::size_t i = 0; i < first.size(); ++i) first[i].set_finding_id(static_cast<std::int64_t>(i) + 1);
   return first;
 }
@@ -236,7 +246,8 @@ struct ComparedMap {
   std::optional<slamcore::SE2> dock;
 };
 
-storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository, const std::string& snapshot_id) {
+storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository,
+                                             const std::string& snapshot_id) {
   ASSIGN_OR_RETURN(auto snapshot, LoadSnapshot(repository, snapshot_id));
   auto map = analyzer::FromProto(snapshot, "snapshot " + snapshot_id);
   if (!map.ok()) return storage::DataLoss(map.status().message());
@@ -275,7 +286,8 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
 }
 
 const char* RepairActionName(const RepairAction& action) {
-  static constexpr const char* kNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo"};
+  static constexpr const char* kNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback",
+                                           "undo"};
   static_assert(std::size(kNames) == std::variant_size_v<RepairAction>);
   return kNames[action.index()];
 }
@@ -290,12 +302,16 @@ storage::MapAction RecordedAction(const RepairAction& action) {
 }
 
 fleet::v1::MapOrigin ToProto(storage::MapOrigin origin) { return ToWire<fleet::v1::MapOrigin>(origin); }
-fleet::v1::MapApproval ToProto(storage::MapApproval approval) { return ToWire<fleet::v1::MapApproval>(approval); }
+fleet::v1::MapApproval ToProto(storage::MapApproval approval) {
+  return ToWire<fleet::v1::MapApproval>(approval);
+}
 fleet::v1::MapAction ToProto(std::optional<storage::MapAction> action) {
   return action ? ToWire<fleet::v1::MapAction>(*action) : fleet::v1::MAP_ACTION_UNSPECIFIED;
 }
 fleet::v1::FindingKind ToProto(storage::FindingKind kind) { return ToWire<fleet::v1::FindingKind>(kind); }
-fleet::v1::FindingState ToProto(storage::FindingState state) { return ToWire<fleet::v1::FindingState>(state); }
+fleet::v1::FindingState ToProto(storage::FindingState state) {
+  return ToWire<fleet::v1::FindingState>(state);
+}
 
 storage::Result<storage::MapOrigin> FromProto(fleet::v1::MapOrigin origin, const std::string& field) {
   return FromWire(origin, storage::kMapOrigins, field);
@@ -319,9 +335,10 @@ storage::Result<RepairAction> RepairActionNamed(const std::string& name, const s
   if (name == "cut_finding") return RepairAction{CutFinding{}};
   if (name == "rollback") return RepairAction{Rollback{}};
   if (name == "undo") return RepairAction{Undo{}};
-  return storage::InvalidArgument(field + ": \"" + name.substr(0, 64) +
-                                  "\" is not an action; expected reject_edge, reject_hypothesis, cut_finding, rollback "
-                                  "or undo");
+  return storage::InvalidArgument(
+      field + ": \"" + name.substr(0, 64) +
+      "\" is not an action; expected reject_edge, reject_hypothesis, cut_finding, rollback "
+      "or undo");
 }
 
 MapPolicy MapPolicyOf(const FleetdConfig& config) {
@@ -335,8 +352,9 @@ MapPolicy MapPolicyOf(const FleetdConfig& config) {
 MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
     : repository_(repository), policy_(std::move(policy)) {}
 
-storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
-                                                            const std::string& uploader) {
+storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run,
+                                                           const slamcore::Map& child,
+                                                           const std::string& uploader) {
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(run.robot_id));
   const storage::MapVersionRecord* current = Current(versions);
@@ -395,7 +413,8 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
   const std::vector<fleet::v1::MapFinding> findings = Findings(loaded, context);
   ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(loaded));
   ASSIGN_OR_RETURN(auto records, ToRecords(findings));
-  RETURN_IF_ERROR(repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, records));
+  RETURN_IF_ERROR(
+      repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, records));
 
   if (policy_.auto_repair == "none") return storage::Status::Ok();
   const std::string requested_by = "policy:" + policy_.auto_repair;
@@ -410,7 +429,8 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
     const fleet::v1::MapFinding* next = nullptr;
     std::string key;
     for (const fleet::v1::MapFinding& finding : open) {
-      if (finding.finding_state() != fleet::v1::FINDING_STATE_OPEN || finding.severity() < policy_.min_severity) {
+      if (finding.finding_state() != fleet::v1::FINDING_STATE_OPEN ||
+          finding.severity() < policy_.min_severity) {
         continue;
       }
       const fleet::v1::FindingKind kind = finding.finding_kind();
@@ -418,7 +438,8 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
                               (all_findings && (kind == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS ||
                                                 kind == fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE));
       key = std::string(NameOf(kind)) + ":" + std::to_string(finding.hypothesis()) + ":" +
-            std::to_string(finding.edge_from()) + ":" + std::to_string(finding.edge_to()) + ":" + finding.summary();
+            std::to_string(finding.edge_from()) + ":" + std::to_string(finding.edge_to()) + ":" +
+            finding.summary();
       if (repairable && !tried.contains(key)) {
         next = &finding;
         break;
@@ -444,14 +465,15 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
       // The map breaks where it cannot be repaired finding by finding: back to the map before this run.
       RepairRequest rollback = repair;
       rollback.action = Rollback{};
-      rollback.reason = "policy " + policy_.auto_repair + ": " + next->summary() + " could not be repaired (" +
-                        repaired.status().ToString() + ")";
+      rollback.reason = "policy " + policy_.auto_repair + ": " + next->summary() +
+                        " could not be repaired (" + repaired.status().ToString() + ")";
       repaired = Repair(rollback);
       if (repaired.ok()) break;
     }
     // The robot's map moved on meanwhile (ABORTED): the newer version gets its own analysis.
     if (!repaired.ok()) {
-      log::Warn("auto_repair_skipped", {{"run_id", run_id}, {"finding", static_cast<long long>(next->finding_id())},
+      log::Warn("auto_repair_skipped", {{"run_id", run_id},
+                                        {"finding", static_cast<long long>(next->finding_id())},
                                         {"error", repaired.status().ToString()}});
       break;
     }
@@ -481,15 +503,18 @@ storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& rob
     if (finding.finding_id() != finding_id) continue;
     if (finding.world_bbox_size() != 4) {
       return storage::InvalidArgument("finding " + std::to_string(finding_id) + " is a " +
-                                      std::string(NameOf(finding.finding_kind())) + ", not a region that can be cut");
+                                      std::string(NameOf(finding.finding_kind())) +
+                                      ", not a region that can be cut");
     }
     return std::array<double, 4>{finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2),
                                  finding.world_bbox(3)};
   }
-  return storage::NotFound("version " + std::to_string(version) + " has no finding " + std::to_string(finding_id));
+  return storage::NotFound("version " + std::to_string(version) + " has no finding " +
+                           std::to_string(finding_id));
 }
 
-storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id, std::int64_t version) {
+storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id,
+                                                               std::int64_t version) {
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   return Find(versions, robot_id, version);
 }
@@ -512,7 +537,8 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
   if (!metadata.empty()) {
     detail.metadata.emplace();
     if (!detail.metadata->ParseFromString(metadata)) {
-      return storage::DataLoss("metadata of map version " + std::to_string(record.version) + " does not parse");
+      return storage::DataLoss("metadata of map version " + std::to_string(record.version) +
+                               " does not parse");
     }
   }
   return detail;
@@ -520,14 +546,16 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
 
 storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& request) {
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(request.robot_id));
-  if (request.base_version <= 0) return storage::InvalidArgument("base_version: the version repaired is required");
+  if (request.base_version <= 0)
+    return storage::InvalidArgument("base_version: the version repaired is required");
   ASSIGN_OR_RETURN(auto base, Find(versions, request.robot_id, request.base_version));
   // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   const storage::MapVersionRecord* head = Head(versions);
   if (head == nullptr || head->version != base.version) {
     const bool side_branch =
         base.approval == storage::MapApproval::kRejected || base.approval == storage::MapApproval::kStale;
-    return storage::Aborted("version " + std::to_string(base.version) + " of robot " + request.robot_id + " is " +
+    return storage::Aborted("version " + std::to_string(base.version) + " of robot " + request.robot_id +
+                            " is " +
                             (side_branch ? std::string(storage::Name(base.approval)) + ", not" : "not") +
                             " the version repairs start from" +
                             (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
@@ -551,8 +579,10 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   std::string detail;  // what an edit did, in words (the analyzer's edits fill it)
   const auto stored_edit = [&](storage::Result<slamcore::Map> edit) -> storage::Result<Repaired> {
     ASSIGN_OR_RETURN(auto edited, std::move(edit));
-    ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(edited))));
-    return Repaired{std::move(edited), stored, RecordOf(request, storage::MapOrigin::kRepair, detail, base.version)};
+    ASSIGN_OR_RETURN(auto stored,
+                     repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(edited))));
+    return Repaired{std::move(edited), stored,
+                    RecordOf(request, storage::MapOrigin::kRepair, detail, base.version)};
   };
   const auto apply = Overloaded{
       [&](const RejectEdge& edge) {
@@ -573,22 +603,24 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
               " was made by the robot's first run: there is no parent map to roll back to");
         }
         return Repaired{std::nullopt, *run.parent_snapshot_id,
-                        RecordOf(request, storage::MapOrigin::kRollback, "back to the map before run " + base.run_id,
-                                 base.version)};
+                        RecordOf(request, storage::MapOrigin::kRollback,
+                                 "back to the map before run " + base.run_id, base.version)};
       },
       [&](const Undo&) -> storage::Result<Repaired> {
         const bool repaired_version = base.origin != storage::MapOrigin::kUpload && base.parent_version;
         const storage::MapVersionRecord* earlier =
             repaired_version ? FindRecord(versions, *base.parent_version) : nullptr;
         if (earlier == nullptr) {
-          return storage::FailedPrecondition("version " + std::to_string(base.version) +
-                                             " is an upload, not a repair: nothing to undo (roll back instead)");
+          return storage::FailedPrecondition(
+              "version " + std::to_string(base.version) +
+              " is an upload, not a repair: nothing to undo (roll back instead)");
         }
-        return Repaired{std::nullopt, earlier->snapshot_id,
-                        RecordOf(request, storage::MapOrigin::kUndo,
-                                 "undid version " + std::to_string(base.version) + " (" + ActionText(base.action) +
-                                     "): the map of version " + std::to_string(earlier->version) + " again",
-                                 earlier->version)};
+        return Repaired{
+            std::nullopt, earlier->snapshot_id,
+            RecordOf(request, storage::MapOrigin::kUndo,
+                     "undid version " + std::to_string(base.version) + " (" + ActionText(base.action) +
+                         "): the map of version " + std::to_string(earlier->version) + " again",
+                     earlier->version)};
       }};
   ASSIGN_OR_RETURN(Repaired repaired, std::visit(apply, request.action));
   if (!repaired.map) {
@@ -619,10 +651,9 @@ MapHistory::RepairRecord MapHistory::RecordOf(const RepairRequest& request, stor
   return record;
 }
 
-storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRecord& made,
-                                                           const storage::MapVersionRecord& base,
-                                                           const slamcore::Map& repaired, const std::string& snapshot_id,
-                                                           const std::vector<fleet::v1::MapFinding>& findings) {
+storage::Result<MapVersionDetail> MapHistory::AppendRepair(
+    const RepairRecord& made, const storage::MapVersionRecord& base, const slamcore::Map& repaired,
+    const std::string& snapshot_id, const std::vector<fleet::v1::MapFinding>& findings) {
   ASSIGN_OR_RETURN(auto record, NewVersion(repaired, snapshot_id, /*with_known_area=*/true));
   ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(base.robot_id, made.metadata_of));
   record.metadata = std::move(metadata);
@@ -660,8 +691,8 @@ storage::Result<MapVersionDetail> MapHistory::AppendRepair(const RepairRecord& m
   return result;
 }
 
-storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version, bool approve,
-                                                          const std::string& reviewed_by) {
+storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& robot_id, std::int64_t version,
+                                                          bool approve, const std::string& reviewed_by) {
   if (approve) {
     ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
     const storage::MapVersionRecord* pending = FindRecord(versions, version);
@@ -681,18 +712,21 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& rob
   return ToProto(reviewed, reviewed.approval == storage::MapApproval::kApproved);
 }
 
-storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::vector<storage::MapVersionRecord>& versions,
-                                                                    const storage::MapVersionRecord& pending,
-                                                                    const storage::MapVersionRecord& current,
-                                                                    const std::string& reviewed_by) {
-  const std::string overtaken = "version " + std::to_string(pending.version) + " of robot " + pending.robot_id +
-                                " was overtaken by version " + std::to_string(current.version);
-  const std::string instead = "; reject it, or repair version " + std::to_string(current.version) + " instead";
+storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(
+    const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& pending,
+    const storage::MapVersionRecord& current, const std::string& reviewed_by) {
+  const std::string overtaken = "version " + std::to_string(pending.version) + " of robot " +
+                                pending.robot_id + " was overtaken by version " +
+                                std::to_string(current.version);
+  const std::string instead =
+      "; reject it, or repair version " + std::to_string(current.version) + " instead";
   if (pending.origin != storage::MapOrigin::kRepair) {
     return storage::FailedPrecondition(overtaken + ": a " + std::string(storage::Name(pending.origin)) +
-                                       " cannot be carried onto a later map (it would drop the runs since)" + instead);
+                                       " cannot be carried onto a later map (it would drop the runs since)" +
+                                       instead);
   }
-  const storage::MapVersionRecord* base = pending.parent_version ? FindRecord(versions, *pending.parent_version) : nullptr;
+  const storage::MapVersionRecord* base =
+      pending.parent_version ? FindRecord(versions, *pending.parent_version) : nullptr;
   if (base == nullptr || !IsBuiltOn(versions, current, base->version) || current.run_id.empty()) {
     return storage::FailedPrecondition(overtaken + ", which is not a run's map built on version " +
                                        (base ? std::to_string(base->version) : std::string("?")) +
@@ -703,7 +737,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
   ASSIGN_OR_RETURN(const slamcore::Map current_map, LoadMap(repository_, current.snapshot_id));
   std::string carried_detail;
   auto carried = analyzer::CarryRepairForward(base_map, pending_map, current_map, &carried_detail);
-  if (!carried.ok()) return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
+  if (!carried.ok())
+    return storage::FailedPrecondition(overtaken + ": " + carried.status().message() + instead);
   ASSIGN_OR_RETURN(const std::string stored,
                    repository_.PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*carried))));
   ASSIGN_OR_RETURN(const RunContext context, LoadRunContext(repository_, {current.robot_id, current.run_id},
@@ -713,8 +748,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
   const storage::MapVersionRecord* head = Head(versions);
   const RepairRecord record{.origin = storage::MapOrigin::kRepair,
                             .action = pending.action,
-                            .detail = "carried forward from version " + std::to_string(pending.version) + " (" +
-                                      pending.action_detail + "): " + carried_detail,
+                            .detail = "carried forward from version " + std::to_string(pending.version) +
+                                      " (" + pending.action_detail + "): " + carried_detail,
                             .created_by = pending.created_by,
                             .reason = pending.reason,
                             .approved_by = reviewed_by,
@@ -732,8 +767,9 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(const std::v
   return appended.version;
 }
 
-storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id, std::int64_t held_version,
-                                                         bool* up_to_date, fleet::v1::MapSnapshot* snapshot) {
+storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robot_id,
+                                                         std::int64_t held_version, bool* up_to_date,
+                                                         fleet::v1::MapSnapshot* snapshot) {
   ASSIGN_OR_RETURN(auto current, Resolve(robot_id, 0));
   *up_to_date = held_version == current.version;
   if (!*up_to_date) {
@@ -744,7 +780,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Fetch(const std::string& robo
 }
 
 storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const storage::RunKey& run,
-                                                                       const slamcore::Map& map) {
+                                                                        const slamcore::Map& map) {
   ASSIGN_OR_RETURN(auto parent, LoadRunParent(repository_, run));
   return analyzer::NodesAddedByRun(map, parent);
 }
@@ -752,12 +788,14 @@ storage::Result<std::set<slamcore::NodeId>> MapHistory::NodesAddedByRun(const st
 storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& robot_id,
                                                           const fleet::v1::MapSnapshot& snapshot,
                                                           const fleet::v1::MapMetadata& metadata,
-                                                          const std::string& source, const std::string& reason,
-                                                          bool approve, const std::string& requested_by) {
+                                                          const std::string& source,
+                                                          const std::string& reason, bool approve,
+                                                          const std::string& requested_by) {
   RETURN_IF_ERROR(analyzer::ValidateMetadata(metadata));
   ASSIGN_OR_RETURN(auto map, analyzer::FromProto(snapshot, "snapshot"));
   if (map.local_maps.empty()) {
-    return storage::InvalidArgument("snapshot: no local map on any node; an imported map needs its occupancy grid");
+    return storage::InvalidArgument(
+        "snapshot: no local map on any node; an imported map needs its occupancy grid");
   }
   if (const fleet::v1::ImportedMapInfo& info = snapshot.imported(); snapshot.has_imported()) {
     if (info.format() != "valetudo" && info.format() != "map_server") {
@@ -768,7 +806,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
                                           std::tuple{"robot", info.has_robot(), info.robot()}}) {
       if (has && !(std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta()) &&
                    std::abs(pose.x()) < 1e6 && std::abs(pose.y()) < 1e6)) {
-        return storage::InvalidArgument(std::string("snapshot.imported.") + name + ": not a finite pose within 1000 km");
+        return storage::InvalidArgument(std::string("snapshot.imported.") + name +
+                                        ": not a finite pose within 1000 km");
       }
     }
   }
@@ -781,7 +820,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
     return robot.status();
   }
   fleet::v1::MapSnapshot stored_snapshot = analyzer::ToProto(map);
-  if (snapshot.has_imported()) *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
+  if (snapshot.has_imported())
+    *stored_snapshot.mutable_imported() = snapshot.imported();  // dock, robot: kept
   ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(analyzer::SerializeDeterministic(stored_snapshot)));
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   const storage::MapVersionRecord* head = Head(versions);
@@ -801,8 +841,9 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
     record.approved_at_ms = NowMillis();
   }
   ASSIGN_OR_RETURN(auto finding_records, ToRecords(findings));
-  ASSIGN_OR_RETURN(auto appended, repository_.AppendMapVersion(
-                                      record, head ? std::optional(head->version) : std::nullopt, finding_records));
+  ASSIGN_OR_RETURN(auto appended,
+                   repository_.AppendMapVersion(record, head ? std::optional(head->version) : std::nullopt,
+                                                finding_records));
   log::Info("map_imported", {{"robot_id", robot_id},
                              {"version", static_cast<long long>(appended.version)},
                              {"source", source},
@@ -812,7 +853,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
 }
 
 storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
-    const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map, const storage::MapVersionRecord* reference) {
+    const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map,
+    const storage::MapVersionRecord* reference) {
   std::vector<fleet::v1::MapFinding> findings = analyzer::FindMapFindings({.map = &map});
   if (reference == nullptr) return findings;
   ASSIGN_OR_RETURN(auto previous, LoadComparedMap(repository_, reference->snapshot_id));
@@ -828,8 +870,8 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
   } else {
     classifier = DefaultClassifier();
   }
-  auto comparison =
-      analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(snapshot), classifier.get());
+  auto comparison = analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(snapshot),
+                                           classifier.get());
   if (!comparison.ok()) {
     // Nothing to align by (a map without walls, another resolution): the version is kept, and says so.
     fleet::v1::MapFinding& finding = findings.emplace_back();
@@ -843,21 +885,22 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
   return MergeFindings(std::move(findings), analyzer::ComparisonFindings(*comparison, reference->version));
 }
 
-storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest& request,
-                                                            const storage::MapVersionRecord& base,
-                                                            const std::vector<storage::MapVersionRecord>& versions) {
+storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(
+    const RepairRequest& request, const storage::MapVersionRecord& base,
+    const std::vector<storage::MapVersionRecord>& versions) {
   const std::string name = "version " + std::to_string(base.version);
   const auto* cut_finding = std::get_if<CutFinding>(&request.action);
   const bool rollback = std::holds_alternative<Rollback>(request.action);
   if (!rollback && cut_finding == nullptr) {
-    return storage::FailedPrecondition(name + " is a map without a run (imported): \"" +
-                                       RepairActionName(request.action) +
-                                       "\" does not apply; rollback, cut_finding of a new_region and undo do");
+    return storage::FailedPrecondition(
+        name + " is a map without a run (imported): \"" + RepairActionName(request.action) +
+        "\" does not apply; rollback, cut_finding of a new_region and undo do");
   }
   const storage::MapVersionRecord* reference = ComparisonReference(versions, base);
   if (reference == nullptr) {
-    return storage::FailedPrecondition(name + " comes from the robot's first imported map: there is no earlier map to " +
-                                       (rollback ? "roll back to" : "cut back to"));
+    return storage::FailedPrecondition(
+        name + " comes from the robot's first imported map: there is no earlier map to " +
+        (rollback ? "roll back to" : "cut back to"));
   }
   if (rollback) {
     ASSIGN_OR_RETURN(auto restored, LoadMap(repository_, reference->snapshot_id));
@@ -865,8 +908,8 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
     ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(restored_snapshot, restored, reference));
     const std::string detail =
         "back to version " + std::to_string(reference->version) + ", the map before the import";
-    return AppendRepair(RecordOf(request, storage::MapOrigin::kRollback, detail, reference->version), base, restored,
-                        reference->snapshot_id, findings);
+    return AppendRepair(RecordOf(request, storage::MapOrigin::kRollback, detail, reference->version), base,
+                        restored, reference->snapshot_id, findings);
   }
   // cut_finding: the finding must be a new region of this version; its cells take the previous map's values.
   ASSIGN_OR_RETURN(auto detail, Get(request.robot_id, base.version));
@@ -874,15 +917,18 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   for (const fleet::v1::MapFinding& candidate : detail.findings) {
     if (candidate.finding_id() == cut_finding->finding_id) finding = &candidate;
   }
-  if (finding == nullptr) return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
+  if (finding == nullptr)
+    return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
   if (finding->finding_kind() != fleet::v1::FINDING_KIND_NEW_REGION) {
     return storage::InvalidArgument("finding " + std::to_string(cut_finding->finding_id) + " is a " +
                                     std::string(NameOf(finding->finding_kind())) +
                                     ", not a new_region that can be cut");
   }
   const nlohmann::json evidence = nlohmann::json::parse(finding->evidence_json(), nullptr, false);
-  if (!evidence.is_object() || !evidence.contains("region_id") || !evidence["region_id"].is_number_integer()) {
-    return storage::DataLoss("finding " + std::to_string(cut_finding->finding_id) + ": evidence has no region_id");
+  if (!evidence.is_object() || !evidence.contains("region_id") ||
+      !evidence["region_id"].is_number_integer()) {
+    return storage::DataLoss("finding " + std::to_string(cut_finding->finding_id) +
+                             ": evidence has no region_id");
   }
   const int region_id = evidence["region_id"].get<int>();
   ASSIGN_OR_RETURN(auto base_snapshot, LoadSnapshot(repository_, base.snapshot_id));
@@ -890,29 +936,30 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(const RepairRequest&
   ASSIGN_OR_RETURN(auto previous, LoadComparedMap(repository_, reference->snapshot_id));
   ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(base_map));
   // The comparison again (deterministic: the same regions and ids as when the finding was made).
-  ASSIGN_OR_RETURN(auto comparison,
-                   analyzer::CompareGrids(previous.grid, grid, previous.dock, analyzer::DockOf(base_snapshot),
-                                           nullptr));
+  ASSIGN_OR_RETURN(auto comparison, analyzer::CompareGrids(previous.grid, grid, previous.dock,
+                                                           analyzer::DockOf(base_snapshot), nullptr));
   const slamcore::ProtrusionRegion* region = nullptr;
   for (const analyzer::ChangedRegion& changed : comparison.new_regions) {
     if (changed.region.id == region_id) region = &changed.region;
   }
-  if (region == nullptr) return storage::DataLoss(name + " no longer shows region " + std::to_string(region_id));
+  if (region == nullptr)
+    return storage::DataLoss(name + " no longer shows region " + std::to_string(region_id));
   const slamcore::Map repaired = analyzer::MapOfGrid(
       slamcore::RepairChild(comparison.aligned_previous, grid, {region}, slamcore::RepairMode::kCutOut));
   fleet::v1::MapSnapshot repaired_snapshot = analyzer::ToProto(repaired);
   *repaired_snapshot.mutable_imported() = base_snapshot.imported();
   ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(analyzer::SerializeDeterministic(repaired_snapshot)));
   ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(repaired_snapshot, repaired, reference));
-  return AppendRepair(RecordOf(request, storage::MapOrigin::kRepair,
-                               "cut new region " + std::to_string(region_id) + " (" +
-                                   std::to_string(region->cells.size()) + " cells) back to version " +
-                                   std::to_string(reference->version) + "'s cells",
-                               base.version),
-                      base, repaired, stored, findings);
+  return AppendRepair(
+      RecordOf(request, storage::MapOrigin::kRepair,
+               "cut new region " + std::to_string(region_id) + " (" + std::to_string(region->cells.size()) +
+                   " cells) back to version " + std::to_string(reference->version) + "'s cells",
+               base.version),
+      base, repaired, stored, findings);
 }
 
-storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id, std::int64_t version,
+storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id,
+                                                                         std::int64_t version,
                                                                          const std::string& format) {
   ASSIGN_OR_RETURN(auto record, Resolve(robot_id, version));
   ASSIGN_OR_RETURN(auto snapshot, LoadSnapshot(repository_, record.snapshot_id));
@@ -921,10 +968,13 @@ storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const s
   // The metadata kept with the version; versions without (map_server imports) still hand back their poses.
   ASSIGN_OR_RETURN(auto stored, repository_.GetMapMetadata(robot_id, record.version));
   fleet::v1::MapMetadata metadata;
-  if (!metadata.ParseFromString(stored)) return storage::DataLoss("metadata of map version " + std::to_string(record.version) + " does not parse");
-  if (!analyzer::HasContent(metadata) && snapshot.has_imported()) metadata = analyzer::MetadataOfImported(snapshot.imported());
-  ASSIGN_OR_RETURN(auto files,
-                   analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record.version), &metadata));
+  if (!metadata.ParseFromString(stored))
+    return storage::DataLoss("metadata of map version " + std::to_string(record.version) + " does not parse");
+  if (!analyzer::HasContent(metadata) && snapshot.has_imported())
+    metadata = analyzer::MetadataOfImported(snapshot.imported());
+  ASSIGN_OR_RETURN(
+      auto files,
+      analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record.version), &metadata));
   return files;
 }
 

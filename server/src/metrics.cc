@@ -16,7 +16,8 @@ const std::map<std::string, Description>& Descriptions() {
   static const std::map<std::string, Description> kDescriptions = {
       {"fleetd_rpc_total", {"counter", "RPCs handled, by method and status code"}},
       {"fleetd_rpc_latency_seconds", {"histogram", "RPC latency, by method"}},
-      {"fleetd_ingest_runs_total", {"counter", "Uploaded runs, by outcome (stored, already_present, rejected)"}},
+      {"fleetd_ingest_runs_total",
+       {"counter", "Uploaded runs, by outcome (stored, already_present, rejected)"}},
       {"fleetd_ingest_bytes_total", {"counter", "Bytes received by UploadRun"}},
       {"fleetd_ingest_events_total", {"counter", "Events stored by UploadRun"}},
       {"fleetd_job_queue_depth", {"gauge", "Jobs waiting, by state"}},
@@ -24,8 +25,10 @@ const std::map<std::string, Description>& Descriptions() {
       {"fleetd_analysis_seconds", {"histogram", "Wall time of one run's analysis"}},
       {"fleetd_job_progress_ratio", {"gauge", "Progress of running reprocessing jobs (0..1)"}},
       {"fleetd_workers", {"gauge", "Analysis worker threads in this process"}},
-      {"fleetd_upload_streams_in_flight", {"gauge", "Upload streams open now (bounded by --max-upload-streams)"}},
-      {"fleetd_upload_bytes_in_flight", {"gauge", "Bytes buffered by uploads in flight (--max-upload-bytes-in-flight)"}},
+      {"fleetd_upload_streams_in_flight",
+       {"gauge", "Upload streams open now (bounded by --max-upload-streams)"}},
+      {"fleetd_upload_bytes_in_flight",
+       {"gauge", "Bytes buffered by uploads in flight (--max-upload-bytes-in-flight)"}},
   };
   return kDescriptions;
 }
@@ -120,13 +123,15 @@ std::string Metrics::Render() {
   std::ostringstream out;
   for (const auto& [name, family] : families_) {
     out << "# HELP " << name << " " << family.help << "\n# TYPE " << name << " " << family.type << "\n";
-    for (const auto& [labels, value] : family.values) out << Series(name, labels) << " " << Number(value) << "\n";
+    for (const auto& [labels, value] : family.values)
+      out << Series(name, labels) << " " << Number(value) << "\n";
     for (const auto& [labels, histogram] : family.histograms) {
       const std::string prefix = labels.empty() ? "" : labels + ",";
       double cumulative = 0.0;
       for (std::size_t i = 0; i < buckets_.size(); ++i) {
         cumulative += histogram.counts[i];
-        out << name << "_bucket{" << prefix << "le=\"" << Number(buckets_[i]) << "\"} " << Number(cumulative) << "\n";
+        out << name << "_bucket{" << prefix << "le=\"" << Number(buckets_[i]) << "\"} " << Number(cumulative)
+            << "\n";
       }
       out << name << "_bucket{" << prefix << "le=\"+Inf\"} " << Number(histogram.count) << "\n";
       out << Series(name + "_sum", labels) << " " << Number(histogram.sum) << "\n";

@@ -16,7 +16,8 @@ std::string Lower(std::string text) {
 std::optional<std::string> Parameter(const std::string& header, const std::string& key) {
   const std::string lower = Lower(header);
   for (std::size_t at = lower.find(key + "="); at != std::string::npos; at = lower.find(key + "=", at + 1)) {
-    if (at > 0 && lower[at - 1] != ';' && lower[at - 1] != ' ' && lower[at - 1] != '\t') continue;  // "filename=" ≠ "name="
+    if (at > 0 && lower[at - 1] != ';' && lower[at - 1] != ' ' && lower[at - 1] != '\t')
+      continue;  // "filename=" ≠ "name="
     std::size_t start = at + key.size() + 1;
     if (start < header.size() && header[start] == '"') {
       const std::size_t end = header.find('"', start + 1);
@@ -33,8 +34,8 @@ std::optional<std::string> Parameter(const std::string& header, const std::strin
 
 }  // namespace
 
-storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& content_type, const std::string& body,
-                                                          std::size_t max_parts) {
+storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& content_type,
+                                                          const std::string& body, std::size_t max_parts) {
   if (Lower(content_type).rfind("multipart/form-data", 0) != 0) {
     return storage::InvalidArgument("Content-Type: expected multipart/form-data");
   }
@@ -49,7 +50,8 @@ storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& con
   while (true) {
     at += delimiter.size();
     if (body.compare(at, 2, "--") == 0) return parts;  // the closing delimiter
-    if (body.compare(at, 2, "\r\n") != 0) return storage::InvalidArgument("multipart: a boundary line does not end in CRLF");
+    if (body.compare(at, 2, "\r\n") != 0)
+      return storage::InvalidArgument("multipart: a boundary line does not end in CRLF");
     at += 2;
     if (parts.size() == max_parts) {
       return storage::InvalidArgument("multipart: more than " + std::to_string(max_parts) + " parts");
@@ -70,7 +72,8 @@ storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& con
       part.name = Parameter(header, "name").value_or("");
       part.filename = Parameter(header, "filename").value_or("");
     }
-    if (!disposition || part.name.empty()) return storage::InvalidArgument(which + " has no Content-Disposition name");
+    if (!disposition || part.name.empty())
+      return storage::InvalidArgument(which + " has no Content-Disposition name");
     if (part.name.size() > 255 || part.filename.size() > 255) {
       return storage::InvalidArgument(which + ": name or filename longer than 255 bytes");
     }
@@ -81,7 +84,8 @@ storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& con
     }
     const std::size_t content = headers_end + 4;
     const std::size_t next = body.find("\r\n" + delimiter, content);
-    if (next == std::string::npos) return storage::InvalidArgument(which + " (" + part.name + ") is not closed by a boundary");
+    if (next == std::string::npos)
+      return storage::InvalidArgument(which + " (" + part.name + ") is not closed by a boundary");
     part.body = body.substr(content, next - content);
     parts.push_back(std::move(part));
     at = next + 2;

@@ -19,7 +19,7 @@ struct FormPart {
 };
 
 /// `content_type`: the request's Content-Type header, which must be multipart/form-data with a boundary.
-storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& content_type, const std::string& body,
-                                                          std::size_t max_parts = 8);
+storage::Result<std::vector<FormPart>> ParseMultipartForm(const std::string& content_type,
+                                                          const std::string& body, std::size_t max_parts = 8);
 
 }  // namespace server::http

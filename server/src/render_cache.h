@@ -77,7 +77,8 @@ class RenderCache {
   const std::function<std::size_t(const Value&)> size_of_;
   mutable std::mutex mutex_;  // guards entries_, bytes_, rendering_
   std::condition_variable rendering_done_;
-  std::list<std::tuple<std::string, std::shared_ptr<const Value>, std::size_t>> entries_;  // most recent first
+  std::list<std::tuple<std::string, std::shared_ptr<const Value>, std::size_t>>
+      entries_;  // most recent first
   std::size_t bytes_ = 0;
   std::set<std::string> rendering_;  // keys being rendered now
 };

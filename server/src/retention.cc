@@ -11,7 +11,8 @@ namespace {
 constexpr double kMsPerDay = 86400000.0;
 
 std::int64_t NowMs() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -59,8 +60,9 @@ storage::Result<RetentionCounts> RetentionTask::RunOnce(std::int64_t now_ms) {
                        static_cast<double>(removed));
     const std::string policy = std::string(pass.what) + " " + std::to_string(before) + " ms (" +
                                std::to_string(pass.days) + " days)";
-    ASSIGN_OR_RETURN(auto audited, repository_.AppendAudit(storage::AuditEntry{
-        0, now_ms, "fleetd:retention", pass.action, policy, "{\"count\":" + std::to_string(removed) + "}"}));
+    ASSIGN_OR_RETURN(auto audited, repository_.AppendAudit(
+                                       storage::AuditEntry{0, now_ms, "fleetd:retention", pass.action, policy,
+                                                           "{\"count\":" + std::to_string(removed) + "}"}));
     log::Info("retention_pruned", {{"action", pass.action}, {"count", static_cast<long long>(removed)}});
   }
   return counts;

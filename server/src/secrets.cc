@@ -44,28 +44,31 @@ double EntropyBits(const std::string& text) {
 
 }  // namespace
 
-slamcore::Status CheckSecretStrength(const std::string& what, const std::string& secret, std::size_t min_length) {
-  static const char* kPlaceholders[] = {"changeme", "placeholder", "example", "replace", "secret", "password",
-                                        "passwd", "default", "sample", "dummy", "localtrial", "fleetlocal",
-                                        "insecure", "xxxx"};
+slamcore::Status CheckSecretStrength(const std::string& what, const std::string& secret,
+                                     std::size_t min_length) {
+  static const char* kPlaceholders[] = {"changeme",   "placeholder", "example",  "replace", "secret",
+                                        "password",   "passwd",      "default",  "sample",  "dummy",
+                                        "localtrial", "fleetlocal",  "insecure", "xxxx"};
   const std::string folded = Folded(secret);
   for (const char* word : kPlaceholders) {
     if (folded.find(word) != std::string::npos) {
       return slamcore::InvalidArgument(what + ": looks like a placeholder (contains \"" + std::string(word) +
-                                      "\"); replace it with a random value, e.g. `openssl rand -hex 32`");
+                                       "\"); replace it with a random value, e.g. `openssl rand -hex 32`");
     }
   }
   if (secret.size() < min_length) {
     return slamcore::InvalidArgument(what + ": shorter than " + std::to_string(min_length) +
-                                    " characters; generate one, e.g. `openssl rand -hex 32`");
+                                     " characters; generate one, e.g. `openssl rand -hex 32`");
   }
   if (IsRepetition(secret)) {
-    return slamcore::InvalidArgument(what + ": a repetition of a shorter string (low entropy); use a random value");
+    return slamcore::InvalidArgument(what +
+                                     ": a repetition of a shorter string (low entropy); use a random value");
   }
   if (const double bits = EntropyBits(secret); bits < kMinimumBits) {
     return slamcore::InvalidArgument(what + ": low entropy (" + std::to_string(static_cast<int>(bits)) +
-                                    " bits by character frequencies, at least " +
-                                    std::to_string(static_cast<int>(kMinimumBits)) + " needed); use a random value");
+                                     " bits by character frequencies, at least " +
+                                     std::to_string(static_cast<int>(kMinimumBits)) +
+                                     " needed); use a random value");
   }
   return slamcore::Status::Ok();
 }

@@ -19,7 +19,9 @@ grpc::Status ToGrpc(const slamcore::Status& status) {
   return {grpc::StatusCode::INTERNAL, status.message()};
 }
 
-grpc::Status InvalidArgument(const std::string& message) { return {grpc::StatusCode::INVALID_ARGUMENT, message}; }
+grpc::Status InvalidArgument(const std::string& message) {
+  return {grpc::StatusCode::INVALID_ARGUMENT, message};
+}
 
 std::string PeerAddress(const std::string& peer) {
   // "ipv4:127.0.0.1:41234" / "ipv6:[::1]:41234" → the address without the port: limits are per host.
@@ -35,15 +37,20 @@ grpc::Status Authorize(ServiceContext& context, grpc::ServerContext* call, Permi
   const auto& metadata = call->client_metadata();
   auto it = metadata.find("authorization");
   if (it != metadata.end()) authorization.assign(it->second.data(), it->second.size());
-  Authenticator::Verdict verdict = context.authenticator->Authenticate(authorization, PeerAddress(call->peer()));
-  if (verdict.outcome == Authenticator::Outcome::kUnavailable) return {grpc::StatusCode::UNAVAILABLE, verdict.message};
-  if (verdict.outcome != Authenticator::Outcome::kOk) return {grpc::StatusCode::UNAUTHENTICATED, verdict.message};
+  Authenticator::Verdict verdict =
+      context.authenticator->Authenticate(authorization, PeerAddress(call->peer()));
+  if (verdict.outcome == Authenticator::Outcome::kUnavailable)
+    return {grpc::StatusCode::UNAVAILABLE, verdict.message};
+  if (verdict.outcome != Authenticator::Outcome::kOk)
+    return {grpc::StatusCode::UNAUTHENTICATED, verdict.message};
   if (!Allows(verdict.principal.role, permission)) {
-    return {grpc::StatusCode::PERMISSION_DENIED, verdict.principal.name + " (role " + RoleName(verdict.principal.role) +
-                                                     ") may not " + PermissionName(permission)};
+    return {grpc::StatusCode::PERMISSION_DENIED, verdict.principal.name + " (role " +
+                                                     RoleName(verdict.principal.role) + ") may not " +
+                                                     PermissionName(permission)};
   }
   if (context.rate_limiter != nullptr && !context.rate_limiter->Allow(verdict.principal.name)) {
-    return {grpc::StatusCode::RESOURCE_EXHAUSTED, "rate limit exceeded for " + verdict.principal.name + "; retry later"};
+    return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+            "rate limit exceeded for " + verdict.principal.name + "; retry later"};
   }
   *principal = std::move(verdict.principal);
   return grpc::Status::OK;

@@ -64,7 +64,9 @@ class RpcScope {
 };
 
 /// Unix seconds ⇄ storage's milliseconds.
-inline std::int64_t ToMillis(double seconds) { return static_cast<std::int64_t>(seconds * 1000.0 + (seconds >= 0 ? 0.5 : -0.5)); }
+inline std::int64_t ToMillis(double seconds) {
+  return static_cast<std::int64_t>(seconds * 1000.0 + (seconds >= 0 ? 0.5 : -0.5));
+}
 inline double ToSeconds(std::int64_t millis) { return static_cast<double>(millis) / 1000.0; }
 
 }  // namespace server

@@ -19,7 +19,9 @@ bool Terminal(storage::JobState state) {
 }  // namespace
 
 WorkerPool::WorkerPool(storage::Repository& repository, Metrics& metrics, WorkerOptions options)
-    : repository_(repository), metrics_(metrics), options_(std::move(options)),
+    : repository_(repository),
+      metrics_(metrics),
+      options_(std::move(options)),
       classifiers_(repository, options_.model_name) {}
 
 WorkerPool::~WorkerPool() { Stop(); }
@@ -64,9 +66,10 @@ void WorkerPool::Track(const storage::JobLease& lease) {
 
 void WorkerPool::Untrack(const storage::JobLease& lease) {
   std::lock_guard lock(mutex_);
-  leases_.erase(std::remove_if(leases_.begin(), leases_.end(),
-                               [&](const storage::JobLease& held) { return held.lease_token == lease.lease_token; }),
-                leases_.end());
+  leases_.erase(
+      std::remove_if(leases_.begin(), leases_.end(),
+                     [&](const storage::JobLease& held) { return held.lease_token == lease.lease_token; }),
+      leases_.end());
 }
 
 void WorkerPool::HeartbeatLoop() {
@@ -84,7 +87,8 @@ void WorkerPool::HeartbeatLoop() {
     for (const auto& lease : held) {
       const storage::Status status = repository_.HeartbeatJob(lease, options_.lease);
       if (!status.ok()) {
-        log::Warn("lease_lost", {{"job", static_cast<long long>(lease.job.job_id)}, {"error", status.ToString()}});
+        log::Warn("lease_lost",
+                  {{"job", static_cast<long long>(lease.job.job_id)}, {"error", status.ToString()}});
       }
     }
   }
@@ -117,8 +121,10 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
     // Jobs queued before run ids were per robot name the run by id alone.
     auto key = ResolveRun(repository_, Principal{"fleetd:worker", Role::kAdmin, ""}, payload->robot_id,
                           payload->run_id);
-    if (key.ok()) run = *key;
-    else run = storage::RunKey{payload->robot_id, payload->run_id};
+    if (key.ok())
+      run = *key;
+    else
+      run = storage::RunKey{payload->robot_id, payload->run_id};
   }
   if (!payload.ok()) {
     status = payload.status();
@@ -169,7 +175,8 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
     if (!completed.ok()) outcome = "lease_lost";
   } else {
     outcome = "failed";
-    log::Warn("analysis_failed", {{"job", static_cast<long long>(lease.job.job_id)}, {"error", status.ToString()}});
+    log::Warn("analysis_failed",
+              {{"job", static_cast<long long>(lease.job.job_id)}, {"error", status.ToString()}});
     const storage::Status failed = repository_.FailJob(lease, status.ToString());
     if (!failed.ok()) outcome = "lease_lost";
   }
@@ -288,7 +295,8 @@ void WorkerPool::Coordinate(storage::JobLease lease) {
     const bool cancelled = self.ok() && self->state == storage::JobState::kCancelled;
     if (cancelled || !repository_.UpdateJobProgress(lease, done, total).ok()) {
       cancel_children(pending);
-      log::Info("reprocess_cancelled", {{"job", static_cast<long long>(parent)}, {"done", static_cast<long long>(done)}});
+      log::Info("reprocess_cancelled",
+                {{"job", static_cast<long long>(parent)}, {"done", static_cast<long long>(done)}});
       return;
     }
     if (pending.empty()) break;

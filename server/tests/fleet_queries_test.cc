@@ -40,8 +40,10 @@ class FleetQueriesTest : public SqliteRepositoryTest {
   void SetUp() override {
     SqliteRepositoryTest::SetUp();
     if (HasFatalFailure()) return;
-    for (const char* set : {"default", "tuned"}) ASSERT_THAT(repository_->PutParameterSet({set, set}), IsOk());
-    for (const char* robot : {"a", "b"}) ASSERT_THAT(repository_->PutRobot({robot, "vac", "fw-1", 1}), IsOk());
+    for (const char* set : {"default", "tuned"})
+      ASSERT_THAT(repository_->PutParameterSet({set, set}), IsOk());
+    for (const char* robot : {"a", "b"})
+      ASSERT_THAT(repository_->PutRobot({robot, "vac", "fw-1", 1}), IsOk());
     // a: two runs on 2026-01-01 and 2026-01-02; b: one run on 2026-01-02 on another firmware.
     Run("a", "r1", k2026 * kDay + 5, "fw-1");
     Run("a", "r2", (k2026 + 1) * kDay, "fw-1");
@@ -85,7 +87,8 @@ TEST_F(FleetQueriesTest, StatisticsByDayCarryDayKeysAndThePapersShares) {
   EXPECT_EQ(answer->groups[0].key, "2026-01-01");
   EXPECT_EQ(answer->groups[1].key, "2026-01-02");
   EXPECT_EQ(answer->groups[1].figures.counts.robots, 2);
-  EXPECT_FALSE(answer->total.merge_conditional_then_rejected_share) << "no merges: the share is absent, not 0";
+  EXPECT_FALSE(answer->total.merge_conditional_then_rejected_share)
+      << "no merges: the share is absent, not 0";
   EXPECT_EQ(DayKey("-1"), "1969-12-31");
   EXPECT_EQ(DayKey("abc"), "abc");
 }
@@ -106,9 +109,11 @@ TEST_F(FleetQueriesTest, RobotsSeeOnlyTheirOwnRuns) {
   ASSERT_EQ(runs->rows.size(), 2u);
   for (const RunRow& row : runs->rows) EXPECT_EQ(row.run.robot_id, "a");
   auto key = queries.Run(kRobotA, "b", "r1");
-  EXPECT_EQ(key.status().code(), storage::StatusCode::kNotFound) << "another robot's run answers like a missing one";
+  EXPECT_EQ(key.status().code(), storage::StatusCode::kNotFound)
+      << "another robot's run answers like a missing one";
   auto shared = queries.Run(kEngineer, "", "r1");
-  EXPECT_EQ(shared.status().code(), storage::StatusCode::kInvalidArgument) << "two robots have r1: name the robot";
+  EXPECT_EQ(shared.status().code(), storage::StatusCode::kInvalidArgument)
+      << "two robots have r1: name the robot";
   auto compared = queries.Compare(kRobotA, {}, "default", "tuned", 10);
   ASSERT_THAT(compared, IsOk());
   EXPECT_EQ(compared->runs_compared, 2);
@@ -150,7 +155,8 @@ TEST_F(FleetQueriesTest, ConfusionMatrixCountsPredictionsAgainstLabels) {
   FleetQueries queries(*repository_, "default");
   // Three regions on a/r1: predicted protrusion (labelled protrusion, then new_space) and one unclassified.
   storage::ReportBundle bundle = Report("a", "r1", "default", 4, true, 2);
-  for (const auto& [id, predicted] : {std::pair{1, "protrusion"}, std::pair{2, "protrusion"}, std::pair{3, "?"}}) {
+  for (const auto& [id, predicted] :
+       {std::pair{1, "protrusion"}, std::pair{2, "protrusion"}, std::pair{3, "?"}}) {
     storage::ProtrusionRegionRecord region;
     region.region_id = id;
     region.features_json = "{}";
@@ -158,9 +164,12 @@ TEST_F(FleetQueriesTest, ConfusionMatrixCountsPredictionsAgainstLabels) {
     bundle.protrusion_regions.push_back(region);
   }
   Put(bundle);
-  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 1, "protrusion", "engineer:ana"), IsOk());
-  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 2, "new_space", "engineer:ana"), IsOk());
-  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 3, "new_space", "engineer:ana"), IsOk());
+  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 1, "protrusion", "engineer:ana"),
+              IsOk());
+  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 2, "new_space", "engineer:ana"),
+              IsOk());
+  ASSERT_THAT(repository_->LabelProtrusionRegion({"a", "r1"}, "default", 3, "new_space", "engineer:ana"),
+              IsOk());
   auto m = queries.Confusion(kEngineer, "default");
   ASSERT_THAT(m, IsOk());
   EXPECT_EQ(m->true_positive, 1);

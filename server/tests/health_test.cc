@@ -25,7 +25,8 @@ TEST(HealthMonitorTest, ARefusedWriteIsUnhealthyUntilItAges) {
   auto repository = storage::OpenRepository("sqlite:" + path, options);
   ASSERT_THAT(repository, IsOk());
   std::vector<bool> reported;
-  HealthMonitor health(**repository, "test:1", std::chrono::minutes(1), [&](bool healthy) { reported.push_back(healthy); });
+  HealthMonitor health(**repository, "test:1", std::chrono::minutes(1),
+                       [&](bool healthy) { reported.push_back(healthy); });
   health.Start();
   EXPECT_TRUE(health.Current().healthy);
   EXPECT_EQ(reported, std::vector<bool>{true});

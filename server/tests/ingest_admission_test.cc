@@ -19,7 +19,8 @@ TEST(IngestAdmissionTest, StreamsAndBytesAreBoundedPerPrincipalAndInAll) {
   ASSERT_THAT(admission.Admit("robot:a", a2), IsOk());
   grpc::Status third = admission.Admit("robot:a", a3);
   EXPECT_EQ(third.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_NE(third.error_message().find("max_upload_streams_per_principal 2"), std::string::npos) << third.error_message();
+  EXPECT_NE(third.error_message().find("max_upload_streams_per_principal 2"), std::string::npos)
+      << third.error_message();
   ASSERT_THAT(admission.Admit("robot:b", b1), IsOk());
   grpc::Status full = admission.Admit("robot:c", c1);
   EXPECT_NE(full.error_message().find("max_upload_streams 3"), std::string::npos) << full.error_message();
@@ -30,7 +31,8 @@ TEST(IngestAdmissionTest, StreamsAndBytesAreBoundedPerPrincipalAndInAll) {
   EXPECT_NE(mine.error_message().find("max_upload_bytes_per_principal (600)"), std::string::npos);
   EXPECT_THAT(b1.Reserve(450), IsOk());
   grpc::Status all = a2.Reserve(60);
-  EXPECT_NE(all.error_message().find("max_upload_bytes_in_flight (1000)"), std::string::npos) << all.error_message();
+  EXPECT_NE(all.error_message().find("max_upload_bytes_in_flight (1000)"), std::string::npos)
+      << all.error_message();
   EXPECT_EQ(admission.bytes(), 950);
 
   a1.reset();  // the call ended: its stream and bytes are free again

@@ -62,12 +62,16 @@ class MapHistoryTest : public SqliteRepositoryTest {
     AddChain(child_, 10, 10, 5.0, true);  // the run drove on past the end of the home map
   }
   /// Stores a run whose parent and child maps are given; returns its record.
-  storage::RunRecord StoreRun(const std::string& run_id, const slamcore::Map* parent, const slamcore::Map& child) {
+  storage::RunRecord StoreRun(const std::string& run_id, const slamcore::Map* parent,
+                              const slamcore::Map& child) {
     storage::RunRecord run;
     run.run_id = run_id;
     run.robot_id = "r1";
-    if (parent) run.parent_snapshot_id = *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*parent)));
-    run.child_snapshot_id = *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(child)));
+    if (parent)
+      run.parent_snapshot_id =
+          *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(*parent)));
+    run.child_snapshot_id =
+        *repository_->PutSnapshot(analyzer::SerializeDeterministic(analyzer::ToProto(child)));
     run.telemetry = "telemetry of " + run_id;
     EXPECT_THAT(repository_->InsertRun(run), IsOk());
     return run;
@@ -130,9 +134,9 @@ TEST_F(MapHistoryTest, FindingsStoredWhileKindAndStateWereStringsReadAsBefore) {
   const std::string legacy =
       R"({"finding_id":"1","kind":"protrusion","severity":0.8,"summary":"region 3","state":"open",)"
       R"("evidence_json":"{}","world_bbox":[6.5,-0.5,8,0.5]})";
-  ASSERT_THAT(repository_->UpdateMapVersionHealth(
-                  "r1", 2, 10.0,
-                  {{1, storage::FindingKind::kProtrusion, 0.8, "region 3", storage::FindingState::kOpen, legacy}}),
+  ASSERT_THAT(repository_->UpdateMapVersionHealth("r1", 2, 10.0,
+                                                  {{1, storage::FindingKind::kProtrusion, 0.8, "region 3",
+                                                    storage::FindingState::kOpen, legacy}}),
               IsOk());
   auto detail = history.Get("r1", 2);
   ASSERT_THAT(detail, IsOk());
@@ -194,9 +198,10 @@ TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase
   RepairRequest undo = rollback;
   undo.base_version = 4;
   undo.action = Undo{};
-  ASSERT_THAT(history.Repair(undo), IsOk());                       // version 5, pending
+  ASSERT_THAT(history.Repair(undo), IsOk());                           // version 5, pending
   ASSERT_THAT(history.Review("r1", 5, true, "engineer:ana"), IsOk());  // current: 5
-  EXPECT_EQ(history.Review("r1", 4, true, "engineer:ana").status().code(), storage::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(history.Review("r1", 4, true, "engineer:ana").status().code(),
+            storage::StatusCode::kFailedPrecondition);
 }
 
 TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
@@ -219,10 +224,12 @@ TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereA
     UploadBoth(history);
     ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
     std::int64_t current = 0, head = 0;
-    EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u) << "a protrusion below severity 1 is left open";
+    EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u)
+        << "a protrusion below severity 1 is left open";
     EXPECT_EQ(history.Get("r1", 2)->findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
   }
-  MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
+  MapHistory history(*repository_,
+                     {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
   ASSERT_THAT(repaired, IsOk());
@@ -245,7 +252,8 @@ fleet::v1::MapSnapshot ImportedRooms(bool kitchen) {
   const auto room = [&](double x0, double x1) {
     for (int row = 10; row <= 80; ++row) {
       for (int col = static_cast<int>(x0 / 0.05); col <= static_cast<int>(x1 / 0.05); ++col) {
-        const bool edge = row == 10 || row == 80 || col == static_cast<int>(x0 / 0.05) || col == static_cast<int>(x1 / 0.05);
+        const bool edge = row == 10 || row == 80 || col == static_cast<int>(x0 / 0.05) ||
+                          col == static_cast<int>(x1 / 0.05);
         if (grid->at(col, row) != 100 || !edge) grid->at(col, row) = edge ? 100 : 0;
       }
     }
@@ -292,11 +300,13 @@ std::vector<std::string> RoomNames(const std::optional<fleet::v1::MapMetadata>& 
 
 TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   MapHistory history(*repository_, MapPolicy{});
-  auto v1 = history.Import("home", ImportedRooms(false), RoomsMetadata(false), "valetudo:a.json", "", true, "engineer:e");
+  auto v1 = history.Import("home", ImportedRooms(false), RoomsMetadata(false), "valetudo:a.json", "", true,
+                           "engineer:e");
   ASSERT_THAT(v1, IsOk());
   // The first import has nothing to compare with, nor to roll back to.
   EXPECT_TRUE(history.Get("home", 1)->findings.empty());
-  RepairRequest rollback{.robot_id = "home", .base_version = 1, .action = Rollback{}, .requested_by = "engineer:e"};
+  RepairRequest rollback{
+      .robot_id = "home", .base_version = 1, .action = Rollback{}, .requested_by = "engineer:e"};
   EXPECT_EQ(history.Repair(rollback).status().code(), storage::StatusCode::kFailedPrecondition);
 
   // Bad metadata is refused naming the field, and nothing is stored.
@@ -304,22 +314,26 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   bad.mutable_imported()->mutable_dock()->set_x(std::nan(""));
   auto refused = history.Import("home", bad, RoomsMetadata(true), "valetudo:b.json", "", false, "engineer:e");
   ASSERT_EQ(refused.status().code(), storage::StatusCode::kInvalidArgument);
-  EXPECT_NE(refused.status().message().find("snapshot.imported.dock"), std::string::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().message().find("snapshot.imported.dock"), std::string::npos)
+      << refused.status().ToString();
   fleet::v1::MapMetadata absurd = RoomsMetadata(true);
   for (int i = 0; i < 1001; ++i) *absurd.add_zones() = absurd.zones(0);
   refused = history.Import("home", ImportedRooms(true), absurd, "valetudo:b.json", "", false, "engineer:e");
   ASSERT_EQ(refused.status().code(), storage::StatusCode::kInvalidArgument);
-  EXPECT_NE(refused.status().message().find("metadata.zones: 1002 shapes, more than the limit 1000"), std::string::npos)
+  EXPECT_NE(refused.status().message().find("metadata.zones: 1002 shapes, more than the limit 1000"),
+            std::string::npos)
       << refused.status().ToString();
   fleet::v1::MapMetadata long_name = RoomsMetadata(true);
   long_name.mutable_rooms(1)->set_name(std::string(300, 'k'));
-  refused = history.Import("home", ImportedRooms(true), long_name, "valetudo:b.json", "", false, "engineer:e");
+  refused =
+      history.Import("home", ImportedRooms(true), long_name, "valetudo:b.json", "", false, "engineer:e");
   EXPECT_NE(refused.status().message().find("metadata.rooms[1].name: 300 bytes"), std::string::npos)
       << refused.status().ToString();
   EXPECT_EQ(repository_->ListMapVersions("home")->size(), 1u);  // nothing stored
 
   // The second export: the same home, now with a kitchen.
-  auto v2 = history.Import("home", ImportedRooms(true), RoomsMetadata(true), "valetudo:b.json", "", false, "engineer:e");
+  auto v2 = history.Import("home", ImportedRooms(true), RoomsMetadata(true), "valetudo:b.json", "", false,
+                           "engineer:e");
   ASSERT_THAT(v2, IsOk());
   EXPECT_EQ(v2->version(), 2);
   auto detail = history.Get("home", 2);
@@ -344,23 +358,30 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   ASSERT_EQ(new_regions, 1);
 
   // Edits that need a pose graph are refused; a cut takes the kitchen back to unknown and its finding is gone.
-  RepairRequest edge{.robot_id = "home", .base_version = 2, .action = RejectEdge{.from = 0, .to = 1},
+  RepairRequest edge{.robot_id = "home",
+                     .base_version = 2,
+                     .action = RejectEdge{.from = 0, .to = 1},
                      .requested_by = "engineer:e"};
   EXPECT_EQ(history.Repair(edge).status().code(), storage::StatusCode::kFailedPrecondition);
-  RepairRequest cut{.robot_id = "home", .base_version = 2, .action = CutFinding{kitchen}, .reason = "not ours",
+  RepairRequest cut{.robot_id = "home",
+                    .base_version = 2,
+                    .action = CutFinding{kitchen},
+                    .reason = "not ours",
                     .requested_by = "engineer:e"};
   auto cut_version = history.Repair(cut);
   ASSERT_THAT(cut_version, IsOk());
   EXPECT_EQ(cut_version->version.approval_state(), fleet::v1::MAP_APPROVAL_PENDING);
   EXPECT_EQ(cut_version->version.version_action(), fleet::v1::MAP_ACTION_CUT_REGION);
-  for (const fleet::v1::MapFinding& finding : cut_version->findings) EXPECT_NE(finding.finding_kind(), fleet::v1::FINDING_KIND_NEW_REGION);
+  for (const fleet::v1::MapFinding& finding : cut_version->findings)
+    EXPECT_NE(finding.finding_kind(), fleet::v1::FINDING_KIND_NEW_REGION);
   EXPECT_LT(cut_version->version.known_area_m2(), v2->known_area_m2() - 5.0);
   fleet::v1::MapSnapshot cut_snapshot;
   ASSERT_THAT(history.Get("home", 3, &cut_snapshot), IsOk());
   EXPECT_TRUE(cut_snapshot.imported().has_dock());  // kept for the next comparison and the hand-back
   // The cut keeps the metadata of the version it cut (its rooms and zones), and hands it back.
   EXPECT_EQ(RoomNames(cut_version->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
-  EXPECT_EQ(RoomNames(history.Get("home", 3)->metadata), (std::vector<std::string>{"Living room", "Kitchen"}));
+  EXPECT_EQ(RoomNames(history.Get("home", 3)->metadata),
+            (std::vector<std::string>{"Living room", "Kitchen"}));
   auto handed_back = history.Export("home", 3, "valetudo");
   ASSERT_THAT(handed_back, IsOk());
   EXPECT_NE(handed_back->front().content().find("\"name\":\"Living room\""), std::string::npos);
@@ -394,11 +415,13 @@ TEST(RepairActionTest, NamesRoundTripAndUnknownNamesAreRefusedNamingTheField) {
   }
   auto unknown = RepairActionNamed("explode", "action");
   EXPECT_THAT(unknown, StatusIs(storage::StatusCode::kInvalidArgument));
-  EXPECT_NE(unknown.status().message().find("action: \"explode\""), std::string::npos) << unknown.status().message();
+  EXPECT_NE(unknown.status().message().find("action: \"explode\""), std::string::npos)
+      << unknown.status().message();
 }
 
 TEST(MapStatesTest, WireValuesAreStoragesNamesUpperCased) {
-  const auto expect_named = [](const std::string& wire_name, const std::string& prefix, std::string_view name) {
+  const auto expect_named = [](const std::string& wire_name, const std::string& prefix,
+                               std::string_view name) {
     std::string upper(name);
     for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     EXPECT_EQ(wire_name, prefix + upper);

@@ -30,8 +30,8 @@ class MetadataRoundTrip : public SqliteRepositoryTest {
         continue;
       }
       const analyzer::ImportedMap imported = analyzer::ImportValetudo(*original);
-      auto version = history.Import(robot, imported.snapshot, imported.metadata, "valetudo:" + entry.path().filename().string(),
-                                    "", true, "engineer:e");
+      auto version = history.Import(robot, imported.snapshot, imported.metadata,
+                                    "valetudo:" + entry.path().filename().string(), "", true, "engineer:e");
       if (!version.ok()) {
         ADD_FAILURE() << version.status().ToString();
         continue;
@@ -58,7 +58,8 @@ class MetadataRoundTrip : public SqliteRepositoryTest {
       EXPECT_EQ(back[i].type, original[i].type) << what << " " << i;
       ASSERT_EQ(back[i].points.size(), original[i].points.size()) << what << " " << i;
       for (std::size_t k = 0; k < original[i].points.size(); ++k) {
-        EXPECT_NEAR((back[i].points[k] - original[i].points[k]).norm(), 0.0, 0.006) << what << " " << i << "." << k;
+        EXPECT_NEAR((back[i].points[k] - original[i].points[k]).norm(), 0.0, 0.006)
+            << what << " " << i << "." << k;
       }
     }
   }
@@ -103,7 +104,6 @@ class MetadataRoundTrip : public SqliteRepositoryTest {
       EXPECT_EQ(back.other_points[i].type, original.other_points[i].type);
     }
   }
-
 };
 
 TEST_F(MetadataRoundTrip, EveryExportInTheSampleComesBackWithItsRoomsZonesWallsAndPoses) {

@@ -13,14 +13,14 @@ const std::string kType = "multipart/form-data; boundary=----fleetd42";
 
 std::string Part(const std::string& name, const std::string& filename, const std::string& body) {
   return "------fleetd42\r\nContent-Disposition: form-data; name=\"" + name + "\"" +
-         (filename.empty() ? "" : "; filename=\"" + filename + "\"") + "\r\nContent-Type: application/octet-stream\r\n\r\n" +
-         body + "\r\n";
+         (filename.empty() ? "" : "; filename=\"" + filename + "\"") +
+         "\r\nContent-Type: application/octet-stream\r\n\r\n" + body + "\r\n";
 }
 
 TEST(MultipartForm, ReadsNamedPartsWithBinaryBodies) {
   const std::string pgm = std::string("P5\n2 1\n255\n\xfe\x00", 13);
-  const auto parts = ParseMultipartForm(kType, Part("yaml", "map.yaml", "image: map.pgm\n") + Part("image", "map.pgm", pgm) +
-                                                   "------fleetd42--\r\n");
+  const auto parts = ParseMultipartForm(kType, Part("yaml", "map.yaml", "image: map.pgm\n") +
+                                                   Part("image", "map.pgm", pgm) + "------fleetd42--\r\n");
   ASSERT_THAT(parts, IsOk());
   ASSERT_EQ(parts->size(), 2u);
   EXPECT_EQ((*parts)[0].name, "yaml");
@@ -29,7 +29,8 @@ TEST(MultipartForm, ReadsNamedPartsWithBinaryBodies) {
   EXPECT_EQ((*parts)[1].filename, "map.pgm");
   EXPECT_EQ((*parts)[1].body, pgm);
   // A quoted boundary, as some clients write it.
-  EXPECT_THAT(ParseMultipartForm("multipart/form-data; boundary=\"----fleetd42\"", "------fleetd42--\r\n"), IsOk());
+  EXPECT_THAT(ParseMultipartForm("multipart/form-data; boundary=\"----fleetd42\"", "------fleetd42--\r\n"),
+              IsOk());
 }
 
 TEST(MultipartForm, RefusesMalformedAndOversizedFormsNamingWhy) {
@@ -44,10 +45,14 @@ TEST(MultipartForm, RefusesMalformedAndOversizedFormsNamingWhy) {
   refused("multipart/form-data", closed, "needs a boundary");
   refused("multipart/form-data; boundary=" + std::string(71, 'b'), closed, "needs a boundary of 1–70");
   refused(kType, "no boundary here", "no boundary line");
-  refused(kType, Part("a", "", "1") + Part("b", "", "2") + Part("c", "", "3") + Part("d", "", "4") + closed, "more than 3 parts");
-  refused(kType, "------fleetd42\r\nContent-Type: text/plain\r\n\r\nx\r\n" + closed, "part 1 has no Content-Disposition name");
-  refused(kType, "------fleetd42\r\nContent-Disposition: form-data; name=\"yaml\"\r\n\r\nnever closed", "is not closed by a boundary");
-  refused(kType, "------fleetd42\r\n" + std::string(9000, 'h'), "headers missing, unterminated or over 8 KiB");
+  refused(kType, Part("a", "", "1") + Part("b", "", "2") + Part("c", "", "3") + Part("d", "", "4") + closed,
+          "more than 3 parts");
+  refused(kType, "------fleetd42\r\nContent-Type: text/plain\r\n\r\nx\r\n" + closed,
+          "part 1 has no Content-Disposition name");
+  refused(kType, "------fleetd42\r\nContent-Disposition: form-data; name=\"yaml\"\r\n\r\nnever closed",
+          "is not closed by a boundary");
+  refused(kType, "------fleetd42\r\n" + std::string(9000, 'h'),
+          "headers missing, unterminated or over 8 KiB");
   refused(kType, Part("image", "map\x01.pgm", "x") + closed, "control character");
   refused(kType, Part(std::string(300, 'n'), "", "x") + closed, "longer than 255 bytes");
   refused(kType, "------fleetd42garbage", "does not end in CRLF");

@@ -16,7 +16,8 @@ TEST(SecretsTest, PlaceholdersAndLowEntropyAreRefusedNamingWhy) {
     return status.message();
   };
   // The values deploy/ shipped (Kubernetes Secret, compose defaults).
-  EXPECT_NE(refused("change-me-to-a-long-random-secret").find("placeholder (contains \"changeme\")"), std::string::npos);
+  EXPECT_NE(refused("change-me-to-a-long-random-secret").find("placeholder (contains \"changeme\")"),
+            std::string::npos);
   EXPECT_NE(refused("change-me", 8).find("changeme"), std::string::npos);
   EXPECT_NE(refused("fleet-local", 8).find("fleetlocal"), std::string::npos);
   EXPECT_NE(refused("local-trial-only-secret", 8).find("placeholder"), std::string::npos);
@@ -29,8 +30,9 @@ TEST(SecretsTest, PlaceholdersAndLowEntropyAreRefusedNamingWhy) {
 }
 
 TEST(SecretsTest, RandomSecretsPass) {
-  for (const std::string secret : {"3f9c2a7d1e0b4c8a9f6e5d4c3b2a1908", "e1b7a3f0c95d2846a7f1c3e9b0d5a286c4f7e2d1b9a03c58",
-                                   "Xk9vQ2mLp7RtW4zN8bYc3HdJ6fGs1AeU"}) {
+  for (const std::string secret :
+       {"3f9c2a7d1e0b4c8a9f6e5d4c3b2a1908", "e1b7a3f0c95d2846a7f1c3e9b0d5a286c4f7e2d1b9a03c58",
+        "Xk9vQ2mLp7RtW4zN8bYc3HdJ6fGs1AeU"}) {
     EXPECT_THAT(CheckSecretStrength("secret", secret, 32), IsOk()) << secret;
   }
 }

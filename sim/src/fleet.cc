@@ -31,7 +31,8 @@ void FleetStatistics::Add(const RunOutcome& outcome) {
     ++maps_with_views;
     if (outcome.views_ambiguous > 0) {
       ++maps_with_ambiguous_views;
-      ambiguous_view_share_sum += static_cast<double>(outcome.views_ambiguous) / static_cast<double>(outcome.views_total);
+      ambiguous_view_share_sum +=
+          static_cast<double>(outcome.views_ambiguous) / static_cast<double>(outcome.views_total);
     }
   }
   observations += outcome.observations;
@@ -63,24 +64,29 @@ std::string FleetStatistics::ToText() const {
       "runs on an existing map                %d, started localized %.1f %%   (paper: 43.2 %%)\n"
       "runs with a recovery hypothesis        %.1f %%   (paper: most runs)\n"
       "recovery hypotheses per run            %.2f, accepted %.1f %%   (paper: 1.1 %%), later retracted %ld\n"
-      "merge hypotheses                       %ld, conditionally accepted then rejected %.1f %%   (paper: 18.6 %%)\n"
+      "merge hypotheses                       %ld, conditionally accepted then rejected %.1f %%   (paper: "
+      "18.6 %%)\n"
       "maps with ambiguous views              %.1f %%   (paper: 90.7 %%)\n"
       "ambiguous share of views in those maps %.1f %%   (paper: 15-18 %%)\n"
       "wrong observations from the front-end  %.1f %% of %ld\n"
       "kidnaps %d, reboots %d\n"
       "stuck episodes                         %d (wall %d, under furniture %d, rug %d; %ld stuck nodes)\n"
-      "maps with a protrusion (ground truth)  %.2f %% (%d of %d; %ld protrusion and %ld new-space regions)   (paper: 0.92 %%)\n"
+      "maps with a protrusion (ground truth)  %.2f %% (%d of %d; %ld protrusion and %ld new-space regions)   "
+      "(paper: 0.92 %%)\n"
       "robots' sensors                        %d runs lidar, %d runs ToF\n",
-      runs, simulated_hours, wall_seconds, runs_with_parent, 100 * Share(runs_started_localized, runs_with_parent),
-      100 * Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
-      100 * Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), recovery_retracted,
-      merge_created, 100 * Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)),
+      runs, simulated_hours, wall_seconds, runs_with_parent,
+      100 * Share(runs_started_localized, runs_with_parent), 100 * Share(runs_with_recovery, runs),
+      Share(static_cast<double>(recovery_created), runs),
+      100 * Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)),
+      recovery_retracted, merge_created,
+      100 * Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)),
       100 * Share(maps_with_ambiguous_views, maps_with_views),
       100 * Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
-      100 * Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), observations, kidnaps,
-      reboots, stuck_at_wall + stuck_under_furniture + stuck_on_rug, stuck_at_wall, stuck_under_furniture, stuck_on_rug,
-      stuck_nodes, 100 * Share(maps_with_truth_protrusion, runs), maps_with_truth_protrusion, runs,
-      truth_protrusion_regions, truth_new_space_regions, lidar_runs, runs - lidar_runs);
+      100 * Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), observations,
+      kidnaps, reboots, stuck_at_wall + stuck_under_furniture + stuck_on_rug, stuck_at_wall,
+      stuck_under_furniture, stuck_on_rug, stuck_nodes, 100 * Share(maps_with_truth_protrusion, runs),
+      maps_with_truth_protrusion, runs, truth_protrusion_regions, truth_new_space_regions, lidar_runs,
+      runs - lidar_runs);
   std::string out = text;
   if (!health.empty()) out += MapHealthLine() + "\n";
   return out;
@@ -88,7 +94,8 @@ std::string FleetStatistics::ToText() const {
 
 std::string FleetStatistics::MapHealthLine() const {
   char line[256];
-  std::snprintf(line, sizeof line, "map health (ground truth)              %d healthy, %d repaired, %d corrupted robots",
+  std::snprintf(line, sizeof line,
+                "map health (ground truth)              %d healthy, %d repaired, %d corrupted robots",
                 robots_healthy, robots_repaired, robots_corrupted);
   return line;
 }
@@ -99,28 +106,33 @@ std::string FleetStatistics::ToJson() const {
       text, sizeof text,
       "{\"runs\":%d,\"simulated_hours\":%.3f,\"wall_seconds\":%.3f,\"runs_with_parent\":%d,"
       "\"started_localized_share\":%.4f,\"runs_with_recovery_share\":%.4f,\"recovery_per_run\":%.4f,"
-      "\"recovery_accepted_share\":%.4f,\"recovery_retracted\":%ld,\"merge_created\":%ld,\"merge_conditionally_accepted\":%ld,"
+      "\"recovery_accepted_share\":%.4f,\"recovery_retracted\":%ld,\"merge_created\":%ld,\"merge_"
+      "conditionally_accepted\":%ld,"
       "\"merge_conditional_then_rejected_share\":%.4f,\"merge_accepted\":%ld,"
       "\"maps_with_ambiguous_views_share\":%.4f,\"ambiguous_view_share\":%.4f,\"observations\":%ld,"
       "\"wrong_observation_share\":%.4f,\"kidnaps\":%d,\"reboots\":%d,\"stuck_at_wall\":%d,"
-      "\"stuck_under_furniture\":%d,\"stuck_on_rug\":%d,\"stuck_nodes\":%ld,\"maps_with_truth_protrusion\":%d,"
-      "\"maps_with_truth_protrusion_share\":%.5f,\"truth_protrusion_regions\":%ld,\"truth_new_space_regions\":%ld,"
+      "\"stuck_under_furniture\":%d,\"stuck_on_rug\":%d,\"stuck_nodes\":%ld,\"maps_with_truth_protrusion\":%"
+      "d,"
+      "\"maps_with_truth_protrusion_share\":%.5f,\"truth_protrusion_regions\":%ld,\"truth_new_space_"
+      "regions\":%ld,"
       "\"lidar_runs\":%d,\"pairs_written\":%d}",
       runs, simulated_hours, wall_seconds, runs_with_parent, Share(runs_started_localized, runs_with_parent),
       Share(runs_with_recovery, runs), Share(static_cast<double>(recovery_created), runs),
-      Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)), recovery_retracted,
-      merge_created, merge_conditionally_accepted,
-      Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)), merge_accepted,
-      Share(maps_with_ambiguous_views, maps_with_views), Share(ambiguous_view_share_sum, maps_with_ambiguous_views),
-      observations, Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), kidnaps,
-      reboots, stuck_at_wall, stuck_under_furniture, stuck_on_rug, stuck_nodes, maps_with_truth_protrusion,
+      Share(static_cast<double>(recovery_accepted), static_cast<double>(recovery_created)),
+      recovery_retracted, merge_created, merge_conditionally_accepted,
+      Share(static_cast<double>(merge_conditional_then_rejected), static_cast<double>(merge_created)),
+      merge_accepted, Share(maps_with_ambiguous_views, maps_with_views),
+      Share(ambiguous_view_share_sum, maps_with_ambiguous_views), observations,
+      Share(static_cast<double>(wrong_observations), static_cast<double>(observations)), kidnaps, reboots,
+      stuck_at_wall, stuck_under_furniture, stuck_on_rug, stuck_nodes, maps_with_truth_protrusion,
       Share(maps_with_truth_protrusion, runs), truth_protrusion_regions, truth_new_space_regions, lidar_runs,
       pairs_written);
   std::string out = text;
   if (!health.empty()) {
     out.pop_back();  // the closing brace
-    out += ",\"robots_healthy\":" + std::to_string(robots_healthy) + ",\"robots_repaired\":" +
-           std::to_string(robots_repaired) + ",\"robots_corrupted\":" + std::to_string(robots_corrupted) + "}";
+    out += ",\"robots_healthy\":" + std::to_string(robots_healthy) +
+           ",\"robots_repaired\":" + std::to_string(robots_repaired) +
+           ",\"robots_corrupted\":" + std::to_string(robots_corrupted) + "}";
   }
   return out;
 }
@@ -128,7 +140,8 @@ std::string FleetStatistics::ToJson() const {
 slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
                                                 const std::function<void(int, int)>& progress) {
   if (options.worlds.empty()) return slamcore::InvalidArgument("no worlds to simulate");
-  if (options.robots < 1 || options.runs < 1) return slamcore::InvalidArgument("robots and runs must be at least 1");
+  if (options.robots < 1 || options.runs < 1)
+    return slamcore::InvalidArgument("robots and runs must be at least 1");
   RETURN_IF_ERROR(options.params.Validate());
   SimParams params = options.params;
   if (!options.protrusion_data.empty()) {
@@ -147,8 +160,8 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
   for (int robot = 0; robot < options.robots; ++robot) {
     const std::size_t index = static_cast<std::size_t>(robot) % options.worlds.size();
     if (worlds.contains(index)) continue;
-    ASSIGN_OR_RETURN(auto world,
-                     LoadWorld(options.worlds[index], options.seed * 1000003ULL + index, params.home_clutter));
+    ASSIGN_OR_RETURN(
+        auto world, LoadWorld(options.worlds[index], options.seed * 1000003ULL + index, params.home_clutter));
     worlds.emplace(index, std::move(world));
   }
 
@@ -174,7 +187,8 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
       };
       for (int run = 0; run < options.runs; ++run) {
         if (options.before_run) {
-          if (const slamcore::Status status = options.before_run(simulator, run); !status.ok()) return fail(status);
+          if (const slamcore::Status status = options.before_run(simulator, run); !status.ok())
+            return fail(status);
         }
         char run_id[64];
         std::snprintf(run_id, sizeof run_id, "%s-s%llu-run%04d", robot_id,
@@ -195,7 +209,8 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
           std::filesystem::rename(file.string() + ".tmp", file);
         }
         if (outcome->truth_pair && (outcome->truth_pair->protrusions + outcome->truth_pair->new_spaces) > 0) {
-          const slamcore::DatasetEntry entry{run_id, run_id, world.name, "fleetsim." + outcome->run.header().robot_model()};
+          const slamcore::DatasetEntry entry{run_id, run_id, world.name,
+                                             "fleetsim." + outcome->run.header().robot_model()};
           std::lock_guard lock(mutex);  // one writer of index.csv at a time
           if (const slamcore::Status status =
                   slamcore::WriteDatasetPair(options.protrusion_data.string(), entry, *outcome->truth_pair);
@@ -207,7 +222,8 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
         }
         outcome->truth_pair.reset();
         if (options.after_run) {
-          if (const slamcore::Status status = options.after_run(simulator, *outcome); !status.ok()) return fail(status);
+          if (const slamcore::Status status = options.after_run(simulator, *outcome); !status.ok())
+            return fail(status);
         }
         if (meter) {
           auto health = meter->Measure(simulator.map(), simulator.node_truth());
@@ -228,8 +244,9 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
       }
     }
   };
-  const int threads = options.threads > 0 ? options.threads
-                                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = options.threads > 0
+                          ? options.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
   for (int t = 0; t < std::min(threads, options.robots); ++t) pool.emplace_back(work);
   for (std::thread& thread : pool) thread.join();
@@ -247,7 +264,8 @@ slamcore::Result<FleetStatistics> SimulateFleet(const FleetOptions& options,
       bool repaired = false;
       for (const RunHealth& run : runs) repaired = repaired || run.repairs_taken > 0;
       ++(runs.back().map.corrupted ? statistics.robots_corrupted
-                                   : repaired ? statistics.robots_repaired : statistics.robots_healthy);
+         : repaired                ? statistics.robots_repaired
+                                   : statistics.robots_healthy);
     }
     statistics.health = std::move(health_by_robot);
   }

@@ -35,18 +35,22 @@ std::filesystem::path FleetdBesideThisProgram() {
 
 FleetdLauncher::~FleetdLauncher() { Stop(); }
 
-slamcore::Status FleetdLauncher::Start(const std::filesystem::path& binary, const std::filesystem::path& directory,
+slamcore::Status FleetdLauncher::Start(const std::filesystem::path& binary,
+                                       const std::filesystem::path& directory,
                                        const std::vector<std::string>& extra) {
   if (pid_ > 0) return slamcore::FailedPrecondition("fleetd is already running");
   if (access(binary.c_str(), X_OK) != 0) {
-    return slamcore::FailedPrecondition("fleetd: " + binary.string() + " is not an executable (build fleetd, or pass --fleetd)");
+    return slamcore::FailedPrecondition("fleetd: " + binary.string() +
+                                        " is not an executable (build fleetd, or pass --fleetd)");
   }
   std::error_code error;
   std::filesystem::create_directories(directory, error);
   if (error) return slamcore::FailedPrecondition(directory.string() + ": " + error.message());
   admin_token_ = "admin:lifelong." + RandomHex(32);
-  std::vector<std::string> args = {binary.string(), "--db", "sqlite:" + (directory / "fleet.db").string(),
-                                   "--listen", "127.0.0.1:0", "--http", "127.0.0.1:0", "--log-format", "text"};
+  std::vector<std::string> args = {
+      binary.string(), "--db",         "sqlite:" + (directory / "fleet.db").string(),
+      "--listen",      "127.0.0.1:0",  "--http",
+      "127.0.0.1:0",   "--log-format", "text"};
   args.insert(args.end(), extra.begin(), extra.end());
   const std::string log_path = (directory / "fleetd.log").string();
   int out[2];
@@ -74,7 +78,8 @@ slamcore::Status FleetdLauncher::Start(const std::filesystem::path& binary, cons
     grpc_ = nlohmann::json::parse(line).at("grpc").get<std::string>();
   } catch (const std::exception&) {
     Stop();
-    return slamcore::FailedPrecondition("fleetd " + binary.string() + " did not start (see " + log_path + ")");
+    return slamcore::FailedPrecondition("fleetd " + binary.string() + " did not start (see " + log_path +
+                                        ")");
   }
   return slamcore::Status::Ok();
 }

@@ -17,7 +17,8 @@ struct Follower {
   std::map<std::string, std::unique_ptr<Uploader>> uploaders;
   std::map<std::string, int> repairs_taken;  // repaired versions taken since the robot's last run ended
 
-  explicit Follower(const FollowServiceOptions& o) : options(o), client(o.uploader.server, o.uploader.tls_ca) {}
+  explicit Follower(const FollowServiceOptions& o)
+      : options(o), client(o.uploader.server, o.uploader.tls_ca) {}
 
   std::string TokenOf(const std::string& robot) {
     return options.robot_token ? options.robot_token(robot) : options.uploader.token;
@@ -39,8 +40,10 @@ struct Follower {
     auto fetched = client.FetchMap(TokenOf(robot_id), robot_id, robot.map_version());
     RETURN_IF_ERROR(fetched.status());
     if (fetched->up_to_date || fetched->version.version() <= 0) return slamcore::Status::Ok();
-    if (const slamcore::Status taken = robot.TakeMap(fetched->snapshot, fetched->version.version()); !taken.ok()) {
-      return slamcore::InvalidArgument("robot " + robot_id + ": version " + std::to_string(fetched->version.version()) +
+    if (const slamcore::Status taken = robot.TakeMap(fetched->snapshot, fetched->version.version());
+        !taken.ok()) {
+      return slamcore::InvalidArgument("robot " + robot_id + ": version " +
+                                       std::to_string(fetched->version.version()) +
                                        " from Maps.GetMap: " + taken.message());
     }
     if (fetched->version.version_origin() != fleet::v1::MAP_ORIGIN_UPLOAD) {
@@ -67,13 +70,13 @@ void FollowService(const FollowServiceOptions& options, FleetOptions& fleet) {
     const std::string& robot_id = robot.robot_id();
     const UploadOutcome uploaded = follower->UploaderOf(robot_id).Upload(outcome.run);
     if (!uploaded.ok) {
-      return slamcore::Internal("robot " + robot_id + " run " + outcome.run.header().run_id() + ": upload failed: " +
-                                uploaded.message);
+      return slamcore::Internal("robot " + robot_id + " run " + outcome.run.header().run_id() +
+                                ": upload failed: " + uploaded.message);
     }
     robot.SetMapVersion(uploaded.map_version);  // the robot's map is now this version of its history
     if (!follower->options.engineer_token.empty() && uploaded.analysis_job_id > 0) {
       RETURN_IF_ERROR(follower->client.WaitForJob(follower->options.engineer_token, uploaded.analysis_job_id,
-                                                           follower->options.analysis_timeout_seconds));
+                                                  follower->options.analysis_timeout_seconds));
       RETURN_IF_ERROR(follower->TakeNewestMap(robot, robot_id));
     }
     std::lock_guard lock(follower->mutex);

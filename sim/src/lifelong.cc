@@ -119,8 +119,8 @@ double Round(double value, double unit) { return std::round(value / unit) * unit
 slamcore::Status ValidateLifelong(const LifelongOptions& options) {
   if (options.worlds.empty()) return slamcore::InvalidArgument("--world: no homes to simulate");
   if (options.robots < 1 || options.robots > kMaxLifelongRobots) {
-    return slamcore::InvalidArgument("--robots: expected 1.." + std::to_string(kMaxLifelongRobots) + ", got " +
-                                     std::to_string(options.robots));
+    return slamcore::InvalidArgument("--robots: expected 1.." + std::to_string(kMaxLifelongRobots) +
+                                     ", got " + std::to_string(options.robots));
   }
   if (options.runs < 1 || options.runs > kMaxLifelongRuns) {
     return slamcore::InvalidArgument("--runs: expected 1.." + std::to_string(kMaxLifelongRuns) + ", got " +
@@ -130,7 +130,8 @@ slamcore::Status ValidateLifelong(const LifelongOptions& options) {
     return slamcore::InvalidArgument("--minutes: expected more than 0 and at most 120");
   }
   if (options.review_every_runs < 1 || options.review_every_runs > kMaxLifelongRuns) {
-    return slamcore::InvalidArgument("--review-every: expected 1.." + std::to_string(kMaxLifelongRuns) + " runs");
+    return slamcore::InvalidArgument("--review-every: expected 1.." + std::to_string(kMaxLifelongRuns) +
+                                     " runs");
   }
   if (!(options.min_severity >= 0.0 && options.min_severity <= 1.0)) {
     return slamcore::InvalidArgument("--min-severity: expected 0..1");
@@ -138,7 +139,8 @@ slamcore::Status ValidateLifelong(const LifelongOptions& options) {
   if (options.regimes.empty()) return slamcore::InvalidArgument("--regimes: name at least one regime");
   for (const std::string& regime : options.regimes) {
     if (!KnownRegime(regime)) {
-      return slamcore::InvalidArgument("--regimes: \"" + regime + "\" is not one of none, filter, service, review");
+      return slamcore::InvalidArgument("--regimes: \"" + regime +
+                                       "\" is not one of none, filter, service, review");
     }
   }
   return options.params.Validate();
@@ -167,8 +169,8 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
     for (const auto& robot : result.statistics.health) {
       nlohmann::json runs = nlohmann::json::array();
       for (const RunHealth& run : robot) {
-        runs.push_back({Round(run.map.trajectory_rmse_m, 0.001), Round(run.map.false_free_m2, 0.01), run.map.components,
-                        run.repairs_taken, Outcome(run)});
+        runs.push_back({Round(run.map.trajectory_rmse_m, 0.001), Round(run.map.false_free_m2, 0.01),
+                        run.map.components, run.repairs_taken, Outcome(run)});
       }
       robots.push_back(std::move(runs));
     }
@@ -195,8 +197,9 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
       {"minutes", options.run_minutes},
       {"review_every_runs", options.review_every_runs},
       {"min_severity", options.min_severity},
-      {"threshold", {{"trajectory_rmse_m", options.corruption.trajectory_rmse_m},
-                     {"false_free_m2", options.corruption.false_free_m2}}},
+      {"threshold",
+       {{"trajectory_rmse_m", options.corruption.trajectory_rmse_m},
+        {"false_free_m2", options.corruption.false_free_m2}}},
       {"per_robot_fields", {"trajectory_rmse_m", "false_free_m2", "components", "repairs_taken", "outcome"}},
       {"regimes", regimes}};
   return out.dump();
@@ -205,13 +208,16 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
 std::string LifelongText(const LifelongOptions& options, const std::vector<RegimeResult>& results) {
   std::string text;
   char line[512];
-  std::snprintf(line, sizeof line,
-                "lifelong: %d robots x %d runs of %.0f min, seed %llu; corrupted = trajectory RMSE > %.2f m or false "
-                "free area > %.2f m2\n",
-                options.robots, options.runs, options.run_minutes, static_cast<unsigned long long>(options.seed),
-                options.corruption.trajectory_rmse_m, options.corruption.false_free_m2);
+  std::snprintf(
+      line, sizeof line,
+      "lifelong: %d robots x %d runs of %.0f min, seed %llu; corrupted = trajectory RMSE > %.2f m or false "
+      "free area > %.2f m2\n",
+      options.robots, options.runs, options.run_minutes, static_cast<unsigned long long>(options.seed),
+      options.corruption.trajectory_rmse_m, options.corruption.false_free_m2);
   text += line;
-  text += "regime    corrupted after last run  ever corrupted  mean runs to corruption  runs lost  repairs taken  wall s\n";
+  text +=
+      "regime    corrupted after last run  ever corrupted  mean runs to corruption  runs lost  repairs taken "
+      " wall s\n";
   for (const RegimeResult& r : results) {
     std::snprintf(line, sizeof line, "%-9s %23.1f %%  %14d  %23.1f  %9d  %13d  %6.0f\n", r.name.c_str(),
                   100 * r.corrupted_share, r.robots_ever_corrupted, r.mean_runs_to_corruption, r.runs_lost,

@@ -44,8 +44,8 @@ bool MapHealthMeter::NearFloor(const Vector2& point) const {
   return near_floor_[static_cast<std::size_t>(cj) * grid.width() + ci] != 0;
 }
 
-slamcore::Result<MapHealth> MapHealthMeter::Measure(const slamcore::Map& map,
-                                                    const std::unordered_map<slamcore::NodeId, SE2>& truth) const {
+slamcore::Result<MapHealth> MapHealthMeter::Measure(
+    const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth) const {
   MapHealth health;
   if (map.graph.num_nodes() == 0) return health;
   health.components = static_cast<int>(analyzer::ComputeFigures(map).components);
@@ -67,13 +67,15 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(const slamcore::Map& map,
     for (int row = 0; row < grid.height; ++row) {
       for (int col = 0; col < grid.width; ++col) {
         if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
-        const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution, grid.origin_y + (row + 0.5) * grid.resolution);
+        const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
+                             grid.origin_y + (row + 0.5) * grid.resolution);
         if (!NearFloor(world_T_map * in_map)) ++false_cells;
       }
     }
     health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
   }
-  health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m || health.false_free_m2 > threshold_.false_free_m2;
+  health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m ||
+                     health.false_free_m2 > threshold_.false_free_m2;
   return health;
 }
 

@@ -49,8 +49,8 @@ struct RobotSimulator::State {
   std::unordered_map<slamcore::ViewId, std::size_t> view_index;
   slamcore::ViewId next_view_id = 1;
   int run_count = 0;
-  std::int64_t map_version = 0;                       // the service's version of `map` (0: none)
-  std::optional<fleet::v1::MapSnapshot> taken_map;    // the service's bytes of `map`, until the next run
+  std::int64_t map_version = 0;                          // the service's version of `map` (0: none)
+  std::optional<fleet::v1::MapSnapshot> taken_map;       // the service's bytes of `map`, until the next run
   std::unordered_map<slamcore::NodeId, SE2> node_truth;  // every node of every run
 
   State(const World& w, const SimParams& p, std::string id, std::string fw, std::uint64_t seed)
@@ -60,8 +60,12 @@ struct RobotSimulator::State {
     sensor = DrawSensor(params, random);
   }
 
-  double Uniform(double low, double high) { return std::uniform_real_distribution<double>(low, high)(random); }
-  double Gaussian(double sigma) { return sigma > 0 ? std::normal_distribution<double>(0.0, sigma)(random) : 0.0; }
+  double Uniform(double low, double high) {
+    return std::uniform_real_distribution<double>(low, high)(random);
+  }
+  double Gaussian(double sigma) {
+    return sigma > 0 ? std::normal_distribution<double>(0.0, sigma)(random) : 0.0;
+  }
   bool Chance(double probability) { return Uniform(0.0, 1.0) < probability; }
 };
 
@@ -90,7 +94,9 @@ void RobotSimulator::SetMapVersion(std::int64_t version) { state_->map_version =
 std::int64_t RobotSimulator::map_version() const { return state_->map_version; }
 const std::string& RobotSimulator::robot_id() const { return state_->robot_id; }
 const slamcore::Map& RobotSimulator::map() const { return state_->map; }
-const std::unordered_map<slamcore::NodeId, SE2>& RobotSimulator::node_truth() const { return state_->node_truth; }
+const std::unordered_map<slamcore::NodeId, SE2>& RobotSimulator::node_truth() const {
+  return state_->node_truth;
+}
 
 namespace {
 
@@ -103,7 +109,8 @@ class Run {
   slamcore::Result<RunOutcome> Simulate();
 
  private:
-  slamcore::Status Emit(const slamcore::Event& event, const std::function<void(fleet::v1::Event&)>& annotate = {});
+  slamcore::Status Emit(const slamcore::Event& event,
+                        const std::function<void(fleet::v1::Event&)>& annotate = {});
   void StepPhysics();
   slamcore::Status MaybeKeyframe();
   slamcore::Status Keyframe();
@@ -125,8 +132,8 @@ class Run {
   RunOutcome outcome_;
 
   double time_ = 0.0;
-  SE2 truth_;                // world_T_robot
-  SE2 measured_increment_;   // odometry accumulated since the last node
+  SE2 truth_;               // world_T_robot
+  SE2 measured_increment_;  // odometry accumulated since the last node
   double measured_distance_ = 0.0, measured_rotation_ = 0.0;
   Matrix3 increment_covariance_ = Matrix3::Zero();
   bool stuck_ = false, stuck_since_node_ = false;
@@ -142,7 +149,8 @@ class Run {
   std::size_t decisions_seen_ = 0;
 };
 
-slamcore::Status Run::Emit(const slamcore::Event& event, const std::function<void(fleet::v1::Event&)>& annotate) {
+slamcore::Status Run::Emit(const slamcore::Event& event,
+                           const std::function<void(fleet::v1::Event&)>& annotate) {
   if (const slamcore::Status status = mapper_->Process(event); !status.ok()) {
     return slamcore::Internal("robot " + s_.robot_id + " run " + run_id_ + ": " + status.message());
   }
@@ -157,13 +165,15 @@ bool Run::StartStuck(StuckAt where, double probability) {
   stuck_ = true;
   stuck_at_ = where;
   // The stasis detection and escape fire after min + an exponential time (the robot notices late).
-  const double extra = p_.stuck_mean_extra_seconds > 0
-                           ? std::exponential_distribution<double>(1.0 / p_.stuck_mean_extra_seconds)(s_.random)
-                           : 0.0;
+  const double extra =
+      p_.stuck_mean_extra_seconds > 0
+          ? std::exponential_distribution<double>(1.0 / p_.stuck_mean_extra_seconds)(s_.random)
+          : 0.0;
   stuck_until_ = time_ + std::min(p_.stuck_max_seconds, p_.stuck_min_seconds + extra);
   stuck_turn_per_metre_ = s_.Gaussian(p_.stuck_heading_drift_per_metre);
-  ++(where == StuckAt::kWall ? outcome_.stuck_at_wall
-                             : where == StuckAt::kFurniture ? outcome_.stuck_under_furniture : outcome_.stuck_on_rug);
+  ++(where == StuckAt::kWall        ? outcome_.stuck_at_wall
+     : where == StuckAt::kFurniture ? outcome_.stuck_under_furniture
+                                    : outcome_.stuck_on_rug);
   return true;
 }
 
@@ -194,7 +204,8 @@ void Run::StepPhysics() {
       behaviour_until_ = time_ + s_.Uniform(10.0, 40.0);
     }
     if (behaviour_ == Behaviour::kTurning) {
-      const double step = std::copysign(std::min(std::abs(turn_remaining_), p_.turn_rate * dt), turn_remaining_);
+      const double step =
+          std::copysign(std::min(std::abs(turn_remaining_), p_.turn_rate * dt), turn_remaining_);
       turn = step;
       turn_remaining_ -= step;
       if (std::abs(turn_remaining_) < 1e-9) behaviour_ = Behaviour::kStraight;
@@ -202,7 +213,8 @@ void Run::StepPhysics() {
       forward = p_.speed * dt;
       if (behaviour_ == Behaviour::kWallFollow) {
         // Keep a wall about 0.1 m off the right side.
-        const double right = s_.world.grid.CastRay(truth_.translation(), truth_.theta() - kPi / 2, 1.0) - p_.robot_radius;
+        const double right =
+            s_.world.grid.CastRay(truth_.translation(), truth_.theta() - kPi / 2, 1.0) - p_.robot_radius;
         turn = std::clamp(0.8 * (right - 0.1), -0.6, 0.6) * -dt * 2.0;
       }
     }
@@ -212,7 +224,8 @@ void Run::StepPhysics() {
   // furniture, climbing onto a rug.
   if (stuck_) {
     const SE2 creep = truth_ * SE2(p_.stuck_creep_share * forward, 0.0, 0.0);
-    if (p_.stuck_creep_share > 0 && s_.world.grid.DiscIsFree(creep.translation(), p_.robot_radius)) truth_ = creep;
+    if (p_.stuck_creep_share > 0 && s_.world.grid.DiscIsFree(creep.translation(), p_.robot_radius))
+      truth_ = creep;
   } else {
     const SE2 next = truth_ * SE2(forward, 0.0, turn);
     if (forward > 0.0 && !s_.world.grid.DiscIsFree(next.translation(), p_.robot_radius)) {
@@ -235,7 +248,8 @@ void Run::StepPhysics() {
   }
   // What the wheels report: the commanded motion (also while stuck), scaled by this robot's wheel error,
   // plus noise growing with distance and rotation.
-  const double measured_forward = forward * s_.wheel_scale + s_.Gaussian(p_.odometry_noise_per_metre * std::sqrt(forward));
+  const double measured_forward =
+      forward * s_.wheel_scale + s_.Gaussian(p_.odometry_noise_per_metre * std::sqrt(forward));
   const double heading_sigma = p_.odometry_heading_noise_per_metre * std::sqrt(forward) +
                                p_.odometry_heading_noise_per_radian * std::sqrt(std::abs(turn));
   const double measured_turn = turn + s_.Gaussian(heading_sigma);
@@ -266,11 +280,12 @@ slamcore::Status Run::Keyframe() {
   // A floor on the covariance: the first node of a run (and one after a kidnap) has no motion behind it.
   const Matrix3 covariance =
       0.5 * (increment_covariance_ + increment_covariance_.transpose()) + Matrix3::Identity() * 1e-8;
-  RETURN_IF_ERROR(Emit(slamcore::OdometryEvent{.time = time_, .increment = measured_increment_,
-                                                        .covariance = covariance}));
+  RETURN_IF_ERROR(Emit(
+      slamcore::OdometryEvent{.time = time_, .increment = measured_increment_, .covariance = covariance}));
   const bool slipped = stuck_since_node_;
-  RETURN_IF_ERROR(Emit(slamcore::GroundTruthEvent{.time = time_, .world_T_robot = truth_},
-                                [slipped](fleet::v1::Event& event) { event.mutable_ground_truth()->set_slipping(slipped); }));
+  RETURN_IF_ERROR(
+      Emit(slamcore::GroundTruthEvent{.time = time_, .world_T_robot = truth_},
+           [slipped](fleet::v1::Event& event) { event.mutable_ground_truth()->set_slipping(slipped); }));
   measured_increment_ = SE2();
   increment_covariance_.setZero();
   measured_distance_ = measured_rotation_ = 0.0;
@@ -305,7 +320,8 @@ bool Run::Visible(const Landmark& landmark) const {
   const Vector2 to_landmark = landmark.pose.translation() - truth_.translation();
   const double distance = to_landmark.norm();
   if (distance > p_.view_range || distance < 0.2) return false;
-  if (std::abs(AngleBetween(ViewingDirection(landmark), truth_.theta())) > 0.5 * p_.view_field_of_view) return false;
+  if (std::abs(AngleBetween(ViewingDirection(landmark), truth_.theta())) > 0.5 * p_.view_field_of_view)
+    return false;
   // A textured face is seen from its front only; symmetric furniture from anywhere.
   if (!landmark.symmetric &&
       std::abs(AngleBetween(std::atan2(-to_landmark.y(), -to_landmark.x()), landmark.pose.theta())) > 1.4) {
@@ -358,8 +374,8 @@ slamcore::Status Run::ObserveLandmarks() {
     const double now_direction = ViewingDirection(landmark);
     if (std::abs(AngleBetween(now_direction, creation_direction)) > kPi / 2) {
       if (!landmark.symmetric) continue;
-      const SE2 flip = SE2(landmark.pose.translation(), 0.0) * SE2(0.0, 0.0, kPi) *
-                       SE2(-landmark.pose.translation(), 0.0);
+      const SE2 flip =
+          SE2(landmark.pose.translation(), 0.0) * SE2(0.0, 0.0, kPi) * SE2(-landmark.pose.translation(), 0.0);
       world_T_view = flip * world_T_view;
       wrong = true;
     }
@@ -376,7 +392,8 @@ slamcore::Status Run::ObserveLandmarks() {
     covariance.diagonal() << std::pow(p_.observation_sigma_xy, 2), std::pow(p_.observation_sigma_xy, 2),
         std::pow(p_.observation_sigma_theta, 2);
     RETURN_IF_ERROR(Emit(
-        slamcore::ViewObservedEvent{.time = time_, .view = matched->id, .robot_T_view = z, .covariance = covariance},
+        slamcore::ViewObservedEvent{
+            .time = time_, .view = matched->id, .robot_T_view = z, .covariance = covariance},
         [wrong](fleet::v1::Event& event) { event.mutable_view_observed()->set_truth_wrong(wrong); }));
     ++observations_here;
     ++outcome_.observations;
@@ -406,8 +423,9 @@ slamcore::Status Run::Kidnap(bool reboot) {
   increment_covariance_.setZero();
   measured_distance_ = measured_rotation_ = 0.0;
   ++(reboot ? outcome_.reboots : outcome_.kidnaps);
-  return Emit(slamcore::KidnapEvent{.time = time_, .cause = reboot ? slamcore::KidnapEvent::Cause::kReboot
-                                                                 : slamcore::KidnapEvent::Cause::kKidnap});
+  return Emit(slamcore::KidnapEvent{
+      .time = time_,
+      .cause = reboot ? slamcore::KidnapEvent::Cause::kReboot : slamcore::KidnapEvent::Cause::kKidnap});
 }
 
 slamcore::Status Run::LabelRegions() {
@@ -417,7 +435,8 @@ slamcore::Status Run::LabelRegions() {
   ASSIGN_OR_RETURN(const auto grids, analyzer::RenderComparedGrids(parent_, s_.map));
   ASSIGN_OR_RETURN(const auto regions, slamcore::ExtractRegions(grids.parent, grids.child));
   ASSIGN_OR_RETURN(const auto truth, analyzer::SlipTruthOf(s_.map, stuck_nodes_, grids, regions));
-  for (const bool protrusion : truth.region_is_protrusion) ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
+  for (const bool protrusion : truth.region_is_protrusion)
+    ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
   if (!p_.keep_truth_pairs) return slamcore::Status::Ok();
   slamcore::GeneratedPair pair;
   pair.parent = grids.parent;
@@ -426,7 +445,8 @@ slamcore::Status Run::LabelRegions() {
   for (std::size_t k = 0; k < regions.size(); ++k) {
     for (const std::int32_t cell : (regions)[k].cells) {
       pair.truth[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(
-          truth.covered[static_cast<std::size_t>(cell)] ? slamcore::TruthLabel::kProtrusion : slamcore::TruthLabel::kNewSpace);
+          truth.covered[static_cast<std::size_t>(cell)] ? slamcore::TruthLabel::kProtrusion
+                                                        : slamcore::TruthLabel::kNewSpace);
     }
   }
   pair.protrusions = outcome_.truth_protrusion_regions;
@@ -441,7 +461,8 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   mapper_ = std::move(mapper);
   outcome_.had_parent = s_.map.graph.num_nodes() > 0;
   // A map taken from the service is named by the very bytes the service holds, so it knows the version.
-  *outcome_.run.mutable_parent_snapshot() = s_.taken_map ? std::move(*s_.taken_map) : analyzer::ToProto(s_.map);
+  *outcome_.run.mutable_parent_snapshot() =
+      s_.taken_map ? std::move(*s_.taken_map) : analyzer::ToProto(s_.map);
   s_.taken_map.reset();
   outcome_.map_version = s_.map_version;
 
@@ -474,8 +495,8 @@ slamcore::Result<RunOutcome> Run::Simulate() {
   }
 
   outcome_.statistics = mapper_->Statistics();
-  outcome_.started_localized =
-      outcome_.had_parent && first_merge_time_ >= 0.0 && first_merge_time_ <= analyzer::kStartedLocalizedSeconds;
+  outcome_.started_localized = outcome_.had_parent && first_merge_time_ >= 0.0 &&
+                               first_merge_time_ <= analyzer::kStartedLocalizedSeconds;
   outcome_.simulated_seconds = time_;
   for (const auto& [node, pose] : mapper_->ground_truth()) s_.node_truth[node] = pose;
   s_.map = mapper_->Finish();

@@ -20,7 +20,8 @@ RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random) {
     sensor.range = params.tof_min_range + (params.tof_max_range - params.tof_min_range) * unit(random);
     sensor.field_of_view = params.tof_field_of_view;
     // About 2.5° apart: at 1.5 m the rays are 6.5 cm apart, about a cell.
-    sensor.rays = std::max(8, static_cast<int>(std::ceil(sensor.field_of_view / (2.5 * std::numbers::pi / 180))));
+    sensor.rays =
+        std::max(8, static_cast<int>(std::ceil(sensor.field_of_view / (2.5 * std::numbers::pi / 180))));
   }
   return sensor;
 }
@@ -41,9 +42,11 @@ slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const
   const bool all_around = sensor.field_of_view >= 2 * std::numbers::pi - 1e-9;
   const double step = 0.5 * std::min(resolution, grid.resolution());
   for (int k = 0; k < sensor.rays; ++k) {
-    const double angle = all_around ? 2 * std::numbers::pi * k / sensor.rays
-                                    : -0.5 * sensor.field_of_view + sensor.field_of_view * k / std::max(1, sensor.rays - 1);
-    const double range = grid.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, sensor.range);
+    const double angle =
+        all_around ? 2 * std::numbers::pi * k / sensor.rays
+                   : -0.5 * sensor.field_of_view + sensor.field_of_view * k / std::max(1, sensor.rays - 1);
+    const double range =
+        grid.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, sensor.range);
     const Vector2 direction(std::cos(angle), std::sin(angle));
     for (double d = 0.0; d < range; d += step) mark(d * direction, 0);
     if (range < sensor.range) mark((range + step) * direction, 100);
@@ -70,7 +73,8 @@ slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const
   patch.node_T_origin = SE2(-reach + min_col * resolution, -reach + min_row * resolution, 0.0);
   patch.cells.reserve(static_cast<std::size_t>(patch.width) * patch.height);
   for (int row = min_row; row <= max_row; ++row) {
-    for (int col = min_col; col <= max_col; ++col) patch.cells.push_back(square[static_cast<std::size_t>(row) * size + col]);
+    for (int col = min_col; col <= max_col; ++col)
+      patch.cells.push_back(square[static_cast<std::size_t>(row) * size + col]);
   }
   return patch;
 }

@@ -59,7 +59,8 @@ slamcore::Result<FetchedMap> ServiceClient::FetchMap(const std::string& token, c
   return fetched;
 }
 
-slamcore::Status ServiceClient::WaitForJob(const std::string& token, std::int64_t job_id, double timeout_seconds) {
+slamcore::Status ServiceClient::WaitForJob(const std::string& token, std::int64_t job_id,
+                                           double timeout_seconds) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_seconds);
   auto pause = std::chrono::milliseconds(5);
   while (true) {
@@ -71,7 +72,8 @@ slamcore::Status ServiceClient::WaitForJob(const std::string& token, std::int64_
     if (!status.ok()) return Failed("Reprocessing.GetJob", status);
     if (job.state() == "done") return slamcore::Status::Ok();
     if (job.state() == "failed" || job.state() == "cancelled") {
-      return slamcore::FailedPrecondition("job " + std::to_string(job_id) + " " + job.state() + ": " + job.last_error());
+      return slamcore::FailedPrecondition("job " + std::to_string(job_id) + " " + job.state() + ": " +
+                                          job.last_error());
     }
     if (std::chrono::steady_clock::now() > deadline) {
       return slamcore::Internal("job " + std::to_string(job_id) + " still " + job.state() + " after " +
@@ -82,7 +84,8 @@ slamcore::Status ServiceClient::WaitForJob(const std::string& token, std::int64_
   }
 }
 
-slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& token, const std::string& robot_id) {
+slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& token,
+                                                             const std::string& robot_id) {
   fleet::v1::ListMapVersionsRequest list;
   list.set_robot_id(robot_id);
   fleet::v1::ListMapVersionsResponse versions;
@@ -99,7 +102,8 @@ slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& 
     fleet::v1::MapVersion reviewed;
     context = Context(token);
     status = impl_->maps->ReviewMapVersion(context.get(), review, &reviewed);
-    if (status.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {  // cannot be carried onto the current map
+    if (status.error_code() ==
+        grpc::StatusCode::FAILED_PRECONDITION) {  // cannot be carried onto the current map
       review.set_approve(false);
       context = Context(token);
       status = impl_->maps->ReviewMapVersion(context.get(), review, &reviewed);
@@ -112,7 +116,8 @@ slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& 
   return approved;
 }
 
-slamcore::Result<std::string> ServiceClient::MintToken(const std::string& admin_token, const std::string& principal) {
+slamcore::Result<std::string> ServiceClient::MintToken(const std::string& admin_token,
+                                                       const std::string& principal) {
   fleet::v1::SetCredentialRequest request;
   request.set_principal(principal);
   fleet::v1::SetCredentialResponse response;

@@ -8,13 +8,15 @@ namespace sim {
 slamcore::Status SimParams::Validate() const {
   auto positive = [](double value, const char* name) -> slamcore::Status {
     if (!(value > 0.0) || !std::isfinite(value)) {
-      return slamcore::InvalidArgument(std::string(name) + " must be positive, found " + std::to_string(value));
+      return slamcore::InvalidArgument(std::string(name) + " must be positive, found " +
+                                       std::to_string(value));
     }
     return slamcore::Status::Ok();
   };
   auto probability = [](double value, const char* name) -> slamcore::Status {
     if (!(value >= 0.0 && value <= 1.0)) {
-      return slamcore::InvalidArgument(std::string(name) + " must be in [0, 1], found " + std::to_string(value));
+      return slamcore::InvalidArgument(std::string(name) + " must be in [0, 1], found " +
+                                       std::to_string(value));
     }
     return slamcore::Status::Ok();
   };
@@ -34,9 +36,11 @@ slamcore::Status SimParams::Validate() const {
   RETURN_IF_ERROR(positive(tof_field_of_view, "tof_field_of_view"));
   RETURN_IF_ERROR(positive(stuck_min_seconds, "stuck_min_seconds"));
   if (tof_max_range < tof_min_range || lidar_max_range < lidar_min_range || lidar_max_range > 20.0) {
-    return slamcore::InvalidArgument("sensor ranges: each model's max must be at least its min, and a lidar at most 20 m");
+    return slamcore::InvalidArgument(
+        "sensor ranges: each model's max must be at least its min, and a lidar at most 20 m");
   }
-  if (tof_field_of_view > 2 * 3.14159265358979) return slamcore::InvalidArgument("tof_field_of_view must be at most 2π");
+  if (tof_field_of_view > 2 * 3.14159265358979)
+    return slamcore::InvalidArgument("tof_field_of_view must be at most 2π");
   RETURN_IF_ERROR(probability(lidar_share, "lidar_share"));
   RETURN_IF_ERROR(probability(wall_wedge_probability, "wall_wedge_probability"));
   RETURN_IF_ERROR(probability(stuck_creep_share, "stuck_creep_share"));
@@ -50,14 +54,15 @@ slamcore::Status SimParams::Validate() const {
   if (!(stuck_rate_scale >= 0.0 && stuck_rate_scale <= 1000.0)) {
     return slamcore::InvalidArgument("stuck_rate_scale must be in [0, 1000]");
   }
-  if (!(stuck_mean_extra_seconds >= 0.0 && stuck_max_seconds >= stuck_min_seconds && stuck_max_seconds <= 3600.0)) {
+  if (!(stuck_mean_extra_seconds >= 0.0 && stuck_max_seconds >= stuck_min_seconds &&
+        stuck_max_seconds <= 3600.0)) {
     return slamcore::InvalidArgument("stuck durations: mean extra ≥ 0 and min ≤ max ≤ 3600 s expected");
   }
   if (!(stuck_heading_drift_per_metre >= 0.0)) {
     return slamcore::InvalidArgument("stuck_heading_drift_per_metre must not be negative");
   }
-  if (odometry_scale_error < 0.0 || odometry_noise_per_metre < 0.0 || odometry_heading_noise_per_metre < 0.0 ||
-      odometry_heading_noise_per_radian < 0.0) {
+  if (odometry_scale_error < 0.0 || odometry_noise_per_metre < 0.0 ||
+      odometry_heading_noise_per_metre < 0.0 || odometry_heading_noise_per_radian < 0.0) {
     return slamcore::InvalidArgument("odometry noise parameters must not be negative");
   }
   if (patch_every_nodes < 1 || lidar_patch_every_nodes < 1) {

@@ -13,8 +13,8 @@ namespace sim {
 
 double UploadSummary::Percentile(double p) const {
   if (latencies.empty()) return 0.0;
-  const auto index = static_cast<std::size_t>(std::min<double>(static_cast<double>(latencies.size() - 1),
-                                                               p / 100.0 * static_cast<double>(latencies.size())));
+  const auto index = static_cast<std::size_t>(std::min<double>(
+      static_cast<double>(latencies.size() - 1), p / 100.0 * static_cast<double>(latencies.size())));
   return latencies[index];
 }
 
@@ -23,24 +23,26 @@ std::string UploadSummary::Summary() const {
   std::snprintf(line, sizeof line,
                 "%d runs: %d uploaded, %d already present, %d failed, %d retried; %llu events in %.2f s "
                 "(%.1f runs/s, %.0f events/s); latency p50 %.1f ms, p99 %.1f ms%s%s",
-                runs, uploaded, already_present, failed, retried, static_cast<unsigned long long>(events), seconds,
-                seconds > 0 ? runs / seconds : 0.0, seconds > 0 ? static_cast<double>(events) / seconds : 0.0,
-                1000 * Percentile(50), 1000 * Percentile(99), first_error.empty() ? "" : "; first error: ",
-                first_error.c_str());
+                runs, uploaded, already_present, failed, retried, static_cast<unsigned long long>(events),
+                seconds, seconds > 0 ? runs / seconds : 0.0,
+                seconds > 0 ? static_cast<double>(events) / seconds : 0.0, 1000 * Percentile(50),
+                1000 * Percentile(99), first_error.empty() ? "" : "; first error: ", first_error.c_str());
   return line;
 }
 
 std::string UploadSummary::ToJson() const {
   char line[512];
-  std::snprintf(line, sizeof line,
-                "{\"runs\":%d,\"uploaded\":%d,\"already_present\":%d,\"failed\":%d,\"retried\":%d,\"events\":%llu,"
-                "\"bytes\":%llu,\"seconds\":%.3f,\"p50_ms\":%.2f,\"p99_ms\":%.2f}",
-                runs, uploaded, already_present, failed, retried, static_cast<unsigned long long>(events),
-                static_cast<unsigned long long>(bytes), seconds, 1000 * Percentile(50), 1000 * Percentile(99));
+  std::snprintf(
+      line, sizeof line,
+      "{\"runs\":%d,\"uploaded\":%d,\"already_present\":%d,\"failed\":%d,\"retried\":%d,\"events\":%llu,"
+      "\"bytes\":%llu,\"seconds\":%.3f,\"p50_ms\":%.2f,\"p99_ms\":%.2f}",
+      runs, uploaded, already_present, failed, retried, static_cast<unsigned long long>(events),
+      static_cast<unsigned long long>(bytes), seconds, 1000 * Percentile(50), 1000 * Percentile(99));
   return line;
 }
 
-UploadSummary UploadFiles(const std::vector<std::filesystem::path>& paths, const UploadFilesOptions& options) {
+UploadSummary UploadFiles(const std::vector<std::filesystem::path>& paths,
+                          const UploadFilesOptions& options) {
   UploadSummary summary;
   // Group by directory: fleetsim writes OUT/<robot>/<run_id>.runpb and run ids sort in run order.
   std::map<std::filesystem::path, std::vector<std::filesystem::path>> groups;

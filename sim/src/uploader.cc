@@ -15,21 +15,17 @@
 #include "fleet/v1/service.grpc.pb.h"
 
 namespace sim {
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 bool RetryableUpload(int code, const std::string& message) {
   switch (static_cast<grpc::StatusCode>(code)) {
     case grpc::StatusCode::UNAVAILABLE:
     case grpc::StatusCode::DEADLINE_EXCEEDED:
-    case grpc::StatusCode::ABORTED:
-      return true;
+    case grpc::StatusCode::ABORTED: return true;
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
       // gRPC itself refuses a message over the peer's size limit with this code; it never fits.
       return message.find("larger than max") == std::string::npos;
-    default:
-      return false;
+    default: return false;
   }
 }
 
@@ -56,10 +52,11 @@ std::optional<std::string> ReadTokenFile(const std::string& path, std::string* e
 }
 
 const char* StatusCodeName(int code) {
-  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
-                                 "UNAUTHENTICATED"};
+  static const char* kNames[] = {
+      "OK",        "CANCELLED",      "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
+      "NOT_FOUND", "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+      "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
+      "DATA_LOSS", "UNAUTHENTICATED"};
   return code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
 }
 
@@ -140,7 +137,8 @@ class Uploader::Impl {
         break;
       }
       outcome.message = std::string(StatusCodeName(status.error_code())) + ": " + status.error_message();
-      if (!RetryableUpload(status.error_code(), status.error_message()) || attempt == options_.max_attempts) break;
+      if (!RetryableUpload(status.error_code(), status.error_message()) || attempt == options_.max_attempts)
+        break;
       std::uniform_int_distribution<long> jitter(0, backoff.count() / 2);
       std::this_thread::sleep_for(backoff + std::chrono::milliseconds(jitter(random)));
       backoff = std::min(backoff * 2, std::chrono::milliseconds(10000));
@@ -186,7 +184,7 @@ class Uploader::Impl {
 
   const UploaderOptions options_;
   std::unique_ptr<fleet::v1::Ingest::Stub> stub_;
-  std::mutex mutex_;  // guards known_
+  std::mutex mutex_;                       // guards known_
   std::unordered_set<std::string> known_;  // snapshot ids the server confirmed
 };
 

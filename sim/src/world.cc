@@ -14,7 +14,10 @@
 namespace sim {
 
 Grid::Grid(int width, int height, double resolution, Vector2 origin, Cell fill)
-    : width_(width), height_(height), resolution_(resolution), origin_(std::move(origin)),
+    : width_(width),
+      height_(height),
+      resolution_(resolution),
+      origin_(std::move(origin)),
       cells_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), fill) {}
 
 std::pair<int, int> Grid::CellOf(const Vector2& point) const {
@@ -86,7 +89,9 @@ slamcore::Result<HomeClutter> ParseHomeClutter(const std::string& name) {
   return slamcore::InvalidArgument("home clutter '" + name + "': expected 'typical' or 'high'");
 }
 
-const char* HomeClutterName(HomeClutter clutter) { return clutter == HomeClutter::kHigh ? "high" : "typical"; }
+const char* HomeClutterName(HomeClutter clutter) {
+  return clutter == HomeClutter::kHigh ? "high" : "typical";
+}
 
 void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& random) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -99,9 +104,10 @@ void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& rand
     const bool rug = std::string(kind) == "rug";
     const double catch_probability = rug ? (high ? 0.05 : 1.0 / 700) : (high ? 0.15 : 1.0 / 250);
     for (int attempt = 0; attempt < 30; ++attempt) {
-      FloorFeature feature{kind, SE2(room.seed + Vector2(uniform(-1.5, 1.5), uniform(-1.5, 1.5)),
-                                     unit(random) < 0.7 ? 0.5 * std::numbers::pi * std::floor(uniform(0.0, 4.0))
-                                                        : uniform(-std::numbers::pi, std::numbers::pi)),
+      FloorFeature feature{kind,
+                           SE2(room.seed + Vector2(uniform(-1.5, 1.5), uniform(-1.5, 1.5)),
+                               unit(random) < 0.7 ? 0.5 * std::numbers::pi * std::floor(uniform(0.0, 4.0))
+                                                  : uniform(-std::numbers::pi, std::numbers::pi)),
                            0.5 * Vector2(uniform(min_x, max_x), uniform(min_y, max_y)), catch_probability};
       bool fits = true;
       const double step = world.grid.resolution();
@@ -119,12 +125,14 @@ void PlaceFloorFeatures(World& world, HomeClutter clutter, std::mt19937_64& rand
   for (const Room& room : world.rooms) {
     const bool living = room.label == "living_room" || room.label == "room";
     const bool bedroom = room.label == "bedroom";
-    const bool no_rugs = room.label == "bathroom" || room.label == "restroom" || room.label == "washing_room" ||
-                         room.label == "kitchen" || room.label == "corridor" || room.label == "balcony";
+    const bool no_rugs = room.label == "bathroom" || room.label == "restroom" ||
+                         room.label == "washing_room" || room.label == "kitchen" ||
+                         room.label == "corridor" || room.label == "balcony";
     // Low furniture first: it needs the most floor.
     if (bedroom && (high || unit(random) < 0.3)) place(room, "bed", 1.4, 1.8, 1.9, 2.1, world.low_furniture);
     if (living && (high || unit(random) < 0.3)) place(room, "sofa", 0.8, 1.0, 1.6, 2.2, world.low_furniture);
-    const int rugs = high ? (living || bedroom ? 2 : 1) : (no_rugs ? 0 : (unit(random) < (living || bedroom ? 0.5 : 0.2) ? 1 : 0));
+    const int rugs = high ? (living || bedroom ? 2 : 1)
+                          : (no_rugs ? 0 : (unit(random) < (living || bedroom ? 0.5 : 0.2) ? 1 : 0));
     for (int k = 0; k < rugs; ++k) place(room, "rug", 0.8, 2.5, 0.6, 1.8, world.rugs);
   }
 }
@@ -261,7 +269,8 @@ void PlaceLandmarks(World& world, const std::vector<std::pair<std::string, Vecto
     }
     if (!sleeping && !dining) {
       const Vector2 spot = room.seed + Vector2(offset(random), offset(random));
-      if (world.grid.AtPoint(spot) == Cell::kFree) add("chair", SE2(spot, angle(random)), false, false, static_cast<int>(r));
+      if (world.grid.AtPoint(spot) == Cell::kFree)
+        add("chair", SE2(spot, angle(random)), false, false, static_cast<int>(r));
     }
   }
   // Pictures on walls, facing into the room: unique textures, the bulk of the views.
@@ -269,18 +278,21 @@ void PlaceLandmarks(World& world, const std::vector<std::pair<std::string, Vecto
   for (int j = 1; j + 1 < world.grid.height(); ++j) {
     for (int i = 1; i + 1 < world.grid.width(); ++i) {
       if (world.grid.at(i, j) != Cell::kFree) continue;
-      const bool by_wall = world.grid.at(i + 1, j) == Cell::kOccupied || world.grid.at(i - 1, j) == Cell::kOccupied ||
-                           world.grid.at(i, j + 1) == Cell::kOccupied || world.grid.at(i, j - 1) == Cell::kOccupied;
+      const bool by_wall =
+          world.grid.at(i + 1, j) == Cell::kOccupied || world.grid.at(i - 1, j) == Cell::kOccupied ||
+          world.grid.at(i, j + 1) == Cell::kOccupied || world.grid.at(i, j - 1) == Cell::kOccupied;
       if (by_wall) wall_spots.push_back(world.grid.CentreOf(i, j));
     }
   }
   std::shuffle(wall_spots.begin(), wall_spots.end(), random);
   // About one picture per 1.5 m of wall (wall_spots counts cells along walls on both sides).
-  const std::size_t pictures = std::max<std::size_t>(4, static_cast<std::size_t>(static_cast<double>(wall_spots.size()) * world.grid.resolution() / 1.5));
+  const std::size_t pictures = std::max<std::size_t>(
+      4, static_cast<std::size_t>(static_cast<double>(wall_spots.size()) * world.grid.resolution() / 1.5));
   std::vector<Vector2> placed;
   for (const Vector2& spot : wall_spots) {
     if (placed.size() >= pictures) break;
-    if (std::any_of(placed.begin(), placed.end(), [&](const Vector2& other) { return (other - spot).norm() < 0.8; })) {
+    if (std::any_of(placed.begin(), placed.end(),
+                    [&](const Vector2& other) { return (other - spot).norm() < 0.8; })) {
       continue;
     }
     placed.push_back(spot);
@@ -293,13 +305,15 @@ SE2 PlaceDock(const World& world, std::mt19937_64& random) {
   auto spots = world.FreeSpots(0.25, 2000, random);
   for (const Vector2& spot : spots) {
     double nearest_wall = 1e9;
-    for (int k = 0; k < 8; ++k) nearest_wall = std::min(nearest_wall, world.grid.CastRay(spot, k * std::numbers::pi / 4, 1.0));
+    for (int k = 0; k < 8; ++k)
+      nearest_wall = std::min(nearest_wall, world.grid.CastRay(spot, k * std::numbers::pi / 4, 1.0));
     if (nearest_wall < 0.45) return SE2(spot, OpenDirection(world.grid, spot));
   }
   return spots.empty() ? SE2() : SE2(spots.front(), 0.0);
 }
 
-slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
+slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::uint64_t seed,
+                                      HomeClutter clutter) {
   std::ifstream input(path);
   if (!input) return slamcore::NotFound(path.string() + ": cannot open file");
   std::vector<Segment> walls, doors;
@@ -332,7 +346,8 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
       boxes.emplace_back(category, std::pair{a.cwiseMin(b), a.cwiseMax(b)});
     }
   }
-  if (walls.size() < 3) return slamcore::InvalidArgument(path.string() + ": fewer than 3 walls: not a floor plan");
+  if (walls.size() < 3)
+    return slamcore::InvalidArgument(path.string() + ": fewer than 3 walls: not a floor plan");
   const double extent = std::max(max_x - min_x, max_y - min_y);
   if (extent > 200.0) return slamcore::InvalidArgument(path.string() + ": larger than 200 m: not a home");
 
@@ -343,10 +358,12 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
   const int height = static_cast<int>(std::ceil((max_y - min_y + 2 * margin) / kResolution));
   world.grid = Grid(width, height, kResolution, Vector2(min_x - margin, min_y - margin), Cell::kUnknown);
   for (const Segment& wall : walls) Rasterise(world.grid, wall, kWallThickness, Cell::kOccupied);
-  for (const Segment& door : doors) Rasterise(world.grid, door, kWallThickness + 2 * kResolution, Cell::kUnknown);
+  for (const Segment& door : doors)
+    Rasterise(world.grid, door, kWallThickness + 2 * kResolution, Cell::kUnknown);
 
-  static const std::set<std::string> kRoomLabels = {"bedroom", "kitchen", "living_room", "bathroom", "corridor",
-                                                    "restroom", "washing_room", "entrance", "balcony", "room"};
+  static const std::set<std::string> kRoomLabels = {"bedroom",  "kitchen",  "living_room",  "bathroom",
+                                                    "corridor", "restroom", "washing_room", "entrance",
+                                                    "balcony",  "room"};
   std::vector<std::pair<std::string, Vector2>> fixtures;
   for (const auto& [category, box] : boxes) {
     const Vector2 centre = 0.5 * (box.first + box.second);
@@ -355,7 +372,8 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
     } else if (category != "special" && category != "PS" && category != "point" && category != "stairs") {
       // Fixtures (toilet, bathtub, washing basin, cooking counter, closet) block the robot.
       for (double x = box.first.x(); x <= box.second.x(); x += 0.5 * kResolution) {
-        Rasterise(world.grid, {Vector2(x, box.first.y()), Vector2(x, box.second.y())}, kResolution, Cell::kOccupied);
+        Rasterise(world.grid, {Vector2(x, box.first.y()), Vector2(x, box.second.y())}, kResolution,
+                  Cell::kOccupied);
       }
       fixtures.emplace_back(category, centre);
     }
@@ -364,7 +382,8 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
   for (const Room& room : world.rooms) FloodFree(world.grid, room.seed);
   // Balconies are outside; robots stay in: everything still unknown stays unknown.
   std::erase_if(world.rooms, [&](const Room& room) { return world.grid.AtPoint(room.seed) != Cell::kFree; });
-  if (world.rooms.empty()) return slamcore::InvalidArgument(path.string() + ": no room label lies inside the walls");
+  if (world.rooms.empty())
+    return slamcore::InvalidArgument(path.string() + ": no room label lies inside the walls");
   // Fixture landmarks sit in front of the fixture, on the free side.
   for (auto& [kind, centre] : fixtures) {
     const double direction = OpenDirection(world.grid, centre);
@@ -379,7 +398,8 @@ slamcore::Result<World> LoadFloorPlan(const std::filesystem::path& path, std::ui
   return world;
 }
 
-slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
+slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std::uint64_t seed,
+                                         HomeClutter clutter) {
   ASSIGN_OR_RETURN(const auto map, slamcore::ReadMapServerYaml(path.string()));
   const slamcore::OccupancyGrid& source = map;
   World world;
@@ -389,9 +409,10 @@ slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std:
   for (int row = 0; row < source.height; ++row) {
     for (int col = 0; col < source.width; ++col) {
       const auto value = static_cast<slamcore::CellState>(source.at(col, row));
-      world.grid.set(col, row, value == slamcore::CellState::kFree       ? Cell::kFree
-                               : value == slamcore::CellState::kOccupied ? Cell::kOccupied
-                                                                         : Cell::kUnknown);
+      world.grid.set(col, row,
+                     value == slamcore::CellState::kFree       ? Cell::kFree
+                     : value == slamcore::CellState::kOccupied ? Cell::kOccupied
+                                                               : Cell::kUnknown);
     }
   }
   // Rooms: well-separated free spots, farthest-point sampled (maps carry no room labels).
@@ -399,20 +420,23 @@ slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std:
   const std::vector<Vector2> spots = world.FreeSpots(0.3, 5000, random);
   if (spots.empty()) return slamcore::InvalidArgument(path.string() + ": no free space a robot fits in");
   std::vector<Vector2> seeds{spots.front()};
-  const double area = static_cast<double>(spots.size()) * 9 * world.grid.resolution() * world.grid.resolution();
+  const double area =
+      static_cast<double>(spots.size()) * 9 * world.grid.resolution() * world.grid.resolution();
   const std::size_t room_count = std::clamp<std::size_t>(static_cast<std::size_t>(area / 12.0), 2, 10);
   while (seeds.size() < room_count) {
-    const auto farthest = std::max_element(spots.begin(), spots.end(), [&](const Vector2& a, const Vector2& b) {
-      auto nearest = [&](const Vector2& p) {
-        double d = 1e18;
-        for (const Vector2& s : seeds) d = std::min(d, (s - p).norm());
-        return d;
-      };
-      return nearest(a) < nearest(b);
-    });
+    const auto farthest =
+        std::max_element(spots.begin(), spots.end(), [&](const Vector2& a, const Vector2& b) {
+          auto nearest = [&](const Vector2& p) {
+            double d = 1e18;
+            for (const Vector2& s : seeds) d = std::min(d, (s - p).norm());
+            return d;
+          };
+          return nearest(a) < nearest(b);
+        });
     seeds.push_back(*farthest);
   }
-  for (std::size_t r = 0; r < seeds.size(); ++r) world.rooms.push_back({r == 0 ? "living_room" : (r % 3 == 1 ? "bedroom" : "room"), seeds[r]});
+  for (std::size_t r = 0; r < seeds.size(); ++r)
+    world.rooms.push_back({r == 0 ? "living_room" : (r % 3 == 1 ? "bedroom" : "room"), seeds[r]});
   PlaceLandmarks(world, {}, random);
   world.dock = PlaceDock(world, random);
   PlaceFloorFeatures(world, clutter, random);
@@ -421,11 +445,13 @@ slamcore::Result<World> LoadOccupancyMap(const std::filesystem::path& path, std:
 
 }  // namespace
 
-slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed, HomeClutter clutter) {
+slamcore::Result<World> LoadWorld(const std::filesystem::path& path, std::uint64_t seed,
+                                  HomeClutter clutter) {
   const std::string extension = path.extension().string();
   if (extension == ".txt") return LoadFloorPlan(path, seed, clutter);
   if (extension == ".yaml" || extension == ".yml") return LoadOccupancyMap(path, seed, clutter);
-  return slamcore::InvalidArgument(path.string() + ": not a home file (expected a floor plan .txt or a map_server .yaml)");
+  return slamcore::InvalidArgument(path.string() +
+                                   ": not a home file (expected a floor plan .txt or a map_server .yaml)");
 }
 
 slamcore::Result<std::vector<std::filesystem::path>> ListWorlds(const std::filesystem::path& directory) {
@@ -441,7 +467,8 @@ slamcore::Result<std::vector<std::filesystem::path>> ListWorlds(const std::files
     if (extension == ".txt" || extension == ".yaml" || extension == ".yml") worlds.push_back(entry.path());
   }
   std::sort(worlds.begin(), worlds.end());
-  if (worlds.empty()) return slamcore::NotFound(directory.string() + ": no floor plan (.txt) or map (.yaml) in it");
+  if (worlds.empty())
+    return slamcore::NotFound(directory.string() + ": no floor plan (.txt) or map (.yaml) in it");
   return worlds;
 }
 

@@ -195,7 +195,8 @@ TEST(StuckTest, PatchesAtStuckNodesAreTheTruePlaceScanAtTheFalsePoses) {
   const std::vector<Node> episode = FirstEpisode(NodesOf(outcome->run));
   ASSERT_GE(episode.size(), 6u);
   // What the lidar sees at the true place, cell for cell, in the robot's frame.
-  const slamcore::LocalMapEvent scan = ScanAt(world.grid, episode.front().truth, robot.sensor(), params.robot_radius, 0.0);
+  const slamcore::LocalMapEvent scan =
+      ScanAt(world.grid, episode.front().truth, robot.sensor(), params.robot_radius, 0.0);
   const std::string expected(scan.cells.begin(), scan.cells.end());
   auto differing = [&](const std::string& cells) {
     if (cells.size() != expected.size()) return static_cast<long>(std::max(cells.size(), expected.size()));
@@ -230,7 +231,8 @@ TEST(StuckTest, StuckNodesWithoutAPatchLabelNothingAndFailNothing) {
     const SE2 pose(1.0 + id, 1.5, 0.0);
     ASSERT_THAT(child.graph.AddNode({.id = id, .pose = pose}), IsOk());
     if (id > 0) {
-      ASSERT_THAT(child.graph.AddEdge(slamcore::Edge{.from = id - 1, .to = id, .measurement = SE2(1, 0, 0)}), IsOk());
+      ASSERT_THAT(child.graph.AddEdge(slamcore::Edge{.from = id - 1, .to = id, .measurement = SE2(1, 0, 0)}),
+                  IsOk());
     }
     if (id == 0) {
       ASSERT_THAT(parent.graph.AddNode({.id = id, .pose = pose}), IsOk());

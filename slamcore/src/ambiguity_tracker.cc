@@ -10,8 +10,9 @@ namespace {
 /// observations become rejected only when the hypothesis is dropped).
 template <typename Deque, typename Stamped>
 void InsertSorted(Deque& deque, const Stamped& entry) {
-  const auto position = std::upper_bound(deque.begin(), deque.end(), entry.odometer,
-                                         [](double odometer, const Stamped& e) { return odometer < e.odometer; });
+  const auto position =
+      std::upper_bound(deque.begin(), deque.end(), entry.odometer,
+                       [](double odometer, const Stamped& e) { return odometer < e.odometer; });
   deque.insert(position, entry);
 }
 
@@ -22,7 +23,9 @@ void AmbiguityTracker::AddRejected(ViewId view, double odometer) {
   ++rejections_by_view_[view];
 }
 
-void AmbiguityTracker::AddAccepted(ViewId view, double odometer) { InsertSorted(accepted_, Stamped{view, odometer}); }
+void AmbiguityTracker::AddAccepted(ViewId view, double odometer) {
+  InsertSorted(accepted_, Stamped{view, odometer});
+}
 
 void AmbiguityTracker::RemoveRejected(ViewId view, double odometer) {
   const auto it = std::find_if(rejected_.begin(), rejected_.end(),
@@ -39,7 +42,8 @@ void AmbiguityTracker::Forget(double odometer) {
     if (--count->second == 0) rejections_by_view_.erase(count);
     rejected_.pop_front();
   }
-  while (!accepted_.empty() && odometer - accepted_.front().odometer > window_distance_) accepted_.pop_front();
+  while (!accepted_.empty() && odometer - accepted_.front().odometer > window_distance_)
+    accepted_.pop_front();
 }
 
 int AmbiguityTracker::RejectionsInWindow(ViewId view) const {
@@ -52,7 +56,8 @@ std::vector<ViewId> AmbiguityTracker::FindAmbiguous(const std::function<std::siz
   // The oldest view with an accepted observation in the window is the most trusting witness: any
   // candidate created after it has a trusted view.
   std::size_t oldest_accepted = std::numeric_limits<std::size_t>::max();
-  for (const Stamped& entry : accepted_) oldest_accepted = std::min(oldest_accepted, creation_order(entry.view));
+  for (const Stamped& entry : accepted_)
+    oldest_accepted = std::min(oldest_accepted, creation_order(entry.view));
 
   std::vector<ViewId> ambiguous;
   for (const auto& [view, count] : rejections_by_view_) {

@@ -29,7 +29,8 @@ MapperStatistics ComputeStatistics(const std::vector<Decision>& decisions) {
       case DecisionKind::kRejected:
         statistics.recovery_rejected += recovery;
         statistics.merge_rejected += merge;
-        statistics.merge_conditional_then_rejected += merge && conditionally_accepted.contains(decision.hypothesis);
+        statistics.merge_conditional_then_rejected +=
+            merge && conditionally_accepted.contains(decision.hypothesis);
         break;
       case DecisionKind::kExpired:
         statistics.recovery_expired += recovery;

@@ -20,8 +20,8 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
     }
   }
 
-  std::map<NodeId, const Edge*> odometry_into;              // node k → edge k−1 → k
-  std::multimap<NodeId, const Edge*> observations_at;       // robot node → loop closures, file order
+  std::map<NodeId, const Edge*> odometry_into;         // node k → edge k−1 → k
+  std::multimap<NodeId, const Edge*> observations_at;  // robot node → loop closures, file order
   for (const Edge& edge : graph.edges()) {
     if (edge.to == edge.from + 1 && !odometry_into.contains(edge.to)) {
       odometry_into.emplace(edge.to, &edge);
@@ -38,13 +38,14 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
     if (k == 0 || odometry == odometry_into.end()) {
       if (k > 0) run.events.push_back(KidnapEvent{.time = time, .cause = KidnapEvent::Cause::kKidnap});
       // A new component starts at an identity increment from nowhere: the Mapper places its first node.
-      run.events.push_back(OdometryEvent{.time = time, .increment = SE2::Identity(),
-                                         .covariance = Matrix3::Identity() * 1e-6});
+      run.events.push_back(OdometryEvent{
+          .time = time, .increment = SE2::Identity(), .covariance = Matrix3::Identity() * 1e-6});
     } else {
       const Edge& edge = *odometry->second;
-      run.events.push_back(OdometryEvent{.time = time, .increment = edge.measurement,
-                                         .covariance = LeftCovarianceFromEdgeInformation(edge.measurement,
-                                                                                         edge.information)});
+      run.events.push_back(
+          OdometryEvent{.time = time,
+                        .increment = edge.measurement,
+                        .covariance = LeftCovarianceFromEdgeInformation(edge.measurement, edge.information)});
     }
     run.events.push_back(ViewCreatedEvent{.time = time, .view = id});
     const auto [begin, end] = observations_at.equal_range(id);
@@ -54,10 +55,13 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
       // inverse's left perturbations are the measurement's right ones: (z·exp(e))⁻¹ = exp(−e)·z⁻¹.
       const bool from_robot = edge.from == id;
       const SE2 z = from_robot ? edge.measurement : edge.measurement.inverse();
-      const Matrix3 covariance = from_robot ? LeftCovarianceFromEdgeInformation(edge.measurement, edge.information)
-                                            : LeftCovarianceFromEdgeInformation(SE2::Identity(), edge.information);
-      run.events.push_back(ViewObservedEvent{.time = time, .view = from_robot ? edge.to : edge.from,
-                                             .robot_T_view = z, .covariance = covariance});
+      const Matrix3 covariance = from_robot
+                                     ? LeftCovarianceFromEdgeInformation(edge.measurement, edge.information)
+                                     : LeftCovarianceFromEdgeInformation(SE2::Identity(), edge.information);
+      run.events.push_back(ViewObservedEvent{.time = time,
+                                             .view = from_robot ? edge.to : edge.from,
+                                             .robot_T_view = z,
+                                             .covariance = covariance});
       run.observation_sources.emplace_back(edge.from, edge.to);
     }
   }

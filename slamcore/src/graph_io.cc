@@ -20,7 +20,8 @@ std::vector<std::string_view> SplitFields(std::string_view line) {
     const std::size_t start = line.find_first_not_of(" \t\r", position);
     if (start == std::string_view::npos) break;
     const std::size_t end = line.find_first_of(" \t\r", start);
-    fields.push_back(line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start));
+    fields.push_back(
+        line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start));
     position = end == std::string_view::npos ? line.size() : end;
   }
   return fields;
@@ -34,8 +35,9 @@ class LineParser {
 
   Status ExpectCount(std::size_t count) const {
     if (fields_.size() != count) {
-      return InvalidArgument(location_ + ": " + std::string(fields_[0]) + " needs " + std::to_string(count - 1) +
-                             " fields, found " + std::to_string(fields_.size() - 1));
+      return InvalidArgument(location_ + ": " + std::string(fields_[0]) + " needs " +
+                             std::to_string(count - 1) + " fields, found " +
+                             std::to_string(fields_.size() - 1));
     }
     return Status::Ok();
   }
@@ -100,7 +102,8 @@ void InitialiseBySpanningTree(const std::map<NodeId, std::size_t>& ids, const st
   }
   for (const auto& [root, unused] : ids) {
     if (poses->contains(root)) continue;
-    std::deque<Step> queue{Step{root, root, SE2::Identity()}};  // each disconnected piece starts at the origin
+    std::deque<Step> queue{
+        Step{root, root, SE2::Identity()}};  // each disconnected piece starts at the origin
     while (!queue.empty()) {
       const Step step = queue.front();
       queue.pop_front();
@@ -171,13 +174,16 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
       RETURN_IF_ERROR(parser.Id(1, &edge.from));
       RETURN_IF_ERROR(parser.Id(2, &edge.to));
       RETURN_IF_ERROR(parser.Numbers(3, 9, values));
-      if (edge.from == edge.to) return InvalidArgument(location + ": edge joins vertex " + std::to_string(edge.from) + " to itself");
+      if (edge.from == edge.to)
+        return InvalidArgument(location + ": edge joins vertex " + std::to_string(edge.from) + " to itself");
       edge.measurement = SE2(values[0], values[1], values[2]);
       Matrix3& info = edge.information;
       if (line_format == GraphFormat::kG2o) {  // I11 I12 I13 I22 I23 I33
-        info << values[3], values[4], values[5], values[4], values[6], values[7], values[5], values[7], values[8];
+        info << values[3], values[4], values[5], values[4], values[6], values[7], values[5], values[7],
+            values[8];
       } else {  // I11 I12 I22 I33 I13 I23
-        info << values[3], values[4], values[7], values[4], values[5], values[8], values[7], values[8], values[6];
+        info << values[3], values[4], values[7], values[4], values[5], values[8], values[7], values[8],
+            values[6];
       }
       if (const Status status = CheckPositiveDefinite(info, "information"); !status.ok()) {
         return InvalidArgument(location + ": " + status.message());
@@ -194,7 +200,8 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
   for (const ParsedEdge& parsed : edges) {
     for (const NodeId id : {parsed.edge.from, parsed.edge.to}) {
       if (!implicit_vertices && !vertex_poses.contains(id)) {
-        return NotFound(parsed.location + ": edge refers to vertex " + std::to_string(id) + ", which is not declared");
+        return NotFound(parsed.location + ": edge refers to vertex " + std::to_string(id) +
+                        ", which is not declared");
       }
       ids.emplace(id, 0);
     }
@@ -209,7 +216,8 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
     RETURN_IF_ERROR(graph.AddNode(node));
   }
   for (const auto& [id, location] : fixes) {
-    if (!graph.HasNode(id)) return NotFound(location + ": FIX of vertex " + std::to_string(id) + ", which is not declared");
+    if (!graph.HasNode(id))
+      return NotFound(location + ": FIX of vertex " + std::to_string(id) + ", which is not declared");
     graph.mutable_node(id).fixed = true;
   }
   for (const ParsedEdge& parsed : edges) {
@@ -239,13 +247,13 @@ void WritePoseGraph(const PoseGraph& graph, std::ostream& output, GraphFormat fo
     if (g2o) {
       std::snprintf(buffer, sizeof buffer,
                     "EDGE_SE2 %lld %lld %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n",
-                    static_cast<long long>(edge.from), static_cast<long long>(edge.to), z.x(), z.y(), z.theta(),
-                    i(0, 0), i(0, 1), i(0, 2), i(1, 1), i(1, 2), i(2, 2));
+                    static_cast<long long>(edge.from), static_cast<long long>(edge.to), z.x(), z.y(),
+                    z.theta(), i(0, 0), i(0, 1), i(0, 2), i(1, 1), i(1, 2), i(2, 2));
     } else {
       std::snprintf(buffer, sizeof buffer,
                     "EDGE2 %lld %lld %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n",
-                    static_cast<long long>(edge.from), static_cast<long long>(edge.to), z.x(), z.y(), z.theta(),
-                    i(0, 0), i(0, 1), i(1, 1), i(2, 2), i(0, 2), i(1, 2));
+                    static_cast<long long>(edge.from), static_cast<long long>(edge.to), z.x(), z.y(),
+                    z.theta(), i(0, 0), i(0, 1), i(1, 1), i(2, 2), i(0, 2), i(1, 2));
     }
     output << buffer;
   }
@@ -256,7 +264,8 @@ void WritePoseGraph(const PoseGraph& graph, std::ostream& output, GraphFormat fo
   }
 }
 
-Status WriteFileReplacing(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
+Status WriteFileReplacing(const std::filesystem::path& path,
+                          const std::function<void(std::ostream&)>& write) {
   // Write to a temporary file and rename, so a failed write never leaves a half-written file behind.
   const std::filesystem::path temporary = path.string() + ".tmp";
   {

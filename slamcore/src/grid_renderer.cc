@@ -22,14 +22,17 @@ std::array<Vector2, 4> PatchCorners(const SE2& node_pose, const LocalMapEvent& p
           world_T_patch * Vector2(w, h)};
 }
 
-bool SamePose(const SE2& a, const SE2& b) { return a.x() == b.x() && a.y() == b.y() && a.theta() == b.theta(); }
+bool SamePose(const SE2& a, const SE2& b) {
+  return a.x() == b.x() && a.y() == b.y() && a.theta() == b.theta();
+}
 
 }  // namespace
 
 Status GlobalGridRenderer::ValidatePatch(NodeId node, const LocalMapEvent& patch) const {
   const std::string where = "local map of node " + std::to_string(node);
   if (patch.width <= 0 || patch.height <= 0 || patch.width > kMaxGridSide || patch.height > kMaxGridSide) {
-    return InvalidArgument(where + ": bad size " + std::to_string(patch.width) + " x " + std::to_string(patch.height));
+    return InvalidArgument(where + ": bad size " + std::to_string(patch.width) + " x " +
+                           std::to_string(patch.height));
   }
   if (patch.cells.size() != static_cast<std::size_t>(patch.width) * patch.height) {
     return InvalidArgument(where + ": cells do not match width x height");
@@ -47,7 +50,8 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
     if (!map.graph.HasNode(node)) continue;  // a patch of a removed node is not part of the map
     RETURN_IF_ERROR(ValidatePatch(node, patch));
     for (const Vector2& corner : PatchCorners(map.graph.node(node).pose, patch)) {
-      if (!corner.allFinite()) return InvalidArgument("node " + std::to_string(node) + ": pose is not finite");
+      if (!corner.allFinite())
+        return InvalidArgument("node " + std::to_string(node) + ": pose is not finite");
       min_x = std::min(min_x, corner.x());
       min_y = std::min(min_y, corner.y());
       max_x = std::max(max_x, corner.x());
@@ -64,9 +68,8 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
     return InvalidArgument("renderer: the map spans an absurd area (" + std::to_string(width) + " x " +
                            std::to_string(height) + " cells)");
   }
-  ASSIGN_OR_RETURN(auto grid,
-                   OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height), resolution_, origin_x,
-                                    origin_y));
+  ASSIGN_OR_RETURN(auto grid, OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height),
+                                                    resolution_, origin_x, origin_y));
   grid_ = std::move(grid);
   free_votes_.assign(grid_.cells.size(), 0);
   occupied_votes_.assign(grid_.cells.size(), 0);
@@ -121,7 +124,8 @@ Status GlobalGridRenderer::Update(const Map& map, int* nodes_rerendered) {
   return Status::Ok();
 }
 
-bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch, Contribution* contribution) const {
+bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch,
+                              Contribution* contribution) const {
   contribution->pose = node_pose;
   contribution->node_T_origin = patch.node_T_origin;
   contribution->patch_width = patch.width;
@@ -143,14 +147,16 @@ bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch, 
   const double inverse_patch_resolution = 1.0 / patch.resolution;
   for (int row = row0; row < row1; ++row) {
     for (int col = col0; col < col1; ++col) {
-      const Vector2 centre(grid_.origin_x + (col + 0.5) * resolution_, grid_.origin_y + (row + 0.5) * resolution_);
+      const Vector2 centre(grid_.origin_x + (col + 0.5) * resolution_,
+                           grid_.origin_y + (row + 0.5) * resolution_);
       const Vector2 local = patch_T_world * centre;
       const int patch_col = static_cast<int>(std::floor(local.x() * inverse_patch_resolution));
       const int patch_row = static_cast<int>(std::floor(local.y() * inverse_patch_resolution));
       if (patch_col < 0 || patch_row < 0 || patch_col >= patch.width || patch_row >= patch.height) continue;
       const std::int8_t value = patch.cells[static_cast<std::size_t>(patch_row) * patch.width + patch_col];
       if (value < 0) continue;  // unknown cells do not vote
-      contribution->cells.push_back(static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid_.width + col));
+      contribution->cells.push_back(
+          static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid_.width + col));
       contribution->occupied.push_back(value >= 50);
     }
   }

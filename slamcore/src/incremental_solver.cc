@@ -66,7 +66,8 @@ void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
   if (known_edges_ > 0) last_edge_ = edges.back();
 }
 
-IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start) {
+IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds,
+                                             Start start) {
   return Run(graph, seeds, start, false);
 }
 
@@ -101,8 +102,10 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
       largest_seed_chi2 = std::max(largest_seed_chi2, EdgeChi2(graph, graph.edges()[e]));
     }
   }
-  const bool large = whole || start == Start::kWhole || largest_seed_chi2 > options_.whole_component_edge_chi2;
-  Grow(graph, region, region, large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
+  const bool large =
+      whole || start == Start::kWhole || largest_seed_chi2 > options_.whole_component_edge_chi2;
+  Grow(graph, region, region,
+       large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
 
   for (;;) {
     // Held nodes next to the region anchor it; without any the region is a whole free component.

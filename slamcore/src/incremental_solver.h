@@ -71,7 +71,8 @@ class IncrementalSolver {
 
   /// Moves the poses of `graph` to the optimum after the edges at `seeds` changed (see the top of this
   /// file). Seeds that are not in the graph are ignored.
-  IncrementalSummary Update(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start = Start::kLocalUnlessFar);
+  IncrementalSummary Update(PoseGraph& graph, const std::vector<NodeId>& seeds,
+                            Start start = Start::kLocalUnlessFar);
   /// Solves the whole components of `seeds` to convergence (relative χ² decrease below 1e-10): the end of
   /// a run, so the child map is at its optimum and not only within the wildfire tolerance.
   IncrementalSummary SolveComponents(PoseGraph& graph, const std::vector<NodeId>& seeds);
@@ -83,7 +84,8 @@ class IncrementalSolver {
   void Grow(const PoseGraph& graph, std::vector<std::size_t>& region, const std::vector<std::size_t>& from,
             std::size_t count);
   /// Gauss–Newton over `region` (graph indices), the rest held; returns the iterations taken.
-  int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge, bool to_convergence);
+  int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge,
+                  bool to_convergence);
   /// Held neighbours of the region whose lone step exceeds the tolerance.
   std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
   /// A held node's Gauss–Newton step over its own edges, the region's poses as they are or as they were.
@@ -92,7 +94,7 @@ class IncrementalSolver {
   IncrementalSolverOptions options_;
   std::vector<std::vector<std::uint32_t>> incident_;  // node index → incident edge indices
   std::size_t known_edges_ = 0;
-  Edge last_edge_;  // graph.edges()[known_edges_ − 1] when known_edges_ > 0
+  Edge last_edge_;               // graph.edges()[known_edges_ − 1] when known_edges_ > 0
   std::vector<char> in_region_;  // by node index; all 0 between updates
   std::vector<int> column_;      // by node index: the region's columns during a solve, −1 otherwise
   std::vector<SE2> original_;    // by node index: a region node's pose when the update admitted it

@@ -38,12 +38,15 @@ Status InitializeLinear(PoseGraph& graph, std::optional<ComponentId> component) 
   }
   const std::optional<ComponentId> selected_component =
       component ? std::optional(graph.ComponentOf(*component)) : std::nullopt;
-  auto selected = [&](NodeId id) { return !selected_component || graph.ComponentOf(id) == *selected_component; };
+  auto selected = [&](NodeId id) {
+    return !selected_component || graph.ComponentOf(id) == *selected_component;
+  };
 
   // Anchors (one per component) keep their pose; every other selected node is a variable.
   std::unordered_map<ComponentId, std::size_t> anchor_of;
   for (const Node& node : graph.nodes()) {
-    if (node.fixed && selected(node.id)) anchor_of.try_emplace(graph.ComponentOf(node.id), graph.IndexOf(node.id));
+    if (node.fixed && selected(node.id))
+      anchor_of.try_emplace(graph.ComponentOf(node.id), graph.IndexOf(node.id));
   }
   for (const Node& node : graph.nodes()) {
     if (selected(node.id)) anchor_of.try_emplace(graph.ComponentOf(node.id), graph.IndexOf(node.id));
@@ -118,7 +121,8 @@ Status InitializeLinear(PoseGraph& graph, std::optional<ComponentId> component) 
   }
   ASSIGN_OR_RETURN(const auto headings, SolveNormalEquations(triplets, rhs));
   std::vector<double> heading(n);
-  for (std::size_t i = 0; i < n; ++i) heading[i] = variable[i] >= 0 ? (headings)[variable[i]] : tree_heading[i];
+  for (std::size_t i = 0; i < n; ++i)
+    heading[i] = variable[i] >= 0 ? (headings)[variable[i]] : tree_heading[i];
 
   // 3. Positions with headings fixed: e = M (t_j − t_i) − c, M = (R_i R_z)ᵀ, c = R_zᵀ t_z, weight Ω_tt.
   triplets.clear();

@@ -11,12 +11,13 @@ namespace {
 
 /// For kFirst: for every vertex index v, the robot end (the larger vertex) of the first true loop closure,
 /// in replay order, whose other end lies within `radius` vertices of v; INT64_MAX where there is none.
-std::vector<long> FirstClosureNear(const std::vector<const Edge*>& true_closures, const std::map<NodeId, long>& index,
-                                   std::size_t vertices, long radius) {
+std::vector<long> FirstClosureNear(const std::vector<const Edge*>& true_closures,
+                                   const std::map<NodeId, long>& index, std::size_t vertices, long radius) {
   std::vector<long> first(vertices, std::numeric_limits<long>::max());
   for (const Edge* edge : true_closures) {
     const long a = index.at(std::min(edge->from, edge->to)), b = index.at(std::max(edge->from, edge->to));
-    for (long v = std::max(0L, a - radius); v <= std::min<long>(static_cast<long>(vertices) - 1, a + radius); ++v) {
+    for (long v = std::max(0L, a - radius); v <= std::min<long>(static_cast<long>(vertices) - 1, a + radius);
+         ++v) {
       first[static_cast<std::size_t>(v)] = std::min(first[static_cast<std::size_t>(v)], b);
     }
   }
@@ -41,13 +42,15 @@ int CountLoopClosures(const PoseGraph& graph) {
 Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const OutlierOptions& options) {
   if (options.count < 0 || options.total_edges < 0 || options.group_size < 1 || options.local_window < 2 ||
       !(options.single_fraction >= 0.0 && options.single_fraction <= 1.0)) {
-    return InvalidArgument("outlier options: count >= 0, total_edges >= 0, group_size >= 1, local_window >= 2 and "
-                           "single_fraction in [0, 1] are required");
+    return InvalidArgument(
+        "outlier options: count >= 0, total_edges >= 0, group_size >= 1, local_window >= 2 and "
+        "single_fraction in [0, 1] are required");
   }
   const int largest_group = std::max(options.group_size, options.max_group_size);
   if (largest_group > 1000) return InvalidArgument("outlier options: groups of at most 1000 pairs");
-  const auto first_loop_closure = std::find_if(graph.edges().begin(), graph.edges().end(),
-                                               [](const Edge& edge) { return edge.kind == EdgeKind::kObservation; });
+  const auto first_loop_closure =
+      std::find_if(graph.edges().begin(), graph.edges().end(),
+                   [](const Edge& edge) { return edge.kind == EdgeKind::kObservation; });
   if (first_loop_closure == graph.edges().end()) {
     return InvalidArgument("the graph has no loop closure to copy the outliers' information from");
   }
@@ -63,7 +66,8 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::mt19937_64 random(options.seed);
   std::uniform_int_distribution<long> any_vertex(0, last);
   std::normal_distribution<double> translation(0.0, 0.3), rotation(0.0, 10.0 * std::numbers::pi / 180.0);
-  std::uniform_int_distribution<int> group_sizes(options.group_size, std::max(options.group_size, options.max_group_size));
+  std::uniform_int_distribution<int> group_sizes(options.group_size,
+                                                 std::max(options.group_size, options.max_group_size));
   std::bernoulli_distribution single(options.single_fraction);
   std::vector<const Edge*> true_closures;  // for kFirst and kShifted
   for (const Edge& edge : graph.edges()) {
@@ -71,9 +75,10 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   }
   std::map<NodeId, long> index_of;
   for (std::size_t k = 0; k < ids.size(); ++k) index_of.emplace(ids[k], static_cast<long>(k));
-  const std::vector<long> first_closure = options.mode == OutlierOptions::Mode::kFirst
-                                              ? FirstClosureNear(true_closures, index_of, ids.size(), largest_group)
-                                              : std::vector<long>{};
+  const std::vector<long> first_closure =
+      options.mode == OutlierOptions::Mode::kFirst
+          ? FirstClosureNear(true_closures, index_of, ids.size(), largest_group)
+          : std::vector<long>{};
   if (true_closures.empty()) return InvalidArgument("the graph has no loop closure to shift");
   std::uniform_int_distribution<std::size_t> any_closure(0, true_closures.size() - 1);
   std::uniform_int_distribution<long> shift(3, 10);
@@ -91,12 +96,14 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
     }
     long v1 = any_vertex(random), v2 = v1;
     switch (options.mode) {
-      case OutlierOptions::Mode::kRandom:
-        do { v2 = any_vertex(random); } while (v2 == v1);
+      case OutlierOptions::Mode::kRandom: do { v2 = any_vertex(random);
+        } while (v2 == v1);
         break;
       case OutlierOptions::Mode::kLocal: {
         std::uniform_int_distribution<long> nearby(v1, std::min(last, v1 + options.local_window));
-        do { v2 = nearby(random); } while (v2 == v1 && v1 < last);
+        do {
+          v2 = nearby(random);
+        } while (v2 == v1 && v1 < last);
         if (v2 == v1) v2 = v1 - 2;  // v1 is the last usable vertex: look back instead
         break;
       }
@@ -112,7 +119,8 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
           }
           v1 = any_vertex(random);
         }
-        if (v2 == v1) return InvalidArgument("no room to place a wrong group before a region's first loop closure");
+        if (v2 == v1)
+          return InvalidArgument("no room to place a wrong group before a region's first loop closure");
         break;
       }
     }

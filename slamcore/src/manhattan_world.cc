@@ -19,10 +19,14 @@ Status Validate(const ManhattanOptions& options) {
     return InvalidArgument("poses must be in [2, " + std::to_string(kMaxManhattanPoses) + "], got " +
                            std::to_string(options.poses));
   }
-  if (options.block_length < 1 || options.block_length > 1000) return InvalidArgument("block_length must be in [1, 1000]");
-  if (options.world_blocks < 0 || options.world_blocks > 100000) return InvalidArgument("world_blocks must be in [0, 100000]");
-  if (!(options.sigma_xy > 0.0 && options.sigma_xy <= 10.0)) return InvalidArgument("sigma_xy must be in (0, 10]");
-  if (!(options.sigma_theta > 0.0 && options.sigma_theta <= 1.0)) return InvalidArgument("sigma_theta must be in (0, 1]");
+  if (options.block_length < 1 || options.block_length > 1000)
+    return InvalidArgument("block_length must be in [1, 1000]");
+  if (options.world_blocks < 0 || options.world_blocks > 100000)
+    return InvalidArgument("world_blocks must be in [0, 100000]");
+  if (!(options.sigma_xy > 0.0 && options.sigma_xy <= 10.0))
+    return InvalidArgument("sigma_xy must be in (0, 10]");
+  if (!(options.sigma_theta > 0.0 && options.sigma_theta <= 1.0))
+    return InvalidArgument("sigma_theta must be in (0, 1]");
   if (!(options.closure_radius >= 0.0 && options.closure_radius <= 100.0)) {
     return InvalidArgument("closure_radius must be in [0, 100]");
   }
@@ -38,7 +42,8 @@ Status Validate(const ManhattanOptions& options) {
 
 /// Lattice cell of a position, for finding earlier poses near a true position.
 std::int64_t CellKey(double x, double y, double cell) {
-  const auto cx = static_cast<std::int64_t>(std::floor(x / cell)), cy = static_cast<std::int64_t>(std::floor(y / cell));
+  const auto cx = static_cast<std::int64_t>(std::floor(x / cell)),
+             cy = static_cast<std::int64_t>(std::floor(y / cell));
   return cx * 4'000'003 + cy;
 }
 
@@ -49,16 +54,18 @@ Result<ManhattanWorld> GenerateManhattanWorld(const ManhattanOptions& options) {
   std::mt19937_64 random(options.seed);
   std::normal_distribution<double> unit_normal(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  const int blocks = options.world_blocks > 0
-                         ? options.world_blocks
-                         : std::max(2, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(options.poses)) / 3.0)));
+  const int blocks =
+      options.world_blocks > 0
+          ? options.world_blocks
+          : std::max(2, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(options.poses)) / 3.0)));
   const int side = blocks * options.block_length;  // the world is [0, side]² on the lattice
 
   Matrix3 information = Matrix3::Zero();
-  information.diagonal() << 1.0 / (options.sigma_xy * options.sigma_xy), 1.0 / (options.sigma_xy * options.sigma_xy),
-      1.0 / (options.sigma_theta * options.sigma_theta);
+  information.diagonal() << 1.0 / (options.sigma_xy * options.sigma_xy),
+      1.0 / (options.sigma_xy * options.sigma_xy), 1.0 / (options.sigma_theta * options.sigma_theta);
   const auto noisy = [&](const SE2& truth) {
-    return SE2(truth.x() + options.sigma_xy * unit_normal(random), truth.y() + options.sigma_xy * unit_normal(random),
+    return SE2(truth.x() + options.sigma_xy * unit_normal(random),
+               truth.y() + options.sigma_xy * unit_normal(random),
                truth.theta() + options.sigma_theta * unit_normal(random));
   };
 
@@ -82,7 +89,8 @@ Result<ManhattanWorld> GenerateManhattanWorld(const ManhattanOptions& options) {
         for (int t = 0; t < 4; ++t) {
           const int h = ((heading + kTurns[t]) % 4 + 4) % 4;
           const int nx = x + (h == 0) - (h == 2), ny = y + (h == 1) - (h == 3);
-          if (nx >= 0 && nx <= side && ny >= 0 && ny <= side) allowed.push_back(kTurns[t]), weights.push_back(kWeights[t]);
+          if (nx >= 0 && nx <= side && ny >= 0 && ny <= side)
+            allowed.push_back(kTurns[t]), weights.push_back(kWeights[t]);
         }
         turn = allowed[std::discrete_distribution<std::size_t>(weights.begin(), weights.end())(random)];
       }
@@ -94,7 +102,10 @@ Result<ManhattanWorld> GenerateManhattanWorld(const ManhattanOptions& options) {
       const SE2 measured = noisy(relative);
       Node node{.id = k, .pose = world.graph.node(k - 1).pose * measured};
       (void)world.graph.AddNode(node);  // fresh id
-      (void)world.graph.AddEdge(Edge{.from = k - 1, .to = k, .measurement = measured, .information = information,
+      (void)world.graph.AddEdge(Edge{.from = k - 1,
+                                     .to = k,
+                                     .measurement = measured,
+                                     .information = information,
                                      .kind = EdgeKind::kMotion});
     } else {
       (void)world.graph.AddNode(Node{.id = 0, .pose = SE2::Identity()});
@@ -110,7 +121,8 @@ Result<ManhattanWorld> GenerateManhattanWorld(const ManhattanOptions& options) {
         if (it == poses_in_cell.end()) continue;
         for (const int i : it->second) {
           if (i <= k - options.min_closure_gap &&
-              (world.truth[static_cast<std::size_t>(i)].translation() - here.translation()).norm() <= options.closure_radius) {
+              (world.truth[static_cast<std::size_t>(i)].translation() - here.translation()).norm() <=
+                  options.closure_radius) {
             candidates.push_back(i);
           }
         }
@@ -119,11 +131,15 @@ Result<ManhattanWorld> GenerateManhattanWorld(const ManhattanOptions& options) {
     if (!candidates.empty() && uniform(random) < options.closure_probability) {
       std::sort(candidates.begin(), candidates.end());  // the cells' order must not decide the draw
       std::shuffle(candidates.begin(), candidates.end(), random);
-      const std::size_t count = std::min(candidates.size(), static_cast<std::size_t>(options.max_closures_per_pose));
+      const std::size_t count =
+          std::min(candidates.size(), static_cast<std::size_t>(options.max_closures_per_pose));
       for (std::size_t c = 0; c < count; ++c) {
         const int i = candidates[c];
         const SE2 relative = world.truth[static_cast<std::size_t>(i)].inverse() * here;
-        (void)world.graph.AddEdge(Edge{.from = i, .to = k, .measurement = noisy(relative), .information = information,
+        (void)world.graph.AddEdge(Edge{.from = i,
+                                       .to = k,
+                                       .measurement = noisy(relative),
+                                       .information = information,
                                        .kind = EdgeKind::kObservation});
       }
     }

@@ -41,7 +41,8 @@ Mapper::Impl::Impl(const MapperParams& params, Map parent)
     next_node_id_ = std::max(next_node_id_, node.id + 1);
     odometer_ = std::max(odometer_, node.odometer);
   }
-  for (const View& view : map_.graph.views()) view_creation_order_.emplace(view.id, view_creation_order_.size());
+  for (const View& view : map_.graph.views())
+    view_creation_order_.emplace(view.id, view_creation_order_.size());
   first_run_node_ = next_node_id_;
 }
 
@@ -100,7 +101,8 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
     current_node_ = node.id;
     // Eq. (3) for every hypothesis, and for the robot's own relative uncertainty.
     const internal::PoseGaussian motion = internal::MotionFromIncrement(event.increment, event.covariance);
-    for (Hypothesis& hypothesis : hypotheses_) hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
+    for (Hypothesis& hypothesis : hypotheses_)
+      hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
     if (marginals_) robot_T_factorized_ = internal::PredictMotion(robot_T_factorized_, motion);
     robot_relative_covariance_ =
         internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
@@ -123,7 +125,8 @@ void Mapper::Impl::Apply(const KidnapEvent& event) {
   // Every hypothesis state robot_T_ref assumed continuous odometry; after a kidnap it means nothing.
   std::vector<std::int64_t> open;
   for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);
-  for (const std::int64_t id : open) DropHypothesis(id, DecisionKind::kRejected, "robot lost its position (" + cause + ")");
+  for (const std::int64_t id : open)
+    DropHypothesis(id, DecisionKind::kRejected, "robot lost its position (" + cause + ")");
   ambiguity_.ForgetAccepted();
   start_new_component_ = true;
   new_component_reason_ = "first node after a " + cause;
@@ -213,7 +216,8 @@ Result<std::unique_ptr<Mapper>> Mapper::Create(const MapperParams& params, Map p
   RETURN_IF_ERROR(params.Validate());
   for (const auto& [node, local_map] : parent.local_maps) {
     if (!parent.graph.HasNode(node)) {
-      return InvalidArgument("parent map: local map at node " + std::to_string(node) + ", which does not exist");
+      return InvalidArgument("parent map: local map at node " + std::to_string(node) +
+                             ", which does not exist");
     }
   }
   return std::unique_ptr<Mapper>(new Mapper(std::make_unique<Impl>(params, std::move(parent))));

@@ -67,7 +67,8 @@ std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   PoseGaussian newest_T_node = marginals_->Relative(marginals_->newest_node(), node);
   if (marginals_->redundancy() >= params_.consistency.min_redundancy_for_scaling) {
     // The map's covariance as the noise met so far says, never above what was declared.
-    newest_T_node.covariance *= std::clamp(marginals_->variance_factor(), params_.consistency.min_variance_factor, 1.0);
+    newest_T_node.covariance *=
+        std::clamp(marginals_->variance_factor(), params_.consistency.min_variance_factor, 1.0);
   }
   const Matrix3 covariance = internal::Compose(robot_T_factorized_, newest_T_node).covariance;
   return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
@@ -82,7 +83,8 @@ void Mapper::Impl::RefactorizeMarginals() {
 Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypothesis, std::string* why) {
   const ConsistencyParams& consistency = params_.consistency;
   if (!consistency.enabled) return RecoveryVerdict::kAccept;
-  const int passes = internal::CountPasses(hypothesis, consistency.pass_gap_seconds, consistency.pass_gap_distance);
+  const int passes =
+      internal::CountPasses(hypothesis, consistency.pass_gap_seconds, consistency.pass_gap_distance);
   std::ostringstream text;
   text.precision(3);
   const std::optional<PoseGaussian> prediction = MapPrediction(hypothesis.ref_node);
@@ -102,8 +104,8 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
   const int needed = consistent ? (informative ? 1 : consistency.min_passes_uninformative)
                                 : consistency.min_passes_against_map;
   text << "map test d²=" << innovation.mahalanobis2 << " (σ " << std::sqrt(largest_variance) << " m, "
-       << (consistent ? "consistent" : "inconsistent") << ", " << (informative ? "informative" : "uninformative")
-       << "), " << passes << " of " << needed << " passes";
+       << (consistent ? "consistent" : "inconsistent") << ", "
+       << (informative ? "informative" : "uninformative") << "), " << passes << " of " << needed << " passes";
   *why = text.str();
   // A hypothesis the optimised map refused waits for a new pass before it is tried again.
   if (passes < needed || passes <= hypothesis.refused_at_passes) return RecoveryVerdict::kWait;
@@ -112,7 +114,8 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
 }
 
 bool Mapper::Impl::IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_id) const {
-  return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis_id && edge.from >= first_run_node_;
+  return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis_id &&
+         edge.from >= first_run_node_;
 }
 
 std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id) const {
@@ -138,14 +141,16 @@ std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id)
   for (int k = 0; k < static_cast<int>(edges.size()); ++k) {
     const Edge& edge = *edges[static_cast<std::size_t>(k)];
     Matrix3 d_from, d_to;
-    residual.segment<3>(3 * k) =
-        EdgeError(map_.graph.node(edge.from).pose, map_.graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
+    residual.segment<3>(3 * k) = EdgeError(map_.graph.node(edge.from).pose, map_.graph.node(edge.to).pose,
+                                           edge.measurement, &d_from, &d_to);
     jacobian.block<3, 3>(3 * k, 3 * column.at(edge.from)) += d_from;
     jacobian.block<3, 3>(3 * k, 3 * column.at(edge.to)) += d_to;
     measurement_covariance.block<3, 3>(3 * k, 3 * k) = edge.information.inverse();
   }
-  const Eigen::MatrixXd residual_covariance = measurement_covariance - jacobian * joint * jacobian.transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (residual_covariance + residual_covariance.transpose()));
+  const Eigen::MatrixXd residual_covariance =
+      measurement_covariance - jacobian * joint * jacobian.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(
+      0.5 * (residual_covariance + residual_covariance.transpose()));
   // Directions nothing but W constrains have (numerically) no residual variance: not testable.
   const double floor = 1e-4 * measurement_covariance.diagonal().minCoeff();
   double chi2 = 0.0;
@@ -197,8 +202,9 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
     if (worst == hypothesis_id || round == params_.consistency.max_retractions_per_check) {
       std::ostringstream text;
       text.precision(3);
-      text << "; after optimisation " << (worst == hypothesis_id ? "its" : "the map's") << " edges' leave-one-out χ² is "
-           << worst_ratio << "× the " << 100 * params_.consistency.retraction_confidence << " % quantile";
+      text << "; after optimisation " << (worst == hypothesis_id ? "its" : "the map's")
+           << " edges' leave-one-out χ² is " << worst_ratio << "× the "
+           << 100 * params_.consistency.retraction_confidence << " % quantile";
       *note += text.str();
       refused = true;
       break;
@@ -208,9 +214,11 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
     retracted.emplace_back(worst, worst_ratio);
     OptimizeAndFactorize();
   }
-  if (refused) return false;  // the retractions go with the restored G: they were judged beside a newcomer that lost
+  if (refused)
+    return false;  // the retractions go with the restored G: they were judged beside a newcomer that lost
   LogRetractions(retracted, hypothesis_id);
-  if (!retracted.empty()) *note += "; retracted " + std::to_string(retracted.size()) + " earlier acceptance(s)";
+  if (!retracted.empty())
+    *note += "; retracted " + std::to_string(retracted.size()) + " earlier acceptance(s)";
   return true;
 }
 
@@ -218,7 +226,8 @@ std::vector<std::int64_t> Mapper::Impl::WorstFittingAccepted(int count) const {
   std::unordered_map<std::int64_t, std::pair<double, int>> fit;  // hypothesis → (Σ χ², edges)
   const std::unordered_set<std::int64_t> retractable(retractable_.begin(), retractable_.end());
   for (const Edge& edge : map_.graph.edges()) {
-    if (!edge.hypothesis || !retractable.contains(*edge.hypothesis) || !IsRetractableEdge(edge, *edge.hypothesis)) {
+    if (!edge.hypothesis || !retractable.contains(*edge.hypothesis) ||
+        !IsRetractableEdge(edge, *edge.hypothesis)) {
       continue;
     }
     auto& [sum, edges] = fit[*edge.hypothesis];
@@ -240,8 +249,8 @@ void Mapper::Impl::LogRetractions(const std::vector<std::pair<std::int64_t, doub
   for (const auto& [id, ratio] : retracted) {
     std::ostringstream reason;
     reason.precision(3);
-    reason << "contradicted by hypothesis " << challenger << ": leave-one-out χ² " << ratio
-           << "× its " << 100 * params_.consistency.retraction_confidence
+    reason << "contradicted by hypothesis " << challenger << ": leave-one-out χ² " << ratio << "× its "
+           << 100 * params_.consistency.retraction_confidence
            << " % quantile; edges removed and the map re-optimised";
     Log(DecisionKind::kRetracted, -1, id, HypothesisKind::kRecovery, reason.str());
   }
@@ -265,9 +274,9 @@ std::optional<std::int64_t> Mapper::Impl::AnchorForDirectEdge(const HypothesisOb
 void Mapper::Impl::EnforceOpenHypothesisCap() {
   const auto cap = static_cast<std::size_t>(params_.consistency.max_open_hypotheses);
   while (hypotheses_.size() > cap) {
-    const auto stalest = std::min_element(hypotheses_.begin(), hypotheses_.end(), [](const Hypothesis& a, const Hypothesis& b) {
-      return a.last_time < b.last_time;
-    });
+    const auto stalest =
+        std::min_element(hypotheses_.begin(), hypotheses_.end(),
+                         [](const Hypothesis& a, const Hypothesis& b) { return a.last_time < b.last_time; });
     DropHypothesis(stalest->id, DecisionKind::kExpired,
                    "more than " + std::to_string(cap) + " open hypotheses: the stalest goes first");
   }

@@ -54,10 +54,10 @@ void Mapper::Impl::KeepRefused(const Hypothesis& hypothesis) {
 void Mapper::Impl::MaybeCheckConsistentSet() {
   if (kept_refused_.empty()) return;  // nothing refused: the verification of each acceptance suffices
   const std::size_t judged = retractable_.size() + kept_refused_.size();
-  const double due = std::max(4.0, params_.consistency.consistent_set_growth * static_cast<double>(judged_at_last_check_));
+  const double due =
+      std::max(4.0, params_.consistency.consistent_set_growth * static_cast<double>(judged_at_last_check_));
   if (static_cast<double>(judged) >= due) CheckConsistentSet("the judged hypotheses grew");
 }
-
 
 void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   const ConsistencyParams& consistency = params_.consistency;
@@ -70,8 +70,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     std::int64_t hypothesis = -1;
     std::ptrdiff_t kept = -1;  // index in kept_refused_, or −1 for an accepted hypothesis
     std::vector<std::size_t> edges;
-    double threshold = 0.0;    // c̄²
-    double edge_scale = 1.0;   // passes / edges
+    double threshold = 0.0;   // c̄²
+    double edge_scale = 1.0;  // passes / edges
     double weight = 1.0;
   };
   PoseGraph working = map_.graph;
@@ -92,13 +92,14 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   for (std::size_t k = 0; k < kept_refused_.size(); ++k) {
     const KeptRefused& kept = kept_refused_[k];
     const bool in_component = std::all_of(kept.edges.begin(), kept.edges.end(), [&](const Edge& edge) {
-      return working.HasNode(edge.from) && working.HasNode(edge.to) && working.SameComponent(edge.from, robot) &&
-             working.SameComponent(edge.to, robot);
+      return working.HasNode(edge.from) && working.HasNode(edge.to) &&
+             working.SameComponent(edge.from, robot) && working.SameComponent(edge.to, robot);
     });
     if (!in_component) continue;
     Cluster cluster{.hypothesis = kept.hypothesis, .kept = static_cast<std::ptrdiff_t>(k)};
     for (const Edge& edge : kept.edges) {
-      if (const Result<std::size_t> index = working.AddEdge(edge); index.ok()) cluster.edges.push_back(*index);
+      if (const Result<std::size_t> index = working.AddEdge(edge); index.ok())
+        cluster.edges.push_back(*index);
     }
     clusters.push_back(std::move(cluster));
   }
@@ -170,7 +171,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
       for (std::size_t c = 0; c < clusters.size(); ++c) {
         clusters[c].weight = internal::TruncatedLeastSquaresWeight(s[c], mu);
         binary = binary && (clusters[c].weight == 0.0 || clusters[c].weight == 1.0);
-        for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].weight * clusters[c].edge_scale;
+        for (const std::size_t k : clusters[c].edges)
+          options.edge_weights[k] = clusters[c].weight * clusters[c].edge_scale;
       }
       (void)Optimize(working, options);
       s = normalised_residuals();
@@ -192,7 +194,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     std::ostringstream text;
     text.precision(3);
     text << "consistent-set check (" << trigger << "; " << clusters.size() << " hypotheses, " << rounds
-         << " GNC rounds): its edges' χ² is " << s[c] << "× the " << 100 * consistency.consistent_set_confidence
+         << " GNC rounds): its edges' χ² is " << s[c] << "× the "
+         << 100 * consistency.consistent_set_confidence
          << " % quantile at the solution of the largest consistent set";
     return text.str();
   };
@@ -213,7 +216,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     const KeptRefused& kept = kept_refused_[static_cast<std::size_t>(clusters[c].kept)];
     for (const Edge& edge : kept.edges) {
       if (map_.graph.AddEdge(edge).ok()) {
-        accepted_.push_back({.robot_node = edge.from, .view = edge.view.value_or(-1), .hypothesis = kept.hypothesis});
+        accepted_.push_back(
+            {.robot_node = edge.from, .view = edge.view.value_or(-1), .hypothesis = kept.hypothesis});
       }
     }
     retractable_.push_back(kept.hypothesis);
@@ -221,7 +225,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     Log(DecisionKind::kAccepted, -1, kept.hypothesis, HypothesisKind::kRecovery, describe(c));
   }
   std::sort(accepted_kept.rbegin(), accepted_kept.rend());
-  for (const std::size_t k : accepted_kept) kept_refused_.erase(kept_refused_.begin() + static_cast<std::ptrdiff_t>(k));
+  for (const std::size_t k : accepted_kept)
+    kept_refused_.erase(kept_refused_.begin() + static_cast<std::ptrdiff_t>(k));
   for (KeptRefused& kept : newly_refused) kept_refused_.push_back(std::move(kept));
   while (kept_refused_.size() > static_cast<std::size_t>(consistency.max_kept_refused)) {
     kept_refused_.erase(kept_refused_.begin());

@@ -109,8 +109,8 @@ class Mapper::Impl {
   void ExpireHypotheses();
   void Log(DecisionKind kind, ViewId view, const internal::Hypothesis* hypothesis, std::string reason);
   /// For a hypothesis no longer open (a retraction names one already accepted).
-  void Log(DecisionKind kind, ViewId view, std::int64_t hypothesis, std::optional<HypothesisKind> hypothesis_kind,
-           std::string reason);
+  void Log(DecisionKind kind, ViewId view, std::int64_t hypothesis,
+           std::optional<HypothesisKind> hypothesis_kind, std::string reason);
 
   // mapper_observations.cc
   void DecideObservation(const ViewObservedEvent& event);
@@ -119,7 +119,8 @@ class Mapper::Impl {
                                            NodeId ref_node) const;
   void EvaluateAcceptance(std::int64_t hypothesis_id);
   void AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict);
-  Edge MakeObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id) const;
+  Edge MakeObservationEdge(const internal::HypothesisObservation& observation,
+                           std::int64_t hypothesis_id) const;
   void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id);
   void RejectCompetitors(const internal::Hypothesis& accepted);
   /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional
@@ -132,7 +133,8 @@ class Mapper::Impl {
   void UpdateIncrementally(internal::IncrementalSolver::Start start);
   /// The incremental back-end minimises plain χ²: with a robust loss the batch one is used.
   bool UsesIncrementalBackend() const {
-    return params_.backend == MapperBackend::kIncremental && params_.optimizer.robust_loss == RobustLoss::kNone;
+    return params_.backend == MapperBackend::kIncremental &&
+           params_.optimizer.robust_loss == RobustLoss::kNone;
   }
   /// After a direct edge: a local window, or the component every full_optimization_every edges.
   void OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2, std::string* note);

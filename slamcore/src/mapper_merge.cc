@@ -53,7 +53,8 @@ void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
     overlay_.reset();  // G now holds the edges itself
     conditional_hypothesis_ = -1;
   }
-  for (const HypothesisObservation& observation : accepted.observations) AddObservationEdge(observation, accepted.id);
+  for (const HypothesisObservation& observation : accepted.observations)
+    AddObservationEdge(observation, accepted.id);
   robot_relative_covariance_ = accepted.state.covariance;
   std::string note;
   if (params_.optimize_after_accept) OptimizeComponentOf(robot, &note);
@@ -61,7 +62,8 @@ void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
   const internal::EvidenceCount count =
       internal::CountEvidence(accepted, params_.discount_ambiguous_in_merge, is_ambiguous);
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
-      std::to_string(count.observations) + " observations of " + std::to_string(count.views) + " views" + note);
+      std::to_string(count.observations) + " observations of " + std::to_string(count.views) + " views" +
+          note);
   Log(DecisionKind::kComponentsMerged, accepted.ref_view, &accepted,
       "component of node " + std::to_string(source) + " joined component of node " + std::to_string(target));
   RejectCompetitors(accepted);  // a competing conditional merge is undone here

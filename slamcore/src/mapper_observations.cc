@@ -41,26 +41,35 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
   // A robot that has driven far since it was last anchored is too uncertain for one observation to be
   // trusted: a wide gate would let any wrong match through. Such observations must gather support as a
   // recovery hypothesis (III-B); they say nothing about the view being ambiguous.
-  const double position_sigma =
-      std::sqrt(robot_relative_covariance_.topLeftCorner<2, 2>().selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff());
+  const double position_sigma = std::sqrt(robot_relative_covariance_.topLeftCorner<2, 2>()
+                                              .selfadjointView<Eigen::Lower>()
+                                              .eigenvalues()
+                                              .maxCoeff());
   if (position_sigma > params_.direct_max_position_sigma) {
-    RouteToFilter(HypothesisKind::kRecovery, event, view_node,
-                  "robot too uncertain for a direct edge (position sigma " + std::to_string(position_sigma) + " m)");
+    RouteToFilter(
+        HypothesisKind::kRecovery, event, view_node,
+        "robot too uncertain for a direct edge (position sigma " + std::to_string(position_sigma) + " m)");
     return;
   }
   // Direct gate, eq. (4) with the prediction from G and Σ_rel (mapper_impl.h).
   const PoseGaussian predicted{map_.graph.node(robot).pose.inverse() * map_.graph.node(view_node).pose,
                                robot_relative_covariance_};
-  const internal::Innovation innovation = internal::ComputeInnovation(predicted, {event.robot_T_view, event.covariance});
+  const internal::Innovation innovation =
+      internal::ComputeInnovation(predicted, {event.robot_T_view, event.covariance});
   if (innovation.mahalanobis2 <= params_.gate_chi2) {
-    HypothesisObservation observation{.robot_node = robot, .view = event.view, .view_node = view_node,
+    HypothesisObservation observation{.robot_node = robot,
+                                      .view = event.view,
+                                      .view_node = view_node,
                                       .robot_T_view = {event.robot_T_view, event.covariance},
-                                      .time = event.time, .odometer = odometer_};
-    AddObservationEdge(observation, params_.consistency.enabled ? AnchorForDirectEdge(observation).value_or(-1) : -1);
+                                      .time = event.time,
+                                      .odometer = odometer_};
+    AddObservationEdge(observation,
+                       params_.consistency.enabled ? AnchorForDirectEdge(observation).value_or(-1) : -1);
     robot_relative_covariance_ = event.covariance;
     std::string note;
     if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, innovation.mahalanobis2, &note);
-    Log(DecisionKind::kDirectEdge, event.view, nullptr, Chi2Text(innovation.mahalanobis2) + " within the gate" + note);
+    Log(DecisionKind::kDirectEdge, event.view, nullptr,
+        Chi2Text(innovation.mahalanobis2) + " within the gate" + note);
     UpdateAmbiguityMarks();
     return;
   }
@@ -82,8 +91,12 @@ PoseGaussian Mapper::Impl::ExpressInRefFrame(const PoseGaussian& robot_T_view, N
 void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& event, NodeId view_node,
                                  std::string why) {
   const PoseGaussian z{event.robot_T_view, event.covariance};
-  HypothesisObservation observation{.robot_node = *current_node_, .view = event.view, .view_node = view_node,
-                                    .robot_T_view = z, .time = event.time, .odometer = odometer_};
+  HypothesisObservation observation{.robot_node = *current_node_,
+                                    .view = event.view,
+                                    .view_node = view_node,
+                                    .robot_T_view = z,
+                                    .time = event.time,
+                                    .odometer = odometer_};
   // Join the hypothesis of the same kind and target component with the smallest residual under the gate.
   Hypothesis* best = nullptr;
   double best_mahalanobis2 = std::numeric_limits<double>::infinity();
@@ -108,7 +121,8 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
       overlay_->AddEdge(MakeObservationEdge(observation, -1));
     }
     id = best->id;
-    Log(DecisionKind::kHypothesisUpdated, event.view, best, why + "; joined with " + Chi2Text(best_mahalanobis2));
+    Log(DecisionKind::kHypothesisUpdated, event.view, best,
+        why + "; joined with " + Chi2Text(best_mahalanobis2));
   } else {
     Hypothesis hypothesis;  // eq. (2): G = z, Σ_G = Σ_z
     hypothesis.id = next_hypothesis_id_++;
@@ -149,7 +163,8 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   }
 }
 
-void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict) {
+void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support,
+                                  RecoveryVerdict verdict) {
   Hypothesis* candidate = FindHypothesis(hypothesis_id);
   if (!candidate) return;
   // What acceptance changes, to restore it exactly when the optimised map refuses the hypothesis.
@@ -166,7 +181,8 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
                       params_.consistency.verify_after_optimization && params_.optimize_after_accept;
   std::optional<Saved> saved;
   if (verify) {
-    saved = Saved{map_.graph, accepted_, retractable_, robot_relative_covariance_, anchor_, ambiguity_, pending_seeds_};
+    saved = Saved{map_.graph, accepted_,  retractable_,  robot_relative_covariance_,
+                  anchor_,    ambiguity_, pending_seeds_};
   }
   for (const HypothesisObservation& observation : candidate->observations) {
     // They failed the direct gate, but the evidence says they were right: no longer rejected (IV-A).
@@ -197,7 +213,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     pending_seeds_ = std::move(saved->pending_seeds);
     ++map_revision_;
     candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
-                                                           params_.consistency.pass_gap_distance);
+                                                         params_.consistency.pass_gap_distance);
     Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
         "not accepted: " + support + note + "; it waits for another pass");
     return;
@@ -207,8 +223,8 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   retractable_.push_back(accepted.id);
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
-      EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) + (support.empty() ? "" : "; " + support) +
-          note);
+      EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) +
+          (support.empty() ? "" : "; " + support) + note);
   RejectCompetitors(accepted);
 }
 
@@ -224,7 +240,8 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
   }
 }
 
-Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id) const {
+Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation,
+                                       std::int64_t hypothesis_id) const {
   Edge edge;
   edge.from = observation.robot_node;
   edge.to = observation.view_node;
@@ -243,7 +260,8 @@ void Mapper::Impl::RejectCompetitors(const Hypothesis& accepted) {
     if (hypothesis.kind == accepted.kind) competitors.push_back(hypothesis.id);
   }
   for (const std::int64_t id : competitors) {
-    DropHypothesis(id, DecisionKind::kRejected, "competitor " + std::to_string(accepted.id) + " was accepted");
+    DropHypothesis(id, DecisionKind::kRejected,
+                   "competitor " + std::to_string(accepted.id) + " was accepted");
   }
 }
 
@@ -328,7 +346,8 @@ void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2,
 }
 
 std::optional<Hypothesis> Mapper::Impl::TakeHypothesis(std::int64_t id) {
-  const auto it = std::find_if(hypotheses_.begin(), hypotheses_.end(), [&](const Hypothesis& h) { return h.id == id; });
+  const auto it =
+      std::find_if(hypotheses_.begin(), hypotheses_.end(), [&](const Hypothesis& h) { return h.id == id; });
   if (it == hypotheses_.end()) return std::nullopt;
   std::optional<Hypothesis> taken(std::move(*it));
   hypotheses_.erase(it);

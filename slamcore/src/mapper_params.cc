@@ -34,10 +34,9 @@ Status CheckCriteria(const std::string& name, const AcceptanceCriteria& criteria
   RETURN_IF_ERROR(CheckPositiveCount(observations.c_str(), criteria.min_observations));
   RETURN_IF_ERROR(CheckPositiveCount(views.c_str(), criteria.min_views));
   if (criteria.min_views > criteria.min_observations) {
-    return InvalidArgument(Describe(views.c_str(), criteria.min_views,
-                                    ("must not exceed " + observations + " = " +
-                                     std::to_string(criteria.min_observations))
-                                        .c_str()));
+    return InvalidArgument(Describe(
+        views.c_str(), criteria.min_views,
+        ("must not exceed " + observations + " = " + std::to_string(criteria.min_observations)).c_str()));
   }
   return Status::Ok();
 }
@@ -57,7 +56,8 @@ Status ValidateConsistency(const ConsistencyParams& c) {
   RETURN_IF_ERROR(CheckRange("consistency.pass_gap_seconds", c.pass_gap_seconds, 1e-3, 3600.0));
   RETURN_IF_ERROR(CheckRange("consistency.pass_gap_distance", c.pass_gap_distance, 1e-3, 1000.0));
   RETURN_IF_ERROR(CheckRange("consistency.map_gate_chi2", c.map_gate_chi2, 1e-3, 1e6));
-  RETURN_IF_ERROR(CheckRange("consistency.min_redundancy_for_scaling", c.min_redundancy_for_scaling, 0, 1 << 30));
+  RETURN_IF_ERROR(
+      CheckRange("consistency.min_redundancy_for_scaling", c.min_redundancy_for_scaling, 0, 1 << 30));
   RETURN_IF_ERROR(CheckRange("consistency.min_variance_factor", c.min_variance_factor, 1e-6, 1.0));
   RETURN_IF_ERROR(CheckRange("consistency.aliasing_offset", c.aliasing_offset, 1e-3, 1000.0));
   RETURN_IF_ERROR(CheckRange("consistency.min_passes_uninformative", c.min_passes_uninformative, 1, 100));
@@ -79,7 +79,8 @@ Status ValidateConsistency(const ConsistencyParams& c) {
 
 Status MapperParams::Validate() const {
   RETURN_IF_ERROR(CheckPositiveFinite("gate_chi2", gate_chi2, MapperParamsLimits::kMaxChi2));
-  RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma, MapperParamsLimits::kMaxMeters));
+  RETURN_IF_ERROR(CheckPositiveFinite("direct_max_position_sigma", direct_max_position_sigma,
+                                      MapperParamsLimits::kMaxMeters));
   RETURN_IF_ERROR(CheckCriteria("recovery", recovery));
   RETURN_IF_ERROR(CheckCriteria("merge_conditional", merge_conditional));
   RETURN_IF_ERROR(CheckCriteria("merge_full", merge_full));
@@ -92,22 +93,27 @@ Status MapperParams::Validate() const {
                                         .c_str()));
   }
   if (merge_full.min_views < merge_conditional.min_views) {
-    return InvalidArgument(Describe("merge_full.min_views", merge_full.min_views,
-                                    ("must be at least merge_conditional.min_views = " +
-                                     std::to_string(merge_conditional.min_views))
-                                        .c_str()));
+    return InvalidArgument(Describe(
+        "merge_full.min_views", merge_full.min_views,
+        ("must be at least merge_conditional.min_views = " + std::to_string(merge_conditional.min_views))
+            .c_str()));
   }
-  RETURN_IF_ERROR(CheckPositiveCount("local_window_nodes", local_window_nodes, MapperParamsLimits::kMaxWindowNodes));
-  RETURN_IF_ERROR(CheckPositiveCount("full_optimization_every", full_optimization_every, MapperParamsLimits::kMaxOptimizationEvery));
-  RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_seconds", hypothesis_expiry_seconds, MapperParamsLimits::kMaxSeconds));
-  RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance, MapperParamsLimits::kMaxMeters));
-  RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance, MapperParamsLimits::kMaxMeters));
+  RETURN_IF_ERROR(
+      CheckPositiveCount("local_window_nodes", local_window_nodes, MapperParamsLimits::kMaxWindowNodes));
+  RETURN_IF_ERROR(CheckPositiveCount("full_optimization_every", full_optimization_every,
+                                     MapperParamsLimits::kMaxOptimizationEvery));
+  RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_seconds", hypothesis_expiry_seconds,
+                                      MapperParamsLimits::kMaxSeconds));
+  RETURN_IF_ERROR(CheckPositiveFinite("hypothesis_expiry_distance", hypothesis_expiry_distance,
+                                      MapperParamsLimits::kMaxMeters));
+  RETURN_IF_ERROR(CheckPositiveFinite("ambiguity_window_distance", ambiguity_window_distance,
+                                      MapperParamsLimits::kMaxMeters));
   RETURN_IF_ERROR(CheckPositiveCount("ambiguity_min_rejections", ambiguity_min_rejections));
   RETURN_IF_ERROR(ValidateConsistency(consistency));
   RETURN_IF_ERROR(CheckPositiveCount("optimizer.max_iterations", optimizer.max_iterations,
-                                              MapperParamsLimits::kMaxIterations));
-  RETURN_IF_ERROR(CheckPositiveCount("optimizer.num_threads", optimizer.num_threads,
-                                              MapperParamsLimits::kMaxThreads));
+                                     MapperParamsLimits::kMaxIterations));
+  RETURN_IF_ERROR(
+      CheckPositiveCount("optimizer.num_threads", optimizer.num_threads, MapperParamsLimits::kMaxThreads));
   if (const Status status = slamcore::Validate(optimizer); !status.ok()) {
     return InvalidArgument("MapperParams.optimizer: " + status.message());
   }

@@ -21,7 +21,8 @@ Status CheckCovariance(const std::string& prefix, const Matrix3& covariance) {
   }
   // The information used for edges is the inverse; it must pass the graph's own check too.
   const Matrix3 information = covariance.inverse();
-  if (const Status status = CheckPositiveDefinite(0.5 * (information + information.transpose()), "information");
+  if (const Status status =
+          CheckPositiveDefinite(0.5 * (information + information.transpose()), "information");
       !status.ok()) {
     return InvalidArgument(prefix + status.message() + " (covariance is too badly conditioned)");
   }
@@ -71,7 +72,8 @@ Status Mapper::Impl::Validate(const ViewCreatedEvent& event) const {
   RETURN_IF_ERROR(CheckTime(kName, event.time));
   RETURN_IF_ERROR(CheckHasNode(kName, event.time));
   if (map_.graph.HasView(event.view)) {
-    return InvalidArgument(Prefix(kName, event.time) + "view " + std::to_string(event.view) + " already exists");
+    return InvalidArgument(Prefix(kName, event.time) + "view " + std::to_string(event.view) +
+                           " already exists");
   }
   return Status::Ok();
 }
@@ -84,7 +86,8 @@ Status Mapper::Impl::Validate(const ViewObservedEvent& event) const {
   if (!map_.graph.HasView(event.view)) {
     return NotFound(prefix + "view " + std::to_string(event.view) + " does not exist");
   }
-  if (!IsFinite(event.robot_T_view)) return InvalidArgument(prefix + "robot_T_view has a NaN or infinite entry");
+  if (!IsFinite(event.robot_T_view))
+    return InvalidArgument(prefix + "robot_T_view has a NaN or infinite entry");
   return CheckCovariance(prefix, event.covariance);
 }
 
@@ -96,13 +99,15 @@ Status Mapper::Impl::Validate(const LocalMapEvent& event) const {
   if (!std::isfinite(event.resolution) || event.resolution <= 0.0) {
     return InvalidArgument(prefix + "resolution must be positive and finite");
   }
-  if (event.width <= 0 || event.height <= 0) return InvalidArgument(prefix + "width and height must be positive");
+  if (event.width <= 0 || event.height <= 0)
+    return InvalidArgument(prefix + "width and height must be positive");
   const auto expected = static_cast<std::size_t>(event.width) * static_cast<std::size_t>(event.height);
   if (event.cells.size() != expected) {
-    return InvalidArgument(prefix + "has " + std::to_string(event.cells.size()) + " cells, width × height = " +
-                           std::to_string(expected));
+    return InvalidArgument(prefix + "has " + std::to_string(event.cells.size()) +
+                           " cells, width × height = " + std::to_string(expected));
   }
-  if (!IsFinite(event.node_T_origin)) return InvalidArgument(prefix + "node_T_origin has a NaN or infinite entry");
+  if (!IsFinite(event.node_T_origin))
+    return InvalidArgument(prefix + "node_T_origin has a NaN or infinite entry");
   for (std::size_t i = 0; i < event.cells.size(); ++i) {
     if (event.cells[i] < -1 || event.cells[i] > 100) {
       return InvalidArgument(prefix + "cell " + std::to_string(i) + " is " + std::to_string(event.cells[i]) +

@@ -162,7 +162,8 @@ Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) con
     const int index = index_.at(nodes[static_cast<std::size_t>(n)]);
     if (index < 0) continue;  // the gauge node: held, zero covariance
     for (int axis = 0; axis < 3; ++axis) {
-      columns[static_cast<std::size_t>(3 * n + axis)] = solve_unit(factor_->position[static_cast<std::size_t>(index + axis)]);
+      columns[static_cast<std::size_t>(3 * n + axis)] =
+          solve_unit(factor_->position[static_cast<std::size_t>(index + axis)]);
     }
   }
   Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(3 * k, 3 * k);
@@ -201,7 +202,9 @@ PoseGaussian MarginalCovariances::Relative(NodeId a, NodeId b) const {
     delta(k % 3) = kStep;
     const auto perturbed = [&](double sign) {
       const Vector3 d = sign * delta;
-      const auto moved = [&](const SE2& pose) { return SE2(pose.x() + d.x(), pose.y() + d.y(), pose.theta() + d.z()); };
+      const auto moved = [&](const SE2& pose) {
+        return SE2(pose.x() + d.x(), pose.y() + d.y(), pose.theta() + d.z());
+      };
       const SE2 a_moved = k < 3 ? moved(pose_a) : pose_a;
       const SE2 b_moved = k < 3 ? pose_b : moved(pose_b);
       return SE2::Log((a_moved.inverse() * b_moved) * relative.inverse());

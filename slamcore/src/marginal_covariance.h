@@ -59,8 +59,8 @@ class MarginalCovariances {
   struct Factor;
   MarginalCovariances() = default;
 
-  std::unordered_map<NodeId, int> index_;      // node → block column, −1 for the gauge node
-  std::unordered_map<NodeId, SE2> poses_;      // at factorisation
+  std::unordered_map<NodeId, int> index_;  // node → block column, −1 for the gauge node
+  std::unordered_map<NodeId, SE2> poses_;  // at factorisation
   std::unique_ptr<Factor> factor_;
   NodeId newest_node_ = -1;
   std::size_t num_edges_ = 0;

@@ -21,12 +21,13 @@ constexpr std::uint8_t kFreePixel = 254, kOccupiedPixel = 0, kUnknownPixel = 205
 
 Status CheckSize(std::int64_t width, std::int64_t height, const std::string& what) {
   if (width <= 0 || height <= 0) {
-    return InvalidArgument(what + ": empty map (" + std::to_string(width) + " x " + std::to_string(height) + ")");
+    return InvalidArgument(what + ": empty map (" + std::to_string(width) + " x " + std::to_string(height) +
+                           ")");
   }
   if (width > kMaxGridSide || height > kMaxGridSide || width * height > kMaxGridCells) {
-    return InvalidArgument(what + ": absurd map size " + std::to_string(width) + " x " + std::to_string(height) +
-                           " (limit " + std::to_string(kMaxGridSide) + " per side, " +
-                           std::to_string(kMaxGridCells) + " cells)");
+    return InvalidArgument(what + ": absurd map size " + std::to_string(width) + " x " +
+                           std::to_string(height) + " (limit " + std::to_string(kMaxGridSide) +
+                           " per side, " + std::to_string(kMaxGridCells) + " cells)");
   }
   return Status::Ok();
 }
@@ -66,7 +67,8 @@ bool NextPgmToken(const std::string& bytes, std::size_t* pos, std::string* token
     }
   }
   token->clear();
-  while (*pos < bytes.size() && !std::isspace(static_cast<unsigned char>(bytes[*pos])) && bytes[*pos] != '#') {
+  while (*pos < bytes.size() && !std::isspace(static_cast<unsigned char>(bytes[*pos])) &&
+         bytes[*pos] != '#') {
     token->push_back(bytes[(*pos)++]);
     if (token->size() > 32) return false;
   }
@@ -155,8 +157,8 @@ Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, dou
     return DataLoss("PGM: truncated pixel data (" + std::to_string(std::max<std::int64_t>(available - 1, 0)) +
                     " bytes for " + std::to_string(count) + " pixels)");
   }
-  auto grid = OccupancyGrid::Create(static_cast<int>(values[0]), static_cast<int>(values[1]), resolution, origin_x,
-                                    origin_y);
+  auto grid = OccupancyGrid::Create(static_cast<int>(values[0]), static_cast<int>(values[1]), resolution,
+                                    origin_x, origin_y);
   RETURN_IF_ERROR(grid.status());
   const double scale = 255.0 / static_cast<double>(values[2]);
   auto store = [&](std::int64_t index, int pixel) {
@@ -168,8 +170,9 @@ Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, dou
   if (magic == "P5") {
     ++pos;  // exactly one whitespace byte after maxval
     if (pos > bytes.size() || static_cast<std::int64_t>(bytes.size() - pos) < count) {
-      return DataLoss("PGM: truncated pixel data (" + std::to_string(bytes.size() - std::min(pos, bytes.size())) +
-                      " bytes for " + std::to_string(count) + " pixels)");
+      return DataLoss("PGM: truncated pixel data (" +
+                      std::to_string(bytes.size() - std::min(pos, bytes.size())) + " bytes for " +
+                      std::to_string(count) + " pixels)");
     }
     for (std::int64_t i = 0; i < count; ++i) {
       const int pixel = static_cast<unsigned char>(bytes[pos + static_cast<std::size_t>(i)]);
@@ -195,7 +198,8 @@ std::string EncodePgm(const OccupancyGrid& grid) {
   bytes.reserve(header.size() + grid.cells.size());
   for (int image_row = 0; image_row < grid.height; ++image_row) {
     const int row = grid.ImageRowOf(image_row);
-    for (int col = 0; col < grid.width; ++col) bytes.push_back(static_cast<char>(PixelFromCell(grid.at(col, row))));
+    for (int col = 0; col < grid.width; ++col)
+      bytes.push_back(static_cast<char>(PixelFromCell(grid.at(col, row))));
   }
   return bytes;
 }
@@ -204,7 +208,8 @@ Result<std::string> ReadFileBytes(const std::string& path) {
   std::error_code error;
   const auto size = std::filesystem::file_size(path, error);
   if (error) return NotFound(path + ": cannot read (" + error.message() + ")");
-  if (size > (std::uintmax_t{1} << 31)) return InvalidArgument(path + ": absurd file size " + std::to_string(size));
+  if (size > (std::uintmax_t{1} << 31))
+    return InvalidArgument(path + ": absurd file size " + std::to_string(size));
   std::ifstream in(path, std::ios::binary);
   if (!in) return NotFound(path + ": cannot open");
   std::string bytes(static_cast<std::size_t>(size), '\0');
@@ -232,8 +237,9 @@ Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path) {
   });
 }
 
-Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std::string& source,
-                                         const std::function<Result<std::string>(const std::string& image)>& read_image) {
+Result<OccupancyGrid> ParseMapServerYaml(
+    const std::string& yaml_text, const std::string& source,
+    const std::function<Result<std::string>(const std::string& image)>& read_image) {
   const std::string& yaml_path = source;
   if (yaml_text.size() > 65536) return InvalidArgument(yaml_path + ": too large for a map_server YAML file");
   std::map<std::string, std::string> keys;
@@ -268,14 +274,16 @@ Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std
     return fail("mode '" + keys["mode"] + "' unsupported (trinary or scale)");
   }
   std::string origin = keys["origin"];
-  if (origin.size() < 2 || origin.front() != '[' || origin.back() != ']') return fail("origin must be [x, y, yaw]");
+  if (origin.size() < 2 || origin.front() != '[' || origin.back() != ']')
+    return fail("origin must be [x, y, yaw]");
   origin = origin.substr(1, origin.size() - 2);
   double origin_values[3];
   std::istringstream parts(origin);
   std::string part;
   int count = 0;
   while (std::getline(parts, part, ',')) {
-    if (count >= 3 || !ParseDouble(part, &origin_values[count])) return fail("origin must be [x, y, yaw] numbers");
+    if (count >= 3 || !ParseDouble(part, &origin_values[count]))
+      return fail("origin must be [x, y, yaw] numbers");
     ++count;
   }
   if (count != 3) return fail("origin must have 3 numbers");
@@ -291,7 +299,8 @@ Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std
                                  free_thresh, negate != 0.0)
                      : DecodePgm(*bytes, resolution, origin_values[0], origin_values[1], occupied_thresh,
                                  free_thresh, negate != 0.0);
-  if (!grid.ok()) return Status(grid.status().code(), yaml_path + ": image " + image + ": " + grid.status().message());
+  if (!grid.ok())
+    return Status(grid.status().code(), yaml_path + ": image " + image + ": " + grid.status().message());
   grid->origin_yaw = origin_values[2];
   return grid;
 }
@@ -315,9 +324,10 @@ Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_pat
 
 std::string MapServerYaml(const OccupancyGrid& grid, const std::string& image_file) {
   char yaml[256];
-  std::snprintf(yaml, sizeof(yaml),
-                "resolution: %.6f\norigin: [%.6f, %.6f, %.6f]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
-                grid.resolution, grid.origin_x, grid.origin_y, grid.origin_yaw);
+  std::snprintf(
+      yaml, sizeof(yaml),
+      "resolution: %.6f\norigin: [%.6f, %.6f, %.6f]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+      grid.resolution, grid.origin_x, grid.origin_y, grid.origin_yaw);
   // The file name goes in unformatted: it may be longer than any fixed buffer.
   return "image: " + image_file + "\n" + yaml;
 }

@@ -23,7 +23,8 @@ Result<OccupancyGrid> DecodePng(const std::string& bytes, double resolution, dou
                                 double occupied_thresh, double free_thresh, bool negate) {
   RETURN_IF_ERROR(CheckThresholds(occupied_thresh, free_thresh, resolution));
   // Check the IHDR size before decoding so that an absurd header never reaches an allocation.
-  if (bytes.size() < 33 || bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || bytes.compare(12, 4, "IHDR") != 0) {
+  if (bytes.size() < 33 || bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 ||
+      bytes.compare(12, 4, "IHDR") != 0) {
     return DataLoss("PNG: not a PNG file (bad signature or IHDR)");
   }
   const std::uint32_t width = BigEndian32(bytes, 16), height = BigEndian32(bytes, 20);

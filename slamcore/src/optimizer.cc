@@ -78,9 +78,7 @@ class EdgeCost final : public ceres::SizedCostFunction<3, 3, 3> {
 };
 
 /// Upper-triangular L with LᵀL = Ω (Ω was checked positive definite when the edge was added).
-Matrix3 SqrtInformation(const Matrix3& information) {
-  return Eigen::LLT<Matrix3>(information).matrixU();
-}
+Matrix3 SqrtInformation(const Matrix3& information) { return Eigen::LLT<Matrix3>(information).matrixU(); }
 
 }  // namespace
 
@@ -99,7 +97,8 @@ Status Validate(const OptimizerOptions& options) {
   }
   if (options.num_threads < 1) return InvalidArgument("num_threads must be at least 1");
   for (const double weight : options.edge_weights) {
-    if (!(weight >= 0.0) || !std::isfinite(weight)) return InvalidArgument("edge_weights must be finite and ≥ 0");
+    if (!(weight >= 0.0) || !std::isfinite(weight))
+      return InvalidArgument("edge_weights must be finite and ≥ 0");
   }
   return Status::Ok();
 }
@@ -122,8 +121,8 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
     if (!graph.HasNode(id)) return NotFound("variable node " + std::to_string(id) + " does not exist");
   }
   if (!options.edge_weights.empty() && options.edge_weights.size() != graph.num_edges()) {
-    return InvalidArgument("edge_weights has " + std::to_string(options.edge_weights.size()) + " weights for " +
-                           std::to_string(graph.num_edges()) + " edges");
+    return InvalidArgument("edge_weights has " + std::to_string(options.edge_weights.size()) +
+                           " weights for " + std::to_string(graph.num_edges()) + " edges");
   }
   const auto start = std::chrono::steady_clock::now();
   const std::optional<ComponentId> component =
@@ -169,15 +168,16 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
   problem_options.disable_all_safety_checks = true;
   ceres::Problem problem(problem_options);
   std::unique_ptr<ceres::LossFunction> loss;
-  if (options.robust_loss == RobustLoss::kHuber) loss = std::make_unique<ceres::HuberLoss>(options.robust_loss_scale);
+  if (options.robust_loss == RobustLoss::kHuber)
+    loss = std::make_unique<ceres::HuberLoss>(options.robust_loss_scale);
   if (options.robust_loss == RobustLoss::kCauchy) {
     loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_scale);
   }
   for (std::size_t k = 0; k < included.size(); ++k) {
     const Edge* edge = included[k];
-    problem.AddResidualBlock(new EdgeCost(edge->measurement, std::sqrt(included_weights[k]) * SqrtInformation(edge->information)), loss.get(),
-                             parameters[graph.IndexOf(edge->from)].data(),
-                             parameters[graph.IndexOf(edge->to)].data());
+    problem.AddResidualBlock(
+        new EdgeCost(edge->measurement, std::sqrt(included_weights[k]) * SqrtInformation(edge->information)),
+        loss.get(), parameters[graph.IndexOf(edge->from)].data(), parameters[graph.IndexOf(edge->to)].data());
   }
   if (problem.NumResidualBlocks() == 0) {
     summary.final_chi2 = summary.initial_chi2;

@@ -27,7 +27,8 @@ Innovation ComputeInnovation(const PoseGaussian& state, const PoseGaussian& obse
   innovation.residual = observation.mean * state.mean.inverse();
   innovation.log = SE2::Log(innovation.residual);
   const Matrix3 adjoint = innovation.residual.Adjoint();
-  innovation.covariance = Symmetrized(adjoint * state.covariance * adjoint.transpose() + observation.covariance);
+  innovation.covariance =
+      Symmetrized(adjoint * state.covariance * adjoint.transpose() + observation.covariance);
   innovation.mahalanobis2 = innovation.log.dot(innovation.covariance.ldlt().solve(innovation.log));
   return innovation;
 }

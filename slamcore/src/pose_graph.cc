@@ -29,7 +29,8 @@ Status CheckPose(const SE2& pose, const std::string& what) {
 }  // namespace
 
 Status PoseGraph::AddNode(const Node& node) {
-  if (index_of_.contains(node.id)) return InvalidArgument("node " + std::to_string(node.id) + " already exists");
+  if (index_of_.contains(node.id))
+    return InvalidArgument("node " + std::to_string(node.id) + " already exists");
   RETURN_IF_ERROR(CheckPose(node.pose, "pose of node " + std::to_string(node.id)));
   if (!std::isfinite(node.time) || !std::isfinite(node.odometer)) {
     return InvalidArgument("time or odometer of node " + std::to_string(node.id) + " is not finite");
@@ -58,9 +59,11 @@ Result<std::size_t> PoseGraph::AddEdge(const Edge& edge) {
 }
 
 Status PoseGraph::AddView(const View& view) {
-  if (view_index_.contains(view.id)) return InvalidArgument("view " + std::to_string(view.id) + " already exists");
+  if (view_index_.contains(view.id))
+    return InvalidArgument("view " + std::to_string(view.id) + " already exists");
   if (!HasNode(view.node)) {
-    return NotFound("view " + std::to_string(view.id) + ": node " + std::to_string(view.node) + " does not exist");
+    return NotFound("view " + std::to_string(view.id) + ": node " + std::to_string(view.node) +
+                    " does not exist");
   }
   view_index_.emplace(view.id, views_.size());
   views_.push_back(view);

@@ -16,7 +16,8 @@ Result<std::vector<FeatureAnova>> AnovaFValues(const std::vector<std::vector<dou
   const std::size_t dimension = features.front().size();
   int classes = 0;
   for (std::size_t i = 0; i < features.size(); ++i) {
-    if (features[i].size() != dimension) return InvalidArgument("ANOVA: samples have different feature counts");
+    if (features[i].size() != dimension)
+      return InvalidArgument("ANOVA: samples have different feature counts");
     if (labels[i] < 0 || labels[i] > 1000) return InvalidArgument("ANOVA: labels must be 0..1000");
     classes = std::max(classes, labels[i] + 1);
   }
@@ -25,7 +26,8 @@ Result<std::vector<FeatureAnova>> AnovaFValues(const std::vector<std::vector<dou
   int present = 0;
   for (const int size : class_size) present += size > 0;
   const double n = static_cast<double>(features.size());
-  if (present < 2 || n <= present) return InvalidArgument("ANOVA: needs two classes and more samples than classes");
+  if (present < 2 || n <= present)
+    return InvalidArgument("ANOVA: needs two classes and more samples than classes");
 
   const std::vector<std::string>& names = ProtrusionFeatureNames();
   std::vector<FeatureAnova> result;

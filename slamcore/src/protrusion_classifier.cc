@@ -31,7 +31,8 @@ const char* ClassifierKindName(ClassifierKind kind) {
 }
 
 Result<ClassifierKind> ParseClassifierKind(const std::string& name) {
-  for (const ClassifierKind kind : {ClassifierKind::kDecisionTree, ClassifierKind::kRandomForest, ClassifierKind::kSvm}) {
+  for (const ClassifierKind kind :
+       {ClassifierKind::kDecisionTree, ClassifierKind::kRandomForest, ClassifierKind::kSvm}) {
     if (name == ClassifierKindName(kind)) return kind;
   }
   return InvalidArgument("unknown classifier '" + name + "' (decision_tree, random_forest or svm)");
@@ -60,21 +61,23 @@ double Ratio(long numerator, long denominator) {
 
 double ConfusionMatrix::Precision() const { return Ratio(true_positives, true_positives + false_positives); }
 double ConfusionMatrix::Recall() const { return Ratio(true_positives, true_positives + false_negatives); }
-double ConfusionMatrix::FalsePositiveRate() const { return Ratio(false_positives, false_positives + true_negatives); }
+double ConfusionMatrix::FalsePositiveRate() const {
+  return Ratio(false_positives, false_positives + true_negatives);
+}
 double ConfusionMatrix::Accuracy() const { return Ratio(true_positives + true_negatives, Total()); }
 
 ProtrusionClassifier::ProtrusionClassifier() : model_(std::make_unique<Model>()) {}
 ProtrusionClassifier::~ProtrusionClassifier() = default;
 
-Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Train(const std::vector<LabelledRegion>& data,
-                                                                          const ClassifierOptions& options) {
+Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Train(
+    const std::vector<LabelledRegion>& data, const ClassifierOptions& options) {
   const std::size_t dimension = ProtrusionFeatureNames().size();
   if (data.empty()) return InvalidArgument("train: no labelled regions");
   int positives = 0;
   for (const LabelledRegion& region : data) {
     if (region.features.size() != dimension) {
-      return InvalidArgument("train: a region has " + std::to_string(region.features.size()) + " features, expected " +
-                             std::to_string(dimension));
+      return InvalidArgument("train: a region has " + std::to_string(region.features.size()) +
+                             " features, expected " + std::to_string(dimension));
     }
     for (const double value : region.features) {
       if (!std::isfinite(value)) return InvalidArgument("train: a feature value is not finite");
@@ -98,7 +101,8 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Train(const 
   std::set<int> unique;
   for (const int index : classifier->selected_) {
     if (index < 0 || index >= static_cast<int>(dimension) || !unique.insert(index).second) {
-      return InvalidArgument("train: selected feature index " + std::to_string(index) + " invalid or repeated");
+      return InvalidArgument("train: selected feature index " + std::to_string(index) +
+                             " invalid or repeated");
     }
   }
   const std::size_t selected = classifier->selected_.size();
@@ -127,7 +131,8 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Train(const 
     responses.at<int>(static_cast<int>(i)) = data[i].label;
   }
   try {
-    const cv::Ptr<cv::ml::TrainData> train_data = cv::ml::TrainData::create(samples, cv::ml::ROW_SAMPLE, responses);
+    const cv::Ptr<cv::ml::TrainData> train_data =
+        cv::ml::TrainData::create(samples, cv::ml::ROW_SAMPLE, responses);
     cv::Ptr<cv::ml::StatModel> model;
     if (options.kind == ClassifierKind::kDecisionTree) {
       auto tree = cv::ml::DTrees::create();
@@ -169,7 +174,8 @@ Result<double> ProtrusionClassifier::Probability(const std::vector<double>& feat
   cv::Mat sample(1, static_cast<int>(selected_.size()), CV_32F);
   for (std::size_t j = 0; j < selected_.size(); ++j) {
     const double value = features[static_cast<std::size_t>(selected_[j])];
-    if (!std::isfinite(value)) return InvalidArgument("classifier: feature " + std::to_string(selected_[j]) + " not finite");
+    if (!std::isfinite(value))
+      return InvalidArgument("classifier: feature " + std::to_string(selected_[j]) + " not finite");
     sample.at<float>(0, static_cast<int>(j)) = static_cast<float>((value - mean_[j]) * scale_[j]);
   }
   try {
@@ -197,12 +203,15 @@ Result<double> ProtrusionClassifier::Probability(const std::vector<double>& feat
 
 Result<std::string> ProtrusionClassifier::ToBytes() const {
   try {
-    cv::FileStorage file("model.yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-    file << "format" << kModelFormat << "version" << kProtrusionModelVersion << "kind" << ClassifierKindName(kind_);
+    cv::FileStorage file("model.yml",
+                         cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+    file << "format" << kModelFormat << "version" << kProtrusionModelVersion << "kind"
+         << ClassifierKindName(kind_);
     std::vector<cv::String> names(ProtrusionFeatureNames().begin(), ProtrusionFeatureNames().end());
     file << "features" << names << "selected" << selected_ << "mean" << mean_ << "scale" << scale_;
     file << "threshold" << threshold_;
-    file << "model" << "{";
+    file << "model"
+         << "{";
     model_->model->write(file);
     file << "}";
     return std::string(file.releaseAndGetString());
@@ -217,20 +226,25 @@ Status ProtrusionClassifier::Save(const std::string& path) const {
   return WriteFileBytes(path, *bytes);
 }
 
-Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const std::string& source, bool in_memory) {
+Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const std::string& source,
+                                                                         bool in_memory) {
   // `path` names the model in every message: the file, or what the bytes are.
   const std::string path = in_memory ? "model" : source;
   std::unique_ptr<ProtrusionClassifier> classifier(new ProtrusionClassifier());
   try {
     cv::FileStorage file(source, cv::FileStorage::READ | (in_memory ? cv::FileStorage::MEMORY : 0));
-    if (!file.isOpened()) return in_memory ? InvalidArgument("model: not a model file") : NotFound(path + ": cannot open model file");
+    if (!file.isOpened())
+      return in_memory ? InvalidArgument("model: not a model file")
+                       : NotFound(path + ": cannot open model file");
     std::string format, kind_name;
     int version = 0;
     file["format"] >> format;
-    if (format != kModelFormat) return InvalidArgument(path + ": not a protrusion model (format '" + format + "')");
+    if (format != kModelFormat)
+      return InvalidArgument(path + ": not a protrusion model (format '" + format + "')");
     file["version"] >> version;
     if (version != kProtrusionModelVersion) {
-      return InvalidArgument(path + ": model version " + std::to_string(version) + " is not supported (this build reads " +
+      return InvalidArgument(path + ": model version " + std::to_string(version) +
+                             " is not supported (this build reads " +
                              std::to_string(kProtrusionModelVersion) + ")");
     }
     std::vector<cv::String> names;
@@ -238,8 +252,8 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const s
     const std::vector<std::string> expected = ProtrusionFeatureNames();
     if (std::vector<std::string>(names.begin(), names.end()) != expected) {
       return InvalidArgument(path + ": model expects a different feature list than this detector computes (" +
-                             std::to_string(names.size()) + " features vs " + std::to_string(expected.size()) +
-                             "); retrain it");
+                             std::to_string(names.size()) + " features vs " +
+                             std::to_string(expected.size()) + "); retrain it");
     }
     file["kind"] >> kind_name;
     auto kind = ParseClassifierKind(kind_name);
@@ -251,7 +265,8 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const s
     file["threshold"] >> classifier->threshold_;
     const std::size_t selected = classifier->selected_.size();
     if (selected == 0 || classifier->mean_.size() != selected || classifier->scale_.size() != selected) {
-      return InvalidArgument(path + ": selected features, mean and scale are missing or of different lengths");
+      return InvalidArgument(path +
+                             ": selected features, mean and scale are missing or of different lengths");
     }
     for (const int index : classifier->selected_) {
       if (index < 0 || index >= static_cast<int>(expected.size())) {
@@ -288,8 +303,8 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::LoadFromByte
   return Read(bytes, true);
 }
 
-Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& data, const ClassifierOptions& options,
-                                            int folds) {
+Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& data,
+                                            const ClassifierOptions& options, int folds) {
   std::vector<std::string> groups;
   for (const LabelledRegion& region : data) groups.push_back(region.group);
   std::sort(groups.begin(), groups.end());
@@ -299,12 +314,14 @@ Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& d
                            std::to_string(groups.size()) + " groups)");
   }
   std::map<std::string, int> fold_of;
-  for (std::size_t i = 0; i < groups.size(); ++i) fold_of[groups[i]] = static_cast<int>(i % static_cast<std::size_t>(folds));
+  for (std::size_t i = 0; i < groups.size(); ++i)
+    fold_of[groups[i]] = static_cast<int>(i % static_cast<std::size_t>(folds));
   CrossValidationResult result;
   result.folds = folds;
   for (int fold = 0; fold < folds; ++fold) {
     std::vector<LabelledRegion> train, test;
-    for (const LabelledRegion& region : data) (fold_of[region.group] == fold ? test : train).push_back(region);
+    for (const LabelledRegion& region : data)
+      (fold_of[region.group] == fold ? test : train).push_back(region);
     ASSIGN_OR_RETURN(auto classifier, ProtrusionClassifier::Train(train, options));
     for (const LabelledRegion& region : test) {
       ASSIGN_OR_RETURN(auto probability, (classifier)->Probability(region.features));

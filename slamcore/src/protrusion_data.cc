@@ -25,17 +25,24 @@ constexpr int kAttempts = 80;
 class Generator {
  public:
   Generator(const OccupancyGrid& base, std::uint64_t seed, const GeneratorOptions& options)
-      : base_(base), options_(options), random_(seed), parent_(base), child_(base),
-        truth_(base.cells.size(), 0), reserved_(base.height, base.width, CV_8U, cv::Scalar(0)) {
+      : base_(base),
+        options_(options),
+        random_(seed),
+        parent_(base),
+        child_(base),
+        truth_(base.cells.size(), 0),
+        reserved_(base.height, base.width, CV_8U, cv::Scalar(0)) {
     cv::Mat free_mask(base.height, base.width, CV_8U);
     for (int row = 0; row < base.height; ++row) {
-      for (int col = 0; col < base.width; ++col) free_mask.at<std::uint8_t>(row, col) = base.at(col, row) == kFree;
+      for (int col = 0; col < base.width; ++col)
+        free_mask.at<std::uint8_t>(row, col) = base.at(col, row) == kFree;
     }
     cv::distanceTransform(free_mask, clearance_, cv::DIST_L2, cv::DIST_MASK_5);  // cells to nearest non-free
     for (int row = 0; row < base.height; ++row) {
       for (int col = 0; col < base.width; ++col) {
         if (base.at(col, row) == kFree) free_cells_.push_back(Index(col, row));
-        if (base.at(col, row) != kUnknown && HasNeighbour(col, row, kUnknown)) edge_cells_.push_back(Index(col, row));
+        if (base.at(col, row) != kUnknown && HasNeighbour(col, row, kUnknown))
+          edge_cells_.push_back(Index(col, row));
       }
     }
     // One robot model per pair: its sensor draws the stuck scans and reveals the new space. The corridor
@@ -49,7 +56,8 @@ class Generator {
   }
 
   Result<GeneratedPair> Run() {
-    if (free_cells_.size() < 2000) return InvalidArgument("generator: the map has too little free space (< 5 m^2)");
+    if (free_cells_.size() < 2000)
+      return InvalidArgument("generator: the map has too little free space (< 5 m^2)");
     GeneratedPair pair;
     const int new_spaces = Uniform(options_.min_new_spaces, options_.max_new_spaces);
     for (int i = 0; i < new_spaces; ++i) pair.new_spaces += AddNewSpace();
@@ -64,7 +72,9 @@ class Generator {
 
  private:
   int Index(int col, int row) const { return row * base_.width + col; }
-  int Uniform(int low, int high) { return std::uniform_int_distribution<int>(low, std::max(low, high))(random_); }
+  int Uniform(int low, int high) {
+    return std::uniform_int_distribution<int>(low, std::max(low, high))(random_);
+  }
   double Uniform(double low, double high) {
     return std::uniform_real_distribution<double>(low, std::max(low, high))(random_);
   }
@@ -99,7 +109,8 @@ class Generator {
       const int col = cell % base_.width, row = cell / base_.width;
       bool edge = false;
       for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-        edge |= !base_.InBounds(col + dc, row + dr) || truth_[static_cast<std::size_t>(Index(col + dc, row + dr))] == 0;
+        edge |= !base_.InBounds(col + dc, row + dr) ||
+                truth_[static_cast<std::size_t>(Index(col + dc, row + dr))] == 0;
       }
       if (edge && Chance(probability)) {
         child_.cells[static_cast<std::size_t>(cell)] = parent_.cells[static_cast<std::size_t>(cell)];
@@ -129,7 +140,8 @@ class Generator {
     // The real map never changes, so its distance to unknown is computed once per pair, on first use.
     if (distance_to_unknown_.empty()) {
       cv::Mat known(base_.height, base_.width, CV_8U);
-      for (std::size_t i = 0; i < base_.cells.size(); ++i) known.data[i] = base_.cells[i] == kUnknown ? 0 : 255;
+      for (std::size_t i = 0; i < base_.cells.size(); ++i)
+        known.data[i] = base_.cells[i] == kUnknown ? 0 : 255;
       cv::distanceTransform(known, distance_to_unknown_, cv::DIST_L2, cv::DIST_MASK_5);
     }
     const cv::Mat& distance_to_unknown = distance_to_unknown_;
@@ -167,7 +179,8 @@ class Generator {
   /// (a)/(b): a room seen for the first time, or behind a door that was closed in the parent.
   bool AddRoom(bool door) {
     const int seed = RandomCell(free_cells_);
-    if (clearance_.at<float>(seed / base_.width, seed % base_.width) < Cells(0.4) || Reserved(seed)) return false;
+    if (clearance_.at<float>(seed / base_.width, seed % base_.width) < Cells(0.4) || Reserved(seed))
+      return false;
     const double radius = Cells(Uniform(1.0, 3.5));
     std::vector<int> distance(base_.cells.size(), -1);
     std::vector<int> room{seed};
@@ -185,8 +198,8 @@ class Generator {
       for (const auto& [dc, dr] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
         if (!base_.InBounds(col + dc, row + dr)) continue;
         const int next = Index(col + dc, row + dr);
-        if (distance[static_cast<std::size_t>(next)] >= 0 || base_.cells[static_cast<std::size_t>(next)] != kFree ||
-            Reserved(next)) {
+        if (distance[static_cast<std::size_t>(next)] >= 0 ||
+            base_.cells[static_cast<std::size_t>(next)] != kFree || Reserved(next)) {
           continue;
         }
         distance[static_cast<std::size_t>(next)] = distance[static_cast<std::size_t>(cell)] + 1;
@@ -222,12 +235,14 @@ class Generator {
     changed.insert(changed.end(), walls.begin(), walls.end());
     for (const int cell : changed) parent_.cells[static_cast<std::size_t>(cell)] = kUnknown;
     if (door && static_cast<double>(cut.size()) * base_.resolution <= 1.5) {
-      for (const int cell : cut) parent_.cells[static_cast<std::size_t>(cell)] = kOccupied;  // the closed door
+      for (const int cell : cut)
+        parent_.cells[static_cast<std::size_t>(cell)] = kOccupied;  // the closed door
       changed.insert(changed.end(), cut.begin(), cut.end());
     }
     // Half the scanned families' rooms come from the real map as its robot drew them (clutter and all).
     if (options_.scan_rendering && Chance(0.5)) return RevealByScans(room, cut, changed);
-    for (const int cell : changed) truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
+    for (const int cell : changed)
+      truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kNewSpace);
     DropEdges(changed, 0.1);
     Reserve(changed);
     return true;
@@ -258,8 +273,10 @@ class Generator {
 
   /// The room (with its walls and door) the parent lacks, seen by the pair's sensor: from a few places
   /// inside it (the robot drove in), or once from outside through its doorway (a glimpse, a lidar's fan).
-  bool RevealByScans(const std::vector<int>& room, const std::vector<int>& cut, const std::vector<int>& hidden) {
-    for (const int cell : hidden) child_.cells[static_cast<std::size_t>(cell)] = parent_.cells[static_cast<std::size_t>(cell)];
+  bool RevealByScans(const std::vector<int>& room, const std::vector<int>& cut,
+                     const std::vector<int>& hidden) {
+    for (const int cell : hidden)
+      child_.cells[static_cast<std::size_t>(cell)] = parent_.cells[static_cast<std::size_t>(cell)];
     internal::ScanVotes votes(base_);
     const double radius = Cells(options_.stuck.robot_radius_m);
     std::vector<int> in_room, sorted_room(room);
@@ -272,15 +289,16 @@ class Generator {
       const int door = RandomCell(cut);
       for (int attempt = 0; attempt < kAttempts; ++attempt) {
         const int spot = RandomCell(free_cells_);
-        const double dx = door % base_.width - spot % base_.width, dy = door / base_.width - spot / base_.width;
+        const double dx = door % base_.width - spot % base_.width,
+                     dy = door / base_.width - spot / base_.width;
         const double distance = std::hypot(dx, dy);
         if (distance < Cells(0.4) || distance > Cells(std::min(3.0, sensor_.range_m)) ||
             clearance_.at<float>(spot / base_.width, spot % base_.width) < radius ||
             std::binary_search(sorted_room.begin(), sorted_room.end(), spot) || Reserved(spot)) {
           continue;
         }
-        votes.AddScan(base_, CellPose(spot, std::atan2(dy, dx)), CellPose(spot, std::atan2(dy, dx)), sensor_, false,
-                      random_);
+        votes.AddScan(base_, CellPose(spot, std::atan2(dy, dx)), CellPose(spot, std::atan2(dy, dx)), sensor_,
+                      false, random_);
         break;
       }
     } else if (!in_room.empty()) {
@@ -325,9 +343,11 @@ class Generator {
     long counted = 0;
     for (const int cell : changed) {
       const auto index = static_cast<std::size_t>(cell);
-      const bool is_new = (parent_.cells[index] == kUnknown) || (child_.cells[index] == kFree && parent_.cells[index] == kOccupied);
+      const bool is_new = (parent_.cells[index] == kUnknown) ||
+                          (child_.cells[index] == kFree && parent_.cells[index] == kOccupied);
       if (!is_new) continue;  // a wall drawn over known floor: no difference the detector could see
-      truth_[index] = static_cast<std::uint8_t>(votes.MostlyErroneous(index) ? TruthLabel::kProtrusion : TruthLabel::kNewSpace);
+      truth_[index] = static_cast<std::uint8_t>(votes.MostlyErroneous(index) ? TruthLabel::kProtrusion
+                                                                             : TruthLabel::kNewSpace);
       ++counted;
     }
     if (static_cast<double>(counted) < min_cells) {
@@ -347,7 +367,8 @@ class Generator {
       for (int dc = -1; dc <= 1; ++dc) {
         if (!base_.InBounds(col + dc, row + dr)) continue;
         const int next = Index(col + dc, row + dr);
-        if (base_.cells[static_cast<std::size_t>(next)] == kFree && distance[static_cast<std::size_t>(next)] < 0) {
+        if (base_.cells[static_cast<std::size_t>(next)] == kFree &&
+            distance[static_cast<std::size_t>(next)] < 0) {
           return true;
         }
       }
@@ -437,7 +458,8 @@ class Generator {
     for (int dr = -span; dr <= span; ++dr) {
       for (int dc = -span; dc <= span; ++dc) {
         const double d2 = dc * dc + dr * dr;
-        if (d2 >= best || !base_.InBounds(col + dc, row + dr) || base_.at(col + dc, row + dr) != kOccupied) continue;
+        if (d2 >= best || !base_.InBounds(col + dc, row + dr) || base_.at(col + dc, row + dr) != kOccupied)
+          continue;
         best = d2;
         direction = std::atan2(static_cast<double>(dr), static_cast<double>(dc));
       }
@@ -448,13 +470,15 @@ class Generator {
   /// A slip corridor: the false path the odometry integrated while the wheels spun (see the header).
   bool TryProtrusion() {
     const int start = RandomCell(free_cells_);
-    if (clearance_.at<float>(start / base_.width, start % base_.width) < Cells(0.15) || Reserved(start)) return false;
+    if (clearance_.at<float>(start / base_.width, start % base_.width) < Cells(0.15) || Reserved(start))
+      return false;
     double x = start % base_.width + 0.5, y = start / base_.width + 0.5;
     double heading = Uniform(-std::numbers::pi, std::numbers::pi);
     const double curvature = Uniform(-0.12, 0.12) * base_.resolution;  // per cell, gently curved
     const double robot_width = Cells(Uniform(options_.min_robot_width_m, options_.max_robot_width_m));
     const double wobble = Cells(0.015), wavelength = Cells(Uniform(1.0, 2.0)), phase = Uniform(0.0, 6.28);
-    const double outside_length = Cells(Uniform(options_.min_protrusion_length_m, options_.max_protrusion_length_m));
+    const double outside_length =
+        Cells(Uniform(options_.min_protrusion_length_m, options_.max_protrusion_length_m));
     const int edge_thickness = Chance(0.7) ? 1 : 2;
     const double step = 0.25;
     double travelled = 0.0, outside = 0.0;
@@ -489,7 +513,8 @@ class Generator {
       const int reach = static_cast<int>(std::ceil(outer)) + 1;
       for (int dr = -reach; dr <= reach; ++dr) {
         for (int dc = -reach; dc <= reach; ++dc) {
-          const int col = static_cast<int>(std::floor(point.x)) + dc, row = static_cast<int>(std::floor(point.y)) + dr;
+          const int col = static_cast<int>(std::floor(point.x)) + dc,
+                    row = static_cast<int>(std::floor(point.y)) + dr;
           if (!base_.InBounds(col, row)) return false;
           const double distance = std::hypot(col + 0.5 - point.x, row + 0.5 - point.y);
           const int index = Index(col, row);
@@ -512,14 +537,17 @@ class Generator {
       }
     }
     for (const int cell : rim) {
-      if (mark[static_cast<std::size_t>(cell)] == 2 && base_.cells[static_cast<std::size_t>(cell)] == kUnknown) {
+      if (mark[static_cast<std::size_t>(cell)] == 2 &&
+          base_.cells[static_cast<std::size_t>(cell)] == kUnknown) {
         if (Reserved(cell)) return false;
         if (Chance(0.85)) changed.push_back(cell);  // some hits never land: gaps in the rim
       }
     }
-    if (static_cast<double>(changed.size()) < 0.5 * Cells(options_.min_protrusion_length_m) * robot_width) return false;
+    if (static_cast<double>(changed.size()) < 0.5 * Cells(options_.min_protrusion_length_m) * robot_width)
+      return false;
     for (const int cell : changed) {
-      child_.cells[static_cast<std::size_t>(cell)] = mark[static_cast<std::size_t>(cell)] == 1 ? kFree : kOccupied;
+      child_.cells[static_cast<std::size_t>(cell)] =
+          mark[static_cast<std::size_t>(cell)] == 1 ? kFree : kOccupied;
       truth_[static_cast<std::size_t>(cell)] = static_cast<std::uint8_t>(TruthLabel::kProtrusion);
     }
     Reserve(changed);
@@ -552,7 +580,9 @@ class Generator {
   void Speck(int col, int row, std::int8_t value) {
     if (!base_.InBounds(col, row)) return;
     const auto index = static_cast<std::size_t>(Index(col, row));
-    if (Reserved(static_cast<int>(index)) || child_.cells[index] != kUnknown || parent_.cells[index] != kUnknown) return;
+    if (Reserved(static_cast<int>(index)) || child_.cells[index] != kUnknown ||
+        parent_.cells[index] != kUnknown)
+      return;
     child_.cells[index] = value;
   }
 
@@ -573,11 +603,12 @@ class Generator {
     min_row = std::max(0, min_row - margin);
     max_col = std::min(grid.width - 1, max_col + margin);
     max_row = std::min(grid.height - 1, max_row + margin);
-    OccupancyGrid cropped = *OccupancyGrid::Create(max_col - min_col + 1, max_row - min_row + 1, grid.resolution,
-                                                   grid.origin_x + min_col * grid.resolution,
+    OccupancyGrid cropped = *OccupancyGrid::Create(max_col - min_col + 1, max_row - min_row + 1,
+                                                   grid.resolution, grid.origin_x + min_col * grid.resolution,
                                                    grid.origin_y + min_row * grid.resolution);
     for (int row = 0; row < cropped.height; ++row) {
-      for (int col = 0; col < cropped.width; ++col) cropped.at(col, row) = grid.at(col + min_col, row + min_row);
+      for (int col = 0; col < cropped.width; ++col)
+        cropped.at(col, row) = grid.at(col + min_col, row + min_row);
     }
     return cropped;
   }
@@ -591,13 +622,15 @@ class Generator {
   cv::Mat clearance_;
   std::vector<int> free_cells_, edge_cells_;
   internal::RangeSensor sensor_;
-  cv::Mat room_labels_;          // rooms for the physical families' new space (SeedRoom), computed on first use
-  cv::Mat distance_to_unknown_;  // cells from each cell to the real map's unknown (AddEdgeExploration), likewise
+  cv::Mat room_labels_;  // rooms for the physical families' new space (SeedRoom), computed on first use
+  cv::Mat
+      distance_to_unknown_;  // cells from each cell to the real map's unknown (AddEdgeExploration), likewise
 };
 
 }  // namespace
 
-Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t seed, const GeneratorOptions& options) {
+Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t seed,
+                                   const GeneratorOptions& options) {
   if (real_map.width <= 0 || real_map.height <= 0 ||
       real_map.cells.size() != static_cast<std::size_t>(real_map.width) * real_map.height) {
     return InvalidArgument("generator: the real map is empty or malformed");
@@ -605,13 +638,15 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
   if (options.min_protrusions < 0 || options.max_protrusions > 20 || options.min_new_spaces < 0 ||
       options.max_new_spaces > 20 || !(options.min_robot_width_m > 0.0) ||
       options.max_robot_width_m < options.min_robot_width_m || !(options.min_protrusion_length_m > 0.0) ||
-      options.max_protrusion_length_m < options.min_protrusion_length_m || options.max_protrusion_length_m > 20.0) {
+      options.max_protrusion_length_m < options.min_protrusion_length_m ||
+      options.max_protrusion_length_m > 20.0) {
     return InvalidArgument("generator: options out of range");
   }
   if (options.stuck_robot_share < 0.0 || options.stuck_robot_share > 1.0 || options.stuck.sensors.empty() ||
-      options.stuck.sensors.size() > 16 || !(options.stuck.keyframe_m >= 0.05) || !(options.stuck.robot_radius_m > 0.0) ||
-      options.stuck.robot_radius_m > 1.0 || !(options.stuck.stuck_travel_m.low >= 0.0) ||
-      !(options.stuck.stuck_travel_m.high <= 20.0) || !(std::abs(options.stuck.max_heading_drift_per_m) <= 2.0)) {
+      options.stuck.sensors.size() > 16 || !(options.stuck.keyframe_m >= 0.05) ||
+      !(options.stuck.robot_radius_m > 0.0) || options.stuck.robot_radius_m > 1.0 ||
+      !(options.stuck.stuck_travel_m.low >= 0.0) || !(options.stuck.stuck_travel_m.high <= 20.0) ||
+      !(std::abs(options.stuck.max_heading_drift_per_m) <= 2.0)) {
     return InvalidArgument("generator: stuck-robot physics out of range");
   }
   double longest_reach = options.max_protrusion_length_m;
@@ -619,14 +654,15 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
     if (!(band.range_m.low > 0.0) || !(band.range_m.high <= 20.0) || !(band.field_of_view.low > 0.0)) {
       return InvalidArgument("generator: sensor ranges must lie in (0, 20] m and fields of view be positive");
     }
-    if (options.stuck_robot_share > 0.0) longest_reach = std::max(longest_reach, options.stuck.stuck_travel_m.high + band.range_m.high);
+    if (options.stuck_robot_share > 0.0)
+      longest_reach = std::max(longest_reach, options.stuck.stuck_travel_m.high + band.range_m.high);
   }
   // Pad by the farthest reach so that a slip out of the map's edge stays inside the child's image.
   const int pad = static_cast<int>(std::ceil((longest_reach + 1.0) / real_map.resolution));
   ASSIGN_OR_RETURN(auto base,
-                   OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad, real_map.resolution,
-                                    real_map.origin_x - pad * real_map.resolution,
-                                    real_map.origin_y - pad * real_map.resolution));
+                   OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad,
+                                         real_map.resolution, real_map.origin_x - pad * real_map.resolution,
+                                         real_map.origin_y - pad * real_map.resolution));
   base.origin_yaw = real_map.origin_yaw;
   for (int row = 0; row < real_map.height; ++row) {
     for (int col = 0; col < real_map.width; ++col) base.at(col + pad, row + pad) = real_map.at(col, row);

@@ -29,7 +29,8 @@ Status WriteDatasetPair(const std::string& root, const DatasetEntry& entry, cons
   for (const std::string* id : {&entry.pair_id, &entry.map_id, &entry.home_id, &entry.source}) {
     if (!ValidId(*id)) return InvalidArgument("data set: id '" + *id + "' must be [A-Za-z0-9_.-]+");
   }
-  if (pair.truth.size() != pair.child.cells.size()) return InvalidArgument("data set: truth does not match the child");
+  if (pair.truth.size() != pair.child.cells.size())
+    return InvalidArgument("data set: truth does not match the child");
   const std::filesystem::path dir = std::filesystem::path(root) / "pairs" / entry.pair_id;
   std::error_code error;
   std::filesystem::create_directories(dir, error);
@@ -43,7 +44,8 @@ Status WriteDatasetPair(const std::string& root, const DatasetEntry& entry, cons
     std::copy(source, source + pair.child.width, truth.ptr<std::uint8_t>(pair.child.ImageRowOf(row)));
   }
   try {
-    if (!cv::imwrite((dir / "truth.png").string(), truth)) return Internal(dir.string() + "/truth.png: write failed");
+    if (!cv::imwrite((dir / "truth.png").string(), truth))
+      return Internal(dir.string() + "/truth.png: write failed");
   } catch (const cv::Exception& e) {
     return Internal(dir.string() + "/truth.png: " + e.what());
   }
@@ -111,7 +113,8 @@ Result<GeneratedPair> ReadDatasetPair(const std::string& root, const DatasetEntr
 }
 
 Result<LabelledPair> ExtractAndLabel(const GeneratedPair& pair, const DetectorOptions& options) {
-  if (pair.truth.size() != pair.child.cells.size()) return InvalidArgument("label: truth does not match the child");
+  if (pair.truth.size() != pair.child.cells.size())
+    return InvalidArgument("label: truth does not match the child");
   ASSIGN_OR_RETURN(auto regions, ExtractRegions(pair.parent, pair.child, options));
   LabelledPair result;
   std::vector<std::uint8_t> covered(pair.truth.size(), 0);
@@ -138,7 +141,8 @@ Result<LabelledPair> ExtractAndLabel(const GeneratedPair& pair, const DetectorOp
   }
   for (int label = 1; label < count; ++label) {
     const int area = stats.at<int>(label, cv::CC_STAT_AREA);
-    if (area >= min_cells && 2 * covered_cells[static_cast<std::size_t>(label)] < area) ++result.missed_protrusions;
+    if (area >= min_cells && 2 * covered_cells[static_cast<std::size_t>(label)] < area)
+      ++result.missed_protrusions;
   }
   return result;
 }
@@ -155,7 +159,8 @@ Status AccumulateConfusion(const ProtrusionClassifier& classifier, const Labelle
 
 std::string HomeOfRealMap(const std::string& map_id) {
   std::size_t end = 0;
-  for (int part = 0; part < 4 && end != std::string::npos; ++part) end = map_id.find('_', end == 0 ? 0 : end + 1);
+  for (int part = 0; part < 4 && end != std::string::npos; ++part)
+    end = map_id.find('_', end == 0 ? 0 : end + 1);
   return end == std::string::npos ? map_id : map_id.substr(0, end);
 }
 

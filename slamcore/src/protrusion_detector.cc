@@ -58,7 +58,8 @@ PairContext MakePairContext(const cv::Mat& child_cells, const cv::Mat& parent_ce
   for (int row = 0; row < labels.rows; ++row) {
     const int* label = labels.ptr<int>(row);
     std::uint8_t* out = context.reachable.ptr<std::uint8_t>(row);
-    for (int col = 0; col < labels.cols; ++col) out[col] = label[col] > 0 && touches_known[static_cast<std::size_t>(label[col])];
+    for (int col = 0; col < labels.cols; ++col)
+      out[col] = label[col] > 0 && touches_known[static_cast<std::size_t>(label[col])];
   }
   return context;
 }
@@ -69,7 +70,7 @@ PairContext MakePairContext(const cv::Mat& child_cells, const cv::Mat& parent_ce
 struct ShiftMatch {
   double walls = 0.0, floor = 0.0;  // shares of the region's wall / floor cells explained at the best shift
   double distance_m = 0.0;
-  double angle = 0.0;               // of the best shift, radians in the image frame
+  double angle = 0.0;  // of the best shift, radians in the image frame
 };
 
 ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, const cv::Rect& where,
@@ -86,8 +87,9 @@ ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, c
   const cv::Rect inside = window & cv::Rect(0, 0, context.parent_walls.cols, context.parent_walls.rows);
   auto crop = [&](const cv::Mat& image) {
     cv::Mat padded = cv::Mat::zeros(window.size(), CV_32F);
-    image(inside).convertTo(padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)),
-                            CV_32F, 1.0 / 255.0);
+    image(inside).convertTo(
+        padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)), CV_32F,
+        1.0 / 255.0);
     if (factor > 1) cv::resize(padded, padded, {}, 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
     return padded;
   };
@@ -114,7 +116,8 @@ ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, c
       const double dx = col - centre_x, dy = row - centre_y;
       if (std::hypot(dx, dy) < min_shift) continue;
       const double walls = wall_cells > 0 ? std::min(1.0, wall_scores.at<float>(row, col) / wall_total) : 0.0;
-      const double floor = floor_cells > 0 ? std::min(1.0, floor_scores.at<float>(row, col) / floor_total) : 0.0;
+      const double floor =
+          floor_cells > 0 ? std::min(1.0, floor_scores.at<float>(row, col) / floor_total) : 0.0;
       const double score = (wall_cells > 0 ? walls : floor) + (floor_cells > 0 ? floor : walls);
       if (score > best_score) {
         best_score = score;
@@ -145,7 +148,8 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
   std::vector<cv::Point> hull;
   if (!all_points.empty()) cv::convexHull(all_points, hull);
   // Hull polygons pass through pixel centres; half the hull's perimeter plus one restores the pixel area.
-  const double hull_area = hull.size() >= 3 ? cv::contourArea(hull) + 0.5 * cv::arcLength(hull, true) + 1.0 : area;
+  const double hull_area =
+      hull.size() >= 3 ? cv::contourArea(hull) + 0.5 * cv::arcLength(hull, true) + 1.0 : area;
   const double solidity = std::min(1.0, area / std::max(hull_area, 1.0));
 
   // Second moments as regionprops does: the ellipse with the region's normalised central moments.
@@ -228,12 +232,27 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
 }  // namespace
 
 const std::vector<std::string>& ProtrusionFeatureNames() {
-  static const std::vector<std::string> kNames = {
-      "area_m2",          "bbox_area_m2",      "perimeter_m",   "major_axis_m",  "minor_axis_m",
-      "mean_distance_m",  "max_distance_m",    "elongation",    "solidity",      "extent",
-      "contact_length_m", "contact_fraction",  "wall_fraction", "parent_wall_fraction",
-      "reachable_fraction", "wall_contact_fraction", "crossed_wall_m2", "shift_wall_match",
-      "shift_floor_match", "shift_distance_m", "shift_alignment"};
+  static const std::vector<std::string> kNames = {"area_m2",
+                                                  "bbox_area_m2",
+                                                  "perimeter_m",
+                                                  "major_axis_m",
+                                                  "minor_axis_m",
+                                                  "mean_distance_m",
+                                                  "max_distance_m",
+                                                  "elongation",
+                                                  "solidity",
+                                                  "extent",
+                                                  "contact_length_m",
+                                                  "contact_fraction",
+                                                  "wall_fraction",
+                                                  "parent_wall_fraction",
+                                                  "reachable_fraction",
+                                                  "wall_contact_fraction",
+                                                  "crossed_wall_m2",
+                                                  "shift_wall_match",
+                                                  "shift_floor_match",
+                                                  "shift_distance_m",
+                                                  "shift_alignment"};
   return kNames;
 }
 
@@ -242,17 +261,20 @@ Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const Occu
   RETURN_IF_ERROR(CheckGrid(child, "child"));
   const double resolution = child.resolution;
   if (std::abs(parent.resolution - resolution) > 1e-9 * resolution) {
-    return InvalidArgument("parent and child maps have different resolutions (" + std::to_string(parent.resolution) +
-                           " vs " + std::to_string(resolution) + " m/cell); re-save one at the other's resolution");
+    return InvalidArgument("parent and child maps have different resolutions (" +
+                           std::to_string(parent.resolution) + " vs " + std::to_string(resolution) +
+                           " m/cell); re-save one at the other's resolution");
   }
   if (std::abs(WrapAngle(parent.origin_yaw - child.origin_yaw)) > 1e-9) {
-    return InvalidArgument("parent and child maps have different origin yaws; they cannot be aligned cell to cell");
+    return InvalidArgument(
+        "parent and child maps have different origin yaws; they cannot be aligned cell to cell");
   }
   const double dx = (parent.origin_x - child.origin_x) / resolution;
   const double dy = (parent.origin_y - child.origin_y) / resolution;
   if (std::abs(dx - std::round(dx)) > 1e-3 || std::abs(dy - std::round(dy)) > 1e-3) {
-    return InvalidArgument("parent and child origins are not a whole number of cells apart (" + std::to_string(dx) +
-                           ", " + std::to_string(dy) + " cells); the maps are not on the same grid");
+    return InvalidArgument("parent and child origins are not a whole number of cells apart (" +
+                           std::to_string(dx) + ", " + std::to_string(dy) +
+                           " cells); the maps are not on the same grid");
   }
   if (std::abs(dx) > 4.0 * kMaxGridSide || std::abs(dy) > 4.0 * kMaxGridSide) {
     return InvalidArgument("parent and child origins are absurdly far apart");
@@ -263,7 +285,8 @@ Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const Occu
   aligned->origin_yaw = child.origin_yaw;
   const int col_begin = std::max(0, shift_x), col_end = std::min(child.width, shift_x + parent.width);
   for (int row = std::max(0, shift_y); row < std::min(child.height, shift_y + parent.height); ++row) {
-    for (int col = col_begin; col < col_end; ++col) aligned->at(col, row) = parent.at(col - shift_x, row - shift_y);
+    for (int col = col_begin; col < col_end; ++col)
+      aligned->at(col, row) = parent.at(col - shift_x, row - shift_y);
   }
   return aligned;
 }
@@ -302,8 +325,10 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   // least the minimum area: a wall is one or two cells thick, and a hole in it (a door opened, a stuck
   // robot's band drawn through it) is a change, not speckle.
   {
-    cv::Mat crossed = (child_cells == kFree) & (parent_cells == kOccupied), crossed_labels, crossed_stats, unused;
-    const int pieces = cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
+    cv::Mat crossed = (child_cells == kFree) & (parent_cells == kOccupied), crossed_labels, crossed_stats,
+            unused;
+    const int pieces =
+        cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
     const double min_piece = std::max(1.0, options.min_region_area_m2 / (r * r));
     std::vector<std::uint8_t> kept(static_cast<std::size_t>(pieces), 0);
     for (int piece = 1; piece < pieces; ++piece) {
@@ -343,7 +368,8 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     if (area < min_cells) continue;
     const cv::Rect local = cv::boundingRect(mask_inner);
     const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
-    cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S), parent_roi = cv::Mat(mask.size(), CV_8S, cv::Scalar(-1));
+    cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S),
+            parent_roi = cv::Mat(mask.size(), CV_8S, cv::Scalar(-1));
     child_cells(roi).copyTo(child_roi(cv::Rect(1, 1, roi.width, roi.height)));
     parent_cells(roi).copyTo(parent_roi(cv::Rect(1, 1, roi.width, roi.height)));
 

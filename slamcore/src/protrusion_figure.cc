@@ -18,7 +18,8 @@ cv::Vec3b Colour(std::int8_t cell) {
 cv::Mat ToImage(const OccupancyGrid& grid) {
   cv::Mat image(grid.height, grid.width, CV_8UC3);
   for (int row = 0; row < grid.height; ++row) {
-    for (int col = 0; col < grid.width; ++col) image.at<cv::Vec3b>(grid.ImageRowOf(row), col) = Colour(grid.at(col, row));
+    for (int col = 0; col < grid.width; ++col)
+      image.at<cv::Vec3b>(grid.ImageRowOf(row), col) = Colour(grid.at(col, row));
   }
   return image;
 }
@@ -32,7 +33,8 @@ Result<std::string> RenderDetectionFigure(const OccupancyGrid& aligned_parent, c
       regions.size() != is_protrusion.size()) {
     return InvalidArgument("figure: the parent must be aligned to the child, with one class per region");
   }
-  if (4LL * child.width * child.height > kMaxGridCells) return InvalidArgument("figure: the map is too large to draw");
+  if (4LL * child.width * child.height > kMaxGridCells)
+    return InvalidArgument("figure: the map is too large to draw");
   const cv::Mat parent_image = ToImage(aligned_parent), child_image = ToImage(child);
   cv::Mat difference(child.height, child.width, CV_8UC3, cv::Scalar(0, 0, 0));
   const std::vector<std::uint8_t> raw = DifferenceMask(aligned_parent, child);
@@ -53,8 +55,8 @@ Result<std::string> RenderDetectionFigure(const OccupancyGrid& aligned_parent, c
     }
     const ImageBox& box = regions[i].bbox;
     cv::rectangle(classified, cv::Rect(box.x, box.y, box.width, box.height), cv::Scalar(colour), 1);
-    cv::putText(classified, std::to_string(regions[i].id), {box.x, std::max(10, box.y - 2)}, cv::FONT_HERSHEY_PLAIN,
-                0.8, cv::Scalar(colour), 1);
+    cv::putText(classified, std::to_string(regions[i].id), {box.x, std::max(10, box.y - 2)},
+                cv::FONT_HERSHEY_PLAIN, 0.8, cv::Scalar(colour), 1);
   }
   cv::Mat figure;
   const cv::Mat gap(child.height, 6, CV_8UC3, cv::Scalar(255, 255, 255));

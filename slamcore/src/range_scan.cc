@@ -21,7 +21,8 @@ std::int64_t CellOf(const OccupancyGrid& grid, double x, double y) {
 
 }  // namespace
 
-ScanVotes::ScanVotes(const OccupancyGrid& frame) : frame_(frame), free_stamp_(frame.cells.size(), 0), hit_stamp_(frame.cells.size(), 0) {
+ScanVotes::ScanVotes(const OccupancyGrid& frame)
+    : frame_(frame), free_stamp_(frame.cells.size(), 0), hit_stamp_(frame.cells.size(), 0) {
   for (int k = 0; k < 2; ++k) {
     free_[k].assign(frame.cells.size(), 0);
     occupied_[k].assign(frame.cells.size(), 0);
@@ -38,7 +39,8 @@ int ScanVotes::AddScan(const OccupancyGrid& world, const SE2& sensor_pose, const
   const bool all_round = sensor.field_of_view >= 2.0 * std::numbers::pi;
   const double fov = all_round ? 2.0 * std::numbers::pi : sensor.field_of_view;
   // Beams close enough that neighbouring beams' ends are less than a cell apart at full range.
-  const int beams = std::max(8, static_cast<int>(std::ceil(fov * sensor.range_m / (0.7 * frame_.resolution))));
+  const int beams =
+      std::max(8, static_cast<int>(std::ceil(fov * sensor.range_m / (0.7 * frame_.resolution))));
   int voted = 0;
   auto vote = [&](double local_x, double local_y, bool hit) {
     const Vector2 drawn = drawn_pose * Vector2(local_x, local_y);

@@ -34,8 +34,8 @@ class ScanVotes {
   /// Casts `sensor` in `world` from `sensor_pose` (beams stop at the first occupied cell, and end without
   /// a hit on unknown cells or at the range) and votes along each beam as seen from `drawn_pose`.
   /// `erroneous` marks the votes as coming from a wrong pose. Returns the number of cells voted.
-  int AddScan(const OccupancyGrid& world, const SE2& sensor_pose, const SE2& drawn_pose, const RangeSensor& sensor,
-              bool erroneous, std::mt19937_64& random);
+  int AddScan(const OccupancyGrid& world, const SE2& sensor_pose, const SE2& drawn_pose,
+              const RangeSensor& sensor, bool erroneous, std::mt19937_64& random);
 
   bool Voted(std::size_t cell) const { return Free(cell) + Occupied(cell) > 0; }
   int Free(std::size_t cell) const { return free_[0][cell] + free_[1][cell]; }

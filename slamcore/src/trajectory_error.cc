@@ -6,8 +6,8 @@ namespace slamcore {
 
 Result<SE2> AlignRigidly(const std::vector<Vector2>& estimate, const std::vector<Vector2>& reference) {
   if (estimate.size() != reference.size()) {
-    return InvalidArgument("alignment needs equally many points: " + std::to_string(estimate.size()) + " vs " +
-                           std::to_string(reference.size()));
+    return InvalidArgument("alignment needs equally many points: " + std::to_string(estimate.size()) +
+                           " vs " + std::to_string(reference.size()));
   }
   if (estimate.size() < 2) return InvalidArgument("alignment needs at least 2 points");
   Vector2 mean_estimate = Vector2::Zero(), mean_reference = Vector2::Zero();
@@ -32,7 +32,8 @@ Result<SE2> AlignRigidly(const std::vector<Vector2>& estimate, const std::vector
 Result<double> AlignedRmse(const std::vector<Vector2>& estimate, const std::vector<Vector2>& reference) {
   ASSIGN_OR_RETURN(const auto alignment, AlignRigidly(estimate, reference));
   double sum = 0.0;
-  for (std::size_t k = 0; k < estimate.size(); ++k) sum += ((alignment) * estimate[k] - reference[k]).squaredNorm();
+  for (std::size_t k = 0; k < estimate.size(); ++k)
+    sum += ((alignment)*estimate[k] - reference[k]).squaredNorm();
   return std::sqrt(sum / static_cast<double>(estimate.size()));
 }
 

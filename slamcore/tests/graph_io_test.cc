@@ -66,9 +66,10 @@ TEST(GraphIoTest, ReadsToroWithItsOwnInformationOrder) {
 }
 
 TEST(GraphIoTest, FileWithoutVerticesIsInitialisedFromOdometry) {
-  const auto graph = Read("EDGE_SE2 0 1 1 0 1.5707963267948966 1 0 0 1 0 1\n"
-                          "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
-                          "EDGE_SE2 2 0 0 0 0 1 0 0 1 0 1\n");
+  const auto graph = Read(
+      "EDGE_SE2 0 1 1 0 1.5707963267948966 1 0 0 1 0 1\n"
+      "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
+      "EDGE_SE2 2 0 0 0 0 1 0 0 1 0 1\n");
   ASSERT_THAT(graph, IsOk());
   EXPECT_NEAR(graph->node(2).pose.x(), 1.0, 1e-12);
   EXPECT_NEAR(graph->node(2).pose.y(), 1.0, 1e-12);
@@ -141,7 +142,8 @@ TEST(GraphIoTest, MalformedInputIsRefusedWithFileLineAndReason) {
               "information is not positive definite");
   ExpectError("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 5 1 0 0 1 0 0 1 0 1\n",
               "test.g2o:2: edge refers to vertex 5, which is not declared");
-  ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 0 0\n", "test.g2o:2: vertex 0 already declared at test.g2o:1");
+  ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 0 0\n",
+              "test.g2o:2: vertex 0 already declared at test.g2o:1");
   ExpectError("VERTEX_SE2 0 0 0 0\nFIX 3\n", "test.g2o:2: FIX of vertex 3, which is not declared");
   ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX2 1 0 0 0\n", "mixes g2o and TORO");
   ExpectError("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 0 1 0 0 1 0 0 1 0 1\n", "joins vertex 0 to itself");

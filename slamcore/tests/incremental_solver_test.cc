@@ -48,7 +48,9 @@ Fed FeedIncrementally(const PoseGraph& world) {
   for (const Edge& edge : world.edges()) {
     if (edge.kind == EdgeKind::kMotion) {
       update();
-      EXPECT_THAT(fed.graph.AddNode(Node{.id = edge.to, .pose = fed.graph.node(edge.from).pose * edge.measurement}), IsOk());
+      EXPECT_THAT(
+          fed.graph.AddNode(Node{.id = edge.to, .pose = fed.graph.node(edge.from).pose * edge.measurement}),
+          IsOk());
     } else {
       seeds.push_back(edge.from), seeds.push_back(edge.to);
     }
@@ -92,7 +94,9 @@ TEST(IncrementalSolverTest, ALongLoopClosedFarFromTheEstimateIsSolvedWholeWithTh
   PoseGraph graph = BentLoop(200, 0.002);  // the closing edge's χ² is far above whole_component_edge_chi2
   const SE2 first = graph.node(0).pose;
   const SE2 closing = SE2(1.0, 0.0, 2 * 3.14159265358979 / 200);
-  ASSERT_THAT(graph.AddEdge(Edge{.from = 199, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}), IsOk());
+  ASSERT_THAT(
+      graph.AddEdge(Edge{.from = 199, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}),
+      IsOk());
   ASSERT_GT(EdgeChi2(graph, graph.edges().back()), IncrementalSolverOptions{}.whole_component_edge_chi2);
   IncrementalSolver solver;
   const IncrementalSummary summary = solver.Update(graph, {199, 0});
@@ -106,14 +110,16 @@ TEST(IncrementalSolverTest, ALongLoopClosedFarFromTheEstimateIsSolvedWholeWithTh
 TEST(IncrementalSolverTest, ASmallCorrectionSpreadsOnlyAsFarAsItMovesTheMap) {
   PoseGraph graph = BentLoop(2000, 2e-6);
   const SE2 closing = SE2(1.0, 0.0, 2 * 3.14159265358979 / 2000);
-  ASSERT_THAT(graph.AddEdge(Edge{.from = 1999, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}), IsOk());
+  ASSERT_THAT(
+      graph.AddEdge(Edge{.from = 1999, .to = 0, .measurement = closing, .kind = EdgeKind::kObservation}),
+      IsOk());
   ASSERT_LT(EdgeChi2(graph, graph.edges().back()), IncrementalSolverOptions{}.whole_component_edge_chi2);
   const double before = Chi2(graph);
   IncrementalSolver solver;
   const IncrementalSummary summary = solver.Update(graph, {1999, 0});
-  EXPECT_GT(summary.rounds, 1);   // it grew ...
+  EXPECT_GT(summary.rounds, 1);  // it grew ...
   EXPECT_GT(summary.region_nodes, 64);
-  EXPECT_FALSE(summary.full);     // ... but not to the whole loop
+  EXPECT_FALSE(summary.full);  // ... but not to the whole loop
   EXPECT_LT(summary.region_nodes, 2000);
   // Most of the way to the optimum: what is left is below the wildfire tolerance where the region stopped.
   const double optimum = BatchChi2(graph);
@@ -125,7 +131,9 @@ TEST(IncrementalSolverTest, AnEdgeThatAgreesLeavesTheRegionSmall) {
   IncrementalSolver solver;
   // An exact closure between nodes 1990 and 1980: nothing moves, nothing spreads.
   const SE2 relative = graph.node(1980).pose.inverse() * graph.node(1990).pose;
-  ASSERT_THAT(graph.AddEdge(Edge{.from = 1980, .to = 1990, .measurement = relative, .kind = EdgeKind::kObservation}), IsOk());
+  ASSERT_THAT(
+      graph.AddEdge(Edge{.from = 1980, .to = 1990, .measurement = relative, .kind = EdgeKind::kObservation}),
+      IsOk());
   const IncrementalSummary summary = solver.Update(graph, {1980, 1990});
   EXPECT_EQ(summary.rounds, 1);
   EXPECT_LE(summary.region_nodes, 32);
@@ -135,8 +143,11 @@ TEST(IncrementalSolverTest, AnEdgeThatAgreesLeavesTheRegionSmall) {
 TEST(IncrementalSolverTest, NoticesRemovedEdgesAndAReplacedGraph) {
   PoseGraph graph = BentLoop(100, 0.003);
   IncrementalSolver solver;
-  ASSERT_THAT(graph.AddEdge(Edge{.from = 99, .to = 0, .measurement = SE2(1.0, 0.0, 2 * 3.14159265358979 / 100),
-                                 .kind = EdgeKind::kObservation}), IsOk());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 99,
+                                 .to = 0,
+                                 .measurement = SE2(1.0, 0.0, 2 * 3.14159265358979 / 100),
+                                 .kind = EdgeKind::kObservation}),
+              IsOk());
   (void)solver.Update(graph, {99, 0});
   const PoseGraph before_removal = graph;
   // Retraction: the closure leaves; with it gone the odometry alone is the optimum (χ² 0).
@@ -145,8 +156,11 @@ TEST(IncrementalSolverTest, NoticesRemovedEdgesAndAReplacedGraph) {
   EXPECT_LT(Chi2(graph), 1e-8);
   // G replaced by an older copy (a refused acceptance restored), then a new edge.
   graph = before_removal;
-  ASSERT_THAT(graph.AddEdge(Edge{.from = 50, .to = 10, .measurement = graph.node(50).pose.inverse() * graph.node(10).pose,
-                                 .kind = EdgeKind::kObservation}), IsOk());
+  ASSERT_THAT(graph.AddEdge(Edge{.from = 50,
+                                 .to = 10,
+                                 .measurement = graph.node(50).pose.inverse() * graph.node(10).pose,
+                                 .kind = EdgeKind::kObservation}),
+              IsOk());
   (void)solver.Update(graph, {50, 10});
   EXPECT_NEAR(Chi2(graph), BatchChi2(graph), 1e-6 * BatchChi2(graph) + 1e-9);
 }
@@ -190,11 +204,13 @@ struct EquivalenceCase {
 class BackendEquivalenceTest : public ::testing::TestWithParam<EquivalenceCase> {};
 
 /// Runs both back-ends over the case's graph; `consistent_set_check` as the Mapper's parameter.
-std::pair<ReplayResult, ReplayResult> ReplayWithBothBackends(const PoseGraph& graph, bool consistent_set_check) {
+std::pair<ReplayResult, ReplayResult> ReplayWithBothBackends(const PoseGraph& graph,
+                                                             bool consistent_set_check) {
   MapperParams batch, incremental;
   batch.backend = MapperBackend::kBatch;
   incremental.backend = MapperBackend::kIncremental;
-  batch.consistency.consistent_set_check = incremental.consistency.consistent_set_check = consistent_set_check;
+  batch.consistency.consistent_set_check = incremental.consistency.consistent_set_check =
+      consistent_set_check;
   auto with_batch = ReplayPoseGraph(graph, batch);
   auto with_incremental = ReplayPoseGraph(graph, incremental);
   EXPECT_THAT(with_batch, IsOk());
@@ -212,12 +228,14 @@ TEST_P(BackendEquivalenceTest, SameDecisionsAndTheOptimumAtTheEnd) {
   const auto graph = ReadPoseGraph(path);
   ASSERT_THAT(graph, IsOk());
   const auto [with_batch, with_incremental] = ReplayWithBothBackends(*graph, /*consistent_set_check=*/false);
-  const std::set<VertexPair> accepted_batch = Sorted(with_batch.accepted), accepted = Sorted(with_incremental.accepted);
+  const std::set<VertexPair> accepted_batch = Sorted(with_batch.accepted),
+                             accepted = Sorted(with_incremental.accepted);
   std::vector<VertexPair> differing;
-  std::set_symmetric_difference(accepted.begin(), accepted.end(), accepted_batch.begin(), accepted_batch.end(),
-                                std::back_inserter(differing));
+  std::set_symmetric_difference(accepted.begin(), accepted.end(), accepted_batch.begin(),
+                                accepted_batch.end(), std::back_inserter(differing));
   EXPECT_LE(differing.size(), GetParam().differing_decisions)
-      << with_incremental.accepted.size() << " accepted against the batch back-end's " << with_batch.accepted.size();
+      << with_incremental.accepted.size() << " accepted against the batch back-end's "
+      << with_batch.accepted.size();
   if (GetParam().differing_decisions == 0) {
     EXPECT_EQ(Sorted(with_incremental.rejected), Sorted(with_batch.rejected));
   }
@@ -243,21 +261,21 @@ TEST_P(BackendEquivalenceTest, WithTheConsistentSetCheckBothEndAtTheOptimum) {
   EXPECT_NEAR(with_batch.final_chi2, batch_optimum, 1e-6 * batch_optimum + 1e-9);
 }
 
-INSTANTIATE_TEST_SUITE_P(SharedGraphs, BackendEquivalenceTest,
-                         ::testing::Values(EquivalenceCase{"vertigo/ring.g2o", 0}, EquivalenceCase{"vertigo/intel.g2o", 0},
-                                           EquivalenceCase{"sesync/CSAIL.g2o", 0}, EquivalenceCase{"sesync/MIT.g2o", 0},
-                                           EquivalenceCase{"vertigo/ringCity.g2o", 0},
-                                           EquivalenceCase{"vertigo/manhattanOlson3500_olson.g2o", 0},
-                                           EquivalenceCase{"vertigo/manhattanOlson3500_g2o.g2o", 0},
-                                           EquivalenceCase{"sesync/intel.g2o", 0},
-                                           EquivalenceCase{"sesync/manhattan.g2o", 80}),
-                         [](const auto& test_case) {
-                           std::string name = test_case.param.graph;
-                           for (char& c : name) {
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           }
-                           return name;
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    SharedGraphs, BackendEquivalenceTest,
+    ::testing::Values(EquivalenceCase{"vertigo/ring.g2o", 0}, EquivalenceCase{"vertigo/intel.g2o", 0},
+                      EquivalenceCase{"sesync/CSAIL.g2o", 0}, EquivalenceCase{"sesync/MIT.g2o", 0},
+                      EquivalenceCase{"vertigo/ringCity.g2o", 0},
+                      EquivalenceCase{"vertigo/manhattanOlson3500_olson.g2o", 0},
+                      EquivalenceCase{"vertigo/manhattanOlson3500_g2o.g2o", 0},
+                      EquivalenceCase{"sesync/intel.g2o", 0}, EquivalenceCase{"sesync/manhattan.g2o", 80}),
+    [](const auto& test_case) {
+      std::string name = test_case.param.graph;
+      for (char& c : name) {
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      }
+      return name;
+    });
 
 }  // namespace
 }  // namespace slamcore::internal

@@ -27,7 +27,8 @@ TEST(LinearInitializationTest, RecoversNoiseFreeGraphExactly) {
     if (node.id != 0) node.pose = SE2(0.1 * static_cast<double>(node.id), -3.0, 2.0);
   }
   ASSERT_THAT(InitializeLinear(scrambled), IsOk());
-  for (const Node& node : truth->nodes()) EXPECT_THAT(scrambled.node(node.id).pose, IsNearlyPose(node.pose, 1e-4));
+  for (const Node& node : truth->nodes())
+    EXPECT_THAT(scrambled.node(node.id).pose, IsNearlyPose(node.pose, 1e-4));
 }
 
 TEST(LinearInitializationTest, UnwrapsHeadingsAcrossPi) {
@@ -53,7 +54,8 @@ TEST(LinearInitializationTest, UnwrapsHeadingsAcrossPi) {
     ASSERT_THAT(graph.AddEdge(edge), IsOk());
   }
   ASSERT_THAT(InitializeLinear(graph), IsOk());
-  for (int k = 0; k < 8; ++k) EXPECT_THAT(graph.node(k).pose, IsNearlyPose(expected[k], 1e-9)) << "node " << k;
+  for (int k = 0; k < 8; ++k)
+    EXPECT_THAT(graph.node(k).pose, IsNearlyPose(expected[k], 1e-9)) << "node " << k;
 }
 
 TEST(LinearInitializationTest, UnknownComponentIsNotFound) {

@@ -17,10 +17,13 @@ using ::testing::HasSubstr;
 PoseGraph Corridor() {
   PoseGraph graph;
   for (int k = 0; k < 60; ++k) EXPECT_THAT(graph.AddNode(Node{.id = k, .pose = SE2(k % 40, 0, 0)}), IsOk());
-  for (int k = 0; k + 1 < 60; ++k) EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, 0)}), IsOk());
+  for (int k = 0; k + 1 < 60; ++k)
+    EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, 0)}), IsOk());
   for (int k = 10; k < 15; ++k) {
-    EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 40, .measurement = SE2(0.01 * k, 0, 0),
-                                   .kind = EdgeKind::kObservation}), IsOk());
+    EXPECT_THAT(
+        graph.AddEdge(Edge{
+            .from = k, .to = k + 40, .measurement = SE2(0.01 * k, 0, 0), .kind = EdgeKind::kObservation}),
+        IsOk());
   }
   return graph;
 }
@@ -71,11 +74,13 @@ TEST(LoopClosureOutliersTest, UnboundedOptionsAreRefused) {
   EXPECT_THAT(AddLoopClosureOutliers(graph, huge_group).status().message(), HasSubstr("at most 1000"));
   OutlierOptions too_many;
   too_many.total_edges = 100 * 60 + 1;
-  EXPECT_THAT(AddLoopClosureOutliers(graph, too_many).status().message(), HasSubstr("more than 100 per vertex"));
+  EXPECT_THAT(AddLoopClosureOutliers(graph, too_many).status().message(),
+              HasSubstr("more than 100 per vertex"));
   OutlierOptions bad_share;
   bad_share.single_fraction = 1.5;
   EXPECT_THAT(AddLoopClosureOutliers(graph, bad_share).status().message(), HasSubstr("single_fraction"));
-  EXPECT_THAT(ParseOutlierMode("grouped").status().message(), HasSubstr("expected random, local, first or shifted"));
+  EXPECT_THAT(ParseOutlierMode("grouped").status().message(),
+              HasSubstr("expected random, local, first or shifted"));
   EXPECT_EQ(*ParseOutlierMode("shifted"), OutlierOptions::Mode::kShifted);
 }
 

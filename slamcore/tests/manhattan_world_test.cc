@@ -43,7 +43,8 @@ TEST(ManhattanWorldTest, SameSeedSameGraphOtherSeedOtherGraph) {
     EXPECT_EQ(ea.measurement.x(), eb.measurement.x());
     EXPECT_EQ(ea.measurement.theta(), eb.measurement.theta());
   }
-  for (std::size_t k = 0; k < a.graph.num_nodes(); ++k) EXPECT_EQ(a.graph.nodes()[k].pose.y(), b.graph.nodes()[k].pose.y());
+  for (std::size_t k = 0; k < a.graph.num_nodes(); ++k)
+    EXPECT_EQ(a.graph.nodes()[k].pose.y(), b.graph.nodes()[k].pose.y());
   bool differs = a.graph.num_edges() != c.graph.num_edges();
   for (std::size_t k = 0; !differs && k < a.graph.num_nodes(); ++k) {
     differs = a.graph.nodes()[k].pose.x() != c.graph.nodes()[k].pose.x();
@@ -145,7 +146,8 @@ TEST(ManhattanWorldTest, RefusesBadOptionsNamingThem) {
   EXPECT_NE(GenerateManhattanWorld(options).status().message().find("sigma_xy"), std::string::npos);
   options = {};
   options.closure_probability = 1.5;
-  EXPECT_NE(GenerateManhattanWorld(options).status().message().find("closure_probability"), std::string::npos);
+  EXPECT_NE(GenerateManhattanWorld(options).status().message().find("closure_probability"),
+            std::string::npos);
   EXPECT_FALSE(WriteGroundTruth({SE2::Identity()}, "/nonexistent-directory/truth.txt").ok());
 }
 

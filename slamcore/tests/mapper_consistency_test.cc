@@ -17,11 +17,11 @@
 namespace slamcore {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::CorridorOutAndBack;
 using testing::CorridorParams;
 using testing::CountDecisions;
 using testing::EdgeSet;
+using ::testing::HasSubstr;
 using testing::IsNearlyPose;
 using testing::LastDecision;
 using testing::MakeMapper;
@@ -72,7 +72,8 @@ TEST(MarginalCovariancesTest, AChainComposesItsEdgesThroughTheAdjoint) {
   expected << 2 * a, 0, 0, 0, 2 * a + b, -b, 0, -b, 2 * b;
   EXPECT_TRUE(relative.covariance.isApprox(expected, 1e-6)) << relative.covariance;
   // From node 1, in its own frame: a single edge.
-  EXPECT_TRUE(marginals->Relative(1, 2).covariance.isApprox(Vector3(a, a, b).asDiagonal().toDenseMatrix(), 1e-6));
+  EXPECT_TRUE(
+      marginals->Relative(1, 2).covariance.isApprox(Vector3(a, a, b).asDiagonal().toDenseMatrix(), 1e-6));
 }
 
 TEST(MarginalCovariancesTest, ALoopMakesTwoPlacesSurerOfEachOtherThanOdometry) {
@@ -89,7 +90,8 @@ TEST(MarginalCovariancesTest, ALoopMakesTwoPlacesSurerOfEachOtherThanOdometry) {
   Matrix3 chain;
   chain << 2 * a, 0, 0, 0, 2 * a + b, -b, 0, -b, 2 * b;
   const Matrix3 expected = (chain.inverse() + closure_covariance.inverse()).inverse();
-  EXPECT_TRUE(marginals->Relative(0, 2).covariance.isApprox(expected, 1e-6)) << marginals->Relative(0, 2).covariance;
+  EXPECT_TRUE(marginals->Relative(0, 2).covariance.isApprox(expected, 1e-6))
+      << marginals->Relative(0, 2).covariance;
 }
 
 // Wheel stasis as in mapper_test.cc's RecoveryTest: the robot stands at x = 1 while odometry (σ² = 1e-2 per
@@ -228,7 +230,8 @@ TEST(ConsistencyParamsTest, OpenHypothesesAreCapped) {
   }
   EXPECT_EQ(mapper->Statistics().recovery_created, 5);
   EXPECT_EQ(mapper->Statistics().recovery_expired, 2);
-  EXPECT_THAT(LastDecision(*mapper, DecisionKind::kExpired)->reason, HasSubstr("more than 3 open hypotheses"));
+  EXPECT_THAT(LastDecision(*mapper, DecisionKind::kExpired)->reason,
+              HasSubstr("more than 3 open hypotheses"));
 }
 
 }  // namespace

@@ -14,8 +14,8 @@
 namespace slamcore {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::EdgeSet;
+using ::testing::HasSubstr;
 using testing::IsNearlyPose;
 using testing::MakeMapper;
 using testing::SimulatedRobot;

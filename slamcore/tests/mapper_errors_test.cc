@@ -12,8 +12,8 @@
 namespace slamcore {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::Describe;
+using ::testing::HasSubstr;
 using testing::MakeMapper;
 using testing::SimulatedRobot;
 
@@ -25,8 +25,8 @@ std::string Snapshot(const Mapper& mapper) {
   std::ostringstream text;
   text << Describe(mapper.map().graph) << "local maps " << mapper.map().local_maps.size() << "\ndecisions "
        << mapper.decisions().size() << "\naccepted " << mapper.accepted_observations().size()
-       << "\nground truth " << mapper.ground_truth().size() << "\nconditional " << mapper.HasConditionalMerge()
-       << "\ncurrent " << mapper.CurrentNode().value_or(-1) << "\n";
+       << "\nground truth " << mapper.ground_truth().size() << "\nconditional "
+       << mapper.HasConditionalMerge() << "\ncurrent " << mapper.CurrentNode().value_or(-1) << "\n";
   if (mapper.CurrentPose()) text << "pose " << mapper.CurrentPose()->vector().transpose() << "\n";
   return text.str();
 }
@@ -41,8 +41,10 @@ std::unique_ptr<Mapper> Started() {
   robot.Drive(SE2(1.0, 0.0, 0.0));  // t = 11
   robot.CreateView(2);
   robot.ObserveRaw(1, SE2(3.0, 0.0, 0.0));
-  EXPECT_THAT(mapper->Process(LocalMapEvent{.time = 11.0, .resolution = 0.05, .width = 1, .height = 1,
-                                            .node_T_origin = SE2(), .cells = {0}}), IsOk());
+  EXPECT_THAT(
+      mapper->Process(LocalMapEvent{
+          .time = 11.0, .resolution = 0.05, .width = 1, .height = 1, .node_T_origin = SE2(), .cells = {0}}),
+      IsOk());
   return mapper;
 }
 
@@ -70,17 +72,19 @@ TEST(MapperErrorsTest, BadEventsAreRefusedAndChangeNothing) {
        StatusCode::kFailedPrecondition, "OdometryEvent at t=10.5: time goes backwards"},
       {"view time backwards", ViewCreatedEvent{.time = 1.0, .view = 9}, StatusCode::kFailedPrecondition,
        "ViewCreatedEvent at t=1: time goes backwards"},
-      {"observation time backwards", ViewObservedEvent{.time = 3.0, .view = 1, .robot_T_view = SE2(), .covariance = id},
+      {"observation time backwards",
+       ViewObservedEvent{.time = 3.0, .view = 1, .robot_T_view = SE2(), .covariance = id},
        StatusCode::kFailedPrecondition, "time goes backwards"},
       {"ground truth time backwards", GroundTruthEvent{.time = 3.0, .world_T_robot = SE2()},
        StatusCode::kFailedPrecondition, "GroundTruthEvent at t=3"},
       {"kidnap time backwards", KidnapEvent{.time = 3.0, .cause = KidnapEvent::Cause::kReboot},
        StatusCode::kFailedPrecondition, "KidnapEvent at t=3"},
-      {"NaN time", OdometryEvent{.time = kNan, .increment = SE2(), .covariance = id}, StatusCode::kInvalidArgument,
-       "time is not finite"},
+      {"NaN time", OdometryEvent{.time = kNan, .increment = SE2(), .covariance = id},
+       StatusCode::kInvalidArgument, "time is not finite"},
       {"NaN increment", OdometryEvent{.time = 12.0, .increment = SE2(kNan, 0, 0), .covariance = id},
        StatusCode::kInvalidArgument, "OdometryEvent at t=12: increment has a NaN"},
-      {"infinite increment angle", OdometryEvent{.time = 12.0, .increment = SE2(0, 0, kInf), .covariance = id},
+      {"infinite increment angle",
+       OdometryEvent{.time = 12.0, .increment = SE2(0, 0, kInf), .covariance = id},
        StatusCode::kInvalidArgument, "increment"},
       {"infinite odometry covariance",
        OdometryEvent{.time = 12.0, .increment = SE2(), .covariance = Matrix3::Identity() * kInf},
@@ -88,28 +92,44 @@ TEST(MapperErrorsTest, BadEventsAreRefusedAndChangeNothing) {
       {"asymmetric covariance", OdometryEvent{.time = 12.0, .increment = SE2(), .covariance = NotSymmetric()},
        StatusCode::kInvalidArgument, "covariance is not symmetric"},
       {"indefinite covariance",
-       ViewObservedEvent{.time = 12.0, .view = 1, .robot_T_view = SE2(),
+       ViewObservedEvent{.time = 12.0,
+                         .view = 1,
+                         .robot_T_view = SE2(),
                          .covariance = Vector3(1e-2, -1e-2, 1e-2).asDiagonal()},
        StatusCode::kInvalidArgument, "ViewObservedEvent at t=12: covariance is not positive definite"},
-      {"zero covariance", ViewObservedEvent{.time = 12.0, .view = 1, .robot_T_view = SE2(), .covariance = Matrix3::Zero()},
+      {"zero covariance",
+       ViewObservedEvent{.time = 12.0, .view = 1, .robot_T_view = SE2(), .covariance = Matrix3::Zero()},
        StatusCode::kInvalidArgument, "not positive definite"},
-      {"NaN observation", ViewObservedEvent{.time = 12.0, .view = 1, .robot_T_view = SE2(0, kNan, 0), .covariance = id},
+      {"NaN observation",
+       ViewObservedEvent{.time = 12.0, .view = 1, .robot_T_view = SE2(0, kNan, 0), .covariance = id},
        StatusCode::kInvalidArgument, "robot_T_view has a NaN"},
       {"NaN ground truth", GroundTruthEvent{.time = 12.0, .world_T_robot = SE2(kNan, 0, 0)},
        StatusCode::kInvalidArgument, "GroundTruthEvent at t=12: world_T_robot"},
       {"unknown kidnap cause", KidnapEvent{.time = 12.0, .cause = static_cast<KidnapEvent::Cause>(7)},
        StatusCode::kInvalidArgument, "unknown cause 7"},
-      {"local map size", LocalMapEvent{.time = 12.0, .resolution = 0.05, .width = 2, .height = 2, .node_T_origin = SE2(),
-                                       .cells = {0, 0, 0}},
+      {"local map size",
+       LocalMapEvent{.time = 12.0,
+                     .resolution = 0.05,
+                     .width = 2,
+                     .height = 2,
+                     .node_T_origin = SE2(),
+                     .cells = {0, 0, 0}},
        StatusCode::kInvalidArgument, "LocalMapEvent at t=12: has 3 cells"},
-      {"local map cell", LocalMapEvent{.time = 12.0, .resolution = 0.05, .width = 1, .height = 1, .node_T_origin = SE2(),
-                                       .cells = {101}},
+      {"local map cell",
+       LocalMapEvent{
+           .time = 12.0, .resolution = 0.05, .width = 1, .height = 1, .node_T_origin = SE2(), .cells = {101}},
        StatusCode::kInvalidArgument, "cell 0 is 101"},
-      {"local map resolution", LocalMapEvent{.time = 12.0, .resolution = kNan, .width = 1, .height = 1,
-                                             .node_T_origin = SE2(), .cells = {0}},
+      {"local map resolution",
+       LocalMapEvent{
+           .time = 12.0, .resolution = kNan, .width = 1, .height = 1, .node_T_origin = SE2(), .cells = {0}},
        StatusCode::kInvalidArgument, "resolution"},
-      {"local map origin", LocalMapEvent{.time = 12.0, .resolution = 0.05, .width = 1, .height = 1,
-                                         .node_T_origin = SE2(kInf, 0, 0), .cells = {0}},
+      {"local map origin",
+       LocalMapEvent{.time = 12.0,
+                     .resolution = 0.05,
+                     .width = 1,
+                     .height = 1,
+                     .node_T_origin = SE2(kInf, 0, 0),
+                     .cells = {0}},
        StatusCode::kInvalidArgument, "node_T_origin"},
   };
   for (const BadEvent& bad : cases) {
@@ -121,7 +141,8 @@ TEST(MapperErrorsTest, BadEventsAreRefusedAndChangeNothing) {
     EXPECT_THAT(status.message(), HasSubstr(bad.message)) << bad.name;
     EXPECT_EQ(Snapshot(*mapper), before) << bad.name;
     // The time of the refused event was not taken either: an event at t = 11 is still accepted.
-    EXPECT_THAT(mapper->Process(OdometryEvent{.time = 11.0, .increment = SE2(), .covariance = id}), IsOk()) << bad.name;
+    EXPECT_THAT(mapper->Process(OdometryEvent{.time = 11.0, .increment = SE2(), .covariance = id}), IsOk())
+        << bad.name;
   }
 }
 
@@ -130,7 +151,8 @@ TEST(MapperErrorsTest, EventsNeedingANodeAreRefusedBeforeTheFirstNodeAndAfterAKi
   const std::vector<Event> need_a_node = {
       ViewCreatedEvent{.time = 5.0, .view = 1},
       ViewObservedEvent{.time = 5.0, .view = 1, .robot_T_view = SE2(), .covariance = id},
-      LocalMapEvent{.time = 5.0, .resolution = 0.05, .width = 1, .height = 1, .node_T_origin = SE2(), .cells = {0}},
+      LocalMapEvent{
+          .time = 5.0, .resolution = 0.05, .width = 1, .height = 1, .node_T_origin = SE2(), .cells = {0}},
   };
   for (const Event& event : need_a_node) {
     auto empty = MakeMapper();

@@ -11,11 +11,11 @@
 namespace slamcore {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::CorridorParentMap;
 using testing::CountDecisions;
 using testing::Describe;
 using testing::FullCopyMergedGraph;
+using ::testing::HasSubstr;
 using testing::IsNearlyPose;
 using testing::MakeMapper;
 using testing::SimulatedRobot;
@@ -155,12 +155,14 @@ TEST(MapperMergeTest, UndoneConditionalMergeLeavesGAsIfNeverMerged) {
     graphs_with.push_back(Describe(with.mapper->map().graph));
     was_conditional = was_conditional || with.mapper->HasConditionalMerge();
   });
-  DriveConditionalThenExpiry(without, [&] { graphs_without.push_back(Describe(without.mapper->map().graph)); });
+  DriveConditionalThenExpiry(without,
+                             [&] { graphs_without.push_back(Describe(without.mapper->map().graph)); });
   ASSERT_TRUE(was_conditional);
   EXPECT_FALSE(with.mapper->HasConditionalMerge());
   // G was identical at every step, including while G′ showed the merge, and after the undo.
   ASSERT_EQ(graphs_with.size(), graphs_without.size());
-  for (std::size_t i = 0; i < graphs_with.size(); ++i) EXPECT_EQ(graphs_with[i], graphs_without[i]) << "step " << i;
+  for (std::size_t i = 0; i < graphs_with.size(); ++i)
+    EXPECT_EQ(graphs_with[i], graphs_without[i]) << "step " << i;
   EXPECT_EQ(with.mapper->map().graph.NumComponents(), 2u);
   EXPECT_EQ(CountDecisions(*with.mapper, DecisionKind::kDirectEdge), 1);
   // After the undo, reads are G's again.

@@ -31,7 +31,8 @@ TEST(MapperParamsTest, EveryBadFieldIsNamedWithItsValue) {
       {"recovery.min_observations", [](MapperParams& p) { p.recovery.min_observations = 0; }, "0"},
       {"recovery.min_views", [](MapperParams& p) { p.recovery.min_views = -1; }, "-1"},
       {"recovery.min_views", [](MapperParams& p) { p.recovery.min_views = 4; }, "4"},  // > min_observations
-      {"merge_conditional.min_observations", [](MapperParams& p) { p.merge_conditional.min_observations = 0; }, "0"},
+      {"merge_conditional.min_observations",
+       [](MapperParams& p) { p.merge_conditional.min_observations = 0; }, "0"},
       {"merge_conditional.min_views", [](MapperParams& p) { p.merge_conditional.min_views = 3; }, "3"},
       {"merge_full.min_views", [](MapperParams& p) { p.merge_full.min_views = 0; }, "0"},
       {"merge_full.min_observations", [](MapperParams& p) { p.merge_full.min_observations = 1; }, "1"},
@@ -48,12 +49,15 @@ TEST(MapperParamsTest, EveryBadFieldIsNamedWithItsValue) {
       {"optimizer", [](MapperParams& p) { p.optimizer.max_iterations = 0; }, "max_iterations"},
       {"optimizer", [](MapperParams& p) { p.optimizer.num_threads = 0; }, "num_threads"},
       // Upper bounds (MapperParamsLimits): the two parameter sets of issue 16 that made one replay unbounded.
-      {"hypothesis_expiry_seconds", [](MapperParams& p) { p.hypothesis_expiry_seconds = 1e300; }, "at most 3600"},
+      {"hypothesis_expiry_seconds", [](MapperParams& p) { p.hypothesis_expiry_seconds = 1e300; },
+       "at most 3600"},
       {"local_window_nodes", [](MapperParams& p) { p.local_window_nodes = 2147483647; }, "[1, 10000]"},
-      {"full_optimization_every", [](MapperParams& p) { p.full_optimization_every = 1000001; }, "[1, 1000000]"},
+      {"full_optimization_every", [](MapperParams& p) { p.full_optimization_every = 1000001; },
+       "[1, 1000000]"},
       {"gate_chi2", [](MapperParams& p) { p.gate_chi2 = 1e6; }, "at most 1000"},
       {"recovery.min_observations", [](MapperParams& p) { p.recovery.min_observations = 5000; }, "[1, 1000]"},
-      {"consistency.max_open_hypotheses", [](MapperParams& p) { p.consistency.max_open_hypotheses = 100000; }, "[1, 10000]"},
+      {"consistency.max_open_hypotheses", [](MapperParams& p) { p.consistency.max_open_hypotheses = 100000; },
+       "[1, 10000]"},
       {"optimizer.max_iterations", [](MapperParams& p) { p.optimizer.max_iterations = 100000; }, "[1, 1000]"},
   };
   for (const BadField& bad : cases) {

@@ -14,8 +14,8 @@
 namespace slamcore {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::CountDecisions;
+using ::testing::HasSubstr;
 using testing::IsNearlyPose;
 using testing::MakeMapper;
 using testing::SimulatedRobot;
@@ -26,8 +26,10 @@ TEST(MapperTest, OdometryBuildsAChainOfNodesJoinedByMotionEdges) {
   EXPECT_FALSE(mapper->CurrentPose().has_value());
   const Matrix3 covariance = Vector3(1e-4, 2e-4, 4e-4).asDiagonal();
   for (int i = 0; i < 3; ++i) {
-    ASSERT_THAT(mapper->Process(OdometryEvent{.time = double(i), .increment = SE2(1.0, 0.0, std::numbers::pi / 2),
-                                              .covariance = covariance}), IsOk());
+    ASSERT_THAT(
+        mapper->Process(OdometryEvent{
+            .time = double(i), .increment = SE2(1.0, 0.0, std::numbers::pi / 2), .covariance = covariance}),
+        IsOk());
   }
   const PoseGraph& graph = mapper->map().graph;
   ASSERT_EQ(graph.num_nodes(), 3u);
@@ -255,8 +257,12 @@ TEST(MapperTest, KidnapStartsANewComponentAndRejectsOpenHypotheses) {
 TEST(MapperTest, GroundTruthIsKeptAsideByNode) {
   auto mapper = MakeMapper();
   ASSERT_THAT(mapper->Process(GroundTruthEvent{.time = 0.0, .world_T_robot = SE2(1, 2, 3)}), IsOk());
-  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
-  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 2.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
+  ASSERT_THAT(mapper->Process(
+                  OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}),
+              IsOk());
+  ASSERT_THAT(mapper->Process(
+                  OdometryEvent{.time = 2.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}),
+              IsOk());
   ASSERT_THAT(mapper->Process(GroundTruthEvent{.time = 2.0, .world_T_robot = SE2(4, 5, 0)}), IsOk());
   ASSERT_THAT(mapper->Process(GroundTruthEvent{.time = 2.5, .world_T_robot = SE2(6, 7, 0)}), IsOk());
   EXPECT_THAT(mapper->ground_truth().at(0), IsNearlyPose(SE2(1, 2, 3), 1e-12));
@@ -266,10 +272,14 @@ TEST(MapperTest, GroundTruthIsKeptAsideByNode) {
 
 TEST(MapperTest, LocalMapsAttachToTheCurrentNode) {
   auto mapper = MakeMapper();
-  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 0.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
-  ASSERT_THAT(mapper->Process(OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}), IsOk());
-  LocalMapEvent patch{.time = 1.0, .resolution = 0.1, .width = 2, .height = 1, .node_T_origin = SE2(),
-                      .cells = {-1, 100}};
+  ASSERT_THAT(mapper->Process(
+                  OdometryEvent{.time = 0.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}),
+              IsOk());
+  ASSERT_THAT(mapper->Process(
+                  OdometryEvent{.time = 1.0, .increment = SE2(), .covariance = Matrix3::Identity() * 1e-4}),
+              IsOk());
+  LocalMapEvent patch{
+      .time = 1.0, .resolution = 0.1, .width = 2, .height = 1, .node_T_origin = SE2(), .cells = {-1, 100}};
   ASSERT_THAT(mapper->Process(patch), IsOk());
   ASSERT_EQ(mapper->map().local_maps.count(1), 1u);
   EXPECT_EQ(mapper->map().local_maps.at(1).cells, (std::vector<std::int8_t>{-1, 100}));

@@ -51,7 +51,8 @@ class SimulatedRobot {
   void Drive(const SE2& truth_increment, std::optional<SE2> reported = std::nullopt, double variance = 1e-4) {
     time_ += 1.0;
     truth_ = truth_ * truth_increment;
-    Process(OdometryEvent{.time = time_, .increment = reported.value_or(truth_increment),
+    Process(OdometryEvent{.time = time_,
+                          .increment = reported.value_or(truth_increment),
                           .covariance = Matrix3::Identity() * variance});
   }
   void CreateView(ViewId view) {
@@ -63,7 +64,9 @@ class SimulatedRobot {
     ObserveRaw(view, truth_.inverse() * world_T_view_.at(view) * view_T_seen, variance);
   }
   void ObserveRaw(ViewId view, const SE2& robot_T_view, double variance = 1e-2) {
-    Process(ViewObservedEvent{.time = time_, .view = view, .robot_T_view = robot_T_view,
+    Process(ViewObservedEvent{.time = time_,
+                              .view = view,
+                              .robot_T_view = robot_T_view,
                               .covariance = Matrix3::Identity() * variance});
   }
   void Kidnap(const SE2& new_world_T_robot) {
@@ -91,9 +94,10 @@ class SimulatedRobot {
 
 inline int CountDecisions(const Mapper& mapper, DecisionKind kind,
                           std::optional<HypothesisKind> hypothesis_kind = std::nullopt) {
-  return static_cast<int>(std::count_if(mapper.decisions().begin(), mapper.decisions().end(), [&](const Decision& d) {
-    return d.kind == kind && (!hypothesis_kind || d.hypothesis_kind == hypothesis_kind);
-  }));
+  return static_cast<int>(
+      std::count_if(mapper.decisions().begin(), mapper.decisions().end(), [&](const Decision& d) {
+        return d.kind == kind && (!hypothesis_kind || d.hypothesis_kind == hypothesis_kind);
+      }));
 }
 
 inline const Decision* LastDecision(const Mapper& mapper, DecisionKind kind) {

@@ -51,7 +51,8 @@ PoseGraph ThreeComponents() {
       node.pose = pose;
       EXPECT_THAT(graph.AddNode(node), IsOk());
       if (i > 0) {
-        EXPECT_THAT(graph.AddEdge(MakeEdge(first + i - 1, first + i, SE2(1.0, 0.0, 0.1), EdgeKind::kMotion)), IsOk());
+        EXPECT_THAT(graph.AddEdge(MakeEdge(first + i - 1, first + i, SE2(1.0, 0.0, 0.1), EdgeKind::kMotion)),
+                    IsOk());
       }
       pose = pose * SE2(1.0, 0.0, 0.1);
     }
@@ -68,7 +69,8 @@ TEST(MergeOverlayTest, WithoutEdgesOnlyTheAlignmentDiffers) {
   overlay.SetAlignment(SE2(1.0, 2.0, 3.0));
   ExpectSameReads(graph, overlay, "no edges");
   EXPECT_FALSE(overlay.SameComponent(10, 0));
-  EXPECT_THAT(overlay.PoseOf(11).vector(), ::testing::Eq((SE2(1.0, 2.0, 3.0) * graph.node(11).pose).vector()));
+  EXPECT_THAT(overlay.PoseOf(11).vector(),
+              ::testing::Eq((SE2(1.0, 2.0, 3.0) * graph.node(11).pose).vector()));
   EXPECT_EQ(overlay.PoseOf(3).vector(), graph.node(3).pose.vector());
 }
 
@@ -97,14 +99,15 @@ TEST(MergeOverlayTest, EqualsTheFullCopyOverASequenceOfModifications) {
         break;
       }
       case 1:  // the hypothesis takes another observation: one more G′ edge
-        overlay.AddEdge(MakeEdge(robot, step % 2 == 0 ? 1 : 3, SE2(value(random), value(random), value(random)),
-                                 EdgeKind::kObservation));
+        overlay.AddEdge(MakeEdge(robot, step % 2 == 0 ? 1 : 3,
+                                 SE2(value(random), value(random), value(random)), EdgeKind::kObservation));
         break;
       case 2:  // its state moved: a new alignment
         overlay.SetAlignment(SE2(value(random) * 3, value(random) * 3, value(random) * 3));
         break;
       case 3: {  // a direct observation edge inside C_s, then optimisation of C_s in G
-        ASSERT_THAT(graph.AddEdge(MakeEdge(robot, 10, SE2(value(random), value(random), 0.2), EdgeKind::kObservation)),
+        ASSERT_THAT(graph.AddEdge(
+                        MakeEdge(robot, 10, SE2(value(random), value(random), 0.2), EdgeKind::kObservation)),
                     IsOk());
         OptimizerOptions options;
         options.component = robot;
@@ -123,7 +126,7 @@ TEST(MergeOverlayTest, EqualsTheFullCopyOverASequenceOfModifications) {
     }
     ExpectSameReads(graph, overlay, name);
   }
-  EXPECT_EQ(overlay.edges().size(), 9u);  // the first edge and 8 more
+  EXPECT_EQ(overlay.edges().size(), 9u);        // the first edge and 8 more
   EXPECT_FALSE(graph.SameComponent(robot, 0));  // G itself was never merged
   EXPECT_TRUE(overlay.SameComponent(robot, 0));
 }

@@ -15,10 +15,10 @@
 namespace slamcore {
 namespace {
 
-
 std::filesystem::path TempDir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("slamcore_occ_" + name + "_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+  const auto dir =
+      std::filesystem::temp_directory_path() /
+      ("slamcore_occ_" + name + "_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
   std::filesystem::create_directories(dir);
   return dir;
 }
@@ -83,7 +83,8 @@ TEST(OccupancyGridIo, RefusesCorruptPgmWithClearErrors) {
   check("P5\n2 2\n65535\n00000000", "maxval");
   check("P2\n2 2\n255\n1 2 3\n", "ASCII pixel 3");
   // A header promising 10⁸ pixels over 10 bytes is refused before 100 MB are allocated for the grid.
-  check("P5\n20000 5000\n255\n" + std::string(10, '\xfe'), "truncated pixel data (10 bytes for 100000000 pixels)");
+  check("P5\n20000 5000\n255\n" + std::string(10, '\xfe'),
+        "truncated pixel data (10 bytes for 100000000 pixels)");
   check("P2\n20000 5000\n255\n0 0 0", "truncated pixel data");
   EXPECT_THAT(DecodePgm("P2\n# comment\n2 1\n255\n254 0\n", 0.05, 0, 0), IsOk());
 }
@@ -96,15 +97,18 @@ TEST(OccupancyGridIo, YamlTextInMemoryReadsOnlyTheImageItsReaderGives) {
     if (name != "map.pgm") return InvalidArgument("image \"" + name + "\" names a file outside the upload");
     return pgm;
   };
-  auto grid = ParseMapServerYaml("image: \"map.pgm\"\nresolution: 0.05\norigin: [1.0, 2.0, 0.0]\n", "upload.yaml", reader);
+  auto grid = ParseMapServerYaml("image: \"map.pgm\"\nresolution: 0.05\norigin: [1.0, 2.0, 0.0]\n",
+                                 "upload.yaml", reader);
   ASSERT_THAT(grid, IsOk());
   EXPECT_EQ(asked, "map.pgm");
   EXPECT_EQ(grid->width, 2);
   EXPECT_DOUBLE_EQ(grid->origin_y, 2.0);
-  auto outside = ParseMapServerYaml("image: ../../etc/passwd\nresolution: 0.05\norigin: [0, 0, 0]\n", "upload.yaml", reader);
+  auto outside = ParseMapServerYaml("image: ../../etc/passwd\nresolution: 0.05\norigin: [0, 0, 0]\n",
+                                    "upload.yaml", reader);
   ASSERT_THAT(outside, StatusIs(StatusCode::kInvalidArgument));
   EXPECT_NE(outside.status().message().find("outside the upload"), std::string::npos);
-  auto broken = ParseMapServerYaml("image: map.pgm\nresolution: fine\norigin: [0, 0, 0]\n", "upload.yaml", reader);
+  auto broken =
+      ParseMapServerYaml("image: map.pgm\nresolution: fine\norigin: [0, 0, 0]\n", "upload.yaml", reader);
   ASSERT_FALSE(broken.ok());
   EXPECT_NE(broken.status().message().find("upload.yaml: resolution is not a number"), std::string::npos);
   EXPECT_FALSE(ParseMapServerYaml(std::string(70000, '#'), "upload.yaml", reader).ok());
@@ -134,12 +138,15 @@ TEST(OccupancyGridIo, RefusesCorruptPngAndYamlWithClearErrors) {
   const std::string pgm("P5\n2 2\n255\n\xfe\xfe\x00\xcd", 15);
   ASSERT_THAT(WriteFileBytes((dir / "m.pgm").string(), pgm), IsOk());
   EXPECT_THAT(write_yaml("image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"), IsOk());
-  EXPECT_NE(write_yaml("resolution: 0.05\norigin: [0, 0, 0]\n").status().message().find("missing key 'image'"),
-            std::string::npos);
-  EXPECT_NE(write_yaml("image: m.pgm\nresolution: abc\norigin: [0, 0, 0]\n").status().message().find("resolution"),
-            std::string::npos);
-  EXPECT_NE(write_yaml("image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\n").status().message().find("resolution"),
-            std::string::npos);
+  EXPECT_NE(
+      write_yaml("resolution: 0.05\norigin: [0, 0, 0]\n").status().message().find("missing key 'image'"),
+      std::string::npos);
+  EXPECT_NE(
+      write_yaml("image: m.pgm\nresolution: abc\norigin: [0, 0, 0]\n").status().message().find("resolution"),
+      std::string::npos);
+  EXPECT_NE(
+      write_yaml("image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\n").status().message().find("resolution"),
+      std::string::npos);
   EXPECT_NE(write_yaml("image: m.pgm\nresolution: 0.05\norigin: [0, 0]\n").status().message().find("origin"),
             std::string::npos);
   EXPECT_EQ(write_yaml("image: nope.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n").status().code(),
@@ -196,7 +203,8 @@ TEST(OccupancyGridRender, IncrementalUpdateEqualsRenderFromScratch) {
   for (int step = 0; step < 10; ++step) {
     const NodeId moved = static_cast<NodeId>(random() % 30);
     const SE2 old = map.graph.node(moved).pose;
-    map.graph.mutable_node(moved).pose = SE2(old.x() + jitter(random), old.y() + jitter(random), old.theta() + 0.2);
+    map.graph.mutable_node(moved).pose =
+        SE2(old.x() + jitter(random), old.y() + jitter(random), old.theta() + 0.2);
     int rerendered = 0;
     ASSERT_THAT(incremental.Update(map, &rerendered), IsOk());
     EXPECT_EQ(rerendered, 1);

@@ -34,7 +34,8 @@ TEST(EdgeErrorTest, JacobiansMatchNumeric) {
     };
     const auto numeric_from =
         NumericJacobian<3, 3>([&](const Vector3& a) -> Vector3 { return error_of(a, to); }, from);
-    const auto numeric_to = NumericJacobian<3, 3>([&](const Vector3& b) -> Vector3 { return error_of(from, b); }, to);
+    const auto numeric_to =
+        NumericJacobian<3, 3>([&](const Vector3& b) -> Vector3 { return error_of(from, b); }, to);
     EXPECT_TRUE(d_from.isApprox(numeric_from, 1e-6)) << d_from << "\n" << numeric_from;
     EXPECT_TRUE(d_to.isApprox(numeric_to, 1e-6));
   }

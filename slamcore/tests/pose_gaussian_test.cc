@@ -36,8 +36,9 @@ TEST(PoseGaussianTest, MotionUpdateMovesTheViewTowardTheRobot) {
 
 TEST(PoseGaussianTest, MotionUpdateTurnsTheViewWhenTheRobotTurns) {
   // View 2 m ahead; the robot turns 90° left on the spot: the view is now 2 m to its right, turned −90°.
-  const PoseGaussian predicted = PredictMotion({SE2(2.0, 0.0, 0.0), Matrix3::Identity() * 0.01},
-                                               MotionFromIncrement(SE2(0.0, 0.0, std::numbers::pi / 2), Matrix3::Zero()));
+  const PoseGaussian predicted =
+      PredictMotion({SE2(2.0, 0.0, 0.0), Matrix3::Identity() * 0.01},
+                    MotionFromIncrement(SE2(0.0, 0.0, std::numbers::pi / 2), Matrix3::Zero()));
   EXPECT_THAT(predicted.mean, IsNearlyPose(SE2(0.0, -2.0, -std::numbers::pi / 2), 1e-12));
 }
 
@@ -75,8 +76,9 @@ TEST(PoseGaussianTest, UpdateWithEqualCovariancesMovesHalfway) {
 TEST(PoseGaussianTest, UpdateWeighsEachAxisByItsVariance) {
   // Σ_G = 0.01 I, Σ_z = diag(0.01, 0.01, 0.03): K = diag(½, ½, ¼), so a 0.2 rad residual moves G by
   // 0.05 rad; Σ_G' = diag(1/200, 1/200, 1/(100 + 100/3)) = diag(0.005, 0.005, 0.0075).
-  const PoseGaussian updated = UpdateWithObservation({SE2::Identity(), Matrix3::Identity() * 0.01},
-                                                     {SE2(0.0, 0.0, 0.2), Vector3(0.01, 0.01, 0.03).asDiagonal()});
+  const PoseGaussian updated =
+      UpdateWithObservation({SE2::Identity(), Matrix3::Identity() * 0.01},
+                            {SE2(0.0, 0.0, 0.2), Vector3(0.01, 0.01, 0.03).asDiagonal()});
   EXPECT_THAT(updated.mean, IsNearlyPose(SE2(0.0, 0.0, 0.05), 1e-12));
   EXPECT_TRUE(updated.covariance.isApprox(Vector3(0.005, 0.005, 0.0075).asDiagonal().toDenseMatrix(), 1e-12));
 }
@@ -86,9 +88,9 @@ TEST(PoseGaussianTest, UpdateAppliesTheCorrectionOnTheLeft) {
   // G = (1, 0, π/2) and z = Rot(0.2)·G with Σ_G = Σ_z: R = z·G⁻¹ = (0, 0, 0.2), a rotation about the
   // robot's origin. The update exp(½ ln R)·G turns G by 0.1 about that origin, not about G's own origin:
   // (cos 0.1, sin 0.1, π/2 + 0.1).
-  const PoseGaussian updated = UpdateWithObservation({SE2(1.0, 0.0, kHalfPi), Matrix3::Identity() * 0.01},
-                                                     {SE2(std::cos(0.2), std::sin(0.2), kHalfPi + 0.2),
-                                                      Matrix3::Identity() * 0.01});
+  const PoseGaussian updated =
+      UpdateWithObservation({SE2(1.0, 0.0, kHalfPi), Matrix3::Identity() * 0.01},
+                            {SE2(std::cos(0.2), std::sin(0.2), kHalfPi + 0.2), Matrix3::Identity() * 0.01});
   EXPECT_THAT(updated.mean, IsNearlyPose(SE2(std::cos(0.1), std::sin(0.1), kHalfPi + 0.1), 1e-9));
 }
 

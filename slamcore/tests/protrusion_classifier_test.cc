@@ -76,8 +76,8 @@ TEST(ProtrusionData, DatasetRoundTripsAndRefusesBrokenIndexes) {
   auto pair = GeneratePair(*map, 7);
   ASSERT_THAT(pair, IsOk());
   const auto dir = TempDir("dataset");
-  const DatasetEntry entry{"s5_v7", "valetudo_roborock_S5_FW2008_with_segments", "valetudo_roborock_S5_FW2008",
-                           "generator"};
+  const DatasetEntry entry{"s5_v7", "valetudo_roborock_S5_FW2008_with_segments",
+                           "valetudo_roborock_S5_FW2008", "generator"};
   ASSERT_THAT(WriteDatasetPair(dir.string(), entry, *pair), IsOk());
   auto entries = ReadDatasetIndex(dir.string());
   ASSERT_THAT(entries, IsOk());
@@ -95,11 +95,13 @@ TEST(ProtrusionData, DatasetRoundTripsAndRefusesBrokenIndexes) {
 }
 
 /// Regions of `variants` generated pairs per real map, grouped by home.
-std::vector<LabelledRegion> Regions(const std::vector<RealMap>& maps, int variants, std::map<std::string, int>* missed) {
+std::vector<LabelledRegion> Regions(const std::vector<RealMap>& maps, int variants,
+                                    std::map<std::string, int>* missed) {
   std::vector<LabelledRegion> regions;
   for (std::size_t m = 0; m < maps.size(); ++m) {
     for (int variant = 0; variant < variants; ++variant) {
-      auto pair = GeneratePair(maps[m].grid, 1000003ULL * 7 + m * 10007ULL + static_cast<std::uint64_t>(variant));
+      auto pair =
+          GeneratePair(maps[m].grid, 1000003ULL * 7 + m * 10007ULL + static_cast<std::uint64_t>(variant));
       EXPECT_THAT(pair, IsOk());
       if (!pair.ok()) continue;
       auto labelled = ExtractAndLabel(*pair);
@@ -120,7 +122,8 @@ TEST(ProtrusionClassifier, SavesLoadsAndRefusesMismatchedModels) {
   const std::vector<RealMap> two(maps.begin(), maps.begin() + 2);
   const auto regions = Regions(two, 6, nullptr);
   const auto dir = TempDir("model");
-  for (const ClassifierKind kind : {ClassifierKind::kDecisionTree, ClassifierKind::kRandomForest, ClassifierKind::kSvm}) {
+  for (const ClassifierKind kind :
+       {ClassifierKind::kDecisionTree, ClassifierKind::kRandomForest, ClassifierKind::kSvm}) {
     SCOPED_TRACE(ClassifierKindName(kind));
     ClassifierOptions options;
     options.kind = kind;
@@ -149,7 +152,8 @@ TEST(ProtrusionClassifier, SavesLoadsAndRefusesMismatchedModels) {
   renamed.replace(renamed.find("wall_fraction"), 13, "wall_fractiom");
   auto refused = write_and_load(renamed);
   ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.status().message().find("different feature list"), std::string::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().message().find("different feature list"), std::string::npos)
+      << refused.status().ToString();
   std::string versioned = text;
   versioned.replace(versioned.find("version: 1"), 10, "version: 9");
   refused = write_and_load(versioned);
@@ -158,7 +162,8 @@ TEST(ProtrusionClassifier, SavesLoadsAndRefusesMismatchedModels) {
   EXPECT_FALSE(write_and_load("%YAML:1.0\n---\nformat: something-else\n").ok());
   EXPECT_FALSE(write_and_load("\x01\x02 not yaml [[[").ok());
   EXPECT_FALSE(write_and_load(text.substr(0, text.size() / 2)).ok());
-  EXPECT_EQ(ProtrusionClassifier::Load((dir / "missing.yml").string()).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(ProtrusionClassifier::Load((dir / "missing.yml").string()).status().code(),
+            StatusCode::kNotFound);
   std::filesystem::remove_all(dir);
 }
 
@@ -181,8 +186,9 @@ TEST(ProtrusionHeldOut, MeetsThePaperTargetsOnHeldOutHomes) {
   ConfusionMatrix confusion = result->confusion;
   for (const auto& [home, count] : missed) confusion.false_negatives += count;
   std::printf("held-out homes: TP %ld FP %ld TN %ld FN %ld precision %.4f recall %.4f FPR %.4f\n",
-              confusion.true_positives, confusion.false_positives, confusion.true_negatives, confusion.false_negatives,
-              confusion.Precision(), confusion.Recall(), confusion.FalsePositiveRate());
+              confusion.true_positives, confusion.false_positives, confusion.true_negatives,
+              confusion.false_negatives, confusion.Precision(), confusion.Recall(),
+              confusion.FalsePositiveRate());
   EXPECT_GT(confusion.true_positives, 400);
   EXPECT_GE(confusion.Precision(), 0.996);
   EXPECT_GE(confusion.Recall(), 0.95);

@@ -38,7 +38,7 @@ Scene MakeScene() {
   FillRect(scene.child, 120, 111, 60, 7, kFree);      // …and its free inside, through the wall
   FillRect(scene.child, 50, 19, 62, 62, kOccupied);   // a room below, sharing the parent's wall
   FillRect(scene.child, 51, 20, 60, 60, kFree);
-  FillRect(scene.child, 70, 80, 16, 1, kFree);        // its door through the parent's wall
+  FillRect(scene.child, 70, 80, 16, 1, kFree);  // its door through the parent's wall
   return scene;
 }
 
@@ -49,7 +49,8 @@ TEST(ProtrusionDetector, FindsTheCorridorAndTheRoomWithTheirShapes) {
   ASSERT_EQ(regions->size(), 2u);
   const ProtrusionRegion* corridor = nullptr;
   const ProtrusionRegion* room = nullptr;
-  for (const ProtrusionRegion& region : *regions) (region.bbox.width > region.bbox.height ? corridor : room) = &region;
+  for (const ProtrusionRegion& region : *regions)
+    (region.bbox.width > region.bbox.height ? corridor : room) = &region;
   ASSERT_NE(corridor, nullptr);
   ASSERT_NE(room, nullptr);
   // Image coordinates: grid rows 110..118 are image rows 200-119 = 81 .. 89.
@@ -150,7 +151,8 @@ TEST(ProtrusionRepair, CutOutRestoresTheParentWhereTheProtrusionWas) {
   ASSERT_NE(corridor, nullptr);
   const OccupancyGrid repaired = RepairChild(*aligned, scene.child, {corridor}, RepairMode::kCutOut);
   for (int row = 105; row < 125; ++row) {
-    for (int col = 118; col < 185; ++col) EXPECT_EQ(repaired.at(col, row), scene.parent.at(col, row)) << col << "," << row;
+    for (int col = 118; col < 185; ++col)
+      EXPECT_EQ(repaired.at(col, row), scene.parent.at(col, row)) << col << "," << row;
   }
   EXPECT_EQ(repaired.at(80, 50), kFree);  // the new room stays
   EXPECT_EQ(RepairChild(*aligned, scene.child, {}, RepairMode::kFallBackToParent).cells, scene.parent.cells);

@@ -137,7 +137,8 @@ TEST(ProtrusionDetector, ABandBeyondAWallIsUnreachableAndRepeatsTheRoom) {
   ASSERT_EQ(regions->size(), 1u);
   const auto& names = ProtrusionFeatureNames();
   const auto feature = [&](const char* name) {
-    return (*regions)[0].features[static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin())];
+    return (*regions)[0]
+        .features[static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin())];
   };
   EXPECT_DOUBLE_EQ(feature("reachable_fraction"), 0.0);  // only through the wall the parent holds
   EXPECT_GT(feature("wall_contact_fraction"), 0.2);

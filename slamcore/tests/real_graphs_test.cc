@@ -50,7 +50,8 @@ std::vector<SE2> ReadTruthLines(const std::filesystem::path& path, bool with_id)
   std::ifstream input(path);
   std::vector<SE2> poses;
   double id, x, y, theta;
-  while (with_id ? static_cast<bool>(input >> id >> x >> y >> theta) : static_cast<bool>(input >> x >> y >> theta)) {
+  while (with_id ? static_cast<bool>(input >> id >> x >> y >> theta)
+                 : static_cast<bool>(input >> x >> y >> theta)) {
     poses.emplace_back(x, y, theta);
   }
   return poses;
@@ -87,13 +88,13 @@ TEST_P(GroundTruthGraphTest, ReachesTheOptimumOfTheGroundTruthBasin) {
 
 INSTANTIATE_TEST_SUITE_P(
     RealGraphs, GroundTruthGraphTest,
-    ::testing::Values(
-        GroundTruthCase{"vertigo/manhattanOlson3500_olson.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat",
-                        false},
-        GroundTruthCase{"vertigo/manhattanOlson3500_g2o.g2o", "vertigo/manhattanOlson3500_nodes_groundTruth.dat",
-                        false},
-        GroundTruthCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", true},
-        GroundTruthCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt", true}),
+    ::testing::Values(GroundTruthCase{"vertigo/manhattanOlson3500_olson.g2o",
+                                      "vertigo/manhattanOlson3500_nodes_groundTruth.dat", false},
+                      GroundTruthCase{"vertigo/manhattanOlson3500_g2o.g2o",
+                                      "vertigo/manhattanOlson3500_nodes_groundTruth.dat", false},
+                      GroundTruthCase{"vertigo/ring.g2o", "vertigo/ring_groundTruth_poses.txt", true},
+                      GroundTruthCase{"vertigo/ringCity.g2o", "vertigo/ringCity_groundTruth_poses.txt",
+                                      true}),
     [](const auto& test_case) { return TestName(test_case.param.graph); });
 
 struct ReferenceCase {

@@ -18,8 +18,8 @@ constexpr double kPi = std::numbers::pi;
 
 /// Poses at identity, at θ ≈ 0, at θ ≈ ±π and at random places.
 std::vector<SE2> SamplePoses() {
-  std::vector<SE2> poses = {SE2::Identity(), SE2(1.0, -2.0, 1e-9), SE2(0.3, 0.4, -1e-7), SE2(2.0, 1.0, kPi - 1e-9),
-                            SE2(-1.0, 0.5, -kPi + 1e-9), SE2(0.0, 3.0, kPi / 2)};
+  std::vector<SE2> poses = {SE2::Identity(),           SE2(1.0, -2.0, 1e-9),        SE2(0.3, 0.4, -1e-7),
+                            SE2(2.0, 1.0, kPi - 1e-9), SE2(-1.0, 0.5, -kPi + 1e-9), SE2(0.0, 3.0, kPi / 2)};
   std::mt19937 random(7);
   std::uniform_real_distribution<double> coordinate(-5.0, 5.0), angle(-kPi, kPi);
   for (int i = 0; i < 20; ++i) poses.emplace_back(coordinate(random), coordinate(random), angle(random));
@@ -118,7 +118,8 @@ TEST(SE2Test, ActJacobiansMatchNumeric) {
     pose.Act(point, &d_pose, &d_point);
     const auto numeric_pose = NumericJacobian<2, 3>(
         [&](const Vector3& delta) -> Vector2 { return SE2::Exp(delta) * pose * point; }, Vector3::Zero());
-    const auto numeric_point = NumericJacobian<2, 2>([&](const Vector2& p) -> Vector2 { return pose * p; }, point);
+    const auto numeric_point =
+        NumericJacobian<2, 2>([&](const Vector2& p) -> Vector2 { return pose * p; }, point);
     EXPECT_TRUE(d_pose.isApprox(numeric_pose, 1e-6));
     EXPECT_TRUE(d_point.isApprox(numeric_point, 1e-6));
   }

@@ -149,7 +149,8 @@ TEST(StatusMatchersTest, FailingIsOkNamesTheCodeAndMessage) {
   EXPECT_EQ(listener.str(), "which is NOT_FOUND: robot r1");
 
   ::testing::StringMatchResultListener result_listener;
-  EXPECT_FALSE(::testing::ExplainMatchResult(IsOk(), Result<std::string>(DataLoss("checksum")), &result_listener));
+  EXPECT_FALSE(
+      ::testing::ExplainMatchResult(IsOk(), Result<std::string>(DataLoss("checksum")), &result_listener));
   EXPECT_EQ(result_listener.str(), "which is DATA_LOSS: checksum");
 
   // What a test run prints: the value (the status) and the explanation.
@@ -179,7 +180,8 @@ TEST(StatusMatchersTest, StatusIsChecksCodeAndMessage) {
                                              &wrong_message));
   EXPECT_THAT(wrong_message.str(), HasSubstr("FAILED_PRECONDITION: time went backwards"));
   ::testing::StringMatchResultListener ok_is_not_an_error;
-  EXPECT_FALSE(::testing::ExplainMatchResult(StatusIs(StatusCode::kNotFound), Status::Ok(), &ok_is_not_an_error));
+  EXPECT_FALSE(
+      ::testing::ExplainMatchResult(StatusIs(StatusCode::kNotFound), Status::Ok(), &ok_is_not_an_error));
   EXPECT_EQ(ok_is_not_an_error.str(), "which is OK");
 }
 

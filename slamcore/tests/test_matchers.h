@@ -18,7 +18,8 @@ MATCHER_P2(IsNearlyPose, expected, tolerance, "") {
 
 /// Central differences of a pose-valued function under a left perturbation of its pose argument,
 /// measured as a left perturbation of the output: d Log(f(exp(δ)·T) · f(T)⁻¹) / dδ.
-inline Matrix3 NumericPoseJacobian(const std::function<SE2(const SE2&)>& f, const SE2& at, double step = 1e-6) {
+inline Matrix3 NumericPoseJacobian(const std::function<SE2(const SE2&)>& f, const SE2& at,
+                                   double step = 1e-6) {
   Matrix3 jacobian;
   const SE2 centre_inverse = f(at).inverse();
   for (int k = 0; k < 3; ++k) {

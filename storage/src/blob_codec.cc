@@ -40,8 +40,9 @@ Result<std::string> DecodeBlob(const std::string& compressed, std::int64_t crc32
   if (raw_size < 0) return DataLoss(what + ": stored size is negative");
   std::string raw(static_cast<std::size_t>(raw_size), '\0');
   uLongf length = static_cast<uLongf>(raw_size);
-  const int rc = uncompress(reinterpret_cast<Bytef*>(raw.data()), &length,
-                            reinterpret_cast<const Bytef*>(compressed.data()), static_cast<uLong>(compressed.size()));
+  const int rc =
+      uncompress(reinterpret_cast<Bytef*>(raw.data()), &length,
+                 reinterpret_cast<const Bytef*>(compressed.data()), static_cast<uLong>(compressed.size()));
   if (rc != Z_OK || length != static_cast<uLongf>(raw_size)) {
     return DataLoss(what + ": stored bytes do not inflate to their recorded size");
   }

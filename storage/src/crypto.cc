@@ -65,7 +65,8 @@ PasswordHash HashSecret(const std::string& secret) {
 }
 
 bool VerifySecret(const std::string& secret, const PasswordHash& stored) {
-  if (stored.iterations <= 0 || stored.iterations > 10'000'000 || stored.hash.size() != kHashBytes) return false;
+  if (stored.iterations <= 0 || stored.iterations > 10'000'000 || stored.hash.size() != kHashBytes)
+    return false;
   const std::string computed = Pbkdf2(secret, stored.salt, stored.iterations);
   return CRYPTO_memcmp(computed.data(), stored.hash.data(), kHashBytes) == 0;
 }

@@ -13,7 +13,9 @@ namespace {
 
 bool StartsWith(const std::string& text, const std::string& prefix) { return text.rfind(prefix, 0) == 0; }
 
-bool IsPostgresUrl(const std::string& url) { return StartsWith(url, "postgresql://") || StartsWith(url, "postgres://"); }
+bool IsPostgresUrl(const std::string& url) {
+  return StartsWith(url, "postgresql://") || StartsWith(url, "postgres://");
+}
 
 /// [begin, end) of the password in "scheme://user:password@host...", or {npos, npos}.
 std::pair<std::size_t, std::size_t> PasswordSpan(const std::string& url) {
@@ -21,7 +23,8 @@ std::pair<std::size_t, std::size_t> PasswordSpan(const std::string& url) {
   if (authority == std::string::npos) return {std::string::npos, std::string::npos};
   const std::size_t start = authority + 3;
   const std::size_t end_of_authority = url.find_first_of("/?", start);
-  const std::size_t at = url.rfind('@', end_of_authority == std::string::npos ? url.size() : end_of_authority);
+  const std::size_t at =
+      url.rfind('@', end_of_authority == std::string::npos ? url.size() : end_of_authority);
   if (at == std::string::npos || at < start) return {std::string::npos, std::string::npos};
   const std::size_t colon = url.find(':', start);
   if (colon == std::string::npos || colon > at) return {std::string::npos, std::string::npos};
@@ -59,7 +62,8 @@ std::string PercentDecoded(const std::string& text) {
 Status Scrubbed(const Status& status, const std::string& url) {
   std::string message = status.message();
   for (const std::string& password : DatabaseUrlPasswords(url)) {
-    for (std::size_t at = message.find(password); at != std::string::npos; at = message.find(password, at + 3)) {
+    for (std::size_t at = message.find(password); at != std::string::npos;
+         at = message.find(password, at + 3)) {
       message.replace(at, password.size(), "***");
     }
   }
@@ -100,7 +104,8 @@ std::vector<std::string> DatabaseUrlPasswords(const std::string& url) {
     if (span.first == std::string::npos || span.second <= span.first) continue;
     const std::string written = url.substr(span.first, span.second - span.first);
     passwords.push_back(written);
-    if (const std::string decoded = internal::PercentDecoded(written); decoded != written) passwords.push_back(decoded);
+    if (const std::string decoded = internal::PercentDecoded(written); decoded != written)
+      passwords.push_back(decoded);
   }
   return passwords;
 }

@@ -14,8 +14,8 @@ namespace storage::internal {
 namespace {
 
 // PostgreSQL type oids of the columns our schema returns.
-constexpr pqxx::oid kBoolOid = 16, kByteaOid = 17, kInt8Oid = 20, kInt2Oid = 21, kInt4Oid = 23, kFloat4Oid = 700,
-                    kFloat8Oid = 701, kNumericOid = 1700;
+constexpr pqxx::oid kBoolOid = 16, kByteaOid = 17, kInt8Oid = 20, kInt2Oid = 21, kInt4Oid = 23,
+                    kFloat4Oid = 700, kFloat8Oid = 701, kNumericOid = 1700;
 
 constexpr int kMaxAttempts = 3;  // for serialization failures and deadlocks, which a retry resolves
 
@@ -77,7 +77,8 @@ class PostgresDatabase final : public SqlDatabase {
 
   Dialect dialect() const override { return Dialect::kPostgres; }
 
-  Status InTransaction(TransactionMode /*mode*/, const std::function<Status(SqlTransaction&)>& body) override {
+  Status InTransaction(TransactionMode /*mode*/,
+                       const std::function<Status(SqlTransaction&)>& body) override {
     Status status;
     for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
       ASSIGN_OR_RETURN(auto connection, Acquire());
@@ -87,8 +88,10 @@ class PostgresDatabase final : public SqlDatabase {
         PostgresTransaction transaction(*this, *connection, work);
         status = body(transaction);
         retryable = transaction.retryable();
-        if (status.ok()) work.commit();
-        else work.abort();
+        if (status.ok())
+          work.commit();
+        else
+          work.abort();
       } catch (const pqxx::broken_connection& error) {
         broken = true;
         status = Unavailable(std::string("postgresql connection lost: ") + error.what());

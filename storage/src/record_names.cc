@@ -18,7 +18,8 @@ Result<E> ParseIn(const std::array<E, N>& values, std::string_view name, std::st
     expected += i == 0 ? "" : i + 1 == N ? " or " : ", ";
     expected += Name(values[i]);
   }
-  return InvalidArgument(std::string(what) + " \"" + std::string(name.substr(0, 64)) + "\" is not " + expected);
+  return InvalidArgument(std::string(what) + " \"" + std::string(name.substr(0, 64)) + "\" is not " +
+                         expected);
 }
 
 }  // namespace

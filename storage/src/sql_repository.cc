@@ -9,7 +9,8 @@ namespace storage::internal {
 
 std::int64_t NowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch()).count();
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
 }
 
 Status CheckText(const std::string& value, const std::string& field, std::size_t max_bytes) {
@@ -21,9 +22,10 @@ Status CheckText(const std::string& value, const std::string& field, std::size_t
   return Status::Ok();
 }
 
-Result<InsertOutcome> SqlRepository::CompareExisting(SqlTransaction& transaction, const std::string& select_digest_sql,
-                                                     const std::vector<SqlValue>& key, const std::string& sha256,
-                                                     const std::string& what) {
+Result<InsertOutcome> SqlRepository::CompareExisting(SqlTransaction& transaction,
+                                                     const std::string& select_digest_sql,
+                                                     const std::vector<SqlValue>& key,
+                                                     const std::string& sha256, const std::string& what) {
   ASSIGN_OR_RETURN(auto rows, transaction.Query(select_digest_sql, key));
   if (rows.empty()) return Internal(what + " vanished while being inserted");
   if (rows.front().Text(0) == sha256) return InsertOutcome::kAlreadyPresent;
@@ -62,7 +64,8 @@ Status SqlRepository::PutRobot(const RobotRecord& robot) {
   return Write([&](SqlTransaction& transaction) {
     return transaction.Exec(
         "INSERT INTO robots (robot_id, robot_model, firmware, registered_at_ms) VALUES ($1, $2, $3, $4) "
-        "ON CONFLICT (robot_id) DO UPDATE SET robot_model = excluded.robot_model, firmware = excluded.firmware",
+        "ON CONFLICT (robot_id) DO UPDATE SET robot_model = excluded.robot_model, firmware = "
+        "excluded.firmware",
         {robot.robot_id, robot.robot_model, robot.firmware, registered});
   });
 }
@@ -70,9 +73,9 @@ Status SqlRepository::PutRobot(const RobotRecord& robot) {
 Result<RobotRecord> SqlRepository::GetRobot(const std::string& robot_id) {
   std::optional<RobotRecord> robot;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots WHERE robot_id = $1",
-                                  {robot_id}));
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(std::string("SELECT ") + kRobotColumns +
+                                                      " FROM robots WHERE robot_id = $1",
+                                                  {robot_id}));
     if (!rows.empty()) robot = RobotFromRow(rows.front());
     return Status::Ok();
   });
@@ -84,8 +87,9 @@ Result<RobotRecord> SqlRepository::GetRobot(const std::string& robot_id) {
 Result<std::vector<RobotRecord>> SqlRepository::ListRobots() {
   std::vector<RobotRecord> robots;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots ORDER BY robot_id", {}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(std::string("SELECT ") + kRobotColumns + " FROM robots ORDER BY robot_id", {}));
     for (const SqlRow& row : rows) robots.push_back(RobotFromRow(row));
     return Status::Ok();
   });
@@ -115,9 +119,10 @@ Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const
   std::optional<PasswordHash> stored;
   std::string algorithm;
   Status status = Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query("SELECT salt, hash, iterations, algorithm FROM credentials WHERE principal = $1",
-                                  {principal}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("SELECT salt, hash, iterations, algorithm FROM credentials WHERE principal = $1",
+                          {principal}));
     if (!rows.empty()) {
       stored = PasswordHash{rows.front().Text(0), rows.front().Text(1), rows.front().Int(2)};
       algorithm = rows.front().Text(3);
@@ -153,7 +158,8 @@ Result<std::string> SqlRepository::PutSnapshot(const std::string& bytes) {
   const EncodedBlob blob = EncodeBlob(bytes);
   Status status = Write([&](SqlTransaction& transaction) {
     return transaction.Exec(
-        "INSERT INTO snapshots (snapshot_id, data, data_crc32, data_size, created_at_ms) VALUES ($1, $2, $3, $4, $5) "
+        "INSERT INTO snapshots (snapshot_id, data, data_crc32, data_size, created_at_ms) VALUES ($1, $2, $3, "
+        "$4, $5) "
         "ON CONFLICT (snapshot_id) DO NOTHING",
         {id, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs()});
   });
@@ -164,15 +170,17 @@ Result<std::string> SqlRepository::PutSnapshot(const std::string& bytes) {
 Result<SnapshotRecord> SqlRepository::GetSnapshot(const std::string& snapshot_id) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query("SELECT data, data_crc32, data_size FROM snapshots WHERE snapshot_id = $1",
-                                  {snapshot_id}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("SELECT data, data_crc32, data_size FROM snapshots WHERE snapshot_id = $1",
+                          {snapshot_id}));
     if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no snapshot " + snapshot_id);
   ASSIGN_OR_RETURN(auto bytes, DecodeBlob(row->Text(0), row->Int(1), row->Int(2), "snapshot " + snapshot_id));
-  if (Sha256Hex(bytes) != snapshot_id) return DataLoss("snapshot " + snapshot_id + ": bytes do not match their id");
+  if (Sha256Hex(bytes) != snapshot_id)
+    return DataLoss("snapshot " + snapshot_id + ": bytes do not match their id");
   return SnapshotRecord{snapshot_id, std::move(bytes)};
 }
 
@@ -185,14 +193,16 @@ Result<InsertOutcome> SqlRepository::PutParameterSet(const ParameterSetRecord& p
   const EncodedBlob blob = EncodeBlob(parameter_set.serialized);
   InsertOutcome outcome = InsertOutcome::kInserted;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto inserted, transaction.Query(
-        "INSERT INTO parameter_sets (name, data, data_crc32, data_size, data_sha256, created_at_ms) "
-        "VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (name) DO NOTHING RETURNING name",
-        {parameter_set.name, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()}));
+    ASSIGN_OR_RETURN(
+        auto inserted,
+        transaction.Query(
+            "INSERT INTO parameter_sets (name, data, data_crc32, data_size, data_sha256, created_at_ms) "
+            "VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (name) DO NOTHING RETURNING name",
+            {parameter_set.name, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()}));
     if (!inserted.empty()) return Status::Ok();
     ASSIGN_OR_RETURN(auto existing,
                      CompareExisting(transaction, "SELECT data_sha256 FROM parameter_sets WHERE name = $1",
-                                    {parameter_set.name}, sha256, "parameter set " + parameter_set.name));
+                                     {parameter_set.name}, sha256, "parameter set " + parameter_set.name));
     outcome = existing;
     return Status::Ok();
   }));
@@ -202,8 +212,9 @@ Result<InsertOutcome> SqlRepository::PutParameterSet(const ParameterSetRecord& p
 Result<ParameterSetRecord> SqlRepository::GetParameterSet(const std::string& name) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query("SELECT data, data_crc32, data_size FROM parameter_sets WHERE name = $1", {name}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("SELECT data, data_crc32, data_size FROM parameter_sets WHERE name = $1", {name}));
     if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
@@ -231,20 +242,26 @@ Result<InsertOutcome> SqlRepository::PutModel(const ModelRecord& model) {
   const EncodedBlob blob = EncodeBlob(model.bytes);
   InsertOutcome outcome = InsertOutcome::kInserted;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto inserted, transaction.Query(
-        "INSERT INTO models (name, version, data, data_crc32, data_size, data_sha256, active, created_at_ms) "
-        "VALUES ($1, $2, $3, $4, $5, $6, 0, $7) ON CONFLICT (name, version) DO NOTHING RETURNING name",
-        {model.name, model.version, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256, NowMs()}));
+    ASSIGN_OR_RETURN(
+        auto inserted,
+        transaction.Query(
+            "INSERT INTO models (name, version, data, data_crc32, data_size, data_sha256, active, "
+            "created_at_ms) "
+            "VALUES ($1, $2, $3, $4, $5, $6, 0, $7) ON CONFLICT (name, version) DO NOTHING RETURNING name",
+            {model.name, model.version, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, sha256,
+             NowMs()}));
     if (inserted.empty()) {
-      ASSIGN_OR_RETURN(auto existing,
-                       CompareExisting(transaction, "SELECT data_sha256 FROM models WHERE name = $1 AND version = $2",
-                                      {model.name, model.version}, sha256,
-                                      "model " + model.name + " version " + std::to_string(model.version)));
+      ASSIGN_OR_RETURN(
+          auto existing,
+          CompareExisting(transaction, "SELECT data_sha256 FROM models WHERE name = $1 AND version = $2",
+                          {model.name, model.version}, sha256,
+                          "model " + model.name + " version " + std::to_string(model.version)));
       outcome = existing;
     }
     if (!model.active) return Status::Ok();
-    return transaction.Exec("UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
-                            {model.name, model.version});
+    return transaction.Exec(
+        "UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
+        {model.name, model.version});
   }));
   return outcome;
 }
@@ -253,21 +270,24 @@ namespace {
 
 Result<ModelRecord> ModelFromRow(const SqlRow& row) {
   ModelRecord model{row.Text(0), row.Int(1), {}, row.Int(5) != 0};
-  ASSIGN_OR_RETURN(auto bytes, DecodeBlob(row.Text(2), row.Int(3), row.Int(4),
-                          "model " + model.name + " version " + std::to_string(model.version)));
+  ASSIGN_OR_RETURN(auto bytes,
+                   DecodeBlob(row.Text(2), row.Int(3), row.Int(4),
+                              "model " + model.name + " version " + std::to_string(model.version)));
   model.bytes = std::move(bytes);
   return model;
 }
 
-constexpr const char* kModelColumns = "SELECT name, version, data, data_crc32, data_size, active FROM models ";
+constexpr const char* kModelColumns =
+    "SELECT name, version, data, data_crc32, data_size, active FROM models ";
 
 }  // namespace
 
 Result<ModelRecord> SqlRepository::GetModel(const std::string& name, std::int64_t version) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND version = $2", {name, version}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND version = $2", {name, version}));
     if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
@@ -278,8 +298,8 @@ Result<ModelRecord> SqlRepository::GetModel(const std::string& name, std::int64_
 Result<ModelRecord> SqlRepository::GetActiveModel(const std::string& name) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND active = 1", {name}));
+    ASSIGN_OR_RETURN(
+        auto rows, transaction.Query(std::string(kModelColumns) + "WHERE name = $1 AND active = 1", {name}));
     if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
@@ -289,11 +309,12 @@ Result<ModelRecord> SqlRepository::GetActiveModel(const std::string& name) {
 
 Status SqlRepository::ActivateModel(const std::string& name, std::int64_t version) {
   return Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query("SELECT 1 FROM models WHERE name = $1 AND version = $2", {name, version}));
+    ASSIGN_OR_RETURN(auto rows, transaction.Query("SELECT 1 FROM models WHERE name = $1 AND version = $2",
+                                                  {name, version}));
     if (rows.empty()) return NotFound("no model " + name + " version " + std::to_string(version));
-    return transaction.Exec("UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
-                            {name, version});
+    return transaction.Exec(
+        "UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
+        {name, version});
   });
 }
 

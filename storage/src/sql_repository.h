@@ -24,7 +24,9 @@ class SqlRepository final : public Repository {
 
   /// Tests only: called at named points inside write transactions (e.g. "insert_run:before_commit") so a
   /// test can kill the process mid-transaction.
-  void SetFaultHookForTesting(std::function<void(const std::string& point)> hook) { fault_hook_ = std::move(hook); }
+  void SetFaultHookForTesting(std::function<void(const std::string& point)> hook) {
+    fault_hook_ = std::move(hook);
+  }
   SqlDatabase& database() { return *database_; }
 
   Result<std::int64_t> SchemaVersion() override;
@@ -35,8 +37,8 @@ class SqlRepository final : public Repository {
   Status SetCredential(const std::string& principal, const std::string& secret) override;
   Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) override;
   Status RevokeCredential(const std::string& principal) override;
-  Result<std::vector<CredentialRecord>> ListCredentials(const std::string& prefix, const std::string& after, int limit,
-                                                        bool active_only) override;
+  Result<std::vector<CredentialRecord>> ListCredentials(const std::string& prefix, const std::string& after,
+                                                        int limit, bool active_only) override;
   Result<CredentialChanges> CredentialChangesSince(std::int64_t since, int limit) override;
   Status ProbeWrite(const std::string& prober) override;
   std::optional<WriteFailure> LastWriteFailure() const override;
@@ -47,7 +49,8 @@ class SqlRepository final : public Repository {
   Result<InsertOutcome> InsertRun(const RunRecord& run) override;
   Result<RunRecord> GetRun(const RunKey& key) override;
   Result<std::vector<std::string>> ListRunRobots(const std::string& run_id, int limit) override;
-  Result<RunPage> ListRuns(const RunFilter& filter, int page_size, const std::optional<RunCursor>& after) override;
+  Result<RunPage> ListRuns(const RunFilter& filter, int page_size,
+                           const std::optional<RunCursor>& after) override;
 
   Result<InsertOutcome> PutParameterSet(const ParameterSetRecord& parameter_set) override;
   Result<ParameterSetRecord> GetParameterSet(const std::string& name) override;
@@ -60,11 +63,12 @@ class SqlRepository final : public Repository {
   Status PutReport(const ReportBundle& bundle) override;
   Result<ReportRecord> GetReport(const RunKey& run, const std::string& parameter_set) override;
   Result<std::vector<std::string>> ListReportParameterSets(const RunKey& run) override;
-  Result<std::vector<DecisionRecord>> ListDecisions(const RunKey& run, const std::string& parameter_set) override;
+  Result<std::vector<DecisionRecord>> ListDecisions(const RunKey& run,
+                                                    const std::string& parameter_set) override;
   Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const RunKey& run,
                                                               const std::string& parameter_set) override;
-  Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(const RunKey& run,
-                                                                    const std::string& parameter_set) override;
+  Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(
+      const RunKey& run, const std::string& parameter_set) override;
   Status LabelProtrusionRegion(const RunKey& run, const std::string& parameter_set, std::int64_t region_id,
                                const std::string& label, const std::string& labelled_by) override;
   Result<std::vector<ProtrusionRegionRecord>> ListLabelledRegions(const std::string& parameter_set,
@@ -72,28 +76,32 @@ class SqlRepository final : public Repository {
 
   Result<FleetStatistics> Aggregate(const RunFilter& filter) override;
   Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) override;
-  Result<ReportPairPage> ListReportPairs(const RunFilter& filter, const std::string& set_a, const std::string& set_b,
-                                         int page_size, const std::optional<RunCursor>& after) override;
+  Result<ReportPairPage> ListReportPairs(const RunFilter& filter, const std::string& set_a,
+                                         const std::string& set_b, int page_size,
+                                         const std::optional<RunCursor>& after) override;
   Status InsertRuns(const std::vector<RunRecord>& runs) override;
   Status PutReports(const std::vector<ReportBundle>& bundles) override;
   /// Tests only: the statistics read from the reports themselves, as without the roll-up.
   Result<std::vector<GroupStatistics>> AggregateFromReportsForTesting(const RunFilter& filter,
                                                                       std::optional<GroupBy> group_by);
 
-  Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version, std::optional<std::int64_t> expected_head,
+  Result<MapVersionRecord> AppendMapVersion(const MapVersionRecord& version,
+                                            std::optional<std::int64_t> expected_head,
                                             const std::vector<MapFindingRecord>& findings) override;
   Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) override;
   Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersionOfRun(const RunKey& run) override;
-  Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id, std::int64_t version) override;
+  Result<std::vector<MapFindingRecord>> ListMapFindings(const std::string& robot_id,
+                                                        std::int64_t version) override;
   Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
                                 const std::vector<MapFindingRecord>& findings) override;
   Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
                                             const std::string& reviewed_by) override;
 
   Result<std::int64_t> EnqueueJob(const NewJob& job) override;
-  Result<std::optional<JobLease>> LeaseJob(const std::string& worker, std::chrono::milliseconds lease_duration,
+  Result<std::optional<JobLease>> LeaseJob(const std::string& worker,
+                                           std::chrono::milliseconds lease_duration,
                                            const std::string& kind) override;
   Status HeartbeatJob(const JobLease& lease, std::chrono::milliseconds lease_duration) override;
   Status UpdateJobProgress(const JobLease& lease, std::int64_t done, std::int64_t total) override;
@@ -132,12 +140,13 @@ class SqlRepository final : public Repository {
   Result<std::int64_t> CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params);
   /// One run or report written inside `transaction` (the single and the batched writes share them); the
   /// digest and blobs are computed before the transaction so its lock is held briefly.
-  Result<InsertOutcome> InsertRunIn(SqlTransaction& transaction, const RunRecord& run, const std::string& digest,
-                                    const EncodedBlob& telemetry);
+  Result<InsertOutcome> InsertRunIn(SqlTransaction& transaction, const RunRecord& run,
+                                    const std::string& digest, const EncodedBlob& telemetry);
   Status PutReportIn(SqlTransaction& transaction, const ReportBundle& bundle, const EncodedBlob& blob);
   /// Without `group_by`: the total as one group (none when no report matches).
   Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, std::optional<GroupBy> group_by);
-  Result<std::vector<GroupStatistics>> AggregateFromReports(SqlTransaction& transaction, const RunFilter& filter,
+  Result<std::vector<GroupStatistics>> AggregateFromReports(SqlTransaction& transaction,
+                                                            const RunFilter& filter,
                                                             std::optional<GroupBy> group_by);
   /// Appends `entry` inside `transaction` (DeleteRobot's audit entry commits with the deletion).
   Result<AuditEntry> AppendAuditIn(SqlTransaction& transaction, const AuditEntry& entry);

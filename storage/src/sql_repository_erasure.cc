@@ -12,26 +12,26 @@ namespace {
 constexpr int kMaxBatch = 10000;
 
 /// Counts the rows `where_sql` selects in `table`, then deletes them.
-Result<std::int64_t> CountAndDelete(SqlTransaction& transaction, const std::string& table, const std::string& where_sql,
-                                    const std::vector<SqlValue>& params) {
-  ASSIGN_OR_RETURN(auto counted, transaction.Query("SELECT COUNT(*) FROM " + table + " WHERE " + where_sql, params));
+Result<std::int64_t> CountAndDelete(SqlTransaction& transaction, const std::string& table,
+                                    const std::string& where_sql, const std::vector<SqlValue>& params) {
+  ASSIGN_OR_RETURN(auto counted,
+                   transaction.Query("SELECT COUNT(*) FROM " + table + " WHERE " + where_sql, params));
   RETURN_IF_ERROR(transaction.Exec("DELETE FROM " + table + " WHERE " + where_sql, params));
   return counted.front().Int(0);
 }
 
 std::string ErasureJson(const RobotErasure& e) {
-  const std::pair<const char*, std::int64_t> fields[] = {
-      {"runs", e.runs},
-      {"reports", e.reports},
-      {"decisions", e.decisions},
-      {"ambiguous_views", e.ambiguous_views},
-      {"protrusion_regions", e.protrusion_regions},
-      {"map_versions", e.map_versions},
-      {"map_findings", e.map_findings},
-      {"map_metadata", e.map_metadata},
-      {"snapshots", e.snapshots},
-      {"jobs", e.jobs},
-      {"credentials", e.credentials}};
+  const std::pair<const char*, std::int64_t> fields[] = {{"runs", e.runs},
+                                                         {"reports", e.reports},
+                                                         {"decisions", e.decisions},
+                                                         {"ambiguous_views", e.ambiguous_views},
+                                                         {"protrusion_regions", e.protrusion_regions},
+                                                         {"map_versions", e.map_versions},
+                                                         {"map_findings", e.map_findings},
+                                                         {"map_metadata", e.map_metadata},
+                                                         {"snapshots", e.snapshots},
+                                                         {"jobs", e.jobs},
+                                                         {"credentials", e.credentials}};
   std::string json = "{";
   for (const auto& [name, count] : fields) {
     if (json.size() > 1) json += ",";
@@ -56,10 +56,12 @@ Result<AuditEntry> SqlRepository::AppendAuditIn(SqlTransaction& transaction, con
   }
   AuditEntry stored = entry;
   if (stored.at_ms == 0) stored.at_ms = NowMs();
-  ASSIGN_OR_RETURN(auto rows, transaction.Query(
-      "INSERT INTO audit_log (at_ms, actor, action, subject, detail_json) VALUES ($1, $2, $3, $4, $5) "
-      "RETURNING entry_id",
-      {stored.at_ms, stored.actor, stored.action, stored.subject, stored.detail_json}));
+  ASSIGN_OR_RETURN(
+      auto rows,
+      transaction.Query(
+          "INSERT INTO audit_log (at_ms, actor, action, subject, detail_json) VALUES ($1, $2, $3, $4, $5) "
+          "RETURNING entry_id",
+          {stored.at_ms, stored.actor, stored.action, stored.subject, stored.detail_json}));
   stored.entry_id = rows.front().Int(0);
   return stored;
 }
@@ -78,10 +80,12 @@ Result<std::vector<AuditEntry>> SqlRepository::ListAudit(int limit, std::optiona
   if (limit < 1 || limit > 1000) return InvalidArgument("limit must be in 1..1000");
   std::vector<AuditEntry> entries;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "SELECT entry_id, at_ms, actor, action, subject, detail_json FROM audit_log WHERE entry_id < $1 "
-        "ORDER BY entry_id DESC LIMIT $2",
-        {before_id.value_or(std::numeric_limits<std::int64_t>::max()), std::int64_t{limit}}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(
+            "SELECT entry_id, at_ms, actor, action, subject, detail_json FROM audit_log WHERE entry_id < $1 "
+            "ORDER BY entry_id DESC LIMIT $2",
+            {before_id.value_or(std::numeric_limits<std::int64_t>::max()), std::int64_t{limit}}));
     for (const SqlRow& row : rows) entries.push_back(AuditFromRow(row));
     return Status::Ok();
   }));
@@ -94,17 +98,22 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
   RobotErasure erased;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock: a concurrent map append for it waits, then finds no robot.
-    ASSIGN_OR_RETURN(auto locked, transaction.Query(
-        "UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id", {robot_id}));
+    ASSIGN_OR_RETURN(
+        auto locked,
+        transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
+                          {robot_id}));
     if (locked.empty()) return NotFound("no robot " + robot_id);
     const std::vector<SqlValue> robot = {robot_id};
 
     // Snapshots the robot named; those nobody else names are deleted once its rows are gone.
-    ASSIGN_OR_RETURN(auto candidates, transaction.Query(
-        "SELECT parent_snapshot_id FROM runs WHERE robot_id = $1 AND parent_snapshot_id IS NOT NULL UNION "
-        "SELECT child_snapshot_id FROM runs WHERE robot_id = $1 AND child_snapshot_id IS NOT NULL UNION "
-        "SELECT snapshot_id FROM map_versions WHERE robot_id = $1",
-        robot));
+    ASSIGN_OR_RETURN(
+        auto candidates,
+        transaction.Query(
+            "SELECT parent_snapshot_id FROM runs WHERE robot_id = $1 AND parent_snapshot_id IS NOT NULL "
+            "UNION "
+            "SELECT child_snapshot_id FROM runs WHERE robot_id = $1 AND child_snapshot_id IS NOT NULL UNION "
+            "SELECT snapshot_id FROM map_versions WHERE robot_id = $1",
+            robot));
 
     struct Step {
       const char* table;
@@ -112,10 +121,11 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
       std::int64_t* count;
     };
     // Children before parents (foreign keys); a job of another robot whose parent goes loses the link.
-    RETURN_IF_ERROR(transaction.Exec(
-        "UPDATE jobs SET parent_job_id = NULL WHERE parent_job_id IN (SELECT job_id FROM jobs WHERE robot_id = $1) "
-        "AND (robot_id IS NULL OR robot_id <> $1)",
-        robot));
+    RETURN_IF_ERROR(
+        transaction.Exec("UPDATE jobs SET parent_job_id = NULL WHERE parent_job_id IN (SELECT job_id FROM "
+                         "jobs WHERE robot_id = $1) "
+                         "AND (robot_id IS NULL OR robot_id <> $1)",
+                         robot));
     RETURN_IF_ERROR(RemoveRobotFromRollup(transaction, robot_id));
     std::int64_t child_jobs = 0;
     const Step steps[] = {
@@ -143,17 +153,19 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
       RETURN_IF_ERROR(NextCredentialEpoch(transaction).status());
     }
     for (const SqlRow& row : candidates) {
-      ASSIGN_OR_RETURN(auto deleted, transaction.Query(
-          "DELETE FROM snapshots WHERE snapshot_id = $1 "
-          "AND NOT EXISTS (SELECT 1 FROM runs WHERE parent_snapshot_id = $1 OR child_snapshot_id = $1) "
-          "AND NOT EXISTS (SELECT 1 FROM map_versions WHERE snapshot_id = $1) RETURNING snapshot_id",
-          {row.Text(0)}));
+      ASSIGN_OR_RETURN(
+          auto deleted,
+          transaction.Query(
+              "DELETE FROM snapshots WHERE snapshot_id = $1 "
+              "AND NOT EXISTS (SELECT 1 FROM runs WHERE parent_snapshot_id = $1 OR child_snapshot_id = $1) "
+              "AND NOT EXISTS (SELECT 1 FROM map_versions WHERE snapshot_id = $1) RETURNING snapshot_id",
+              {row.Text(0)}));
       erased.snapshots += static_cast<std::int64_t>(deleted.size());
     }
     RETURN_IF_ERROR(transaction.Exec("DELETE FROM robots WHERE robot_id = $1", robot));
     Fault("delete_robot:before_audit");
-    ASSIGN_OR_RETURN(auto audited,
-                     AppendAuditIn(transaction, AuditEntry{0, 0, actor, "delete_robot", robot_id, ErasureJson(erased)}));
+    ASSIGN_OR_RETURN(auto audited, AppendAuditIn(transaction, AuditEntry{0, 0, actor, "delete_robot",
+                                                                         robot_id, ErasureJson(erased)}));
     return Status::Ok();
   }));
   return erased;
@@ -174,12 +186,14 @@ Result<std::int64_t> SqlRepository::PruneFinishedJobs(std::int64_t finished_befo
   // A parent goes in a later batch than its last child (the foreign key), never before.
   return CountReturnedRows(
       "DELETE FROM jobs WHERE job_id IN (SELECT j.job_id FROM jobs j WHERE j.state IN ('done', 'failed', "
-      "'cancelled') AND j.updated_at_ms < $1 AND NOT EXISTS (SELECT 1 FROM jobs c WHERE c.parent_job_id = j.job_id) "
+      "'cancelled') AND j.updated_at_ms < $1 AND NOT EXISTS (SELECT 1 FROM jobs c WHERE c.parent_job_id = "
+      "j.job_id) "
       "ORDER BY j.job_id LIMIT $2) RETURNING job_id",
       {finished_before_ms, std::int64_t{limit}});
 }
 
-Result<std::int64_t> SqlRepository::CountReturnedRows(const std::string& sql, const std::vector<SqlValue>& params) {
+Result<std::int64_t> SqlRepository::CountReturnedRows(const std::string& sql,
+                                                      const std::vector<SqlValue>& params) {
   std::int64_t count = 0;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     ASSIGN_OR_RETURN(auto rows, transaction.Query(sql, params));

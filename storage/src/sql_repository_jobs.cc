@@ -51,12 +51,15 @@ Result<std::int64_t> SqlRepository::EnqueueJob(const NewJob& job) {
     const std::int64_t now = NowMs();
     SqlValue parent = SqlNull{};
     if (job.parent_job_id) parent = *job.parent_job_id;
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "INSERT INTO jobs (kind, payload, state, attempts, max_attempts, parent_job_id, last_error, progress_done, "
-        "progress_total, created_at_ms, updated_at_ms, robot_id) VALUES ($1, $2, 'queued', 0, $3, $4, '', 0, $5, $6, "
-        "$6, $7) RETURNING job_id",
-        {job.kind, SqlBlob{job.payload}, job.max_attempts, parent, job.progress_total, now,
-         job.robot_id ? SqlValue{*job.robot_id} : SqlValue{SqlNull{}}}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("INSERT INTO jobs (kind, payload, state, attempts, max_attempts, parent_job_id, "
+                          "last_error, progress_done, "
+                          "progress_total, created_at_ms, updated_at_ms, robot_id) VALUES ($1, $2, 'queued', "
+                          "0, $3, $4, '', 0, $5, $6, "
+                          "$6, $7) RETURNING job_id",
+                          {job.kind, SqlBlob{job.payload}, job.max_attempts, parent, job.progress_total, now,
+                           job.robot_id ? SqlValue{*job.robot_id} : SqlValue{SqlNull{}}}));
     job_id = rows.front().Int(0);
     return Status::Ok();
   }));
@@ -75,18 +78,23 @@ Result<std::optional<JobLease>> SqlRepository::LeaseJob(const std::string& worke
     const std::int64_t now = NowMs();
     // A job whose lease expired on its last attempt is not retried: it failed.
     RETURN_IF_ERROR(transaction.Exec(
-        "UPDATE jobs SET state = 'failed', lease_token = NULL, lease_expires_at_ms = NULL, updated_at_ms = $1, "
+        "UPDATE jobs SET state = 'failed', lease_token = NULL, lease_expires_at_ms = NULL, updated_at_ms = "
+        "$1, "
         "last_error = 'the lease expired on the last attempt (worker died or hung)' "
         "WHERE job_id IN (SELECT job_id FROM jobs WHERE state = 'leased' AND lease_expires_at_ms < $1 "
-        "AND attempts >= max_attempts" + skip_locked + ")",
+        "AND attempts >= max_attempts" +
+            skip_locked + ")",
         {now}));
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE jobs SET state = 'leased', attempts = attempts + 1, lease_owner = $1, lease_token = $2, "
-        "lease_expires_at_ms = $3, updated_at_ms = $4 WHERE job_id = (SELECT job_id FROM jobs WHERE "
-        "(state = 'queued' OR (state = 'leased' AND lease_expires_at_ms < $4)) AND attempts < max_attempts "
-        "AND (CAST($5 AS TEXT) = '' OR kind = $5) ORDER BY job_id LIMIT 1" + skip_locked + ") RETURNING " +
-            kJobColumns,
-        {worker, token, now + lease_duration.count(), now, kind}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(
+            "UPDATE jobs SET state = 'leased', attempts = attempts + 1, lease_owner = $1, lease_token = $2, "
+            "lease_expires_at_ms = $3, updated_at_ms = $4 WHERE job_id = (SELECT job_id FROM jobs WHERE "
+            "(state = 'queued' OR (state = 'leased' AND lease_expires_at_ms < $4)) AND attempts < "
+            "max_attempts "
+            "AND (CAST($5 AS TEXT) = '' OR kind = $5) ORDER BY job_id LIMIT 1" +
+                skip_locked + ") RETURNING " + kJobColumns,
+            {worker, token, now + lease_duration.count(), now, kind}));
     if (!rows.empty()) {
       ASSIGN_OR_RETURN(auto job, JobFromRow(rows.front()));
       lease = JobLease{std::move(job), token};
@@ -100,10 +108,11 @@ Status SqlRepository::HeartbeatJob(const JobLease& lease, std::chrono::milliseco
   if (lease_duration.count() <= 0) return InvalidArgument("lease duration must be positive");
   return Write([&](SqlTransaction& transaction) -> Status {
     const std::int64_t now = NowMs();
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE jobs SET lease_expires_at_ms = $3, updated_at_ms = $4 "
-        "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
-        {lease.job.job_id, lease.lease_token, now + lease_duration.count(), now}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("UPDATE jobs SET lease_expires_at_ms = $3, updated_at_ms = $4 "
+                          "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
+                          {lease.job.job_id, lease.lease_token, now + lease_duration.count(), now}));
     return rows.empty() ? LeaseLost(lease) : Status::Ok();
   });
 }
@@ -111,20 +120,23 @@ Status SqlRepository::HeartbeatJob(const JobLease& lease, std::chrono::milliseco
 Status SqlRepository::UpdateJobProgress(const JobLease& lease, std::int64_t done, std::int64_t total) {
   if (done < 0 || total < 0) return InvalidArgument("job progress is negative");
   return Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE jobs SET progress_done = $3, progress_total = $4, updated_at_ms = $5 "
-        "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
-        {lease.job.job_id, lease.lease_token, done, total, NowMs()}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("UPDATE jobs SET progress_done = $3, progress_total = $4, updated_at_ms = $5 "
+                          "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
+                          {lease.job.job_id, lease.lease_token, done, total, NowMs()}));
     return rows.empty() ? LeaseLost(lease) : Status::Ok();
   });
 }
 
 Status SqlRepository::CompleteJob(const JobLease& lease) {
   return Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE jobs SET state = 'done', lease_token = NULL, lease_expires_at_ms = NULL, updated_at_ms = $3 "
-        "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
-        {lease.job.job_id, lease.lease_token, NowMs()}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("UPDATE jobs SET state = 'done', lease_token = NULL, lease_expires_at_ms = NULL, "
+                          "updated_at_ms = $3 "
+                          "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
+                          {lease.job.job_id, lease.lease_token, NowMs()}));
     if (rows.empty()) return LeaseLost(lease);
     Fault("complete_job:before_commit");
     return Status::Ok();
@@ -135,21 +147,24 @@ Status SqlRepository::FailJob(const JobLease& lease, const std::string& error) {
   const std::string message = error.substr(0, 4096);
   RETURN_IF_ERROR(CheckText(message, "job error"));
   return Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE jobs SET state = CASE WHEN attempts >= max_attempts THEN 'failed' ELSE 'queued' END, "
-        "last_error = $3, lease_token = NULL, lease_expires_at_ms = NULL, updated_at_ms = $4 "
-        "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
-        {lease.job.job_id, lease.lease_token, message, NowMs()}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(
+            "UPDATE jobs SET state = CASE WHEN attempts >= max_attempts THEN 'failed' ELSE 'queued' END, "
+            "last_error = $3, lease_token = NULL, lease_expires_at_ms = NULL, updated_at_ms = $4 "
+            "WHERE job_id = $1 AND lease_token = $2 AND state = 'leased' RETURNING job_id",
+            {lease.job.job_id, lease.lease_token, message, NowMs()}));
     return rows.empty() ? LeaseLost(lease) : Status::Ok();
   });
 }
 
 Status SqlRepository::CancelJob(std::int64_t job_id) {
   return Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE jobs SET state = 'cancelled', lease_token = NULL, lease_expires_at_ms = NULL, updated_at_ms = $2 "
-        "WHERE job_id = $1 AND state IN ('queued', 'leased') RETURNING job_id",
-        {job_id, NowMs()}));
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("UPDATE jobs SET state = 'cancelled', lease_token = NULL, "
+                                       "lease_expires_at_ms = NULL, updated_at_ms = $2 "
+                                       "WHERE job_id = $1 AND state IN ('queued', 'leased') RETURNING job_id",
+                                       {job_id, NowMs()}));
     if (!rows.empty()) return Status::Ok();
     ASSIGN_OR_RETURN(auto state, transaction.Query("SELECT state FROM jobs WHERE job_id = $1", {job_id}));
     if (state.empty()) return NotFound("no job " + std::to_string(job_id));
@@ -160,8 +175,9 @@ Status SqlRepository::CancelJob(std::int64_t job_id) {
 Result<JobRecord> SqlRepository::GetJob(std::int64_t job_id) {
   std::optional<JobRecord> job;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string("SELECT ") + kJobColumns + " FROM jobs WHERE job_id = $1", {job_id}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(std::string("SELECT ") + kJobColumns + " FROM jobs WHERE job_id = $1", {job_id}));
     if (!rows.empty()) {
       ASSIGN_OR_RETURN(job, JobFromRow(rows.front()));
     }
@@ -175,9 +191,11 @@ Result<std::vector<JobRecord>> SqlRepository::ListJobs(std::optional<JobState> s
   if (limit < 1) return InvalidArgument("limit must be positive");
   std::vector<JobRecord> jobs;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(std::string("SELECT ") + kJobColumns +
-                                      " FROM jobs WHERE (CAST($1 AS TEXT) = '' OR state = $1) ORDER BY job_id LIMIT $2",
-                                  {std::string(state ? Name(*state) : ""), std::int64_t{limit}}));
+    ASSIGN_OR_RETURN(
+        auto rows, transaction.Query(
+                       std::string("SELECT ") + kJobColumns +
+                           " FROM jobs WHERE (CAST($1 AS TEXT) = '' OR state = $1) ORDER BY job_id LIMIT $2",
+                       {std::string(state ? Name(*state) : ""), std::int64_t{limit}}));
     for (const SqlRow& row : rows) {
       ASSIGN_OR_RETURN(auto job, JobFromRow(row));
       jobs.push_back(std::move(job));

@@ -7,18 +7,22 @@ namespace storage::internal {
 namespace {
 
 constexpr const char* kVersionColumns =
-    "SELECT robot_id, version, parent_version, snapshot_id, origin, run_id, action, action_detail, created_by, "
+    "SELECT robot_id, version, parent_version, snapshot_id, origin, run_id, action, action_detail, "
+    "created_by, "
     "reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, observation_edges, views, "
     "components, known_area_m2, chi2, open_findings FROM map_versions ";
 
 /// "" for a version without an action (uploads).
-std::string ActionText(const std::optional<MapAction>& action) { return action ? std::string(Name(*action)) : ""; }
+std::string ActionText(const std::optional<MapAction>& action) {
+  return action ? std::string(Name(*action)) : "";
+}
 
 Result<MapVersionRecord> VersionFromRow(const SqlRow& row) {
   MapVersionRecord version;
   version.robot_id = row.Text(0);
   version.version = row.Int(1);
-  const std::string where = "map version " + std::to_string(version.version) + " of robot " + version.robot_id;
+  const std::string where =
+      "map version " + std::to_string(version.version) + " of robot " + version.robot_id;
   if (!row.IsNull(2)) version.parent_version = row.Int(2);
   version.snapshot_id = row.Text(3);
   ASSIGN_OR_RETURN(version.origin, StoredState<MapOrigin>(row, 4, where));
@@ -91,10 +95,11 @@ Status InsertFindings(SqlTransaction& transaction, const std::string& robot_id, 
                       const std::vector<MapFindingRecord>& findings) {
   for (const MapFindingRecord& finding : findings) {
     RETURN_IF_ERROR(transaction.Exec(
-        "INSERT INTO map_findings (robot_id, version, finding_id, kind, severity, summary, state, detail_json) "
+        "INSERT INTO map_findings (robot_id, version, finding_id, kind, severity, summary, state, "
+        "detail_json) "
         "VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
-        {robot_id, version, finding.finding_id, std::string(Name(finding.kind)), finding.severity, finding.summary,
-         std::string(Name(finding.state)), finding.detail_json}));
+        {robot_id, version, finding.finding_id, std::string(Name(finding.kind)), finding.severity,
+         finding.summary, std::string(Name(finding.state)), finding.detail_json}));
   }
   return Status::Ok();
 }
@@ -106,51 +111,62 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
                                                          const std::vector<MapFindingRecord>& findings) {
   RETURN_IF_ERROR(CheckVersion(version));
   RETURN_IF_ERROR(CheckFindings(findings));
-  const EncodedBlob metadata = EncodeBlob(version.metadata);  // before the transaction: the lock is held briefly
+  const EncodedBlob metadata =
+      EncodeBlob(version.metadata);  // before the transaction: the lock is held briefly
   MapVersionRecord stored = version;
   stored.metadata.clear();
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock serialises appends for one robot across connections and processes (SQLite
     // serialises every write transaction anyway).
-    ASSIGN_OR_RETURN(auto locked, transaction.Query(
-        "UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id", {version.robot_id}));
-    if (locked.empty()) return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
+    ASSIGN_OR_RETURN(
+        auto locked,
+        transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
+                          {version.robot_id}));
+    if (locked.empty())
+      return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
     if (version.origin == MapOrigin::kUpload) {
-      ASSIGN_OR_RETURN(auto existing, transaction.Query(
-          std::string(kVersionColumns) + "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
-          {version.robot_id, version.run_id}));
+      ASSIGN_OR_RETURN(auto existing,
+                       transaction.Query(std::string(kVersionColumns) +
+                                             "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
+                                         {version.robot_id, version.run_id}));
       if (!existing.empty()) {
         ASSIGN_OR_RETURN(stored, VersionFromRow(existing.front()));
         return Status::Ok();
       }
     }
-    ASSIGN_OR_RETURN(auto head, transaction.Query(
-        "SELECT MAX(version), MAX(CASE WHEN approval IN ('approved', 'pending') THEN version END) FROM map_versions "
-        "WHERE robot_id = $1",
-        {version.robot_id}));
+    ASSIGN_OR_RETURN(auto head,
+                     transaction.Query("SELECT MAX(version), MAX(CASE WHEN approval IN ('approved', "
+                                       "'pending') THEN version END) FROM map_versions "
+                                       "WHERE robot_id = $1",
+                                       {version.robot_id}));
     const std::int64_t newest = head.empty() || head.front().IsNull(0) ? 0 : head.front().Int(0);
     const std::int64_t head_version = head.empty() || head.front().IsNull(1) ? 0 : head.front().Int(1);
     if (expected_head && *expected_head != head_version) {
-      return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(head_version) +
-                     ", not " + std::to_string(*expected_head) + ": it changed meanwhile; look again and retry");
+      return Aborted("the map of robot " + version.robot_id + " is at version " +
+                     std::to_string(head_version) + ", not " + std::to_string(*expected_head) +
+                     ": it changed meanwhile; look again and retry");
     }
     if (version.supersedes_pending) {
-      ASSIGN_OR_RETURN(auto superseded, transaction.Query(
-          "UPDATE map_versions SET approval = 'stale', approved_by = $3, approved_at_ms = $4 "
-          "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
-          {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()}));
+      ASSIGN_OR_RETURN(
+          auto superseded,
+          transaction.Query(
+              "UPDATE map_versions SET approval = 'stale', approved_by = $3, approved_at_ms = $4 "
+              "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
+              {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()}));
       if (superseded.empty()) {
-        return Aborted("map version " + std::to_string(*version.supersedes_pending) + " of robot " + version.robot_id +
-                       " is no longer pending: it was reviewed meanwhile");
+        return Aborted("map version " + std::to_string(*version.supersedes_pending) + " of robot " +
+                       version.robot_id + " is no longer pending: it was reviewed meanwhile");
       }
     }
     if (version.parent_version && (*version.parent_version < 1 || *version.parent_version > newest)) {
       return FailedPrecondition("parent version " + std::to_string(*version.parent_version) + " of robot " +
                                 version.robot_id + " does not exist");
     }
-    ASSIGN_OR_RETURN(auto snapshot,
-                     transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {version.snapshot_id}));
-    if (snapshot.empty()) return FailedPrecondition("map version names snapshot " + version.snapshot_id + ", which is not stored");
+    ASSIGN_OR_RETURN(auto snapshot, transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1",
+                                                      {version.snapshot_id}));
+    if (snapshot.empty())
+      return FailedPrecondition("map version names snapshot " + version.snapshot_id +
+                                ", which is not stored");
     stored.version = newest + 1;
     stored.open_findings = OpenCount(findings);
     if (stored.created_at_ms == 0) stored.created_at_ms = NowMs();
@@ -160,19 +176,40 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
     if (!stored.run_id.empty()) run = stored.run_id;
     RETURN_IF_ERROR(transaction.Exec(
         "INSERT INTO map_versions (robot_id, version, parent_version, snapshot_id, origin, run_id, action, "
-        "action_detail, created_by, reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, "
-        "observation_edges, views, components, known_area_m2, chi2, open_findings) VALUES ($1, $2, $3, $4, $5, $6, "
+        "action_detail, created_by, reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, "
+        "edges, "
+        "observation_edges, views, components, known_area_m2, chi2, open_findings) VALUES ($1, $2, $3, $4, "
+        "$5, $6, "
         "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22)",
-        {stored.robot_id, stored.version, parent, stored.snapshot_id, std::string(Name(stored.origin)), run,
-         ActionText(stored.action), stored.action_detail, stored.created_by, stored.reason, stored.created_at_ms,
+        {stored.robot_id,
+         stored.version,
+         parent,
+         stored.snapshot_id,
+         std::string(Name(stored.origin)),
+         run,
+         ActionText(stored.action),
+         stored.action_detail,
+         stored.created_by,
+         stored.reason,
+         stored.created_at_ms,
          std::string(Name(stored.approval)),
-         stored.approved_by, stored.approved_at_ms, stored.nodes, stored.edges, stored.observation_edges, stored.views,
-         stored.components, stored.known_area_m2, stored.chi2, stored.open_findings}));
+         stored.approved_by,
+         stored.approved_at_ms,
+         stored.nodes,
+         stored.edges,
+         stored.observation_edges,
+         stored.views,
+         stored.components,
+         stored.known_area_m2,
+         stored.chi2,
+         stored.open_findings}));
     RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
     if (!version.metadata.empty()) {
-      RETURN_IF_ERROR(transaction.Exec(
-          "INSERT INTO map_metadata (robot_id, version, data, data_crc32, data_size) VALUES ($1, $2, $3, $4, $5)",
-          {stored.robot_id, stored.version, SqlBlob{metadata.compressed}, metadata.crc32, metadata.raw_size}));
+      RETURN_IF_ERROR(
+          transaction.Exec("INSERT INTO map_metadata (robot_id, version, data, data_crc32, data_size) VALUES "
+                           "($1, $2, $3, $4, $5)",
+                           {stored.robot_id, stored.version, SqlBlob{metadata.compressed}, metadata.crc32,
+                            metadata.raw_size}));
     }
     Fault("append_map_version:before_commit");
     return Status::Ok();
@@ -183,8 +220,9 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
 Result<std::vector<MapVersionRecord>> SqlRepository::ListMapVersions(const std::string& robot_id) {
   std::vector<MapVersionRecord> versions;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 ORDER BY version", {robot_id}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 ORDER BY version", {robot_id}));
     ASSIGN_OR_RETURN(versions, VersionsFromRows(rows));
     return Status::Ok();
   }));
@@ -195,7 +233,8 @@ Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_i
   std::optional<MapVersionRecord> found;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2", {robot_id, version}));
+                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
+                                       {robot_id, version}));
     if (!rows.empty()) {
       ASSIGN_OR_RETURN(found, VersionFromRow(rows.front()));
     }
@@ -208,9 +247,11 @@ Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_i
 Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, std::int64_t version) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query("SELECT data, data_crc32, data_size FROM map_metadata WHERE robot_id = $1 AND version = $2",
-                                  {robot_id, version}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(
+            "SELECT data, data_crc32, data_size FROM map_metadata WHERE robot_id = $1 AND version = $2",
+            {robot_id, version}));
     if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
@@ -222,9 +263,10 @@ Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, s
 Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const RunKey& run) {
   std::optional<MapVersionRecord> found;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        std::string(kVersionColumns) + "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
-        {run.robot_id, run.run_id}));
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query(std::string(kVersionColumns) +
+                                           "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
+                                       {run.robot_id, run.run_id}));
     if (!rows.empty()) {
       ASSIGN_OR_RETURN(found, VersionFromRow(rows.front()));
     }
@@ -234,37 +276,46 @@ Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const RunKey& run) {
   return *found;
 }
 
-Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::string& robot_id, std::int64_t version) {
+Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::string& robot_id,
+                                                                     std::int64_t version) {
   std::vector<MapFindingRecord> findings;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "SELECT finding_id, kind, severity, summary, state, detail_json FROM map_findings "
-        "WHERE robot_id = $1 AND version = $2 ORDER BY finding_id",
-        {robot_id, version}));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query("SELECT finding_id, kind, severity, summary, state, detail_json FROM map_findings "
+                          "WHERE robot_id = $1 AND version = $2 ORDER BY finding_id",
+                          {robot_id, version}));
     for (const SqlRow& row : rows) {
       const std::string where = "finding " + std::to_string(row.Int(0)) + " of map version " +
                                 std::to_string(version) + " of robot " + robot_id;
       ASSIGN_OR_RETURN(const FindingKind kind, StoredState<FindingKind>(row, 1, where));
       ASSIGN_OR_RETURN(const FindingState state, StoredState<FindingState>(row, 4, where));
-      findings.push_back({.finding_id = row.Int(0), .kind = kind, .severity = row.Real(2),
-                          .summary = row.Text(3), .state = state, .detail_json = row.Text(5)});
+      findings.push_back({.finding_id = row.Int(0),
+                          .kind = kind,
+                          .severity = row.Real(2),
+                          .summary = row.Text(3),
+                          .state = state,
+                          .detail_json = row.Text(5)});
     }
     return Status::Ok();
   }));
   return findings;
 }
 
-Status SqlRepository::UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
+Status SqlRepository::UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version,
+                                             double known_area_m2,
                                              const std::vector<MapFindingRecord>& findings) {
   RETURN_IF_ERROR(CheckFindings(findings));
   return Write([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto updated, transaction.Query(
-        "UPDATE map_versions SET open_findings = $3, known_area_m2 = $4 WHERE robot_id = $1 AND version = $2 "
-        "RETURNING version",
-        {robot_id, version, OpenCount(findings), known_area_m2}));
-    if (updated.empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
-    RETURN_IF_ERROR(
-        transaction.Exec("DELETE FROM map_findings WHERE robot_id = $1 AND version = $2", {robot_id, version}));
+    ASSIGN_OR_RETURN(auto updated,
+                     transaction.Query("UPDATE map_versions SET open_findings = $3, known_area_m2 = $4 WHERE "
+                                       "robot_id = $1 AND version = $2 "
+                                       "RETURNING version",
+                                       {robot_id, version, OpenCount(findings), known_area_m2}));
+    if (updated.empty())
+      return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
+    RETURN_IF_ERROR(transaction.Exec("DELETE FROM map_findings WHERE robot_id = $1 AND version = $2",
+                                     {robot_id, version}));
     return InsertFindings(transaction, robot_id, version, findings);
   });
 }
@@ -278,27 +329,33 @@ Result<MapVersionRecord> SqlRepository::ReviewMapVersion(const std::string& robo
     RETURN_IF_ERROR(
         transaction.Exec("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1", {robot_id}));
     if (approve) {
-      ASSIGN_OR_RETURN(auto newer, transaction.Query(
-          "SELECT MAX(version) FROM map_versions WHERE robot_id = $1 AND approval = 'approved' AND version > $2",
-          {robot_id, version}));
+      ASSIGN_OR_RETURN(auto newer, transaction.Query("SELECT MAX(version) FROM map_versions WHERE robot_id = "
+                                                     "$1 AND approval = 'approved' AND version > $2",
+                                                     {robot_id, version}));
       if (!newer.empty() && !newer.front().IsNull(0)) {
-        return FailedPrecondition("version " + std::to_string(newer.front().Int(0)) + " of robot " + robot_id +
-                                  " is approved and newer than " + std::to_string(version) +
-                                  ": approving it would not make it the robot's map; repair the current version instead");
+        return FailedPrecondition(
+            "version " + std::to_string(newer.front().Int(0)) + " of robot " + robot_id +
+            " is approved and newer than " + std::to_string(version) +
+            ": approving it would not make it the robot's map; repair the current version instead");
       }
     }
-    ASSIGN_OR_RETURN(auto rows, transaction.Query(
-        "UPDATE map_versions SET approval = $3, approved_by = $4, approved_at_ms = $5 "
-        "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
-        {robot_id, version, std::string(Name(approve ? MapApproval::kApproved : MapApproval::kRejected)), reviewed_by,
-         NowMs()}));
-    ASSIGN_OR_RETURN(auto current, transaction.Query(
-        std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2", {robot_id, version}));
-    if (current.empty()) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
+    ASSIGN_OR_RETURN(
+        auto rows,
+        transaction.Query(
+            "UPDATE map_versions SET approval = $3, approved_by = $4, approved_at_ms = $5 "
+            "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
+            {robot_id, version, std::string(Name(approve ? MapApproval::kApproved : MapApproval::kRejected)),
+             reviewed_by, NowMs()}));
+    ASSIGN_OR_RETURN(auto current,
+                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
+                                       {robot_id, version}));
+    if (current.empty())
+      return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
     ASSIGN_OR_RETURN(reviewed, VersionFromRow(current.front()));
     if (rows.empty()) {
       return FailedPrecondition("map version " + std::to_string(version) + " of robot " + robot_id + " is " +
-                                std::string(Name(reviewed->approval)) + ", not pending: only pending versions are reviewed");
+                                std::string(Name(reviewed->approval)) +
+                                ", not pending: only pending versions are reviewed");
     }
     return Status::Ok();
   }));

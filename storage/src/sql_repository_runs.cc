@@ -43,7 +43,8 @@ Status CheckRun(const RunRecord& run) {
   RETURN_IF_ERROR(CheckText(run.robot_id, "robot_id", 128));
   RETURN_IF_ERROR(CheckText(run.firmware, "firmware"));
   RETURN_IF_ERROR(CheckText(run.robot_model, "robot_model"));
-  if (run.ended_at_ms < run.started_at_ms) return InvalidArgument("run " + run.run_id + " ends before it starts");
+  if (run.ended_at_ms < run.started_at_ms)
+    return InvalidArgument("run " + run.run_id + " ends before it starts");
   if (run.parent_snapshot_id) RETURN_IF_ERROR(CheckText(*run.parent_snapshot_id, "parent_snapshot_id", 64));
   if (run.child_snapshot_id) RETURN_IF_ERROR(CheckText(*run.child_snapshot_id, "child_snapshot_id", 64));
   return Status::Ok();
@@ -136,18 +137,23 @@ std::string GroupKeySql(GroupBy group_by) {
 }  // namespace
 
 Result<InsertOutcome> SqlRepository::InsertRunIn(SqlTransaction& transaction, const RunRecord& run,
-                                                const std::string& digest, const EncodedBlob& telemetry) {
-  ASSIGN_OR_RETURN(auto inserted, transaction.Query(
-      "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, parent_snapshot_id, "
-      "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
-      "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (robot_id, run_id) DO NOTHING "
-      "RETURNING run_id",
-      {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
-       OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id), SqlBlob{telemetry.compressed},
-       telemetry.crc32, telemetry.raw_size, digest, NowMs()}));
+                                                 const std::string& digest, const EncodedBlob& telemetry) {
+  ASSIGN_OR_RETURN(
+      auto inserted,
+      transaction.Query(
+          "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, "
+          "parent_snapshot_id, "
+          "child_snapshot_id, telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) "
+          "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) ON CONFLICT (robot_id, run_id) DO "
+          "NOTHING "
+          "RETURNING run_id",
+          {run.run_id, run.robot_id, run.firmware, run.robot_model, run.started_at_ms, run.ended_at_ms,
+           OptionalText(run.parent_snapshot_id), OptionalText(run.child_snapshot_id),
+           SqlBlob{telemetry.compressed}, telemetry.crc32, telemetry.raw_size, digest, NowMs()}));
   if (!inserted.empty()) return InsertOutcome::kInserted;
   return CompareExisting(transaction, "SELECT payload_sha256 FROM runs WHERE robot_id = $1 AND run_id = $2",
-                         {run.robot_id, run.run_id}, digest, "run " + run.run_id + " of robot " + run.robot_id);
+                         {run.robot_id, run.run_id}, digest,
+                         "run " + run.run_id + " of robot " + run.robot_id);
 }
 
 Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
@@ -186,16 +192,16 @@ Result<RunRecord> SqlRepository::GetRun(const RunKey& key) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     ASSIGN_OR_RETURN(auto rows, transaction.Query(std::string("SELECT ") + kRunColumns +
-                                      ", r.telemetry, r.telemetry_crc32 FROM runs r "
-                                      "WHERE r.robot_id = $1 AND r.run_id = $2",
-                                  {key.robot_id, key.run_id}));
+                                                      ", r.telemetry, r.telemetry_crc32 FROM runs r "
+                                                      "WHERE r.robot_id = $1 AND r.run_id = $2",
+                                                  {key.robot_id, key.run_id}));
     if (!rows.empty()) row = rows.front();
     return Status::Ok();
   }));
   if (!row) return NotFound("no run " + key.run_id + " of robot " + key.robot_id);
   RunRecord run = RunFromRow(*row);
-  ASSIGN_OR_RETURN(auto telemetry,
-                   DecodeBlob(row->Text(10), row->Int(11), run.telemetry_size, "telemetry of run " + key.run_id));
+  ASSIGN_OR_RETURN(auto telemetry, DecodeBlob(row->Text(10), row->Int(11), run.telemetry_size,
+                                              "telemetry of run " + key.run_id));
   run.telemetry = std::move(telemetry);
   return run;
 }
@@ -204,29 +210,31 @@ Result<std::vector<std::string>> SqlRepository::ListRunRobots(const std::string&
   if (limit < 1 || limit > 1000) return InvalidArgument("limit must be in 1..1000");
   std::vector<std::string> robots;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows,
-                     transaction.Query("SELECT robot_id FROM runs WHERE run_id = $1 ORDER BY robot_id LIMIT $2",
-                                  {run_id, std::int64_t{limit}}));
+    ASSIGN_OR_RETURN(
+        auto rows, transaction.Query("SELECT robot_id FROM runs WHERE run_id = $1 ORDER BY robot_id LIMIT $2",
+                                     {run_id, std::int64_t{limit}}));
     for (const SqlRow& row : rows) robots.push_back(row.Text(0));
     return Status::Ok();
   }));
   return robots;
 }
 
-Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, const std::optional<RunCursor>& after) {
+Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size,
+                                        const std::optional<RunCursor>& after) {
   if (page_size < 1 || page_size > 1000) return InvalidArgument("page_size must be in 1..1000");
   std::vector<SqlValue> params = FilterParams(filter);
   params.emplace_back(after ? after->started_at_ms : std::numeric_limits<std::int64_t>::min());  // $7
   params.emplace_back(after ? after->run_id : std::string());                                    // $8
   params.emplace_back(std::int64_t{page_size} + 1);  // $9: one extra row tells whether a next page exists
-  params.emplace_back(after ? after->robot_id : std::string());                                  // $10
-  const std::string sql = std::string("SELECT ") + kRunColumns + " FROM runs r WHERE " + kRunFilterSql +
-                          " AND (CAST($4 AS TEXT) = '' OR EXISTS (SELECT 1 FROM reports p WHERE p.robot_id = r.robot_id"
-                          " AND p.run_id = r.run_id"
-                          " AND p.parameter_set = $4))"
-                          " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
-                          " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
-                          " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
+  params.emplace_back(after ? after->robot_id : std::string());  // $10
+  const std::string sql =
+      std::string("SELECT ") + kRunColumns + " FROM runs r WHERE " + kRunFilterSql +
+      " AND (CAST($4 AS TEXT) = '' OR EXISTS (SELECT 1 FROM reports p WHERE p.robot_id = r.robot_id"
+      " AND p.run_id = r.run_id"
+      " AND p.parameter_set = $4))"
+      " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
+      " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
+      " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
   RunPage page;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     ASSIGN_OR_RETURN(auto rows, transaction.Query(sql, params));
@@ -241,11 +249,11 @@ Result<RunPage> SqlRepository::ListRuns(const RunFilter& filter, int page_size, 
 }
 
 Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReports(SqlTransaction& transaction,
-                                                                        const RunFilter& filter,
-                                                                        std::optional<GroupBy> group_by) {
-  ASSIGN_OR_RETURN(auto rows,
-                   transaction.Query(StatisticsSql(group_by ? GroupKeySql(*group_by) : "''", group_by.has_value()),
-                                FilterParams(filter)));
+                                                                         const RunFilter& filter,
+                                                                         std::optional<GroupBy> group_by) {
+  ASSIGN_OR_RETURN(auto rows, transaction.Query(StatisticsSql(group_by ? GroupKeySql(*group_by) : "''",
+                                                              group_by.has_value()),
+                                                FilterParams(filter)));
   std::vector<GroupStatistics> groups;
   for (const SqlRow& row : rows) {
     if (!group_by && row.Int(1) == 0) continue;  // the total over no reports
@@ -254,8 +262,8 @@ Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReports(SqlTran
   return groups;
 }
 
-Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReportsForTesting(const RunFilter& filter,
-                                                                                   std::optional<GroupBy> group_by) {
+Result<std::vector<GroupStatistics>> SqlRepository::AggregateFromReportsForTesting(
+    const RunFilter& filter, std::optional<GroupBy> group_by) {
   std::vector<GroupStatistics> groups;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     ASSIGN_OR_RETURN(auto read, AggregateFromReports(transaction, filter, group_by));
@@ -275,7 +283,7 @@ Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter&
 }
 
 Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter& filter,
-                                                               std::optional<GroupBy> group_by) {
+                                                                std::optional<GroupBy> group_by) {
   std::vector<GroupStatistics> groups;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
     auto read = AggregateFromRollup(transaction, filter, group_by);
@@ -292,9 +300,10 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
                                                       const std::optional<RunCursor>& after) {
   if (page_size < 1 || page_size > 1000) return InvalidArgument("page_size must be in 1..1000");
   std::string counters_a, counters_b;
-  for (const char* column : {"recovery_created", "recovery_accepted", "merge_created", "merge_conditionally_accepted",
-                             "merge_conditional_then_rejected", "views_total", "views_ambiguous", "started_localized",
-                             "protrusions_found", "recovery_retracted"}) {
+  for (const char* column :
+       {"recovery_created", "recovery_accepted", "merge_created", "merge_conditionally_accepted",
+        "merge_conditional_then_rejected", "views_total", "views_ambiguous", "started_localized",
+        "protrusions_found", "recovery_retracted"}) {
     counters_a += std::string(", a.") + column;
     counters_b += std::string(", b.") + column;
   }
@@ -310,20 +319,30 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
       std::string("SELECT ") + kRunColumns + counters_a + counters_b +
       // CROSS JOIN keeps SQLite walking runs in keyset order (runs_by_start) and probing each run's two
       // reports by key, so a page costs its size, not the table's; PostgreSQL plans it as an inner join.
-      " FROM runs r CROSS JOIN reports a CROSS JOIN reports b WHERE a.robot_id = r.robot_id AND a.run_id = r.run_id"
-      " AND a.parameter_set = $11 AND b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = $12"
-      " AND " + std::string(kRunFilterSql) + " AND CAST($4 AS TEXT) = ''" +
+      " FROM runs r CROSS JOIN reports a CROSS JOIN reports b WHERE a.robot_id = r.robot_id AND a.run_id = "
+      "r.run_id"
+      " AND a.parameter_set = $11 AND b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = "
+      "$12"
+      " AND " +
+      std::string(kRunFilterSql) + " AND CAST($4 AS TEXT) = ''" +
       " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
       " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
       " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
-  const auto report_of = [](const SqlRow& row, std::size_t first, const RunRecord& run, const std::string& set) {
+  const auto report_of = [](const SqlRow& row, std::size_t first, const RunRecord& run,
+                            const std::string& set) {
     ReportRecord report;
     report.robot_id = run.robot_id;
     report.run_id = run.run_id;
     report.parameter_set = set;
-    std::int64_t* targets[] = {&report.recovery_created, &report.recovery_accepted, &report.merge_created,
-                               &report.merge_conditionally_accepted, &report.merge_conditional_then_rejected,
-                               &report.views_total, &report.views_ambiguous, nullptr, &report.protrusions_found,
+    std::int64_t* targets[] = {&report.recovery_created,
+                               &report.recovery_accepted,
+                               &report.merge_created,
+                               &report.merge_conditionally_accepted,
+                               &report.merge_conditional_then_rejected,
+                               &report.views_total,
+                               &report.views_ambiguous,
+                               nullptr,
+                               &report.protrusions_found,
                                &report.recovery_retracted};
     for (std::size_t i = 0; i < std::size(targets); ++i) {
       if (targets[i] != nullptr) *targets[i] = row.Int(first + i);

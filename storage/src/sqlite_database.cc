@@ -12,27 +12,23 @@ Status SqliteError(sqlite3* db, int rc, const std::string& context) {
   const std::string message = context + ": " + (db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
   switch (rc & 0xFF) {  // the primary result code
     case SQLITE_NOTADB:
-    case SQLITE_CORRUPT:
-      return DataLoss(message + " (the file is not a SQLite database or is corrupt)");
+    case SQLITE_CORRUPT: return DataLoss(message + " (the file is not a SQLite database or is corrupt)");
     case SQLITE_BUSY:
-    case SQLITE_LOCKED:
-      return Unavailable(message);
+    case SQLITE_LOCKED: return Unavailable(message);
     // The database cannot take writes now (disk full, file or directory read-only, I/O failing): retry
     // later, once an operator freed space or fixed permissions; nothing is wrong with the request.
     case SQLITE_FULL:
     case SQLITE_READONLY:
     case SQLITE_IOERR:
     case SQLITE_CANTOPEN:
-    case SQLITE_PROTOCOL:
-      return Unavailable(message);
+    case SQLITE_PROTOCOL: return Unavailable(message);
     case SQLITE_CONSTRAINT:
-      if (rc == SQLITE_CONSTRAINT_FOREIGNKEY) return FailedPrecondition(message + " (a referenced record is missing)");
+      if (rc == SQLITE_CONSTRAINT_FOREIGNKEY)
+        return FailedPrecondition(message + " (a referenced record is missing)");
       if (rc == SQLITE_CONSTRAINT_PRIMARYKEY || rc == SQLITE_CONSTRAINT_UNIQUE) return AlreadyExists(message);
       return InvalidArgument(message);
-    case SQLITE_TOOBIG:
-      return InvalidArgument(message);
-    default:
-      return Internal(message);
+    case SQLITE_TOOBIG: return InvalidArgument(message);
+    default: return Internal(message);
   }
 }
 
@@ -141,13 +137,15 @@ class SqliteDatabase final : public SqlDatabase {
           case SQLITE_BLOB: {
             const void* data = sqlite3_column_blob(stmt, c);
             const int size = sqlite3_column_bytes(stmt, c);
-            values.emplace_back(SqlBlob{std::string(static_cast<const char*>(data), static_cast<std::size_t>(size))});
+            values.emplace_back(
+                SqlBlob{std::string(static_cast<const char*>(data), static_cast<std::size_t>(size))});
             break;
           }
           default: {
             const unsigned char* data = sqlite3_column_text(stmt, c);
             const int size = sqlite3_column_bytes(stmt, c);
-            values.emplace_back(std::string(reinterpret_cast<const char*>(data), static_cast<std::size_t>(size)));
+            values.emplace_back(
+                std::string(reinterpret_cast<const char*>(data), static_cast<std::size_t>(size)));
           }
         }
       }
@@ -160,8 +158,8 @@ class SqliteDatabase final : public SqlDatabase {
   Result<sqlite3_stmt*> Prepare(const std::string& sql) {
     if (auto it = statements_.find(sql); it != statements_.end()) return it->second;
     sqlite3_stmt* stmt = nullptr;
-    const int rc = sqlite3_prepare_v3(db_, sql.c_str(), static_cast<int>(sql.size() + 1), SQLITE_PREPARE_PERSISTENT,
-                                      &stmt, nullptr);
+    const int rc = sqlite3_prepare_v3(db_, sql.c_str(), static_cast<int>(sql.size() + 1),
+                                      SQLITE_PREPARE_PERSISTENT, &stmt, nullptr);
     if (rc != SQLITE_OK) return SqliteError(db_, rc, "sqlite prepare");
     statements_.emplace(sql, stmt);
     return stmt;
@@ -184,8 +182,8 @@ Result<std::unique_ptr<SqlDatabase>> OpenSqliteDatabase(const std::string& path,
                                                         std::chrono::milliseconds busy_timeout) {
   if (path.empty()) return InvalidArgument("sqlite: empty file path");
   sqlite3* db = nullptr;
-  const int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                                 nullptr);
+  const int rc = sqlite3_open_v2(path.c_str(), &db,
+                                 SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
   if (rc != SQLITE_OK) {
     Status error = SqliteError(db, rc, "sqlite: cannot open " + path);
     sqlite3_close_v2(db);

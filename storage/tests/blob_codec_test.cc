@@ -23,9 +23,11 @@ TEST(BlobCodecTest, AnyFlippedByteOrWrongSizeIsDataLoss) {
   for (std::size_t i = 0; i < blob.compressed.size(); ++i) {
     std::string corrupt = blob.compressed;
     corrupt[i] = static_cast<char>(corrupt[i] ^ 0x01);
-    EXPECT_EQ(DecodeBlob(corrupt, blob.crc32, blob.raw_size, "x").status().code(), StatusCode::kDataLoss) << i;
+    EXPECT_EQ(DecodeBlob(corrupt, blob.crc32, blob.raw_size, "x").status().code(), StatusCode::kDataLoss)
+        << i;
   }
-  EXPECT_EQ(DecodeBlob(blob.compressed, blob.crc32, blob.raw_size + 1, "x").status().code(), StatusCode::kDataLoss);
+  EXPECT_EQ(DecodeBlob(blob.compressed, blob.crc32, blob.raw_size + 1, "x").status().code(),
+            StatusCode::kDataLoss);
   EXPECT_EQ(DecodeBlob(blob.compressed, blob.crc32, -1, "x").status().code(), StatusCode::kDataLoss);
   EXPECT_EQ(DecodeBlob("", 0, 10, "x").status().code(), StatusCode::kDataLoss);
 }

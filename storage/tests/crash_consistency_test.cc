@@ -92,8 +92,9 @@ TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
   ASSERT_THAT(repo().SetCredential("robot:robot-1", "secret"), IsOk());
   repo_.reset();  // no database handle crosses fork()
   // Killed once every row of the robot is deleted, before the audit entry and COMMIT.
-  KillWriterAt("delete_robot:before_audit",
-               [](internal::SqlRepository& repository) { (void)repository.DeleteRobot("robot-1", "admin:root"); });
+  KillWriterAt("delete_robot:before_audit", [](internal::SqlRepository& repository) {
+    (void)repository.DeleteRobot("robot-1", "admin:root");
+  });
   if (HasFatalFailure()) return;
 
   Reopen();
@@ -151,8 +152,8 @@ TEST_P(CrashConsistencyTest, WriterKilledAtARandomMomentLeavesWholeRunsOnly) {
   std::cout << "[ measured ] " << stored << " runs of 1 MiB committed before SIGKILL\n";
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, CrashConsistencyTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         BackendName);
+INSTANTIATE_TEST_SUITE_P(Backends, CrashConsistencyTest,
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
 
 }  // namespace
 }  // namespace storage::testing

@@ -81,21 +81,24 @@ TEST_P(CredentialsContractTest, TheHealthProbeWritesAndNoFailureIsRecorded) {
   EXPECT_FALSE(repo().LastWriteFailure().has_value());
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, CredentialsContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         BackendName);
+INSTANTIATE_TEST_SUITE_P(Backends, CredentialsContractTest,
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
 
 TEST(DatabaseUrlTest, PasswordsAreRedactedInUrlsAndOpenErrors) {
-  EXPECT_EQ(RedactDatabaseUrl("postgresql://fleet:pa%40ss@db:5432/fleet"), "postgresql://fleet:***@db:5432/fleet");
+  EXPECT_EQ(RedactDatabaseUrl("postgresql://fleet:pa%40ss@db:5432/fleet"),
+            "postgresql://fleet:***@db:5432/fleet");
   EXPECT_EQ(RedactDatabaseUrl("postgres://fleet@db/fleet?password=hunter2&sslmode=require"),
             "postgres://fleet@db/fleet?password=***&sslmode=require");
   EXPECT_EQ(RedactDatabaseUrl("sqlite:/var/lib/fleet.db"), "sqlite:/var/lib/fleet.db");
-  EXPECT_EQ(DatabaseUrlPasswords("postgresql://fleet:pa%40ss@db/fleet"), (std::vector<std::string>{"pa%40ss", "pa@ss"}));
+  EXPECT_EQ(DatabaseUrlPasswords("postgresql://fleet:pa%40ss@db/fleet"),
+            (std::vector<std::string>{"pa%40ss", "pa@ss"}));
   // Every way opening can fail: unknown scheme, a bad percent-escape libpq echoes, nothing listening.
-  for (const std::string url : {"mysql://fleet:Sw0rdfish-77@127.0.0.1:1/fleet",
-                                "postgresql://fleet:Sw0rdfish-77%zz@127.0.0.1:1/fleet",
-                                "postgresql://fleet:Sw0rdfish-77@127.0.0.1:1/fleet?connect_timeout=2",
-                                "postgresql://fleet@127.0.0.1:1/fleet?password=Sw0rdfish-77&connect_timeout=2",
-                                "postgresql://fleet:Sw0rdfish-77@127.0.0.1:notaport/fleet"}) {
+  for (const std::string url :
+       {"mysql://fleet:Sw0rdfish-77@127.0.0.1:1/fleet",
+        "postgresql://fleet:Sw0rdfish-77%zz@127.0.0.1:1/fleet",
+        "postgresql://fleet:Sw0rdfish-77@127.0.0.1:1/fleet?connect_timeout=2",
+        "postgresql://fleet@127.0.0.1:1/fleet?password=Sw0rdfish-77&connect_timeout=2",
+        "postgresql://fleet:Sw0rdfish-77@127.0.0.1:notaport/fleet"}) {
     auto opened = OpenRepository(url);
     ASSERT_FALSE(opened.ok()) << url;
     EXPECT_EQ(opened.status().message().find("Sw0rdfish"), std::string::npos) << opened.status().message();

@@ -128,8 +128,10 @@ TEST_P(JobQueueContractTest, ProgressParentsAndListing) {
   auto child = repo().EnqueueJob(NewJob{"analyze_run", "run-1", 3, *parent, 0});
   ASSERT_THAT(child, IsOk());
   EXPECT_EQ(repo().GetJob(*child)->parent_job_id, *parent);
-  EXPECT_EQ(repo().EnqueueJob(NewJob{"x", "", 3, 424242, 0}).status().code(), StatusCode::kFailedPrecondition);
-  EXPECT_EQ(repo().EnqueueJob(NewJob{"", "", 3, std::nullopt, 0}).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().EnqueueJob(NewJob{"x", "", 3, 424242, 0}).status().code(),
+            StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo().EnqueueJob(NewJob{"", "", 3, std::nullopt, 0}).status().code(),
+            StatusCode::kInvalidArgument);
   JobLease lease = MustLease("w");
   ASSERT_EQ(lease.job.job_id, *parent);
   ASSERT_THAT(repo().UpdateJobProgress(lease, 1, 2), IsOk());
@@ -249,8 +251,8 @@ TEST_P(JobQueueContractTest, ConcurrentProcessesNeverShareAJobEvenWhenOneIsKille
   EXPECT_EQ(retaken->attempts, 2) << "the killed worker's lease expired and another worker took the job";
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, JobQueueContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         BackendName);
+INSTANTIATE_TEST_SUITE_P(Backends, JobQueueContractTest,
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
 
 }  // namespace
 }  // namespace storage::testing

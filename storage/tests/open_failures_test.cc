@@ -25,7 +25,8 @@ TEST(OpenFailuresTest, FileThatIsNotADatabaseIsRefused) {
   }
   auto opened = OpenRepository("sqlite:" + path);
   ASSERT_THAT(opened, StatusIs(StatusCode::kDataLoss));
-  EXPECT_NE(opened.status().message().find("not a SQLite database"), std::string::npos) << opened.status().ToString();
+  EXPECT_NE(opened.status().message().find("not a SQLite database"), std::string::npos)
+      << opened.status().ToString();
   fs::remove(path);
 }
 
@@ -69,8 +70,8 @@ TEST_P(SchemaVersionTest, DatabaseFromANewerProgramIsRefused) {
   auto opened = OpenRepository(url_);
   ASSERT_THAT(opened, StatusIs(StatusCode::kFailedPrecondition));
   EXPECT_EQ(opened.status().message(), "database schema version " + std::to_string(newer) +
-                                           " is newer than this program's " + std::to_string(LatestSchemaVersion()) +
-                                           "; upgrade the program");
+                                           " is newer than this program's " +
+                                           std::to_string(LatestSchemaVersion()) + "; upgrade the program");
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, SchemaVersionTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),

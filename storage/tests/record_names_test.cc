@@ -52,11 +52,14 @@ TEST(RecordNamesTest, SpellingsAreTheStoredOnes) {
 }
 
 TEST(RecordNamesTest, AnUnknownSpellingIsRefusedByName) {
-  EXPECT_THAT(Parse<MapOrigin>("uplaod"), StatusIs(StatusCode::kInvalidArgument, "map version origin \"uplaod\""));
-  EXPECT_THAT(Parse<MapApproval>("Approved"), StatusIs(StatusCode::kInvalidArgument, "\"Approved\" is not approved"));
+  EXPECT_THAT(Parse<MapOrigin>("uplaod"),
+              StatusIs(StatusCode::kInvalidArgument, "map version origin \"uplaod\""));
+  EXPECT_THAT(Parse<MapApproval>("Approved"),
+              StatusIs(StatusCode::kInvalidArgument, "\"Approved\" is not approved"));
   EXPECT_THAT(Parse<MapAction>("cut_finding"), StatusIs(StatusCode::kInvalidArgument, "\"cut_finding\""));
-  EXPECT_THAT(Parse<FindingState>(""), StatusIs(StatusCode::kInvalidArgument, "finding state \"\" is not open, "
-                                                                               "resolved or info"));
+  EXPECT_THAT(Parse<FindingState>(""), StatusIs(StatusCode::kInvalidArgument,
+                                                "finding state \"\" is not open, "
+                                                "resolved or info"));
   EXPECT_THAT(Parse<FindingKind>("wall"), StatusIs(StatusCode::kInvalidArgument, "finding kind \"wall\""));
   EXPECT_THAT(Parse<JobState>("sleeping"), StatusIs(StatusCode::kInvalidArgument, "job state \"sleeping\""));
   // Long input is cut in the message.
@@ -92,32 +95,37 @@ TEST(RecordNamesTest, AStoredStateOutsideItsSetIsReportedWhenRead) {
     version.origin = MapOrigin::kImport;
     version.action = MapAction::kImport;
     version.approval = MapApproval::kApproved;
-    ASSERT_THAT(repository.AppendMapVersion(version, std::nullopt,
-                                            {{1, FindingKind::kNewRegion, 0.5, "x", FindingState::kOpen, "{}"}}),
-                IsOk());
+    ASSERT_THAT(
+        repository.AppendMapVersion(version, std::nullopt,
+                                    {{1, FindingKind::kNewRegion, 0.5, "x", FindingState::kOpen, "{}"}}),
+        IsOk());
     NewJob job;
     job.kind = "analyze_run";
     ASSERT_THAT(repository.EnqueueJob(job), IsOk());
   }
-  Corrupt(path, "UPDATE map_versions SET approval = 'approvd'; UPDATE map_findings SET kind = 'wall'; "
-                "UPDATE jobs SET state = 'sleeping'");
+  Corrupt(path,
+          "UPDATE map_versions SET approval = 'approvd'; UPDATE map_findings SET kind = 'wall'; "
+          "UPDATE jobs SET state = 'sleeping'");
 
   auto opened = OpenRepository("sqlite:" + path);
   ASSERT_THAT(opened, IsOk());
   Repository& repository = **opened;
   EXPECT_THAT(repository.ListMapVersions("robot-1"),
-              StatusIs(StatusCode::kDataLoss, "map version 1 of robot robot-1: stored map version approval "
-                                              "\"approvd\" is not approved, pending, rejected or stale"));
+              StatusIs(StatusCode::kDataLoss,
+                       "map version 1 of robot robot-1: stored map version approval "
+                       "\"approvd\" is not approved, pending, rejected or stale"));
   EXPECT_THAT(repository.GetMapVersion("robot-1", 1), StatusIs(StatusCode::kDataLoss, "\"approvd\""));
   EXPECT_THAT(repository.ListMapFindings("robot-1", 1),
-              StatusIs(StatusCode::kDataLoss, "finding 1 of map version 1 of robot robot-1: stored finding kind "
-                                              "\"wall\""));
+              StatusIs(StatusCode::kDataLoss,
+                       "finding 1 of map version 1 of robot robot-1: stored finding kind "
+                       "\"wall\""));
   EXPECT_THAT(repository.GetJob(1), StatusIs(StatusCode::kDataLoss, "job 1: stored job state \"sleeping\""));
   EXPECT_THAT(repository.ListJobs(std::nullopt, 10), StatusIs(StatusCode::kDataLoss, "\"sleeping\""));
 
   // An empty action is an upload's "none"; any other spelling is refused like the rest.
   Corrupt(path, "UPDATE map_versions SET approval = 'approved', action = 'explode'");
-  EXPECT_THAT(repository.ListMapVersions("robot-1"), StatusIs(StatusCode::kDataLoss, "map version action \"explode\""));
+  EXPECT_THAT(repository.ListMapVersions("robot-1"),
+              StatusIs(StatusCode::kDataLoss, "map version action \"explode\""));
   Corrupt(path, "UPDATE map_versions SET action = '', origin = 'import'");
   auto versions = repository.ListMapVersions("robot-1");
   ASSERT_THAT(versions, IsOk());

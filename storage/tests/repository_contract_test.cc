@@ -26,8 +26,8 @@ class RepositoryContractTest : public BackendTest {
     ASSERT_THAT(repo().PutParameterSet({"tuned", "params-b"}), IsOk());
   }
 
-  static ReportBundle MakeReport(const std::string& run_id, const std::string& parameter_set, std::int64_t scale,
-                                 const std::string& robot_id = "robot-1") {
+  static ReportBundle MakeReport(const std::string& run_id, const std::string& parameter_set,
+                                 std::int64_t scale, const std::string& robot_id = "robot-1") {
     ReportBundle bundle;
     ReportRecord& r = bundle.report;
     r.robot_id = robot_id;
@@ -44,7 +44,8 @@ class RepositoryContractTest : public BackendTest {
     r.started_localized = scale % 2 == 1;
     r.protrusions_found = 4 * scale;
     r.report = "full report of " + run_id + "/" + parameter_set + std::string(3, '\0');
-    bundle.decisions = {{1, 1.5, "recovery", "created", 11, 0.9, "d1"}, {2, 2.5, "merge", "accepted", 12, 0.8, ""}};
+    bundle.decisions = {{1, 1.5, "recovery", "created", 11, 0.9, "d1"},
+                        {2, 2.5, "merge", "accepted", 12, 0.8, ""}};
     bundle.ambiguous_views = {{5, 3.0, 3, 0.4, "corridor"}};
     ProtrusionRegionRecord region;
     region.region_id = 1;
@@ -160,7 +161,8 @@ TEST_P(RepositoryContractTest, CorruptBlobsAreDataLossNeverData) {
     ASSERT_EQ(rows.size(), 1u);
     std::string bytes = rows[0].Text(0);
     bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5A);
-    RawQuery("UPDATE " + table + " SET " + column + " = $2 WHERE " + key_column + " = $1", {key, SqlBlob{bytes}});
+    RawQuery("UPDATE " + table + " SET " + column + " = $2 WHERE " + key_column + " = $1",
+             {key, SqlBlob{bytes}});
   };
   flip("runs", "telemetry", "run_id", "run-1");
   flip("snapshots", "data", "snapshot_id", snapshot);
@@ -210,8 +212,10 @@ TEST_P(RepositoryContractTest, ReportNeedsAStoredRunAndParameterSet) {
 TEST_P(RepositoryContractTest, ReplacingAReportKeepsEngineersLabels) {
   ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0)), IsOk());
   ASSERT_THAT(repo().PutReport(MakeReport("run-1", "default", 1)), IsOk());
-  ASSERT_THAT(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 2, "shoe", "alice"), IsOk());
-  EXPECT_EQ(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 9, "shoe", "alice").code(), StatusCode::kNotFound);
+  ASSERT_THAT(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 2, "shoe", "alice"),
+              IsOk());
+  EXPECT_EQ(repo().LabelProtrusionRegion(RunKey{"robot-1", "run-1"}, "default", 9, "shoe", "alice").code(),
+            StatusCode::kNotFound);
   ReportBundle retried = MakeReport("run-1", "default", 3);
   retried.decisions.pop_back();
   ASSERT_THAT(repo().PutReport(retried), IsOk());
@@ -248,7 +252,9 @@ TEST_P(RepositoryContractTest, ParameterSetsAndModelsAreImmutableOnceStored) {
 TEST_P(RepositoryContractTest, ListRunsPagesByStartTimeThenRunId) {
   // Ties on started_at_ms are broken by run_id, so no run is skipped or repeated across pages.
   for (int i = 0; i < 7; ++i) {
-    ASSERT_THAT(repo().InsertRun(MakeRun("run-" + std::to_string(i), 1000 * (i / 2), 10, i % 3 == 0 ? "robot-2" : "robot-1")), IsOk());
+    ASSERT_THAT(repo().InsertRun(MakeRun("run-" + std::to_string(i), 1000 * (i / 2), 10,
+                                         i % 3 == 0 ? "robot-2" : "robot-1")),
+                IsOk());
   }
   std::vector<std::string> seen;
   std::optional<RunCursor> cursor;
@@ -332,8 +338,8 @@ TEST_P(RepositoryContractTest, AggregatesFleetStatisticsInTheDatabase) {
 }
 
 TEST_P(RepositoryContractTest, InjectionAttemptsInValuesAreHarmless) {
-  const std::string attacks[] = {"x'; DROP TABLE runs; --", "' OR '1'='1", "robot-1' --", "\"; DELETE FROM robots; --",
-                                 "$1", "robot-1%"};
+  const std::string attacks[] = {"x'; DROP TABLE runs; --",    "' OR '1'='1", "robot-1' --",
+                                 "\"; DELETE FROM robots; --", "$1",          "robot-1%"};
   ASSERT_THAT(repo().InsertRun(MakeRun("run-1", 0)), IsOk());
   ASSERT_THAT(repo().PutReport(MakeReport("run-1", "default", 1)), IsOk());
   for (const std::string& attack : attacks) {
@@ -362,15 +368,16 @@ TEST_P(RepositoryContractTest, InjectionAttemptsInValuesAreHarmless) {
 TEST_P(RepositoryContractTest, RejectsMalformedInputWithAStatus) {
   EXPECT_EQ(repo().PutRobot(RobotRecord{}).code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(repo().InsertRun(MakeRun("", 0)).status().code(), StatusCode::kInvalidArgument);
-  EXPECT_EQ(repo().InsertRun(MakeRun(std::string("nul\0id", 6), 0)).status().code(), StatusCode::kInvalidArgument);
-  EXPECT_EQ(repo().InsertRun(MakeRun(std::string(500, 'r'), 0)).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().InsertRun(MakeRun(std::string("nul\0id", 6), 0)).status().code(),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(repo().InsertRun(MakeRun(std::string(500, 'r'), 0)).status().code(),
+            StatusCode::kInvalidArgument);
   RunRecord backwards = MakeRun("run-1", 100);
   backwards.ended_at_ms = 50;
   EXPECT_EQ(repo().InsertRun(backwards).status().code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(repo().SetCredential("robot-1", "").code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(repo().ListLabelledRegions("", 0).status().code(), StatusCode::kInvalidArgument);
 }
-
 
 static MapVersionRecord MakeVersion(const std::string& robot, const std::string& snapshot, MapOrigin origin,
                                     const std::string& run_id = "") {
@@ -389,14 +396,16 @@ static MapVersionRecord MakeVersion(const std::string& robot, const std::string&
 TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
   ASSERT_EQ(*repo().InsertRun(MakeRun("run-1", 1000, 10)), InsertOutcome::kInserted);
-  auto first = repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kUpload, "run-1"), std::nullopt,
-                                       {{1, FindingKind::kProtrusion, 0.8, "region 3", FindingState::kOpen, R"({"x":1})"},
-                                        {2, FindingKind::kAmbiguousView, 0.1, "4 views", FindingState::kInfo, "{}"}});
+  auto first = repo().AppendMapVersion(
+      MakeVersion("robot-1", a, MapOrigin::kUpload, "run-1"), std::nullopt,
+      {{1, FindingKind::kProtrusion, 0.8, "region 3", FindingState::kOpen, R"({"x":1})"},
+       {2, FindingKind::kAmbiguousView, 0.1, "4 views", FindingState::kInfo, "{}"}});
   ASSERT_THAT(first, IsOk());
   EXPECT_EQ(first->version, 1);
   EXPECT_EQ(first->open_findings, 1) << "info findings are not open";
   // Retrying the upload's version returns the one already made.
-  auto retried = repo().AppendMapVersion(MakeVersion("robot-1", b, MapOrigin::kUpload, "run-1"), std::nullopt, {});
+  auto retried =
+      repo().AppendMapVersion(MakeVersion("robot-1", b, MapOrigin::kUpload, "run-1"), std::nullopt, {});
   ASSERT_THAT(retried, IsOk());
   EXPECT_EQ(retried->version, 1);
   EXPECT_EQ(retried->snapshot_id, a);
@@ -426,9 +435,11 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   EXPECT_EQ((*findings)[0].detail_json, R"({"x":1})");
 
   // Findings of a version are replaced as a whole, with its open count and known area.
-  ASSERT_THAT(repo().UpdateMapVersionHealth("robot-1", 2, 40.25,
-                                            {{1, FindingKind::kHighResidualEdge, 0.7, "edge 3→9", FindingState::kOpen, "{}"},
-                                             {2, FindingKind::kProtrusion, 0.6, "region", FindingState::kOpen, "{}"}}), IsOk());
+  ASSERT_THAT(repo().UpdateMapVersionHealth(
+                  "robot-1", 2, 40.25,
+                  {{1, FindingKind::kHighResidualEdge, 0.7, "edge 3→9", FindingState::kOpen, "{}"},
+                   {2, FindingKind::kProtrusion, 0.6, "region", FindingState::kOpen, "{}"}}),
+              IsOk());
   EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 2);
   EXPECT_DOUBLE_EQ(repo().GetMapVersion("robot-1", 2)->known_area_m2, 40.25);
   ASSERT_THAT(repo().UpdateMapVersionHealth("robot-1", 2, 40.25, {}), IsOk());
@@ -439,38 +450,55 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
 
 TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());
   ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), 1, {}), IsOk());
   auto stale = repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), 1, {});
   EXPECT_EQ(stale.status().code(), StatusCode::kAborted) << stale.status().ToString();
   EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 2u) << "nothing written";
   // Rejected and stale versions are side branches: the head stays at the newest approved or pending one.
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2, {}), IsOk());  // 3, pending
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2, {}),
+              IsOk());  // 3, pending
   ASSERT_THAT(repo().ReviewMapVersion("robot-1", 3, false, "engineer:ana"), IsOk());
   MapVersionRecord outdated_upload = MakeVersion("robot-1", a, MapOrigin::kUpload, "run-x");
   outdated_upload.approval = MapApproval::kStale;
   ASSERT_EQ(*repo().InsertRun(MakeRun("run-x", 5000, 10)), InsertOutcome::kInserted);
   ASSERT_EQ(repo().AppendMapVersion(outdated_upload, std::nullopt, {})->version, 4);
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 3, {}).status().code(), StatusCode::kAborted);
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 3, {}).status().code(),
+            StatusCode::kAborted);
   auto continued = repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2, {});
   ASSERT_THAT(continued, IsOk());
   EXPECT_EQ(continued->version, 5);
   // References are checked.
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("nobody", a, MapOrigin::kRollback), std::nullopt, {}).status().code(),
+  EXPECT_EQ(repo()
+                .AppendMapVersion(MakeVersion("nobody", a, MapOrigin::kRollback), std::nullopt, {})
+                .status()
+                .code(),
             StatusCode::kFailedPrecondition);
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", std::string(64, 'f'), MapOrigin::kRollback), std::nullopt, {}).status().code(),
+  EXPECT_EQ(repo()
+                .AppendMapVersion(MakeVersion("robot-1", std::string(64, 'f'), MapOrigin::kRollback),
+                                  std::nullopt, {})
+                .status()
+                .code(),
             StatusCode::kFailedPrecondition);
   MapVersionRecord orphan = MakeVersion("robot-1", a, MapOrigin::kRepair);
   orphan.parent_version = 9;
-  EXPECT_EQ(repo().AppendMapVersion(orphan, std::nullopt, {}).status().code(), StatusCode::kFailedPrecondition);
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kUpload), std::nullopt, {}).status().code(),
-            StatusCode::kInvalidArgument) << "an upload version names its run";
+  EXPECT_EQ(repo().AppendMapVersion(orphan, std::nullopt, {}).status().code(),
+            StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo()
+                .AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kUpload), std::nullopt, {})
+                .status()
+                .code(),
+            StatusCode::kInvalidArgument)
+      << "an upload version names its run";
 }
 
 TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTheSameTransaction) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}), IsOk());  // 1
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", b, MapOrigin::kRepair), 1, {}), IsOk());               // 2, pending
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());  // 1
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", b, MapOrigin::kRepair), 1, {}),
+              IsOk());  // 2, pending
   MapVersionRecord carried = MakeVersion("robot-1", b, MapOrigin::kRepair);
   carried.parent_version = 1;
   carried.approval = MapApproval::kApproved;
@@ -485,7 +513,8 @@ TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTh
   // Superseding a version that is no longer pending writes nothing.
   auto again = repo().AppendMapVersion(carried, 3, {});
   EXPECT_EQ(again.status().code(), StatusCode::kAborted) << again.status().ToString();
-  EXPECT_NE(again.status().message().find("version 2 of robot robot-1 is no longer pending"), std::string::npos)
+  EXPECT_NE(again.status().message().find("version 2 of robot robot-1 is no longer pending"),
+            std::string::npos)
       << again.status().message();
   EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 3u) << "nothing written";
 }
@@ -515,7 +544,8 @@ TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMe
   const std::string a = *repo().PutSnapshot("map a");
   ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}), IsOk());
   MapVersionRecord imported = MakeVersion("robot-9", a, MapOrigin::kImport);
-  imported.metadata = std::string("rooms\0zones", 11) + std::string(100000, 'm');  // opaque bytes, NULs included
+  imported.metadata =
+      std::string("rooms\0zones", 11) + std::string(100000, 'm');  // opaque bytes, NULs included
   auto first = repo().AppendMapVersion(imported, std::nullopt, {});
   ASSERT_THAT(first, IsOk());
   EXPECT_TRUE(first->metadata.empty());
@@ -536,7 +566,8 @@ TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMe
 
 TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());
   // Eight writers, each with its own connection, all read head 1 and try to append on it: one wins.
   constexpr int kWriters = 8;
   std::atomic<int> won{0}, aborted{0};
@@ -545,8 +576,9 @@ TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
     writers.emplace_back([&] {
       auto own = OpenRepository(url_);
       if (!own.ok()) return;
-      auto appended = (*own)->AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 1,
-                                               {{1, FindingKind::kProtrusion, 0.5, "x", FindingState::kOpen, "{}"}});
+      auto appended =
+          (*own)->AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 1,
+                                   {{1, FindingKind::kProtrusion, 0.5, "x", FindingState::kOpen, "{}"}});
       if (appended.ok()) ++won;
       if (appended.status().code() == StatusCode::kAborted) ++aborted;
     });
@@ -560,21 +592,26 @@ TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
 
 TEST_P(RepositoryContractTest, OnlyPendingVersionsAreReviewed) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), std::nullopt, {}), IsOk());
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), std::nullopt, {}),
+              IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), std::nullopt, {}),
+              IsOk());
   auto approved = repo().ReviewMapVersion("robot-1", 1, true, "engineer:ana");
   ASSERT_THAT(approved, IsOk());
   EXPECT_EQ(approved->approval, MapApproval::kApproved);
   EXPECT_EQ(approved->approved_by, "engineer:ana");
   EXPECT_GT(approved->approved_at_ms, 0);
-  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 1, false, "engineer:bo").status().code(), StatusCode::kFailedPrecondition);
-  EXPECT_EQ(repo().GetMapVersion("robot-1", 1)->approval, MapApproval::kApproved) << "a refused review changes nothing";
+  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 1, false, "engineer:bo").status().code(),
+            StatusCode::kFailedPrecondition);
+  EXPECT_EQ(repo().GetMapVersion("robot-1", 1)->approval, MapApproval::kApproved)
+      << "a refused review changes nothing";
   EXPECT_EQ(repo().ReviewMapVersion("robot-1", 2, false, "engineer:bo")->approval, MapApproval::kRejected);
-  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 3, true, "engineer:bo").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 3, true, "engineer:bo").status().code(),
+            StatusCode::kNotFound);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, RepositoryContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         BackendName);
+INSTANTIATE_TEST_SUITE_P(Backends, RepositoryContractTest,
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
 
 }  // namespace
 }  // namespace storage::testing

@@ -25,14 +25,16 @@ std::string Describe(const FleetStatistics& s) {
   return "reports=" + std::to_string(s.reports) + " robots=" + std::to_string(s.robots) +
          " recovery=" + std::to_string(s.recovery_created) + "/" + std::to_string(s.recovery_accepted) + "/" +
          std::to_string(s.recovery_retracted) + " merge=" + std::to_string(s.merge_created) + "/" +
-         std::to_string(s.merge_conditionally_accepted) + "/" + std::to_string(s.merge_conditional_then_rejected) +
-         " views=" + std::to_string(s.views_total) + "/" + std::to_string(s.views_ambiguous) +
-         " localized=" + std::to_string(s.started_localized) + " protrusions=" + std::to_string(s.protrusions_found);
+         std::to_string(s.merge_conditionally_accepted) + "/" +
+         std::to_string(s.merge_conditional_then_rejected) + " views=" + std::to_string(s.views_total) + "/" +
+         std::to_string(s.views_ambiguous) + " localized=" + std::to_string(s.started_localized) +
+         " protrusions=" + std::to_string(s.protrusions_found);
 }
 
 std::string Describe(const std::vector<GroupStatistics>& groups) {
   std::string text;
-  for (const GroupStatistics& group : groups) text += "[" + group.key + ": " + Describe(group.statistics) + "] ";
+  for (const GroupStatistics& group : groups)
+    text += "[" + group.key + ": " + Describe(group.statistics) + "] ";
   return text;
 }
 
@@ -41,7 +43,8 @@ class RollupContractTest : public BackendTest {
   void SetUp() override {
     BackendTest::SetUp();
     if (HasFatalFailure()) return;
-    for (const char* set : kSets) ASSERT_THAT(repo().PutParameterSet({set, std::string("params ") + set}), IsOk());
+    for (const char* set : kSets)
+      ASSERT_THAT(repo().PutParameterSet({set, std::string("params ") + set}), IsOk());
   }
 
   /// Random counters for one report (seeded per call order, so every run of the test writes the same).
@@ -73,7 +76,8 @@ class RollupContractTest : public BackendTest {
       const std::string robot_id = "robot-" + std::to_string(robot);
       ASSERT_THAT(repo().PutRobot(RobotRecord{robot_id, kModels[robot % 2], kFirmware[0], 1}), IsOk());
       for (int i = 0; i < runs; ++i) {
-        RunRecord run = MakeRun("run-" + std::to_string(i), (i % 5 - 1) * kDay + robot * 1000 + i, 50, robot_id);
+        RunRecord run =
+            MakeRun("run-" + std::to_string(i), (i % 5 - 1) * kDay + robot * 1000 + i, 50, robot_id);
         run.firmware = kFirmware[(robot + i / 3) % 3];
         run.robot_model = kModels[robot % 2];
         ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
@@ -109,14 +113,15 @@ class RollupContractTest : public BackendTest {
       one_robot.robot_id = "robot-1";
       filters.push_back(one_robot);
     }
-    const std::optional<GroupBy> groupings[] = {std::nullopt,          GroupBy::kDay,          GroupBy::kFirmware,
-                                                GroupBy::kRobotModel, GroupBy::kParameterSet, GroupBy::kRobot};
+    const std::optional<GroupBy> groupings[] = {std::nullopt,           GroupBy::kDay,
+                                                GroupBy::kFirmware,     GroupBy::kRobotModel,
+                                                GroupBy::kParameterSet, GroupBy::kRobot};
     for (const RunFilter& filter : filters) {
       for (const auto& group_by : groupings) {
-        const std::string shape = when + ": set=\"" + filter.parameter_set + "\" firmware=\"" + filter.firmware +
-                                  "\" model=\"" + filter.robot_model + "\" robot=\"" + filter.robot_id + "\"" +
-                                  (filter.started_from_ms ? " timed" : "") + " group " +
-                                  std::to_string(group_by ? static_cast<int>(*group_by) : -1);
+        const std::string shape = when + ": set=\"" + filter.parameter_set + "\" firmware=\"" +
+                                  filter.firmware + "\" model=\"" + filter.robot_model + "\" robot=\"" +
+                                  filter.robot_id + "\"" + (filter.started_from_ms ? " timed" : "") +
+                                  " group " + std::to_string(group_by ? static_cast<int>(*group_by) : -1);
         auto expected = repo().AggregateFromReportsForTesting(filter, group_by);
         ASSERT_THAT(expected, IsOk()) << shape << ": " << expected.status().ToString();
         if (!group_by) {
@@ -173,7 +178,8 @@ TEST_P(RollupContractTest, BulkBatchesAreAllOrNothingAndKeepTheRollup) {
   bad_reports.back().report.parameter_set = "no-such-set";
   EXPECT_FALSE(repo().PutReports(bad_reports).ok());
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM reports")[0].Int(0), 0);
-  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM report_rollup")[0].Int(0), 0) << "the roll-up rolls back with them";
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM report_rollup")[0].Int(0), 0)
+      << "the roll-up rolls back with them";
   ASSERT_THAT(repo().PutReports(reports), IsOk());
   ExpectRollupMatchesReports("after the batches");
   EXPECT_FALSE(repo().InsertRuns(std::vector<RunRecord>(10001, runs[0])).ok()) << "batches are bounded";
@@ -231,15 +237,22 @@ TEST_P(RollupContractTest, MigrationSevenRollsUpTheReportsAlreadyStored) {
         RunRecord run = MakeRun("run-" + std::to_string(i), i * kDay, 10, robot_id);
         run.firmware = kFirmware[i % 2];
         ASSERT_THAT(old.InsertRun(run), IsOk());
-        ASSERT_THAT(old.database().InTransaction(internal::TransactionMode::kWrite, [&](internal::SqlTransaction& t) {
-          return t.Exec(
-              "INSERT INTO reports (robot_id, run_id, parameter_set, recovery_created, recovery_accepted, "
-              "merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, views_total, "
-              "views_ambiguous, started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, "
-              "recovery_retracted) VALUES ($1, $2, 'default', $3, 1, 2, 1, 0, 12, $4, 1, 1, $5, $6, $7, 8, 0)",
-              {robot_id, run.run_id, std::int64_t{robot + i}, std::int64_t{i}, internal::SqlBlob{blob.compressed},
-               blob.crc32, blob.raw_size});
-        }), IsOk());
+        ASSERT_THAT(old.database().InTransaction(
+                        internal::TransactionMode::kWrite,
+                        [&](internal::SqlTransaction& t) {
+                          return t.Exec(
+                              "INSERT INTO reports (robot_id, run_id, parameter_set, recovery_created, "
+                              "recovery_accepted, "
+                              "merge_created, merge_conditionally_accepted, merge_conditional_then_rejected, "
+                              "views_total, "
+                              "views_ambiguous, started_localized, protrusions_found, data, data_crc32, "
+                              "data_size, created_at_ms, "
+                              "recovery_retracted) VALUES ($1, $2, 'default', $3, 1, 2, 1, 0, 12, $4, 1, 1, "
+                              "$5, $6, $7, 8, 0)",
+                              {robot_id, run.run_id, std::int64_t{robot + i}, std::int64_t{i},
+                               internal::SqlBlob{blob.compressed}, blob.crc32, blob.raw_size});
+                        }),
+                    IsOk());
       }
     }
   }
@@ -252,8 +265,8 @@ TEST_P(RollupContractTest, MigrationSevenRollsUpTheReportsAlreadyStored) {
   ExpectRollupMatchesReports("after migrating a schema-6 database");
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, RollupContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         BackendName);
+INSTANTIATE_TEST_SUITE_P(Backends, RollupContractTest,
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
 
 }  // namespace
 }  // namespace storage::testing

@@ -25,7 +25,8 @@ constexpr const char* kErased = "erased-robot";
 constexpr const char* kKept = "kept-robot";
 
 std::int64_t NowMsForTest() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -57,7 +58,8 @@ class TenancyContractTest : public BackendTest {
     return bundle;
   }
 
-  static MapVersionRecord Version(const std::string& robot, const std::string& snapshot, const std::string& run_id) {
+  static MapVersionRecord Version(const std::string& robot, const std::string& snapshot,
+                                  const std::string& run_id) {
     MapVersionRecord version;
     version.robot_id = robot;
     version.snapshot_id = snapshot;
@@ -70,9 +72,10 @@ class TenancyContractTest : public BackendTest {
 
   /// Every table of the schema (but schema_version), read from the database's own catalogue.
   std::vector<std::string> Tables() {
-    const std::string sql = GetParam() == Backend::kSqlite
-                                ? "SELECT name FROM sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%'"
-                                : "SELECT table_name FROM information_schema.tables WHERE table_schema = current_schema()";
+    const std::string sql =
+        GetParam() == Backend::kSqlite
+            ? "SELECT name FROM sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%'"
+            : "SELECT table_name FROM information_schema.tables WHERE table_schema = current_schema()";
     std::vector<std::string> tables;
     for (const auto& row : RawQuery(sql)) {
       if (row.Text(0) != "schema_version") tables.push_back(row.Text(0));
@@ -111,19 +114,27 @@ class TenancyContractTest : public BackendTest {
       if (run_id == "run-1") run.parent_snapshot_id = parent;
       run.child_snapshot_id = child;
       ASSERT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted);
-      for (const char* set : {"default", "tuned"}) ASSERT_THAT(repo().PutReport(Report(robot, run_id, set)), IsOk());
+      for (const char* set : {"default", "tuned"})
+        ASSERT_THAT(repo().PutReport(Report(robot, run_id, set)), IsOk());
     }
-    ASSERT_THAT(repo().LabelProtrusionRegion({robot, "run-1"}, "default", 1, "protrusion", "engineer:ana"), IsOk());
-    ASSERT_THAT(repo().AppendMapVersion(Version(robot, child, "run-1"), std::nullopt,
-                                        {{1, FindingKind::kProtrusion, 0.5, "region of " + robot, FindingState::kOpen, "{}"}}), IsOk());
+    ASSERT_THAT(repo().LabelProtrusionRegion({robot, "run-1"}, "default", 1, "protrusion", "engineer:ana"),
+                IsOk());
+    ASSERT_THAT(repo().AppendMapVersion(
+                    Version(robot, child, "run-1"), std::nullopt,
+                    {{1, FindingKind::kProtrusion, 0.5, "region of " + robot, FindingState::kOpen, "{}"}}),
+                IsOk());
     MapVersionRecord repair = Version(robot, repaired, "run-1");
     repair.origin = MapOrigin::kRepair;
     repair.parent_version = 1;
     repair.metadata = "rooms of " + robot;
-    ASSERT_THAT(repo().AppendMapVersion(repair, std::nullopt, {{1, FindingKind::kHighResidualEdge, 0.1, "edge", FindingState::kOpen, "{}"}}), IsOk());
+    ASSERT_THAT(repo().AppendMapVersion(
+                    repair, std::nullopt,
+                    {{1, FindingKind::kHighResidualEdge, 0.1, "edge", FindingState::kOpen, "{}"}}),
+                IsOk());
     NewJob parent_job{"reprocess", "filter " + robot, 3, std::nullopt, 1, robot};
     const std::int64_t parent_id = *repo().EnqueueJob(parent_job);
-    ASSERT_THAT(repo().EnqueueJob(NewJob{"analyze_run", "run-1 of " + robot, 3, parent_id, 0, robot}), IsOk());
+    ASSERT_THAT(repo().EnqueueJob(NewJob{"analyze_run", "run-1 of " + robot, 3, parent_id, 0, robot}),
+                IsOk());
     ASSERT_THAT(repo().SetCredential("robot:" + robot, "secret of " + robot), IsOk());
     if (child_out) *child_out = child;
   }
@@ -151,7 +162,8 @@ TEST_P(TenancyContractTest, RunIdsArePerRobot) {
   ASSERT_THAT(repo().PutReport(Report(kKept, "run-7", "default")), IsOk());
   EXPECT_EQ(repo().GetReport({kErased, "run-7"}, "default").status().code(), StatusCode::kNotFound);
   EXPECT_TRUE(repo().ListProtrusionRegions({kErased, "run-7"}, "default")->empty());
-  EXPECT_EQ(repo().LabelProtrusionRegion({kErased, "run-7"}, "default", 1, "x", "y").code(), StatusCode::kNotFound);
+  EXPECT_EQ(repo().LabelProtrusionRegion({kErased, "run-7"}, "default", 1, "x", "y").code(),
+            StatusCode::kNotFound);
   ASSERT_THAT(repo().PutReport(Report(kErased, "run-7", "default")), IsOk());
   EXPECT_EQ(repo().GetReport({kKept, "run-7"}, "default")->report, "report of kept-robot/run-7/default");
   EXPECT_EQ(repo().ListProtrusionRegions({kKept, "run-7"}, "default")->front().robot_id, kKept);
@@ -189,30 +201,44 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
     ASSERT_THAT(old.PutParameterSet({"default", "p"}), IsOk());
     const std::string snapshot = *old.PutSnapshot("map");
     const internal::EncodedBlob blob = internal::EncodeBlob("bytes");
-    ASSERT_THAT(old.database().InTransaction(internal::TransactionMode::kWrite, [&](internal::SqlTransaction& t) {
-      RETURN_IF_ERROR(t.Exec(
-          "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, child_snapshot_id, "
-          "telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) VALUES ('old-run', $1, 'fw', "
-          "'vac', 5, 6, $2, $3, $4, $5, 'digest', 7)",
-          {std::string(kKept), snapshot, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size}));
-      RETURN_IF_ERROR(t.Exec(
-          "INSERT INTO reports (run_id, parameter_set, recovery_created, recovery_accepted, merge_created, "
-          "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, views_ambiguous, "
-          "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, recovery_retracted) "
-          "VALUES ('old-run', 'default', 4, 1, 0, 0, 0, 9, 2, 1, 1, $1, $2, $3, 8, 3)",
-          {SqlBlob{blob.compressed}, blob.crc32, blob.raw_size}));
-      RETURN_IF_ERROR(t.Exec(
-          "INSERT INTO protrusion_regions (run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, "
-          "features_json, predicted_class, probability, label, labelled_by) VALUES ('old-run', 'default', 1, 0, 0, "
-          "1, 1, '{}', 'protrusion', 0.9, 'new_space', 'engineer:ana')",
-          {}));
-      return t.Exec(
-          "INSERT INTO map_versions (robot_id, version, snapshot_id, origin, run_id, action, action_detail, created_by, "
-          "reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, observation_edges, views, "
-          "components, known_area_m2, chi2, open_findings) VALUES ($1, 1, $2, 'upload', 'old-run', '', '', 'r', '', "
-          "1, 'approved', '', 0, 0, 0, 0, 0, 0, 0, 0, 0)",
-          {std::string(kKept), snapshot});
-    }), IsOk());
+    ASSERT_THAT(
+        old.database().InTransaction(
+            internal::TransactionMode::kWrite,
+            [&](internal::SqlTransaction& t) {
+              RETURN_IF_ERROR(t.Exec(
+                  "INSERT INTO runs (run_id, robot_id, firmware, robot_model, started_at_ms, ended_at_ms, "
+                  "child_snapshot_id, "
+                  "telemetry, telemetry_crc32, telemetry_size, payload_sha256, uploaded_at_ms) VALUES "
+                  "('old-run', $1, 'fw', "
+                  "'vac', 5, 6, $2, $3, $4, $5, 'digest', 7)",
+                  {std::string(kKept), snapshot, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size}));
+              RETURN_IF_ERROR(
+                  t.Exec("INSERT INTO reports (run_id, parameter_set, recovery_created, recovery_accepted, "
+                         "merge_created, "
+                         "merge_conditionally_accepted, merge_conditional_then_rejected, views_total, "
+                         "views_ambiguous, "
+                         "started_localized, protrusions_found, data, data_crc32, data_size, created_at_ms, "
+                         "recovery_retracted) "
+                         "VALUES ('old-run', 'default', 4, 1, 0, 0, 0, 9, 2, 1, 1, $1, $2, $3, 8, 3)",
+                         {SqlBlob{blob.compressed}, blob.crc32, blob.raw_size}));
+              RETURN_IF_ERROR(
+                  t.Exec("INSERT INTO protrusion_regions (run_id, parameter_set, region_id, min_x, min_y, "
+                         "max_x, max_y, "
+                         "features_json, predicted_class, probability, label, labelled_by) VALUES "
+                         "('old-run', 'default', 1, 0, 0, "
+                         "1, 1, '{}', 'protrusion', 0.9, 'new_space', 'engineer:ana')",
+                         {}));
+              return t.Exec(
+                  "INSERT INTO map_versions (robot_id, version, snapshot_id, origin, run_id, action, "
+                  "action_detail, created_by, "
+                  "reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, "
+                  "observation_edges, views, "
+                  "components, known_area_m2, chi2, open_findings) VALUES ($1, 1, $2, 'upload', 'old-run', "
+                  "'', '', 'r', '', "
+                  "1, 'approved', '', 0, 0, 0, 0, 0, 0, 0, 0, 0)",
+                  {std::string(kKept), snapshot});
+            }),
+        IsOk());
   }
   auto upgraded = internal::OpenSqlRepository(url, OpenOptions{});
   ASSERT_THAT(upgraded, IsOk());
@@ -236,7 +262,8 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
   ASSERT_THAT(appended, IsOk());
   EXPECT_EQ(*repository.GetMapMetadata(kKept, appended->version), "rooms");
   ASSERT_THAT(repository.SetCredential("robot:" + std::string(kKept), "secret"), IsOk());
-  EXPECT_EQ(repository.CredentialChangesSince(0, 10)->principals, std::vector<std::string>{"robot:" + std::string(kKept)});
+  EXPECT_EQ(repository.CredentialChangesSince(0, 10)->principals,
+            std::vector<std::string>{"robot:" + std::string(kKept)});
 }
 
 TEST_P(TenancyContractTest, ForeignKeysNameTheRebuiltTablesAfterEveryMigration) {
@@ -246,15 +273,23 @@ TEST_P(TenancyContractTest, ForeignKeysNameTheRebuiltTablesAfterEveryMigration) 
       GetParam() == Backend::kSqlite
           ? "SELECT m.name, f.\"table\" FROM sqlite_master m JOIN pragma_foreign_key_list(m.name) f "
             "WHERE m.type = 'table' ORDER BY 1, 2"
-          : "SELECT conrelid::regclass::text, confrelid::regclass::text FROM pg_constraint WHERE contype = 'f' "
+          : "SELECT conrelid::regclass::text, confrelid::regclass::text FROM pg_constraint WHERE contype = "
+            "'f' "
             "ORDER BY 1, 2";
   std::set<std::pair<std::string, std::string>> references;
   for (const auto& row : RawQuery(sql)) references.insert({row.Text(0), row.Text(1)});
-  const std::set<std::pair<std::string, std::string>> expected = {
-      {"ambiguous_views", "reports"},  {"decisions", "reports"},        {"jobs", "jobs"},
-      {"map_findings", "map_versions"}, {"map_metadata", "map_versions"}, {"map_versions", "robots"},
-      {"map_versions", "snapshots"},   {"protrusion_regions", "reports"}, {"reports", "parameter_sets"},
-      {"reports", "runs"},             {"runs", "robots"},               {"runs", "snapshots"}};
+  const std::set<std::pair<std::string, std::string>> expected = {{"ambiguous_views", "reports"},
+                                                                  {"decisions", "reports"},
+                                                                  {"jobs", "jobs"},
+                                                                  {"map_findings", "map_versions"},
+                                                                  {"map_metadata", "map_versions"},
+                                                                  {"map_versions", "robots"},
+                                                                  {"map_versions", "snapshots"},
+                                                                  {"protrusion_regions", "reports"},
+                                                                  {"reports", "parameter_sets"},
+                                                                  {"reports", "runs"},
+                                                                  {"runs", "robots"},
+                                                                  {"runs", "snapshots"}};
   EXPECT_EQ(references, expected);
 }
 
@@ -297,16 +332,19 @@ TEST_P(TenancyContractTest, DeletingARobotLeavesNothingOfItAndOthersWhole) {
   left.erase("audit_log");
   EXPECT_TRUE(left.empty()) << "rows of the erased robot left in " << left.begin()->first;
   EXPECT_EQ(repo().GetRobot(kErased).status().code(), StatusCode::kNotFound);
-  EXPECT_EQ(repo().GetSnapshot(erased_child).status().code(), StatusCode::kNotFound) << "content-addressed blob gone";
+  EXPECT_EQ(repo().GetSnapshot(erased_child).status().code(), StatusCode::kNotFound)
+      << "content-addressed blob gone";
   EXPECT_EQ(Count("SELECT COUNT(*) FROM snapshots"), snapshots_before - 2);
   EXPECT_FALSE(*repo().VerifyCredential("robot:" + std::string(kErased), "secret of erased-robot"));
-  EXPECT_EQ(Count("SELECT COUNT(*) FROM jobs WHERE robot_id IS NULL OR robot_id <> $1", {std::string(kKept)}), 0);
+  EXPECT_EQ(Count("SELECT COUNT(*) FROM jobs WHERE robot_id IS NULL OR robot_id <> $1", {std::string(kKept)}),
+            0);
 
   // The other robot is whole, its shared snapshot included.
   EXPECT_EQ(RowsMentioning(kKept), kept_before);
   EXPECT_THAT(repo().GetSnapshot(kept_child), IsOk());
   EXPECT_EQ(repo().GetRun({kKept, "run-2"})->telemetry, "events of kept-robot run-2");
-  EXPECT_EQ(*repo().ListReportParameterSets({kKept, "run-1"}), (std::vector<std::string>{"default", "tuned"}));
+  EXPECT_EQ(*repo().ListReportParameterSets({kKept, "run-1"}),
+            (std::vector<std::string>{"default", "tuned"}));
   EXPECT_EQ(repo().ListMapVersions(kKept)->size(), 2u);
   EXPECT_TRUE(*repo().VerifyCredential("robot:" + std::string(kKept), "secret of kept-robot"));
   EXPECT_TRUE(*repo().VerifyCredential("engineer:ana", "secret of ana"));
@@ -386,24 +424,31 @@ TEST_P(TenancyContractTest, ErasureAndRetentionOfFiveHundredRunsAreMeasured) {
   }
   auto started = std::chrono::steady_clock::now();
   std::int64_t pruned = 0;
-  for (std::int64_t batch; (batch = *repo().PruneRunTelemetry(NowMsForTest() + 1000, 500)) > 0;) pruned += batch;
-  const double prune_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  for (std::int64_t batch; (batch = *repo().PruneRunTelemetry(NowMsForTest() + 1000, 500)) > 0;)
+    pruned += batch;
+  const double prune_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   EXPECT_EQ(pruned, 2 * kRuns);
   started = std::chrono::steady_clock::now();
   auto erased = repo().DeleteRobot(kErased, "admin:root");
-  const double delete_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const double delete_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   ASSERT_THAT(erased, IsOk());
   EXPECT_EQ(erased->runs, kRuns);
   EXPECT_EQ(erased->reports, kRuns);
-  std::printf("[ measured ] %s: retention of %d runs' events %.3f s (batches of 500); erasure of a robot with %d runs "
-              "and reports %.3f s\n",
-              GetParam() == Backend::kSqlite ? "SQLite" : "PostgreSQL", 2 * kRuns, prune_seconds, kRuns, delete_seconds);
+  std::printf(
+      "[ measured ] %s: retention of %d runs' events %.3f s (batches of 500); erasure of a robot with %d "
+      "runs "
+      "and reports %.3f s\n",
+      GetParam() == Backend::kSqlite ? "SQLite" : "PostgreSQL", 2 * kRuns, prune_seconds, kRuns,
+      delete_seconds);
   EXPECT_EQ(repo().ListRuns(RunFilter{}, 1000, std::nullopt)->runs.size(), static_cast<std::size_t>(kRuns));
 }
 
 TEST_P(TenancyContractTest, AuditLogListsNewestFirstAndPages) {
   for (int i = 0; i < 3; ++i) {
-    ASSERT_THAT(repo().AppendAudit(AuditEntry{0, 0, "fleetd:retention", "prune_jobs", "policy", "{}"}), IsOk());
+    ASSERT_THAT(repo().AppendAudit(AuditEntry{0, 0, "fleetd:retention", "prune_jobs", "policy", "{}"}),
+                IsOk());
   }
   auto page = repo().ListAudit(2, std::nullopt);
   ASSERT_EQ(page->size(), 2u);
@@ -416,8 +461,8 @@ TEST_P(TenancyContractTest, AuditLogListsNewestFirstAndPages) {
   EXPECT_EQ(repo().ListAudit(0, std::nullopt).status().code(), StatusCode::kInvalidArgument);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, TenancyContractTest, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         BackendName);
+INSTANTIATE_TEST_SUITE_P(Backends, TenancyContractTest,
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
 
 }  // namespace
 }  // namespace storage::testing

@@ -63,7 +63,8 @@ class PostgresTestServer {
 
   ~PostgresTestServer() {
     if (getpid() != owner_pid_ || dir_.empty()) return;  // forked children must not stop the server
-    if (started_) Run(AsPostgres(std::string(kPostgresBin) + "/pg_ctl -D " + dir_ + "/data -m immediate -w stop"));
+    if (started_)
+      Run(AsPostgres(std::string(kPostgresBin) + "/pg_ctl -D " + dir_ + "/data -m immediate -w stop"));
     std::error_code ignored;
     fs::remove_all(dir_, ignored);
   }
@@ -82,7 +83,8 @@ class PostgresTestServer {
   }
 
   Status Start() {
-    if (!fs::exists(std::string(kPostgresBin) + "/initdb") || !fs::exists(std::string(kPostgresBin) + "/pg_ctl")) {
+    if (!fs::exists(std::string(kPostgresBin) + "/initdb") ||
+        !fs::exists(std::string(kPostgresBin) + "/pg_ctl")) {
       return FailedPrecondition(std::string("PostgreSQL 15 server binaries not found in ") + kPostgresBin +
                                 "; run deploy/bootstrap.sh (package postgresql)");
     }
@@ -94,13 +96,15 @@ class PostgresTestServer {
     port_ = FreeLoopbackPort();
     const std::string log = dir_ + "/server.log";
     if (Run(AsPostgres(std::string(kPostgresBin) + "/initdb -D " + dir_ +
-                       "/data -U postgres -A trust -E UTF8 --no-locale --no-sync > " + dir_ + "/initdb.log 2>&1")) != 0) {
+                       "/data -U postgres -A trust -E UTF8 --no-locale --no-sync > " + dir_ +
+                       "/initdb.log 2>&1")) != 0) {
       return Internal("initdb failed; see " + dir_ + "/initdb.log");
     }
-    if (Run(AsPostgres(std::string(kPostgresBin) + "/pg_ctl -D " + dir_ + "/data -l " + log +
-                       " -w -t 30 start -o \"-c listen_addresses=127.0.0.1 -p " + std::to_string(port_) + " -k " +
-                       dir_ + " -c fsync=off -c synchronous_commit=off -c full_page_writes=off -c max_connections=200\"" +
-                       " > /dev/null")) != 0) {
+    if (Run(AsPostgres(
+            std::string(kPostgresBin) + "/pg_ctl -D " + dir_ + "/data -l " + log +
+            " -w -t 30 start -o \"-c listen_addresses=127.0.0.1 -p " + std::to_string(port_) + " -k " + dir_ +
+            " -c fsync=off -c synchronous_commit=off -c full_page_writes=off -c max_connections=200\"" +
+            " > /dev/null")) != 0) {
       std::ifstream in(log);
       std::string text, line;
       while (std::getline(in, line)) text += line + "\n";
@@ -175,14 +179,15 @@ void BackendTest::Reopen() {
   repo_ = std::move(opened).value();
 }
 
-internal::SqlRows BackendTest::RawQuery(const std::string& sql, const std::vector<internal::SqlValue>& params) {
+internal::SqlRows BackendTest::RawQuery(const std::string& sql,
+                                        const std::vector<internal::SqlValue>& params) {
   internal::SqlRows rows;
-  Status status = repo_->database().InTransaction(internal::TransactionMode::kWrite,
-                                                  [&](internal::SqlTransaction& transaction) -> Status {
-                                                    ASSIGN_OR_RETURN(auto result, transaction.Query(sql, params));
-                                                    rows = std::move(result);
-                                                    return Status::Ok();
-                                                  });
+  Status status = repo_->database().InTransaction(
+      internal::TransactionMode::kWrite, [&](internal::SqlTransaction& transaction) -> Status {
+        ASSIGN_OR_RETURN(auto result, transaction.Query(sql, params));
+        rows = std::move(result);
+        return Status::Ok();
+      });
   EXPECT_THAT(status, IsOk()) << sql << ": " << status.ToString();
   return rows;
 }

@@ -29,8 +29,8 @@ struct Command {
 
 /// Runs fleetctl against `server` with `token` and the arguments; stdout and the exit code.
 Command Fleetctl(const FleetdProcess& server, const std::string& token, const std::string& arguments) {
-  const std::string command = std::string(FLEETCTL_BINARY) + " --server " + server.grpc_address() + " --token " +
-                              token + " " + arguments + " 2>&1";
+  const std::string command = std::string(FLEETCTL_BINARY) + " --server " + server.grpc_address() +
+                              " --token " + token + " " + arguments + " 2>&1";
   Command result;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return result;
@@ -96,7 +96,8 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     const std::string engineer = IssueToken(*admin, "engineer:erasure-test");
     for (const RunFile& run : SimulatedRuns()) {
       fleet::v1::UploadRunResponse response;
-      const grpc::Status status = Upload(*ingest, RobotToken(*admin, run.header().robot_id()), run, &response);
+      const grpc::Status status =
+          Upload(*ingest, RobotToken(*admin, run.header().robot_id()), run, &response);
       ASSERT_THAT(status, IsOk());
       if (erased.empty()) erased = run.header().robot_id();
       if (run.header().robot_id() != erased && kept.empty()) kept = run.header().robot_id();
@@ -107,19 +108,23 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     ASSERT_GT(RunsOf(*queries, engineer, erased).size(), 0u);
 
     // Refused without the confirmation, and for anyone but an admin: nothing deleted.
-    EXPECT_EQ(Fleetctl(server, FleetdProcess::AdminToken(), "robots delete " + erased + " --confirm " + kept).exit_code, 1);
-    const Command by_engineer = Fleetctl(server, engineer, "robots delete " + erased + " --confirm " + erased);
+    EXPECT_EQ(Fleetctl(server, FleetdProcess::AdminToken(), "robots delete " + erased + " --confirm " + kept)
+                  .exit_code,
+              1);
+    const Command by_engineer =
+        Fleetctl(server, engineer, "robots delete " + erased + " --confirm " + erased);
     EXPECT_EQ(by_engineer.exit_code, 1);
     EXPECT_NE(by_engineer.out.find("PERMISSION_DENIED"), std::string::npos) << by_engineer.out;
     EXPECT_GT(RunsOf(*queries, engineer, erased).size(), 0u);
 
     const std::string robot_token = RobotToken(*admin, erased);
     const auto started = std::chrono::steady_clock::now();
-    const Command deleted =
-        Fleetctl(server, FleetdProcess::AdminToken(), "--json robots delete " + erased + " --confirm " + erased);
+    const Command deleted = Fleetctl(server, FleetdProcess::AdminToken(),
+                                     "--json robots delete " + erased + " --confirm " + erased);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     ASSERT_EQ(deleted.exit_code, 0) << deleted.out;
-    std::printf("[ measured ] fleetctl robots delete: %.3f s (the process included): %s\n", seconds, deleted.out.c_str());
+    std::printf("[ measured ] fleetctl robots delete: %.3f s (the process included): %s\n", seconds,
+                deleted.out.c_str());
     const nlohmann::json counts = nlohmann::json::parse(deleted.out);
     EXPECT_GT(std::stoll(counts.at("runs").get<std::string>()), 0) << deleted.out;
     EXPECT_GT(std::stoll(counts.at("reports").get<std::string>()), 0) << deleted.out;
@@ -143,9 +148,12 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     get_map.set_robot_id(erased);
     fleet::v1::GetMapResponse map;
     auto robot_context = Context(robot_token);
-    EXPECT_EQ(maps->GetMap(robot_context.get(), get_map, &map).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    EXPECT_EQ(maps->GetMap(robot_context.get(), get_map, &map).error_code(),
+              grpc::StatusCode::UNAUTHENTICATED);
     EXPECT_EQ(RunsOf(*queries, engineer, kept).size(), kept_runs);
-    EXPECT_EQ(HttpGet(server.http_address(), "/api/robots/" + kept + "/maps/current/export/map.g2o", &body, engineer), 200);
+    EXPECT_EQ(HttpGet(server.http_address(), "/api/robots/" + kept + "/maps/current/export/map.g2o", &body,
+                      engineer),
+              200);
 
     const Command audit = Fleetctl(server, FleetdProcess::AdminToken(), "--json audit");
     ASSERT_EQ(audit.exit_code, 0) << audit.out;
@@ -167,8 +175,8 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
   }
 
   // The same database under a retention policy of a few seconds, applied every second.
-  FleetdProcess server({"--db", "sqlite:" + database.string(), "--retain-runs-days", "0.00005", "--retain-jobs-days",
-                        "0.00005", "--retention-interval-seconds", "1"});
+  FleetdProcess server({"--db", "sqlite:" + database.string(), "--retain-runs-days", "0.00005",
+                        "--retain-jobs-days", "0.00005", "--retention-interval-seconds", "1"});
   ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto queries = fleet::v1::Queries::NewStub(channel);
@@ -191,7 +199,9 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     EXPECT_THAT(queries->GetRunReport(context.get(), request, &report), IsOk()) << "reports are kept";
   }
   std::string body;
-  EXPECT_EQ(HttpGet(server.http_address(), "/api/robots/" + kept + "/maps/current/export/map.g2o", &body, engineer), 200)
+  EXPECT_EQ(
+      HttpGet(server.http_address(), "/api/robots/" + kept + "/maps/current/export/map.g2o", &body, engineer),
+      200)
       << "map versions are kept";
   // Reprocessing skips runs without events instead of failing on them.
   fleet::v1::StartJobRequest start;
@@ -205,7 +215,8 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
     get.set_job_id(job.job_id());
     fleet::v1::Job now;
     auto context = Context(engineer);
-    ASSERT_THAT(reprocessing->GetJob(context.get(), get, &now), IsOk()) << "watched well within its retention";
+    ASSERT_THAT(reprocessing->GetJob(context.get(), get, &now), IsOk())
+        << "watched well within its retention";
     if (now.state() != "queued" && now.state() != "leased") {
       EXPECT_EQ(now.state(), "done") << now.last_error();
       EXPECT_EQ(now.progress_total(), 0) << "no run has events left to rerun";
@@ -223,7 +234,8 @@ TEST(ErasureAndRetention, AnAdminDeletesARobotThroughFleetctlAndRetentionPrunesT
       EXPECT_EQ(entry.at("actor"), "fleetd:retention");
     }
   }
-  EXPECT_EQ(actions, (std::set<std::string>{"delete_robot", "prune_jobs", "prune_run_events", "set_credential"}))
+  EXPECT_EQ(actions,
+            (std::set<std::string>{"delete_robot", "prune_jobs", "prune_run_events", "set_credential"}))
       << audit.out;
   EXPECT_EQ(server.Stop(), 0);
 }

@@ -30,7 +30,8 @@
 namespace fleetd_test {
 
 const std::string& FleetdProcess::AdminToken() {
-  static const std::string token = "admin:root.5f0c9e2a7b13d48e6a91c07f3b2d5e84a6c1f9073e2b8d4c5a7f60e19b3d2c8a";
+  static const std::string token =
+      "admin:root.5f0c9e2a7b13d48e6a91c07f3b2d5e84a6c1f9073e2b8d4c5a7f60e19b3d2c8a";
   return token;
 }
 
@@ -41,8 +42,11 @@ FleetdProcess::FleetdProcess(std::vector<std::string> extra, std::function<void(
   if (pipe(out) != 0) return;
   // Flags in `extra` replace the defaults of the same name.
   std::vector<std::pair<std::string, std::string>> defaults = {
-      {"--db", "sqlite:" + (directory_ / "fleet.db").string()}, {"--listen", "127.0.0.1:0"},
-      {"--http", "127.0.0.1:0"}, {"--workers", "2"}, {"--shutdown-grace", "10"}};
+      {"--db", "sqlite:" + (directory_ / "fleet.db").string()},
+      {"--listen", "127.0.0.1:0"},
+      {"--http", "127.0.0.1:0"},
+      {"--workers", "2"},
+      {"--shutdown-grace", "10"}};
   std::vector<std::string> args = {FLEETD_BINARY};
   for (const auto& [flag, value] : defaults) {
     if (std::find(extra.begin(), extra.end(), flag) == extra.end()) {
@@ -122,10 +126,12 @@ std::string HttpRaw(const std::string& address, const std::string& request) {
   return response;
 }
 
-int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token) {
-  const std::string response = HttpRaw(address, "GET " + path + " HTTP/1.1\r\nHost: " + address + "\r\n" +
-                                                     (token.empty() ? "" : "Authorization: Bearer " + token + "\r\n") +
-                                                     "Connection: close\r\n\r\n");
+int HttpGet(const std::string& address, const std::string& path, std::string* body,
+            const std::string& token) {
+  const std::string response =
+      HttpRaw(address, "GET " + path + " HTTP/1.1\r\nHost: " + address + "\r\n" +
+                           (token.empty() ? "" : "Authorization: Bearer " + token + "\r\n") +
+                           "Connection: close\r\n\r\n");
   const std::size_t header_end = response.find("\r\n\r\n");
   if (body != nullptr) *body = header_end == std::string::npos ? "" : response.substr(header_end + 4);
   if (response.size() < 12) return -1;
@@ -168,12 +174,14 @@ const std::vector<fleet::v1::RunFile>& SimulatedRuns() {
     sim::SimParams params;
     params.run_minutes = 2.0;
     for (int robot = 0; robot < 2; ++robot) {
-      auto world = sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot)], 7 + static_cast<std::uint64_t>(robot));
+      auto world =
+          sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot)], 7 + static_cast<std::uint64_t>(robot));
       if (!world.ok()) return;
       const std::string robot_id = "robot-" + std::to_string(robot);
       sim::RobotSimulator simulator(*world, params, robot_id, robot == 0 ? "1.4.2" : "1.5.0", 11 + robot);
       for (int run = 0; run < 2; ++run) {
-        auto outcome = simulator.SimulateRun(robot_id + "-run" + std::to_string(run), 1767225600.0 + 86400.0 * run + 60.0 * robot);
+        auto outcome = simulator.SimulateRun(robot_id + "-run" + std::to_string(run),
+                                             1767225600.0 + 86400.0 * run + 60.0 * robot);
         if (!outcome.ok()) return;
         runs.push_back(outcome->run);
       }

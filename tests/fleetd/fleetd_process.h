@@ -39,7 +39,8 @@ class FleetdProcess {
 
 /// GET http://address/path (Host: address, with `token` as a bearer token when given); returns the status
 /// code and fills body.
-int HttpGet(const std::string& address, const std::string& path, std::string* body, const std::string& token = "");
+int HttpGet(const std::string& address, const std::string& path, std::string* body,
+            const std::string& token = "");
 
 /// Sends `request` as is to `address` (IPv4 host:port) and returns the whole response ("" when it failed).
 std::string HttpRaw(const std::string& address, const std::string& request);
@@ -56,8 +57,8 @@ const std::vector<fleet::v1::RunFile>& SimulatedRuns();
 
 struct UploadOptions {
   int events_per_chunk = 400;
-  bool send_parent = true;       // send the parent snapshot in the stream
-  std::string parent_id;         // header.parent_snapshot_id to send
+  bool send_parent = true;         // send the parent snapshot in the stream
+  std::string parent_id;           // header.parent_snapshot_id to send
   int cancel_after_messages = -1;  // cut the stream after this many messages
   bool send_child = true;
 };

@@ -48,7 +48,9 @@ class FleetdTest : public ::testing::Test {
   }
 
   static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
-  static std::string RobotToken(const std::string& robot_id) { return fleetd_test::RobotToken(*admin_, robot_id); }
+  static std::string RobotToken(const std::string& robot_id) {
+    return fleetd_test::RobotToken(*admin_, robot_id);
+  }
 
   // Uploads every simulated run once (idempotent) and waits for their default reports.
   static void UploadAll() {
@@ -58,8 +60,8 @@ class FleetdTest : public ::testing::Test {
       ASSERT_THAT(status, IsOk());
     }
   }
-  static grpc::Status WaitForReport(const std::string& run_id, const std::string& set, fleet::v1::RunReport* out,
-                                    int seconds = 90) {
+  static grpc::Status WaitForReport(const std::string& run_id, const std::string& set,
+                                    fleet::v1::RunReport* out, int seconds = 90) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
     grpc::Status status;
     while (std::chrono::steady_clock::now() < until) {
@@ -233,7 +235,8 @@ TEST_F(FleetdTest, ListRunsPagesAndFilters) {
 
 TEST_F(FleetdTest, FleetStatisticsTotalsAndTrends) {
   UploadAll();
-  for (const RunFile& run : SimulatedRuns()) ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
+  for (const RunFile& run : SimulatedRuns())
+    ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
   fleet::v1::GetFleetStatisticsRequest request;
   request.mutable_filter()->set_parameter_set("default");
   request.mutable_filter()->set_started_before(1767225600.0 + 2 * 86400.0);
@@ -336,7 +339,8 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   for (int i = 1; i < compared.most_changed_size(); ++i) {
     EXPECT_GE(compared.most_changed(i - 1).change(), compared.most_changed(i).change());
   }
-  EXPECT_EQ(compared.delta().recovery_created(), compared.b().recovery_created() - compared.a().recovery_created());
+  EXPECT_EQ(compared.delta().recovery_created(),
+            compared.b().recovery_created() - compared.a().recovery_created());
 
   // Listing and cancelling.
   fleet::v1::ListJobsRequest jobs_request;
@@ -351,7 +355,8 @@ TEST_F(FleetdTest, ReprocessWithSecondParameterSetAndCompare) {
   fleet::v1::Job cancelled;
   context = Context(*engineer_);
   EXPECT_EQ(reprocessing_->CancelJob(context.get(), cancel, &cancelled).error_code(),
-            grpc::StatusCode::FAILED_PRECONDITION) << "a finished job cannot be cancelled";
+            grpc::StatusCode::FAILED_PRECONDITION)
+      << "a finished job cannot be cancelled";
   start.set_parameter_set("default");
   context = Context(*engineer_);
   ASSERT_THAT(reprocessing_->StartJob(context.get(), start, &job), IsOk());
@@ -413,7 +418,8 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
   context = Context(*engineer_);
   ASSERT_THAT(queries_->GetRunReport(context.get(), report_request, &report), IsOk());
   bool label_seen = false;
-  for (const auto& region : report.report().protrusion_regions()) label_seen |= region.label() == "protrusion";
+  for (const auto& region : report.report().protrusion_regions())
+    label_seen |= region.label() == "protrusion";
   EXPECT_TRUE(label_seen) << "reports show current labels";
 
   fleet::v1::TrainModelRequest train;
@@ -421,7 +427,8 @@ TEST_F(FleetdTest, LabelRegionsTrainEvaluateActivate) {
   train.set_classifier("decision_tree");
   fleet::v1::TrainModelResponse trained;
   context = Context(*engineer_);
-  EXPECT_EQ(models_->TrainModel(context.get(), train, &trained).error_code(), grpc::StatusCode::PERMISSION_DENIED)
+  EXPECT_EQ(models_->TrainModel(context.get(), train, &trained).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED)
       << "models are for admins";
   context = Context(FleetdProcess::AdminToken(), 120);
   status = models_->TrainModel(context.get(), train, &trained);
@@ -457,7 +464,8 @@ TEST_F(FleetdTest, AuthenticationAndPermissionFailures) {
   const RunFile& run = SimulatedRuns()[0];
   UploadRunResponse response;
   EXPECT_EQ(Upload(*ingest_, "", run, &response).error_code(), grpc::StatusCode::UNAUTHENTICATED);
-  EXPECT_EQ(Upload(*ingest_, "robot:robot-0.deadbeef", run, &response).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(Upload(*ingest_, "robot:robot-0.deadbeef", run, &response).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
   EXPECT_EQ(Upload(*ingest_, "garbage", run, &response).error_code(), grpc::StatusCode::UNAUTHENTICATED);
   // A robot writes only its own runs.
   grpc::Status status = Upload(*ingest_, RobotToken("robot-1"), run, &response);
@@ -467,12 +475,14 @@ TEST_F(FleetdTest, AuthenticationAndPermissionFailures) {
   fleet::v1::ListRunsRequest list;
   fleet::v1::ListRunsResponse listed;
   auto context = Context(RobotToken("robot-0"));
-  EXPECT_EQ(queries_->ListRuns(context.get(), list, &listed).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(queries_->ListRuns(context.get(), list, &listed).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED);
   fleet::v1::SetCredentialRequest credential;
   credential.set_principal("admin:mallory");
   fleet::v1::SetCredentialResponse minted;
   context = Context(*engineer_);
-  EXPECT_EQ(admin_->SetCredential(context.get(), credential, &minted).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(admin_->SetCredential(context.get(), credential, &minted).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED);
   // A replaced credential stops working.
   const std::string old_token = Token("engineer:bob");
   const std::string new_token = Token("engineer:bob");
@@ -503,16 +513,24 @@ TEST_F(FleetdTest, BadUploadsNameTheFieldAndStoreNothing) {
   const int odo = odometry_index(good);
   ASSERT_GE(odo, 0);
   const std::vector<Case> cases = {
-      {"format version", [](RunFile& r) { r.mutable_header()->set_format_version(2); }, grpc::StatusCode::INVALID_ARGUMENT, "format_version"},
-      {"no run id", [](RunFile& r) { r.mutable_header()->set_run_id(""); }, grpc::StatusCode::INVALID_ARGUMENT, "run_id"},
-      {"covariance size", [odo](RunFile& r) { r.mutable_events(odo)->mutable_odometry()->mutable_covariance()->RemoveLast(); },
+      {"format version", [](RunFile& r) { r.mutable_header()->set_format_version(2); },
+       grpc::StatusCode::INVALID_ARGUMENT, "format_version"},
+      {"no run id", [](RunFile& r) { r.mutable_header()->set_run_id(""); },
+       grpc::StatusCode::INVALID_ARGUMENT, "run_id"},
+      {"covariance size",
+       [odo](RunFile& r) { r.mutable_events(odo)->mutable_odometry()->mutable_covariance()->RemoveLast(); },
        grpc::StatusCode::INVALID_ARGUMENT, "events[" + std::to_string(odo) + "].odometry.covariance"},
-      {"nan", [odo](RunFile& r) { r.mutable_events(odo)->mutable_odometry()->mutable_increment()->set_x(std::nan("")); },
+      {"nan",
+       [odo](RunFile& r) {
+         r.mutable_events(odo)->mutable_odometry()->mutable_increment()->set_x(std::nan(""));
+       },
        grpc::StatusCode::INVALID_ARGUMENT, "events[" + std::to_string(odo) + "]"},
       {"event count", [](RunFile& r) { r.mutable_header()->set_event_count(r.header().event_count() + 1); },
        grpc::StatusCode::INVALID_ARGUMENT, "header.event_count"},
-      {"empty child", [](RunFile& r) { r.mutable_child_snapshot()->Clear(); }, grpc::StatusCode::INVALID_ARGUMENT, "child_snapshot"},
-      {"child version", [](RunFile& r) { r.mutable_child_snapshot()->set_format_version(7); }, grpc::StatusCode::INVALID_ARGUMENT, "child_snapshot"},
+      {"empty child", [](RunFile& r) { r.mutable_child_snapshot()->Clear(); },
+       grpc::StatusCode::INVALID_ARGUMENT, "child_snapshot"},
+      {"child version", [](RunFile& r) { r.mutable_child_snapshot()->set_format_version(7); },
+       grpc::StatusCode::INVALID_ARGUMENT, "child_snapshot"},
   };
   for (const Case& c : cases) {
     RunFile bad = good;
@@ -523,7 +541,8 @@ TEST_F(FleetdTest, BadUploadsNameTheFieldAndStoreNothing) {
     UploadRunResponse response;
     const grpc::Status status = Upload(*ingest_, token, bad, &response);
     EXPECT_EQ(status.error_code(), c.code) << c.name << ": " << status.error_message();
-    EXPECT_NE(status.error_message().find(c.field), std::string::npos) << c.name << ": " << status.error_message();
+    EXPECT_NE(status.error_message().find(c.field), std::string::npos)
+        << c.name << ": " << status.error_message();
   }
   // Parent named by an id the server does not hold, and not sent.
   UploadOptions options;
@@ -585,7 +604,8 @@ TEST_F(FleetdTest, BadQueriesGetPreciseCodes) {
     fleet::v1::GetRunReportRequest request;
     fleet::v1::GetRunReportResponse response;
     auto context = Context(*engineer_);
-    expect(queries_->GetRunReport(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT, "run_id");
+    expect(queries_->GetRunReport(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT,
+           "run_id");
     request.set_run_id("no-such-run");
     context = Context(*engineer_);
     expect(queries_->GetRunReport(context.get(), request, &response), grpc::StatusCode::NOT_FOUND, "run_id");
@@ -595,11 +615,13 @@ TEST_F(FleetdTest, BadQueriesGetPreciseCodes) {
     fleet::v1::ListRunsResponse response;
     request.set_page_size(5000);
     auto context = Context(*engineer_);
-    expect(queries_->ListRuns(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT, "page_size");
+    expect(queries_->ListRuns(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT,
+           "page_size");
     request.set_page_size(10);
     request.set_page_token("not-a-token");
     context = Context(*engineer_);
-    expect(queries_->ListRuns(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT, "page_token");
+    expect(queries_->ListRuns(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT,
+           "page_token");
     request.clear_page_token();
     request.mutable_filter()->set_started_from(100.0);
     request.mutable_filter()->set_started_before(50.0);
@@ -616,17 +638,18 @@ TEST_F(FleetdTest, BadQueriesGetPreciseCodes) {
     request.set_group_by(static_cast<fleet::v1::GroupBy>(99));
     fleet::v1::GetFleetStatisticsResponse response;
     auto context = Context(*engineer_);
-    expect(queries_->GetFleetStatistics(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT,
-           "group_by");
+    expect(queries_->GetFleetStatistics(context.get(), request, &response),
+           grpc::StatusCode::INVALID_ARGUMENT, "group_by");
     fleet::v1::CompareParameterSetsRequest compare;
     compare.set_set_a("default");
     fleet::v1::CompareParameterSetsResponse compared;
     context = Context(*engineer_);
-    expect(queries_->CompareParameterSets(context.get(), compare, &compared), grpc::StatusCode::INVALID_ARGUMENT,
-           "set_b");
+    expect(queries_->CompareParameterSets(context.get(), compare, &compared),
+           grpc::StatusCode::INVALID_ARGUMENT, "set_b");
     compare.set_set_b("nope");
     context = Context(*engineer_);
-    expect(queries_->CompareParameterSets(context.get(), compare, &compared), grpc::StatusCode::NOT_FOUND, "set_b");
+    expect(queries_->CompareParameterSets(context.get(), compare, &compared), grpc::StatusCode::NOT_FOUND,
+           "set_b");
   }
   {
     fleet::v1::PutParameterSetRequest put;
@@ -643,7 +666,8 @@ TEST_F(FleetdTest, BadQueriesGetPreciseCodes) {
     fleet::v1::StartJobRequest start;
     fleet::v1::Job job;
     context = Context(*engineer_);
-    expect(reprocessing_->StartJob(context.get(), start, &job), grpc::StatusCode::INVALID_ARGUMENT, "parameter_set");
+    expect(reprocessing_->StartJob(context.get(), start, &job), grpc::StatusCode::INVALID_ARGUMENT,
+           "parameter_set");
     start.set_parameter_set("never-stored");
     context = Context(*engineer_);
     expect(reprocessing_->StartJob(context.get(), start, &job), grpc::StatusCode::NOT_FOUND, "parameter_set");
@@ -653,25 +677,29 @@ TEST_F(FleetdTest, BadQueriesGetPreciseCodes) {
     expect(reprocessing_->GetJob(context.get(), get, &job), grpc::StatusCode::NOT_FOUND, "job_id");
     fleet::v1::CancelJobRequest cancel;
     context = Context(*engineer_);
-    expect(reprocessing_->CancelJob(context.get(), cancel, &job), grpc::StatusCode::INVALID_ARGUMENT, "job_id");
+    expect(reprocessing_->CancelJob(context.get(), cancel, &job), grpc::StatusCode::INVALID_ARGUMENT,
+           "job_id");
     fleet::v1::ListJobsRequest jobs;
     jobs.set_state("sleeping");
     fleet::v1::ListJobsResponse listed;
     context = Context(*engineer_);
-    expect(reprocessing_->ListJobs(context.get(), jobs, &listed), grpc::StatusCode::INVALID_ARGUMENT, "state");
+    expect(reprocessing_->ListJobs(context.get(), jobs, &listed), grpc::StatusCode::INVALID_ARGUMENT,
+           "state");
   }
   {
     fleet::v1::SetCredentialRequest request;
     request.set_principal("superuser:eve");
     fleet::v1::SetCredentialResponse response;
     auto context = Context(FleetdProcess::AdminToken());
-    expect(admin_->SetCredential(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT, "principal");
+    expect(admin_->SetCredential(context.get(), request, &response), grpc::StatusCode::INVALID_ARGUMENT,
+           "principal");
     fleet::v1::TrainModelRequest train;
     train.set_name("protrusion");
     train.set_classifier("neural_net");
     fleet::v1::TrainModelResponse trained;
     context = Context(FleetdProcess::AdminToken());
-    expect(models_->TrainModel(context.get(), train, &trained), grpc::StatusCode::INVALID_ARGUMENT, "classifier");
+    expect(models_->TrainModel(context.get(), train, &trained), grpc::StatusCode::INVALID_ARGUMENT,
+           "classifier");
     fleet::v1::ActivateModelRequest activate;
     activate.set_name("protrusion");
     activate.set_version(99);
@@ -694,9 +722,11 @@ TEST_F(FleetdTest, MetricsHealthzAndGrpcHealth) {
   EXPECT_EQ(HttpGet(server_->http_address(), "/nope", &body, *engineer_), 404);
   EXPECT_EQ(HttpGet(server_->http_address(), "/metrics", &body), 401);
   ASSERT_EQ(HttpGet(server_->http_address(), "/metrics", &body, *engineer_), 200);
-  for (const char* series : {"fleetd_ingest_runs_total{outcome=\"stored\"}", "fleetd_ingest_bytes_total",
-                             "fleetd_ingest_events_total", "fleetd_rpc_latency_seconds_bucket{method=\"Ingest/UploadRun\"",
-                             "fleetd_job_queue_depth{state=\"queued\"}", "fleetd_rpc_total{method=\"Ingest/UploadRun\",code=\"OK\"}"}) {
+  for (const char* series :
+       {"fleetd_ingest_runs_total{outcome=\"stored\"}", "fleetd_ingest_bytes_total",
+        "fleetd_ingest_events_total", "fleetd_rpc_latency_seconds_bucket{method=\"Ingest/UploadRun\"",
+        "fleetd_job_queue_depth{state=\"queued\"}",
+        "fleetd_rpc_total{method=\"Ingest/UploadRun\",code=\"OK\"}"}) {
     EXPECT_NE(body.find(series), std::string::npos) << series;
   }
   auto channel = server_->Channel();
@@ -730,7 +760,8 @@ TEST(FleetdLimitsTest, EventsMessageSizeAndRateLimits) {
     fleet::v1::ListRunsRequest request;
     fleet::v1::ListRunsResponse listed;
     auto context = Context(FleetdProcess::AdminToken());
-    if (queries->ListRuns(context.get(), request, &listed).error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+    if (queries->ListRuns(context.get(), request, &listed).error_code() ==
+        grpc::StatusCode::RESOURCE_EXHAUSTED) {
       ++exhausted;
     }
   }
@@ -741,7 +772,8 @@ TEST(FleetdLimitsTest, EventsMessageSizeAndRateLimits) {
 // SIGTERM with work in flight: fleetd finishes or hands back its jobs and exits 0; a new fleetd on the same
 // database completes them.
 TEST(FleetdShutdownTest, SigtermMidWorkThenRestartFinishes) {
-  auto server = std::make_unique<FleetdProcess>(std::vector<std::string>{"--workers", "1", "--lease-seconds", "4"});
+  auto server =
+      std::make_unique<FleetdProcess>(std::vector<std::string>{"--workers", "1", "--lease-seconds", "4"});
   ASSERT_TRUE(server->ok());
   const std::filesystem::path directory = server->directory();
   {
@@ -782,7 +814,8 @@ TEST(FleetdShutdownTest, SigtermMidWorkThenRestartFinishes) {
 // Runs after ReprocessWithSecondParameterSetAndCompare, which stored the second set's reports.
 TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   UploadAll();
-  for (const RunFile& run : SimulatedRuns()) ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
+  for (const RunFile& run : SimulatedRuns())
+    ASSERT_THAT(WaitForReport(run.header().run_id(), "", nullptr), IsOk());
   fleet::v1::GetFleetStatisticsRequest request;
   request.mutable_filter()->set_parameter_set("default");
   request.set_group_by(fleet::v1::GROUP_BY_DAY);
@@ -790,7 +823,8 @@ TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   auto context = Context(*engineer_);
   ASSERT_THAT(queries_->GetFleetStatistics(context.get(), request, &grpc_stats), IsOk());
   std::string body;
-  ASSERT_EQ(HttpGet(server_->http_address(), "/api/stats?parameter_set=default", &body, *engineer_), 200) << body;
+  ASSERT_EQ(HttpGet(server_->http_address(), "/api/stats?parameter_set=default", &body, *engineer_), 200)
+      << body;
   const auto http_stats = nlohmann::json::parse(body);
   const auto& total = http_stats["total"];
   EXPECT_GT(grpc_stats.total().reports(), 0);
@@ -802,7 +836,8 @@ TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   ASSERT_EQ(http_stats["by_day"].size(), static_cast<std::size_t>(grpc_stats.groups_size()));
   for (int i = 0; i < grpc_stats.groups_size(); ++i) {
     EXPECT_EQ(http_stats["by_day"][i]["key"].get<std::string>(), grpc_stats.groups(i).key());
-    EXPECT_EQ(http_stats["by_day"][i]["reports"].get<std::int64_t>(), grpc_stats.groups(i).figures().reports());
+    EXPECT_EQ(http_stats["by_day"][i]["reports"].get<std::int64_t>(),
+              grpc_stats.groups(i).figures().reports());
     EXPECT_EQ(http_stats["by_day"][i]["robots"].get<std::int64_t>(), grpc_stats.groups(i).figures().robots());
   }
 
@@ -814,7 +849,9 @@ TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   context = Context(*engineer_);
   const grpc::Status status = queries_->CompareParameterSets(context.get(), compare, &grpc_compare);
   ASSERT_THAT(status, IsOk());
-  ASSERT_EQ(HttpGet(server_->http_address(), "/api/compare?a=default&b=strict-merge&limit=10", &body, *engineer_), 200)
+  ASSERT_EQ(
+      HttpGet(server_->http_address(), "/api/compare?a=default&b=strict-merge&limit=10", &body, *engineer_),
+      200)
       << body;
   const auto http_compare = nlohmann::json::parse(body);
   EXPECT_GT(grpc_compare.runs_compared(), 0);

@@ -61,7 +61,9 @@ class HostileTest : public ::testing::Test {
   }
 
   static std::string Token(const std::string& principal) { return IssueToken(*admin_, principal); }
-  static std::string RobotToken(const std::string& robot_id) { return fleetd_test::RobotToken(*admin_, robot_id); }
+  static std::string RobotToken(const std::string& robot_id) {
+    return fleetd_test::RobotToken(*admin_, robot_id);
+  }
   static int CountRuns() { return fleetd_test::CountRuns(*queries_, *engineer_); }
   /// A run of robot `index` (0 or 1) from the simulation, with a fresh run id.
   static RunFile RunOf(int index, const std::string& run_id) {
@@ -117,9 +119,10 @@ std::map<std::string, std::string> HostileTest::robots_;
 
 TEST_F(HostileTest, HttpReadsWithoutATokenGetNothing) {
   const std::string robot = RobotId(0), other = RobotId(1);
-  for (const std::string& path : std::vector<std::string>{"/api/robots", "/api/runs", "/api/labels", "/api/jobs", "/api/stats", "/metrics",
-                                 "/api/robots/" + robot + "/maps/current/export/map.pgm",
-                                 "/api/robots/" + robot + "/maps/current/export/map.g2o"}) {
+  for (const std::string& path :
+       std::vector<std::string>{"/api/robots", "/api/runs", "/api/labels", "/api/jobs", "/api/stats",
+                                "/metrics", "/api/robots/" + robot + "/maps/current/export/map.pgm",
+                                "/api/robots/" + robot + "/maps/current/export/map.g2o"}) {
     std::string body;
     EXPECT_EQ(HttpGet(server_->http_address(), path, &body), 401) << path;
     EXPECT_EQ(body.find(robot), std::string::npos) << path << " leaks the robot id";
@@ -128,9 +131,13 @@ TEST_F(HostileTest, HttpReadsWithoutATokenGetNothing) {
   // A robot reads its own map and nothing else: not the fleet, not another robot's map or runs.
   std::string body;
   const std::string token = RobotToken(robot);
-  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps/current/export/map.g2o", &body, token), 200);
+  EXPECT_EQ(
+      HttpGet(server_->http_address(), "/api/robots/" + robot + "/maps/current/export/map.g2o", &body, token),
+      200);
   EXPECT_NE(body.find("VERTEX_SE2"), std::string::npos);
-  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots/" + other + "/maps/current/export/map.g2o", &body, token), 403);
+  EXPECT_EQ(
+      HttpGet(server_->http_address(), "/api/robots/" + other + "/maps/current/export/map.g2o", &body, token),
+      403);
   EXPECT_EQ(body.find("VERTEX_SE2"), std::string::npos);
   EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots", &body, token), 403);
   EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs", &body, token), 403);
@@ -146,25 +153,29 @@ TEST_F(HostileTest, ForeignHostAndCrossOriginWritesAreRefused) {
   const std::string auth = "Authorization: Bearer " + *engineer_ + "\r\n";
   // DNS rebinding: a page on attacker.example resolved to 127.0.0.1 sends its own name as Host.
   std::string response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\nHost: attacker.example:" +
-                                               address.substr(address.rfind(':') + 1) + "\r\n" + auth +
-                                               "Connection: close\r\n\r\n");
+                                              address.substr(address.rfind(':') + 1) + "\r\n" + auth +
+                                              "Connection: close\r\n\r\n");
   EXPECT_EQ(StatusOf(response), 421) << response;
   EXPECT_EQ(response.find(RobotId(0)), std::string::npos);
-  response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\n" + auth + "Connection: close\r\n\r\n");  // no Host
+  response =
+      HttpRaw(address, "GET /api/robots HTTP/1.1\r\n" + auth + "Connection: close\r\n\r\n");  // no Host
   EXPECT_GE(StatusOf(response), 400) << response;
   EXPECT_LT(StatusOf(response), 500) << response;
   EXPECT_EQ(response.find(RobotId(0)), std::string::npos);
   // A write from another origin, even with a valid token, is refused before it runs.
   const std::string body = R"({"action": "rollback", "reason": "cross-site"})";
-  response = HttpRaw(address, "POST /api/robots/" + RobotId(0) + "/maps/current/review HTTP/1.1\r\nHost: " + address +
-                                  "\r\n" + auth + "Origin: http://attacker.example\r\nContent-Length: " +
+  response = HttpRaw(address, "POST /api/robots/" + RobotId(0) +
+                                  "/maps/current/review HTTP/1.1\r\nHost: " + address + "\r\n" + auth +
+                                  "Origin: http://attacker.example\r\nContent-Length: " +
                                   std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body);
   EXPECT_EQ(StatusOf(response), 403) << response;
   // Security headers on every answer, no-store on the API.
-  response = HttpRaw(address, "GET /api/robots HTTP/1.1\r\nHost: " + address + "\r\n" + auth + "Connection: close\r\n\r\n");
+  response = HttpRaw(
+      address, "GET /api/robots HTTP/1.1\r\nHost: " + address + "\r\n" + auth + "Connection: close\r\n\r\n");
   EXPECT_EQ(StatusOf(response), 200);
-  for (const char* header : {"Content-Security-Policy: default-src 'self'", "X-Content-Type-Options: nosniff",
-                             "X-Frame-Options: DENY", "Referrer-Policy: no-referrer", "Cache-Control: no-store"}) {
+  for (const char* header :
+       {"Content-Security-Policy: default-src 'self'", "X-Content-Type-Options: nosniff",
+        "X-Frame-Options: DENY", "Referrer-Policy: no-referrer", "Cache-Control: no-store"}) {
     EXPECT_NE(response.find(header), std::string::npos) << header;
   }
   ExpectStillServing();
@@ -199,7 +210,8 @@ TEST_F(HostileTest, APatchAt400MetresPerCellIsRefusedBeforeStoring) {
 TEST_F(HostileTest, UnboundedParameterSetsAreRefused) {
   for (const auto& [name, field, set] :
        std::vector<std::tuple<std::string, std::string, std::function<void(fleet::v1::MapperParameters&)>>>{
-           {"expiry-1e300", "hypothesis_expiry_seconds", [](auto& m) { m.set_hypothesis_expiry_seconds(1e300); }},
+           {"expiry-1e300", "hypothesis_expiry_seconds",
+            [](auto& m) { m.set_hypothesis_expiry_seconds(1e300); }},
            {"window-2p31", "local_window_nodes", [](auto& m) { m.set_local_window_nodes(2147483647); }}}) {
     fleet::v1::PutParameterSetRequest request;
     request.mutable_parameter_set()->set_name(name);
@@ -229,7 +241,8 @@ TEST(AddressFloodTest, WrongSecretsCostLittleAndAreLimitedBeforeHashing) {
   auto maps = fleet::v1::Maps::NewStub(channel);
   const std::string robot = "flood-robot";
   const std::string robot_token = IssueToken(*admin, "robot:" + robot);
-  const std::string engineer_token = IssueToken(*admin, "engineer:flood-test");  // never used before the flood
+  const std::string engineer_token =
+      IssueToken(*admin, "engineer:flood-test");  // never used before the flood
   const auto get_map = [&](const std::string& token) {
     fleet::v1::GetMapRequest request;
     request.set_robot_id(robot);
@@ -270,7 +283,8 @@ TEST(AddressFloodTest, WrongSecretsCostLittleAndAreLimitedBeforeHashing) {
   auto context = Context(engineer_token);
   const grpc::Status engineer = queries->ListRuns(context.get(), request, &response);
   EXPECT_EQ(engineer.error_code(), grpc::StatusCode::UNAUTHENTICATED);
-  EXPECT_NE(engineer.error_message().find("or from this address"), std::string::npos) << engineer.error_message();
+  EXPECT_NE(engineer.error_message().find("or from this address"), std::string::npos)
+      << engineer.error_message();
   EXPECT_EQ(server.Stop(), 0);
 }
 
@@ -333,11 +347,15 @@ TEST_F(HostileTest, ARobotTakingAnotherRobotsNextRunIdTakesNothing) {
   const std::string token_a = RobotToken(a);
   EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next, &body, token_a), 200) << body;
   EXPECT_EQ(nlohmann::json::parse(body).at("run").at("robot_id"), a);
-  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "?robot=" + b, &body, token_a), 404) << body;
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "?robot=" + b, &body, token_a), 404)
+      << body;
   EXPECT_EQ(body.find(b), std::string::npos) << "B's run is not revealed";
-  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "/map/info.json?robot=" + b, &body, token_a), 404);
+  EXPECT_EQ(
+      HttpGet(server_->http_address(), "/api/runs/" + next + "/map/info.json?robot=" + b, &body, token_a),
+      404);
   // An engineer names the robot; the id alone is ambiguous and says so.
-  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "?robot=" + b, &body, *engineer_), 200) << body;
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next + "?robot=" + b, &body, *engineer_), 200)
+      << body;
   EXPECT_EQ(nlohmann::json::parse(body).at("run").at("robot_id"), b);
   EXPECT_EQ(HttpGet(server_->http_address(), "/api/runs/" + next, &body, *engineer_), 400) << body;
   EXPECT_NE(body.find("name the robot"), std::string::npos) << body;
@@ -345,7 +363,8 @@ TEST_F(HostileTest, ARobotTakingAnotherRobotsNextRunIdTakesNothing) {
   request.set_run_id(next);
   fleet::v1::GetRunReportResponse report;
   auto context = Context(*engineer_);
-  EXPECT_EQ(queries_->GetRunReport(context.get(), request, &report).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(queries_->GetRunReport(context.get(), request, &report).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
   ExpectStillServing();
 }
 
@@ -360,9 +379,11 @@ TEST_F(HostileTest, HeaderInjectionThroughARobotIdIsRefused) {
   EXPECT_EQ(CountRuns(), before);
   // Nor does an id in a URL come back as a header line.
   const std::string& address = server_->http_address();
-  const std::string answer = HttpRaw(address, "GET /api/robots/x%0d%0aSet-Cookie:%20a=b/maps/current/export/map.yaml "
-                                              "HTTP/1.1\r\nHost: " + address + "\r\nAuthorization: Bearer " +
-                                              *engineer_ + "\r\nConnection: close\r\n\r\n");
+  const std::string answer =
+      HttpRaw(address,
+              "GET /api/robots/x%0d%0aSet-Cookie:%20a=b/maps/current/export/map.yaml "
+              "HTTP/1.1\r\nHost: " +
+                  address + "\r\nAuthorization: Bearer " + *engineer_ + "\r\nConnection: close\r\n\r\n");
   EXPECT_GE(StatusOf(answer), 400) << answer;
   EXPECT_EQ(answer.find("\r\nSet-Cookie"), std::string::npos) << answer;
   ExpectStillServing();
@@ -371,7 +392,10 @@ TEST_F(HostileTest, HeaderInjectionThroughARobotIdIsRefused) {
 TEST_F(HostileTest, BytesAfterAValidChildSnapshotAreRefused) {
   const int before = CountRuns();
   RunFile run = RunOf(0, "hostile-trailing");
-  run.mutable_child_snapshot()->GetReflection()->MutableUnknownFields(run.mutable_child_snapshot())->AddVarint(99, 1);
+  run.mutable_child_snapshot()
+      ->GetReflection()
+      ->MutableUnknownFields(run.mutable_child_snapshot())
+      ->AddVarint(99, 1);
   UploadRunResponse response;
   const grpc::Status status = Upload(*ingest_, RobotToken(RobotId(0)), run, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
@@ -423,15 +447,18 @@ TEST(HostileBudgetTest, AnAnalysisPastItsBudgetFailsWithAClearError) {
   nlohmann::json job;
   for (int k = 0; k < 240 && state != "failed"; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(250));
-    ASSERT_EQ(HttpGet(server.http_address(), "/api/jobs?kind=analyze_run", &body, FleetdProcess::AdminToken()), 200);
+    ASSERT_EQ(
+        HttpGet(server.http_address(), "/api/jobs?kind=analyze_run", &body, FleetdProcess::AdminToken()),
+        200);
     const auto jobs = nlohmann::json::parse(body).at("jobs");
     if (jobs.empty()) continue;
     job = jobs.front();
     state = job.at("state").get<std::string>();
   }
   EXPECT_EQ(state, "failed") << job.dump();
-  EXPECT_NE(job.value("last_error", "").find("analysis budget: run " + run.header().run_id() + " took longer than"),
-            std::string::npos)
+  EXPECT_NE(
+      job.value("last_error", "").find("analysis budget: run " + run.header().run_id() + " took longer than"),
+      std::string::npos)
       << job.dump();
   EXPECT_EQ(HttpGet(server.http_address(), "/healthz", &body), 200);
   EXPECT_EQ(server.Stop(), 0);

@@ -71,10 +71,10 @@ double Rmse(const fleet::v1::MapSnapshot& snapshot, const NodeTruth& truth) {
 }
 
 struct Scenario {
-  std::vector<RunFile> runs;     // the robot's runs up to and including the wrong merge
+  std::vector<RunFile> runs;  // the robot's runs up to and including the wrong merge
   std::int64_t wrong_hypothesis = -1;
   std::size_t wrong_edges = 0;
-  NodeTruth truth;               // every node of every run
+  NodeTruth truth;  // every node of every run
 };
 
 /// Simulates one robot run by run until a run's child map holds exactly one wrong hypothesis that joined
@@ -100,7 +100,8 @@ Scenario FindWrongMerge() {
     sim::RobotSimulator robot(*world, params, kRobot, "fw-repair", seed);
     Scenario scenario;
     for (int k = 0; k < 6; ++k) {
-      auto outcome = robot.SimulateRun("repair-run-" + std::to_string(seed) + "-" + std::to_string(k), 1.76e9 + 3600.0 * k);
+      auto outcome = robot.SimulateRun("repair-run-" + std::to_string(seed) + "-" + std::to_string(k),
+                                       1.76e9 + 3600.0 * k);
       if (!outcome.ok()) {
         ADD_FAILURE() << outcome.status().ToString();
         return {};
@@ -127,8 +128,9 @@ Scenario FindWrongMerge() {
       EXPECT_THAT(child, IsOk());
       const std::int64_t hypothesis = wrong_by_hypothesis.begin()->first;
       slamcore::PoseGraph without = child->graph;
-      without.RemoveEdgesIf(
-          [&](const slamcore::Edge& edge) { return edge.hypothesis == hypothesis && !parent_nodes.contains(edge.from); });
+      without.RemoveEdgesIf([&](const slamcore::Edge& edge) {
+        return edge.hypothesis == hypothesis && !parent_nodes.contains(edge.from);
+      });
       const slamcore::NodeId home = run.parent_snapshot().nodes(0).id();
       slamcore::NodeId first_new = -1;
       for (const auto& node : run.child_snapshot().nodes()) {
@@ -141,7 +143,8 @@ Scenario FindWrongMerge() {
       scenario.wrong_hypothesis = hypothesis;
       scenario.wrong_edges = wrong_by_hypothesis.begin()->second;
       std::printf("wrong merge: seed %llu, run %d, hypothesis %lld with %zu wrong edge(s)\n",
-                  static_cast<unsigned long long>(seed), k, static_cast<long long>(hypothesis), scenario.wrong_edges);
+                  static_cast<unsigned long long>(seed), k, static_cast<long long>(hypothesis),
+                  scenario.wrong_edges);
       return scenario;
     }
   }
@@ -153,7 +156,9 @@ Scenario FindWrongMerge() {
 class DailyRobot {
  public:
   DailyRobot(const std::string& server, const std::string& token, std::string prefix)
-      : world_(LoadFirstWorld()), robot_(world_, Params(), kRobot, "fw-follow", 5), prefix_(std::move(prefix)) {
+      : world_(LoadFirstWorld()),
+        robot_(world_, Params(), kRobot, "fw-follow", 5),
+        prefix_(std::move(prefix)) {
     sim::UploaderOptions options;
     options.server = server;
     options.token = token;
@@ -260,7 +265,8 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   for (int attempt = 0; attempt < 240 && !finding; ++attempt) {
     merged = Version(merged_version);
     for (const auto& candidate : merged.findings()) {
-      if (candidate.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS && candidate.hypothesis() == scenario.wrong_hypothesis) {
+      if (candidate.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS &&
+          candidate.hypothesis() == scenario.wrong_hypothesis) {
         finding = &candidate;
       }
     }
@@ -268,7 +274,8 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   }
   ASSERT_NE(finding, nullptr) << "no finding names hypothesis " << scenario.wrong_hypothesis;
   EXPECT_EQ(finding->finding_state(), fleet::v1::FINDING_STATE_OPEN);
-  EXPECT_NE(finding->evidence_json().find("\"joins_components\":true"), std::string::npos) << finding->evidence_json();
+  EXPECT_NE(finding->evidence_json().find("\"joins_components\":true"), std::string::npos)
+      << finding->evidence_json();
   EXPECT_GE(merged.version().open_findings(), 1);
 
   // The engineer rejects the merge: a pending version, not yet the robot's.
@@ -287,7 +294,8 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   EXPECT_EQ(repaired.version().observation_edges(),
             merged.version().observation_edges() - static_cast<std::int64_t>(scenario.wrong_edges));
   for (const auto& after : repaired.findings()) {
-    EXPECT_FALSE(after.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS && after.hypothesis() == scenario.wrong_hypothesis);
+    EXPECT_FALSE(after.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS &&
+                 after.hypothesis() == scenario.wrong_hypothesis);
   }
 
   fleet::v1::GetMapRequest fetch;
@@ -324,15 +332,18 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   auto default_report = analyzer::AnalyzeRun(merged_run, {});
   ASSERT_THAT(default_report, IsOk());
   const double default_rerun = Rmse(default_report->rerun_child(), scenario.truth);
-  std::printf("trajectory RMSE vs ground truth (m): parent %.3f, with the wrong merge %.3f, repaired %.3f, "
-              "default-parameter rerun %.3f\n", before, wrong, after, default_rerun);
+  std::printf(
+      "trajectory RMSE vs ground truth (m): parent %.3f, with the wrong merge %.3f, repaired %.3f, "
+      "default-parameter rerun %.3f\n",
+      before, wrong, after, default_rerun);
   RecordProperty("rmse_parent", std::to_string(before));
   RecordProperty("rmse_wrong_merge", std::to_string(wrong));
   RecordProperty("rmse_repaired", std::to_string(after));
   RecordProperty("rmse_default_rerun", std::to_string(default_rerun));
   ASSERT_GT(before, 0.0);
   EXPECT_GT(wrong, 2.0 * after) << "the wrong merge made the map worse and the repair undid that";
-  EXPECT_LE(after, std::max(before, default_rerun) * 1.25 + 0.02) << "back to the level before the wrong merge";
+  EXPECT_LE(after, std::max(before, default_rerun) * 1.25 + 0.02)
+      << "back to the level before the wrong merge";
 
   // Undo restores the earlier version exactly: the very same content-addressed map.
   fleet::v1::RepairMapRequest undo;
@@ -420,13 +431,16 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   // Robots may not repair; engineers must name an action, a real edge, and a repair that exists.
   context = Context(owner);
   request.set_rollback(true);
-  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED);
   context = Context(engineer_);
-  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION)
       << "a first run has no parent to roll back to";
   request.set_undo(true);
   context = Context(engineer_);
-  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION)
       << "an upload is not a repair";
   for (const auto& edge : run.child_snapshot().edges()) {
     if (edge.kind() != fleet::v1::Edge::KIND_MOTION) continue;
@@ -443,7 +457,8 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::NOT_FOUND);
   request.clear_action();
   context = Context(engineer_);
-  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(maps_->RepairMap(context.get(), request, &repaired).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
 
   fleet::v1::ReviewMapVersionRequest review;
   review.set_robot_id(run.header().robot_id());
@@ -451,7 +466,8 @@ TEST_F(MapRepairTest, RobotsGetOnlyTheirOwnMapAndBadRepairsAreRefused) {
   review.set_approve(true);
   fleet::v1::MapVersion reviewed;
   context = Context(engineer_);
-  EXPECT_EQ(maps_->ReviewMapVersion(context.get(), review, &reviewed).error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+  EXPECT_EQ(maps_->ReviewMapVersion(context.get(), review, &reviewed).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION)
       << "only pending versions are reviewed";
 }
 
@@ -579,9 +595,11 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   EXPECT_EQ(carried.approval_state(), fleet::v1::MAP_APPROVAL_APPROVED);
   EXPECT_TRUE(carried.current());
   EXPECT_EQ(carried.reason(), "this closure looks wrong");
-  EXPECT_NE(carried.action_detail().find("carried forward from version 3"), std::string::npos) << carried.action_detail();
+  EXPECT_NE(carried.action_detail().find("carried forward from version 3"), std::string::npos)
+      << carried.action_detail();
   EXPECT_NE(carried.action_detail().find("1 edge(s) removed"), std::string::npos) << carried.action_detail();
-  EXPECT_EQ(Version(3).version().approval_state(), fleet::v1::MAP_APPROVAL_STALE) << "the proposal is superseded";
+  EXPECT_EQ(Version(3).version().approval_state(), fleet::v1::MAP_APPROVAL_STALE)
+      << "the proposal is superseded";
   // Version 5 is version 4 without the edge: every node of the third run is there.
   const fleet::v1::GetMapVersionResponse fourth = Version(4), fifth = Version(5);
   EXPECT_EQ(fifth.snapshot().nodes_size(), fourth.snapshot().nodes_size());
@@ -609,7 +627,8 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_NE(refused.error_message().find("a rollback cannot be carried onto a later map"), std::string::npos)
       << refused.error_message();
-  EXPECT_EQ(Version(6).version().approval_state(), fleet::v1::MAP_APPROVAL_PENDING) << "a refused approval changes nothing";
+  EXPECT_EQ(Version(6).version().approval_state(), fleet::v1::MAP_APPROVAL_PENDING)
+      << "a refused approval changes nothing";
 
   // The simulated engineer's weekly review: approves what can be carried, rejects what cannot.
   auto reviewed = service.ApprovePending(engineer_, kRobot);

@@ -96,7 +96,8 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   ASSERT_EQ(ListRunsCode(b.Channel(), engineer), grpc::StatusCode::OK) << "now cached by b";
 
   ASSERT_THAT(Revoke(*admin, FleetdProcess::AdminToken(), "engineer:ops"), IsOk());
-  EXPECT_EQ(ListRunsCode(a.Channel(), engineer), grpc::StatusCode::UNAUTHENTICATED) << "refused at once where revoked";
+  EXPECT_EQ(ListRunsCode(a.Channel(), engineer), grpc::StatusCode::UNAUTHENTICATED)
+      << "refused at once where revoked";
   const double seen = SecondsUntil(
       [&] { return ListRunsCode(b.Channel(), engineer) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
   std::printf("revocation refused by the other process after %.2f s\n", seen);
@@ -105,18 +106,21 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
 
   // Rotation: a robot rotates its own token on b; the old one stops working on a as well.
   const std::string robot = IssueToken(*admin, "robot:ops-r1");
-  ASSERT_EQ(ListRunsCode(a.Channel(), robot), grpc::StatusCode::PERMISSION_DENIED) << "authenticated (and cached)";
+  ASSERT_EQ(ListRunsCode(a.Channel(), robot), grpc::StatusCode::PERMISSION_DENIED)
+      << "authenticated (and cached)";
   std::string rotated;
   auto admin_b = AdminOf(b);
   ASSERT_THAT(Rotate(*admin_b, robot, "robot:ops-r1", &rotated), IsOk());
   EXPECT_NE(rotated, robot);
-  EXPECT_EQ(ListRunsCode(b.Channel(), rotated), grpc::StatusCode::PERMISSION_DENIED) << "the new token authenticates";
+  EXPECT_EQ(ListRunsCode(b.Channel(), rotated), grpc::StatusCode::PERMISSION_DENIED)
+      << "the new token authenticates";
   const double old_refused = SecondsUntil(
       [&] { return ListRunsCode(a.Channel(), robot) == grpc::StatusCode::UNAUTHENTICATED; }, 10.0);
   EXPECT_GE(old_refused, 0.0);
   EXPECT_LT(old_refused, 3.0);
   std::string ignored;
-  EXPECT_EQ(Rotate(*admin_b, rotated, "engineer:ops", &ignored).error_code(), grpc::StatusCode::PERMISSION_DENIED)
+  EXPECT_EQ(Rotate(*admin_b, rotated, "engineer:ops", &ignored).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED)
       << "a robot rotates only its own token";
   EXPECT_EQ(Rotate(*admin, FleetdProcess::AdminToken(), "robot:nobody", &ignored).error_code(),
             grpc::StatusCode::NOT_FOUND);
@@ -141,7 +145,8 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   auto audit_context = Context(FleetdProcess::AdminToken());
   ASSERT_THAT(admin->ListAuditLog(audit_context.get(), fleet::v1::ListAuditLogRequest(), &audit), IsOk());
   std::vector<std::tuple<std::string, std::string, std::string>> changes;  // oldest first
-  for (const auto& entry : audit.entries()) changes.emplace(changes.begin(), entry.action(), entry.subject(), entry.actor());
+  for (const auto& entry : audit.entries())
+    changes.emplace(changes.begin(), entry.action(), entry.subject(), entry.actor());
   EXPECT_EQ(changes, (std::vector<std::tuple<std::string, std::string, std::string>>{
                          {"set_credential", "engineer:ops", "admin:root"},
                          {"revoke_credential", "engineer:ops", "admin:root"},
@@ -154,7 +159,8 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   auto too_many_context = Context(FleetdProcess::AdminToken());
   const grpc::Status refused_page = admin->ListCredentials(too_many_context.get(), too_many, &listed);
   EXPECT_EQ(refused_page.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_NE(refused_page.error_message().find("page_size"), std::string::npos) << refused_page.error_message();
+  EXPECT_NE(refused_page.error_message().find("page_size"), std::string::npos)
+      << refused_page.error_message();
   fleet::v1::ListAuditLogRequest too_long;
   too_long.set_limit(1001);
   auto too_long_context = Context(FleetdProcess::AdminToken());
@@ -171,7 +177,8 @@ TEST(OperationsTest, RevocationAndRotationReachEveryProcessSharingTheDatabase) {
   auto ingest = fleet::v1::Ingest::NewStub(a.Channel());
   fleet::v1::UploadRunResponse uploaded;
   ASSERT_THAT(Upload(*ingest, uploader, run, &uploaded), IsOk());
-  ASSERT_EQ(ListRunsCode(b.Channel(), uploader), grpc::StatusCode::PERMISSION_DENIED) << "authenticated (and cached)";
+  ASSERT_EQ(ListRunsCode(b.Channel(), uploader), grpc::StatusCode::PERMISSION_DENIED)
+      << "authenticated (and cached)";
   fleet::v1::DeleteRobotRequest erase;
   erase.set_robot_id(run.header().robot_id());
   erase.set_confirm(run.header().robot_id());
@@ -207,7 +214,8 @@ TEST(OperationsTest, TheBootstrapTokenDoesNotUndoARotationUnlessForced) {
 
   FleetdProcess forced({"--db", db, "--bootstrap-admin-force"});
   ASSERT_THAT(forced, IsOk());
-  EXPECT_EQ(ListRunsCode(forced.Channel(), FleetdProcess::AdminToken()), grpc::StatusCode::OK) << "explicitly asked";
+  EXPECT_EQ(ListRunsCode(forced.Channel(), FleetdProcess::AdminToken()), grpc::StatusCode::OK)
+      << "explicitly asked";
   EXPECT_EQ(forced.Stop(), 0);
 }
 
@@ -217,7 +225,8 @@ struct Finished {
 };
 
 /// Runs fleetd to completion (it must exit by itself within 20 s) with `env` set and `args`.
-Finished RunFleetd(const std::vector<std::string>& args, const std::vector<std::pair<std::string, std::string>>& env) {
+Finished RunFleetd(const std::vector<std::string>& args,
+                   const std::vector<std::pair<std::string, std::string>>& env) {
   const std::string directory = TempDirectory(), log = directory + "/out.log";
   const pid_t pid = fork();
   if (pid == 0) {
@@ -227,7 +236,8 @@ Finished RunFleetd(const std::vector<std::string>& args, const std::vector<std::
     unsetenv("FLEETD_BOOTSTRAP_ADMIN_TOKEN");
     unsetenv("FLEETD_DB_URL");
     for (const auto& [name, value] : env) setenv(name.c_str(), value.c_str(), 1);
-    std::vector<std::string> all = {FLEETD_BINARY, "--listen", "127.0.0.1:0", "--http", "", "--role", "server"};
+    std::vector<std::string> all = {FLEETD_BINARY, "--listen", "127.0.0.1:0", "--http", "",
+                                    "--role",      "server"};
     all.insert(all.end(), args.begin(), args.end());
     if (std::find(args.begin(), args.end(), "--db") == args.end() &&
         std::none_of(env.begin(), env.end(), [](const auto& e) { return e.first == "FLEETD_DB_URL"; })) {
@@ -259,9 +269,12 @@ TEST(OperationsTest, WeakSecretsAreRefusedAtStartAndPasswordsNeverLogged) {
   const std::vector<std::tuple<std::string, std::string, std::string>> refused = {
       {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "admin:ops.change-me-to-a-long-random-secret",
        "bootstrap_admin_token: looks like a placeholder (contains \"changeme\")"},
-      {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "admin:ops." + std::string(64, 'a'), "bootstrap_admin_token: a repetition"},
-      {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "admin:ops.0123456789", "bootstrap_admin_token: shorter than 32 characters"},
-      {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "robot:r1." + strong, "bootstrap_admin_token: names robot:r1, not an admin"},
+      {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "admin:ops." + std::string(64, 'a'),
+       "bootstrap_admin_token: a repetition"},
+      {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "admin:ops.0123456789",
+       "bootstrap_admin_token: shorter than 32 characters"},
+      {"FLEETD_BOOTSTRAP_ADMIN_TOKEN", "robot:r1." + strong,
+       "bootstrap_admin_token: names robot:r1, not an admin"},
       {"FLEETD_DB_URL", "postgresql://fleet:change-me@postgres:5432/fleet",
        "db: the URL's password: looks like a placeholder"},
       {"FLEETD_DB_URL", "postgresql://fleet:fleet-local@postgres:5432/fleet", "looks like a placeholder"},
@@ -270,14 +283,16 @@ TEST(OperationsTest, WeakSecretsAreRefusedAtStartAndPasswordsNeverLogged) {
     const Finished run = RunFleetd({}, {{name, value}});
     EXPECT_EQ(run.exit_code, 2) << value << "\n" << run.output;
     EXPECT_NE(run.output.find(message), std::string::npos) << value << "\n" << run.output;
-    EXPECT_EQ(run.output.find(value.substr(value.find(':') + 1)), std::string::npos) << "the secret was echoed";
+    EXPECT_EQ(run.output.find(value.substr(value.find(':') + 1)), std::string::npos)
+        << "the secret was echoed";
   }
   // Opening fails (nothing listens on port 1, a malformed escape, a bad port): no log line has the password.
   const std::string password = "Kq7vX2pL9mZ4rT8wN3bY";
-  for (const std::string& url : {"postgresql://fleet:" + password + "@127.0.0.1:1/fleet?connect_timeout=2",
-                                "postgresql://fleet:" + password + "%zz@127.0.0.1:1/fleet",
-                                "postgresql://fleet:" + password + "@127.0.0.1:notaport/fleet",
-                                "postgresql://fleet@127.0.0.1:1/fleet?password=" + password + "&connect_timeout=2"}) {
+  for (const std::string& url :
+       {"postgresql://fleet:" + password + "@127.0.0.1:1/fleet?connect_timeout=2",
+        "postgresql://fleet:" + password + "%zz@127.0.0.1:1/fleet",
+        "postgresql://fleet:" + password + "@127.0.0.1:notaport/fleet",
+        "postgresql://fleet@127.0.0.1:1/fleet?password=" + password + "&connect_timeout=2"}) {
     const Finished run = RunFleetd({}, {{"FLEETD_DB_URL", url}});
     EXPECT_EQ(run.exit_code, 1) << url << "\n" << run.output;
     EXPECT_NE(run.output.find("open_failed"), std::string::npos) << run.output;
@@ -288,15 +303,17 @@ TEST(OperationsTest, WeakSecretsAreRefusedAtStartAndPasswordsNeverLogged) {
 
 /// A self-signed certificate for 127.0.0.1 and localhost, made with the openssl CLI in `directory`.
 bool MakeCertificate(const std::string& directory, const std::string& name) {
-  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=localhost -addext "
-                              "subjectAltName=IP:127.0.0.1,DNS:localhost -keyout " + directory + "/" + name +
-                              ".key -out " + directory + "/" + name + ".crt >/dev/null 2>&1";
+  const std::string command =
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=localhost -addext "
+      "subjectAltName=IP:127.0.0.1,DNS:localhost -keyout " +
+      directory + "/" + name + ".key -out " + directory + "/" + name + ".crt >/dev/null 2>&1";
   return std::system(command.c_str()) == 0;
 }
 
 TEST(OperationsTest, TlsServesTlsClientsOnlyAndFleetctlReadsItsTokenFromAFile) {
   const std::string directory = TempDirectory();
-  ASSERT_TRUE(MakeCertificate(directory, "server")) << "openssl req failed (deploy/bootstrap.sh installs openssl)";
+  ASSERT_TRUE(MakeCertificate(directory, "server"))
+      << "openssl req failed (deploy/bootstrap.sh installs openssl)";
   ASSERT_TRUE(MakeCertificate(directory, "other"));
   FleetdProcess server({"--tls-cert", directory + "/server.crt", "--tls-key", directory + "/server.key"});
   ASSERT_THAT(server, IsOk());
@@ -322,7 +339,8 @@ TEST(OperationsTest, TlsServesTlsClientsOnlyAndFleetctlReadsItsTokenFromAFile) {
     token << FleetdProcess::AdminToken() << "\n";
   }
   const std::string command = "FLEET_SERVER=" + server.grpc_address() + " FLEET_TLS_CA=" + directory +
-                              "/server.crt FLEET_TOKEN_FILE=" + directory + "/token " FLEETCTL_BINARY " runs --json";
+                              "/server.crt FLEET_TOKEN_FILE=" + directory +
+                              "/token " FLEETCTL_BINARY " runs --json";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;
@@ -347,8 +365,7 @@ bool CanMountPrivately() {
 void Fill(const std::string& path) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
   const std::string block(1 << 16, 'x');
-  while (::write(fd, block.data(), block.size()) > 0) {
-  }
+  while (::write(fd, block.data(), block.size()) > 0) {}
   ::close(fd);
 }
 
@@ -357,16 +374,18 @@ void Fill(const std::string& path) {
 // so within a probe; freed, fleetd is healthy again. chmod cannot show this: the kernel checks permissions
 // when a file is opened, and SQLite keeps its database open.
 TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
-  if (!CanMountPrivately()) GTEST_SKIP() << "needs a private mount namespace (root): unshare(CLONE_NEWNS) refused";
+  if (!CanMountPrivately())
+    GTEST_SKIP() << "needs a private mount namespace (root): unshare(CLONE_NEWNS) refused";
   const std::string directory = TempDirectory(), mount_point = directory + "/db";
   ASSERT_EQ(mkdir(mount_point.c_str(), 0700), 0);
-  FleetdProcess server({"--db", "sqlite:" + mount_point + "/fleet.db", "--health-probe-seconds", "0.5", "--workers", "1"},
-                       [mount_point] {
-                         if (unshare(CLONE_NEWNS) != 0 || mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
-                             mount("tmpfs", mount_point.c_str(), "tmpfs", 0, "size=24m") != 0) {
-                           _exit(111);
-                         }
-                       });
+  FleetdProcess server(
+      {"--db", "sqlite:" + mount_point + "/fleet.db", "--health-probe-seconds", "0.5", "--workers", "1"},
+      [mount_point] {
+        if (unshare(CLONE_NEWNS) != 0 || mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+            mount("tmpfs", mount_point.c_str(), "tmpfs", 0, "size=24m") != 0) {
+          _exit(111);
+        }
+      });
   ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   std::string body;
@@ -399,7 +418,8 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
   EXPECT_EQ(HttpGet(server.http_address(), "/livez", &body), 200) << "alive: no reason to restart it";
 
   std::filesystem::remove(filler);
-  EXPECT_GE(SecondsUntil([&] { return HttpGet(server.http_address(), "/healthz", &body) == 200; }, 5.0), 0.0) << body;
+  EXPECT_GE(SecondsUntil([&] { return HttpGet(server.http_address(), "/healthz", &body) == 200; }, 5.0), 0.0)
+      << body;
   EXPECT_GE(SecondsUntil([&] { return HealthStatus(channel) == 1; }, 3.0), 0.0);
   fleet::v1::RunFile again = SimulatedRuns().back();
   again.mutable_header()->set_run_id("after-freeing");
@@ -435,7 +455,8 @@ struct OpenUpload {
     *header.mutable_header() = SimulatedRuns().front().header();
     header.mutable_header()->set_robot_id(robot);
     header.mutable_header()->set_run_id(robot + "-big");
-    header.mutable_header()->set_event_count(static_cast<std::uint64_t>(chunk.events().events_size() * messages));
+    header.mutable_header()->set_event_count(
+        static_cast<std::uint64_t>(chunk.events().events_size() * messages));
     open = writer->Write(header);
     for (int k = 0; open && k < messages; ++k) open = writer->Write(chunk);
   }
@@ -459,8 +480,9 @@ std::string PeakRss(int pid) {
 // INVALID_ARGUMENT and not retried.
 TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
   FleetdProcess server({"--max-message-bytes", "4194304", "--max-run-bytes", "25165824",
-                        "--max-upload-bytes-per-principal", "25165824", "--max-upload-bytes-in-flight", "50331648",
-                        "--max-upload-streams-per-principal", "2", "--rate-limit", "0", "--workers", "1"});
+                        "--max-upload-bytes-per-principal", "25165824", "--max-upload-bytes-in-flight",
+                        "50331648", "--max-upload-streams-per-principal", "2", "--rate-limit", "0",
+                        "--workers", "1"});
   ASSERT_THAT(server, IsOk());
   auto channel = server.Channel();
   auto ingest = fleet::v1::Ingest::NewStub(channel);
@@ -479,7 +501,8 @@ TEST(OperationsTest, UploadsInFlightAreBoundedPerPrincipalAndInAll) {
     const auto at = text.find("\n" + name + " ");
     return at == std::string::npos ? -1.0 : std::stod(text.substr(at + name.size() + 2));
   };
-  ASSERT_GE(SecondsUntil([&] { return metric("fleetd_upload_bytes_in_flight") >= 2.0 * 6 * 3500 * 1024 * 0.9; }, 30.0),
+  ASSERT_GE(SecondsUntil(
+                [&] { return metric("fleetd_upload_bytes_in_flight") >= 2.0 * 6 * 3500 * 1024 * 0.9; }, 30.0),
             0.0);
   for (int k = 2; k < 4; ++k) {
     const std::string robot = "big-" + std::to_string(k);

@@ -43,7 +43,10 @@ template <typename T>
 std::string Describe(const T& value) {
   if constexpr (requires { StatusOf(value); }) {
     return StatusOf(value).ToString();
-  } else if constexpr (requires { value.error_code(); value.error_message(); }) {
+  } else if constexpr (requires {
+                         value.error_code();
+                         value.error_message();
+                       }) {
     return "gRPC code " + std::to_string(static_cast<int>(value.error_code())) + ": " +
            std::string(value.error_message());
   } else {
@@ -121,9 +124,8 @@ inline ::testing::PolymorphicMatcher<internal::StatusIsMatcher> StatusIs(slamcor
 
 /// Status or Result<T> has `code` and a message `message_matcher` matches (e.g. StartsWith("run ")).
 template <typename MessageMatcher>
-  requires(!std::is_convertible_v<MessageMatcher, std::string>)
-::testing::PolymorphicMatcher<internal::StatusIsMatcher> StatusIs(slamcore::StatusCode code,
-                                                                  MessageMatcher message_matcher) {
+requires(!std::is_convertible_v<MessageMatcher, std::string>)::testing::PolymorphicMatcher<
+    internal::StatusIsMatcher> StatusIs(slamcore::StatusCode code, MessageMatcher message_matcher) {
   return ::testing::MakePolymorphicMatcher(
       internal::StatusIsMatcher(code, ::testing::SafeMatcherCast<const std::string&>(message_matcher)));
 }

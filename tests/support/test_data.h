@@ -55,9 +55,9 @@ inline std::string NeedsLargerSet(const std::string& what) {
 
 /// Declares `const std::filesystem::path var` as the data file `relative` (see test_data::Find), or skips
 /// the test naming the missing file. Only in a test body (GTEST_SKIP returns from the enclosing function).
-#define TEST_DATA_FILE_OR_SKIP(var, relative)                                                    \
-  const auto var##_found = ::test_data::Find(relative);                                           \
-  if (!var##_found) GTEST_SKIP() << ::test_data::NeedsLargerSet(std::string(relative));            \
+#define TEST_DATA_FILE_OR_SKIP(var, relative)                                           \
+  const auto var##_found = ::test_data::Find(relative);                                 \
+  if (!var##_found) GTEST_SKIP() << ::test_data::NeedsLargerSet(std::string(relative)); \
   const std::filesystem::path var = *var##_found
 
 /// Skips the test unless the larger data set is there; `what` says what the test needs from it.

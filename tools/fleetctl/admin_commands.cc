@@ -36,14 +36,16 @@ int AdminCommands::Delete(Client& client, const Global& global) const {
     PrintJson(response);
     return 0;
   }
-  std::printf("robot %s deleted: %lld runs, %lld reports (%lld decisions, %lld ambiguous views, %lld regions), "
-              "%lld map versions (%lld findings, %lld with metadata), %lld snapshots, %lld jobs, %lld credentials\n",
-              response.robot_id().c_str(), static_cast<long long>(response.runs()),
-              static_cast<long long>(response.reports()), static_cast<long long>(response.decisions()),
-              static_cast<long long>(response.ambiguous_views()), static_cast<long long>(response.protrusion_regions()),
-              static_cast<long long>(response.map_versions()), static_cast<long long>(response.map_findings()),
-              static_cast<long long>(response.map_metadata()), static_cast<long long>(response.snapshots()), static_cast<long long>(response.jobs()),
-              static_cast<long long>(response.credentials()));
+  std::printf(
+      "robot %s deleted: %lld runs, %lld reports (%lld decisions, %lld ambiguous views, %lld regions), "
+      "%lld map versions (%lld findings, %lld with metadata), %lld snapshots, %lld jobs, %lld credentials\n",
+      response.robot_id().c_str(), static_cast<long long>(response.runs()),
+      static_cast<long long>(response.reports()), static_cast<long long>(response.decisions()),
+      static_cast<long long>(response.ambiguous_views()),
+      static_cast<long long>(response.protrusion_regions()), static_cast<long long>(response.map_versions()),
+      static_cast<long long>(response.map_findings()), static_cast<long long>(response.map_metadata()),
+      static_cast<long long>(response.snapshots()), static_cast<long long>(response.jobs()),
+      static_cast<long long>(response.credentials()));
   return 0;
 }
 
@@ -60,13 +62,15 @@ int AdminCommands::Audit(Client& client, const Global& global) const {
     PrintJson(response);
     return 0;
   }
-  std::printf("%6s %-20s %-20s %-18s %-24s %s\n", "entry", "when (UTC)", "actor", "action", "subject", "detail");
+  std::printf("%6s %-20s %-20s %-18s %-24s %s\n", "entry", "when (UTC)", "actor", "action", "subject",
+              "detail");
   for (const auto& entry : response.entries()) {
     const std::time_t seconds = static_cast<std::time_t>(entry.at());
     char when[32];
     std::strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S", std::gmtime(&seconds));
     std::printf("%6lld %-20s %-20s %-18s %-24s %s\n", static_cast<long long>(entry.entry_id()), when,
-                entry.actor().c_str(), entry.action().c_str(), entry.subject().c_str(), entry.detail_json().c_str());
+                entry.actor().c_str(), entry.action().c_str(), entry.subject().c_str(),
+                entry.detail_json().c_str());
   }
   return 0;
 }

@@ -94,7 +94,8 @@ class Client {
 };
 
 inline int Fail(const grpc::Status& status) {
-  std::cerr << "fleetctl: " << sim::StatusCodeName(status.error_code()) << ": " << status.error_message() << "\n";
+  std::cerr << "fleetctl: " << sim::StatusCodeName(status.error_code()) << ": " << status.error_message()
+            << "\n";
   return 1;
 }
 

@@ -10,9 +10,11 @@ namespace fleetctl {
 
 CredentialCommands::CredentialCommands(CLI::App& app) {
   credentials_ = app.add_subcommand("credentials", "mint, rotate, revoke and list tokens");
-  credentials_->add_option("principal", principal_, "robot:<id>, engineer:<name> or admin:<name>: mint its token");
+  credentials_->add_option("principal", principal_,
+                           "robot:<id>, engineer:<name> or admin:<name>: mint its token");
   credentials_->add_option("--out", out_, "write the token to this new file (mode 0600) instead of stdout");
-  rotate_ = credentials_->add_subcommand("rotate", "a new secret for an existing token; the old one stops working");
+  rotate_ =
+      credentials_->add_subcommand("rotate", "a new secret for an existing token; the old one stops working");
   rotate_->add_option("principal", principal_, "whose token")->required();
   rotate_->add_option("--out", out_, "write the token to this new file (mode 0600) instead of stdout");
   revoke_ = credentials_->add_subcommand("revoke", "refuse a principal's token from now on");
@@ -22,7 +24,8 @@ CredentialCommands::CredentialCommands(CLI::App& app) {
   list_->add_flag("--revoked", include_revoked_, "also revoked ones");
 }
 
-int CredentialCommands::PrintToken(const fleet::v1::SetCredentialResponse& response, const Global& global) const {
+int CredentialCommands::PrintToken(const fleet::v1::SetCredentialResponse& response,
+                                   const Global& global) const {
   if (!out_.empty()) {
     const int fd = ::open(out_.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
     if (fd < 0) {
@@ -89,7 +92,8 @@ std::optional<int> CredentialCommands::Run(Client& client, const Global& global)
     request.set_principal(principal_);
     fleet::v1::RevokeCredentialResponse response;
     auto context = client.Context();
-    if (grpc::Status status = client.admin->RevokeCredential(context.get(), request, &response); !status.ok()) {
+    if (grpc::Status status = client.admin->RevokeCredential(context.get(), request, &response);
+        !status.ok()) {
       return Fail(status);
     }
     if (global.json) {

@@ -29,19 +29,25 @@ slamcore::Result<analyzer::ImportedMap> ReadImport(const std::string& path, bool
 }  // namespace
 
 ImportCommands::ImportCommands(CLI::App& app) {
-  import_ = app.add_subcommand("import", "bring maps made elsewhere into a robot's map history (one version each)");
+  import_ =
+      app.add_subcommand("import", "bring maps made elsewhere into a robot's map history (one version each)");
   import_->require_subcommand(1);
   valetudo_ = import_->add_subcommand("valetudo", "Valetudo map exports (JSON, or zlib-deflated JSON)");
   map_server_ = import_->add_subcommand("map-server", "ROS map_server maps (YAML + PGM/PNG)");
   for (CLI::App* command : {valetudo_, map_server_}) {
-    command->add_option("files", files_, "files (at most 1000), imported in time order unless --order given")->required()->check(CLI::ExistingFile);
+    command->add_option("files", files_, "files (at most 1000), imported in time order unless --order given")
+        ->required()
+        ->check(CLI::ExistingFile);
     command->add_option("--robot", robot_, "the robot whose history gets the maps")->required();
     command->add_option("--reason", reason_, "why (kept with each version)");
-    command->add_option("--order", order_,
-                        "time: by the exports' own timestamps, else dates or numbers in the file names (default); "
-                        "given: as listed")
+    command
+        ->add_option(
+            "--order", order_,
+            "time: by the exports' own timestamps, else dates or numbers in the file names (default); "
+            "given: as listed")
         ->check(CLI::IsMember({"time", "given"}));
-    command->add_flag("--approve", approve_, "approve at once: the robot gets the last one on its next GetMap");
+    command->add_flag("--approve", approve_,
+                      "approve at once: the robot gets the last one on its next GetMap");
   }
 }
 
@@ -67,7 +73,8 @@ std::optional<int> ImportCommands::Run(Client& client, const Global& global) con
   }
   const analyzer::ImportOrder order = analyzer::OrderImports(names, order_ == "time");
   std::FILE* said = global.json ? stderr : stdout;  // --json keeps stdout to one object per version
-  std::fprintf(said, "order: %s%s%s\n", order.basis.c_str(), order.note.empty() ? "" : " — ", order.note.c_str());
+  std::fprintf(said, "order: %s%s%s\n", order.basis.c_str(), order.note.empty() ? "" : " — ",
+               order.note.c_str());
   for (std::size_t position = 0; position < order.order.size(); ++position) {
     std::fprintf(said, "  %zu. %s\n", position + 1, files_[order.order[position]].c_str());
   }
@@ -92,10 +99,11 @@ std::optional<int> ImportCommands::Run(Client& client, const Global& global) con
     if (global.json) {
       PrintJson(response);
     } else {
-      std::printf("%s → robot %s version %lld (%s, %.1f m² known)\n", file.c_str(), robot_.c_str(),
-                  static_cast<long long>(response.version().version()),
-                  Spelled(fleet::v1::MapApproval_Name(response.version().approval_state()), "MAP_APPROVAL_").c_str(),
-                  response.version().known_area_m2());
+      std::printf(
+          "%s → robot %s version %lld (%s, %.1f m² known)\n", file.c_str(), robot_.c_str(),
+          static_cast<long long>(response.version().version()),
+          Spelled(fleet::v1::MapApproval_Name(response.version().approval_state()), "MAP_APPROVAL_").c_str(),
+          response.version().known_area_m2());
     }
   }
   return imported == static_cast<int>(files_.size()) ? 0 : 1;

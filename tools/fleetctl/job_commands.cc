@@ -18,9 +18,10 @@ void ProgressBar(const fleet::v1::Job& job) {
   const int width = 40;
   const long long total = std::max<long long>(1, job.progress_total());
   const int filled = static_cast<int>(width * std::min<long long>(job.progress_done(), total) / total);
-  std::fprintf(stderr, "\r[%.*s%*s] %lld/%lld runs  %s   ", filled, "########################################",
-               width - filled, "", static_cast<long long>(job.progress_done()),
-               static_cast<long long>(job.progress_total()), job.state().c_str());
+  std::fprintf(stderr, "\r[%.*s%*s] %lld/%lld runs  %s   ", filled,
+               "########################################", width - filled, "",
+               static_cast<long long>(job.progress_done()), static_cast<long long>(job.progress_total()),
+               job.state().c_str());
 }
 
 }  // namespace
@@ -37,7 +38,8 @@ JobCommands::JobCommands(CLI::App& app) {
   reprocess_->add_option("--robot", filter_.robot, "robot id");
   reprocess_->add_option("--firmware", filter_.firmware, "firmware");
   reprocess_->add_option("--model", filter_.model, "robot model");
-  reprocess_->add_option("--only-with-set", filter_.parameter_set, "only runs that have a report of this set");
+  reprocess_->add_option("--only-with-set", filter_.parameter_set,
+                         "only runs that have a report of this set");
   reprocess_->add_option("--from", filter_.from, "started at or after (Unix seconds)");
   reprocess_->add_option("--before", filter_.before, "started before (Unix seconds)");
   reprocess_->add_flag("--no-wait", no_wait_, "start the job and return");
@@ -70,13 +72,15 @@ int JobCommands::PutParameterSet(Client& client, const Global& global) const {
   *request.mutable_parameter_set() = *set;
   fleet::v1::PutParameterSetResponse response;
   auto context = client.Context();
-  if (grpc::Status status = client.reprocessing->PutParameterSet(context.get(), request, &response); !status.ok()) {
+  if (grpc::Status status = client.reprocessing->PutParameterSet(context.get(), request, &response);
+      !status.ok()) {
     return Fail(status);
   }
   if (global.json) {
     PrintJson(response);
   } else {
-    std::cout << "parameter set " << set->name() << (response.already_present() ? " already stored" : " stored") << "\n";
+    std::cout << "parameter set " << set->name()
+              << (response.already_present() ? " already stored" : " stored") << "\n";
   }
   return 0;
 }
@@ -84,13 +88,15 @@ int JobCommands::PutParameterSet(Client& client, const Global& global) const {
 int JobCommands::ListParameterSets(Client& client, const Global& global) const {
   fleet::v1::ListParameterSetsResponse response;
   auto context = client.Context();
-  if (grpc::Status status = client.reprocessing->ListParameterSets(context.get(), {}, &response); !status.ok()) {
+  if (grpc::Status status = client.reprocessing->ListParameterSets(context.get(), {}, &response);
+      !status.ok()) {
     return Fail(status);
   }
   if (global.json) {
     PrintJson(response);
   } else {
-    for (const auto& set : response.parameter_sets()) std::cout << set.name() << "  " << set.description() << "\n";
+    for (const auto& set : response.parameter_sets())
+      std::cout << set.name() << "  " << set.description() << "\n";
   }
   return 0;
 }
@@ -145,11 +151,13 @@ int JobCommands::ListJobs(Client& client, const Global& global) const {
     PrintJson(response);
     return 0;
   }
-  std::printf("%8s %-12s %-10s %-16s %12s  %s\n", "job", "kind", "state", "parameter set", "progress", "run/error");
+  std::printf("%8s %-12s %-10s %-16s %12s  %s\n", "job", "kind", "state", "parameter set", "progress",
+              "run/error");
   for (const auto& j : response.jobs()) {
-    std::printf("%8lld %-12s %-10s %-16s %5lld/%-6lld  %s\n", static_cast<long long>(j.job_id()), j.kind().c_str(),
-                j.state().c_str(), j.parameter_set().c_str(), static_cast<long long>(j.progress_done()),
-                static_cast<long long>(j.progress_total()), j.last_error().empty() ? j.run_id().c_str() : j.last_error().c_str());
+    std::printf("%8lld %-12s %-10s %-16s %5lld/%-6lld  %s\n", static_cast<long long>(j.job_id()),
+                j.kind().c_str(), j.state().c_str(), j.parameter_set().c_str(),
+                static_cast<long long>(j.progress_done()), static_cast<long long>(j.progress_total()),
+                j.last_error().empty() ? j.run_id().c_str() : j.last_error().c_str());
   }
   return 0;
 }
@@ -171,8 +179,9 @@ int JobCommands::OneJob(Client& client, const Global& global) const {
   if (global.json) {
     PrintJson(response);
   } else {
-    std::printf("job %lld %s %s: %lld/%lld %s\n", static_cast<long long>(response.job_id()), response.kind().c_str(),
-                response.state().c_str(), static_cast<long long>(response.progress_done()),
+    std::printf("job %lld %s %s: %lld/%lld %s\n", static_cast<long long>(response.job_id()),
+                response.kind().c_str(), response.state().c_str(),
+                static_cast<long long>(response.progress_done()),
                 static_cast<long long>(response.progress_total()), response.last_error().c_str());
   }
   return 0;

@@ -26,8 +26,8 @@ class JobCommands {
   int ListJobs(Client& client, const Global& global) const;
   int OneJob(Client& client, const Global& global) const;  // job ID or cancel ID
 
-  CLI::App *params_put_ = nullptr, *params_list_ = nullptr, *reprocess_ = nullptr, *jobs_ = nullptr, *job_ = nullptr,
-           *cancel_ = nullptr;
+  CLI::App *params_put_ = nullptr, *params_list_ = nullptr, *reprocess_ = nullptr, *jobs_ = nullptr,
+           *job_ = nullptr, *cancel_ = nullptr;
   Filter filter_;
   std::string params_file_, reprocess_set_, state_;
   bool no_wait_ = false;

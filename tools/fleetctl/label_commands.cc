@@ -17,7 +17,8 @@ LabelCommands::LabelCommands(CLI::App& app) {
   label_->add_option("--parameter-set", parameter_set_, "parameter set");
 
   label_from_truth_ = app.add_subcommand(
-      "label-from-truth", "label every region whose run carries simulator ground truth (fleetsim) with that truth");
+      "label-from-truth",
+      "label every region whose run carries simulator ground truth (fleetsim) with that truth");
   label_from_truth_->add_option("--parameter-set", parameter_set_, "parameter set");
 
   auto* models = app.add_subcommand("models", "protrusion classifier models");
@@ -65,8 +66,8 @@ int LabelCommands::Regions(Client& client, const Global& global) const {
   std::printf("%6s %-12s %6s %-12s %-10s %s\n", "region", "predicted", "p", "label", "by", "bbox (cells)");
   for (const auto& r : response.regions()) {
     std::printf("%6lld %-12s %6.2f %-12s %-10s [%g %g %g %g]\n", static_cast<long long>(r.region_id()),
-                r.predicted_class().c_str(), r.probability(), r.label().c_str(), r.labelled_by().c_str(), r.bbox(0),
-                r.bbox(1), r.bbox(2), r.bbox(3));
+                r.predicted_class().c_str(), r.probability(), r.label().c_str(), r.labelled_by().c_str(),
+                r.bbox(0), r.bbox(1), r.bbox(2), r.bbox(3));
   }
   return 0;
 }
@@ -97,7 +98,7 @@ int LabelCommands::LabelFromTruth(Client& client, const Global& global) const {
   std::string token;
   do {
     fleet::v1::ListRunsRequest list;
-          list.set_page_size(500);
+    list.set_page_size(500);
     list.set_page_token(token);
     fleet::v1::ListRunsResponse page;
     if (grpc::Status status = client.CallRetrying(
@@ -186,8 +187,8 @@ int LabelCommands::Evaluate(Client& client, const Global& global) const {
     const auto& e = response.evaluation();
     std::printf("model %s v%lld on %lld regions: precision %.3f recall %.3f FPR %.3f accuracy %.3f\n",
                 model_name_.c_str(), static_cast<long long>(response.model().version()),
-                static_cast<long long>(response.regions()), e.precision(), e.recall(), e.false_positive_rate(),
-                e.accuracy());
+                static_cast<long long>(response.regions()), e.precision(), e.recall(),
+                e.false_positive_rate(), e.accuracy());
   }
   return 0;
 }

@@ -29,8 +29,8 @@ class LabelCommands {
   int Activate(Client& client, const Global& global) const;
   int ListModels(Client& client, const Global& global) const;
 
-  CLI::App *regions_ = nullptr, *label_ = nullptr, *label_from_truth_ = nullptr, *train_ = nullptr, *eval_ = nullptr,
-           *activate_ = nullptr, *models_list_ = nullptr;
+  CLI::App *regions_ = nullptr, *label_ = nullptr, *label_from_truth_ = nullptr, *train_ = nullptr,
+           *eval_ = nullptr, *activate_ = nullptr, *models_list_ = nullptr;
   std::string run_id_, run_robot_, parameter_set_, label_value_, model_name_, classifier_;
   std::int64_t region_id_ = 0, version_ = 0;
 };

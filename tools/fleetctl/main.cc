@@ -51,7 +51,8 @@ int Upload(const Global& global, const std::vector<std::string>& upload_paths, i
   options.threads = upload_threads;
   const bool interactive = isatty(fileno(stderr)) && !global.json;
   options.progress = [interactive](int done, int total, const sim::UploadOutcome& outcome) {
-    if (!outcome.ok) std::fprintf(stderr, "%sfleetctl: %s\n", interactive ? "\n" : "", outcome.message.c_str());
+    if (!outcome.ok)
+      std::fprintf(stderr, "%sfleetctl: %s\n", interactive ? "\n" : "", outcome.message.c_str());
     if (interactive) std::fprintf(stderr, "\ruploaded %d/%d runs", done, total);
   };
   std::vector<std::filesystem::path> paths(upload_paths.begin(), upload_paths.end());
@@ -76,11 +77,13 @@ int main(int argc, char** argv) {
   if (const char* file = std::getenv("FLEET_TOKEN_FILE")) token_file = file;
   if (const char* server = std::getenv("FLEET_SERVER")) global.server = server;
   if (const char* ca = std::getenv("FLEET_TLS_CA")) global.tls_ca = ca;
-  app.add_option("--server", global.server, "fleetd address host:port (default $FLEET_SERVER or 127.0.0.1:50051)");
+  app.add_option("--server", global.server,
+                 "fleetd address host:port (default $FLEET_SERVER or 127.0.0.1:50051)");
   app.add_option("--token", global.token,
                  "bearer token (default $FLEET_TOKEN); visible to other users in the process list: prefer "
                  "--token-file or the environment");
-  app.add_option("--token-file", token_file, "read the bearer token from this file (default $FLEET_TOKEN_FILE)");
+  app.add_option("--token-file", token_file,
+                 "read the bearer token from this file (default $FLEET_TOKEN_FILE)");
   app.add_option("--tls-ca", global.tls_ca, "PEM CA file: connect with TLS (default $FLEET_TLS_CA)");
   app.add_flag("--json", global.json, "print one JSON object instead of a table");
   app.fallthrough();

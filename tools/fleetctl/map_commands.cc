@@ -8,19 +8,19 @@ namespace fleetctl {
 namespace {
 
 void PrintVersionHeader() {
-  std::printf("%-4s %-4s %-7s %-9s %-18s %-9s %7s %7s %5s %9s %9s %5s  %s\n", "", "ver", "parent", "origin", "action",
-              "approval", "nodes", "edges", "comp", "area m2", "chi2", "open", "by");
+  std::printf("%-4s %-4s %-7s %-9s %-18s %-9s %7s %7s %5s %9s %9s %5s  %s\n", "", "ver", "parent", "origin",
+              "action", "approval", "nodes", "edges", "comp", "area m2", "chi2", "open", "by");
 }
 
 void PrintVersionRow(const fleet::v1::MapVersion& v) {
-  std::printf("%-4s %-4lld %-7s %-9s %-18s %-9s %7lld %7lld %5lld %9.1f %9.1f %5lld  %s\n", v.current() ? "*" : "",
-              static_cast<long long>(v.version()),
+  std::printf("%-4s %-4lld %-7s %-9s %-18s %-9s %7lld %7lld %5lld %9.1f %9.1f %5lld  %s\n",
+              v.current() ? "*" : "", static_cast<long long>(v.version()),
               v.parent_version() > 0 ? std::to_string(v.parent_version()).c_str() : "-",
               Spelled(fleet::v1::MapOrigin_Name(v.version_origin()), "MAP_ORIGIN_").c_str(),
               Spelled(fleet::v1::MapAction_Name(v.version_action()), "MAP_ACTION_").c_str(),
               Spelled(fleet::v1::MapApproval_Name(v.approval_state()), "MAP_APPROVAL_").c_str(),
-              static_cast<long long>(v.nodes()),
-              static_cast<long long>(v.edges()), static_cast<long long>(v.components()), v.known_area_m2(), v.chi2(),
+              static_cast<long long>(v.nodes()), static_cast<long long>(v.edges()),
+              static_cast<long long>(v.components()), v.known_area_m2(), v.chi2(),
               static_cast<long long>(v.open_findings()), v.created_by().c_str());
 }
 
@@ -32,8 +32,8 @@ void PrintFindings(const google::protobuf::RepeatedPtrField<fleet::v1::MapFindin
   for (const auto& f : findings) {
     std::printf("#%-3lld %-22s %-8s %.2f  %s\n", static_cast<long long>(f.finding_id()),
                 Spelled(fleet::v1::FindingKind_Name(f.finding_kind()), "FINDING_KIND_").c_str(),
-                Spelled(fleet::v1::FindingState_Name(f.finding_state()), "FINDING_STATE_").c_str(), f.severity(),
-                f.summary().c_str());
+                Spelled(fleet::v1::FindingState_Name(f.finding_state()), "FINDING_STATE_").c_str(),
+                f.severity(), f.summary().c_str());
   }
 }
 
@@ -68,10 +68,16 @@ MapCommands::MapCommands(CLI::App& app) {
   repair_ = maps_->add_subcommand("repair", "make a repaired version of the robot's newest version");
   repair_->add_option("robot", robot_, "robot id")->required();
   repair_->add_option("--base", version_, "the version repaired (must be the newest)")->required();
-  auto* edge = repair_->add_option("--reject-edge", reject_edge_, "FROM:TO[:VIEW]: remove one observation edge");
-  auto* hypothesis = repair_->add_option("--reject-hypothesis", reject_hypothesis_, "remove a hypothesis's edges (undo a merge)");
-  auto* cut = repair_->add_option("--cut-finding", cut_finding_, "cut a protrusion (or an imported version's new_region) finding's region out of the map");
-  auto* rollback = repair_->add_flag("--rollback", rollback_, "back to the map before the version's run (imported versions: before the import)");
+  auto* edge =
+      repair_->add_option("--reject-edge", reject_edge_, "FROM:TO[:VIEW]: remove one observation edge");
+  auto* hypothesis = repair_->add_option("--reject-hypothesis", reject_hypothesis_,
+                                         "remove a hypothesis's edges (undo a merge)");
+  auto* cut = repair_->add_option(
+      "--cut-finding", cut_finding_,
+      "cut a protrusion (or an imported version's new_region) finding's region out of the map");
+  auto* rollback =
+      repair_->add_flag("--rollback", rollback_,
+                        "back to the map before the version's run (imported versions: before the import)");
   auto* undo = repair_->add_flag("--undo", undo_, "undo the base version's repair");
   for (auto* option : {edge, hypothesis, cut, rollback, undo}) {
     for (auto* other : {edge, hypothesis, cut, rollback, undo}) {
@@ -90,7 +96,8 @@ MapCommands::MapCommands(CLI::App& app) {
   get_->add_option("robot", robot_, "robot id")->required();
   get_->add_option("--held", held_, "the version the robot holds (0: none)");
   get_->add_option("--out", out_, "write the MapSnapshot bytes here");
-  export_ = maps_->add_subcommand("export", "export a version as ROS map_server files, g2o or ValetudoMap JSON");
+  export_ =
+      maps_->add_subcommand("export", "export a version as ROS map_server files, g2o or ValetudoMap JSON");
   export_->add_option("robot", robot_, "robot id")->required();
   export_->add_option("version", version_, "version (default: the current one)");
   export_->add_option("--format", format_, "map_server (PGM + YAML), g2o, or valetudo (ValetudoMap JSON)")
@@ -116,7 +123,8 @@ int MapCommands::List(Client& client, const Global& global) const {
   request.set_robot_id(robot_);
   fleet::v1::ListMapVersionsResponse response;
   auto context = client.Context();
-  if (grpc::Status status = client.maps->ListMapVersions(context.get(), request, &response); !status.ok()) return Fail(status);
+  if (grpc::Status status = client.maps->ListMapVersions(context.get(), request, &response); !status.ok())
+    return Fail(status);
   if (global.json) {
     PrintJson(response);
     return 0;
@@ -133,14 +141,16 @@ int MapCommands::Show(Client& client, const Global& global) const {
   request.set_version(version_);
   fleet::v1::GetMapVersionResponse response;
   auto context = client.Context();
-  if (grpc::Status status = client.maps->GetMapVersion(context.get(), request, &response); !status.ok()) return Fail(status);
+  if (grpc::Status status = client.maps->GetMapVersion(context.get(), request, &response); !status.ok())
+    return Fail(status);
   if (global.json) {
     PrintJson(response);
     return 0;
   }
   PrintVersionHeader();
   PrintVersionRow(response.version());
-  if (!response.version().action_detail().empty()) std::printf("repair: %s\n", response.version().action_detail().c_str());
+  if (!response.version().action_detail().empty())
+    std::printf("repair: %s\n", response.version().action_detail().c_str());
   if (!response.version().reason().empty()) std::printf("reason: %s\n", response.version().reason().c_str());
   PrintFindings(response.findings());
   return 0;
@@ -154,7 +164,8 @@ int MapCommands::Repair(Client& client, const Global& global) const {
   request.set_approve(approve_now_);
   if (!reject_edge_.empty()) {
     if (!ParseEdge(reject_edge_, request.mutable_reject_edge())) {
-      std::cerr << "fleetctl: --reject-edge: expected FROM:TO or FROM:TO:VIEW, got \"" << reject_edge_ << "\"\n";
+      std::cerr << "fleetctl: --reject-edge: expected FROM:TO or FROM:TO:VIEW, got \"" << reject_edge_
+                << "\"\n";
       return 2;
     }
   } else if (reject_hypothesis_ >= 0) {
@@ -166,12 +177,14 @@ int MapCommands::Repair(Client& client, const Global& global) const {
   } else if (undo_) {
     request.set_undo(true);
   } else {
-    std::cerr << "fleetctl: maps repair: give one of --reject-edge, --reject-hypothesis, --cut-finding, --rollback, --undo\n";
+    std::cerr << "fleetctl: maps repair: give one of --reject-edge, --reject-hypothesis, --cut-finding, "
+                 "--rollback, --undo\n";
     return 2;
   }
   fleet::v1::RepairMapResponse response;
   auto context = client.Context(300);
-  if (grpc::Status status = client.maps->RepairMap(context.get(), request, &response); !status.ok()) return Fail(status);
+  if (grpc::Status status = client.maps->RepairMap(context.get(), request, &response); !status.ok())
+    return Fail(status);
   if (global.json) {
     PrintJson(response);
     return 0;
@@ -208,7 +221,8 @@ int MapCommands::Get(Client& client, const Global& global) const {
   request.set_held_version(held_);
   fleet::v1::GetMapResponse response;
   auto context = client.Context(120);
-  if (grpc::Status status = client.maps->GetMap(context.get(), request, &response); !status.ok()) return Fail(status);
+  if (grpc::Status status = client.maps->GetMap(context.get(), request, &response); !status.ok())
+    return Fail(status);
   if (!response.up_to_date() && !out_.empty() && !WriteFile(out_, response.snapshot().SerializeAsString())) {
     std::cerr << "fleetctl: cannot write " << out_ << "\n";
     return 1;
@@ -236,7 +250,8 @@ int MapCommands::Export(Client& client, const Global& global) const {
   request.set_format(format_);
   fleet::v1::ExportMapResponse response;
   auto context = client.Context(120);
-  if (grpc::Status status = client.maps->ExportMap(context.get(), request, &response); !status.ok()) return Fail(status);
+  if (grpc::Status status = client.maps->ExportMap(context.get(), request, &response); !status.ok())
+    return Fail(status);
   const std::filesystem::path directory = out_.empty() ? "." : out_;
   std::error_code ignored;
   std::filesystem::create_directories(directory, ignored);
@@ -245,7 +260,8 @@ int MapCommands::Export(Client& client, const Global& global) const {
       std::cerr << "fleetctl: cannot write " << (directory / file.name()).string() << "\n";
       return 1;
     }
-    if (!global.json) std::printf("%s (%zu bytes)\n", (directory / file.name()).string().c_str(), file.content().size());
+    if (!global.json)
+      std::printf("%s (%zu bytes)\n", (directory / file.name()).string().c_str(), file.content().size());
   }
   if (global.json) {
     std::printf("{\"files\": [");

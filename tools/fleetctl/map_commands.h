@@ -28,7 +28,6 @@ inline std::string Spelled(const std::string& enum_name, const std::string& pref
   return spelled;
 }
 
-
 class MapCommands {
  public:
   /// Adds "maps" and its subcommands to `app`.

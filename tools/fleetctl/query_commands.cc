@@ -13,16 +13,17 @@ std::string Percent(double share) {
 }
 
 void PrintFiguresRow(const std::string& key, const fleet::v1::FleetFigures& f) {
-  std::printf("%-22s %8lld %6lld %9.2f %9s %9lld %9s %9s %9s %9.3f\n", key.c_str(), static_cast<long long>(f.reports()),
-              static_cast<long long>(f.robots()), f.recovery_per_run(), Percent(f.recovery_accepted_share()).c_str(),
-              static_cast<long long>(f.recovery_retracted()), Percent(f.started_localized_share()).c_str(),
-              Percent(f.merge_conditional_then_rejected_share()).c_str(), Percent(f.ambiguous_view_share()).c_str(),
-              f.protrusions_per_run());
+  std::printf("%-22s %8lld %6lld %9.2f %9s %9lld %9s %9s %9s %9.3f\n", key.c_str(),
+              static_cast<long long>(f.reports()), static_cast<long long>(f.robots()), f.recovery_per_run(),
+              Percent(f.recovery_accepted_share()).c_str(), static_cast<long long>(f.recovery_retracted()),
+              Percent(f.started_localized_share()).c_str(),
+              Percent(f.merge_conditional_then_rejected_share()).c_str(),
+              Percent(f.ambiguous_view_share()).c_str(), f.protrusions_per_run());
 }
 
 void PrintFiguresHeader() {
-  std::printf("%-22s %8s %6s %9s %9s %9s %9s %9s %9s %9s\n", "group", "reports", "robots", "recov/run", "recov.acc",
-              "retracted", "localized", "cond.rej", "ambig.vw", "protr/run");
+  std::printf("%-22s %8s %6s %9s %9s %9s %9s %9s %9s %9s\n", "group", "reports", "robots", "recov/run",
+              "recov.acc", "retracted", "localized", "cond.rej", "ambig.vw", "protr/run");
 }
 
 }  // namespace
@@ -68,7 +69,8 @@ int QueryCommands::Runs(Client& client, const Global& global) const {
     request.set_page_token(token);
     fleet::v1::ListRunsResponse page;
     auto context = client.Context();
-    if (grpc::Status status = client.queries->ListRuns(context.get(), request, &page); !status.ok()) return Fail(status);
+    if (grpc::Status status = client.queries->ListRuns(context.get(), request, &page); !status.ok())
+      return Fail(status);
     for (auto& run : *page.mutable_runs()) *all.add_runs() = std::move(run);
     token = page.next_page_token();
   } while (!token.empty() && all.runs_size() < limit_);
@@ -76,12 +78,14 @@ int QueryCommands::Runs(Client& client, const Global& global) const {
   if (global.json) {
     PrintJson(all);
   } else {
-    std::printf("%-28s %-12s %-9s %-20s %10s  %s\n", "run", "robot", "firmware", "started (Unix s)", "bytes", "reports");
+    std::printf("%-28s %-12s %-9s %-20s %10s  %s\n", "run", "robot", "firmware", "started (Unix s)", "bytes",
+                "reports");
     for (const auto& run : all.runs()) {
       std::string sets;
       for (const auto& set : run.report_parameter_sets()) sets += (sets.empty() ? "" : ",") + set;
       std::printf("%-28s %-12s %-9s %-20.0f %10lld  %s\n", run.run_id().c_str(), run.robot_id().c_str(),
-                  run.firmware().c_str(), run.started_at(), static_cast<long long>(run.telemetry_bytes()), sets.c_str());
+                  run.firmware().c_str(), run.started_at(), static_cast<long long>(run.telemetry_bytes()),
+                  sets.c_str());
     }
   }
   return 0;
@@ -116,8 +120,8 @@ int QueryCommands::Report(Client& client, const Global& global) const {
               r.seconds_to_full_relocalization());
   std::printf("views: %d, ambiguous: %d; protrusion regions: %d, protrusions: %d\n", r.views_total(),
               r.ambiguous_views_size(), r.protrusion_regions_size(), r.protrusions_found());
-  std::printf("divergence from the robot's map: %d vs %d nodes, node RMS %.3f m\n", r.divergence().robot_nodes(),
-              r.divergence().rerun_nodes(), r.divergence().node_position_rms());
+  std::printf("divergence from the robot's map: %d vs %d nodes, node RMS %.3f m\n",
+              r.divergence().robot_nodes(), r.divergence().rerun_nodes(), r.divergence().node_position_rms());
   if (r.has_ground_truth()) {
     std::printf("ground truth: trajectory RMSE %.3f m; wrong observations accepted %d/%d\n",
                 r.ground_truth().trajectory_rmse(), r.ground_truth().wrong_observations_accepted(),
@@ -129,15 +133,19 @@ int QueryCommands::Report(Client& client, const Global& global) const {
 
 int QueryCommands::Stats(Client& client, const Global& global) const {
   static const std::map<std::string, fleet::v1::GroupBy> kGroups = {
-      {"none", fleet::v1::GROUP_BY_NONE},         {"day", fleet::v1::GROUP_BY_DAY},
-      {"firmware", fleet::v1::GROUP_BY_FIRMWARE}, {"robot_model", fleet::v1::GROUP_BY_ROBOT_MODEL},
-      {"parameter_set", fleet::v1::GROUP_BY_PARAMETER_SET}, {"robot", fleet::v1::GROUP_BY_ROBOT}};
+      {"none", fleet::v1::GROUP_BY_NONE},
+      {"day", fleet::v1::GROUP_BY_DAY},
+      {"firmware", fleet::v1::GROUP_BY_FIRMWARE},
+      {"robot_model", fleet::v1::GROUP_BY_ROBOT_MODEL},
+      {"parameter_set", fleet::v1::GROUP_BY_PARAMETER_SET},
+      {"robot", fleet::v1::GROUP_BY_ROBOT}};
   fleet::v1::GetFleetStatisticsRequest request;
   *request.mutable_filter() = filter_.Proto();
   request.set_group_by(kGroups.at(group_by_));
   fleet::v1::GetFleetStatisticsResponse response;
   auto context = client.Context();
-  if (grpc::Status status = client.queries->GetFleetStatistics(context.get(), request, &response); !status.ok()) {
+  if (grpc::Status status = client.queries->GetFleetStatistics(context.get(), request, &response);
+      !status.ok()) {
     return Fail(status);
   }
   if (global.json) {
@@ -158,7 +166,8 @@ int QueryCommands::Compare(Client& client, const Global& global) const {
   request.set_top(top_);
   fleet::v1::CompareParameterSetsResponse response;
   auto context = client.Context(300);
-  if (grpc::Status status = client.queries->CompareParameterSets(context.get(), request, &response); !status.ok()) {
+  if (grpc::Status status = client.queries->CompareParameterSets(context.get(), request, &response);
+      !status.ok()) {
     return Fail(status);
   }
   if (global.json) {
@@ -169,16 +178,20 @@ int QueryCommands::Compare(Client& client, const Global& global) const {
   PrintFiguresRow(set_a_, response.a());
   PrintFiguresRow(set_b_, response.b());
   PrintFiguresRow("delta (b - a)", response.delta());
-  std::printf("\n%lld runs compared, %lld changed%s; most changed:\n", static_cast<long long>(response.runs_compared()),
+  std::printf("\n%lld runs compared, %lld changed%s; most changed:\n",
+              static_cast<long long>(response.runs_compared()),
               static_cast<long long>(response.runs_changed()),
               response.scan_truncated() ? " (the first runs only: narrow the filter to see the rest)" : "");
   for (const auto& run : response.most_changed()) {
-    std::printf("  %-28s change %5.0f  recovery acc %lld→%lld  merges %lld→%lld  ambiguous %lld→%lld  protrusions %lld→%lld\n",
-                run.run_id().c_str(), run.change(), static_cast<long long>(run.a().recovery_accepted()),
-                static_cast<long long>(run.b().recovery_accepted()), static_cast<long long>(run.a().merge_created()),
-                static_cast<long long>(run.b().merge_created()), static_cast<long long>(run.a().views_ambiguous()),
-                static_cast<long long>(run.b().views_ambiguous()), static_cast<long long>(run.a().protrusions_found()),
-                static_cast<long long>(run.b().protrusions_found()));
+    std::printf(
+        "  %-28s change %5.0f  recovery acc %lld→%lld  merges %lld→%lld  ambiguous %lld→%lld  protrusions "
+        "%lld→%lld\n",
+        run.run_id().c_str(), run.change(), static_cast<long long>(run.a().recovery_accepted()),
+        static_cast<long long>(run.b().recovery_accepted()), static_cast<long long>(run.a().merge_created()),
+        static_cast<long long>(run.b().merge_created()), static_cast<long long>(run.a().views_ambiguous()),
+        static_cast<long long>(run.b().views_ambiguous()),
+        static_cast<long long>(run.a().protrusions_found()),
+        static_cast<long long>(run.b().protrusions_found()));
   }
   return 0;
 }

@@ -63,18 +63,24 @@ int RunOptimize(const OptimizeArguments& arguments) {
   }
   if (arguments.json) {
     const nlohmann::json report = {
-        {"file", arguments.input},          {"nodes", graph->num_nodes()},
-        {"edges", graph->num_edges()},      {"components", graph->NumComponents()},
-        {"initial_chi2", summary->initial_chi2}, {"final_chi2", summary->final_chi2},
-        {"iterations", summary->iterations}, {"seconds", summary->seconds},
-        {"converged", summary->converged},  {"termination", summary->message},
+        {"file", arguments.input},
+        {"nodes", graph->num_nodes()},
+        {"edges", graph->num_edges()},
+        {"components", graph->NumComponents()},
+        {"initial_chi2", summary->initial_chi2},
+        {"final_chi2", summary->final_chi2},
+        {"iterations", summary->iterations},
+        {"seconds", summary->seconds},
+        {"converged", summary->converged},
+        {"termination", summary->message},
     };
     std::cout << report.dump() << "\n";
   } else {
     std::printf("%s: %zu nodes, %zu edges, %zu components\n", arguments.input.c_str(), graph->num_nodes(),
                 graph->num_edges(), graph->NumComponents());
-    std::printf("chi2 %.6g -> %.6g in %d iterations, %.3f s (%s)\n", summary->initial_chi2, summary->final_chi2,
-                summary->iterations, summary->seconds, summary->converged ? "converged" : "not converged");
+    std::printf("chi2 %.6g -> %.6g in %d iterations, %.3f s (%s)\n", summary->initial_chi2,
+                summary->final_chi2, summary->iterations, summary->seconds,
+                summary->converged ? "converged" : "not converged");
     if (!arguments.output.empty()) std::printf("written to %s\n", arguments.output.c_str());
   }
   return 0;
@@ -104,7 +110,8 @@ int RunReplay(const ReplayArguments& arguments) {
     if (!loaded.ok()) return Fail(loaded.status());
     params = *loaded;
   }
-  params.backend = arguments.backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
+  params.backend =
+      arguments.backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
   const auto result = slamcore::ReplayPoseGraph(*graph, params);
   if (!result.ok()) return Fail(result.status());
   const slamcore::MapperStatistics& stats = result->statistics;
@@ -124,11 +131,13 @@ int RunReplay(const ReplayArguments& arguments) {
     };
     std::cout << report.dump() << "\n";
   } else {
-    std::printf("%s: %zu loop closures accepted, %zu rejected\n", arguments.input.c_str(), result->accepted.size(),
-                result->rejected.size());
-    std::printf("direct edges %d, recovery hypotheses %d (accepted %d, expired %d, rejected %d), ambiguous views %d\n",
-                stats.direct_edges, stats.recovery_created, stats.recovery_accepted, stats.recovery_expired,
-                stats.recovery_rejected, stats.views_marked_ambiguous);
+    std::printf("%s: %zu loop closures accepted, %zu rejected\n", arguments.input.c_str(),
+                result->accepted.size(), result->rejected.size());
+    std::printf(
+        "direct edges %d, recovery hypotheses %d (accepted %d, expired %d, rejected %d), ambiguous views "
+        "%d\n",
+        stats.direct_edges, stats.recovery_created, stats.recovery_accepted, stats.recovery_expired,
+        stats.recovery_rejected, stats.views_marked_ambiguous);
     std::printf("final chi2 %.6g, %.3f s\n", result->final_chi2, result->seconds);
   }
   return 0;
@@ -155,7 +164,8 @@ int RunCorrupt(const CorruptArguments& arguments) {
   options.mode = *mode;
   options.count = arguments.count;
   if (arguments.fraction > 0) {
-    options.total_edges = std::max(1, static_cast<int>(std::lround(arguments.fraction * slamcore::CountLoopClosures(*graph))));
+    options.total_edges =
+        std::max(1, static_cast<int>(std::lround(arguments.fraction * slamcore::CountLoopClosures(*graph))));
   }
   options.group_size = arguments.group;
   options.max_group_size = arguments.max_group;
@@ -163,7 +173,8 @@ int RunCorrupt(const CorruptArguments& arguments) {
   options.seed = arguments.seed;
   const auto corrupted = slamcore::AddLoopClosureOutliers(*graph, options);
   if (!corrupted.ok()) return Fail(corrupted.status());
-  if (const auto status = slamcore::WritePoseGraph(corrupted->graph, arguments.output, slamcore::GraphFormat::kG2o);
+  if (const auto status =
+          slamcore::WritePoseGraph(corrupted->graph, arguments.output, slamcore::GraphFormat::kG2o);
       !status.ok()) {
     return Fail(status);
   }
@@ -185,11 +196,13 @@ int RunGenerate(GenerateArguments arguments) {
     std::filesystem::path truth = arguments.output;
     arguments.truth = truth.replace_extension().string() + "_groundtruth.txt";
   }
-  if (const auto status = slamcore::WritePoseGraph(world->graph, arguments.output, slamcore::GraphFormat::kG2o);
+  if (const auto status =
+          slamcore::WritePoseGraph(world->graph, arguments.output, slamcore::GraphFormat::kG2o);
       !status.ok()) {
     return Fail(status);
   }
-  if (const auto status = slamcore::WriteGroundTruth(world->truth, arguments.truth); !status.ok()) return Fail(status);
+  if (const auto status = slamcore::WriteGroundTruth(world->truth, arguments.truth); !status.ok())
+    return Fail(status);
   std::printf("%zu poses, %d loop closures; graph %s, ground truth %s\n", world->graph.num_nodes(),
               slamcore::CountLoopClosures(world->graph), arguments.output.c_str(), arguments.truth.c_str());
   return 0;
@@ -203,7 +216,9 @@ int main(int argc, char** argv) {
 
   OptimizeArguments optimize;
   CLI::App* optimize_command = app.add_subcommand("optimize", "optimise a g2o or TORO pose graph");
-  optimize_command->add_option("FILE", optimize.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
+  optimize_command->add_option("FILE", optimize.input, "g2o or TORO file")
+      ->required()
+      ->check(CLI::ExistingFile);
   optimize_command->add_option("--out", optimize.output, "write the optimised graph as g2o");
   optimize_command->add_flag("--json", optimize.json, "print one JSON object on stdout");
   optimize_command->add_option("--max-iterations", optimize.max_iterations, "iteration limit")
@@ -216,37 +231,45 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"linear", "warm"}));
 
   ReplayArguments replay;
-  CLI::App* replay_command =
-      app.add_subcommand("replay-g2o", "replay a g2o graph through the Mapper online, as a robot would see it");
+  CLI::App* replay_command = app.add_subcommand(
+      "replay-g2o", "replay a g2o graph through the Mapper online, as a robot would see it");
   replay_command->add_option("FILE", replay.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
-  replay_command->add_option("--params", replay.params_file, "Mapper parameter set (JSON, fleet.v1.ParameterSet)")
+  replay_command
+      ->add_option("--params", replay.params_file, "Mapper parameter set (JSON, fleet.v1.ParameterSet)")
       ->check(CLI::ExistingFile);
   replay_command->add_flag("--json", replay.json, "print one JSON object on stdout");
   replay_command
-      ->add_option("--backend", replay.backend,
-                   "incremental (default: only the region an edge affects is re-solved) or batch (the baseline)")
+      ->add_option(
+          "--backend", replay.backend,
+          "incremental (default: only the region an edge affects is re-solved) or batch (the baseline)")
       ->check(CLI::IsMember({"incremental", "batch"}));
 
   CorruptArguments corrupt;
   CLI::App* corrupt_command =
       app.add_subcommand("corrupt-g2o", "append seeded wrong loop closures (Vertigo protocol)");
-  corrupt_command->add_option("FILE", corrupt.input, "g2o or TORO file")->required()->check(CLI::ExistingFile);
+  corrupt_command->add_option("FILE", corrupt.input, "g2o or TORO file")
+      ->required()
+      ->check(CLI::ExistingFile);
   corrupt_command->add_option("--out", corrupt.output, "output g2o file")->required();
   corrupt_command->add_option("--count", corrupt.count, "outlier groups")->check(CLI::NonNegativeNumber);
   corrupt_command
       ->add_option("--fraction", corrupt.fraction,
                    "write this many wrong edges per true loop closure of the file instead of --count groups")
       ->check(CLI::Range(0.0, 10.0));
-  corrupt_command->add_option("--group", corrupt.group, "consecutive pairs per group (the smallest with --max-group)")
+  corrupt_command
+      ->add_option("--group", corrupt.group, "consecutive pairs per group (the smallest with --max-group)")
       ->check(CLI::Range(1, 1000));
-  corrupt_command->add_option("--max-group", corrupt.max_group, "group sizes uniform in [--group, --max-group]")
+  corrupt_command
+      ->add_option("--max-group", corrupt.max_group, "group sizes uniform in [--group, --max-group]")
       ->check(CLI::Range(0, 1000));
-  corrupt_command->add_option("--single-fraction", corrupt.single_fraction, "share of groups that are single outliers")
+  corrupt_command
+      ->add_option("--single-fraction", corrupt.single_fraction, "share of groups that are single outliers")
       ->check(CLI::Range(0.0, 1.0));
   corrupt_command
-      ->add_option("--mode", corrupt.mode,
-                   "random: anywhere; local: second end within 20 vertices; first: before the region's first true "
-                   "loop closure; shifted: a true loop closure's measurement 3-10 vertices away")
+      ->add_option(
+          "--mode", corrupt.mode,
+          "random: anywhere; local: second end within 20 vertices; first: before the region's first true "
+          "loop closure; shifted: a true loop closure's measurement 3-10 vertices away")
       ->check(CLI::IsMember({"random", "local", "first", "shifted"}));
   corrupt_command->add_option("--seed", corrupt.seed, "random seed");
 

@@ -81,7 +81,8 @@ void RunDetect(const DetectArguments& arguments) {
   std::vector<double> probabilities;
   std::vector<const slamcore::ProtrusionRegion*> protrusions;
   for (const auto& region : regions) {
-    const double probability = classifier ? Check(classifier->Probability(region.features)) : RuleProbability(region.features);
+    const double probability =
+        classifier ? Check(classifier->Probability(region.features)) : RuleProbability(region.features);
     const bool protrusion = classifier ? classifier->IsProtrusion(probability) : probability >= 0.5;
     probabilities.push_back(probability);
     is_protrusion.push_back(protrusion);
@@ -93,14 +94,16 @@ void RunDetect(const DetectArguments& arguments) {
   }
   if (arguments.repair != "none") {
     if (arguments.repaired.empty()) Fail(slamcore::InvalidArgument("--repair needs --repaired OUT.yaml"));
-    const auto mode = arguments.repair == "cut" ? slamcore::RepairMode::kCutOut : slamcore::RepairMode::kFallBackToParent;
+    const auto mode =
+        arguments.repair == "cut" ? slamcore::RepairMode::kCutOut : slamcore::RepairMode::kFallBackToParent;
     const auto repaired = slamcore::RepairChild(aligned, child, protrusions, mode);
     if (auto status = slamcore::WriteMapServerYaml(repaired, arguments.repaired); !status.ok()) Fail(status);
   }
   const auto& names = slamcore::ProtrusionFeatureNames();
-  const std::string classifier_name = !classifier               ? std::string("rule")
-                                      : arguments.model.empty() ? std::string("default ") + slamcore::ClassifierKindName(classifier->kind())
-                                                                : std::string(slamcore::ClassifierKindName(classifier->kind()));
+  const std::string classifier_name =
+      !classifier               ? std::string("rule")
+      : arguments.model.empty() ? std::string("default ") + slamcore::ClassifierKindName(classifier->kind())
+                                : std::string(slamcore::ClassifierKindName(classifier->kind()));
   if (arguments.json) {
     json items = json::array();
     for (std::size_t i = 0; i < regions.size(); ++i) {
@@ -114,10 +117,14 @@ void RunDetect(const DetectArguments& arguments) {
                        {"area_cells", regions[i].clean_area_cells},
                        {"features", features}});
     }
-    const json report = {{"parent", arguments.parent},   {"child", arguments.child},
-                         {"classifier", classifier_name}, {"width", child.width},
-                         {"height", child.height},        {"resolution", child.resolution},
-                         {"protrusions", protrusions.size()}, {"regions", items}};
+    const json report = {{"parent", arguments.parent},
+                         {"child", arguments.child},
+                         {"classifier", classifier_name},
+                         {"width", child.width},
+                         {"height", child.height},
+                         {"resolution", child.resolution},
+                         {"protrusions", protrusions.size()},
+                         {"regions", items}};
     std::cout << report.dump() << "\n";
   } else {
     std::printf("%zu regions (%zu protrusions), classifier %s\n", regions.size(), protrusions.size(),
@@ -125,8 +132,10 @@ void RunDetect(const DetectArguments& arguments) {
     for (std::size_t i = 0; i < regions.size(); ++i) {
       const auto& box = regions[i].bbox;
       std::printf("region %d: %-10s p=%.3f bbox [%d, %d, %d, %d]", regions[i].id,
-                  is_protrusion[i] ? "protrusion" : "new_space", probabilities[i], box.x, box.y, box.width, box.height);
-      for (std::size_t f = 0; f < names.size(); ++f) std::printf(" %s=%.3g", names[f].c_str(), regions[i].features[f]);
+                  is_protrusion[i] ? "protrusion" : "new_space", probabilities[i], box.x, box.y, box.width,
+                  box.height);
+      for (std::size_t f = 0; f < names.size(); ++f)
+        std::printf(" %s=%.3g", names[f].c_str(), regions[i].features[f]);
       std::printf("\n");
     }
   }
@@ -148,15 +157,16 @@ slamcore::Result<slamcore::OccupancyGrid> LoadHome(const std::filesystem::path& 
   if (path.extension() == ".yaml") return slamcore::ReadMapServerYaml(path.string());
   ASSIGN_OR_RETURN(auto world, sim::LoadWorld(path, 1));
   const sim::Grid& grid = world.grid;
-  auto home = slamcore::OccupancyGrid::Create(grid.width(), grid.height(), grid.resolution(), grid.origin().x(),
-                                              grid.origin().y());
+  auto home = slamcore::OccupancyGrid::Create(grid.width(), grid.height(), grid.resolution(),
+                                              grid.origin().x(), grid.origin().y());
   RETURN_IF_ERROR(home.status());
   for (int row = 0; row < grid.height(); ++row) {
     for (int col = 0; col < grid.width(); ++col) {
       const sim::Cell cell = grid.at(col, row);
-      home->at(col, row) = static_cast<std::int8_t>(cell == sim::Cell::kFree       ? slamcore::CellState::kFree
-                                                    : cell == sim::Cell::kOccupied ? slamcore::CellState::kOccupied
-                                                                                   : slamcore::CellState::kUnknown);
+      home->at(col, row) =
+          static_cast<std::int8_t>(cell == sim::Cell::kFree       ? slamcore::CellState::kFree
+                                   : cell == sim::Cell::kOccupied ? slamcore::CellState::kOccupied
+                                                                  : slamcore::CellState::kUnknown);
     }
   }
   return home;
@@ -167,13 +177,16 @@ void RunMakeData(const MakeDataArguments& arguments) {
   std::vector<std::filesystem::path> yamls;
   for (const auto& directory : arguments.homes) {
     for (const auto& entry : std::filesystem::directory_iterator(directory)) {
-      if (entry.path().extension() == ".yaml" || entry.path().extension() == ".txt") yamls.push_back(entry.path());
+      if (entry.path().extension() == ".yaml" || entry.path().extension() == ".txt")
+        yamls.push_back(entry.path());
     }
   }
   std::sort(yamls.begin(), yamls.end());
-  if (yamls.empty()) Fail(slamcore::NotFound("no map_server .yaml maps or floor-plan .txt files in the given directories"));
+  if (yamls.empty())
+    Fail(slamcore::NotFound("no map_server .yaml maps or floor-plan .txt files in the given directories"));
   if (std::filesystem::exists(std::filesystem::path(arguments.out) / "index.csv")) {
-    Fail(slamcore::FailedPrecondition(arguments.out + "/index.csv exists; write a new data set to a new directory"));
+    Fail(slamcore::FailedPrecondition(arguments.out +
+                                      "/index.csv exists; write a new data set to a new directory"));
   }
   int pairs = 0, protrusions = 0, new_spaces = 0;
   for (std::size_t m = 0; m < yamls.size(); ++m) {
@@ -181,7 +194,8 @@ void RunMakeData(const MakeDataArguments& arguments) {
     const std::string map_id = yamls[m].stem().string();
     for (int variant = 0; variant < arguments.variants; ++variant) {
       // One seed per (data set seed, map, variant): any pair can be regenerated alone.
-      const std::uint64_t seed = arguments.seed * 1000003ULL + m * 10007ULL + static_cast<std::uint64_t>(variant);
+      const std::uint64_t seed =
+          arguments.seed * 1000003ULL + m * 10007ULL + static_cast<std::uint64_t>(variant);
       const auto pair = Check(slamcore::GeneratePair(map, seed, options));
       const slamcore::DatasetEntry entry{map_id + "_v" + std::to_string(variant), map_id,
                                          slamcore::HomeOfRealMap(map_id), arguments.family};
@@ -191,8 +205,8 @@ void RunMakeData(const MakeDataArguments& arguments) {
       new_spaces += pair.new_spaces;
     }
   }
-  std::printf("%d pairs from %zu maps: %d protrusions, %d new spaces -> %s\n", pairs, yamls.size(), protrusions,
-              new_spaces, arguments.out.c_str());
+  std::printf("%d pairs from %zu maps: %d protrusions, %d new spaces -> %s\n", pairs, yamls.size(),
+              protrusions, new_spaces, arguments.out.c_str());
   Exit(0);
 }
 
@@ -235,7 +249,8 @@ std::vector<slamcore::FeatureAnova> Anova(const std::vector<slamcore::LabelledRe
 }
 
 /// Paper IV-C: keep the features whose ANOVA p-value is below 0.05, among `allowed` (names; empty: all).
-std::vector<int> SelectFeatures(const std::vector<slamcore::FeatureAnova>& anova, const std::set<std::string>& allowed = {}) {
+std::vector<int> SelectFeatures(const std::vector<slamcore::FeatureAnova>& anova,
+                                const std::set<std::string>& allowed = {}) {
   for (const std::string& name : allowed) {
     const auto& names = slamcore::ProtrusionFeatureNames();
     if (std::find(names.begin(), names.end(), name) == names.end()) {
@@ -244,16 +259,21 @@ std::vector<int> SelectFeatures(const std::vector<slamcore::FeatureAnova>& anova
   }
   std::vector<int> selected;
   for (std::size_t i = 0; i < anova.size(); ++i) {
-    if (anova[i].p_value < 0.05 && (allowed.empty() || allowed.contains(anova[i].name))) selected.push_back(static_cast<int>(i));
+    if (anova[i].p_value < 0.05 && (allowed.empty() || allowed.contains(anova[i].name)))
+      selected.push_back(static_cast<int>(i));
   }
   return selected;
 }
 
 json ConfusionJson(const slamcore::ConfusionMatrix& confusion) {
-  return {{"true_positives", confusion.true_positives},   {"false_positives", confusion.false_positives},
-          {"true_negatives", confusion.true_negatives},   {"false_negatives", confusion.false_negatives},
-          {"precision", confusion.Precision()},            {"recall", confusion.Recall()},
-          {"false_positive_rate", confusion.FalsePositiveRate()}, {"accuracy", confusion.Accuracy()}};
+  return {{"true_positives", confusion.true_positives},
+          {"false_positives", confusion.false_positives},
+          {"true_negatives", confusion.true_negatives},
+          {"false_negatives", confusion.false_negatives},
+          {"precision", confusion.Precision()},
+          {"recall", confusion.Recall()},
+          {"false_positive_rate", confusion.FalsePositiveRate()},
+          {"accuracy", confusion.Accuracy()}};
 }
 
 void PrintConfusion(const slamcore::ConfusionMatrix& confusion) {
@@ -268,7 +288,9 @@ json AnovaJson(const std::vector<slamcore::FeatureAnova>& anova, const std::vect
   json features = json::array();
   for (std::size_t i = 0; i < anova.size(); ++i) {
     const bool used = std::find(selected.begin(), selected.end(), static_cast<int>(i)) != selected.end();
-    features.push_back({{"name", anova[i].name}, {"f_value", anova[i].f_value}, {"p_value", anova[i].p_value},
+    features.push_back({{"name", anova[i].name},
+                        {"f_value", anova[i].f_value},
+                        {"p_value", anova[i].p_value},
                         {"selected", used}});
   }
   return features;
@@ -278,7 +300,8 @@ void PrintAnova(const std::vector<slamcore::FeatureAnova>& anova, const std::vec
   std::printf("%-22s %14s %12s %s\n", "feature", "F", "p", "selected");
   for (std::size_t i = 0; i < anova.size(); ++i) {
     const bool used = std::find(selected.begin(), selected.end(), static_cast<int>(i)) != selected.end();
-    std::printf("%-22s %14.2f %12.3g %s\n", anova[i].name.c_str(), anova[i].f_value, anova[i].p_value, used ? "yes" : "");
+    std::printf("%-22s %14.2f %12.3g %s\n", anova[i].name.c_str(), anova[i].f_value, anova[i].p_value,
+                used ? "yes" : "");
   }
 }
 
@@ -318,7 +341,8 @@ void RunTrain(const TrainArguments& arguments) {
   json comparison = json::array();
   std::vector<slamcore::ClassifierKind> kinds;
   if (arguments.classifier == "auto") {
-    kinds = {slamcore::ClassifierKind::kDecisionTree, slamcore::ClassifierKind::kRandomForest, slamcore::ClassifierKind::kSvm};
+    kinds = {slamcore::ClassifierKind::kDecisionTree, slamcore::ClassifierKind::kRandomForest,
+             slamcore::ClassifierKind::kSvm};
   } else {
     kinds = {Check(slamcore::ParseClassifierKind(arguments.classifier))};
   }
@@ -328,7 +352,8 @@ void RunTrain(const TrainArguments& arguments) {
     if (kinds.size() == 1) break;
     options.kind = kind;
     const auto result = Check(slamcore::CrossValidate(regions, options, folds));
-    comparison.push_back({{"classifier", slamcore::ClassifierKindName(kind)}, {"folds", folds},
+    comparison.push_back({{"classifier", slamcore::ClassifierKindName(kind)},
+                          {"folds", folds},
                           {"confusion", ConfusionJson(result.confusion)}});
     if (!arguments.json) {
       std::printf("%d-fold cross-validation by home, %s:\n", folds, slamcore::ClassifierKindName(kind));
@@ -354,8 +379,9 @@ void RunTrain(const TrainArguments& arguments) {
               << "\n";
   } else {
     PrintAnova(anova, options.selected_features);
-    std::printf("trained %s on %zu regions from %zu pairs of %zu homes -> %s\n", slamcore::ClassifierKindName(options.kind),
-                regions.size(), pairs.size(), homes.size(), arguments.out.c_str());
+    std::printf("trained %s on %zu regions from %zu pairs of %zu homes -> %s\n",
+                slamcore::ClassifierKindName(options.kind), regions.size(), pairs.size(), homes.size(),
+                arguments.out.c_str());
   }
   Exit(0);
 }
@@ -375,17 +401,19 @@ struct EvalArguments {
 /// Like slamcore::AccumulateConfusion, and names each misclassified region on stderr when asked.
 void Accumulate(const slamcore::ProtrusionClassifier& classifier, const LoadedPair& pair, bool list_errors,
                 slamcore::ConfusionMatrix* confusion) {
-  if (auto status = slamcore::AccumulateConfusion(classifier, pair.labelled, confusion); !status.ok()) Fail(status);
+  if (auto status = slamcore::AccumulateConfusion(classifier, pair.labelled, confusion); !status.ok())
+    Fail(status);
   if (!list_errors) return;
   const auto& names = slamcore::ProtrusionFeatureNames();
   for (std::size_t i = 0; i < pair.labelled.regions.size(); ++i) {
     const auto& region = pair.labelled.regions[i];
     const double probability = Check(classifier.Probability(region.features));
     if (classifier.IsProtrusion(probability) == (pair.labelled.labels[i] == 1)) continue;
-    std::fprintf(stderr, "%s region %d truth %s p=%.3f bbox [%d, %d, %d, %d]", pair.entry.pair_id.c_str(), region.id,
-                 pair.labelled.labels[i] == 1 ? "protrusion" : "new_space", probability, region.bbox.x, region.bbox.y,
-                 region.bbox.width, region.bbox.height);
-    for (std::size_t f = 0; f < names.size(); ++f) std::fprintf(stderr, " %s=%.3g", names[f].c_str(), region.features[f]);
+    std::fprintf(stderr, "%s region %d truth %s p=%.3f bbox [%d, %d, %d, %d]", pair.entry.pair_id.c_str(),
+                 region.id, pair.labelled.labels[i] == 1 ? "protrusion" : "new_space", probability,
+                 region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height);
+    for (std::size_t f = 0; f < names.size(); ++f)
+      std::fprintf(stderr, " %s=%.3g", names[f].c_str(), region.features[f]);
     std::fprintf(stderr, "\n");
   }
   if (pair.labelled.missed_protrusions > 0) {
@@ -461,10 +489,11 @@ void RunEval(const EvalArguments& arguments) {
                      .dump()
               << "\n";
   } else {
-    std::printf("%zu pairs, %zu regions, %d protrusions missed by segmentation (counted as false negatives), "
-                "%d regions of noise; classifier %s (%s)\n",
-                pairs.size(), all_regions.size(), missed, spurious, classifier_name.c_str(),
-                arguments.leave_one_home_out ? "leave one home out" : arguments.model.c_str());
+    std::printf(
+        "%zu pairs, %zu regions, %d protrusions missed by segmentation (counted as false negatives), "
+        "%d regions of noise; classifier %s (%s)\n",
+        pairs.size(), all_regions.size(), missed, spurious, classifier_name.c_str(),
+        arguments.leave_one_home_out ? "leave one home out" : arguments.model.c_str());
     PrintConfusion(confusion);
     PrintAnova(anova, selected);
   }
@@ -475,26 +504,36 @@ void RunEval(const EvalArguments& arguments) {
 
 void AddProtrusionCommands(CLI::App& app) {
   auto detect = std::make_shared<DetectArguments>();
-  CLI::App* detect_command = app.add_subcommand("protrusions", "detect erroneous protrusions between two maps (IV-C)");
-  detect_command->add_option("--parent", detect->parent, "parent map (map_server YAML)")->required()->check(CLI::ExistingFile);
-  detect_command->add_option("--child", detect->child, "child map (map_server YAML)")->required()->check(CLI::ExistingFile);
-  detect_command->add_option("--model", detect->model,
-                             "classifier model file (train-protrusions), or 'rule'; default: the built-in model")
+  CLI::App* detect_command =
+      app.add_subcommand("protrusions", "detect erroneous protrusions between two maps (IV-C)");
+  detect_command->add_option("--parent", detect->parent, "parent map (map_server YAML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  detect_command->add_option("--child", detect->child, "child map (map_server YAML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  detect_command
+      ->add_option("--model", detect->model,
+                   "classifier model file (train-protrusions), or 'rule'; default: the built-in model")
       ->check(CLI::ExistingFile | CLI::IsMember({"rule"}));
   detect_command->add_flag("--json", detect->json, "print one JSON object on stdout");
-  detect_command->add_option("--png", detect->png, "write the Fig. 5 picture (parent, child, difference, classes)");
-  detect_command->add_option("--repair", detect->repair, "none, cut (cut protrusions out) or parent (fall back)")
+  detect_command->add_option("--png", detect->png,
+                             "write the Fig. 5 picture (parent, child, difference, classes)");
+  detect_command
+      ->add_option("--repair", detect->repair, "none, cut (cut protrusions out) or parent (fall back)")
       ->check(CLI::IsMember({"none", "cut", "parent"}));
   detect_command->add_option("--repaired", detect->repaired, "where --repair writes the map (YAML + PGM)");
   detect_command->callback([detect] { RunDetect(*detect); });
 
   auto make = std::make_shared<MakeDataArguments>();
-  CLI::App* make_command =
-      app.add_subcommand("make-protrusion-data", "generate labelled parent/child pairs from real maps (seeded)");
-  make_command->add_option("HOMES", make->homes, "directories of map_server YAML maps and/or floor plans (.txt)")
+  CLI::App* make_command = app.add_subcommand("make-protrusion-data",
+                                              "generate labelled parent/child pairs from real maps (seeded)");
+  make_command
+      ->add_option("HOMES", make->homes, "directories of map_server YAML maps and/or floor plans (.txt)")
       ->required()
       ->check(CLI::ExistingDirectory);
-  make_command->add_option("--family", make->family, "generator family: physical (default), heldout, corridor")
+  make_command
+      ->add_option("--family", make->family, "generator family: physical (default), heldout, corridor")
       ->check(CLI::IsMember({"physical", "heldout", "corridor"}));
   make_command->add_option("--out", make->out, "output data set directory")->required();
   make_command->add_option("--variants", make->variants, "pairs per map")->check(CLI::Range(1, 100000));
@@ -502,14 +541,21 @@ void AddProtrusionCommands(CLI::App& app) {
   make_command->callback([make] { RunMakeData(*make); });
 
   auto train = std::make_shared<TrainArguments>();
-  CLI::App* train_command = app.add_subcommand("train-protrusions", "train the protrusion classifier on a data set");
-  train_command->add_option("DATA", train->data, "data set directories")->required()->check(CLI::ExistingDirectory);
+  CLI::App* train_command =
+      app.add_subcommand("train-protrusions", "train the protrusion classifier on a data set");
+  train_command->add_option("DATA", train->data, "data set directories")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   train_command->add_option("--out", train->out, "model file to write")->required();
-  train_command->add_option("--classifier", train->classifier, "auto (compare by cross-validation) or one kind")
+  train_command
+      ->add_option("--classifier", train->classifier, "auto (compare by cross-validation) or one kind")
       ->check(CLI::IsMember({"auto", "decision_tree", "random_forest", "svm"}));
-  train_command->add_option("--holdout-homes", train->holdout_homes, "comma-separated homes kept out of training");
-  train_command->add_option("--folds", train->folds, "cross-validation folds (by home)")->check(CLI::Range(2, 100));
-  train_command->add_option("--features", train->features, "comma-separated features the model may use (default: all)");
+  train_command->add_option("--holdout-homes", train->holdout_homes,
+                            "comma-separated homes kept out of training");
+  train_command->add_option("--folds", train->folds, "cross-validation folds (by home)")
+      ->check(CLI::Range(2, 100));
+  train_command->add_option("--features", train->features,
+                            "comma-separated features the model may use (default: all)");
   train_command->add_option("--trees", train->trees, "random forest: trees")->check(CLI::Range(1, 1000));
   train_command->add_option("--max-depth", train->max_depth, "tree depth")->check(CLI::Range(1, 30));
   train_command->add_option("--threshold", train->threshold, "P(protrusion) above which a region is one")
@@ -518,20 +564,28 @@ void AddProtrusionCommands(CLI::App& app) {
   train_command->callback([train] { RunTrain(*train); });
 
   auto eval = std::make_shared<EvalArguments>();
-  CLI::App* eval_command = app.add_subcommand("eval-protrusions", "evaluate a protrusion classifier on a data set");
-  eval_command->add_option("DATA", eval->data, "data set directories")->required()->check(CLI::ExistingDirectory);
+  CLI::App* eval_command =
+      app.add_subcommand("eval-protrusions", "evaluate a protrusion classifier on a data set");
+  eval_command->add_option("DATA", eval->data, "data set directories")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   eval_command->add_option("--model", eval->model, "model file, or 'default' (the built-in model)")
       ->check(CLI::ExistingFile | CLI::IsMember({"default"}));
-  eval_command->add_option("--test-data", eval->test_data,
-                           "with --leave-one-home-out: test on this data set's pairs of the left-out home")
+  eval_command
+      ->add_option("--test-data", eval->test_data,
+                   "with --leave-one-home-out: test on this data set's pairs of the left-out home")
       ->check(CLI::ExistingDirectory);
   eval_command->add_option("--homes", eval->homes, "comma-separated homes to evaluate on (default: all)");
-  eval_command->add_flag("--leave-one-home-out", eval->leave_one_home_out, "train on all other homes, per home");
+  eval_command->add_flag("--leave-one-home-out", eval->leave_one_home_out,
+                         "train on all other homes, per home");
   eval_command->add_option("--classifier", eval->classifier, "kind for --leave-one-home-out")
       ->check(CLI::IsMember({"decision_tree", "random_forest", "svm"}));
-  eval_command->add_option("--features", eval->features, "with --leave-one-home-out: features the models may use");
-  eval_command->add_option("--trees", eval->trees, "with --leave-one-home-out: random forest trees")->check(CLI::Range(1, 1000));
-  eval_command->add_option("--max-depth", eval->max_depth, "with --leave-one-home-out: tree depth")->check(CLI::Range(1, 30));
+  eval_command->add_option("--features", eval->features,
+                           "with --leave-one-home-out: features the models may use");
+  eval_command->add_option("--trees", eval->trees, "with --leave-one-home-out: random forest trees")
+      ->check(CLI::Range(1, 1000));
+  eval_command->add_option("--max-depth", eval->max_depth, "with --leave-one-home-out: tree depth")
+      ->check(CLI::Range(1, 30));
   eval_command->add_option("--threshold", eval->threshold, "with --leave-one-home-out: decision threshold")
       ->check(CLI::Range(0.01, 0.99));
   eval_command->add_flag("--json", eval->json, "print one JSON object on stdout");

@@ -34,28 +34,28 @@ namespace analyzer {
 
 struct ComparisonOptions {
   slamcore::DetectorOptions detector;
-  double min_wall_overlap = 0.5;     // below: the alignment is poor (a "misaligned" finding)
-  double rotation_step_deg = 5.0;    // the registration's rotation search without a dock
-  double residual_cap_m = 1.0;       // a wall cell farther than this (or outside the new map) counts this much
+  double min_wall_overlap = 0.5;   // below: the alignment is poor (a "misaligned" finding)
+  double rotation_step_deg = 5.0;  // the registration's rotation search without a dock
+  double residual_cap_m = 1.0;     // a wall cell farther than this (or outside the new map) counts this much
   double protrusion_probability = 0.5;
 };
 
 struct MapAlignment {
   slamcore::SE2 new_T_previous;  // a point of the previous map's world frame in the new map's world frame
-  std::string method;            // "dock", "dock+registration", "registration", or "identity" (nothing converged)
-  double wall_overlap = 0.0;     // fraction of previous wall cells within one cell of a new wall
-  double residual_m = 0.0;       // their mean distance to the nearest new wall (capped at residual_cap_m)
-  double correlation = 0.0;      // ECC's correlation coefficient of the registration, 0 when it did not run
+  std::string method;  // "dock", "dock+registration", "registration", or "identity" (nothing converged)
+  double wall_overlap = 0.0;  // fraction of previous wall cells within one cell of a new wall
+  double residual_m = 0.0;    // their mean distance to the nearest new wall (capped at residual_cap_m)
+  double correlation = 0.0;   // ECC's correlation coefficient of the registration, 0 when it did not run
   std::int64_t previous_wall_cells = 0;
-  bool good = false;             // wall_overlap ≥ min_wall_overlap
+  bool good = false;  // wall_overlap ≥ min_wall_overlap
 };
 
 struct ChangedRegion {
   slamcore::ProtrusionRegion region;   // cells and features on the new grid (lost: on the new grid too)
   std::array<double, 4> world_bbox{};  // min_x, min_y, max_x, max_y in the new map's frame
   double area_m2 = 0.0;                // after clean-up
-  std::string predicted_class;         // new regions: "protrusion", "new_space" or "unclassified"; lost: "lost"
-  double probability = -1.0;           // P(protrusion), −1 without a classifier
+  std::string predicted_class;  // new regions: "protrusion", "new_space" or "unclassified"; lost: "lost"
+  double probability = -1.0;    // P(protrusion), −1 without a classifier
 };
 
 struct MapComparison {
@@ -66,7 +66,8 @@ struct MapComparison {
 
 /// Aligns `previous` onto `next` (see above). INVALID_ARGUMENT when either grid is empty, the resolutions
 /// differ, or the previous map has no wall cell to align by.
-slamcore::Result<MapAlignment> AlignGrids(const slamcore::OccupancyGrid& previous, const slamcore::OccupancyGrid& next,
+slamcore::Result<MapAlignment> AlignGrids(const slamcore::OccupancyGrid& previous,
+                                          const slamcore::OccupancyGrid& next,
                                           const std::optional<slamcore::SE2>& previous_dock,
                                           const std::optional<slamcore::SE2>& next_dock,
                                           const ComparisonOptions& options = {});
@@ -77,7 +78,8 @@ slamcore::Result<slamcore::OccupancyGrid> ResampleOnto(const slamcore::Occupancy
                                                        const slamcore::SE2& new_T_previous);
 
 /// Aligns, then extracts and classes the changed regions (`classifier` may be null: "unclassified").
-slamcore::Result<MapComparison> CompareGrids(const slamcore::OccupancyGrid& previous, const slamcore::OccupancyGrid& next,
+slamcore::Result<MapComparison> CompareGrids(const slamcore::OccupancyGrid& previous,
+                                             const slamcore::OccupancyGrid& next,
                                              const std::optional<slamcore::SE2>& previous_dock,
                                              const std::optional<slamcore::SE2>& next_dock,
                                              const slamcore::ProtrusionClassifier* classifier,
@@ -87,7 +89,8 @@ slamcore::Result<MapComparison> CompareGrids(const slamcore::OccupancyGrid& prev
 ///   misaligned   the alignment is poor (open)          alignment  its method and quality (info)
 ///   new_region   one per new region, with class and box (open when classed protrusion, else info)
 ///   lost_region  one per lost region, with box (open)
-std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& comparison, std::int64_t previous_version);
+std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& comparison,
+                                                      std::int64_t previous_version);
 
 /// A grid as a map: one fixed node at the origin carrying the whole grid as its local map (how imported
 /// maps are stored).

@@ -24,13 +24,13 @@ namespace analyzer {
 /// coordinates), far below what would make a version costly to keep or draw.
 struct MetadataLimits {
   std::size_t max_rooms = 256;
-  std::size_t max_room_runs = 1'000'000;  // run coordinates (x, y, count) over all rooms
-  std::size_t max_shapes = 1000;          // each of paths, virtual walls, zones
-  std::size_t max_points = 1000;          // point entities
+  std::size_t max_room_runs = 1'000'000;        // run coordinates (x, y, count) over all rooms
+  std::size_t max_shapes = 1000;                // each of paths, virtual walls, zones
+  std::size_t max_points = 1000;                // point entities
   std::size_t max_shape_coordinates = 200'000;  // over all paths, walls and zones
-  std::size_t max_text = 256;             // bytes of an id, name or type
+  std::size_t max_text = 256;                   // bytes of an id, name or type
   double max_abs_coordinate_m = 100'000.0;
-  int max_pixel = 1'000'000;              // |map pixel coordinates| and run lengths of rooms
+  int max_pixel = 1'000'000;  // |map pixel coordinates| and run lengths of rooms
 };
 
 /// The metadata of a ValetudoMap import: its segments as rooms (id, name, pixels), paths, virtual walls,

@@ -62,7 +62,8 @@ struct FindingInputs {
 ///   protrusion              regions the classifier called protrusion; resolved once the run's cells are cut
 ///   undone_merge            conditional merges the rerun undid (state "info": evidence, nothing to repair)
 ///   ambiguous_view          views marked ambiguous in the map, one finding for all (state "info")
-std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs, const FindingOptions& options = {});
+std::vector<fleet::v1::MapFinding> FindMapFindings(const FindingInputs& inputs,
+                                                   const FindingOptions& options = {});
 
 /// Re-optimises every component from a linear initialisation (repairs can move a component far).
 slamcore::Status Reoptimize(slamcore::Map& map);
@@ -71,15 +72,18 @@ slamcore::Status Reoptimize(slamcore::Map& map);
 /// what is missing) when there is nothing to repair, so a repair never makes a version equal to its base.
 ///
 /// Removes one observation edge (`view` disambiguates parallel edges) and re-optimises.
-slamcore::Result<slamcore::Map> RejectEdge(const slamcore::Map& map, slamcore::NodeId from, slamcore::NodeId to,
-                                           std::optional<slamcore::ViewId> view, std::string* detail);
+slamcore::Result<slamcore::Map> RejectEdge(const slamcore::Map& map, slamcore::NodeId from,
+                                           slamcore::NodeId to, std::optional<slamcore::ViewId> view,
+                                           std::string* detail);
 /// Removes every edge that hypothesis `hypothesis` of the run added (edges from `run_nodes` carrying that
 /// hypothesis id), splitting components again when it was a merge, and re-optimises.
-slamcore::Result<slamcore::Map> RejectHypothesis(const slamcore::Map& map, const std::set<slamcore::NodeId>& run_nodes,
+slamcore::Result<slamcore::Map> RejectHypothesis(const slamcore::Map& map,
+                                                 const std::set<slamcore::NodeId>& run_nodes,
                                                  std::int64_t hypothesis, std::string* detail);
 /// Marks unknown every cell the run's nodes' patches put inside `world_bbox` (min_x, min_y, max_x, max_y in
 /// the home frame), so the map there is what it was before the run.
-slamcore::Result<slamcore::Map> CutRegion(const slamcore::Map& map, const std::set<slamcore::NodeId>& run_nodes,
+slamcore::Result<slamcore::Map> CutRegion(const slamcore::Map& map,
+                                          const std::set<slamcore::NodeId>& run_nodes,
                                           const std::array<double, 4>& world_bbox, std::string* detail);
 
 /// A repair made on `base` (its result: `repaired`) applied again to `target`, a later version built on
@@ -95,8 +99,8 @@ slamcore::Result<slamcore::Map> CarryRepairForward(const slamcore::Map& base, co
 /// Export: ROS map_server files of the home grid ("<stem>.pgm", "<stem>.yaml"), the pose graph as g2o
 /// ("<stem>.g2o"), or the home grid as ValetudoMap JSON ("<stem>.json", WriteValetudoMap) with the rooms,
 /// entities and poses of `metadata` when given. INVALID_ARGUMENT for another format or an empty map.
-slamcore::Result<std::vector<fleet::v1::ExportedFile>> ExportMap(const slamcore::Map& map, const std::string& format,
-                                                                 const std::string& stem,
-                                                                 const fleet::v1::MapMetadata* metadata = nullptr);
+slamcore::Result<std::vector<fleet::v1::ExportedFile>> ExportMap(
+    const slamcore::Map& map, const std::string& format, const std::string& stem,
+    const fleet::v1::MapMetadata* metadata = nullptr);
 
 }  // namespace analyzer

@@ -20,7 +20,8 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
 
 /// Parses a JSON parameter set, e.g. {"name": "strict", "mapper": {"gate_chi2": 9.0}}, or a bare
 /// MapperParameters object ({"gate_chi2": 9.0}); `source` prefixes errors.
-slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json, const std::string& source);
+slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json,
+                                                                const std::string& source);
 slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string& path);
 
 }  // namespace analyzer

@@ -60,14 +60,16 @@ struct SlipTruth {
   std::vector<std::uint8_t> covered;
   std::vector<bool> region_is_protrusion;  // in the order of `regions`
 };
-slamcore::Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<slamcore::NodeId>& slipping_nodes,
+slamcore::Result<SlipTruth> SlipTruthOf(const slamcore::Map& child,
+                                        const std::set<slamcore::NodeId>& slipping_nodes,
                                         const ComparedGrids& grids,
                                         const std::vector<slamcore::ProtrusionRegion>& regions);
 
 /// RMS position error of `graph` against `truth`, each component aligned on its own (components have
 /// independent frames); nullopt when fewer than two nodes carry truth. `count`: the nodes compared.
 std::optional<double> ComponentwiseRmse(const slamcore::PoseGraph& graph,
-                                        const std::unordered_map<slamcore::NodeId, slamcore::SE2>& truth, int* count);
+                                        const std::unordered_map<slamcore::NodeId, slamcore::SE2>& truth,
+                                        int* count);
 
 /// A robot's home map in a graph of several components: the largest (ties: the one of the first node). The
 /// graph must have nodes.
@@ -78,6 +80,7 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<slamcore::No
 
 /// Fails (INVALID_ARGUMENT naming the field) when the run's telemetry is malformed, e.g. an event the
 /// Mapper refuses: "events[12]: ViewObservedEvent at t=3.5: view 7 does not exist".
-slamcore::Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options);
+slamcore::Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run,
+                                                  const AnalysisOptions& options);
 
 }  // namespace analyzer

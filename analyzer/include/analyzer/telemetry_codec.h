@@ -24,12 +24,13 @@ inline constexpr unsigned kTelemetryFormatVersion = 1;
 inline constexpr std::size_t kMaxIdLength = 128;            // robot, run, parameter-set ids; firmware, model
 inline constexpr double kEarliestRunSeconds = 946684800.0;  // 2000-01-01T00:00:00Z
 inline constexpr double kLatestRunSeconds = 4102444800.0;   // 2100-01-01T00:00:00Z
-inline constexpr double kMaxTimeSeconds = kLatestRunSeconds;  // event and node times: run-relative or absolute
-inline constexpr double kMinPatchResolution = 0.005;        // m/cell
-inline constexpr double kMaxPatchResolution = 1.0;          // m/cell
-inline constexpr int kMaxPatchSide = 2048;                  // cells
-inline constexpr double kMaxPatchExtent = 100.0;            // m on a side: a local patch, not a city
-inline constexpr int kMaxSnapshotNodes = 500000;            // also views and local maps
+inline constexpr double kMaxTimeSeconds =
+    kLatestRunSeconds;                                // event and node times: run-relative or absolute
+inline constexpr double kMinPatchResolution = 0.005;  // m/cell
+inline constexpr double kMaxPatchResolution = 1.0;    // m/cell
+inline constexpr int kMaxPatchSide = 2048;            // cells
+inline constexpr double kMaxPatchExtent = 100.0;      // m on a side: a local patch, not a city
+inline constexpr int kMaxSnapshotNodes = 500000;      // also views and local maps
 inline constexpr int kMaxSnapshotEdges = 2000000;
 inline constexpr std::int64_t kMaxSnapshotCells = 256LL << 20;  // all local maps of one snapshot
 
@@ -39,7 +40,8 @@ slamcore::Status ValidateId(const std::string& value, const std::string& field);
 slamcore::Status ValidateText(const std::string& value, const std::string& field);
 /// The path of the first (sub)message carrying fields this program does not know (e.g. bytes appended after
 /// a snapshot), or nullopt. Uploads refuse them: stored runs hold only what was understood.
-std::optional<std::string> FindUnknownField(const google::protobuf::Message& message, const std::string& field);
+std::optional<std::string> FindUnknownField(const google::protobuf::Message& message,
+                                            const std::string& field);
 /// 64 lowercase hex characters.
 bool IsSnapshotId(const std::string& value);
 

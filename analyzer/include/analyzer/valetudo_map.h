@@ -32,26 +32,26 @@ namespace analyzer {
 
 /// Limits on what an import accepts; the defaults are far above any real export.
 struct ValetudoLimits {
-  std::size_t max_input_bytes = 64u << 20;     // JSON or deflated bytes as read
-  std::size_t max_inflated_bytes = 256u << 20; // after zlib
-  int max_map_side = 20000;                    // size.x, size.y in map pixels (slamcore::kMaxGridSide)
-  std::int64_t max_layer_pixels = 50'000'000;  // pixels one layer may cover
+  std::size_t max_input_bytes = 64u << 20;      // JSON or deflated bytes as read
+  std::size_t max_inflated_bytes = 256u << 20;  // after zlib
+  int max_map_side = 20000;                     // size.x, size.y in map pixels (slamcore::kMaxGridSide)
+  std::int64_t max_layer_pixels = 50'000'000;   // pixels one layer may cover
   std::size_t max_layers = 1000;
   std::size_t max_entities = 10000;
-  std::size_t max_points = 1'000'000;          // coordinates in one entity
-  int grid_margin_px = 10;                     // unknown border around the layers' bounding box
+  std::size_t max_points = 1'000'000;  // coordinates in one entity
+  int grid_margin_px = 10;             // unknown border around the layers' bounding box
 };
 
 /// One layer: what it covers and what the file says about it.
 struct ValetudoLayer {
-  std::string type;                          // "floor", "segment" or "wall"
-  std::string segment_id;                    // segments: metaData.segmentId
-  std::string name;                          // segments: metaData.name when the user named the room
-  std::int64_t pixel_count = 0;              // distinct pixels the layer covers
-  std::int64_t area_cm2 = 0;                 // pixel_count · pixelSize²
-  std::optional<std::int64_t> declared_area_cm2;  // metaData.area as written in the file
+  std::string type;                                    // "floor", "segment" or "wall"
+  std::string segment_id;                              // segments: metaData.segmentId
+  std::string name;                                    // segments: metaData.name when the user named the room
+  std::int64_t pixel_count = 0;                        // distinct pixels the layer covers
+  std::int64_t area_cm2 = 0;                           // pixel_count · pixelSize²
+  std::optional<std::int64_t> declared_area_cm2;       // metaData.area as written in the file
   int min_px = 0, max_px = 0, min_py = 0, max_py = 0;  // bounding box in map pixels (when pixel_count > 0)
-  std::vector<int> runs;                     // segments: their pixels as runs along x (x, y, count, ...)
+  std::vector<int> runs;  // segments: their pixels as runs along x (x, y, count, ...)
 };
 
 /// A point entity (robot, dock, go-to target, obstacle): metres, yaw in radians in our frame.
@@ -68,19 +68,20 @@ struct ValetudoShape {
 };
 
 struct ValetudoMap {
-  int version = 0;            // metaData.version
-  int pixel_size_cm = 0;      // pixelSize
-  int size_x = 0, size_y = 0; // size, in map pixels
+  int version = 0;                                      // metaData.version
+  int pixel_size_cm = 0;                                // pixelSize
+  int size_x = 0, size_y = 0;                           // size, in map pixels
   std::optional<std::int64_t> declared_total_area_cm2;  // metaData.totalLayerArea
-  std::optional<std::int64_t> timestamp_ms;  // metaData.timestamp or timestamp (ISO 8601, or ms since the epoch)
+  std::optional<std::int64_t>
+      timestamp_ms;  // metaData.timestamp or timestamp (ISO 8601, or ms since the epoch)
   slamcore::OccupancyGrid grid;
-  std::vector<ValetudoLayer> layers;  // in file order
-  std::optional<ValetudoPose> robot;  // robot_position
-  std::optional<ValetudoPose> dock;   // charger_location
+  std::vector<ValetudoLayer> layers;       // in file order
+  std::optional<ValetudoPose> robot;       // robot_position
+  std::optional<ValetudoPose> dock;        // charger_location
   std::vector<ValetudoPose> other_points;  // go_to_target, obstacle, ...
   std::vector<ValetudoShape> paths;        // path and predicted_path
   std::vector<ValetudoShape> virtual_walls;
-  std::vector<ValetudoShape> zones;        // no_go_area, no_mop_area, active_zone, carpet, ...
+  std::vector<ValetudoShape> zones;  // no_go_area, no_mop_area, active_zone, carpet, ...
 
   /// Sum of the layers' areas of one type (cm²).
   std::int64_t AreaOf(std::string_view type) const;

@@ -52,7 +52,7 @@ bool Allows(Role role, Permission permission);
 struct Principal {
   std::string name;  // "robot:r1"
   Role role = Role::kRobot;
-  std::string id;    // "r1"
+  std::string id;  // "r1"
 };
 
 /// Parses and checks "robot:<id>" etc.; ids are 1..128 characters of [A-Za-z0-9_.-].
@@ -112,7 +112,8 @@ class Authenticator {
     std::chrono::steady_clock::time_point last;
   };
   std::optional<Principal> CachedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
-  void CacheLocked(const std::string& key, const Principal& principal, std::chrono::steady_clock::time_point now);
+  void CacheLocked(const std::string& key, const Principal& principal,
+                   std::chrono::steady_clock::time_point now);
   /// True when `key` has used up its failures (decays them first).
   bool BlockedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
   void RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now);
@@ -123,12 +124,12 @@ class Authenticator {
   storage::Repository& repository_;
   const std::chrono::seconds cache_ttl_;
   const std::chrono::milliseconds revocation_poll_;
-  std::mutex mutex_;  // guards cache_, recency_, failures_, the poll state below
+  std::mutex mutex_;                    // guards cache_, recency_, failures_, the poll state below
   std::int64_t credential_epoch_ = -1;  // -1: not polled yet (the first poll only reads the newest epoch)
   bool polling_ = false;
   std::chrono::steady_clock::time_point next_poll_{};
-  std::unordered_map<std::string, CacheEntry> cache_;  // key: SHA-256 of the token
-  std::list<std::string> recency_;                     // cache keys, most recently used first
+  std::unordered_map<std::string, CacheEntry> cache_;        // key: SHA-256 of the token
+  std::list<std::string> recency_;                           // cache keys, most recently used first
   std::unordered_map<std::string, FailureBucket> failures_;  // "principal:<name>" and "peer:<address>"
 };
 

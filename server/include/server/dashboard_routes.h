@@ -49,8 +49,8 @@
 namespace server {
 
 /// Adds the routes above to `router`. `repository` and `authenticator` must outlive the HTTP server.
-void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository, Authenticator& authenticator,
-                             const FleetdConfig& config);
+void RegisterDashboardRoutes(HttpRouter& router, storage::Repository& repository,
+                             Authenticator& authenticator, const FleetdConfig& config);
 /// The access rules of every HTTP route (server/src/http_access.cc, docs/formats/service.md "HTTP"): install
 /// with HttpRouter::SetGuard. `repository` and `authenticator` must outlive the HTTP server.
 HttpGuard MakeHttpAccessGuard(storage::Repository& repository, Authenticator& authenticator,

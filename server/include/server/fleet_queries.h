@@ -108,7 +108,7 @@ struct Comparison {
 double ChangeScore(const storage::ReportRecord& a, const storage::ReportRecord& b);
 
 struct JobsAnswer {
-  std::vector<storage::JobRecord> jobs;                         // newest first
+  std::vector<storage::JobRecord> jobs;                        // newest first
   std::vector<std::pair<std::string, std::int64_t>> analyses;  // upload analyses by state name
 };
 
@@ -134,7 +134,8 @@ class FleetQueries {
   storage::Result<Comparison> Compare(const Principal& caller, const storage::RunFilter& filter,
                                       const std::string& set_a, const std::string& set_b, std::size_t top);
   storage::Result<std::vector<storage::ProtrusionRegionRecord>> Labels(const Principal& caller,
-                                                                       const std::string& parameter_set, int limit);
+                                                                       const std::string& parameter_set,
+                                                                       int limit);
   /// Jobs of `kind` ("all": every kind), at most `limit`, newest first.
   storage::Result<JobsAnswer> Jobs(const Principal& caller, const std::string& kind, int limit);
 

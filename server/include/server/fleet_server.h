@@ -20,9 +20,9 @@ class FleetServer {
  public:
   /// Binds config.listen (port 0: a free port) and starts serving. `job_enqueued` wakes local workers.
   static slamcore::Result<std::unique_ptr<FleetServer>> Create(const FleetdConfig& config,
-                                                              storage::Repository& repository, Metrics& metrics,
-                                                              Authenticator& authenticator,
-                                                              std::function<void()> job_enqueued);
+                                                               storage::Repository& repository,
+                                                               Metrics& metrics, Authenticator& authenticator,
+                                                               std::function<void()> job_enqueued);
   ~FleetServer();
   /// "127.0.0.1:41234".
   std::string BoundAddress() const;

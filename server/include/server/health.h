@@ -44,9 +44,9 @@ class HealthMonitor {
   const std::function<void(bool)> on_change_;
   mutable std::mutex mutex_;  // guards probe_error_, stopping_, reported_
   std::condition_variable wake_;
-  std::string probe_error_;   // empty: the last probe succeeded
+  std::string probe_error_;  // empty: the last probe succeeded
   bool stopping_ = false;
-  int reported_ = -1;         // last state given to on_change_ (-1: none yet)
+  int reported_ = -1;  // last state given to on_change_ (-1: none yet)
   std::thread thread_;
 };
 

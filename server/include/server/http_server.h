@@ -25,10 +25,10 @@
 namespace server {
 
 struct HttpRequest {
-  std::string method;  // "GET", "POST", ...
-  std::string target;  // path and query, as sent
-  std::string path;    // target without the query
-  std::string query;   // after '?', undecoded
+  std::string method;                          // "GET", "POST", ...
+  std::string target;                          // path and query, as sent
+  std::string path;                            // target without the query
+  std::string query;                           // after '?', undecoded
   std::map<std::string, std::string> headers;  // lowercase names
   std::string body;
   std::string peer;  // the client's address, without the port
@@ -64,8 +64,8 @@ struct HttpServerOptions {
   /// Host names (or host:port) accepted in the Host header besides the bound address and "localhost"; the
   /// loopback addresses are accepted on a loopback binding, any IP literal on a wildcard (0.0.0.0) binding.
   std::vector<std::string> allowed_hosts;
-  int max_connections = 256;        // more are closed at once
-  int io_timeout_seconds = 30;      // a request must arrive, and a response leave, within this
+  int max_connections = 256;    // more are closed at once
+  int io_timeout_seconds = 30;  // a request must arrive, and a response leave, within this
 };
 
 class HttpServer {

@@ -135,7 +135,8 @@ class MapHistory {
 
   /// Versions oldest first, `current` marked; current_version 0 when none is approved; head_version: what
   /// repairs start from (the newest approved or pending version), 0 when none.
-  storage::Result<std::vector<fleet::v1::MapVersion>> List(const std::string& robot_id, std::int64_t* current_version,
+  storage::Result<std::vector<fleet::v1::MapVersion>> List(const std::string& robot_id,
+                                                           std::int64_t* current_version,
                                                            std::int64_t* head_version);
   /// `version` 0: the current one. With the snapshot when `snapshot` is not null.
   storage::Result<MapVersionDetail> Get(const std::string& robot_id, std::int64_t version,
@@ -148,26 +149,29 @@ class MapHistory {
   /// one's action, "carried forward from version N" in its detail), and the pending one becomes stale.
   /// FAILED_PRECONDITION, naming why, when it cannot be carried (a rollback or undo, a current version not
   /// built on the repair's base, or nothing of the repair still applies): reject it, or repair the current one.
-  storage::Result<fleet::v1::MapVersion> Review(const std::string& robot_id, std::int64_t version, bool approve,
-                                                const std::string& reviewed_by);
+  storage::Result<fleet::v1::MapVersion> Review(const std::string& robot_id, std::int64_t version,
+                                                bool approve, const std::string& reviewed_by);
   /// NOT_FOUND when the robot has no approved map. `snapshot` is filled unless up to date.
-  storage::Result<fleet::v1::MapVersion> Fetch(const std::string& robot_id, std::int64_t held_version, bool* up_to_date,
-                                               fleet::v1::MapSnapshot* snapshot);
+  storage::Result<fleet::v1::MapVersion> Fetch(const std::string& robot_id, std::int64_t held_version,
+                                               bool* up_to_date, fleet::v1::MapSnapshot* snapshot);
   /// The nodes of a version's `map` that `run_id` (the run the version's chain started from) added: only
   /// hypotheses of that run can be rejected as a whole.
-  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const storage::RunKey& run, const slamcore::Map& map);
+  storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const storage::RunKey& run,
+                                                              const slamcore::Map& map);
   /// A map made elsewhere becomes the robot's newest version (origin import, parent: the head version), approved
   /// when `approve`, else pending; the robot is registered when new. INVALID_ARGUMENT names what is wrong with
   /// the snapshot (it must hold at least one node with a local map) or the metadata (analyzer::ValidateMetadata);
   /// nothing is stored then. The metadata (rooms, path, poses, zones) is kept with the version. Its findings
   /// compare it with the head (analyzer::CompareGrids): alignment, new and lost regions.
-  storage::Result<fleet::v1::MapVersion> Import(const std::string& robot_id, const fleet::v1::MapSnapshot& snapshot,
-                                                const fleet::v1::MapMetadata& metadata, const std::string& source,
-                                                const std::string& reason, bool approve,
-                                                const std::string& requested_by);
+  storage::Result<fleet::v1::MapVersion> Import(const std::string& robot_id,
+                                                const fleet::v1::MapSnapshot& snapshot,
+                                                const fleet::v1::MapMetadata& metadata,
+                                                const std::string& source, const std::string& reason,
+                                                bool approve, const std::string& requested_by);
   /// `format` "map_server", "g2o" or "valetudo" (with the version's metadata); files are named
   /// "<robot>-v<version>.<ext>".
-  storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id, std::int64_t version,
+  storage::Result<std::vector<fleet::v1::ExportedFile>> Export(const std::string& robot_id,
+                                                               std::int64_t version,
                                                                const std::string& format);
 
  private:
@@ -177,7 +181,8 @@ class MapHistory {
                                                 std::int64_t finding_id);
   /// Repairs of a version without a run (an import, or a repair of one): rollback to the map before the
   /// import, or cut a new region of it back to the previous map's cells.
-  storage::Result<MapVersionDetail> RepairMapOnly(const RepairRequest& request, const storage::MapVersionRecord& base,
+  storage::Result<MapVersionDetail> RepairMapOnly(const RepairRequest& request,
+                                                  const storage::MapVersionRecord& base,
                                                   const std::vector<storage::MapVersionRecord>& versions);
   /// How a new version made from a base records what made it: a repair request's own, or a pending repair's
   /// carried onto a later version (Review).
@@ -187,9 +192,10 @@ class MapHistory {
     std::string detail;
     std::string created_by, reason;
     std::optional<std::string> approved_by;  // approved at once by; none: pending review
-    std::string requested_by;                // who asked (logged): the requester, or the reviewer of a carried repair
-    std::int64_t expected_head = 0;          // AppendMapVersion fails with ABORTED when the head moved from it
-    std::optional<std::int64_t> supersedes_pending;  // the carried repair, marked stale in the same transaction
+    std::string requested_by;        // who asked (logged): the requester, or the reviewer of a carried repair
+    std::int64_t expected_head = 0;  // AppendMapVersion fails with ABORTED when the head moved from it
+    std::optional<std::int64_t>
+        supersedes_pending;        // the carried repair, marked stale in the same transaction
     std::int64_t metadata_of = 0;  // the version whose metadata the new one keeps (whose map it derives from)
   };
   /// How the version that `request` makes (by `origin`; `detail`: what was done, in words) is recorded.
@@ -197,18 +203,19 @@ class MapHistory {
                                std::int64_t metadata_of);
   /// Appends `repaired` (stored as `snapshot_id`) as the new version made from `base`, recorded as `made`
   /// says, with `findings`.
-  storage::Result<MapVersionDetail> AppendRepair(const RepairRecord& made, const storage::MapVersionRecord& base,
-                                                 const slamcore::Map& repaired, const std::string& snapshot_id,
+  storage::Result<MapVersionDetail> AppendRepair(const RepairRecord& made,
+                                                 const storage::MapVersionRecord& base,
+                                                 const slamcore::Map& repaired,
+                                                 const std::string& snapshot_id,
                                                  const std::vector<fleet::v1::MapFinding>& findings);
   /// Review's approval of `pending` once `current` (newer) overtook it.
-  storage::Result<fleet::v1::MapVersion> ApproveOvertaken(const std::vector<storage::MapVersionRecord>& versions,
-                                                          const storage::MapVersionRecord& pending,
-                                                          const storage::MapVersionRecord& current,
-                                                          const std::string& reviewed_by);
+  storage::Result<fleet::v1::MapVersion> ApproveOvertaken(
+      const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& pending,
+      const storage::MapVersionRecord& current, const std::string& reviewed_by);
   /// Findings of a map-only version's `snapshot`: its comparison with `reference` (when there is one).
-  storage::Result<std::vector<fleet::v1::MapFinding>> MapOnlyFindings(const fleet::v1::MapSnapshot& snapshot,
-                                                                     const slamcore::Map& map,
-                                                                     const storage::MapVersionRecord* reference);
+  storage::Result<std::vector<fleet::v1::MapFinding>> MapOnlyFindings(
+      const fleet::v1::MapSnapshot& snapshot, const slamcore::Map& map,
+      const storage::MapVersionRecord* reference);
 
   storage::Repository& repository_;
   const MapPolicy policy_;

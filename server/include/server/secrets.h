@@ -16,6 +16,7 @@ namespace server {
 /// `min_length`; containing a placeholder word (change-me, placeholder, example, secret, password, …);
 /// a repetition of a shorter string ("abab…"); or below 80 bits by its character frequencies (length ×
 /// Shannon entropy per character; 32 random hex characters score ≈ 110).
-slamcore::Status CheckSecretStrength(const std::string& what, const std::string& secret, std::size_t min_length);
+slamcore::Status CheckSecretStrength(const std::string& what, const std::string& secret,
+                                     std::size_t min_length);
 
 }  // namespace server

@@ -28,13 +28,13 @@
 namespace server {
 
 struct WorkerOptions {
-  int threads = 1;                 // analysis threads
-  bool coordinator = true;         // also run reprocess jobs' coordination
-  std::string name = "fleetd";     // lease owner prefix: "<name>/<thread>"
+  int threads = 1;              // analysis threads
+  bool coordinator = true;      // also run reprocess jobs' coordination
+  std::string name = "fleetd";  // lease owner prefix: "<name>/<thread>"
   std::chrono::milliseconds lease{120000};
   double analysis_budget_seconds = 600.0;  // one analysis's replay and rendering; <= 0: no limit
   std::string model_name = "protrusion";
-  MapPolicy map_policy;            // what happens to a robot's map after its run is analysed
+  MapPolicy map_policy;  // what happens to a robot's map after its run is analysed
 };
 
 class WorkerPool {

@@ -12,13 +12,15 @@ void AuditCredentialChange(storage::Repository& repository, const std::string& a
                            const std::string& principal) {
   auto appended = repository.AppendAudit(storage::AuditEntry{0, 0, actor, action, principal, "{}"});
   if (!appended.ok()) {
-    log::Error("audit_failed", {{"action", action}, {"subject", principal}, {"error", appended.status().ToString()}});
+    log::Error("audit_failed",
+               {{"action", action}, {"subject", principal}, {"error", appended.status().ToString()}});
   }
 }
 
 }  // namespace
 
-grpc::Status AdminHandler::SetCredential(grpc::ServerContext* call, const fleet::v1::SetCredentialRequest* request,
+grpc::Status AdminHandler::SetCredential(grpc::ServerContext* call,
+                                         const fleet::v1::SetCredentialRequest* request,
                                          fleet::v1::SetCredentialResponse* response) {
   RpcScope scope(context_.metrics, "Admin/SetCredential");
   Principal caller;
@@ -78,7 +80,8 @@ grpc::Status AdminHandler::RevokeCredential(grpc::ServerContext* call,
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status AdminHandler::ListCredentials(grpc::ServerContext* call, const fleet::v1::ListCredentialsRequest* request,
+grpc::Status AdminHandler::ListCredentials(grpc::ServerContext* call,
+                                           const fleet::v1::ListCredentialsRequest* request,
                                            fleet::v1::ListCredentialsResponse* response) {
   RpcScope scope(context_.metrics, "Admin/ListCredentials");
   Principal caller;
@@ -93,15 +96,18 @@ grpc::Status AdminHandler::ListCredentials(grpc::ServerContext* call, const flee
   for (const storage::CredentialRecord& record : *credentials) {
     fleet::v1::Credential* out = response->add_credentials();
     out->set_principal(record.principal);
-    if (auto principal = ParsePrincipal(record.principal); principal.ok()) out->set_role(RoleName(principal->role));
+    if (auto principal = ParsePrincipal(record.principal); principal.ok())
+      out->set_role(RoleName(principal->role));
     out->set_updated_at(ToSeconds(record.updated_at_ms));
     out->set_revoked(record.revoked);
   }
-  if (static_cast<int>(credentials->size()) == page_size) response->set_next_page_token(credentials->back().principal);
+  if (static_cast<int>(credentials->size()) == page_size)
+    response->set_next_page_token(credentials->back().principal);
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status AdminHandler::DeleteRobot(grpc::ServerContext* call, const fleet::v1::DeleteRobotRequest* request,
+grpc::Status AdminHandler::DeleteRobot(grpc::ServerContext* call,
+                                       const fleet::v1::DeleteRobotRequest* request,
                                        fleet::v1::DeleteRobotResponse* response) {
   RpcScope scope(context_.metrics, "Admin/DeleteRobot");
   Principal caller;
@@ -140,14 +146,16 @@ grpc::Status AdminHandler::DeleteRobot(grpc::ServerContext* call, const fleet::v
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status AdminHandler::ListAuditLog(grpc::ServerContext* call, const fleet::v1::ListAuditLogRequest* request,
+grpc::Status AdminHandler::ListAuditLog(grpc::ServerContext* call,
+                                        const fleet::v1::ListAuditLogRequest* request,
                                         fleet::v1::ListAuditLogResponse* response) {
   RpcScope scope(context_.metrics, "Admin/ListAuditLog");
   Principal caller;
   if (grpc::Status denied = Authorize(context_, call, Permission::kAdmin, &caller); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (request->limit() < 0 || request->limit() > 1000) return scope.Done(InvalidArgument("limit: expected 0..1000"));
+  if (request->limit() < 0 || request->limit() > 1000)
+    return scope.Done(InvalidArgument("limit: expected 0..1000"));
   if (request->before_id() < 0) return scope.Done(InvalidArgument("before_id: must be >= 0"));
   std::optional<std::int64_t> before;
   if (request->before_id() > 0) before = request->before_id();

@@ -45,7 +45,8 @@ fleet::v1::RunFilter ToProto(const storage::RunFilter& filter) {
   out.set_robot_model(filter.robot_model);
   out.set_parameter_set(filter.parameter_set);
   if (filter.started_from_ms) out.set_started_from(static_cast<double>(*filter.started_from_ms) / 1000.0);
-  if (filter.started_before_ms) out.set_started_before(static_cast<double>(*filter.started_before_ms) / 1000.0);
+  if (filter.started_before_ms)
+    out.set_started_before(static_cast<double>(*filter.started_before_ms) / 1000.0);
   return out;
 }
 
@@ -83,7 +84,8 @@ fleet::v1::FleetFigures Delta(const fleet::v1::FleetFigures& a, const fleet::v1:
   f.set_recovery_accepted(b.recovery_accepted() - a.recovery_accepted());
   f.set_merge_created(b.merge_created() - a.merge_created());
   f.set_merge_conditionally_accepted(b.merge_conditionally_accepted() - a.merge_conditionally_accepted());
-  f.set_merge_conditional_then_rejected(b.merge_conditional_then_rejected() - a.merge_conditional_then_rejected());
+  f.set_merge_conditional_then_rejected(b.merge_conditional_then_rejected() -
+                                        a.merge_conditional_then_rejected());
   f.set_views_total(b.views_total() - a.views_total());
   f.set_views_ambiguous(b.views_ambiguous() - a.views_ambiguous());
   f.set_started_localized(b.started_localized() - a.started_localized());

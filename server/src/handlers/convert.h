@@ -19,5 +19,4 @@ fleet::v1::FleetFigures Delta(const fleet::v1::FleetFigures& a, const fleet::v1:
 fleet::v1::Job ToProto(const storage::JobRecord& job);
 fleet::v1::Region ToProto(const storage::ProtrusionRegionRecord& region);
 
-
 }  // namespace server

@@ -14,18 +14,22 @@ grpc::Status IngestHandler::UploadRun(grpc::ServerContext* call,
   grpc::Status status = Upload(call, reader, response);
   if (!status.ok()) {
     context_.metrics->Increment("fleetd_ingest_runs_total", "outcome=\"rejected\"");
-    log::Info("upload_rejected", {{"code", static_cast<int>(status.error_code())}, {"error", status.error_message()}});
+    log::Info("upload_rejected",
+              {{"code", static_cast<int>(status.error_code())}, {"error", status.error_message()}});
   }
   return scope.Done(status);
 }
 
-grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader<fleet::v1::UploadRunRequest>* reader,
+grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
+                                   grpc::ServerReader<fleet::v1::UploadRunRequest>* reader,
                                    fleet::v1::UploadRunResponse* response) {
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kUpload, &principal); !denied.ok()) return denied;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kUpload, &principal); !denied.ok())
+    return denied;
   IngestAdmission::Ticket in_flight;  // this stream's slot and buffered bytes, given back when the call ends
   if (context_.admission != nullptr) {
-    if (grpc::Status refused = context_.admission->Admit(principal.name, in_flight); !refused.ok()) return refused;
+    if (grpc::Status refused = context_.admission->Admit(principal.name, in_flight); !refused.ok())
+      return refused;
   }
 
   fleet::v1::RunFile run;
@@ -39,15 +43,16 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
     // Limits a run can never fit are INVALID_ARGUMENT (clients do not retry); a full server is
     // RESOURCE_EXHAUSTED (clients retry later).
     if (bytes > context_.limits.max_run_bytes) {
-      return InvalidArgument(where + ": upload exceeds max_run_bytes (" + std::to_string(context_.limits.max_run_bytes) +
-                             "); nothing was stored");
+      return InvalidArgument(where + ": upload exceeds max_run_bytes (" +
+                             std::to_string(context_.limits.max_run_bytes) + "); nothing was stored");
     }
     if (context_.admission != nullptr) {
       if (grpc::Status refused = in_flight.Reserve(message_bytes); !refused.ok()) return refused;
     }
     if (have_child) return InvalidArgument(where + ": nothing may follow child_snapshot");
     if (auto unknown = analyzer::FindUnknownField(message, where)) {
-      return InvalidArgument(*unknown + ": carries bytes that are no field of fleet.v1 (trailing or unknown data)");
+      return InvalidArgument(*unknown +
+                             ": carries bytes that are no field of fleet.v1 (trailing or unknown data)");
     }
     if (!have_header && message.part_case() != fleet::v1::UploadRunRequest::kHeader) {
       return InvalidArgument(where + ": the first message must be a header");
@@ -59,9 +64,9 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
           return InvalidArgument(valid.message());
         }
         if (principal.role == Role::kRobot && message.header().robot_id() != principal.id) {
-          return {grpc::StatusCode::PERMISSION_DENIED,
-                  "header.robot_id: " + principal.name + " may upload only its own runs, not robot \"" +
-                      message.header().robot_id() + "\""};
+          return {grpc::StatusCode::PERMISSION_DENIED, "header.robot_id: " + principal.name +
+                                                           " may upload only its own runs, not robot \"" +
+                                                           message.header().robot_id() + "\""};
         }
         if (message.header().event_count() > static_cast<std::uint64_t>(context_.limits.max_events_per_run)) {
           return InvalidArgument("header.event_count: " + std::to_string(message.header().event_count()) +
@@ -94,15 +99,18 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
         return InvalidArgument(where + ": empty message (no header, events or snapshot set)");
     }
   }
-  if (call->IsCancelled()) return {grpc::StatusCode::CANCELLED, "upload cancelled by the client; nothing stored"};
+  if (call->IsCancelled())
+    return {grpc::StatusCode::CANCELLED, "upload cancelled by the client; nothing stored"};
   if (!have_header) return InvalidArgument("header: the stream carried no messages");
-  if (!have_child) return InvalidArgument("child_snapshot: missing; the stream ended without it and nothing was stored");
+  if (!have_child)
+    return InvalidArgument("child_snapshot: missing; the stream ended without it and nothing was stored");
 
   // Validate everything before storing anything.
   fleet::v1::RunHeader& header = *run.mutable_header();
   if (header.event_count() != static_cast<std::uint64_t>(run.events_size())) {
-    return InvalidArgument("header.event_count: the header announces " + std::to_string(header.event_count()) +
-                           " events, the stream carried " + std::to_string(run.events_size()));
+    return InvalidArgument("header.event_count: the header announces " +
+                           std::to_string(header.event_count()) + " events, the stream carried " +
+                           std::to_string(run.events_size()));
   }
   if (auto events = analyzer::FromProto(run.events(), "events"); !events.ok()) {
     return InvalidArgument(events.status().message());
@@ -122,8 +130,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
     parent_bytes = analyzer::SerializeDeterministic(run.parent_snapshot());
     parent_id = Sha256Hex(parent_bytes);
     if (!header.parent_snapshot_id().empty() && header.parent_snapshot_id() != parent_id) {
-      return InvalidArgument("parent_snapshot: its SHA-256 " + parent_id + " differs from header.parent_snapshot_id " +
-                             header.parent_snapshot_id());
+      return InvalidArgument("parent_snapshot: its SHA-256 " + parent_id +
+                             " differs from header.parent_snapshot_id " + header.parent_snapshot_id());
     }
   } else if (!header.parent_snapshot_id().empty()) {
     parent_id = header.parent_snapshot_id();
@@ -135,8 +143,9 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
                                     "; send parent_snapshot in the stream"};
     auto versions = context_.repository->ListMapVersions(header.robot_id());
     if (!versions.ok()) return ToGrpc(versions.status());
-    if (std::none_of(versions->begin(), versions->end(),
-                     [&](const storage::MapVersionRecord& version) { return version.snapshot_id == parent_id; })) {
+    if (std::none_of(versions->begin(), versions->end(), [&](const storage::MapVersionRecord& version) {
+          return version.snapshot_id == parent_id;
+        })) {
       return not_held;
     }
     auto stored = context_.repository->GetSnapshot(parent_id);
@@ -189,16 +198,16 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   }
   if (!inserted.ok()) {
     if (inserted.status().code() == storage::StatusCode::kAlreadyExists) {
-      return {grpc::StatusCode::ALREADY_EXISTS,
-              "header.run_id: run \"" + record.run_id + "\" of robot " + record.robot_id +
-                  " is stored with a different payload"};
+      return {grpc::StatusCode::ALREADY_EXISTS, "header.run_id: run \"" + record.run_id + "\" of robot " +
+                                                    record.robot_id + " is stored with a different payload"};
     }
     return ToGrpc(inserted.status());
   }
   const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
   // The child map becomes a version of the robot's map; also on a retry, in case the first attempt stored the
   // run but failed before this (RecordUpload is idempotent by run id).
-  auto map = MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map, principal.name);
+  auto map =
+      MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map, principal.name);
   if (!map.ok()) return ToGrpc(map.status());
   response->set_run_id(record.run_id);
   response->set_already_present(already);
@@ -209,7 +218,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call, grpc::ServerReader
   response->set_map_version(map->version);
   response->set_current_map_version(map->current_version);
   response->set_map_outdated(map->outdated);
-  context_.metrics->Increment("fleetd_ingest_runs_total", already ? "outcome=\"already_present\"" : "outcome=\"stored\"");
+  context_.metrics->Increment("fleetd_ingest_runs_total",
+                              already ? "outcome=\"already_present\"" : "outcome=\"stored\"");
   context_.metrics->Increment("fleetd_ingest_bytes_total", "", static_cast<double>(bytes));
   if (!already) {
     context_.metrics->Increment("fleetd_ingest_events_total", "", telemetry.events_size());

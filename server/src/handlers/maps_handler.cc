@@ -4,11 +4,13 @@
 
 namespace server {
 
-grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call, const fleet::v1::ListMapVersionsRequest* request,
+grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call,
+                                          const fleet::v1::ListMapVersionsRequest* request,
                                           fleet::v1::ListMapVersionsResponse* response) {
   RpcScope scope(context_.metrics, "Maps/ListMapVersions");
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return scope.Done(denied);
   if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
     return scope.Done(InvalidArgument(bad.message()));
   }
@@ -21,11 +23,13 @@ grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call, const fleet
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status MapsHandler::GetMapVersion(grpc::ServerContext* call, const fleet::v1::GetMapVersionRequest* request,
+grpc::Status MapsHandler::GetMapVersion(grpc::ServerContext* call,
+                                        const fleet::v1::GetMapVersionRequest* request,
                                         fleet::v1::GetMapVersionResponse* response) {
   RpcScope scope(context_.metrics, "Maps/GetMapVersion");
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return scope.Done(denied);
   if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
     return scope.Done(InvalidArgument(bad.message()));
   }
@@ -48,7 +52,8 @@ grpc::Status MapsHandler::RepairMap(grpc::ServerContext* call, const fleet::v1::
   if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
     return scope.Done(InvalidArgument(bad.message()));
   }
-  if (request->base_version() <= 0) return scope.Done(InvalidArgument("base_version: required (the version repaired)"));
+  if (request->base_version() <= 0)
+    return scope.Done(InvalidArgument("base_version: required (the version repaired)"));
   RepairRequest repair;
   repair.robot_id = request->robot_id();
   repair.base_version = request->base_version();
@@ -69,7 +74,8 @@ grpc::Status MapsHandler::RepairMap(grpc::ServerContext* call, const fleet::v1::
     case fleet::v1::RepairMapRequest::kRollback: repair.action = Rollback{}; break;
     case fleet::v1::RepairMapRequest::kUndo: repair.action = Undo{}; break;
     case fleet::v1::RepairMapRequest::ACTION_NOT_SET:
-      return scope.Done(InvalidArgument("action: set one of reject_edge, reject_hypothesis, cut_finding, rollback, undo"));
+      return scope.Done(
+          InvalidArgument("action: set one of reject_edge, reject_hypothesis, cut_finding, rollback, undo"));
   }
   auto repaired = history_.Repair(repair);
   if (!repaired.ok()) return scope.Done(ToGrpc(repaired.status()));
@@ -78,7 +84,8 @@ grpc::Status MapsHandler::RepairMap(grpc::ServerContext* call, const fleet::v1::
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status MapsHandler::ReviewMapVersion(grpc::ServerContext* call, const fleet::v1::ReviewMapVersionRequest* request,
+grpc::Status MapsHandler::ReviewMapVersion(grpc::ServerContext* call,
+                                           const fleet::v1::ReviewMapVersionRequest* request,
                                            fleet::v1::MapVersion* response) {
   RpcScope scope(context_.metrics, "Maps/ReviewMapVersion");
   Principal principal;
@@ -89,7 +96,8 @@ grpc::Status MapsHandler::ReviewMapVersion(grpc::ServerContext* call, const flee
     return scope.Done(InvalidArgument(bad.message()));
   }
   if (request->version() <= 0) return scope.Done(InvalidArgument("version: required"));
-  auto reviewed = history_.Review(request->robot_id(), request->version(), request->approve(), principal.name);
+  auto reviewed =
+      history_.Review(request->robot_id(), request->version(), request->approve(), principal.name);
   if (!reviewed.ok()) return scope.Done(ToGrpc(reviewed.status()));
   *response = std::move(reviewed).value();
   return scope.Done(grpc::Status::OK);
@@ -106,11 +114,13 @@ grpc::Status MapsHandler::GetMap(grpc::ServerContext* call, const fleet::v1::Get
     return scope.Done(InvalidArgument(bad.message()));
   }
   if (principal.role == Role::kRobot && principal.id != request->robot_id()) {
-    return scope.Done({grpc::StatusCode::PERMISSION_DENIED,
-                       principal.name + " may fetch only its own map, not robot " + request->robot_id() + "'s"});
+    return scope.Done(
+        {grpc::StatusCode::PERMISSION_DENIED,
+         principal.name + " may fetch only its own map, not robot " + request->robot_id() + "'s"});
   }
   bool up_to_date = false;
-  auto current = history_.Fetch(request->robot_id(), request->held_version(), &up_to_date, response->mutable_snapshot());
+  auto current =
+      history_.Fetch(request->robot_id(), request->held_version(), &up_to_date, response->mutable_snapshot());
   if (!current.ok()) return scope.Done(ToGrpc(current.status()));
   response->set_up_to_date(up_to_date);
   *response->mutable_version() = std::move(current).value();
@@ -121,7 +131,8 @@ grpc::Status MapsHandler::ExportMap(grpc::ServerContext* call, const fleet::v1::
                                     fleet::v1::ExportMapResponse* response) {
   RpcScope scope(context_.metrics, "Maps/ExportMap");
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return scope.Done(denied);
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return scope.Done(denied);
   if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
     return scope.Done(InvalidArgument(bad.message()));
   }
@@ -144,8 +155,8 @@ grpc::Status MapsHandler::ImportMap(grpc::ServerContext* call, const fleet::v1::
   if (!request->has_snapshot()) return scope.Done(InvalidArgument("snapshot: required (the imported map)"));
   if (request->source().size() > 1024) return scope.Done(InvalidArgument("source: longer than 1024 bytes"));
   if (request->reason().size() > 4096) return scope.Done(InvalidArgument("reason: longer than 4096 bytes"));
-  auto imported = history_.Import(request->robot_id(), request->snapshot(), request->metadata(), request->source(),
-                                  request->reason(), request->approve(), principal.name);
+  auto imported = history_.Import(request->robot_id(), request->snapshot(), request->metadata(),
+                                  request->source(), request->reason(), request->approve(), principal.name);
   if (!imported.ok()) return scope.Done(ToGrpc(imported.status()));
   *response->mutable_version() = std::move(imported).value();
   return scope.Done(grpc::Status::OK);

@@ -10,7 +10,8 @@ namespace server {
 
 class MapsHandler final : public fleet::v1::Maps::Service {
  public:
-  explicit MapsHandler(ServiceContext& context) : context_(context), history_(*context.repository, context.map_policy) {}
+  explicit MapsHandler(ServiceContext& context)
+      : context_(context), history_(*context.repository, context.map_policy) {}
   grpc::Status ListMapVersions(grpc::ServerContext* call, const fleet::v1::ListMapVersionsRequest* request,
                                fleet::v1::ListMapVersionsResponse* response) override;
   grpc::Status GetMapVersion(grpc::ServerContext* call, const fleet::v1::GetMapVersionRequest* request,

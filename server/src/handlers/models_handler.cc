@@ -13,14 +13,14 @@ namespace {
 
 bool ValidName(const std::string& name) {
   return !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-           c == '.';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.';
   });
 }
 
 /// Labelled regions as training rows (features in ProtrusionFeatureNames() order; group = run).
 storage::Result<std::vector<slamcore::LabelledRegion>> LabelledData(storage::Repository& repository,
-                                                                   const std::string& parameter_set) {
+                                                                    const std::string& parameter_set) {
   ASSIGN_OR_RETURN(auto regions, repository.ListLabelledRegions(parameter_set, 1000000));
   const auto& names = slamcore::ProtrusionFeatureNames();
   std::vector<slamcore::LabelledRegion> data;
@@ -60,8 +60,8 @@ void Fill(const slamcore::ConfusionMatrix& confusion, int folds, fleet::v1::Eval
   out->set_folds(folds);
 }
 
-void Describe(const slamcore::ProtrusionClassifier& classifier, const storage::ModelRecord& record, bool active,
-              fleet::v1::Model* out) {
+void Describe(const slamcore::ProtrusionClassifier& classifier, const storage::ModelRecord& record,
+              bool active, fleet::v1::Model* out) {
   out->set_name(record.name);
   out->set_version(record.version);
   out->set_active(active);
@@ -76,9 +76,9 @@ void Describe(const slamcore::ProtrusionClassifier& classifier, const storage::M
 }
 
 grpc::Status ModelNotFound(const std::string& name, std::int64_t version) {
-  return {grpc::StatusCode::NOT_FOUND, version == 0 ? "name: model \"" + name + "\" has no active version"
-                                                    : "version: model \"" + name + "\" has no version " +
-                                                          std::to_string(version)};
+  return {grpc::StatusCode::NOT_FOUND,
+          version == 0 ? "name: model \"" + name + "\" has no active version"
+                       : "version: model \"" + name + "\" has no version " + std::to_string(version)};
 }
 
 }  // namespace
@@ -100,13 +100,15 @@ grpc::Status ModelsHandler::TrainModel(grpc::ServerContext* call, const fleet::v
   return scope.Done(status);
 }
 
-grpc::Status ModelsHandler::DoTrain(const fleet::v1::TrainModelRequest* request, fleet::v1::TrainModelResponse* response) {
+grpc::Status ModelsHandler::DoTrain(const fleet::v1::TrainModelRequest* request,
+                                    fleet::v1::TrainModelResponse* response) {
   if (!ValidName(request->name())) return InvalidArgument("name: 1-64 characters of [A-Za-z0-9_.-] required");
   slamcore::ClassifierOptions options;
   if (!request->classifier().empty()) {
     auto kind = slamcore::ParseClassifierKind(request->classifier());
     if (!kind.ok()) {
-      return InvalidArgument("classifier: unknown \"" + request->classifier() + "\" (decision_tree, random_forest, svm)");
+      return InvalidArgument("classifier: unknown \"" + request->classifier() +
+                             "\" (decision_tree, random_forest, svm)");
     }
     options.kind = *kind;
   }
@@ -119,7 +121,8 @@ grpc::Status ModelsHandler::DoTrain(const fleet::v1::TrainModelRequest* request,
     }
     options.selected_features.push_back(static_cast<int>(it - names.begin()));
   }
-  if (request->threshold() < 0 || request->threshold() >= 1) return InvalidArgument("threshold: expected [0, 1)");
+  if (request->threshold() < 0 || request->threshold() >= 1)
+    return InvalidArgument("threshold: expected [0, 1)");
   if (request->threshold() > 0) options.threshold = request->threshold();
   if (request->folds() < 0 || request->folds() == 1 || request->folds() > 20) {
     return InvalidArgument("folds: expected 0 (default 5) or 2..20");
@@ -134,11 +137,13 @@ grpc::Status ModelsHandler::DoTrain(const fleet::v1::TrainModelRequest* request,
   }
   const long negatives = static_cast<long>(data->size()) - positives;
   if (positives == 0 || negatives == 0) {
-    return {grpc::StatusCode::FAILED_PRECONDITION,
-            "labelled regions: training needs both classes; have " + std::to_string(positives) + " protrusion and " +
-                std::to_string(negatives) + " new_space (label more with Labels.LabelRegion)"};
+    return {grpc::StatusCode::FAILED_PRECONDITION, "labelled regions: training needs both classes; have " +
+                                                       std::to_string(positives) + " protrusion and " +
+                                                       std::to_string(negatives) +
+                                                       " new_space (label more with Labels.LabelRegion)"};
   }
-  const int folds = std::min<int>(request->folds() == 0 ? 5 : request->folds(), static_cast<int>(groups.size()));
+  const int folds =
+      std::min<int>(request->folds() == 0 ? 5 : request->folds(), static_cast<int>(groups.size()));
   if (folds >= 2) {
     auto validated = slamcore::CrossValidate(*data, options, folds);
     if (validated.ok()) Fill(validated->confusion, validated->folds, response->mutable_cross_validation());
@@ -165,7 +170,8 @@ grpc::Status ModelsHandler::DoTrain(const fleet::v1::TrainModelRequest* request,
   return grpc::Status::OK;
 }
 
-grpc::Status ModelsHandler::EvaluateModel(grpc::ServerContext* call, const fleet::v1::EvaluateModelRequest* request,
+grpc::Status ModelsHandler::EvaluateModel(grpc::ServerContext* call,
+                                          const fleet::v1::EvaluateModelRequest* request,
                                           fleet::v1::EvaluateModelResponse* response) {
   RpcScope scope(context_.metrics, "Models/EvaluateModel");
   Principal principal;
@@ -180,9 +186,10 @@ grpc::Status ModelsHandler::DoEvaluate(const fleet::v1::EvaluateModelRequest* re
   if (!ValidName(request->name())) return InvalidArgument("name: 1-64 characters of [A-Za-z0-9_.-] required");
   if (request->version() < 0) return InvalidArgument("version: must be >= 0 (0: the active version)");
   auto record = request->version() == 0 ? context_.repository->GetActiveModel(request->name())
-                                         : context_.repository->GetModel(request->name(), request->version());
+                                        : context_.repository->GetModel(request->name(), request->version());
   if (!record.ok()) {
-    if (record.status().code() == storage::StatusCode::kNotFound) return ModelNotFound(request->name(), request->version());
+    if (record.status().code() == storage::StatusCode::kNotFound)
+      return ModelNotFound(request->name(), request->version());
     return ToGrpc(record.status());
   }
   auto classifier = LoadClassifier(record->bytes);
@@ -196,20 +203,23 @@ grpc::Status ModelsHandler::DoEvaluate(const fleet::v1::EvaluateModelRequest* re
     confusion.Add(row.label == 1, (*classifier)->IsProtrusion(*probability));
   }
   auto active = context_.repository->GetActiveModel(request->name());
-  Describe(**classifier, *record, active.ok() && active->version == record->version, response->mutable_model());
+  Describe(**classifier, *record, active.ok() && active->version == record->version,
+           response->mutable_model());
   Fill(confusion, 0, response->mutable_evaluation());
   response->set_regions(static_cast<std::int64_t>(data->size()));
   return grpc::Status::OK;
 }
 
-grpc::Status ModelsHandler::ActivateModel(grpc::ServerContext* call, const fleet::v1::ActivateModelRequest* request,
+grpc::Status ModelsHandler::ActivateModel(grpc::ServerContext* call,
+                                          const fleet::v1::ActivateModelRequest* request,
                                           fleet::v1::Model* response) {
   RpcScope scope(context_.metrics, "Models/ActivateModel");
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kModels, &principal); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (!ValidName(request->name())) return scope.Done(InvalidArgument("name: 1-64 characters of [A-Za-z0-9_.-] required"));
+  if (!ValidName(request->name()))
+    return scope.Done(InvalidArgument("name: 1-64 characters of [A-Za-z0-9_.-] required"));
   if (request->version() <= 0) return scope.Done(InvalidArgument("version: must be positive"));
   auto record = context_.repository->GetModel(request->name(), request->version());
   if (!record.ok()) {

@@ -23,7 +23,8 @@ class ModelsHandler final : public fleet::v1::Models::Service {
 
  private:
   grpc::Status DoTrain(const fleet::v1::TrainModelRequest* request, fleet::v1::TrainModelResponse* response);
-  grpc::Status DoEvaluate(const fleet::v1::EvaluateModelRequest* request, fleet::v1::EvaluateModelResponse* response);
+  grpc::Status DoEvaluate(const fleet::v1::EvaluateModelRequest* request,
+                          fleet::v1::EvaluateModelResponse* response);
   ServiceContext& context_;
   std::mutex train_mutex_;  // one training at a time per process: versions are assigned by probing
 };

@@ -1,6 +1,5 @@
 #include "queries_handler.h"
 
-
 #include "convert.h"
 
 namespace server {
@@ -48,18 +47,22 @@ fleet::v1::ReportCounts Counts(const storage::ReportRecord& report) {
 
 }  // namespace
 
-grpc::Status QueriesHandler::GetRunReport(grpc::ServerContext* call, const fleet::v1::GetRunReportRequest* request,
+grpc::Status QueriesHandler::GetRunReport(grpc::ServerContext* call,
+                                          const fleet::v1::GetRunReportRequest* request,
                                           fleet::v1::GetRunReportResponse* response) {
   RpcScope scope(context_.metrics, "Queries/GetRunReport");
   return scope.Done(DoGetRunReport(call, request, response));
 }
 
-grpc::Status QueriesHandler::DoGetRunReport(grpc::ServerContext* call, const fleet::v1::GetRunReportRequest* request,
+grpc::Status QueriesHandler::DoGetRunReport(grpc::ServerContext* call,
+                                            const fleet::v1::GetRunReportRequest* request,
                                             fleet::v1::GetRunReportResponse* response) {
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return denied;
   if (request->run_id().empty()) return InvalidArgument("run_id: required");
-  const std::string set = request->parameter_set().empty() ? context_.default_parameter_set : request->parameter_set();
+  const std::string set =
+      request->parameter_set().empty() ? context_.default_parameter_set : request->parameter_set();
   auto key = queries_.Run(principal, request->robot_id(), request->run_id());
   if (!key.ok()) return ToGrpc(key.status());
   auto report = queries_.Report(*key, set);
@@ -78,8 +81,10 @@ grpc::Status QueriesHandler::ListRuns(grpc::ServerContext* call, const fleet::v1
 grpc::Status QueriesHandler::DoListRuns(grpc::ServerContext* call, const fleet::v1::ListRunsRequest* request,
                                         fleet::v1::ListRunsResponse* response) {
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
-  if (request->page_size() < 0 || request->page_size() > 1000) return InvalidArgument("page_size: expected 0..1000");
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return denied;
+  if (request->page_size() < 0 || request->page_size() > 1000)
+    return InvalidArgument("page_size: expected 0..1000");
   const int page_size = request->page_size() == 0 ? 100 : request->page_size();
   auto filter = FromProto(request->filter(), "filter");
   if (!filter.ok()) return ToGrpc(filter.status());
@@ -121,10 +126,12 @@ grpc::Status QueriesHandler::GetFleetStatistics(grpc::ServerContext* call,
   return scope.Done(DoStatistics(call, request, response));
 }
 
-grpc::Status QueriesHandler::DoStatistics(grpc::ServerContext* call, const fleet::v1::GetFleetStatisticsRequest* request,
+grpc::Status QueriesHandler::DoStatistics(grpc::ServerContext* call,
+                                          const fleet::v1::GetFleetStatisticsRequest* request,
                                           fleet::v1::GetFleetStatisticsResponse* response) {
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return denied;
   auto filter = FromProto(request->filter(), "filter");
   if (!filter.ok()) return ToGrpc(filter.status());
   std::optional<storage::GroupBy> group_by;
@@ -155,10 +162,12 @@ grpc::Status QueriesHandler::CompareParameterSets(grpc::ServerContext* call,
   return scope.Done(DoCompare(call, request, response));
 }
 
-grpc::Status QueriesHandler::DoCompare(grpc::ServerContext* call, const fleet::v1::CompareParameterSetsRequest* request,
+grpc::Status QueriesHandler::DoCompare(grpc::ServerContext* call,
+                                       const fleet::v1::CompareParameterSetsRequest* request,
                                        fleet::v1::CompareParameterSetsResponse* response) {
   Principal principal;
-  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) return denied;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return denied;
   if (request->top() < 0 || request->top() > 1000) return InvalidArgument("top: expected 0..1000");
   auto filter = FromProto(request->filter(), "filter");
   if (!filter.ok()) return ToGrpc(filter.status());

@@ -16,9 +16,11 @@ class QueriesHandler final : public fleet::v1::Queries::Service {
                             fleet::v1::GetRunReportResponse* response) override;
   grpc::Status ListRuns(grpc::ServerContext* call, const fleet::v1::ListRunsRequest* request,
                         fleet::v1::ListRunsResponse* response) override;
-  grpc::Status GetFleetStatistics(grpc::ServerContext* call, const fleet::v1::GetFleetStatisticsRequest* request,
+  grpc::Status GetFleetStatistics(grpc::ServerContext* call,
+                                  const fleet::v1::GetFleetStatisticsRequest* request,
                                   fleet::v1::GetFleetStatisticsResponse* response) override;
-  grpc::Status CompareParameterSets(grpc::ServerContext* call, const fleet::v1::CompareParameterSetsRequest* request,
+  grpc::Status CompareParameterSets(grpc::ServerContext* call,
+                                    const fleet::v1::CompareParameterSetsRequest* request,
                                     fleet::v1::CompareParameterSetsResponse* response) override;
 
  private:

@@ -14,19 +14,23 @@ namespace {
 
 bool ValidName(const std::string& name) {
   return !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-           c == '.';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.';
   });
 }
 
-bool Terminal(const std::string& state) { return state == "done" || state == "failed" || state == "cancelled"; }
+bool Terminal(const std::string& state) {
+  return state == "done" || state == "failed" || state == "cancelled";
+}
 
 }  // namespace
 
-grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& repository, const fleet::v1::ParameterSet& set,
+grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& repository,
+                                                    const fleet::v1::ParameterSet& set,
                                                     const std::string& field, bool* already_present) {
   if (!ValidName(set.name())) {
-    return InvalidArgument(field + ".name: 1-64 characters of [A-Za-z0-9_.-] required, got \"" + set.name() + "\"");
+    return InvalidArgument(field + ".name: 1-64 characters of [A-Za-z0-9_.-] required, got \"" + set.name() +
+                           "\"");
   }
   if (auto mapper = analyzer::FromProto(set.mapper()); !mapper.ok()) {
     return InvalidArgument(field + ".mapper: " + mapper.status().message());
@@ -37,8 +41,9 @@ grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& reposit
   auto stored = repository.PutParameterSet(record);
   if (!stored.ok()) {
     if (stored.status().code() == storage::StatusCode::kAlreadyExists) {
-      return {grpc::StatusCode::ALREADY_EXISTS, field + ".name: parameter set \"" + set.name() +
-                                                    "\" is stored with other values; sets are immutable, pick a new name"};
+      return {grpc::StatusCode::ALREADY_EXISTS,
+              field + ".name: parameter set \"" + set.name() +
+                  "\" is stored with other values; sets are immutable, pick a new name"};
     }
     return ToGrpc(stored.status());
   }
@@ -56,10 +61,12 @@ grpc::Status ReprocessingHandler::PutParameterSet(grpc::ServerContext* call,
   }
   if (!request->has_parameter_set()) return scope.Done(InvalidArgument("parameter_set: required"));
   bool already = false;
-  grpc::Status status = StoreParameterSet(*context_.repository, request->parameter_set(), "parameter_set", &already);
+  grpc::Status status =
+      StoreParameterSet(*context_.repository, request->parameter_set(), "parameter_set", &already);
   if (status.ok()) {
     response->set_already_present(already);
-    log::Info("parameter_set_stored", {{"name", request->parameter_set().name()}, {"principal", principal.name}});
+    log::Info("parameter_set_stored",
+              {{"name", request->parameter_set().name()}, {"principal", principal.name}});
   }
   return scope.Done(status);
 }
@@ -97,7 +104,8 @@ grpc::Status ReprocessingHandler::LoadJob(std::int64_t job_id, fleet::v1::Job* j
   return grpc::Status::OK;
 }
 
-grpc::Status ReprocessingHandler::StartJob(grpc::ServerContext* call, const fleet::v1::StartJobRequest* request,
+grpc::Status ReprocessingHandler::StartJob(grpc::ServerContext* call,
+                                           const fleet::v1::StartJobRequest* request,
                                            fleet::v1::Job* response) {
   RpcScope scope(context_.metrics, "Reprocessing/StartJob");
   Principal principal;
@@ -108,7 +116,8 @@ grpc::Status ReprocessingHandler::StartJob(grpc::ServerContext* call, const flee
   auto stored = context_.repository->GetParameterSet(request->parameter_set());
   if (!stored.ok()) {
     if (stored.status().code() == storage::StatusCode::kNotFound) {
-      return scope.Done({grpc::StatusCode::NOT_FOUND, "parameter_set: no parameter set \"" + request->parameter_set() +
+      return scope.Done({grpc::StatusCode::NOT_FOUND, "parameter_set: no parameter set \"" +
+                                                          request->parameter_set() +
                                                           "\"; store it with PutParameterSet first"});
     }
     return scope.Done(ToGrpc(stored.status()));
@@ -139,14 +148,16 @@ grpc::Status ReprocessingHandler::GetJob(grpc::ServerContext* call, const fleet:
   return scope.Done(LoadJob(request->job_id(), response));
 }
 
-grpc::Status ReprocessingHandler::ListJobs(grpc::ServerContext* call, const fleet::v1::ListJobsRequest* request,
+grpc::Status ReprocessingHandler::ListJobs(grpc::ServerContext* call,
+                                           const fleet::v1::ListJobsRequest* request,
                                            fleet::v1::ListJobsResponse* response) {
   RpcScope scope(context_.metrics, "Reprocessing/ListJobs");
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok()) {
     return scope.Done(denied);
   }
-  if (request->limit() < 0 || request->limit() > 1000) return scope.Done(InvalidArgument("limit: expected 0..1000"));
+  if (request->limit() < 0 || request->limit() > 1000)
+    return scope.Done(InvalidArgument("limit: expected 0..1000"));
   std::optional<storage::JobState> state;
   if (!request->state().empty()) {
     auto parsed = storage::Parse<storage::JobState>(request->state());
@@ -167,7 +178,8 @@ grpc::Status ReprocessingHandler::ListJobs(grpc::ServerContext* call, const flee
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status ReprocessingHandler::CancelJob(grpc::ServerContext* call, const fleet::v1::CancelJobRequest* request,
+grpc::Status ReprocessingHandler::CancelJob(grpc::ServerContext* call,
+                                            const fleet::v1::CancelJobRequest* request,
                                             fleet::v1::Job* response) {
   RpcScope scope(context_.metrics, "Reprocessing/CancelJob");
   Principal principal;
@@ -186,7 +198,8 @@ grpc::Status ReprocessingHandler::CancelJob(grpc::ServerContext* call, const fle
     }
     return scope.Done(ToGrpc(cancelled));
   }
-  log::Info("job_cancelled", {{"job", static_cast<long long>(request->job_id())}, {"principal", principal.name}});
+  log::Info("job_cancelled",
+            {{"job", static_cast<long long>(request->job_id())}, {"principal", principal.name}});
   return scope.Done(LoadJob(request->job_id(), response));
 }
 
@@ -202,7 +215,8 @@ grpc::Status ReprocessingHandler::WatchJob(grpc::ServerContext* call, const flee
   while (true) {
     fleet::v1::Job job;
     if (grpc::Status status = LoadJob(request->job_id(), &job); !status.ok()) return scope.Done(status);
-    const bool changed = first || job.state() != last.state() || job.progress_done() != last.progress_done() ||
+    const bool changed = first || job.state() != last.state() ||
+                         job.progress_done() != last.progress_done() ||
                          job.progress_total() != last.progress_total();
     if (changed) {
       if (!writer->Write(job)) return scope.Done({grpc::StatusCode::CANCELLED, "watcher went away"});
@@ -211,7 +225,8 @@ grpc::Status ReprocessingHandler::WatchJob(grpc::ServerContext* call, const flee
     }
     if (Terminal(job.state())) return scope.Done(grpc::Status::OK);
     for (int i = 0; i < 4; ++i) {
-      if (call->IsCancelled()) return scope.Done({grpc::StatusCode::CANCELLED, "cancelled or deadline exceeded"});
+      if (call->IsCancelled())
+        return scope.Done({grpc::StatusCode::CANCELLED, "cancelled or deadline exceeded"});
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
   }

@@ -12,7 +12,8 @@ class ReprocessingHandler final : public fleet::v1::Reprocessing::Service {
   explicit ReprocessingHandler(ServiceContext& context) : context_(context) {}
   grpc::Status PutParameterSet(grpc::ServerContext* call, const fleet::v1::PutParameterSetRequest* request,
                                fleet::v1::PutParameterSetResponse* response) override;
-  grpc::Status ListParameterSets(grpc::ServerContext* call, const fleet::v1::ListParameterSetsRequest* request,
+  grpc::Status ListParameterSets(grpc::ServerContext* call,
+                                 const fleet::v1::ListParameterSetsRequest* request,
                                  fleet::v1::ListParameterSetsResponse* response) override;
   grpc::Status StartJob(grpc::ServerContext* call, const fleet::v1::StartJobRequest* request,
                         fleet::v1::Job* response) override;

@@ -22,10 +22,10 @@ struct FleetOptions {
   int robots = 4;
   int runs = 3;
   std::uint64_t seed = 1;
-  int threads = 0;                             // 0: all cores
-  std::filesystem::path out;                   // empty: keep nothing on disk
-  std::filesystem::path protrusion_data;       // set: write each run's labelled parent/child pair here
-  double first_start = 1767225600.0;           // 2026-01-01T00:00:00Z, runs one day apart
+  int threads = 0;                        // 0: all cores
+  std::filesystem::path out;              // empty: keep nothing on disk
+  std::filesystem::path protrusion_data;  // set: write each run's labelled parent/child pair here
+  double first_start = 1767225600.0;      // 2026-01-01T00:00:00Z, runs one day apart
   SimParams params;
   /// Measure each robot's map against ground truth after every run (sim/map_health.h).
   bool measure_map_health = false;
@@ -40,29 +40,30 @@ struct FleetOptions {
 /// One robot's map after one run (and after the after-run hook), with what the service did to it.
 struct RunHealth {
   MapHealth map;
-  int repairs_taken = 0;                       // repaired versions the robot took since its previous run
-  std::int64_t map_version = 0;                // the version the run started from (0: none)
+  int repairs_taken = 0;         // repaired versions the robot took since its previous run
+  std::int64_t map_version = 0;  // the version the run started from (0: none)
 };
 
 /// Figures over all runs, as the paper reports them.
 struct FleetStatistics {
   int runs = 0;
-  int runs_with_parent = 0;                    // runs on top of an existing map: need relocalization
-  int runs_started_localized = 0;              // of those, joined the parent map at once (analyzer/run_analysis.h)
-  int runs_with_recovery = 0;                  // ≥ 1 recovery hypothesis
+  int runs_with_parent = 0;        // runs on top of an existing map: need relocalization
+  int runs_started_localized = 0;  // of those, joined the parent map at once (analyzer/run_analysis.h)
+  int runs_with_recovery = 0;      // ≥ 1 recovery hypothesis
   long recovery_created = 0, recovery_accepted = 0, recovery_retracted = 0;
-  long merge_created = 0, merge_conditionally_accepted = 0, merge_conditional_then_rejected = 0, merge_accepted = 0;
+  long merge_created = 0, merge_conditionally_accepted = 0, merge_conditional_then_rejected = 0,
+       merge_accepted = 0;
   int maps_with_views = 0, maps_with_ambiguous_views = 0;
-  double ambiguous_view_share_sum = 0.0;       // Σ over maps with ambiguous views of their ambiguous share
+  double ambiguous_view_share_sum = 0.0;  // Σ over maps with ambiguous views of their ambiguous share
   long observations = 0, wrong_observations = 0;
   int kidnaps = 0, reboots = 0;
   int stuck_at_wall = 0, stuck_under_furniture = 0, stuck_on_rug = 0;
   long stuck_nodes = 0;
-  int lidar_runs = 0;                          // runs by robots with a lidar (the rest: a front ToF)
+  int lidar_runs = 0;  // runs by robots with a lidar (the rest: a front ToF)
   // Ground truth of the detector's regions (RunOutcome): maps = runs' child maps
   int maps_with_truth_protrusion = 0;
   long truth_protrusion_regions = 0, truth_new_space_regions = 0;
-  int pairs_written = 0;                       // --protrusion-data
+  int pairs_written = 0;  // --protrusion-data
   double simulated_hours = 0.0;
   double wall_seconds = 0.0;
   // With measure_map_health: [robot][run], and the robots by their map after the last run: corrupted; else

@@ -30,14 +30,14 @@ struct LifelongOptions {
   int runs = 40;
   std::uint64_t seed = 1;
   double run_minutes = 10.0;
-  int threads = 0;                             // 0: all cores
-  std::filesystem::path fleetd;                // the fleetd binary for the service regimes
-  std::filesystem::path work_dir;              // their databases and logs
-  int review_every_runs = 7;                   // review: an engineer approves repairs once a week
-  double min_severity = 0.6;                   // the policy acts on findings at least this severe
+  int threads = 0;                 // 0: all cores
+  std::filesystem::path fleetd;    // the fleetd binary for the service regimes
+  std::filesystem::path work_dir;  // their databases and logs
+  int review_every_runs = 7;       // review: an engineer approves repairs once a week
+  double min_severity = 0.6;       // the policy acts on findings at least this severe
   CorruptionThreshold corruption;
   std::vector<std::string> regimes = {"none", "filter", "service", "review"};
-  SimParams params;                            // the homes' clutter and the robots' physics
+  SimParams params;  // the homes' clutter and the robots' physics
 };
 
 /// INVALID_ARGUMENT naming the first bound broken (robots, runs, minutes, regimes, …).
@@ -45,12 +45,12 @@ slamcore::Status ValidateLifelong(const LifelongOptions& options);
 
 struct RegimeResult {
   std::string name;
-  FleetStatistics statistics;                  // with health[robot][run]
-  std::vector<double> corrupted_by_run;        // share of robots corrupted after each run
-  double corrupted_share = 0.0;                // after the last run
+  FleetStatistics statistics;            // with health[robot][run]
+  std::vector<double> corrupted_by_run;  // share of robots corrupted after each run
+  double corrupted_share = 0.0;          // after the last run
   int robots_ever_corrupted = 0;
-  double mean_runs_to_corruption = 0.0;        // over robots ever corrupted: runs until the first corruption
-  int runs_lost = 0;                           // robot-runs that ended on a corrupted map
+  double mean_runs_to_corruption = 0.0;  // over robots ever corrupted: runs until the first corruption
+  int runs_lost = 0;                     // robot-runs that ended on a corrupted map
   int repairs_taken = 0;
   double seconds = 0.0;
 };

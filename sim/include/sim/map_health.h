@@ -24,7 +24,7 @@ struct CorruptionThreshold {
 
 struct MapHealth {
   double trajectory_rmse_m = 0.0;  // componentwise aligned RMS position error of the map's nodes
-  double false_free_m2 = 0.0;      // free in the home component's grid, farther than the margin from true floor
+  double false_free_m2 = 0.0;  // free in the home component's grid, farther than the margin from true floor
   int components = 0;
   bool corrupted = false;
 };
@@ -46,7 +46,7 @@ class MapHealthMeter {
 
   const World& world_;
   CorruptionThreshold threshold_;
-  int reach_ = 0;                          // the margin in world cells
+  int reach_ = 0;                         // the margin in world cells
   std::vector<std::uint8_t> near_floor_;  // per world cell: true floor within the margin
 };
 

@@ -32,7 +32,7 @@ struct RunOutcome {
   bool had_parent = false;
   int kidnaps = 0, reboots = 0;
   int stuck_at_wall = 0, stuck_under_furniture = 0, stuck_on_rug = 0;  // episodes by where they started
-  int stuck_nodes = 0;                    // nodes made while stuck
+  int stuck_nodes = 0;                                                 // nodes made while stuck
   int wrong_observations = 0, observations = 0;
   std::size_t views_total = 0, views_ambiguous = 0;  // in the child map
   double simulated_seconds = 0.0;
@@ -41,8 +41,8 @@ struct RunOutcome {
   // itself with per-cell truth (1 protrusion: under a stuck node's patch; 2 new space; 0 unchanged).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
   std::optional<slamcore::GeneratedPair> truth_pair;
-  std::int64_t map_version = 0;           // header.map_version: the service's version the run started from
-  int repairs_taken = 0;                  // set by a fleet's after-run hook: repaired versions taken after it
+  std::int64_t map_version = 0;  // header.map_version: the service's version the run started from
+  int repairs_taken = 0;         // set by a fleet's after-run hook: repaired versions taken after it
   int stuck_episodes() const { return stuck_at_wall + stuck_under_furniture + stuck_on_rug; }
 };
 

@@ -19,8 +19,8 @@ inline constexpr const char* kTofModel = "fleetsim-tof";      // a front time-of
 inline constexpr const char* kLidarModel = "fleetsim-lidar";  // a spinning lidar
 
 struct RangeSensor {
-  std::string model;            // the robot model reported in the run header: "fleetsim-tof" or "fleetsim-lidar"
-  double range = 1.5;           // metres
+  std::string model;   // the robot model reported in the run header: "fleetsim-tof" or "fleetsim-lidar"
+  double range = 1.5;  // metres
   double field_of_view = 1.92;  // radians, centred ahead
   int rays = 40;                // evenly spread over the field of view (a lidar: one per degree)
   double resolution = 0.05;     // of its patches, m per cell: a lidar's are 0.10 m (its long rays would

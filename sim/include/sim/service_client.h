@@ -16,9 +16,9 @@
 namespace sim {
 
 struct FetchedMap {
-  bool up_to_date = true;          // the robot holds the current version already (or none is approved)
-  fleet::v1::MapVersion version;   // the current approved version (empty when none)
-  fleet::v1::MapSnapshot snapshot; // unless up to date
+  bool up_to_date = true;           // the robot holds the current version already (or none is approved)
+  fleet::v1::MapVersion version;    // the current approved version (empty when none)
+  fleet::v1::MapSnapshot snapshot;  // unless up to date
 };
 
 class ServiceClient {

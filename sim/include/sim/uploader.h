@@ -29,26 +29,26 @@ std::shared_ptr<grpc::Channel> CreateFleetChannel(const std::string& server, con
                                                   int max_message_bytes);
 
 struct UploaderOptions {
-  std::string server;                 // host:port
-  std::string token;                  // "<principal>.<secret>"
-  std::string tls_ca;                 // PEM file: use TLS, trusting this CA; empty: plaintext
+  std::string server;  // host:port
+  std::string token;   // "<principal>.<secret>"
+  std::string tls_ca;  // PEM file: use TLS, trusting this CA; empty: plaintext
   int max_attempts = 6;
   std::chrono::milliseconds initial_backoff{200};
   int events_per_chunk = 1000;
-  double deadline_seconds = 120.0;    // per attempt
+  double deadline_seconds = 120.0;  // per attempt
 };
 
 struct UploadOutcome {
   bool ok = false;
-  int code = 0;                       // grpc::StatusCode of the last attempt
-  std::string message;                // "UNAVAILABLE: ..." when !ok
+  int code = 0;         // grpc::StatusCode of the last attempt
+  std::string message;  // "UNAVAILABLE: ..." when !ok
   std::string run_id;
   bool already_present = false;
   std::string child_snapshot_id;
   std::uint64_t events = 0;
   int attempts = 0;
-  double seconds = 0.0;               // wall time including retries
-  std::int64_t analysis_job_id = 0;   // the server's answer (service.proto UploadRunResponse)
+  double seconds = 0.0;              // wall time including retries
+  std::int64_t analysis_job_id = 0;  // the server's answer (service.proto UploadRunResponse)
   std::int64_t map_version = 0, current_map_version = 0;
   bool map_outdated = false;
 };

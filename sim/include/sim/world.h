@@ -57,7 +57,8 @@ struct FloorFeature {
   std::string kind;  // "rug", "bed", "sofa"
   SE2 pose;
   Vector2 half_size;
-  double catch_probability = 0.0;  // per drive under it (furniture) or climb onto it (rug): the robot is stuck
+  double catch_probability =
+      0.0;  // per drive under it (furniture) or climb onto it (rug): the robot is stuck
   bool Contains(const Vector2& point) const;
 };
 
@@ -98,16 +99,16 @@ class Grid {
 
 struct Landmark {
   int id = 0;
-  int appearance = 0;     // landmarks with equal appearance look alike to the front-end
-  SE2 pose;               // world pose; x axis points where the textured face looks
-  bool symmetric = false; // looks the same from the opposite side (beds, tables, lamps)
-  std::string kind;       // "picture", "washing_basin", "bed", …
+  int appearance = 0;      // landmarks with equal appearance look alike to the front-end
+  SE2 pose;                // world pose; x axis points where the textured face looks
+  bool symmetric = false;  // looks the same from the opposite side (beds, tables, lamps)
+  std::string kind;        // "picture", "washing_basin", "bed", …
   int room = -1;
 };
 
 struct Room {
-  std::string label;     // "bedroom", "kitchen", … or "room" for maps without labels
-  Vector2 seed;          // a free point inside
+  std::string label;  // "bedroom", "kitchen", … or "room" for maps without labels
+  Vector2 seed;       // a free point inside
 };
 
 struct World {

@@ -16,7 +16,7 @@ namespace slamcore {
 /// Wheel odometry since the previous node; creates a new node at the composed pose.
 struct OdometryEvent {
   double time = 0.0;
-  SE2 increment;                               // previous_T_new
+  SE2 increment;                                    // previous_T_new
   Matrix3 covariance = Matrix3::Identity() * 1e-4;  // of the increment, left-perturbation tangent (see se2.h)
 };
 

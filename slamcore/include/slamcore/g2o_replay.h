@@ -40,7 +40,7 @@ struct ReplayResult {
   double mapper_chi2 = 0.0;          // of the Mapper's graph as the run finished, before that optimisation
   double seconds = 0.0;              // Mapper plus final optimisation
   MapperStatistics statistics;
-  PoseGraph graph;                   // the Mapper's graph, optimised
+  PoseGraph graph;  // the Mapper's graph, optimised
 };
 
 /// Replays `graph` through a Mapper with `params`, then optimises the resulting graph once more.

@@ -32,7 +32,7 @@ struct OutlierOptions {
   int group_size = 1;      // consecutive pairs per group (the smallest, with max_group_size)
   int max_group_size = 0;  // when > group_size: each group's size is uniform in [group_size, max_group_size]
   double single_fraction = 0.0;  // share of groups that are single outliers
-  int local_window = 20;   // vertices, for kLocal
+  int local_window = 20;         // vertices, for kLocal
   std::uint64_t seed = 1;
 };
 
@@ -43,8 +43,8 @@ Result<OutlierOptions::Mode> ParseOutlierMode(const std::string& name);
 int CountLoopClosures(const PoseGraph& graph);
 
 struct CorruptedGraph {
-  PoseGraph graph;                  // the input with the outliers appended as observation edges
-  std::vector<VertexPair> outliers; // the appended edges, (from, to) as in the graph
+  PoseGraph graph;                   // the input with the outliers appended as observation edges
+  std::vector<VertexPair> outliers;  // the appended edges, (from, to) as in the graph
 };
 
 /// Fails when the graph has no loop closure to copy the information from, or too few vertices.

@@ -29,22 +29,23 @@ namespace slamcore {
 struct ManhattanOptions {
   int poses = 3500;
   std::uint64_t seed = 1;
-  int block_length = 5;        // metres (= poses) between intersections
-  int world_blocks = 0;        // side of the square world in blocks; 0: max(2, ⌈√poses / 3⌉)
-  double sigma_xy = 0.03;      // metres, odometry and closures
-  double sigma_theta = 0.01;   // radians, odometry and closures
+  int block_length = 5;         // metres (= poses) between intersections
+  int world_blocks = 0;         // side of the square world in blocks; 0: max(2, ⌈√poses / 3⌉)
+  double sigma_xy = 0.03;       // metres, odometry and closures
+  double sigma_theta = 0.01;    // radians, odometry and closures
   double closure_radius = 1.5;  // metres between the true positions of a closure's ends
   double closure_probability = 0.5;
   int max_closures_per_pose = 2;
-  int min_closure_gap = 10;    // poses: nearer ones are the odometry's business
+  int min_closure_gap = 10;  // poses: nearer ones are the odometry's business
 };
 
 /// Largest accepted `poses` (keeps a generated graph within a few hundred MB).
 inline constexpr int kMaxManhattanPoses = 2'000'000;
 
 struct ManhattanWorld {
-  PoseGraph graph;          // initial estimate = composed odometry; edges in pose order (odometry into k, then k's closures)
-  std::vector<SE2> truth;   // true pose of node k at index k
+  PoseGraph
+      graph;  // initial estimate = composed odometry; edges in pose order (odometry into k, then k's closures)
+  std::vector<SE2> truth;  // true pose of node k at index k
 };
 
 /// Fails with a message naming the bad option (poses < 2 or above the cap, non-positive noise, …).

@@ -35,17 +35,17 @@ struct Map {
 enum class HypothesisKind : std::uint8_t { kRecovery, kMerge };
 
 enum class DecisionKind : std::uint8_t {
-  kDirectEdge,               // observation passed the gate: edge added at once
+  kDirectEdge,  // observation passed the gate: edge added at once
   kHypothesisCreated,
-  kHypothesisUpdated,        // observation joined an existing hypothesis
-  kConditionallyAccepted,    // merge hypothesis met the permissive criteria (IV-B)
-  kAccepted,                 // edges added to G
-  kRejected,                 // deleted because a competitor was accepted, or a conditional merge undone
-  kExpired,                  // no new observation for too long or too far
+  kHypothesisUpdated,      // observation joined an existing hypothesis
+  kConditionallyAccepted,  // merge hypothesis met the permissive criteria (IV-B)
+  kAccepted,               // edges added to G
+  kRejected,               // deleted because a competitor was accepted, or a conditional merge undone
+  kExpired,                // no new observation for too long or too far
   kViewMarkedAmbiguous,
-  kComponentCreated,         // first node, kidnap or reboot
+  kComponentCreated,  // first node, kidnap or reboot
   kComponentsMerged,
-  kRetracted,                // an accepted hypothesis's edges left G: later evidence contradicted them
+  kRetracted,  // an accepted hypothesis's edges left G: later evidence contradicted them
 };
 
 const char* DecisionKindName(DecisionKind kind);
@@ -53,11 +53,11 @@ const char* DecisionKindName(DecisionKind kind);
 struct Decision {
   double time = 0.0;
   DecisionKind kind = DecisionKind::kDirectEdge;
-  NodeId node = -1;                  // the robot's node when the decision was made
-  ViewId view = -1;                  // the observed view, where one is involved
-  std::int64_t hypothesis = -1;      // hypothesis id, where one is involved
+  NodeId node = -1;              // the robot's node when the decision was made
+  ViewId view = -1;              // the observed view, where one is involved
+  std::int64_t hypothesis = -1;  // hypothesis id, where one is involved
   std::optional<HypothesisKind> hypothesis_kind;
-  std::string reason;                // human-readable, e.g. "3 observations of 2 views"
+  std::string reason;  // human-readable, e.g. "3 observations of 2 views"
 };
 
 /// Counts over the decision log, the raw material of the fleet statistics (paper Fig. 6–8).

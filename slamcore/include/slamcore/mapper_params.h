@@ -79,16 +79,15 @@ struct ConsistencyParams {
 /// The largest value MapperParams::Validate accepts for each kind of field (the smallest is 1, or > 0).
 /// Parameter sets arrive from users: these keep one run's replay bounded in time and memory.
 struct MapperParamsLimits {
-  static constexpr int kMaxCount = 1000;                 // min_observations, min_views, rejections, passes, caps
-  static constexpr int kMaxWindowNodes = 10000;          // local_window_nodes
+  static constexpr int kMaxCount = 1000;         // min_observations, min_views, rejections, passes, caps
+  static constexpr int kMaxWindowNodes = 10000;  // local_window_nodes
   static constexpr int kMaxOptimizationEvery = 1000000;  // full_optimization_every
-  static constexpr double kMaxSeconds = 3600.0;          // hypothesis_expiry_seconds, consistency.pass_gap_seconds
-  static constexpr double kMaxMeters = 1000.0;           // distances, sigmas, offsets
-  static constexpr double kMaxChi2 = 1000.0;             // gate_chi2, consistency.map_gate_chi2
-  static constexpr int kMaxIterations = 1000;            // optimizer.max_iterations
-  static constexpr int kMaxThreads = 64;                 // optimizer.num_threads
+  static constexpr double kMaxSeconds = 3600.0;  // hypothesis_expiry_seconds, consistency.pass_gap_seconds
+  static constexpr double kMaxMeters = 1000.0;   // distances, sigmas, offsets
+  static constexpr double kMaxChi2 = 1000.0;     // gate_chi2, consistency.map_gate_chi2
+  static constexpr int kMaxIterations = 1000;    // optimizer.max_iterations
+  static constexpr int kMaxThreads = 64;         // optimizer.num_threads
 };
-
 
 /// What moves the map's poses after accepted edges: the incremental back-end (slamcore/src/incremental_solver.h:
 /// only the region an edge affects is re-solved), or the batch baseline (a Ceres solve of a local window or of

@@ -39,7 +39,7 @@ struct OccupancyGrid {
   double resolution = 0.05;  // metres per cell
   double origin_x = 0.0;     // world position of the lower-left corner of cell (0, 0)
   double origin_y = 0.0;
-  double origin_yaw = 0.0;   // kept from map_server YAML; alignment requires equal yaws
+  double origin_yaw = 0.0;  // kept from map_server YAML; alignment requires equal yaws
   int width = 0;
   int height = 0;
   std::vector<std::int8_t> cells;  // row-major, row 0 = lowest y
@@ -62,8 +62,9 @@ Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path);
 /// The same for YAML text held in memory (an upload): `read_image` gets the image's name as the YAML writes
 /// it (unquoted) and returns its bytes, or an error (e.g. a name that is not part of the upload). Errors are
 /// prefixed with `source`; malformed YAML is DATA_LOSS, as for files.
-Result<OccupancyGrid> ParseMapServerYaml(const std::string& yaml_text, const std::string& source,
-                                         const std::function<Result<std::string>(const std::string& image)>& read_image);
+Result<OccupancyGrid> ParseMapServerYaml(
+    const std::string& yaml_text, const std::string& source,
+    const std::function<Result<std::string>(const std::string& image)>& read_image);
 /// Writes `yaml_path` and an image beside it (same stem, .pgm, or .png when `png` is true).
 Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_path, bool png = false);
 /// The YAML text map_server reads for `grid` stored in `image_file` (a name relative to the YAML).
@@ -71,11 +72,13 @@ std::string MapServerYaml(const OccupancyGrid& grid, const std::string& image_fi
 
 /// Decodes an 8-bit PGM (P5 binary or P2 ASCII, maxval ≤ 255) into a grid with map_server thresholds.
 Result<OccupancyGrid> DecodePgm(const std::string& bytes, double resolution, double origin_x, double origin_y,
-                                double occupied_thresh = 0.65, double free_thresh = 0.196, bool negate = false);
+                                double occupied_thresh = 0.65, double free_thresh = 0.196,
+                                bool negate = false);
 std::string EncodePgm(const OccupancyGrid& grid);
 /// PNG of the same trinary image (254/0/205), through OpenCV's codec; colour PNGs are converted to grey.
 Result<OccupancyGrid> DecodePng(const std::string& bytes, double resolution, double origin_x, double origin_y,
-                                double occupied_thresh = 0.65, double free_thresh = 0.196, bool negate = false);
+                                double occupied_thresh = 0.65, double free_thresh = 0.196,
+                                bool negate = false);
 Result<std::string> EncodePng(const OccupancyGrid& grid);
 
 Result<std::string> ReadFileBytes(const std::string& path);
@@ -105,8 +108,8 @@ class GlobalGridRenderer {
 
  private:
   struct Contribution {
-    SE2 pose;                        // node pose used for the votes below
-    SE2 node_T_origin;               // and the patch's placement: a change of either re-renders the node
+    SE2 pose;           // node pose used for the votes below
+    SE2 node_T_origin;  // and the patch's placement: a change of either re-renders the node
     int patch_width = 0, patch_height = 0;
     std::vector<std::int32_t> cells;  // global cell indices voted, with the vote in `occupied`
     std::vector<bool> occupied;

@@ -96,7 +96,7 @@ struct CrossValidationResult {
   ConfusionMatrix confusion;
   int folds = 0;
 };
-Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& data, const ClassifierOptions& options,
-                                            int folds);
+Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& data,
+                                            const ClassifierOptions& options, int folds);
 
 }  // namespace slamcore

@@ -61,7 +61,7 @@ struct StuckRobotPhysics {
   double max_heading_drift_per_m = 0.10;  // unequal wheel slip bends the believed path (rad per metre)
   double contact_share = 0.8;             // pushing an obstacle; the rest lifted on a rug in open floor
   double robot_radius_m = 0.17;
-  double keyframe_m = 0.3;                // a node (and a scan) every 0.3 m of odometry
+  double keyframe_m = 0.3;  // a node (and a scan) every 0.3 m of odometry
 };
 
 struct GeneratorOptions {

@@ -41,9 +41,10 @@ struct ImageBox {
 struct ProtrusionRegion {
   int id = 0;
   ImageBox bbox;
-  std::vector<std::int32_t> cells;   // child grid indices the region changed (for repair), incl. its edge walls
-  std::int64_t clean_area_cells = 0; // cells after clean-up (what the features describe)
-  std::vector<double> features;      // ProtrusionFeatureNames() order
+  std::vector<std::int32_t>
+      cells;  // child grid indices the region changed (for repair), incl. its edge walls
+  std::int64_t clean_area_cells = 0;  // cells after clean-up (what the features describe)
+  std::vector<double> features;       // ProtrusionFeatureNames() order
 };
 
 /// The parent resampled (shifted) onto the child's cells; cells the parent does not cover are unknown.

@@ -115,7 +115,8 @@ class SE2 {
     const double phi = pose.theta_;
     const double half = 0.5 * phi;
     // (φ/2)·cot(φ/2), with its series near 0; at ±π it is 0, which is well defined.
-    const double half_cot = std::abs(phi) < 1e-4 ? 1.0 - phi * phi / 12.0 : half * std::cos(half) / std::sin(half);
+    const double half_cot =
+        std::abs(phi) < 1e-4 ? 1.0 - phi * phi / 12.0 : half * std::cos(half) / std::sin(half);
     const double x = half_cot * pose.x_ + half * pose.y_;
     const double y = -half * pose.x_ + half_cot * pose.y_;
     return {x, y, phi};

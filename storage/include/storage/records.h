@@ -29,16 +29,18 @@ std::string_view Name(MapOrigin origin);  // "upload", "repair", "rollback", "un
 
 /// Whether robots may get a map version.
 enum class MapApproval { kApproved, kPending, kRejected, kStale };
-inline constexpr std::array kMapApprovals{MapApproval::kApproved, MapApproval::kPending, MapApproval::kRejected,
-                                          MapApproval::kStale};
+inline constexpr std::array kMapApprovals{MapApproval::kApproved, MapApproval::kPending,
+                                          MapApproval::kRejected, MapApproval::kStale};
 std::string_view Name(MapApproval approval);  // "approved", "pending", "rejected", "stale"
 
 /// What a repair (or an import) did to make a version; uploads have none.
 enum class MapAction { kRejectEdge, kRejectHypothesis, kCutRegion, kRollback, kUndo, kImport };
-inline constexpr std::array kMapActions{MapAction::kRejectEdge, MapAction::kRejectHypothesis, MapAction::kCutRegion,
-                                        MapAction::kRollback,   MapAction::kUndo,             MapAction::kImport};
-std::string_view Name(MapAction action);  // "reject_edge", "reject_hypothesis", "cut_region", "rollback", "undo",
-                                          // "import"
+inline constexpr std::array kMapActions{MapAction::kRejectEdge, MapAction::kRejectHypothesis,
+                                        MapAction::kCutRegion,  MapAction::kRollback,
+                                        MapAction::kUndo,       MapAction::kImport};
+std::string_view Name(
+    MapAction action);  // "reject_edge", "reject_hypothesis", "cut_region", "rollback", "undo",
+                        // "import"
 
 /// Whether a finding still asks for a repair.
 enum class FindingState { kOpen, kResolved, kInfo };
@@ -54,33 +56,39 @@ enum class FindingKind {
   kRetractedHypothesis,
   kProtrusion,
   kAmbiguousView,
-  kAlignment,   // imported versions: their comparison with the map before
+  kAlignment,  // imported versions: their comparison with the map before
   kMisaligned,
   kNewRegion,
   kLostRegion,
 };
-inline constexpr std::array kFindingKinds{
-    FindingKind::kHighResidualEdge, FindingKind::kUnconfirmedHypothesis, FindingKind::kUndoneMerge,
-    FindingKind::kRetractedHypothesis, FindingKind::kProtrusion,         FindingKind::kAmbiguousView,
-    FindingKind::kAlignment,         FindingKind::kMisaligned,             FindingKind::kNewRegion,
-    FindingKind::kLostRegion};
+inline constexpr std::array kFindingKinds{FindingKind::kHighResidualEdge, FindingKind::kUnconfirmedHypothesis,
+                                          FindingKind::kUndoneMerge,      FindingKind::kRetractedHypothesis,
+                                          FindingKind::kProtrusion,       FindingKind::kAmbiguousView,
+                                          FindingKind::kAlignment,        FindingKind::kMisaligned,
+                                          FindingKind::kNewRegion,        FindingKind::kLostRegion};
 std::string_view Name(FindingKind kind);  // "high_residual_edge", "unconfirmed_hypothesis", ...
 
 enum class JobState { kQueued, kLeased, kDone, kFailed, kCancelled };
-inline constexpr std::array kJobStates{JobState::kQueued, JobState::kLeased, JobState::kDone, JobState::kFailed,
-                                       JobState::kCancelled};
+inline constexpr std::array kJobStates{JobState::kQueued, JobState::kLeased, JobState::kDone,
+                                       JobState::kFailed, JobState::kCancelled};
 std::string_view Name(JobState state);  // "queued", "leased", "done", "failed", "cancelled"
 
 /// The value of E that `name` spells; INVALID_ARGUMENT naming `name` and the spellings expected otherwise.
 /// Defined for MapOrigin, MapApproval, MapAction, FindingState, FindingKind and JobState.
 template <typename E>
 Result<E> Parse(std::string_view name);
-template <> Result<MapOrigin> Parse<MapOrigin>(std::string_view name);
-template <> Result<MapApproval> Parse<MapApproval>(std::string_view name);
-template <> Result<MapAction> Parse<MapAction>(std::string_view name);
-template <> Result<FindingState> Parse<FindingState>(std::string_view name);
-template <> Result<FindingKind> Parse<FindingKind>(std::string_view name);
-template <> Result<JobState> Parse<JobState>(std::string_view name);
+template <>
+Result<MapOrigin> Parse<MapOrigin>(std::string_view name);
+template <>
+Result<MapApproval> Parse<MapApproval>(std::string_view name);
+template <>
+Result<MapAction> Parse<MapAction>(std::string_view name);
+template <>
+Result<FindingState> Parse<FindingState>(std::string_view name);
+template <>
+Result<FindingKind> Parse<FindingKind>(std::string_view name);
+template <>
+Result<JobState> Parse<JobState>(std::string_view name);
 
 struct RobotRecord {
   std::string robot_id;
@@ -127,7 +135,7 @@ struct RunRecord {
   std::int64_t ended_at_ms = 0;
   std::optional<std::string> parent_snapshot_id;  // must name a stored snapshot when set
   std::optional<std::string> child_snapshot_id;   // must name a stored snapshot when set
-  std::string telemetry;  // raw event stream; ListRuns leaves it empty (see telemetry_size)
+  std::string telemetry;            // raw event stream; ListRuns leaves it empty (see telemetry_size)
   std::int64_t telemetry_size = 0;  // filled on read: uncompressed size in bytes
   // Filled on read: when retention pruned the run's events (telemetry is then empty); the run's metadata,
   // reports and map versions stay.
@@ -189,9 +197,9 @@ struct BoundingBox {
 /// A protrusion region found in a run with a parameter set, with its features, the classifier's guess and,
 /// once an engineer looked at it, a label.
 struct ProtrusionRegionRecord {
-  std::string robot_id;       // filled on read; taken from the report on write
-  std::string run_id;         // filled on read; taken from the report on write
-  std::string parameter_set;  // filled on read; taken from the report on write
+  std::string robot_id;        // filled on read; taken from the report on write
+  std::string run_id;          // filled on read; taken from the report on write
+  std::string parameter_set;   // filled on read; taken from the report on write
   std::int64_t region_id = 0;  // unique within the report
   BoundingBox bbox;
   std::string features_json;
@@ -276,7 +284,7 @@ struct RunCursor {
 };
 
 struct RunPage {
-  std::vector<RunRecord> runs;  // ordered by (started_at_ms, run_id, robot_id); telemetry not loaded
+  std::vector<RunRecord> runs;    // ordered by (started_at_ms, run_id, robot_id); telemetry not loaded
   std::optional<RunCursor> next;  // absent on the last page
 };
 
@@ -320,9 +328,9 @@ struct MapVersionRecord {
   std::string robot_id;
   std::int64_t version = 0;  // assigned by AppendMapVersion
   std::optional<std::int64_t> parent_version;
-  std::string snapshot_id;   // must name a stored snapshot
+  std::string snapshot_id;  // must name a stored snapshot
   MapOrigin origin = MapOrigin::kUpload;
-  std::string run_id;        // uploads: their run (one version per run); repairs: the run their chain started from
+  std::string run_id;  // uploads: their run (one version per run); repairs: the run their chain started from
   std::optional<MapAction> action;  // repairs and imports: what was done; none for uploads (stored as "")
   std::string action_detail;
   std::string created_by;
@@ -364,16 +372,16 @@ enum class InsertOutcome { kInserted, kAlreadyPresent };
 /// What Repository::DeleteRobot removed, table by table.
 struct RobotErasure {
   std::int64_t runs = 0;
-  std::int64_t reports = 0;            // of every parameter set
+  std::int64_t reports = 0;  // of every parameter set
   std::int64_t decisions = 0;
   std::int64_t ambiguous_views = 0;
   std::int64_t protrusion_regions = 0;  // with their labels
   std::int64_t map_versions = 0;
   std::int64_t map_findings = 0;
-  std::int64_t snapshots = 0;          // those no other robot's run or map version names
+  std::int64_t snapshots = 0;  // those no other robot's run or map version names
   std::int64_t jobs = 0;
-  std::int64_t credentials = 0;      // deleted; the erasure takes a credential epoch so other processes drop it
-  std::int64_t map_metadata = 0;     // imported maps' metadata of its versions
+  std::int64_t credentials = 0;   // deleted; the erasure takes a credential epoch so other processes drop it
+  std::int64_t map_metadata = 0;  // imported maps' metadata of its versions
 };
 
 /// One entry of the audit log: who did what to which subject, when, with counts (JSON, opaque to storage).
@@ -383,7 +391,7 @@ struct AuditEntry {
   std::string actor;          // the principal, or "fleetd:retention"
   std::string action;         // "delete_robot", "prune_run_events", "prune_jobs", "set_credential",
                               // "rotate_credential", "revoke_credential"
-  std::string subject;        // the robot id or principal; for retention the policy, e.g. "uploaded before <ms>"
+  std::string subject;  // the robot id or principal; for retention the policy, e.g. "uploaded before <ms>"
   std::string detail_json;
 };
 

@@ -53,8 +53,9 @@ class Repository {
   virtual Status RevokeCredential(const std::string& principal) = 0;
   /// Credentials whose principal starts with `prefix` (empty: all), sorted, after `after`, at most `limit`
   /// (1..1000). `active_only` leaves revoked ones out.
-  virtual Result<std::vector<CredentialRecord>> ListCredentials(const std::string& prefix, const std::string& after,
-                                                                int limit, bool active_only) = 0;
+  virtual Result<std::vector<CredentialRecord>> ListCredentials(const std::string& prefix,
+                                                                const std::string& after, int limit,
+                                                                bool active_only) = 0;
   /// Principals whose credential changed after `since` (an epoch from an earlier call), at most `limit`;
   /// `since` < 0 returns only the newest epoch (where a new poller starts). Epochs are handed out in commit order, so polling with the returned epoch misses no change:
   /// every process sharing the database can drop the cached tokens of rotated or revoked principals.
@@ -111,11 +112,12 @@ class Repository {
   virtual Result<ReportRecord> GetReport(const RunKey& run, const std::string& parameter_set) = 0;
   /// Parameter sets that have a report for this run, sorted.
   virtual Result<std::vector<std::string>> ListReportParameterSets(const RunKey& run) = 0;
-  virtual Result<std::vector<DecisionRecord>> ListDecisions(const RunKey& run, const std::string& parameter_set) = 0;
+  virtual Result<std::vector<DecisionRecord>> ListDecisions(const RunKey& run,
+                                                            const std::string& parameter_set) = 0;
   virtual Result<std::vector<AmbiguousViewRecord>> ListAmbiguousViews(const RunKey& run,
                                                                       const std::string& parameter_set) = 0;
-  virtual Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(const RunKey& run,
-                                                                            const std::string& parameter_set) = 0;
+  virtual Result<std::vector<ProtrusionRegionRecord>> ListProtrusionRegions(
+      const RunKey& run, const std::string& parameter_set) = 0;
   /// Sets the label of one region; NOT_FOUND when the region does not exist.
   virtual Status LabelProtrusionRegion(const RunKey& run, const std::string& parameter_set,
                                        std::int64_t region_id, const std::string& label,
@@ -167,12 +169,13 @@ class Repository {
                                                                 std::int64_t version) = 0;
   /// Replaces a version's findings and its open count, and sets its known area: its run's analysis computes
   /// them after the upload (rendering the map would slow ingest down).
-  virtual Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version, double known_area_m2,
+  virtual Status UpdateMapVersionHealth(const std::string& robot_id, std::int64_t version,
+                                        double known_area_m2,
                                         const std::vector<MapFindingRecord>& findings) = 0;
   /// A pending version becomes "approved" or "rejected"; FAILED_PRECONDITION when it is not pending, or when
   /// approving it would not make it current (a newer version is approved already).
-  virtual Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version, bool approve,
-                                                    const std::string& reviewed_by) = 0;
+  virtual Result<MapVersionRecord> ReviewMapVersion(const std::string& robot_id, std::int64_t version,
+                                                    bool approve, const std::string& reviewed_by) = 0;
 
   // ---- Job queue ----
   /// Returns the new job id.

@@ -15,15 +15,15 @@ namespace slamcore {
 
 enum class StatusCode {
   kOk = 0,
-  kInvalidArgument,     // the caller's data is malformed or out of range, whatever the state (retrying won't help)
-  kNotFound,            // a referenced id, record or file does not exist
-  kAlreadyExists,       // a record with this key exists with different content (a conflict on create)
+  kInvalidArgument,  // the caller's data is malformed or out of range, whatever the state (retrying won't help)
+  kNotFound,         // a referenced id, record or file does not exist
+  kAlreadyExists,    // a record with this key exists with different content (a conflict on create)
   kFailedPrecondition,  // valid data, wrong state: time going backwards, lease lost, schema too new,
                         // a referenced record missing; the caller must change the state first
-  kAborted,             // a concurrent change came first (e.g. a map's newest version moved); read again, retry
-  kDataLoss,            // stored or received data is corrupt (checksum mismatch, does not parse, not a database)
-  kUnavailable,         // a service or the database is busy or unreachable; retrying later may help
-  kInternal,            // a dependency failed unexpectedly; a bug or an environment problem, not the caller's
+  kAborted,      // a concurrent change came first (e.g. a map's newest version moved); read again, retry
+  kDataLoss,     // stored or received data is corrupt (checksum mismatch, does not parse, not a database)
+  kUnavailable,  // a service or the database is busy or unreachable; retrying later may help
+  kInternal,     // a dependency failed unexpectedly; a bug or an environment problem, not the caller's
 };
 
 /// "INVALID_ARGUMENT", ... (the gRPC spelling).
@@ -46,7 +46,9 @@ class [[nodiscard]] Status {
   std::string message_;
 };
 
-inline Status InvalidArgument(std::string message) { return {StatusCode::kInvalidArgument, std::move(message)}; }
+inline Status InvalidArgument(std::string message) {
+  return {StatusCode::kInvalidArgument, std::move(message)};
+}
 inline Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message)}; }
 inline Status AlreadyExists(std::string message) { return {StatusCode::kAlreadyExists, std::move(message)}; }
 inline Status FailedPrecondition(std::string message) {
@@ -61,7 +63,7 @@ inline Status Internal(std::string message) { return {StatusCode::kInternal, std
 template <typename T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : storage_(std::move(value)) {}  // NOLINT(google-explicit-constructor)
+  Result(T value) : storage_(std::move(value)) {}        // NOLINT(google-explicit-constructor)
   Result(Status status) : storage_(std::move(status)) {  // NOLINT(google-explicit-constructor)
     assert(!std::get<Status>(storage_).ok() && "a Result needs a value or an error");
   }
@@ -92,11 +94,10 @@ class [[nodiscard]] Result {
 
 /// Returns the Status `expr` evaluates to from the enclosing function when it is an error. (A copy, not a
 /// reference: `expr` may be `Call().status()`, a reference into a temporary.)
-#define RETURN_IF_ERROR(expr)                                                                 \
-  do {                                                                                        \
-    ::slamcore::Status SLAMCORE_STATUS_CONCAT_(status_, __LINE__) = (expr);                   \
-    if (!SLAMCORE_STATUS_CONCAT_(status_, __LINE__).ok())                                     \
-      return SLAMCORE_STATUS_CONCAT_(status_, __LINE__);                                      \
+#define RETURN_IF_ERROR(expr)                                                                                \
+  do {                                                                                                       \
+    ::slamcore::Status SLAMCORE_STATUS_CONCAT_(status_, __LINE__) = (expr);                                  \
+    if (!SLAMCORE_STATUS_CONCAT_(status_, __LINE__).ok()) return SLAMCORE_STATUS_CONCAT_(status_, __LINE__); \
   } while (false)
 
 /// Evaluates `expr` (a Result<T>); returns its Status from the enclosing function when it is an error, else
