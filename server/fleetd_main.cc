@@ -192,7 +192,7 @@ int main(int argc, char** argv) {
     for (auto state : {storage::JobState::kQueued, storage::JobState::kLeased}) {
       auto jobs = repo.ListJobs(state, 1000000);
       if (jobs.ok()) {
-        m.SetGauge("fleetd_job_queue_depth", std::string("state=\"") + storage::JobStateName(state) + "\"",
+        m.SetGauge("fleetd_job_queue_depth", "state=\"" + std::string(storage::Name(state)) + "\"",
                    static_cast<double>(jobs->size()));
       }
     }

@@ -290,9 +290,10 @@ std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& compa
   char text[256];
   {
     fleet::v1::MapFinding& finding = findings.emplace_back();
-    finding.set_kind(alignment.good ? "alignment" : "misaligned");
+    finding.set_finding_kind(alignment.good ? fleet::v1::FINDING_KIND_ALIGNMENT
+                                            : fleet::v1::FINDING_KIND_MISALIGNED);
     finding.set_severity(alignment.good ? 0.05 : 0.9);
-    finding.set_state(alignment.good ? "info" : "open");
+    finding.set_finding_state(alignment.good ? fleet::v1::FINDING_STATE_INFO : fleet::v1::FINDING_STATE_OPEN);
     std::snprintf(text, sizeof(text),
                   "aligned with version %lld by %s: %.0f %% of its walls on walls, mean distance %.3f m, "
                   "shift (%.2f, %.2f) m, %.1f°",
@@ -314,10 +315,12 @@ std::vector<fleet::v1::MapFinding> ComparisonFindings(const MapComparison& compa
   for (const bool lost : {false, true}) {
     for (const ChangedRegion& changed : lost ? comparison.lost_regions : comparison.new_regions) {
       fleet::v1::MapFinding& finding = findings.emplace_back();
-      finding.set_kind(lost ? "lost_region" : "new_region");
+      finding.set_finding_kind(lost ? fleet::v1::FINDING_KIND_LOST_REGION
+                                    : fleet::v1::FINDING_KIND_NEW_REGION);
       const bool protrusion = changed.predicted_class == "protrusion";
       finding.set_severity(lost ? 0.6 : protrusion ? 0.5 + 0.3 * changed.probability : 0.2);
-      finding.set_state(lost || protrusion ? "open" : "info");
+      finding.set_finding_state(lost || protrusion ? fleet::v1::FINDING_STATE_OPEN
+                                                   : fleet::v1::FINDING_STATE_INFO);
       std::snprintf(text, sizeof(text), "%s region %d: %s%s, %.2f m² at %s", lost ? "lost" : "new",
                     changed.region.id, changed.predicted_class.c_str(),
                     changed.probability >= 0.0

@@ -130,9 +130,9 @@ void ResidualFindings(const Map& map, const std::set<NodeId>& run_nodes, const F
     }
     const Edge& edge = graph.edges()[worst];
     fleet::v1::MapFinding finding;
-    finding.set_kind("high_residual_edge");
+    finding.set_finding_kind(fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE);
     finding.set_severity(std::clamp(0.5 + 0.1 * std::log2(chi2[worst] / threshold), 0.5, 0.95));
-    finding.set_state("open");
+    finding.set_finding_state(fleet::v1::FINDING_STATE_OPEN);
     const std::string subject =
         key.first >= 0
             ? std::to_string(members.size()) + " edge(s) of hypothesis " + std::to_string(key.first)
@@ -186,9 +186,9 @@ void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_n
     const bool merge = SplitsComponents(map.graph, members);
     const Edge& first = map.graph.edges()[*members.begin()];
     fleet::v1::MapFinding finding;
-    finding.set_kind("unconfirmed_hypothesis");
+    finding.set_finding_kind(fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS);
     finding.set_severity(merge ? 0.8 : 0.7);
-    finding.set_state("open");
+    finding.set_finding_state(fleet::v1::FINDING_STATE_OPEN);
     finding.set_summary(std::string(merge ? "merge" : "loop closure") + " by hypothesis " +
                         std::to_string(hypothesis) + " (" + std::to_string(members.size()) + " edges, " +
                         std::to_string(confirmed) +
@@ -219,9 +219,9 @@ void ProtrusionFindings(const Map& map, const std::set<NodeId>& run_nodes, const
                                        region.world_bbox(3)};
     const std::int64_t cells = RunCellsInside(map, run_nodes, box);
     fleet::v1::MapFinding finding;
-    finding.set_kind("protrusion");
+    finding.set_finding_kind(fleet::v1::FINDING_KIND_PROTRUSION);
     finding.set_severity(0.9 * region.probability());
-    finding.set_state(cells > 0 ? "open" : "resolved");
+    finding.set_finding_state(cells > 0 ? fleet::v1::FINDING_STATE_OPEN : fleet::v1::FINDING_STATE_RESOLVED);
     finding.set_summary("protrusion region " + std::to_string(region.id()) + " (" +
                         Fixed((box[2] - box[0]) * (box[3] - box[1]), 2) + " m², probability " +
                         Fixed(region.probability(), 2) + ")" + (cells > 0 ? "" : ": cut out"));
@@ -247,9 +247,9 @@ void UndoneMergeFindings(const fleet::v1::RunReport& report, std::vector<fleet::
     if (decision.kind() != "rejected") continue;
     const double accepted_at = it->second.front()["time"].get<double>();
     fleet::v1::MapFinding finding;
-    finding.set_kind("undone_merge");
+    finding.set_finding_kind(fleet::v1::FINDING_KIND_UNDONE_MERGE);
     finding.set_severity(0.3);
-    finding.set_state("info");
+    finding.set_finding_state(fleet::v1::FINDING_STATE_INFO);
     finding.set_summary("the rerun merged conditionally at t=" + Fixed(accepted_at, 1) +
                         " s and undid it at t=" + Fixed(decision.time(), 1) + " s (" + decision.reason() +
                         ")");
@@ -271,9 +271,9 @@ void RetractedHypothesisFindings(const fleet::v1::RunReport& report,
     if (decision.kind() == "accepted") accepted[decision.hypothesis()] = DecisionJson(decision);
     if (decision.kind() != "retracted") continue;
     fleet::v1::MapFinding finding;
-    finding.set_kind("retracted_hypothesis");
+    finding.set_finding_kind(fleet::v1::FINDING_KIND_RETRACTED_HYPOTHESIS);
     finding.set_severity(0.4);
-    finding.set_state("info");
+    finding.set_finding_state(fleet::v1::FINDING_STATE_INFO);
     const auto it = accepted.find(decision.hypothesis());
     finding.set_summary(
         "the rerun accepted recovery hypothesis " + std::to_string(decision.hypothesis()) +
@@ -295,9 +295,9 @@ void AmbiguousViewFinding(const Map& map, std::vector<fleet::v1::MapFinding>* fi
   }
   if (views.empty()) return;
   fleet::v1::MapFinding finding;
-  finding.set_kind("ambiguous_view");
+  finding.set_finding_kind(fleet::v1::FINDING_KIND_AMBIGUOUS_VIEW);
   finding.set_severity(0.1);
-  finding.set_state("info");
+  finding.set_finding_state(fleet::v1::FINDING_STATE_INFO);
   finding.set_summary(std::to_string(views.size()) + " of " + std::to_string(map.graph.views().size()) +
                       " views are marked ambiguous (discounted as merge evidence)");
   finding.set_evidence_json(json{{"views", views}}.dump());

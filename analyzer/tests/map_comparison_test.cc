@@ -104,11 +104,11 @@ TEST(MapComparison, DockAlignsAndALostRoomIsReported) {
 
   const auto findings = ComparisonFindings(*comparison, 3);
   ASSERT_EQ(findings.size(), 2u);
-  EXPECT_EQ(findings[0].kind(), "lost_region");
+  EXPECT_EQ(findings[0].finding_kind(), fleet::v1::FINDING_KIND_LOST_REGION);
   EXPECT_EQ(findings[0].finding_id(), 1);
   EXPECT_EQ(findings[0].world_bbox_size(), 4);
-  EXPECT_EQ(findings[1].kind(), "alignment");
-  EXPECT_EQ(findings[1].state(), "info");
+  EXPECT_EQ(findings[1].finding_kind(), fleet::v1::FINDING_KIND_ALIGNMENT);
+  EXPECT_EQ(findings[1].finding_state(), fleet::v1::FINDING_STATE_INFO);
   EXPECT_NE(findings[1].summary().find("version 3"), std::string::npos) << findings[1].summary();
 }
 
@@ -126,17 +126,18 @@ TEST(MapComparison, AWrongDockFallsBackToRegistration) {
   EXPECT_NEAR(alignment->new_T_previous.theta(), 0.0, 0.02);
   MapComparison comparison;
   comparison.alignment = *alignment;
-  EXPECT_EQ(ComparisonFindings(comparison, 1)[0].kind(), alignment->good ? "alignment" : "misaligned");
+  EXPECT_EQ(ComparisonFindings(comparison, 1)[0].finding_kind(),
+            alignment->good ? fleet::v1::FINDING_KIND_ALIGNMENT : fleet::v1::FINDING_KIND_MISALIGNED);
   // A poor alignment is an open "misaligned" finding, first by severity.
   comparison.alignment.good = false;
   comparison.alignment.wall_overlap = 0.2;
   comparison.new_regions.push_back({.area_m2 = 1.0, .predicted_class = "new_space"});
   const auto findings = ComparisonFindings(comparison, 1);
   ASSERT_EQ(findings.size(), 2u);
-  EXPECT_EQ(findings[0].kind(), "misaligned");
-  EXPECT_EQ(findings[0].state(), "open");
-  EXPECT_EQ(findings[1].kind(), "new_region");
-  EXPECT_EQ(findings[1].state(), "info");
+  EXPECT_EQ(findings[0].finding_kind(), fleet::v1::FINDING_KIND_MISALIGNED);
+  EXPECT_EQ(findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
+  EXPECT_EQ(findings[1].finding_kind(), fleet::v1::FINDING_KIND_NEW_REGION);
+  EXPECT_EQ(findings[1].finding_state(), fleet::v1::FINDING_STATE_INFO);
 }
 
 TEST(MapComparison, RefusesWhatCannotBeCompared) {

@@ -84,9 +84,9 @@ fleet::v1::RunReport ReportWithRerun(const Map& rerun_child) {
 }
 
 const fleet::v1::MapFinding* FindKind(const std::vector<fleet::v1::MapFinding>& findings,
-                                      const std::string& kind) {
+                                      fleet::v1::FindingKind kind) {
   for (const auto& finding : findings) {
-    if (finding.kind() == kind) return &finding;
+    if (finding.finding_kind() == kind) return &finding;
   }
   return nullptr;
 }
@@ -155,14 +155,15 @@ TEST(MapRepairTest, AnEdgeThatContradictsItsPeersIsAResidualFinding) {
   ASSERT_THAT(s.child.graph.AddEdge(wrong), IsOk());
   ASSERT_THAT(Reoptimize(s.child), IsOk());
   const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent});
-  const auto* residual = FindKind(findings, "high_residual_edge");
+  const auto* residual = FindKind(findings, fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE);
   ASSERT_NE(residual, nullptr);
   EXPECT_EQ(residual->edge_from(), 10);
   EXPECT_EQ(residual->edge_to(), 1);
-  EXPECT_EQ(residual->state(), "open");
+  EXPECT_EQ(residual->finding_state(), fleet::v1::FINDING_STATE_OPEN);
   EXPECT_EQ(residual->finding_id(), 1);  // the most severe first
   int residual_findings = 0;
-  for (const auto& finding : findings) residual_findings += finding.kind() == "high_residual_edge";
+  for (const auto& finding : findings)
+    residual_findings += finding.finding_kind() == fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE;
   EXPECT_EQ(residual_findings, 1) << "the consistent merge edges are not outliers";
 }
 
@@ -173,7 +174,7 @@ TEST(MapRepairTest, AHypothesisTheRerunDidNotAcceptIsUnconfirmed) {
   for (int i = 0; i < kChain; ++i) (void)rerun.graph.AddNode({.id = 20 + i, .pose = SE2(0.5 * i, 3.0, 0.0)});
   const fleet::v1::RunReport report = ReportWithRerun(rerun);
   const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
-  const auto* unconfirmed = FindKind(findings, "unconfirmed_hypothesis");
+  const auto* unconfirmed = FindKind(findings, fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS);
   ASSERT_NE(unconfirmed, nullptr);
   EXPECT_EQ(unconfirmed->hypothesis(), 4);
   const auto evidence = nlohmann::json::parse(unconfirmed->evidence_json());
@@ -184,7 +185,7 @@ TEST(MapRepairTest, AHypothesisTheRerunDidNotAcceptIsUnconfirmed) {
   // When the rerun made the same edges, the hypothesis is confirmed: no finding.
   const fleet::v1::RunReport agreeing = ReportWithRerun(s.child);
   const auto confirmed = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &agreeing});
-  EXPECT_EQ(FindKind(confirmed, "unconfirmed_hypothesis"), nullptr);
+  EXPECT_EQ(FindKind(confirmed, fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS), nullptr);
 }
 
 TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFinding) {
@@ -197,9 +198,9 @@ TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFindin
   // Around run nodes 24..26 (x 2.0..3.0 at y = 3), far from home's patches.
   for (const double value : {1.8, 2.6, 3.2, 3.4}) region->add_world_bbox(value);
   const auto before = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
-  const auto* open = FindKind(before, "protrusion");
+  const auto* open = FindKind(before, fleet::v1::FINDING_KIND_PROTRUSION);
   ASSERT_NE(open, nullptr);
-  EXPECT_EQ(open->state(), "open");
+  EXPECT_EQ(open->finding_state(), fleet::v1::FINDING_STATE_OPEN);
   ASSERT_EQ(open->world_bbox_size(), 4);
 
   std::string detail;
@@ -210,9 +211,9 @@ TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFindin
   for (int i = 0; i < kChain; ++i)
     EXPECT_EQ(cut->local_maps.at(i).cells, s.child.local_maps.at(i).cells) << "home node " << i;
   const auto after = FindMapFindings({.map = &*cut, .run_parent = &s.parent, .report = &report});
-  const auto* resolved = FindKind(after, "protrusion");
+  const auto* resolved = FindKind(after, fleet::v1::FINDING_KIND_PROTRUSION);
   ASSERT_NE(resolved, nullptr);
-  EXPECT_EQ(resolved->state(), "resolved");
+  EXPECT_EQ(resolved->finding_state(), fleet::v1::FINDING_STATE_RESOLVED);
   const auto area_before = KnownArea(s.child), area_after = KnownArea(*cut);
   ASSERT_THAT(area_before, IsOk());
   ASSERT_THAT(area_after, IsOk());

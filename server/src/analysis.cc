@@ -118,26 +118,25 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
                                                  const AnalysisBudget& budget) {
   const auto started = std::chrono::steady_clock::now();
   const std::string& run_id = key.run_id;
-  auto run = repository.GetRun(key);
-  RETURN_IF_ERROR(run.status());
-  if (run->telemetry_pruned_at_ms) {
+  ASSIGN_OR_RETURN(auto run, repository.GetRun(key));
+  if (run.telemetry_pruned_at_ms) {
     return storage::FailedPrecondition(
         "run " + run_id + " of robot " + key.robot_id +
         ": its events were pruned by retention (--retain-runs-days); nothing to rerun");
   }
   fleet::v1::RunFile file;
-  if (!file.ParseFromString(run->telemetry))
+  if (!file.ParseFromString(run.telemetry))
     return storage::DataLoss("run " + run_id + ": telemetry does not parse");
-  if (run->parent_snapshot_id) {
-    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run->parent_snapshot_id));
+  if (run.parent_snapshot_id) {
+    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run.parent_snapshot_id));
     if (!file.mutable_parent_snapshot()->ParseFromString(snapshot.bytes)) {
-      return storage::DataLoss("snapshot " + *run->parent_snapshot_id + " does not parse");
+      return storage::DataLoss("snapshot " + *run.parent_snapshot_id + " does not parse");
     }
   }
-  if (run->child_snapshot_id) {
-    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run->child_snapshot_id));
+  if (run.child_snapshot_id) {
+    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run.child_snapshot_id));
     if (!file.mutable_child_snapshot()->ParseFromString(snapshot.bytes)) {
-      return storage::DataLoss("snapshot " + *run->child_snapshot_id + " does not parse");
+      return storage::DataLoss("snapshot " + *run.child_snapshot_id + " does not parse");
     }
   }
   ASSIGN_OR_RETURN(auto stored_set, repository.GetParameterSet(parameter_set));
@@ -168,8 +167,8 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   ASSIGN_OR_RETURN(auto report, analyzer::AnalyzeRun(file, options));
   report.set_parameter_set(parameter_set);
   // The stored identity, whatever the telemetry's header says.
-  report.set_robot_id(run->robot_id);
-  report.set_run_id(run->run_id);
+  report.set_robot_id(run.robot_id);
+  report.set_run_id(run.run_id);
   const storage::ReportBundle bundle = ToReportBundle(report);
   RETURN_IF_ERROR(repository.PutReport(bundle));
   AnalysisResult result;

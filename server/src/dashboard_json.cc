@@ -95,7 +95,7 @@ json RegionJson(const storage::ProtrusionRegionRecord& region) {
 json JobJson(const storage::JobRecord& job) {
   json out{{"job_id", job.job_id},
            {"kind", job.kind},
-           {"state", storage::JobStateName(job.state)},
+           {"state", std::string(storage::Name(job.state))},
            {"attempts", job.attempts},
            {"max_attempts", job.max_attempts},
            {"progress_done", job.progress_done},

@@ -22,19 +22,25 @@ using json = nlohmann::json;
 using http::Error;
 using http::Json;
 
+/// The JSON spelling of a wire state: storage's lower-case name ("upload", "pending", "open", …; "" for none).
+template <typename ProtoEnum>
+std::string Spelled(ProtoEnum value) {
+  return std::string(NameOf(value));
+}
+
 json VersionJson(const fleet::v1::MapVersion& version) {
   return {{"robot_id", version.robot_id()},
           {"version", version.version()},
           {"parent_version", version.parent_version()},
           {"snapshot_id", version.snapshot_id()},
-          {"origin", version.origin()},
+          {"origin", Spelled(version.version_origin())},
           {"run_id", version.run_id()},
-          {"action", version.action()},
+          {"action", Spelled(version.version_action())},
           {"action_detail", version.action_detail()},
           {"created_by", version.created_by()},
           {"reason", version.reason()},
           {"created_at", version.created_at()},
-          {"approval", version.approval()},
+          {"approval", Spelled(version.approval_state())},
           {"approved_by", version.approved_by()},
           {"approved_at", version.approved_at()},
           {"nodes", version.nodes()},
@@ -51,10 +57,14 @@ json VersionJson(const fleet::v1::MapVersion& version) {
 json FindingJson(const fleet::v1::MapFinding& finding) {
   json evidence = json::parse(finding.evidence_json(), nullptr, /*allow_exceptions=*/false);
   if (evidence.is_discarded()) evidence = json::object();
-  json out = {{"finding_id", finding.finding_id()}, {"kind", finding.kind()},
-              {"severity", finding.severity()},     {"summary", finding.summary()},
-              {"state", finding.state()},           {"evidence", evidence},
-              {"edge_from", finding.edge_from()},   {"edge_to", finding.edge_to()}};
+  json out = {{"finding_id", finding.finding_id()},
+              {"kind", Spelled(finding.finding_kind())},
+              {"severity", finding.severity()},
+              {"summary", finding.summary()},
+              {"state", Spelled(finding.finding_state())},
+              {"evidence", evidence},
+              {"edge_from", finding.edge_from()},
+              {"edge_to", finding.edge_to()}};
   if (finding.has_hypothesis()) out["hypothesis"] = finding.hypothesis();
   if (finding.world_bbox_size() == 4) {
     out["world_bbox"] = {finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2),
@@ -159,15 +169,21 @@ class MapRoutes {
       auto action = RepairActionNamed(body.value("action", ""), "action");
       if (!action.ok()) return Error(action.status());
       repair.action = *action;
-      if (auto* edge = std::get_if<RejectEdge>(&repair.action)) {
-        edge->from = body.value("from", std::int64_t{0});
-        edge->to = body.value("to", std::int64_t{0});
-        if (body.contains("view") && !body["view"].is_null()) edge->view = body["view"].get<std::int64_t>();
-      } else if (auto* hypothesis = std::get_if<RejectHypothesis>(&repair.action)) {
-        hypothesis->hypothesis = body.value("hypothesis", std::int64_t{0});
-      } else if (auto* cut = std::get_if<CutFinding>(&repair.action)) {
-        cut->finding_id = body.value("finding_id", std::int64_t{0});
-      }
+      // Each action's own fields, beside "action" in the body.
+      std::visit(
+          Overloaded{[&](RejectEdge& edge) {
+                       edge.from = body.value("from", std::int64_t{0});
+                       edge.to = body.value("to", std::int64_t{0});
+                       if (body.contains("view") && !body["view"].is_null()) {
+                         edge.view = body["view"].get<std::int64_t>();
+                       }
+                     },
+                     [&](RejectHypothesis& rejected) {
+                       rejected.hypothesis = body.value("hypothesis", std::int64_t{0});
+                     },
+                     [&](CutFinding& cut) { cut.finding_id = body.value("finding_id", std::int64_t{0}); },
+                     [](Rollback&) {}, [](Undo&) {}},
+          repair.action);
       repair.reason = body.value("reason", "");
       repair.approve = body.value("approve", false);
       repair.requested_by = principal->name;
@@ -227,33 +243,32 @@ class MapRoutes {
     if (image == nullptr)
       return slamcore::InvalidArgument("image: missing (the PGM or PNG image the YAML names)");
     if (image->filename.empty()) return slamcore::InvalidArgument("image: the part has no filename");
-    auto grid = slamcore::ParseMapServerYaml(
-        yaml->body, "yaml", [&](const std::string& name) -> slamcore::Result<std::string> {
-          if (name != image->filename || name.find_first_of("/\\") != std::string::npos) {
-            return slamcore::InvalidArgument("yaml: image \"" + name.substr(0, 128) +
-                                             "\" names a file outside the upload (the uploaded image is \"" +
-                                             image->filename + "\")");
-          }
-          // A PNG's header says how large it inflates: refuse one past the upload's bound before decoding it.
-          if (image->body.size() >= 24 && image->body.compare(0, 4, "\x89PNG") == 0) {
-            const auto be32 = [&](std::size_t at) {
-              std::uint64_t value = 0;
-              for (std::size_t i = 0; i < 4; ++i)
-                value = value << 8 | static_cast<unsigned char>(image->body[at + i]);
-              return value;
-            };
-            if (be32(16) * be32(20) > kMaxUploadCells) {
-              return slamcore::InvalidArgument(
-                  "image: " + std::to_string(be32(16)) + " x " + std::to_string(be32(20)) +
-                  " pixels, more than the upload limit of " + std::to_string(kMaxUploadCells));
-            }
-          }
-          return image->body;
-        });
-    RETURN_IF_ERROR(grid.status());
+    const auto read_image = [&](const std::string& name) -> slamcore::Result<std::string> {
+      if (name != image->filename || name.find_first_of("/\\") != std::string::npos) {
+        return slamcore::InvalidArgument("yaml: image \"" + name.substr(0, 128) +
+                                         "\" names a file outside the upload (the uploaded image is \"" +
+                                         image->filename + "\")");
+      }
+      // A PNG's header says how large it inflates: refuse one past the upload's bound before decoding it.
+      if (image->body.size() >= 24 && image->body.compare(0, 4, "\x89PNG") == 0) {
+        const auto be32 = [&](std::size_t at) {
+          std::uint64_t value = 0;
+          for (std::size_t i = 0; i < 4; ++i)
+            value = value << 8 | static_cast<unsigned char>(image->body[at + i]);
+          return value;
+        };
+        if (be32(16) * be32(20) > kMaxUploadCells) {
+          return slamcore::InvalidArgument(
+              "image: " + std::to_string(be32(16)) + " x " + std::to_string(be32(20)) +
+              " pixels, more than the upload limit of " + std::to_string(kMaxUploadCells));
+        }
+      }
+      return image->body;
+    };
+    ASSIGN_OR_RETURN(auto grid, slamcore::ParseMapServerYaml(yaml->body, "yaml", read_image));
     *source = "dashboard upload: " + (yaml->filename.empty() ? std::string("yaml") : yaml->filename) + " + " +
               image->filename;
-    return analyzer::ImportMapServer(*grid);
+    return analyzer::ImportMapServer(grid);
   }
 
   /// Cells a map_server upload may decode to (a PNG inflates; a PGM is bounded by the 1 MiB body already).
@@ -276,14 +291,15 @@ class MapRoutes {
       auto versions = history_.List(robot.robot_id, &current, &head);
       if (!versions.ok()) return Error(versions.status());
       std::int64_t pending = 0;
-      for (const auto& version : *versions) pending += version.approval() == "pending" ? 1 : 0;
+      for (const auto& version : *versions)
+        pending += version.approval_state() == fleet::v1::MAP_APPROVAL_PENDING ? 1 : 0;
       json row = {{"robot_id", robot.robot_id}, {"robot_model", robot.robot_model},
                   {"firmware", robot.firmware}, {"versions", versions->size()},
                   {"current_version", current}, {"head_version", head},
                   {"pending", pending}};
       if (!versions->empty()) {
         row["head_version"] = versions->back().version();
-        row["head_approval"] = versions->back().approval();
+        row["head_approval"] = Spelled(versions->back().approval_state());
         row["open_findings"] = versions->back().open_findings();
       }
       out.push_back(row);

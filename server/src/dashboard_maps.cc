@@ -36,10 +36,9 @@ storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const st
                                        const std::string& parameter_set) {
   const std::string& run_id = key.run_id;
   ASSIGN_OR_RETURN(auto run, repository.GetRun(key));
-  auto stored = repository.GetReport(key, parameter_set);
-  RETURN_IF_ERROR(stored.status());
+  ASSIGN_OR_RETURN(auto stored, repository.GetReport(key, parameter_set));
   fleet::v1::RunReport report;
-  if (!report.ParseFromString(stored->report))
+  if (!report.ParseFromString(stored.report))
     return storage::DataLoss("report of run " + run_id + " does not parse");
   if (!report.has_rerun_child())
     return storage::FailedPrecondition("report of run " + run_id + " keeps no child map");
@@ -48,10 +47,9 @@ storage::Result<RunMaps> RenderRunMaps(storage::Repository& repository, const st
 
   slamcore::Map parent;
   if (run.parent_snapshot_id) {
-    auto snapshot = repository.GetSnapshot(*run.parent_snapshot_id);
-    RETURN_IF_ERROR(snapshot.status());
+    ASSIGN_OR_RETURN(auto snapshot, repository.GetSnapshot(*run.parent_snapshot_id));
     fleet::v1::MapSnapshot proto;
-    if (!proto.ParseFromString(snapshot->bytes)) return storage::DataLoss("parent snapshot does not parse");
+    if (!proto.ParseFromString(snapshot.bytes)) return storage::DataLoss("parent snapshot does not parse");
     auto decoded = analyzer::FromProto(proto, "parent_snapshot");
     if (!decoded.ok()) return CorruptRecord(decoded.status(), "parent_snapshot");
     parent = std::move(decoded).value();

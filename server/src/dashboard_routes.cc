@@ -161,9 +161,8 @@ class Dashboard {
   /// The run a /api/runs/{run} route names (?robot= picks among robots that share a run id; a robot reads its own).
   storage::Result<storage::RunKey> RunOf(const HttpRequest& request, const http::PathParams& path,
                                          const Query& query) {
-    auto caller = CallerOf(request);
-    RETURN_IF_ERROR(caller.status());
-    return queries_.Run(*caller, Param(query, "robot"), path.at("run"));
+    ASSIGN_OR_RETURN(auto caller, CallerOf(request));
+    return queries_.Run(caller, Param(query, "robot"), path.at("run"));
   }
 
   std::string SetOf(const std::map<std::string, std::string>& params) const {

@@ -242,7 +242,7 @@ storage::Result<JobsAnswer> FleetQueries::Jobs(const Principal& caller, const st
   std::map<std::string, std::int64_t> analyses;
   for (auto it = jobs.rbegin(); it != jobs.rend(); ++it) {
     if (caller.role == Role::kRobot && it->robot_id != caller.id) continue;
-    if (it->kind == kAnalyzeRunJob && !it->parent_job_id) ++analyses[storage::JobStateName(it->state)];
+    if (it->kind == kAnalyzeRunJob && !it->parent_job_id) ++analyses[std::string(storage::Name(it->state))];
     if (kind != "all" && it->kind != kind) continue;
     if (static_cast<int>(answer.jobs.size()) < limit) answer.jobs.push_back(*it);
   }

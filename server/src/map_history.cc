@@ -21,18 +21,16 @@ namespace {
 
 storage::Result<fleet::v1::MapSnapshot> LoadSnapshot(storage::Repository& repository,
                                                      const std::string& snapshot_id) {
-  auto stored = repository.GetSnapshot(snapshot_id);
-  RETURN_IF_ERROR(stored.status());
+  ASSIGN_OR_RETURN(auto stored, repository.GetSnapshot(snapshot_id));
   fleet::v1::MapSnapshot snapshot;
-  if (!snapshot.ParseFromString(stored->bytes))
+  if (!snapshot.ParseFromString(stored.bytes))
     return storage::DataLoss("snapshot " + snapshot_id + " does not parse");
   return snapshot;
 }
 
 storage::Result<slamcore::Map> LoadMap(storage::Repository& repository, const std::string& snapshot_id) {
-  auto snapshot = LoadSnapshot(repository, snapshot_id);
-  RETURN_IF_ERROR(snapshot.status());
-  auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
+  ASSIGN_OR_RETURN(auto snapshot, LoadSnapshot(repository, snapshot_id));
+  auto map = analyzer::FromProto(snapshot, "snapshot " + snapshot_id);
   if (!map.ok()) return storage::DataLoss(map.status().message());
   return std::move(map).value();
 }
@@ -75,18 +73,29 @@ std::vector<fleet::v1::MapFinding> Findings(const slamcore::Map& map, const RunC
       {.map = &map, .run_parent = &context.parent, .report = context.report ? &*context.report : nullptr});
 }
 
-std::vector<storage::MapFindingRecord> ToRecords(const std::vector<fleet::v1::MapFinding>& findings) {
+/// The records of findings the analysis made; INTERNAL for a finding without a kind or state (a bug there).
+/// Kind and state are the records' columns, so the JSON of the rest leaves them out.
+storage::Result<std::vector<storage::MapFindingRecord>> ToRecords(
+    const std::vector<fleet::v1::MapFinding>& findings) {
   std::vector<storage::MapFindingRecord> records;
   google::protobuf::util::JsonPrintOptions options;
   options.preserve_proto_field_names = true;
   for (const fleet::v1::MapFinding& finding : findings) {
+    const std::string name = "finding " + std::to_string(finding.finding_id());
+    auto kind = FromProto(finding.finding_kind(), name + " finding_kind");
+    auto state = FromProto(finding.finding_state(), name + " finding_state");
+    if (!kind.ok()) return storage::Internal(kind.status().message());
+    if (!state.ok()) return storage::Internal(state.status().message());
     storage::MapFindingRecord& record = records.emplace_back();
     record.finding_id = finding.finding_id();
-    record.kind = finding.kind();
+    record.kind = *kind;
     record.severity = finding.severity();
     record.summary = finding.summary();
-    record.state = finding.state();
-    (void)google::protobuf::util::MessageToJsonString(finding, &record.detail_json, options);
+    record.state = *state;
+    fleet::v1::MapFinding rest = finding;
+    rest.clear_finding_kind();
+    rest.clear_finding_state();
+    (void)google::protobuf::util::MessageToJsonString(rest, &record.detail_json, options);
   }
   return records;
 }
@@ -94,14 +103,40 @@ std::vector<storage::MapFindingRecord> ToRecords(const std::vector<fleet::v1::Ma
 storage::Result<std::vector<fleet::v1::MapFinding>> FromRecords(
     const std::vector<storage::MapFindingRecord>& records) {
   std::vector<fleet::v1::MapFinding> findings;
+  // Findings stored before kind and state were enums spell them as strings in their JSON: the columns say.
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = true;
   for (const storage::MapFindingRecord& record : records) {
     fleet::v1::MapFinding& finding = findings.emplace_back();
-    if (!google::protobuf::util::JsonStringToMessage(record.detail_json, &finding).ok()) {
+    if (!google::protobuf::util::JsonStringToMessage(record.detail_json, &finding, options).ok()) {
       return storage::DataLoss("finding " + std::to_string(record.finding_id) + " does not parse");
     }
-    finding.set_state(record.state);
+    finding.set_finding_kind(ToProto(record.kind));
+    finding.set_finding_state(ToProto(record.state));
   }
   return findings;
+}
+
+template <typename ProtoEnum, typename StorageEnum>
+ProtoEnum ToWire(StorageEnum value) {
+  return static_cast<ProtoEnum>(static_cast<int>(value) + 1);
+}
+
+template <typename StorageEnum, std::size_t N, typename ProtoEnum>
+storage::Result<StorageEnum> FromWire(ProtoEnum value, const std::array<StorageEnum, N>& values,
+                                      const std::string& field) {
+  const int index = static_cast<int>(value) - 1;
+  if (index < 0 || index >= static_cast<int>(N)) {
+    const std::string what =
+        value == ProtoEnum{} ? "unspecified" : std::to_string(value) + " is not a known value";
+    return storage::InvalidArgument(field + ": " + what);
+  }
+  return values[static_cast<std::size_t>(index)];
+}
+
+/// "" for a version without an action (uploads).
+std::string ActionText(const std::optional<storage::MapAction>& action) {
+  return action ? std::string(storage::Name(*action)) : std::string();
 }
 
 /// A new version's record with its map's figures. The known area needs a rendering: uploads leave it to
@@ -132,7 +167,7 @@ std::int64_t NowMillis() {
 
 const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRecord>& versions) {
   for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
-    if (it->approval == "approved") return &*it;
+    if (it->approval == storage::MapApproval::kApproved) return &*it;
   }
   return nullptr;
 }
@@ -156,7 +191,8 @@ storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVe
 /// What repairs continue: the newest approved or pending version (rejected and stale ones are side branches).
 const storage::MapVersionRecord* Head(const std::vector<storage::MapVersionRecord>& versions) {
   for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
-    if (it->approval == "approved" || it->approval == "pending") return &*it;
+    if (it->approval == storage::MapApproval::kApproved || it->approval == storage::MapApproval::kPending)
+      return &*it;
   }
   return nullptr;
 }
@@ -175,7 +211,7 @@ const storage::MapVersionRecord* FindRecord(const std::vector<storage::MapVersio
 const storage::MapVersionRecord* ComparisonReference(const std::vector<storage::MapVersionRecord>& versions,
                                                      const storage::MapVersionRecord& record) {
   const storage::MapVersionRecord* at = &record;
-  while (at != nullptr && at->origin != "import") {
+  while (at != nullptr && at->origin != storage::MapOrigin::kImport) {
     if (!at->parent_version) return nullptr;
     at = FindRecord(versions, *at->parent_version);
   }
@@ -213,12 +249,11 @@ struct ComparedMap {
 
 storage::Result<ComparedMap> LoadComparedMap(storage::Repository& repository,
                                              const std::string& snapshot_id) {
-  auto snapshot = LoadSnapshot(repository, snapshot_id);
-  RETURN_IF_ERROR(snapshot.status());
-  auto map = analyzer::FromProto(*snapshot, "snapshot " + snapshot_id);
+  ASSIGN_OR_RETURN(auto snapshot, LoadSnapshot(repository, snapshot_id));
+  auto map = analyzer::FromProto(snapshot, "snapshot " + snapshot_id);
   if (!map.ok()) return storage::DataLoss(map.status().message());
   ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(*map));
-  return ComparedMap{std::move(grid), analyzer::DockOf(*snapshot)};
+  return ComparedMap{std::move(grid), analyzer::DockOf(snapshot)};
 }
 
 }  // namespace
@@ -229,14 +264,14 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
   proto.set_version(record.version);
   proto.set_parent_version(record.parent_version.value_or(0));
   proto.set_snapshot_id(record.snapshot_id);
-  proto.set_origin(record.origin);
+  proto.set_version_origin(ToProto(record.origin));
   proto.set_run_id(record.run_id);
-  proto.set_action(record.action);
+  proto.set_version_action(ToProto(record.action));
   proto.set_action_detail(record.action_detail);
   proto.set_created_by(record.created_by);
   proto.set_reason(record.reason);
   proto.set_created_at(static_cast<double>(record.created_at_ms) / 1000.0);
-  proto.set_approval(record.approval);
+  proto.set_approval_state(ToProto(record.approval));
   proto.set_approved_by(record.approved_by);
   proto.set_approved_at(static_cast<double>(record.approved_at_ms) / 1000.0);
   proto.set_nodes(record.nodes);
@@ -256,6 +291,43 @@ const char* RepairActionName(const RepairAction& action) {
                                            "undo"};
   static_assert(std::size(kNames) == std::variant_size_v<RepairAction>);
   return kNames[action.index()];
+}
+
+storage::MapAction RecordedAction(const RepairAction& action) {
+  return std::visit(Overloaded{[](const RejectEdge&) { return storage::MapAction::kRejectEdge; },
+                               [](const RejectHypothesis&) { return storage::MapAction::kRejectHypothesis; },
+                               [](const CutFinding&) { return storage::MapAction::kCutRegion; },
+                               [](const Rollback&) { return storage::MapAction::kRollback; },
+                               [](const Undo&) { return storage::MapAction::kUndo; }},
+                    action);
+}
+
+fleet::v1::MapOrigin ToProto(storage::MapOrigin origin) { return ToWire<fleet::v1::MapOrigin>(origin); }
+fleet::v1::MapApproval ToProto(storage::MapApproval approval) {
+  return ToWire<fleet::v1::MapApproval>(approval);
+}
+fleet::v1::MapAction ToProto(std::optional<storage::MapAction> action) {
+  return action ? ToWire<fleet::v1::MapAction>(*action) : fleet::v1::MAP_ACTION_UNSPECIFIED;
+}
+fleet::v1::FindingKind ToProto(storage::FindingKind kind) { return ToWire<fleet::v1::FindingKind>(kind); }
+fleet::v1::FindingState ToProto(storage::FindingState state) {
+  return ToWire<fleet::v1::FindingState>(state);
+}
+
+storage::Result<storage::MapOrigin> FromProto(fleet::v1::MapOrigin origin, const std::string& field) {
+  return FromWire(origin, storage::kMapOrigins, field);
+}
+storage::Result<storage::MapApproval> FromProto(fleet::v1::MapApproval approval, const std::string& field) {
+  return FromWire(approval, storage::kMapApprovals, field);
+}
+storage::Result<storage::MapAction> FromProto(fleet::v1::MapAction action, const std::string& field) {
+  return FromWire(action, storage::kMapActions, field);
+}
+storage::Result<storage::FindingKind> FromProto(fleet::v1::FindingKind kind, const std::string& field) {
+  return FromWire(kind, storage::kFindingKinds, field);
+}
+storage::Result<storage::FindingState> FromProto(fleet::v1::FindingState state, const std::string& field) {
+  return FromWire(state, storage::kFindingStates, field);
 }
 
 storage::Result<RepairAction> RepairActionNamed(const std::string& name, const std::string& field) {
@@ -285,49 +357,48 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
                                                            const slamcore::Map& child,
                                                            const std::string& uploader) {
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
-  auto versions = repository_.ListMapVersions(run.robot_id);
-  RETURN_IF_ERROR(versions.status());
-  const storage::MapVersionRecord* current = Current(*versions);
-  auto record = NewVersion(child, *run.child_snapshot_id, /*with_known_area=*/false);
-  RETURN_IF_ERROR(record.status());
-  record->robot_id = run.robot_id;
-  record->origin = "upload";
-  record->run_id = run.run_id;
-  record->created_by = uploader.empty() ? "robot:" + run.robot_id : uploader;
+  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(run.robot_id));
+  const storage::MapVersionRecord* current = Current(versions);
+  ASSIGN_OR_RETURN(auto record, NewVersion(child, *run.child_snapshot_id, /*with_known_area=*/false));
+  record.robot_id = run.robot_id;
+  record.origin = storage::MapOrigin::kUpload;
+  record.run_id = run.run_id;
+  record.created_by = uploader.empty() ? "robot:" + run.robot_id : uploader;
   // Only the robot's own uploads (and an admin's) become its map unreviewed: an engineer's upload for a robot
   // is a map a person made, and goes through review like a repair.
   const bool needs_review = uploader.rfind("engineer:", 0) == 0;
   const std::string parent = run.parent_snapshot_id.value_or("");
-  for (auto it = versions->rbegin(); it != versions->rend() && !parent.empty(); ++it) {
+  for (auto it = versions.rbegin(); it != versions.rend() && !parent.empty(); ++it) {
     if (it->snapshot_id == parent) {
-      record->parent_version = it->version;
+      record.parent_version = it->version;
       break;
     }
   }
   // Built on the current map (or there is none yet): this is the robot's map now. Built on an older one: kept
   // in the history, but the robot should take the current version instead.
   const bool outdated = current != nullptr && current->snapshot_id != parent;
-  record->approval = outdated ? "stale" : needs_review ? "pending" : "approved";
+  record.approval = outdated       ? storage::MapApproval::kStale
+                    : needs_review ? storage::MapApproval::kPending
+                                   : storage::MapApproval::kApproved;
   if (!outdated && !needs_review) {
-    record->approved_by = record->created_by;
-    record->approved_at_ms = run.ended_at_ms;
+    record.approved_by = record.created_by;
+    record.approved_at_ms = run.ended_at_ms;
   }
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
-  auto appended = repository_.AppendMapVersion(*record, std::nullopt,
-                                               ToRecords(analyzer::FindMapFindings({.map = &child})));
-  RETURN_IF_ERROR(appended.status());
+  ASSIGN_OR_RETURN(auto findings, ToRecords(analyzer::FindMapFindings({.map = &child})));
+  ASSIGN_OR_RETURN(auto appended, repository_.AppendMapVersion(record, std::nullopt, findings));
   UploadMapOutcome outcome;
-  outcome.version = appended->version;
-  if (appended->approval == "approved" &&
-      appended->version > (versions->empty() ? 0 : versions->back().version)) {
-    outcome.current_version = appended->version;  // just made, on the current map: it is the current one now
+  outcome.version = appended.version;
+  const std::int64_t newest_before = versions.empty() ? 0 : versions.back().version;
+  if (appended.approval == storage::MapApproval::kApproved && appended.version > newest_before) {
+    outcome.current_version = appended.version;  // just made, on the current map: it is the current one now
   } else {
     // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
     ASSIGN_OR_RETURN(auto after, repository_.ListMapVersions(run.robot_id));
     const storage::MapVersionRecord* now_current = Current(after);
     outcome.current_version = now_current ? now_current->version : 0;
   }
-  outcome.outdated = outcome.current_version != appended->version;
+  outcome.outdated = outcome.current_version != appended.version;
   return outcome;
 }
 
@@ -342,8 +413,9 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
   context.report = report;
   const std::vector<fleet::v1::MapFinding> findings = Findings(loaded, context);
   ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(loaded));
-  RETURN_IF_ERROR(repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area,
-                                                     ToRecords(findings)));
+  ASSIGN_OR_RETURN(auto records, ToRecords(findings));
+  RETURN_IF_ERROR(
+      repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, records));
 
   if (policy_.auto_repair == "none") return storage::Status::Ok();
   const std::string requested_by = "policy:" + policy_.auto_repair;
@@ -358,11 +430,15 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
     const fleet::v1::MapFinding* next = nullptr;
     std::string key;
     for (const fleet::v1::MapFinding& finding : open) {
-      if (finding.state() != "open" || finding.severity() < policy_.min_severity) continue;
-      const bool repairable =
-          finding.kind() == "protrusion" || (all_findings && (finding.kind() == "unconfirmed_hypothesis" ||
-                                                              finding.kind() == "high_residual_edge"));
-      key = finding.kind() + ":" + std::to_string(finding.hypothesis()) + ":" +
+      if (finding.finding_state() != fleet::v1::FINDING_STATE_OPEN ||
+          finding.severity() < policy_.min_severity) {
+        continue;
+      }
+      const fleet::v1::FindingKind kind = finding.finding_kind();
+      const bool repairable = kind == fleet::v1::FINDING_KIND_PROTRUSION ||
+                              (all_findings && (kind == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS ||
+                                                kind == fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE));
+      key = std::string(NameOf(kind)) + ":" + std::to_string(finding.hypothesis()) + ":" +
             std::to_string(finding.edge_from()) + ":" + std::to_string(finding.edge_to()) + ":" +
             finding.summary();
       if (repairable && !tried.contains(key)) {
@@ -375,9 +451,9 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
     RepairRequest repair;
     repair.robot_id = version->robot_id;
     repair.base_version = base;
-    if (next->kind() == "protrusion") {
+    if (next->finding_kind() == fleet::v1::FINDING_KIND_PROTRUSION) {
       repair.action = CutFinding{next->finding_id()};
-    } else if (next->kind() == "unconfirmed_hypothesis") {
+    } else if (next->finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS) {
       repair.action = RejectHypothesis{next->hypothesis()};
     } else {
       repair.action = RejectEdge{.from = next->edge_from(), .to = next->edge_to(), .view = std::nullopt};
@@ -427,7 +503,8 @@ storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& rob
   for (const fleet::v1::MapFinding& finding : detail.findings) {
     if (finding.finding_id() != finding_id) continue;
     if (finding.world_bbox_size() != 4) {
-      return storage::InvalidArgument("finding " + std::to_string(finding_id) + " is a " + finding.kind() +
+      return storage::InvalidArgument("finding " + std::to_string(finding_id) + " is a " +
+                                      std::string(NameOf(finding.finding_kind())) +
                                       ", not a region that can be cut");
     }
     return std::array<double, 4>{finding.world_bbox(0), finding.world_bbox(1), finding.world_bbox(2),
@@ -447,22 +524,21 @@ storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, s
                                                   fleet::v1::MapSnapshot* snapshot) {
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   const storage::MapVersionRecord* current = Current(versions);
-  auto record = Find(versions, robot_id, version);
-  RETURN_IF_ERROR(record.status());
+  ASSIGN_OR_RETURN(auto record, Find(versions, robot_id, version));
   MapVersionDetail detail;
-  detail.version = ToProto(*record, current && current->version == record->version);
-  ASSIGN_OR_RETURN(auto findings, repository_.ListMapFindings(robot_id, record->version));
+  detail.version = ToProto(record, current && current->version == record.version);
+  ASSIGN_OR_RETURN(auto findings, repository_.ListMapFindings(robot_id, record.version));
   ASSIGN_OR_RETURN(auto parsed, FromRecords(findings));
   detail.findings = std::move(parsed);
   if (snapshot) {
-    ASSIGN_OR_RETURN(auto loaded, LoadSnapshot(repository_, record->snapshot_id));
+    ASSIGN_OR_RETURN(auto loaded, LoadSnapshot(repository_, record.snapshot_id));
     *snapshot = std::move(loaded);
   }
-  ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(robot_id, record->version));
+  ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(robot_id, record.version));
   if (!metadata.empty()) {
     detail.metadata.emplace();
     if (!detail.metadata->ParseFromString(metadata)) {
-      return storage::DataLoss("metadata of map version " + std::to_string(record->version) +
+      return storage::DataLoss("metadata of map version " + std::to_string(record.version) +
                                " does not parse");
     }
   }
@@ -473,127 +549,145 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(request.robot_id));
   if (request.base_version <= 0)
     return storage::InvalidArgument("base_version: the version repaired is required");
-  auto base = Find(versions, request.robot_id, request.base_version);
-  RETURN_IF_ERROR(base.status());
+  ASSIGN_OR_RETURN(auto base, Find(versions, request.robot_id, request.base_version));
   // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   const storage::MapVersionRecord* head = Head(versions);
-  if (head == nullptr || head->version != base->version) {
-    return storage::Aborted(
-        "version " + std::to_string(base->version) + " of robot " + request.robot_id + " is " +
-        (base->approval == "rejected" || base->approval == "stale" ? base->approval + ", not" : "not") +
-        " the version repairs start from" +
-        (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
+  if (head == nullptr || head->version != base.version) {
+    const bool side_branch =
+        base.approval == storage::MapApproval::kRejected || base.approval == storage::MapApproval::kStale;
+    return storage::Aborted("version " + std::to_string(base.version) + " of robot " + request.robot_id +
+                            " is " +
+                            (side_branch ? std::string(storage::Name(base.approval)) + ", not" : "not") +
+                            " the version repairs start from" +
+                            (head ? " (version " + std::to_string(head->version) + " is)" : std::string()));
   }
   // A map without a run (an import, or a repair of one) has no pose graph to edit: it is repaired against the
   // map before the import. Undo works the same for both.
-  if (base->run_id.empty() && !std::holds_alternative<Undo>(request.action)) {
-    return RepairMapOnly(request, *base, versions);
+  if (base.run_id.empty() && !std::holds_alternative<Undo>(request.action)) {
+    return RepairMapOnly(request, base, versions);
   }
-  ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, base->snapshot_id));
-  auto context = LoadRunContext(repository_, {base->robot_id, base->run_id}, policy_.default_parameter_set);
-  RETURN_IF_ERROR(context.status());
-  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(loaded, context->parent);
+  ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, base.snapshot_id));
+  ASSIGN_OR_RETURN(auto context,
+                   LoadRunContext(repository_, {base.robot_id, base.run_id}, policy_.default_parameter_set));
+  const std::set<slamcore::NodeId> run_nodes = analyzer::NodesAddedByRun(loaded, context.parent);
 
-  // The repaired map: computed for edits, an earlier stored map for rollback and undo.
-  std::optional<slamcore::Map> repaired;
-  std::string snapshot_id, detail, origin = "repair";
-  const auto* reject_edge = std::get_if<RejectEdge>(&request.action);
-  const auto* reject_hypothesis = std::get_if<RejectHypothesis>(&request.action);
-  const auto* cut_finding = std::get_if<CutFinding>(&request.action);
-  if (reject_edge != nullptr || reject_hypothesis != nullptr || cut_finding != nullptr) {
-    std::array<double, 4> cut_box{};
-    if (cut_finding != nullptr) {
-      ASSIGN_OR_RETURN(auto box, CutBox(request.robot_id, request.base_version, cut_finding->finding_id));
-      cut_box = box;
-    }
-    ASSIGN_OR_RETURN(
-        auto edited,
-        reject_edge != nullptr
-            ? analyzer::RejectEdge(loaded, reject_edge->from, reject_edge->to, reject_edge->view, &detail)
-        : reject_hypothesis != nullptr
-            ? analyzer::RejectHypothesis(loaded, run_nodes, reject_hypothesis->hypothesis, &detail)
-            : analyzer::CutRegion(loaded, run_nodes, cut_box, &detail));
-    repaired = std::move(edited);
+  /// The repaired map and how its version records it: an edit's new map, or an earlier stored one (rollback, undo).
+  struct Repaired {
+    std::optional<slamcore::Map> map;  // none: the map stored as snapshot_id
+    std::string snapshot_id;
+    RepairRecord record;
+  };
+  std::string detail;  // what an edit did, in words (the analyzer's edits fill it)
+  const auto stored_edit = [&](storage::Result<slamcore::Map> edit) -> storage::Result<Repaired> {
+    ASSIGN_OR_RETURN(auto edited, std::move(edit));
     ASSIGN_OR_RETURN(auto stored,
-                     repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*repaired))));
-    snapshot_id = stored;
-  } else if (std::holds_alternative<Rollback>(request.action)) {
-    ASSIGN_OR_RETURN(auto run, repository_.GetRun({base->robot_id, base->run_id}));
-    if (!run.parent_snapshot_id) {
-      return storage::FailedPrecondition(
-          "version " + std::to_string(base->version) +
-          " was made by the robot's first run: there is no parent map to roll back to");
-    }
-    origin = "rollback";
-    snapshot_id = *run.parent_snapshot_id;
-    detail = "back to the map before run " + base->run_id;
-  } else {  // Undo
-    if (base->origin == "upload" || !base->parent_version) {
-      return storage::FailedPrecondition(
-          "version " + std::to_string(base->version) +
-          " is an upload, not a repair: " + "nothing to undo (roll back instead)");
-    }
-    auto earlier = repository_.GetMapVersion(request.robot_id, *base->parent_version);
-    RETURN_IF_ERROR(earlier.status());
-    origin = "undo";
-    snapshot_id = earlier->snapshot_id;
-    detail = "undid version " + std::to_string(base->version) + " (" + base->action +
-             "): the map of version " + std::to_string(earlier->version) + " again";
-  }
-  if (!repaired) {
-    ASSIGN_OR_RETURN(auto restored, LoadMap(repository_, snapshot_id));
-    repaired = std::move(restored);
+                     repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(edited))));
+    return Repaired{std::move(edited), stored,
+                    RecordOf(request, storage::MapOrigin::kRepair, detail, base.version)};
+  };
+  const auto apply = Overloaded{
+      [&](const RejectEdge& edge) {
+        return stored_edit(analyzer::RejectEdge(loaded, edge.from, edge.to, edge.view, &detail));
+      },
+      [&](const RejectHypothesis& rejected) {
+        return stored_edit(analyzer::RejectHypothesis(loaded, run_nodes, rejected.hypothesis, &detail));
+      },
+      [&](const CutFinding& cut) -> storage::Result<Repaired> {
+        ASSIGN_OR_RETURN(auto box, CutBox(request.robot_id, request.base_version, cut.finding_id));
+        return stored_edit(analyzer::CutRegion(loaded, run_nodes, box, &detail));
+      },
+      [&](const Rollback&) -> storage::Result<Repaired> {
+        ASSIGN_OR_RETURN(auto run, repository_.GetRun({base.robot_id, base.run_id}));
+        if (!run.parent_snapshot_id) {
+          return storage::FailedPrecondition(
+              "version " + std::to_string(base.version) +
+              " was made by the robot's first run: there is no parent map to roll back to");
+        }
+        return Repaired{std::nullopt, *run.parent_snapshot_id,
+                        RecordOf(request, storage::MapOrigin::kRollback,
+                                 "back to the map before run " + base.run_id, base.version)};
+      },
+      [&](const Undo&) -> storage::Result<Repaired> {
+        const bool repaired_version = base.origin != storage::MapOrigin::kUpload && base.parent_version;
+        const storage::MapVersionRecord* earlier =
+            repaired_version ? FindRecord(versions, *base.parent_version) : nullptr;
+        if (earlier == nullptr) {
+          return storage::FailedPrecondition(
+              "version " + std::to_string(base.version) +
+              " is an upload, not a repair: nothing to undo (roll back instead)");
+        }
+        return Repaired{
+            std::nullopt, earlier->snapshot_id,
+            RecordOf(request, storage::MapOrigin::kUndo,
+                     "undid version " + std::to_string(base.version) + " (" + ActionText(base.action) +
+                         "): the map of version " + std::to_string(earlier->version) + " again",
+                     earlier->version)};
+      }};
+  ASSIGN_OR_RETURN(Repaired repaired, std::visit(apply, request.action));
+  if (!repaired.map) {
+    ASSIGN_OR_RETURN(auto restored, LoadMap(repository_, repaired.snapshot_id));
+    repaired.map = std::move(restored);
   }
 
   // Rolling back leaves the run's nodes behind: its findings no longer apply.
-  RunContext findings_context = origin == "rollback" ? RunContext{} : std::move(context).value();
-  if (origin == "rollback") findings_context.parent = *repaired;
-  const std::int64_t metadata_of = origin == "undo" ? *base->parent_version : base->version;
-  return AppendRepair(request, *base, *repaired, snapshot_id, origin, detail,
-                      Findings(*repaired, findings_context), metadata_of);
+  const bool rolled_back = repaired.record.origin == storage::MapOrigin::kRollback;
+  RunContext findings_context = rolled_back ? RunContext{} : std::move(context);
+  if (rolled_back) findings_context.parent = *repaired.map;
+  return AppendRepair(repaired.record, base, *repaired.map, repaired.snapshot_id,
+                      Findings(*repaired.map, findings_context));
+}
+
+MapHistory::RepairRecord MapHistory::RecordOf(const RepairRequest& request, storage::MapOrigin origin,
+                                              std::string detail, std::int64_t metadata_of) {
+  RepairRecord record;
+  record.origin = origin;
+  record.action = RecordedAction(request.action);
+  record.detail = std::move(detail);
+  record.created_by = request.requested_by;
+  record.reason = request.reason;
+  if (request.approve) record.approved_by = request.requested_by;
+  record.requested_by = request.requested_by;
+  record.expected_head = request.base_version;
+  record.metadata_of = metadata_of;
+  return record;
 }
 
 storage::Result<MapVersionDetail> MapHistory::AppendRepair(
-    const RepairRequest& request, const storage::MapVersionRecord& base, const slamcore::Map& repaired,
-    const std::string& snapshot_id, const std::string& origin, const std::string& detail,
-    const std::vector<fleet::v1::MapFinding>& findings, std::int64_t metadata_of,
-    const CarriedRepair* carried) {
-  auto record = NewVersion(repaired, snapshot_id, /*with_known_area=*/true);
-  RETURN_IF_ERROR(record.status());
-  ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(request.robot_id, metadata_of));
-  record->metadata = std::move(metadata);
-  record->robot_id = request.robot_id;
-  record->parent_version = base.version;
-  record->origin = origin;
-  record->run_id = base.run_id;
-  record->action = carried                                              ? carried->pending->action
-                   : std::holds_alternative<CutFinding>(request.action) ? "cut_region"
-                                                                        : RepairActionName(request.action);
-  record->action_detail = detail;
-  record->created_by = carried ? carried->pending->created_by : request.requested_by;
-  record->reason = carried ? carried->pending->reason : request.reason;
-  record->approval = request.approve ? "approved" : "pending";
-  if (request.approve) {
-    record->approved_by = request.requested_by;
-    record->approved_at_ms = NowMillis();
+    const RepairRecord& made, const storage::MapVersionRecord& base, const slamcore::Map& repaired,
+    const std::string& snapshot_id, const std::vector<fleet::v1::MapFinding>& findings) {
+  ASSIGN_OR_RETURN(auto record, NewVersion(repaired, snapshot_id, /*with_known_area=*/true));
+  ASSIGN_OR_RETURN(auto metadata, repository_.GetMapMetadata(base.robot_id, made.metadata_of));
+  record.metadata = std::move(metadata);
+  record.robot_id = base.robot_id;
+  record.parent_version = base.version;
+  record.origin = made.origin;
+  record.run_id = base.run_id;
+  record.action = made.action;
+  record.action_detail = made.detail;
+  record.created_by = made.created_by;
+  record.reason = made.reason;
+  const bool approved = made.approved_by.has_value();
+  record.approval = approved ? storage::MapApproval::kApproved : storage::MapApproval::kPending;
+  if (approved) {
+    record.approved_by = *made.approved_by;
+    record.approved_at_ms = NowMillis();
   }
-  if (carried) record->supersedes_pending = carried->pending->version;
-  auto appended = repository_.AppendMapVersion(
-      *record, carried ? carried->expected_head : request.base_version, ToRecords(findings));
-  RETURN_IF_ERROR(appended.status());
-  log::Info("map_repaired", {{"robot_id", request.robot_id},
-                             {"base_version", static_cast<long long>(request.base_version)},
-                             {"version", static_cast<long long>(appended->version)},
-                             {"action", record->action},
-                             {"detail", detail},
-                             {"by", request.requested_by},
-                             {"approved", request.approve}});
+  record.supersedes_pending = made.supersedes_pending;
+  ASSIGN_OR_RETURN(auto finding_records, ToRecords(findings));
+  ASSIGN_OR_RETURN(auto appended, repository_.AppendMapVersion(record, made.expected_head, finding_records));
+  log::Info("map_repaired", {{"robot_id", base.robot_id},
+                             {"base_version", static_cast<long long>(base.version)},
+                             {"version", static_cast<long long>(appended.version)},
+                             {"action", ActionText(made.action)},
+                             {"detail", made.detail},
+                             {"by", made.requested_by},
+                             {"approved", approved}});
   MapVersionDetail result;
-  result.version = ToProto(*appended, request.approve);
+  result.version = ToProto(appended, approved);
   result.findings = findings;
-  if (!record->metadata.empty()) {
+  if (!record.metadata.empty()) {
     result.metadata.emplace();
-    (void)result.metadata->ParseFromString(record->metadata);  // bytes this server stored a moment ago
+    (void)result.metadata->ParseFromString(record.metadata);  // bytes this server stored a moment ago
   }
   return result;
 }
@@ -604,7 +698,7 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& rob
     ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
     const storage::MapVersionRecord* pending = FindRecord(versions, version);
     const storage::MapVersionRecord* current = Current(versions);
-    if (pending != nullptr && pending->approval == "pending" && current != nullptr &&
+    if (pending != nullptr && pending->approval == storage::MapApproval::kPending && current != nullptr &&
         current->version > version) {
       return ApproveOvertaken(versions, *pending, *current, reviewed_by);
     }
@@ -614,9 +708,9 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Review(const std::string& rob
                              {"version", static_cast<long long>(version)},
                              {"approved", approve},
                              {"by", reviewed_by}});
-  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
-  const storage::MapVersionRecord* current = Current(versions);
-  return ToProto(reviewed, current && current->version == version);
+  // ReviewMapVersion approves only when no newer version is approved (under the robot's lock), so an approved
+  // version is the robot's current one; a rejected one never is.
+  return ToProto(reviewed, reviewed.approval == storage::MapApproval::kApproved);
 }
 
 storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(
@@ -627,8 +721,8 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(
                                 std::to_string(current.version);
   const std::string instead =
       "; reject it, or repair version " + std::to_string(current.version) + " instead";
-  if (pending.origin != "repair") {
-    return storage::FailedPrecondition(overtaken + ": a " + pending.origin +
+  if (pending.origin != storage::MapOrigin::kRepair) {
+    return storage::FailedPrecondition(overtaken + ": a " + std::string(storage::Name(pending.origin)) +
                                        " cannot be carried onto a later map (it would drop the runs since)" +
                                        instead);
   }
@@ -650,19 +744,22 @@ storage::Result<fleet::v1::MapVersion> MapHistory::ApproveOvertaken(
                    repository_.PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*carried))));
   ASSIGN_OR_RETURN(const RunContext context, LoadRunContext(repository_, {current.robot_id, current.run_id},
                                                             policy_.default_parameter_set));
+  // The pending repair's own version, now made on the current one: its action, author and reason, approved by
+  // the reviewer; the pending one is superseded (stale) in the same transaction.
   const storage::MapVersionRecord* head = Head(versions);
-  const CarriedRepair carried_repair{.pending = &pending, .expected_head = head ? head->version : 0};
-  const RepairRequest request{.robot_id = pending.robot_id,
-                              .base_version = current.version,
-                              .action = Undo{},  // unused: the carried repair's action is recorded
-                              .reason = pending.reason,
-                              .approve = true,
-                              .requested_by = reviewed_by};
+  const RepairRecord record{.origin = storage::MapOrigin::kRepair,
+                            .action = pending.action,
+                            .detail = "carried forward from version " + std::to_string(pending.version) +
+                                      " (" + pending.action_detail + "): " + carried_detail,
+                            .created_by = pending.created_by,
+                            .reason = pending.reason,
+                            .approved_by = reviewed_by,
+                            .requested_by = reviewed_by,
+                            .expected_head = head ? head->version : 0,
+                            .supersedes_pending = pending.version,
+                            .metadata_of = current.version};
   ASSIGN_OR_RETURN(const MapVersionDetail appended,
-                   AppendRepair(request, current, *carried, stored, "repair",
-                                "carried forward from version " + std::to_string(pending.version) + " (" +
-                                    pending.action_detail + "): " + carried_detail,
-                                Findings(*carried, context), current.version, &carried_repair));
+                   AppendRepair(record, current, *carried, stored, Findings(*carried, context)));
   log::Info("map_repair_carried_forward", {{"robot_id", pending.robot_id},
                                            {"pending_version", static_cast<long long>(pending.version)},
                                            {"onto_version", static_cast<long long>(current.version)},
@@ -730,30 +827,30 @@ storage::Result<fleet::v1::MapVersion> MapHistory::Import(const std::string& rob
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
   const storage::MapVersionRecord* head = Head(versions);
   ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(stored_snapshot, map, head));
-  auto record = NewVersion(map, stored, /*with_known_area=*/true);
-  RETURN_IF_ERROR(record.status());
-  record->robot_id = robot_id;
-  if (head) record->parent_version = head->version;
-  record->origin = "import";
-  record->action = "import";
-  if (analyzer::HasContent(metadata)) record->metadata = fleet::SerializeDeterministic(metadata);
-  record->action_detail = source;
-  record->created_by = requested_by;
-  record->reason = reason;
-  record->approval = approve ? "approved" : "pending";
+  ASSIGN_OR_RETURN(auto record, NewVersion(map, stored, /*with_known_area=*/true));
+  record.robot_id = robot_id;
+  if (head) record.parent_version = head->version;
+  record.origin = storage::MapOrigin::kImport;
+  record.action = storage::MapAction::kImport;
+  if (analyzer::HasContent(metadata)) record.metadata = fleet::SerializeDeterministic(metadata);
+  record.action_detail = source;
+  record.created_by = requested_by;
+  record.reason = reason;
+  record.approval = approve ? storage::MapApproval::kApproved : storage::MapApproval::kPending;
   if (approve) {
-    record->approved_by = requested_by;
-    record->approved_at_ms = NowMillis();
+    record.approved_by = requested_by;
+    record.approved_at_ms = NowMillis();
   }
-  auto appended = repository_.AppendMapVersion(*record, head ? std::optional(head->version) : std::nullopt,
-                                               ToRecords(findings));
-  RETURN_IF_ERROR(appended.status());
+  ASSIGN_OR_RETURN(auto finding_records, ToRecords(findings));
+  ASSIGN_OR_RETURN(auto appended,
+                   repository_.AppendMapVersion(record, head ? std::optional(head->version) : std::nullopt,
+                                                finding_records));
   log::Info("map_imported", {{"robot_id", robot_id},
-                             {"version", static_cast<long long>(appended->version)},
+                             {"version", static_cast<long long>(appended.version)},
                              {"source", source},
                              {"by", requested_by},
                              {"approved", approve}});
-  return ToProto(*appended, approve);
+  return ToProto(appended, approve);
 }
 
 storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
@@ -779,9 +876,9 @@ storage::Result<std::vector<fleet::v1::MapFinding>> MapHistory::MapOnlyFindings(
   if (!comparison.ok()) {
     // Nothing to align by (a map without walls, another resolution): the version is kept, and says so.
     fleet::v1::MapFinding& finding = findings.emplace_back();
-    finding.set_kind("misaligned");
+    finding.set_finding_kind(fleet::v1::FINDING_KIND_MISALIGNED);
     finding.set_severity(0.9);
-    finding.set_state("open");
+    finding.set_finding_state(fleet::v1::FINDING_STATE_OPEN);
     finding.set_summary("not compared with version " + std::to_string(reference->version) + ": " +
                         comparison.status().message());
     return MergeFindings(std::move(findings), {});
@@ -807,14 +904,13 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(
         (rollback ? "roll back to" : "cut back to"));
   }
   if (rollback) {
-    auto restored = LoadMap(repository_, reference->snapshot_id);
-    RETURN_IF_ERROR(restored.status());
+    ASSIGN_OR_RETURN(auto restored, LoadMap(repository_, reference->snapshot_id));
     ASSIGN_OR_RETURN(auto restored_snapshot, LoadSnapshot(repository_, reference->snapshot_id));
-    ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(restored_snapshot, *restored, reference));
-    return AppendRepair(
-        request, base, *restored, reference->snapshot_id, "rollback",
-        "back to version " + std::to_string(reference->version) + ", the map before the import", findings,
-        reference->version);
+    ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(restored_snapshot, restored, reference));
+    const std::string detail =
+        "back to version " + std::to_string(reference->version) + ", the map before the import";
+    return AppendRepair(RecordOf(request, storage::MapOrigin::kRollback, detail, reference->version), base,
+                        restored, reference->snapshot_id, findings);
   }
   // cut_finding: the finding must be a new region of this version; its cells take the previous map's values.
   ASSIGN_OR_RETURN(auto detail, Get(request.robot_id, base.version));
@@ -824,9 +920,10 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(
   }
   if (finding == nullptr)
     return storage::NotFound(name + " has no finding " + std::to_string(cut_finding->finding_id));
-  if (finding->kind() != "new_region") {
+  if (finding->finding_kind() != fleet::v1::FINDING_KIND_NEW_REGION) {
     return storage::InvalidArgument("finding " + std::to_string(cut_finding->finding_id) + " is a " +
-                                    finding->kind() + ", not a new_region that can be cut");
+                                    std::string(NameOf(finding->finding_kind())) +
+                                    ", not a new_region that can be cut");
   }
   const nlohmann::json evidence = nlohmann::json::parse(finding->evidence_json(), nullptr, false);
   if (!evidence.is_object() || !evidence.contains("region_id") ||
@@ -852,37 +949,33 @@ storage::Result<MapVersionDetail> MapHistory::RepairMapOnly(
       slamcore::RepairChild(comparison.aligned_previous, grid, {region}, slamcore::RepairMode::kCutOut));
   fleet::v1::MapSnapshot repaired_snapshot = analyzer::ToProto(repaired);
   *repaired_snapshot.mutable_imported() = base_snapshot.imported();
-  auto stored = repository_.PutSnapshot(fleet::SerializeDeterministic(repaired_snapshot));
-  RETURN_IF_ERROR(stored.status());
+  ASSIGN_OR_RETURN(auto stored, repository_.PutSnapshot(fleet::SerializeDeterministic(repaired_snapshot)));
   ASSIGN_OR_RETURN(auto findings, MapOnlyFindings(repaired_snapshot, repaired, reference));
-  return AppendRepair(request, base, repaired, *stored, "repair",
-                      "cut new region " + std::to_string(region_id) + " (" +
-                          std::to_string(region->cells.size()) + " cells) back to version " +
-                          std::to_string(reference->version) + "'s cells",
-                      findings, base.version);
+  return AppendRepair(
+      RecordOf(request, storage::MapOrigin::kRepair,
+               "cut new region " + std::to_string(region_id) + " (" + std::to_string(region->cells.size()) +
+                   " cells) back to version " + std::to_string(reference->version) + "'s cells",
+               base.version),
+      base, repaired, stored, findings);
 }
 
 storage::Result<std::vector<fleet::v1::ExportedFile>> MapHistory::Export(const std::string& robot_id,
                                                                          std::int64_t version,
                                                                          const std::string& format) {
-  auto record = Resolve(robot_id, version);
-  RETURN_IF_ERROR(record.status());
-  auto snapshot = LoadSnapshot(repository_, record->snapshot_id);
-  RETURN_IF_ERROR(snapshot.status());
-  auto loaded = analyzer::FromProto(*snapshot, "snapshot " + record->snapshot_id);
+  ASSIGN_OR_RETURN(auto record, Resolve(robot_id, version));
+  ASSIGN_OR_RETURN(auto snapshot, LoadSnapshot(repository_, record.snapshot_id));
+  auto loaded = analyzer::FromProto(snapshot, "snapshot " + record.snapshot_id);
   if (!loaded.ok()) return storage::DataLoss(loaded.status().message());
   // The metadata kept with the version; versions without (map_server imports) still hand back their poses.
-  auto stored = repository_.GetMapMetadata(robot_id, record->version);
-  RETURN_IF_ERROR(stored.status());
+  ASSIGN_OR_RETURN(auto stored, repository_.GetMapMetadata(robot_id, record.version));
   fleet::v1::MapMetadata metadata;
-  if (!metadata.ParseFromString(*stored))
-    return storage::DataLoss("metadata of map version " + std::to_string(record->version) +
-                             " does not parse");
-  if (!analyzer::HasContent(metadata) && snapshot->has_imported())
-    metadata = analyzer::MetadataOfImported(snapshot->imported());
+  if (!metadata.ParseFromString(stored))
+    return storage::DataLoss("metadata of map version " + std::to_string(record.version) + " does not parse");
+  if (!analyzer::HasContent(metadata) && snapshot.has_imported())
+    metadata = analyzer::MetadataOfImported(snapshot.imported());
   ASSIGN_OR_RETURN(
       auto files,
-      analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record->version), &metadata));
+      analyzer::ExportMap(*loaded, format, robot_id + "-v" + std::to_string(record.version), &metadata));
   return files;
 }
 

@@ -52,18 +52,18 @@ storage::Result<RetentionCounts> RetentionTask::RunOnce(std::int64_t now_ms) {
   for (const Pass& pass : passes) {
     if (pass.days <= 0.0) continue;
     const std::int64_t before = now_ms - static_cast<std::int64_t>(pass.days * kMsPerDay);
-    auto removed = PruneAll([&](int batch) { return pass.prune(before, batch); }, policy_.batch);
-    RETURN_IF_ERROR(removed.status());
-    *pass.count = *removed;
-    if (*removed == 0) continue;
+    ASSIGN_OR_RETURN(const std::int64_t removed,
+                     PruneAll([&](int batch) { return pass.prune(before, batch); }, policy_.batch));
+    *pass.count = removed;
+    if (removed == 0) continue;
     metrics_.Increment("fleetd_retention_pruned_total", std::string("what=\"") + pass.action + "\"",
-                       static_cast<double>(*removed));
+                       static_cast<double>(removed));
     const std::string policy = std::string(pass.what) + " " + std::to_string(before) + " ms (" +
                                std::to_string(pass.days) + " days)";
     ASSIGN_OR_RETURN(auto audited, repository_.AppendAudit(
                                        storage::AuditEntry{0, now_ms, "fleetd:retention", pass.action, policy,
-                                                           "{\"count\":" + std::to_string(*removed) + "}"}));
-    log::Info("retention_pruned", {{"action", pass.action}, {"count", static_cast<long long>(*removed)}});
+                                                           "{\"count\":" + std::to_string(removed) + "}"}));
+    log::Info("retention_pruned", {{"action", pass.action}, {"count", static_cast<long long>(removed)}});
   }
   return counts;
 }

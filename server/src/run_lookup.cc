@@ -10,15 +10,14 @@ storage::Result<storage::RunKey> ResolveRun(storage::Repository& repository, con
     return storage::RunKey{caller.id, run_id};
   }
   if (!robot_id.empty()) return storage::RunKey{robot_id, run_id};
-  auto robots = repository.ListRunRobots(run_id, 2);
-  RETURN_IF_ERROR(robots.status());
-  if (robots->empty()) return storage::NotFound("run_id: no run \"" + run_id + "\"");
-  if (robots->size() > 1) {
-    return storage::InvalidArgument("run_id: robots " + (*robots)[0] + ", " + (*robots)[1] +
+  ASSIGN_OR_RETURN(auto robots, repository.ListRunRobots(run_id, 2));
+  if (robots.empty()) return storage::NotFound("run_id: no run \"" + run_id + "\"");
+  if (robots.size() > 1) {
+    return storage::InvalidArgument("run_id: robots " + robots[0] + ", " + robots[1] +
                                     " (and maybe more) each have a run \"" + run_id +
                                     "\"; name the robot (robot_id, or ?robot= over HTTP)");
   }
-  return storage::RunKey{robots->front(), run_id};
+  return storage::RunKey{robots.front(), run_id};
 }
 
 }  // namespace server

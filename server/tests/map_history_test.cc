@@ -119,13 +119,33 @@ TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
   auto detail = history.Get("r1", 2);
   ASSERT_THAT(detail, IsOk());
   ASSERT_EQ(detail->findings.size(), 1u);
-  EXPECT_EQ(detail->findings[0].kind(), "protrusion");
-  EXPECT_EQ(detail->findings[0].state(), "open");
+  EXPECT_EQ(detail->findings[0].finding_kind(), fleet::v1::FINDING_KIND_PROTRUSION);
+  EXPECT_EQ(detail->findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
   EXPECT_EQ(detail->version.open_findings(), 1);
   std::int64_t current = 0, head = 0;
   EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u);
   EXPECT_EQ(current, 2);
   EXPECT_EQ(head, 2);
+}
+
+TEST_F(MapHistoryTest, FindingsStoredWhileKindAndStateWereStringsReadAsBefore) {
+  MapHistory history(*repository_, {});
+  UploadBoth(history);
+  // The JSON of a finding as servers before the wire enums stored it: kind and state spelled in it.
+  const std::string legacy =
+      R"({"finding_id":"1","kind":"protrusion","severity":0.8,"summary":"region 3","state":"open",)"
+      R"("evidence_json":"{}","world_bbox":[6.5,-0.5,8,0.5]})";
+  ASSERT_THAT(repository_->UpdateMapVersionHealth("r1", 2, 10.0,
+                                                  {{1, storage::FindingKind::kProtrusion, 0.8, "region 3",
+                                                    storage::FindingState::kOpen, legacy}}),
+              IsOk());
+  auto detail = history.Get("r1", 2);
+  ASSERT_THAT(detail, IsOk());
+  ASSERT_EQ(detail->findings.size(), 1u);
+  EXPECT_EQ(detail->findings[0].finding_kind(), fleet::v1::FINDING_KIND_PROTRUSION);
+  EXPECT_EQ(detail->findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
+  EXPECT_EQ(detail->findings[0].summary(), "region 3");
+  EXPECT_EQ(detail->findings[0].world_bbox_size(), 4);
 }
 
 TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
@@ -134,12 +154,12 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
   ASSERT_THAT(repaired, IsOk());
-  EXPECT_EQ(repaired->version.action(), "cut_region");
+  EXPECT_EQ(repaired->version.version_action(), fleet::v1::MAP_ACTION_CUT_REGION);
   EXPECT_EQ(repaired->version.created_by(), "policy:cut_protrusions");
-  EXPECT_EQ(repaired->version.approval(), "pending");
+  EXPECT_EQ(repaired->version.approval_state(), fleet::v1::MAP_APPROVAL_PENDING);
   EXPECT_EQ(repaired->version.parent_version(), 2);
   ASSERT_EQ(repaired->findings.size(), 1u);
-  EXPECT_EQ(repaired->findings[0].state(), "resolved");
+  EXPECT_EQ(repaired->findings[0].finding_state(), fleet::v1::FINDING_STATE_RESOLVED);
   EXPECT_EQ(repaired->version.open_findings(), 0);
   EXPECT_LT(repaired->version.known_area_m2(), history.Get("r1", 2)->version.known_area_m2());
   // Pending: the robot keeps version 2 until an engineer approves.
@@ -207,16 +227,16 @@ TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereA
     std::int64_t current = 0, head = 0;
     EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u)
         << "a protrusion below severity 1 is left open";
-    EXPECT_EQ(history.Get("r1", 2)->findings[0].state(), "open");
+    EXPECT_EQ(history.Get("r1", 2)->findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
   }
   MapHistory history(*repository_,
                      {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
   ASSERT_THAT(repaired, IsOk());
-  EXPECT_EQ(repaired->version.action(), "cut_region");
+  EXPECT_EQ(repaired->version.version_action(), fleet::v1::MAP_ACTION_CUT_REGION);
   EXPECT_EQ(repaired->version.created_by(), "policy:repair_findings");
-  EXPECT_EQ(repaired->version.approval(), "approved");
+  EXPECT_EQ(repaired->version.approval_state(), fleet::v1::MAP_APPROVAL_APPROVED);
   EXPECT_EQ(repaired->version.open_findings(), 0);
   // Analysed again (a retried job): the repaired version is the head, nothing is left to repair.
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
@@ -326,14 +346,14 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   std::int64_t kitchen = 0;
   int alignments = 0, new_regions = 0;
   for (const fleet::v1::MapFinding& finding : detail->findings) {
-    alignments += finding.kind() == "alignment" ? 1 : 0;
-    if (finding.kind() == "new_region") {
+    alignments += finding.finding_kind() == fleet::v1::FINDING_KIND_ALIGNMENT ? 1 : 0;
+    if (finding.finding_kind() == fleet::v1::FINDING_KIND_NEW_REGION) {
       ++new_regions;
       kitchen = finding.finding_id();
       EXPECT_GT(finding.world_bbox(0), 3.9);
       EXPECT_LT(finding.world_bbox(2), 7.6);
     }
-    EXPECT_NE(finding.kind(), "misaligned") << finding.summary();
+    EXPECT_NE(finding.finding_kind(), fleet::v1::FINDING_KIND_MISALIGNED) << finding.summary();
   }
   EXPECT_EQ(alignments, 1);
   ASSERT_EQ(new_regions, 1);
@@ -351,9 +371,10 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
                     .requested_by = "engineer:e"};
   auto cut_version = history.Repair(cut);
   ASSERT_THAT(cut_version, IsOk());
-  EXPECT_EQ(cut_version->version.approval(), "pending");
-  EXPECT_EQ(cut_version->version.action(), "cut_region");
-  for (const fleet::v1::MapFinding& finding : cut_version->findings) EXPECT_NE(finding.kind(), "new_region");
+  EXPECT_EQ(cut_version->version.approval_state(), fleet::v1::MAP_APPROVAL_PENDING);
+  EXPECT_EQ(cut_version->version.version_action(), fleet::v1::MAP_ACTION_CUT_REGION);
+  for (const fleet::v1::MapFinding& finding : cut_version->findings)
+    EXPECT_NE(finding.finding_kind(), fleet::v1::FINDING_KIND_NEW_REGION);
   EXPECT_LT(cut_version->version.known_area_m2(), v2->known_area_m2() - 5.0);
   fleet::v1::MapSnapshot cut_snapshot;
   ASSERT_THAT(history.Get("home", 3, &cut_snapshot), IsOk());
@@ -375,7 +396,7 @@ TEST_F(MapHistoryTest, ImportsAreComparedCutAndRolledBack) {
   rollback.base_version = 3;
   auto rolled = history.Repair(rollback);
   ASSERT_THAT(rolled, IsOk());
-  EXPECT_EQ(rolled->version.origin(), "rollback");
+  EXPECT_EQ(rolled->version.version_origin(), fleet::v1::MAP_ORIGIN_ROLLBACK);
   EXPECT_EQ(rolled->version.snapshot_id(), v1->snapshot_id());
   // …with version 1's metadata: the rooms of the map it restores.
   EXPECT_EQ(RoomNames(history.Get("home", 4)->metadata), (std::vector<std::string>{"Living room"}));
@@ -397,6 +418,59 @@ TEST(RepairActionTest, NamesRoundTripAndUnknownNamesAreRefusedNamingTheField) {
   EXPECT_THAT(unknown, StatusIs(storage::StatusCode::kInvalidArgument));
   EXPECT_NE(unknown.status().message().find("action: \"explode\""), std::string::npos)
       << unknown.status().message();
+}
+
+TEST(MapStatesTest, WireValuesAreStoragesNamesUpperCased) {
+  const auto expect_named = [](const std::string& wire_name, const std::string& prefix,
+                               std::string_view name) {
+    std::string upper(name);
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    EXPECT_EQ(wire_name, prefix + upper);
+  };
+  for (storage::MapOrigin value : storage::kMapOrigins) {
+    expect_named(fleet::v1::MapOrigin_Name(ToProto(value)), "MAP_ORIGIN_", storage::Name(value));
+    EXPECT_EQ(*FromProto(ToProto(value), "origin"), value);
+    EXPECT_EQ(NameOf(ToProto(value)), storage::Name(value));
+  }
+  for (storage::MapApproval value : storage::kMapApprovals) {
+    expect_named(fleet::v1::MapApproval_Name(ToProto(value)), "MAP_APPROVAL_", storage::Name(value));
+    EXPECT_EQ(*FromProto(ToProto(value), "approval"), value);
+  }
+  for (storage::MapAction value : storage::kMapActions) {
+    expect_named(fleet::v1::MapAction_Name(ToProto(value)), "MAP_ACTION_", storage::Name(value));
+    EXPECT_EQ(*FromProto(ToProto(value), "action"), value);
+  }
+  for (storage::FindingKind value : storage::kFindingKinds) {
+    expect_named(fleet::v1::FindingKind_Name(ToProto(value)), "FINDING_KIND_", storage::Name(value));
+    EXPECT_EQ(*FromProto(ToProto(value), "kind"), value);
+  }
+  for (storage::FindingState value : storage::kFindingStates) {
+    expect_named(fleet::v1::FindingState_Name(ToProto(value)), "FINDING_STATE_", storage::Name(value));
+    EXPECT_EQ(*FromProto(ToProto(value), "state"), value);
+  }
+  // Every wire value but UNSPECIFIED has a storage value.
+  EXPECT_EQ(fleet::v1::MapOrigin_ARRAYSIZE, static_cast<int>(storage::kMapOrigins.size()) + 1);
+  EXPECT_EQ(fleet::v1::MapApproval_ARRAYSIZE, static_cast<int>(storage::kMapApprovals.size()) + 1);
+  EXPECT_EQ(fleet::v1::MapAction_ARRAYSIZE, static_cast<int>(storage::kMapActions.size()) + 1);
+  EXPECT_EQ(fleet::v1::FindingKind_ARRAYSIZE, static_cast<int>(storage::kFindingKinds.size()) + 1);
+  EXPECT_EQ(fleet::v1::FindingState_ARRAYSIZE, static_cast<int>(storage::kFindingStates.size()) + 1);
+}
+
+TEST(MapStatesTest, UnspecifiedAndUnknownWireValuesAreRefusedNamingTheField) {
+  EXPECT_THAT(FromProto(fleet::v1::MAP_ORIGIN_UNSPECIFIED, "version_origin"),
+              StatusIs(storage::StatusCode::kInvalidArgument, "version_origin: unspecified"));
+  EXPECT_THAT(FromProto(static_cast<fleet::v1::FindingKind>(99), "finding_kind"),
+              StatusIs(storage::StatusCode::kInvalidArgument, "finding_kind: 99 is not a known value"));
+  EXPECT_EQ(ToProto(std::optional<storage::MapAction>()), fleet::v1::MAP_ACTION_UNSPECIFIED);
+  EXPECT_EQ(NameOf(fleet::v1::MAP_ACTION_UNSPECIFIED), "");
+}
+
+TEST(RepairActionTest, EachActionIsRecordedAsItsMapAction) {
+  EXPECT_EQ(RecordedAction(RejectEdge{.from = 1, .to = 2}), storage::MapAction::kRejectEdge);
+  EXPECT_EQ(RecordedAction(RejectHypothesis{3}), storage::MapAction::kRejectHypothesis);
+  EXPECT_EQ(RecordedAction(CutFinding{4}), storage::MapAction::kCutRegion);
+  EXPECT_EQ(RecordedAction(Rollback{}), storage::MapAction::kRollback);
+  EXPECT_EQ(RecordedAction(Undo{}), storage::MapAction::kUndo);
 }
 
 }  // namespace server

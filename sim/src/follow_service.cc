@@ -51,7 +51,7 @@ struct Follower {
                                        std::to_string(fetched->version.version()) +
                                        " from Maps.GetMap: " + taken.message());
     }
-    if (fetched->version.origin() != "upload") {
+    if (fetched->version.version_origin() != fleet::v1::MAP_ORIGIN_UPLOAD) {
       std::lock_guard lock(mutex);
       ++repairs_taken[robot_id];
     }

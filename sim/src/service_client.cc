@@ -97,7 +97,7 @@ slamcore::Result<std::int64_t> ServiceClient::ApprovePending(const std::string& 
   if (!status.ok()) return Failed("Maps.ListMapVersions", status);
   std::int64_t approved = 0;
   for (const fleet::v1::MapVersion& version : versions.versions()) {  // oldest first
-    if (version.approval() != "pending") continue;
+    if (version.approval_state() != fleet::v1::MAP_APPROVAL_PENDING) continue;
     fleet::v1::ReviewMapVersionRequest review;
     review.set_robot_id(robot_id);
     review.set_version(version.version());

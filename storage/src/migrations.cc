@@ -477,15 +477,14 @@ Status MigrateTo(SqlDatabase& database, std::int64_t target_version) {
     RETURN_IF_ERROR(
         transaction.ExecScript("CREATE TABLE IF NOT EXISTS schema_version (version BIGINT PRIMARY KEY, "
                                "applied_at_ms BIGINT NOT NULL)"));
-    auto current = ReadSchemaVersion(transaction);
-    RETURN_IF_ERROR(current.status());
+    ASSIGN_OR_RETURN(auto current, ReadSchemaVersion(transaction));
     const std::int64_t latest = target_version;
-    if (*current > LatestSchemaVersionInternal()) {
-      return FailedPrecondition("database schema version " + std::to_string(*current) +
+    if (current > LatestSchemaVersionInternal()) {
+      return FailedPrecondition("database schema version " + std::to_string(current) +
                                 " is newer than this program's " +
                                 std::to_string(LatestSchemaVersionInternal()) + "; upgrade the program");
     }
-    for (std::int64_t version = *current + 1; version <= latest; ++version) {
+    for (std::int64_t version = current + 1; version <= latest; ++version) {
       const std::string& sql = Migrations()[static_cast<std::size_t>(version - 1)];
       Status applied = transaction.ExecScript(ForDialect(sql, database.dialect()));
       if (!applied.ok()) {

@@ -26,10 +26,9 @@ Result<InsertOutcome> SqlRepository::CompareExisting(SqlTransaction& transaction
                                                      const std::string& select_digest_sql,
                                                      const std::vector<SqlValue>& key,
                                                      const std::string& sha256, const std::string& what) {
-  auto rows = transaction.Query(select_digest_sql, key);
-  RETURN_IF_ERROR(rows.status());
-  if (rows->empty()) return Internal(what + " vanished while being inserted");
-  if (rows->front().Text(0) == sha256) return InsertOutcome::kAlreadyPresent;
+  ASSIGN_OR_RETURN(auto rows, transaction.Query(select_digest_sql, key));
+  if (rows.empty()) return Internal(what + " vanished while being inserted");
+  if (rows.front().Text(0) == sha256) return InsertOutcome::kAlreadyPresent;
   return AlreadyExists(what + " is already stored with different content");
 }
 
@@ -179,11 +178,10 @@ Result<SnapshotRecord> SqlRepository::GetSnapshot(const std::string& snapshot_id
     return Status::Ok();
   }));
   if (!row) return NotFound("no snapshot " + snapshot_id);
-  auto bytes = DecodeBlob(row->Text(0), row->Int(1), row->Int(2), "snapshot " + snapshot_id);
-  RETURN_IF_ERROR(bytes.status());
-  if (Sha256Hex(*bytes) != snapshot_id)
+  ASSIGN_OR_RETURN(auto bytes, DecodeBlob(row->Text(0), row->Int(1), row->Int(2), "snapshot " + snapshot_id));
+  if (Sha256Hex(bytes) != snapshot_id)
     return DataLoss("snapshot " + snapshot_id + ": bytes do not match their id");
-  return SnapshotRecord{snapshot_id, std::move(bytes).value()};
+  return SnapshotRecord{snapshot_id, std::move(bytes)};
 }
 
 // ---- Parameter sets ----
@@ -311,9 +309,9 @@ Result<ModelRecord> SqlRepository::GetActiveModel(const std::string& name) {
 
 Status SqlRepository::ActivateModel(const std::string& name, std::int64_t version) {
   return Write([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query("SELECT 1 FROM models WHERE name = $1 AND version = $2", {name, version});
-    RETURN_IF_ERROR(rows.status());
-    if (rows->empty()) return NotFound("no model " + name + " version " + std::to_string(version));
+    ASSIGN_OR_RETURN(auto rows, transaction.Query("SELECT 1 FROM models WHERE name = $1 AND version = $2",
+                                                  {name, version}));
+    if (rows.empty()) return NotFound("no model " + name + " version " + std::to_string(version));
     return transaction.Exec(
         "UPDATE models SET active = CASE WHEN version = $2 THEN 1 ELSE 0 END WHERE name = $1",
         {name, version});

@@ -170,6 +170,15 @@ std::int64_t NowMs();
 /// Rejects strings the databases cannot store as TEXT (NUL bytes) or that exceed `max_bytes`.
 Status CheckText(const std::string& value, const std::string& field, std::size_t max_bytes = 1024);
 
+/// The state a TEXT column holds (records.h's name tables); DATA_LOSS naming `where` (the row) and the stored
+/// spelling when it is none of E's: a corrupt value is reported, never read as some default.
+template <typename E>
+Result<E> StoredState(const SqlRow& row, std::size_t column, const std::string& where) {
+  Result<E> parsed = Parse<E>(row.Text(column));
+  if (!parsed.ok()) return DataLoss(where + ": stored " + parsed.status().message());
+  return parsed;
+}
+
 // The statistics roll-up (sql_repository_rollup.cc, migration 7).
 /// Adds a written report to the roll-up; `replaced` is the report it replaced (same key), if any.
 Status AddReportToRollup(SqlTransaction& transaction, const ReportRecord& report,

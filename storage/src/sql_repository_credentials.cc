@@ -5,11 +5,12 @@
 namespace storage::internal {
 
 Result<std::int64_t> NextCredentialEpoch(SqlTransaction& transaction) {
-  auto rows = transaction.Query(
-      "UPDATE credential_epoch SET epoch = epoch + 1 WHERE singleton = 1 RETURNING epoch", {});
-  RETURN_IF_ERROR(rows.status());
-  if (rows->empty()) return Internal("credential_epoch: its row is missing");
-  return rows->front().Int(0);
+  ASSIGN_OR_RETURN(
+      auto rows,
+      transaction.Query("UPDATE credential_epoch SET epoch = epoch + 1 WHERE singleton = 1 RETURNING epoch",
+                        {}));
+  if (rows.empty()) return Internal("credential_epoch: its row is missing");
+  return rows.front().Int(0);
 }
 
 Status SqlRepository::RevokeCredential(const std::string& principal) {
@@ -17,12 +18,11 @@ Status SqlRepository::RevokeCredential(const std::string& principal) {
   return Write([&](SqlTransaction& transaction) -> Status {
     // The epoch first: its row lock serialises concurrent revocations, so two admins revoking each other at
     // once cannot both pass the last-admin check below.
-    auto epoch = NextCredentialEpoch(transaction);
-    RETURN_IF_ERROR(epoch.status());
-    auto rows = transaction.Query("SELECT algorithm FROM credentials WHERE principal = $1", {principal});
-    RETURN_IF_ERROR(rows.status());
-    if (rows->empty()) return NotFound("no credential for " + principal);
-    if (rows->front().Text(0) == kRevokedAlgorithm) return Status::Ok();
+    ASSIGN_OR_RETURN(auto epoch, NextCredentialEpoch(transaction));
+    ASSIGN_OR_RETURN(
+        auto rows, transaction.Query("SELECT algorithm FROM credentials WHERE principal = $1", {principal}));
+    if (rows.empty()) return NotFound("no credential for " + principal);
+    if (rows.front().Text(0) == kRevokedAlgorithm) return Status::Ok();
     if (principal.rfind("admin:", 0) == 0) {
       ASSIGN_OR_RETURN(
           auto others,
@@ -38,7 +38,7 @@ Status SqlRepository::RevokeCredential(const std::string& principal) {
     return transaction.Exec(
         "UPDATE credentials SET algorithm = $2, iterations = 0, salt = $3, hash = $3, updated_at_ms = $4, "
         "epoch = $5 WHERE principal = $1",
-        {principal, std::string(kRevokedAlgorithm), SqlBlob{""}, NowMs(), *epoch});
+        {principal, std::string(kRevokedAlgorithm), SqlBlob{""}, NowMs(), epoch});
   });
 }
 
@@ -71,21 +71,20 @@ Result<CredentialChanges> SqlRepository::CredentialChangesSince(std::int64_t sin
   changes.epoch = since;
   // One statement, one snapshot: the counter and the changed rows are read together.
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    auto rows = transaction.Query(
-        "SELECT e.epoch, c.principal, c.epoch FROM credential_epoch e LEFT JOIN (SELECT principal, epoch "
-        "FROM "
-        "credentials WHERE epoch > $1 ORDER BY epoch LIMIT $2) c ON 1 = 1 WHERE e.singleton = 1 ORDER BY "
-        "c.epoch",
-        {since, std::int64_t{limit}});
-    RETURN_IF_ERROR(rows.status());
-    if (rows->empty()) return Internal("credential_epoch: its row is missing");
-    const std::int64_t counter = rows->front().Int(0);
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("SELECT e.epoch, c.principal, c.epoch FROM credential_epoch e LEFT "
+                                       "JOIN (SELECT principal, epoch FROM "
+                                       "credentials WHERE epoch > $1 ORDER BY epoch LIMIT $2) c ON 1 = 1 "
+                                       "WHERE e.singleton = 1 ORDER BY c.epoch",
+                                       {since, std::int64_t{limit}}));
+    if (rows.empty()) return Internal("credential_epoch: its row is missing");
+    const std::int64_t counter = rows.front().Int(0);
     if (since < 0) {
       changes.epoch = counter;
       return Status::Ok();
     }
     int changed = 0;
-    for (const SqlRow& row : *rows) {
+    for (const SqlRow& row : rows) {
       if (row.IsNull(1)) continue;
       changes.principals.push_back(row.Text(1));
       changes.epoch = std::max(changes.epoch, row.Int(2));

@@ -98,10 +98,11 @@ Result<RobotErasure> SqlRepository::DeleteRobot(const std::string& robot_id, con
   RobotErasure erased;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock: a concurrent map append for it waits, then finds no robot.
-    auto locked = transaction.Query(
-        "UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id", {robot_id});
-    RETURN_IF_ERROR(locked.status());
-    if (locked->empty()) return NotFound("no robot " + robot_id);
+    ASSIGN_OR_RETURN(
+        auto locked,
+        transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
+                          {robot_id}));
+    if (locked.empty()) return NotFound("no robot " + robot_id);
     const std::vector<SqlValue> robot = {robot_id};
 
     // Snapshots the robot named; those nobody else names are deleted once its rows are gone.

@@ -6,42 +6,19 @@
 #include "crypto.h"
 #include "sql_repository.h"
 
-namespace storage {
-
-const char* JobStateName(JobState state) {
-  switch (state) {
-    case JobState::kQueued: return "queued";
-    case JobState::kLeased: return "leased";
-    case JobState::kDone: return "done";
-    case JobState::kFailed: return "failed";
-    case JobState::kCancelled: return "cancelled";
-  }
-  return "unknown";
-}
-
-}  // namespace storage
-
 namespace storage::internal {
 namespace {
-
-JobState JobStateFromName(const std::string& name) {
-  for (JobState state :
-       {JobState::kQueued, JobState::kLeased, JobState::kDone, JobState::kFailed, JobState::kCancelled}) {
-    if (name == JobStateName(state)) return state;
-  }
-  return JobState::kFailed;  // unreachable with our own writes; a stray value is shown as failed
-}
 
 constexpr const char* kJobColumns =
     "job_id, kind, payload, state, attempts, max_attempts, parent_job_id, lease_owner, lease_expires_at_ms, "
     "last_error, progress_done, progress_total, created_at_ms, updated_at_ms, robot_id";
 
-JobRecord JobFromRow(const SqlRow& row) {
+Result<JobRecord> JobFromRow(const SqlRow& row) {
   JobRecord job;
   job.job_id = row.Int(0);
   job.kind = row.Text(1);
   job.payload = row.Text(2);
-  job.state = JobStateFromName(row.Text(3));
+  ASSIGN_OR_RETURN(job.state, StoredState<JobState>(row, 3, "job " + std::to_string(job.job_id)));
   job.attempts = row.Int(4);
   job.max_attempts = row.Int(5);
   if (!row.IsNull(6)) job.parent_job_id = row.Int(6);
@@ -118,7 +95,10 @@ Result<std::optional<JobLease>> SqlRepository::LeaseJob(const std::string& worke
             "AND (CAST($5 AS TEXT) = '' OR kind = $5) ORDER BY job_id LIMIT 1" +
                 skip_locked + ") RETURNING " + kJobColumns,
             {worker, token, now + lease_duration.count(), now, kind}));
-    if (!rows.empty()) lease = JobLease{JobFromRow(rows.front()), token};
+    if (!rows.empty()) {
+      ASSIGN_OR_RETURN(auto job, JobFromRow(rows.front()));
+      lease = JobLease{std::move(job), token};
+    }
     return Status::Ok();
   }));
   return lease;
@@ -186,10 +166,9 @@ Status SqlRepository::CancelJob(std::int64_t job_id) {
                                        "WHERE job_id = $1 AND state IN ('queued', 'leased') RETURNING job_id",
                                        {job_id, NowMs()}));
     if (!rows.empty()) return Status::Ok();
-    auto state = transaction.Query("SELECT state FROM jobs WHERE job_id = $1", {job_id});
-    RETURN_IF_ERROR(state.status());
-    if (state->empty()) return NotFound("no job " + std::to_string(job_id));
-    return FailedPrecondition("job " + std::to_string(job_id) + " is already " + state->front().Text(0));
+    ASSIGN_OR_RETURN(auto state, transaction.Query("SELECT state FROM jobs WHERE job_id = $1", {job_id}));
+    if (state.empty()) return NotFound("no job " + std::to_string(job_id));
+    return FailedPrecondition("job " + std::to_string(job_id) + " is already " + state.front().Text(0));
   });
 }
 
@@ -199,7 +178,9 @@ Result<JobRecord> SqlRepository::GetJob(std::int64_t job_id) {
     ASSIGN_OR_RETURN(
         auto rows,
         transaction.Query(std::string("SELECT ") + kJobColumns + " FROM jobs WHERE job_id = $1", {job_id}));
-    if (!rows.empty()) job = JobFromRow(rows.front());
+    if (!rows.empty()) {
+      ASSIGN_OR_RETURN(job, JobFromRow(rows.front()));
+    }
     return Status::Ok();
   }));
   if (!job) return NotFound("no job " + std::to_string(job_id));
@@ -214,8 +195,11 @@ Result<std::vector<JobRecord>> SqlRepository::ListJobs(std::optional<JobState> s
         auto rows, transaction.Query(
                        std::string("SELECT ") + kJobColumns +
                            " FROM jobs WHERE (CAST($1 AS TEXT) = '' OR state = $1) ORDER BY job_id LIMIT $2",
-                       {std::string(state ? JobStateName(*state) : ""), std::int64_t{limit}}));
-    for (const SqlRow& row : rows) jobs.push_back(JobFromRow(row));
+                       {std::string(state ? Name(*state) : ""), std::int64_t{limit}}));
+    for (const SqlRow& row : rows) {
+      ASSIGN_OR_RETURN(auto job, JobFromRow(row));
+      jobs.push_back(std::move(job));
+    }
     return Status::Ok();
   }));
   return jobs;

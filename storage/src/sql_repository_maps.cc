@@ -12,20 +12,29 @@ constexpr const char* kVersionColumns =
     "reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, edges, observation_edges, views, "
     "components, known_area_m2, chi2, open_findings FROM map_versions ";
 
-MapVersionRecord VersionFromRow(const SqlRow& row) {
+/// "" for a version without an action (uploads).
+std::string ActionText(const std::optional<MapAction>& action) {
+  return action ? std::string(Name(*action)) : "";
+}
+
+Result<MapVersionRecord> VersionFromRow(const SqlRow& row) {
   MapVersionRecord version;
   version.robot_id = row.Text(0);
   version.version = row.Int(1);
+  const std::string where =
+      "map version " + std::to_string(version.version) + " of robot " + version.robot_id;
   if (!row.IsNull(2)) version.parent_version = row.Int(2);
   version.snapshot_id = row.Text(3);
-  version.origin = row.Text(4);
+  ASSIGN_OR_RETURN(version.origin, StoredState<MapOrigin>(row, 4, where));
   if (!row.IsNull(5)) version.run_id = row.Text(5);
-  version.action = row.Text(6);
+  if (!row.Text(6).empty()) {
+    ASSIGN_OR_RETURN(version.action, StoredState<MapAction>(row, 6, where));
+  }
   version.action_detail = row.Text(7);
   version.created_by = row.Text(8);
   version.reason = row.Text(9);
   version.created_at_ms = row.Int(10);
-  version.approval = row.Text(11);
+  ASSIGN_OR_RETURN(version.approval, StoredState<MapApproval>(row, 11, where));
   version.approved_by = row.Text(12);
   version.approved_at_ms = row.Int(13);
   version.nodes = row.Int(14);
@@ -39,11 +48,13 @@ MapVersionRecord VersionFromRow(const SqlRow& row) {
   return version;
 }
 
-bool IsOneOf(const std::string& value, std::initializer_list<const char*> allowed) {
-  for (const char* candidate : allowed) {
-    if (value == candidate) return true;
+Result<std::vector<MapVersionRecord>> VersionsFromRows(const SqlRows& rows) {
+  std::vector<MapVersionRecord> versions;
+  for (const SqlRow& row : rows) {
+    ASSIGN_OR_RETURN(auto version, VersionFromRow(row));
+    versions.push_back(std::move(version));
   }
-  return false;
+  return versions;
 }
 
 Status CheckVersion(const MapVersionRecord& version) {
@@ -51,18 +62,10 @@ Status CheckVersion(const MapVersionRecord& version) {
   RETURN_IF_ERROR(CheckText(version.robot_id, "map version robot_id", 128));
   if (version.snapshot_id.empty()) return InvalidArgument("map version snapshot_id is empty");
   RETURN_IF_ERROR(CheckText(version.snapshot_id, "map version snapshot_id", 64));
-  if (!IsOneOf(version.origin, {"upload", "repair", "rollback", "undo", "import"})) {
-    return InvalidArgument("map version origin \"" + version.origin +
-                           "\" is not upload, repair, rollback, undo or import");
-  }
-  if (version.origin == "upload" && version.run_id.empty())
+  if (version.origin == MapOrigin::kUpload && version.run_id.empty()) {
     return InvalidArgument("an upload map version needs run_id");
-  if (!IsOneOf(version.approval, {"approved", "pending", "rejected", "stale"})) {
-    return InvalidArgument("map version approval \"" + version.approval +
-                           "\" is not approved, pending, rejected or stale");
   }
   RETURN_IF_ERROR(CheckText(version.run_id, "map version run_id", 128));
-  RETURN_IF_ERROR(CheckText(version.action, "map version action"));
   RETURN_IF_ERROR(CheckText(version.action_detail, "map version action_detail", 4096));
   RETURN_IF_ERROR(CheckText(version.created_by, "map version created_by"));
   RETURN_IF_ERROR(CheckText(version.reason, "map version reason", 4096));
@@ -76,11 +79,7 @@ Status CheckVersion(const MapVersionRecord& version) {
 
 Status CheckFindings(const std::vector<MapFindingRecord>& findings) {
   for (const MapFindingRecord& finding : findings) {
-    RETURN_IF_ERROR(CheckText(finding.kind, "finding kind"));
     RETURN_IF_ERROR(CheckText(finding.summary, "finding summary", 4096));
-    if (!IsOneOf(finding.state, {"open", "resolved", "info"})) {
-      return InvalidArgument("finding state \"" + finding.state + "\" is not open, resolved or info");
-    }
     RETURN_IF_ERROR(CheckText(finding.detail_json, "finding detail_json", 1 << 20));
   }
   return Status::Ok();
@@ -88,19 +87,19 @@ Status CheckFindings(const std::vector<MapFindingRecord>& findings) {
 
 std::int64_t OpenCount(const std::vector<MapFindingRecord>& findings) {
   std::int64_t open = 0;
-  for (const MapFindingRecord& finding : findings) open += finding.state == "open" ? 1 : 0;
+  for (const MapFindingRecord& finding : findings) open += finding.state == FindingState::kOpen ? 1 : 0;
   return open;
 }
 
 Status InsertFindings(SqlTransaction& transaction, const std::string& robot_id, std::int64_t version,
                       const std::vector<MapFindingRecord>& findings) {
   for (const MapFindingRecord& finding : findings) {
-    RETURN_IF_ERROR(
-        transaction.Exec("INSERT INTO map_findings (robot_id, version, finding_id, kind, severity, summary, "
-                         "state, detail_json) "
-                         "VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
-                         {robot_id, version, finding.finding_id, finding.kind, finding.severity,
-                          finding.summary, finding.state, finding.detail_json}));
+    RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO map_findings (robot_id, version, finding_id, kind, severity, summary, state, "
+        "detail_json) "
+        "VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+        {robot_id, version, finding.finding_id, std::string(Name(finding.kind)), finding.severity,
+         finding.summary, std::string(Name(finding.state)), finding.detail_json}));
   }
   return Status::Ok();
 }
@@ -119,18 +118,19 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
     // The robot's row lock serialises appends for one robot across connections and processes (SQLite
     // serialises every write transaction anyway).
-    auto locked = transaction.Query(
-        "UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id", {version.robot_id});
-    RETURN_IF_ERROR(locked.status());
-    if (locked->empty())
+    ASSIGN_OR_RETURN(
+        auto locked,
+        transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
+                          {version.robot_id}));
+    if (locked.empty())
       return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
-    if (version.origin == "upload") {
+    if (version.origin == MapOrigin::kUpload) {
       ASSIGN_OR_RETURN(auto existing,
                        transaction.Query(std::string(kVersionColumns) +
                                              "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
                                          {version.robot_id, version.run_id}));
       if (!existing.empty()) {
-        stored = VersionFromRow(existing.front());
+        ASSIGN_OR_RETURN(stored, VersionFromRow(existing.front()));
         return Status::Ok();
       }
     }
@@ -162,10 +162,9 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
       return FailedPrecondition("parent version " + std::to_string(*version.parent_version) + " of robot " +
                                 version.robot_id + " does not exist");
     }
-    auto snapshot =
-        transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {version.snapshot_id});
-    RETURN_IF_ERROR(snapshot.status());
-    if (snapshot->empty())
+    ASSIGN_OR_RETURN(auto snapshot, transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1",
+                                                      {version.snapshot_id}));
+    if (snapshot.empty())
       return FailedPrecondition("map version names snapshot " + version.snapshot_id +
                                 ", which is not stored");
     stored.version = newest + 1;
@@ -186,14 +185,14 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
          stored.version,
          parent,
          stored.snapshot_id,
-         stored.origin,
+         std::string(Name(stored.origin)),
          run,
-         stored.action,
+         ActionText(stored.action),
          stored.action_detail,
          stored.created_by,
          stored.reason,
          stored.created_at_ms,
-         stored.approval,
+         std::string(Name(stored.approval)),
          stored.approved_by,
          stored.approved_at_ms,
          stored.nodes,
@@ -224,7 +223,7 @@ Result<std::vector<MapVersionRecord>> SqlRepository::ListMapVersions(const std::
     ASSIGN_OR_RETURN(
         auto rows,
         transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 ORDER BY version", {robot_id}));
-    for (const SqlRow& row : rows) versions.push_back(VersionFromRow(row));
+    ASSIGN_OR_RETURN(versions, VersionsFromRows(rows));
     return Status::Ok();
   }));
   return versions;
@@ -236,7 +235,9 @@ Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_i
     ASSIGN_OR_RETURN(auto rows,
                      transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
                                        {robot_id, version}));
-    if (!rows.empty()) found = VersionFromRow(rows.front());
+    if (!rows.empty()) {
+      ASSIGN_OR_RETURN(found, VersionFromRow(rows.front()));
+    }
     return Status::Ok();
   }));
   if (!found) return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
@@ -266,7 +267,9 @@ Result<MapVersionRecord> SqlRepository::GetMapVersionOfRun(const RunKey& run) {
                      transaction.Query(std::string(kVersionColumns) +
                                            "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
                                        {run.robot_id, run.run_id}));
-    if (!rows.empty()) found = VersionFromRow(rows.front());
+    if (!rows.empty()) {
+      ASSIGN_OR_RETURN(found, VersionFromRow(rows.front()));
+    }
     return Status::Ok();
   }));
   if (!found) return NotFound("run " + run.run_id + " of robot " + run.robot_id + " made no map version");
@@ -283,11 +286,15 @@ Result<std::vector<MapFindingRecord>> SqlRepository::ListMapFindings(const std::
                           "WHERE robot_id = $1 AND version = $2 ORDER BY finding_id",
                           {robot_id, version}));
     for (const SqlRow& row : rows) {
+      const std::string where = "finding " + std::to_string(row.Int(0)) + " of map version " +
+                                std::to_string(version) + " of robot " + robot_id;
+      ASSIGN_OR_RETURN(const FindingKind kind, StoredState<FindingKind>(row, 1, where));
+      ASSIGN_OR_RETURN(const FindingState state, StoredState<FindingState>(row, 4, where));
       findings.push_back({.finding_id = row.Int(0),
-                          .kind = row.Text(1),
+                          .kind = kind,
                           .severity = row.Real(2),
                           .summary = row.Text(3),
-                          .state = row.Text(4),
+                          .state = state,
                           .detail_json = row.Text(5)});
     }
     return Status::Ok();
@@ -300,12 +307,12 @@ Status SqlRepository::UpdateMapVersionHealth(const std::string& robot_id, std::i
                                              const std::vector<MapFindingRecord>& findings) {
   RETURN_IF_ERROR(CheckFindings(findings));
   return Write([&](SqlTransaction& transaction) -> Status {
-    auto updated = transaction.Query(
-        "UPDATE map_versions SET open_findings = $3, known_area_m2 = $4 WHERE robot_id = $1 AND version = $2 "
-        "RETURNING version",
-        {robot_id, version, OpenCount(findings), known_area_m2});
-    RETURN_IF_ERROR(updated.status());
-    if (updated->empty())
+    ASSIGN_OR_RETURN(auto updated,
+                     transaction.Query("UPDATE map_versions SET open_findings = $3, known_area_m2 = $4 WHERE "
+                                       "robot_id = $1 AND version = $2 "
+                                       "RETURNING version",
+                                       {robot_id, version, OpenCount(findings), known_area_m2}));
+    if (updated.empty())
       return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
     RETURN_IF_ERROR(transaction.Exec("DELETE FROM map_findings WHERE robot_id = $1 AND version = $2",
                                      {robot_id, version}));
@@ -322,14 +329,12 @@ Result<MapVersionRecord> SqlRepository::ReviewMapVersion(const std::string& robo
     RETURN_IF_ERROR(
         transaction.Exec("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1", {robot_id}));
     if (approve) {
-      auto newer = transaction.Query(
-          "SELECT MAX(version) FROM map_versions WHERE robot_id = $1 AND approval = 'approved' AND version > "
-          "$2",
-          {robot_id, version});
-      RETURN_IF_ERROR(newer.status());
-      if (!newer->empty() && !newer->front().IsNull(0)) {
+      ASSIGN_OR_RETURN(auto newer, transaction.Query("SELECT MAX(version) FROM map_versions WHERE robot_id = "
+                                                     "$1 AND approval = 'approved' AND version > $2",
+                                                     {robot_id, version}));
+      if (!newer.empty() && !newer.front().IsNull(0)) {
         return FailedPrecondition(
-            "version " + std::to_string(newer->front().Int(0)) + " of robot " + robot_id +
+            "version " + std::to_string(newer.front().Int(0)) + " of robot " + robot_id +
             " is approved and newer than " + std::to_string(version) +
             ": approving it would not make it the robot's map; repair the current version instead");
       }
@@ -339,16 +344,18 @@ Result<MapVersionRecord> SqlRepository::ReviewMapVersion(const std::string& robo
         transaction.Query(
             "UPDATE map_versions SET approval = $3, approved_by = $4, approved_at_ms = $5 "
             "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
-            {robot_id, version, std::string(approve ? "approved" : "rejected"), reviewed_by, NowMs()}));
-    auto current = transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
-                                     {robot_id, version});
-    RETURN_IF_ERROR(current.status());
-    if (current->empty())
+            {robot_id, version, std::string(Name(approve ? MapApproval::kApproved : MapApproval::kRejected)),
+             reviewed_by, NowMs()}));
+    ASSIGN_OR_RETURN(auto current,
+                     transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND version = $2",
+                                       {robot_id, version}));
+    if (current.empty())
       return NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
-    reviewed = VersionFromRow(current->front());
+    ASSIGN_OR_RETURN(reviewed, VersionFromRow(current.front()));
     if (rows.empty()) {
       return FailedPrecondition("map version " + std::to_string(version) + " of robot " + robot_id + " is " +
-                                reviewed->approval + ", not pending: only pending versions are reviewed");
+                                std::string(Name(reviewed->approval)) +
+                                ", not pending: only pending versions are reviewed");
     }
     return Status::Ok();
   }));

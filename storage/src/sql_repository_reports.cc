@@ -119,17 +119,18 @@ Status SqlRepository::PutReportIn(SqlTransaction& transaction, const ReportBundl
           values));
   std::optional<ReportRecord> replaced;
   if (inserted.empty()) {
-    auto previous = transaction.Query(
-        "UPDATE reports SET data_size = data_size WHERE robot_id = $1 AND run_id = $2 AND parameter_set = $3 "
-        "RETURNING recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, "
-        "merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, "
-        "protrusions_found, "
-        "recovery_retracted",
-        key);
-    RETURN_IF_ERROR(previous.status());
-    if (previous->empty())
-      return Aborted("report of run " + report.run_id + " vanished while being replaced");
-    const SqlRow& row = previous->front();
+    ASSIGN_OR_RETURN(
+        auto previous,
+        transaction.Query(
+            "UPDATE reports SET data_size = data_size WHERE robot_id = $1 AND run_id = $2 AND parameter_set "
+            "= $3 "
+            "RETURNING recovery_created, recovery_accepted, merge_created, merge_conditionally_accepted, "
+            "merge_conditional_then_rejected, views_total, views_ambiguous, started_localized, "
+            "protrusions_found, "
+            "recovery_retracted",
+            key));
+    if (previous.empty()) return Aborted("report of run " + report.run_id + " vanished while being replaced");
+    const SqlRow& row = previous.front();
     replaced = ReportRecord{report.robot_id, report.run_id,   report.parameter_set, row.Int(0), row.Int(1),
                             row.Int(9),      row.Int(2),      row.Int(3),           row.Int(4), row.Int(5),
                             row.Int(6),      row.Int(7) != 0, row.Int(8),           {}};

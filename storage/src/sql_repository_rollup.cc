@@ -81,12 +81,13 @@ struct RunCell {
 
 Result<RunCell> CellOfRun(SqlTransaction& transaction, const std::string& robot_id,
                           const std::string& run_id) {
-  auto rows = transaction.Query(
-      "SELECT started_at_ms, firmware, robot_model FROM runs WHERE robot_id = $1 AND run_id = $2",
-      {robot_id, run_id});
-  RETURN_IF_ERROR(rows.status());
-  if (rows->empty()) return FailedPrecondition("no run " + run_id + " of robot " + robot_id);
-  return RunCell{DayOf(rows->front().Int(0)), rows->front().Text(1), rows->front().Text(2)};
+  ASSIGN_OR_RETURN(
+      auto rows,
+      transaction.Query(
+          "SELECT started_at_ms, firmware, robot_model FROM runs WHERE robot_id = $1 AND run_id = $2",
+          {robot_id, run_id}));
+  if (rows.empty()) return FailedPrecondition("no run " + run_id + " of robot " + robot_id);
+  return RunCell{DayOf(rows.front().Int(0)), rows.front().Text(1), rows.front().Text(2)};
 }
 
 }  // namespace

@@ -85,9 +85,9 @@ TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {
   MapVersionRecord version;
   version.robot_id = "robot-1";
   version.snapshot_id = snapshot;
-  version.origin = "upload";
+  version.origin = MapOrigin::kUpload;
   version.run_id = "run-1";
-  version.approval = "approved";
+  version.approval = MapApproval::kApproved;
   ASSERT_THAT(repo().AppendMapVersion(version, std::nullopt, {}), IsOk());
   ASSERT_THAT(repo().SetCredential("robot:robot-1", "secret"), IsOk());
   repo_.reset();  // no database handle crosses fork()

@@ -379,15 +379,15 @@ TEST_P(RepositoryContractTest, RejectsMalformedInputWithAStatus) {
   EXPECT_EQ(repo().ListLabelledRegions("", 0).status().code(), StatusCode::kInvalidArgument);
 }
 
-static MapVersionRecord MakeVersion(const std::string& robot, const std::string& snapshot,
-                                    const std::string& origin, const std::string& run_id = "") {
+static MapVersionRecord MakeVersion(const std::string& robot, const std::string& snapshot, MapOrigin origin,
+                                    const std::string& run_id = "") {
   MapVersionRecord version;
   version.robot_id = robot;
   version.snapshot_id = snapshot;
   version.origin = origin;
   version.run_id = run_id;
-  version.approval = origin == "upload" ? "approved" : "pending";
-  version.created_by = origin == "upload" ? "robot:" + robot : "engineer:ana";
+  version.approval = origin == MapOrigin::kUpload ? MapApproval::kApproved : MapApproval::kPending;
+  version.created_by = origin == MapOrigin::kUpload ? "robot:" + robot : "engineer:ana";
   version.nodes = 10;
   version.known_area_m2 = 12.5;
   return version;
@@ -396,26 +396,28 @@ static MapVersionRecord MakeVersion(const std::string& robot, const std::string&
 TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
   ASSERT_EQ(*repo().InsertRun(MakeRun("run-1", 1000, 10)), InsertOutcome::kInserted);
-  auto first = repo().AppendMapVersion(MakeVersion("robot-1", a, "upload", "run-1"), std::nullopt,
-                                       {{1, "protrusion", 0.8, "region 3", "open", R"({"x":1})"},
-                                        {2, "ambiguous_view", 0.1, "4 views", "info", "{}"}});
+  auto first = repo().AppendMapVersion(
+      MakeVersion("robot-1", a, MapOrigin::kUpload, "run-1"), std::nullopt,
+      {{1, FindingKind::kProtrusion, 0.8, "region 3", FindingState::kOpen, R"({"x":1})"},
+       {2, FindingKind::kAmbiguousView, 0.1, "4 views", FindingState::kInfo, "{}"}});
   ASSERT_THAT(first, IsOk());
   EXPECT_EQ(first->version, 1);
   EXPECT_EQ(first->open_findings, 1) << "info findings are not open";
   // Retrying the upload's version returns the one already made.
-  auto retried = repo().AppendMapVersion(MakeVersion("robot-1", b, "upload", "run-1"), std::nullopt, {});
+  auto retried =
+      repo().AppendMapVersion(MakeVersion("robot-1", b, MapOrigin::kUpload, "run-1"), std::nullopt, {});
   ASSERT_THAT(retried, IsOk());
   EXPECT_EQ(retried->version, 1);
   EXPECT_EQ(retried->snapshot_id, a);
 
-  MapVersionRecord repair = MakeVersion("robot-1", b, "repair", "run-1");
+  MapVersionRecord repair = MakeVersion("robot-1", b, MapOrigin::kRepair, "run-1");
   repair.parent_version = 1;
-  repair.action = "cut_region";
+  repair.action = MapAction::kCutRegion;
   auto second = repo().AppendMapVersion(repair, 1, {});
   ASSERT_THAT(second, IsOk());
   EXPECT_EQ(second->version, 2);
   // Another robot counts from 1.
-  auto other = repo().AppendMapVersion(MakeVersion("robot-2", b, "rollback"), std::nullopt, {});
+  auto other = repo().AppendMapVersion(MakeVersion("robot-2", b, MapOrigin::kRollback), std::nullopt, {});
   ASSERT_THAT(other, IsOk());
   EXPECT_EQ(other->version, 1);
 
@@ -423,7 +425,7 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   ASSERT_THAT(versions, IsOk());
   ASSERT_EQ(versions->size(), 2u);
   EXPECT_EQ((*versions)[1].parent_version, 1);
-  EXPECT_EQ((*versions)[1].action, "cut_region");
+  EXPECT_EQ((*versions)[1].action, MapAction::kCutRegion);
   EXPECT_DOUBLE_EQ((*versions)[0].known_area_m2, 12.5);
   EXPECT_EQ(repo().GetMapVersionOfRun(RunKey{"robot-1", "run-1"})->version, 1);
   EXPECT_EQ(repo().GetMapVersionOfRun(RunKey{"robot-1", "run-9"}).status().code(), StatusCode::kNotFound);
@@ -433,9 +435,10 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   EXPECT_EQ((*findings)[0].detail_json, R"({"x":1})");
 
   // Findings of a version are replaced as a whole, with its open count and known area.
-  ASSERT_THAT(repo().UpdateMapVersionHealth("robot-1", 2, 40.25,
-                                            {{1, "high_residual_edge", 0.7, "edge 3→9", "open", "{}"},
-                                             {2, "protrusion", 0.6, "region", "open", "{}"}}),
+  ASSERT_THAT(repo().UpdateMapVersionHealth(
+                  "robot-1", 2, 40.25,
+                  {{1, FindingKind::kHighResidualEdge, 0.7, "edge 3→9", FindingState::kOpen, "{}"},
+                   {2, FindingKind::kProtrusion, 0.6, "region", FindingState::kOpen, "{}"}}),
               IsOk());
   EXPECT_EQ(repo().GetMapVersion("robot-1", 2)->open_findings, 2);
   EXPECT_DOUBLE_EQ(repo().GetMapVersion("robot-1", 2)->known_area_m2, 40.25);
@@ -447,62 +450,65 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
 
 TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}), IsOk());
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {}), IsOk());
-  auto stale = repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), 1, {});
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), 1, {}), IsOk());
+  auto stale = repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), 1, {});
   EXPECT_EQ(stale.status().code(), StatusCode::kAborted) << stale.status().ToString();
   EXPECT_EQ(repo().ListMapVersions("robot-1")->size(), 2u) << "nothing written";
   // Rejected and stale versions are side branches: the head stays at the newest approved or pending one.
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {}), IsOk());  // 3, pending
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2, {}),
+              IsOk());  // 3, pending
   ASSERT_THAT(repo().ReviewMapVersion("robot-1", 3, false, "engineer:ana"), IsOk());
-  MapVersionRecord outdated_upload = MakeVersion("robot-1", a, "upload", "run-x");
-  outdated_upload.approval = "stale";
+  MapVersionRecord outdated_upload = MakeVersion("robot-1", a, MapOrigin::kUpload, "run-x");
+  outdated_upload.approval = MapApproval::kStale;
   ASSERT_EQ(*repo().InsertRun(MakeRun("run-x", 5000, 10)), InsertOutcome::kInserted);
   ASSERT_EQ(repo().AppendMapVersion(outdated_upload, std::nullopt, {})->version, 4);
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 3, {}).status().code(),
+  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 3, {}).status().code(),
             StatusCode::kAborted);
-  auto continued = repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), 2, {});
+  auto continued = repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2, {});
   ASSERT_THAT(continued, IsOk());
   EXPECT_EQ(continued->version, 5);
   // References are checked.
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("nobody", a, "rollback"), std::nullopt, {}).status().code(),
-            StatusCode::kFailedPrecondition);
   EXPECT_EQ(repo()
-                .AppendMapVersion(MakeVersion("robot-1", std::string(64, 'f'), "rollback"), std::nullopt, {})
+                .AppendMapVersion(MakeVersion("nobody", a, MapOrigin::kRollback), std::nullopt, {})
                 .status()
                 .code(),
             StatusCode::kFailedPrecondition);
-  MapVersionRecord orphan = MakeVersion("robot-1", a, "repair");
+  EXPECT_EQ(repo()
+                .AppendMapVersion(MakeVersion("robot-1", std::string(64, 'f'), MapOrigin::kRollback),
+                                  std::nullopt, {})
+                .status()
+                .code(),
+            StatusCode::kFailedPrecondition);
+  MapVersionRecord orphan = MakeVersion("robot-1", a, MapOrigin::kRepair);
   orphan.parent_version = 9;
   EXPECT_EQ(repo().AppendMapVersion(orphan, std::nullopt, {}).status().code(),
             StatusCode::kFailedPrecondition);
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "magic"), std::nullopt, {}).status().code(),
-            StatusCode::kInvalidArgument);
-  EXPECT_EQ(repo().AppendMapVersion(MakeVersion("robot-1", a, "upload"), std::nullopt, {}).status().code(),
-            StatusCode::kInvalidArgument)
-      << "an upload version names its run";
   EXPECT_EQ(repo()
-                .AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt,
-                                  {{1, "protrusion", 0.5, "x", "closed", "{}"}})
+                .AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kUpload), std::nullopt, {})
                 .status()
                 .code(),
-            StatusCode::kInvalidArgument);
+            StatusCode::kInvalidArgument)
+      << "an upload version names its run";
 }
 
 TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTheSameTransaction) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}), IsOk());  // 1
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", b, "repair"), 1, {}), IsOk());  // 2, pending
-  MapVersionRecord carried = MakeVersion("robot-1", b, "repair");
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());  // 1
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", b, MapOrigin::kRepair), 1, {}),
+              IsOk());  // 2, pending
+  MapVersionRecord carried = MakeVersion("robot-1", b, MapOrigin::kRepair);
   carried.parent_version = 1;
-  carried.approval = "approved";
+  carried.approval = MapApproval::kApproved;
   carried.approved_by = "engineer:bo";
   carried.supersedes_pending = 2;
   auto appended = repo().AppendMapVersion(carried, 2, {});
   ASSERT_THAT(appended, IsOk());
   EXPECT_EQ(appended->version, 3);
   const auto superseded = repo().GetMapVersion("robot-1", 2);
-  EXPECT_EQ(superseded->approval, "stale");
+  EXPECT_EQ(superseded->approval, MapApproval::kStale);
   EXPECT_EQ(superseded->approved_by, "engineer:bo");
   // Superseding a version that is no longer pending writes nothing.
   auto again = repo().AppendMapVersion(carried, 3, {});
@@ -516,8 +522,8 @@ TEST_P(RepositoryContractTest, AVersionThatSupersedesAPendingOneMarksItStaleInTh
 TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
   const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
   ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}), IsOk());
-  MapVersionRecord imported = MakeVersion("robot-9", a, "import");
-  imported.action = "import";
+  MapVersionRecord imported = MakeVersion("robot-9", a, MapOrigin::kImport);
+  imported.action = MapAction::kImport;
   imported.action_detail = "valetudo:home.json";
   auto first = repo().AppendMapVersion(imported, std::nullopt, {});
   ASSERT_THAT(first, IsOk());
@@ -528,7 +534,7 @@ TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
   auto versions = repo().ListMapVersions("robot-9");
   ASSERT_THAT(versions, IsOk());
   ASSERT_EQ(versions->size(), 2u);
-  EXPECT_EQ((*versions)[1].origin, "import");
+  EXPECT_EQ((*versions)[1].origin, MapOrigin::kImport);
   EXPECT_EQ((*versions)[1].action_detail, "valetudo:home.json");
   EXPECT_EQ((*versions)[1].parent_version, 1);
   EXPECT_TRUE((*versions)[1].run_id.empty());
@@ -537,7 +543,7 @@ TEST_P(RepositoryContractTest, ImportedMapVersionsNeedNoRun) {
 TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMetadata) {
   const std::string a = *repo().PutSnapshot("map a");
   ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-9", "", "", 1000}), IsOk());
-  MapVersionRecord imported = MakeVersion("robot-9", a, "import");
+  MapVersionRecord imported = MakeVersion("robot-9", a, MapOrigin::kImport);
   imported.metadata =
       std::string("rooms\0zones", 11) + std::string(100000, 'm');  // opaque bytes, NULs included
   auto first = repo().AppendMapVersion(imported, std::nullopt, {});
@@ -560,7 +566,8 @@ TEST_P(RepositoryContractTest, MetadataIsKeptWithItsVersionAndReadOnlyByGetMapMe
 
 TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "rollback"), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());
   // Eight writers, each with its own connection, all read head 1 and try to append on it: one wins.
   constexpr int kWriters = 8;
   std::atomic<int> won{0}, aborted{0};
@@ -569,8 +576,9 @@ TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
     writers.emplace_back([&] {
       auto own = OpenRepository(url_);
       if (!own.ok()) return;
-      auto appended = (*own)->AppendMapVersion(MakeVersion("robot-1", a, "repair"), 1,
-                                               {{1, "protrusion", 0.5, "x", "open", "{}"}});
+      auto appended =
+          (*own)->AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 1,
+                                   {{1, FindingKind::kProtrusion, 0.5, "x", FindingState::kOpen, "{}"}});
       if (appended.ok()) ++won;
       if (appended.status().code() == StatusCode::kAborted) ++aborted;
     });
@@ -584,17 +592,20 @@ TEST_P(RepositoryContractTest, ConcurrentRepairsOfOneMapNeverInterleave) {
 
 TEST_P(RepositoryContractTest, OnlyPendingVersionsAreReviewed) {
   const std::string a = *repo().PutSnapshot("map a");
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}), IsOk());
-  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, "repair"), std::nullopt, {}), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), std::nullopt, {}),
+              IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), std::nullopt, {}),
+              IsOk());
   auto approved = repo().ReviewMapVersion("robot-1", 1, true, "engineer:ana");
   ASSERT_THAT(approved, IsOk());
-  EXPECT_EQ(approved->approval, "approved");
+  EXPECT_EQ(approved->approval, MapApproval::kApproved);
   EXPECT_EQ(approved->approved_by, "engineer:ana");
   EXPECT_GT(approved->approved_at_ms, 0);
   EXPECT_EQ(repo().ReviewMapVersion("robot-1", 1, false, "engineer:bo").status().code(),
             StatusCode::kFailedPrecondition);
-  EXPECT_EQ(repo().GetMapVersion("robot-1", 1)->approval, "approved") << "a refused review changes nothing";
-  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 2, false, "engineer:bo")->approval, "rejected");
+  EXPECT_EQ(repo().GetMapVersion("robot-1", 1)->approval, MapApproval::kApproved)
+      << "a refused review changes nothing";
+  EXPECT_EQ(repo().ReviewMapVersion("robot-1", 2, false, "engineer:bo")->approval, MapApproval::kRejected);
   EXPECT_EQ(repo().ReviewMapVersion("robot-1", 3, true, "engineer:bo").status().code(),
             StatusCode::kNotFound);
 }

@@ -63,9 +63,9 @@ class TenancyContractTest : public BackendTest {
     MapVersionRecord version;
     version.robot_id = robot;
     version.snapshot_id = snapshot;
-    version.origin = "upload";
+    version.origin = MapOrigin::kUpload;
     version.run_id = run_id;
-    version.approval = "approved";
+    version.approval = MapApproval::kApproved;
     version.created_by = "robot:" + robot;
     return version;
   }
@@ -119,14 +119,17 @@ class TenancyContractTest : public BackendTest {
     }
     ASSERT_THAT(repo().LabelProtrusionRegion({robot, "run-1"}, "default", 1, "protrusion", "engineer:ana"),
                 IsOk());
-    ASSERT_THAT(repo().AppendMapVersion(Version(robot, child, "run-1"), std::nullopt,
-                                        {{1, "protrusion", 0.5, "region of " + robot, "open", "{}"}}),
+    ASSERT_THAT(repo().AppendMapVersion(
+                    Version(robot, child, "run-1"), std::nullopt,
+                    {{1, FindingKind::kProtrusion, 0.5, "region of " + robot, FindingState::kOpen, "{}"}}),
                 IsOk());
     MapVersionRecord repair = Version(robot, repaired, "run-1");
-    repair.origin = "repair";
+    repair.origin = MapOrigin::kRepair;
     repair.parent_version = 1;
     repair.metadata = "rooms of " + robot;
-    ASSERT_THAT(repo().AppendMapVersion(repair, std::nullopt, {{1, "edge", 0.1, "edge", "open", "{}"}}),
+    ASSERT_THAT(repo().AppendMapVersion(
+                    repair, std::nullopt,
+                    {{1, FindingKind::kHighResidualEdge, 0.1, "edge", FindingState::kOpen, "{}"}}),
                 IsOk());
     NewJob parent_job{"reprocess", "filter " + robot, 3, std::nullopt, 1, robot};
     const std::int64_t parent_id = *repo().EnqueueJob(parent_job);
@@ -252,7 +255,7 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
   EXPECT_EQ(repository.Aggregate(RunFilter{})->views_ambiguous, 2);
   // The later migrations' tables work on the rebuilt ones: metadata of a new version, a credential's epoch.
   MapVersionRecord imported = Version(kKept, *repository.PutSnapshot("imported map"), "");
-  imported.origin = "import";
+  imported.origin = MapOrigin::kImport;
   imported.parent_version = 1;
   imported.metadata = "rooms";
   auto appended = repository.AppendMapVersion(imported, std::nullopt, {});

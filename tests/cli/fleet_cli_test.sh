@@ -76,12 +76,12 @@ robot=robot-0000
 "$bin/fleetctl" maps show "$robot" --json | python3 -c '
 import json, sys
 shown = json.load(sys.stdin)
-assert shown["version"]["version"] == "2" and shown["version"]["origin"] == "upload", shown["version"]'
+assert shown["version"]["version"] == "2" and shown["version"]["version_origin"] == "MAP_ORIGIN_UPLOAD", shown["version"]'
 "$bin/fleetctl" maps repair "$robot" --base 2 --rollback --reason "cli test" --json >"$work/repair.json"
 python3 -c '
 import json, sys
 v = json.load(open(sys.argv[1]))["version"]
-assert v["version"] == "3" and v["approval"] == "pending" and v["origin"] == "rollback", v' "$work/repair.json"
+assert v["version"] == "3" and v["approval_state"] == "MAP_APPROVAL_PENDING" and v["version_origin"] == "MAP_ORIGIN_ROLLBACK", v' "$work/repair.json"
 if "$bin/fleetctl" maps repair "$robot" --base 2 --undo 2>"$work/err"; then fail "a repair of an old version succeeded"; fi
 grep -q ABORTED "$work/err" || fail "no ABORTED for a stale base: $(cat "$work/err")"
 if "$bin/fleetctl" maps repair "$robot" --base 3 --reject-edge 1-2 2>"$work/err"; then fail "a malformed edge was accepted"; fi
@@ -115,9 +115,9 @@ import json, sys
 listed = json.load(open(sys.argv[1]))
 v = listed["versions"]
 assert len(v) == 2 and listed["current_version"] == "2", listed
-assert [x["origin"] for x in v] == ["import", "import"], v
+assert [x["version_origin"] for x in v] == ["MAP_ORIGIN_IMPORT", "MAP_ORIGIN_IMPORT"], v
 assert v[0]["action_detail"] == "valetudo:dreame_d9_1058_no_segments.json" and v[1]["parent_version"] == "1", v
-assert v[1]["reason"] == "user exports" and v[1]["nodes"] == "1" and v[1]["approval"] == "approved", v[1]
+assert v[1]["reason"] == "user exports" and v[1]["nodes"] == "1" and v[1]["approval_state"] == "MAP_APPROVAL_APPROVED", v[1]
 # Known area: the cells that are not unknown in the same export converted to PGM (data/maps), 0.05 m cells.
 pgm = open(sys.argv[2], "rb").read()
 known = sum(1 for b in pgm[-143 * 226:] if b != 205) * 0.0025
@@ -131,12 +131,12 @@ for f in sorted(findings, key=lambda f: int(f["finding_id"])):
     print(f["finding_id"], f["summary"], file=sys.stderr)
 by_kind = {}
 for f in findings:
-    by_kind.setdefault(f["kind"], []).append(f)
+    by_kind.setdefault(f["finding_kind"].removeprefix("FINDING_KIND_").lower(), []).append(f)
 # The first export's walls land on the second's: two thirds within a cell, 0.12 m apart on average, the dock's
 # 0.55 m shift along x kept by the registration.
 [alignment] = by_kind["alignment"]
 e = json.loads(alignment["evidence_json"])
-assert alignment["state"] == "info" and e["method"] == "dock+registration" and e["previous_version"] == 1, alignment
+assert alignment["finding_state"] == "FINDING_STATE_INFO" and e["method"] == "dock+registration" and e["previous_version"] == 1, alignment
 assert 0.64 < e["wall_overlap"] < 0.70 and 0.10 < e["residual_m"] < 0.14, e
 assert abs(e["new_T_previous"][0] - 0.55) < 0.05 and abs(e["new_T_previous"][1]) < 0.05, e
 # Ten new regions with the detector's features (with the wall the later export has as floor, kept through the
@@ -161,9 +161,9 @@ python3 - "$work/cut.json" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
 v, findings = r["version"], r.get("findings", [])
-assert v["version"] == "3" and v["approval"] == "pending" and v["origin"] == "repair", v
-assert v["action"] == "cut_region" and "back to version 1" in v["action_detail"], v
-areas = [json.loads(f["evidence_json"])["area_m2"] for f in findings if f["kind"] == "new_region"]
+assert v["version"] == "3" and v["approval_state"] == "MAP_APPROVAL_PENDING" and v["version_origin"] == "MAP_ORIGIN_REPAIR", v
+assert v["version_action"] == "MAP_ACTION_CUT_REGION" and "back to version 1" in v["action_detail"], v
+areas = [json.loads(f["evidence_json"])["area_m2"] for f in findings if f["finding_kind"] == "FINDING_KIND_NEW_REGION"]
 assert len(areas) == 9 and max(areas) < 1.0, areas  # the cut region is gone, the fringes remain
 PY
 "$bin/fleetctl" maps reject "$home" 3 >/dev/null || fail "reject the cut"
@@ -210,13 +210,13 @@ PY
 python3 - "$work/import.json" <<'PY'
 import json, sys
 v = json.load(open(sys.argv[1]))["version"]
-assert v["version"] == "5" and v["approval"] == "pending" and v["parent_version"] == "4", v
+assert v["version"] == "5" and v["approval_state"] == "MAP_APPROVAL_PENDING" and v["parent_version"] == "4", v
 assert v["action_detail"] == "map_server:aws_small_house.yaml", v
 PY
 "$bin/fleetctl" maps show "$home" 5 --json | python3 -c '
 import json, sys
 findings = json.load(sys.stdin)["findings"]
-assert findings[0]["kind"] == "misaligned" and findings[0]["state"] == "open", findings[0]' ||
+assert findings[0]["finding_kind"] == "FINDING_KIND_MISALIGNED" and findings[0]["finding_state"] == "FINDING_STATE_OPEN", findings[0]' ||
   fail "another home was not reported misaligned"
 if "$bin/fleetctl" maps repair "$home" --base 5 --reject-edge 0:1 2>"$work/err"; then fail "an imported map's edge was rejected"; fi
 grep -q "FAILED_PRECONDITION: version 5 is a map without a run" "$work/err" || fail "unclear refusal: $(cat "$work/err")"

@@ -266,7 +266,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   for (int attempt = 0; attempt < 240 && !finding; ++attempt) {
     merged = Version(merged_version);
     for (const auto& candidate : merged.findings()) {
-      if (candidate.kind() == "unconfirmed_hypothesis" &&
+      if (candidate.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS &&
           candidate.hypothesis() == scenario.wrong_hypothesis) {
         finding = &candidate;
       }
@@ -274,7 +274,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
     if (!finding) std::this_thread::sleep_for(std::chrono::milliseconds(500));
   }
   ASSERT_NE(finding, nullptr) << "no finding names hypothesis " << scenario.wrong_hypothesis;
-  EXPECT_EQ(finding->state(), "open");
+  EXPECT_EQ(finding->finding_state(), fleet::v1::FINDING_STATE_OPEN);
   EXPECT_NE(finding->evidence_json().find("\"joins_components\":true"), std::string::npos)
       << finding->evidence_json();
   EXPECT_GE(merged.version().open_findings(), 1);
@@ -289,13 +289,14 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   ASSERT_THAT(status, IsOk());
   const std::int64_t repaired_version = repaired.version().version();
   EXPECT_EQ(repaired_version, merged_version + 1);
-  EXPECT_EQ(repaired.version().approval(), "pending");
+  EXPECT_EQ(repaired.version().approval_state(), fleet::v1::MAP_APPROVAL_PENDING);
   EXPECT_EQ(repaired.version().parent_version(), merged_version);
   EXPECT_EQ(repaired.version().created_by(), "engineer:erin");
   EXPECT_EQ(repaired.version().observation_edges(),
             merged.version().observation_edges() - static_cast<std::int64_t>(scenario.wrong_edges));
   for (const auto& after : repaired.findings()) {
-    EXPECT_FALSE(after.kind() == "unconfirmed_hypothesis" && after.hypothesis() == scenario.wrong_hypothesis);
+    EXPECT_FALSE(after.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS &&
+                 after.hypothesis() == scenario.wrong_hypothesis);
   }
 
   fleet::v1::GetMapRequest fetch;
@@ -313,7 +314,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   fleet::v1::MapVersion approved;
   context = Context(engineer_);
   ASSERT_THAT(maps_->ReviewMapVersion(context.get(), approve, &approved), IsOk());
-  EXPECT_EQ(approved.approval(), "approved");
+  EXPECT_EQ(approved.approval_state(), fleet::v1::MAP_APPROVAL_APPROVED);
   EXPECT_TRUE(approved.current());
 
   fleet::v1::GetMapResponse downloaded;
@@ -352,7 +353,7 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   fleet::v1::RepairMapResponse undone;
   ASSERT_THAT(Repair(undo, &undone), IsOk());
   EXPECT_EQ(undone.version().snapshot_id(), merged.version().snapshot_id());
-  EXPECT_EQ(undone.version().origin(), "undo");
+  EXPECT_EQ(undone.version().version_origin(), fleet::v1::MAP_ORIGIN_UNDO);
   EXPECT_EQ(fleet::SerializeDeterministic(Version(undone.version().version()).snapshot()),
             fleet::SerializeDeterministic(merged.snapshot()));
 
@@ -509,7 +510,7 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   ASSERT_THAT(fetched, IsOk());
   ASSERT_FALSE(fetched->up_to_date);
   EXPECT_EQ(fetched->version.version(), repaired_version);
-  EXPECT_EQ(fetched->version.origin(), "rollback");
+  EXPECT_EQ(fetched->version.version_origin(), fleet::v1::MAP_ORIGIN_ROLLBACK);
   ASSERT_THAT(robot.TakeMap(fetched->snapshot, fetched->version.version()), IsOk());
   EXPECT_EQ(robot.map().graph.num_nodes(), static_cast<std::size_t>(first.run.child_snapshot().nodes_size()))
       << "the rolled-back map is the first run's";
@@ -527,7 +528,7 @@ TEST_F(MapRepairTest, AFollowingRobotRunsOnTheApprovedRepairAndTheServerRecordsI
   EXPECT_EQ(third_upload.current_map_version, third_upload.map_version);
   const fleet::v1::GetMapVersionResponse recorded = Version(third_upload.map_version);
   EXPECT_EQ(recorded.version().parent_version(), repaired_version);
-  EXPECT_EQ(recorded.version().approval(), "approved");
+  EXPECT_EQ(recorded.version().approval_state(), fleet::v1::MAP_APPROVAL_APPROVED);
 
   // The analysis' report names the version the run ran on.
   ASSERT_THAT(service.WaitForJob(engineer_, third_upload.analysis_job_id, 120), IsOk());
@@ -578,7 +579,7 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   fleet::v1::RepairMapResponse proposed;
   ASSERT_THAT(Repair(proposal, &proposed), IsOk());
   ASSERT_EQ(proposed.version().version(), 3);
-  ASSERT_EQ(proposed.version().approval(), "pending");
+  ASSERT_EQ(proposed.version().approval_state(), fleet::v1::MAP_APPROVAL_PENDING);
 
   // The robot runs again on version 2, still its current map: version 4, approved, built on 2.
   ASSERT_EQ(run_and_upload(2), 4);
@@ -590,15 +591,16 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   ASSERT_THAT(approved, IsOk());
   EXPECT_EQ(carried.version(), 5);
   EXPECT_EQ(carried.parent_version(), 4);
-  EXPECT_EQ(carried.origin(), "repair");
-  EXPECT_EQ(carried.action(), "reject_edge");
-  EXPECT_EQ(carried.approval(), "approved");
+  EXPECT_EQ(carried.version_origin(), fleet::v1::MAP_ORIGIN_REPAIR);
+  EXPECT_EQ(carried.version_action(), fleet::v1::MAP_ACTION_REJECT_EDGE);
+  EXPECT_EQ(carried.approval_state(), fleet::v1::MAP_APPROVAL_APPROVED);
   EXPECT_TRUE(carried.current());
   EXPECT_EQ(carried.reason(), "this closure looks wrong");
   EXPECT_NE(carried.action_detail().find("carried forward from version 3"), std::string::npos)
       << carried.action_detail();
   EXPECT_NE(carried.action_detail().find("1 edge(s) removed"), std::string::npos) << carried.action_detail();
-  EXPECT_EQ(Version(3).version().approval(), "stale") << "the proposal is superseded";
+  EXPECT_EQ(Version(3).version().approval_state(), fleet::v1::MAP_APPROVAL_STALE)
+      << "the proposal is superseded";
   // Version 5 is version 4 without the edge: every node of the third run is there.
   const fleet::v1::GetMapVersionResponse fourth = Version(4), fifth = Version(5);
   EXPECT_EQ(fifth.snapshot().nodes_size(), fourth.snapshot().nodes_size());
@@ -626,13 +628,14 @@ TEST_F(MapRepairTest, ARepairApprovedAfterTheRobotMovedOnIsCarriedOntoItsCurrent
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_NE(refused.error_message().find("a rollback cannot be carried onto a later map"), std::string::npos)
       << refused.error_message();
-  EXPECT_EQ(Version(6).version().approval(), "pending") << "a refused approval changes nothing";
+  EXPECT_EQ(Version(6).version().approval_state(), fleet::v1::MAP_APPROVAL_PENDING)
+      << "a refused approval changes nothing";
 
   // The simulated engineer's weekly review: approves what can be carried, rejects what cannot.
   auto reviewed = service.ApprovePending(engineer_, kRobot);
   ASSERT_THAT(reviewed, IsOk());
   EXPECT_EQ(*reviewed, 0) << "nothing was approved";
-  EXPECT_EQ(Version(6).version().approval(), "rejected");
+  EXPECT_EQ(Version(6).version().approval_state(), fleet::v1::MAP_APPROVAL_REJECTED);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "analyzer/map_metadata.h"
 #include "analyzer/telemetry_codec.h"
 #include "analyzer/valetudo_map.h"
+#include "map_commands.h"
 #include "slamcore/mapper.h"
 
 namespace fleetctl {
@@ -98,9 +99,11 @@ std::optional<int> ImportCommands::Run(Client& client, const Global& global) con
     if (global.json) {
       PrintJson(response);
     } else {
-      std::printf("%s → robot %s version %lld (%s, %.1f m² known)\n", file.c_str(), robot_.c_str(),
-                  static_cast<long long>(response.version().version()), response.version().approval().c_str(),
-                  response.version().known_area_m2());
+      std::printf(
+          "%s → robot %s version %lld (%s, %.1f m² known)\n", file.c_str(), robot_.c_str(),
+          static_cast<long long>(response.version().version()),
+          Spelled(fleet::v1::MapApproval_Name(response.version().approval_state()), "MAP_APPROVAL_").c_str(),
+          response.version().known_area_m2());
     }
   }
   return imported == static_cast<int>(files_.size()) ? 0 : 1;

@@ -15,8 +15,10 @@ void PrintVersionHeader() {
 void PrintVersionRow(const fleet::v1::MapVersion& v) {
   std::printf("%-4s %-4lld %-7s %-9s %-18s %-9s %7lld %7lld %5lld %9.1f %9.1f %5lld  %s\n",
               v.current() ? "*" : "", static_cast<long long>(v.version()),
-              v.parent_version() > 0 ? std::to_string(v.parent_version()).c_str() : "-", v.origin().c_str(),
-              v.action().empty() ? "-" : v.action().c_str(), v.approval().c_str(),
+              v.parent_version() > 0 ? std::to_string(v.parent_version()).c_str() : "-",
+              Spelled(fleet::v1::MapOrigin_Name(v.version_origin()), "MAP_ORIGIN_").c_str(),
+              Spelled(fleet::v1::MapAction_Name(v.version_action()), "MAP_ACTION_").c_str(),
+              Spelled(fleet::v1::MapApproval_Name(v.approval_state()), "MAP_APPROVAL_").c_str(),
               static_cast<long long>(v.nodes()), static_cast<long long>(v.edges()),
               static_cast<long long>(v.components()), v.known_area_m2(), v.chi2(),
               static_cast<long long>(v.open_findings()), v.created_by().c_str());
@@ -28,8 +30,10 @@ void PrintFindings(const google::protobuf::RepeatedPtrField<fleet::v1::MapFindin
     return;
   }
   for (const auto& f : findings) {
-    std::printf("#%-3lld %-22s %-8s %.2f  %s\n", static_cast<long long>(f.finding_id()), f.kind().c_str(),
-                f.state().c_str(), f.severity(), f.summary().c_str());
+    std::printf("#%-3lld %-22s %-8s %.2f  %s\n", static_cast<long long>(f.finding_id()),
+                Spelled(fleet::v1::FindingKind_Name(f.finding_kind()), "FINDING_KIND_").c_str(),
+                Spelled(fleet::v1::FindingState_Name(f.finding_state()), "FINDING_STATE_").c_str(),
+                f.severity(), f.summary().c_str());
   }
 }
 

@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cctype>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,6 +19,14 @@
 #include "client.h"
 
 namespace fleetctl {
+
+/// A wire state as the dashboard and the docs spell it: "MAP_ORIGIN_UPLOAD" → "upload"; "-" for UNSPECIFIED.
+inline std::string Spelled(const std::string& enum_name, const std::string& prefix) {
+  if (enum_name.rfind(prefix, 0) != 0 || enum_name == prefix + "UNSPECIFIED") return "-";
+  std::string spelled = enum_name.substr(prefix.size());
+  for (char& c : spelled) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return spelled;
+}
 
 class MapCommands {
  public:

@@ -2,7 +2,7 @@
 // service and the dashboard do with map versions, in one place.
 //
 //   upload      → RecordUpload: the run's child map becomes the robot's newest version; approved when it was
-//                 built on the current approved map, "stale" when on an older one (the robot is told)
+//                 built on the current approved map, stale when on an older one (the robot is told)
 //   analysis    → OnRunAnalysed: findings from the default set's report; the repair policy may act on them
 //   engineers   → Repair (reject an edge or hypothesis, cut a protrusion, roll back, undo), Review (approve or
 //                 reject a pending version), Export (map_server PGM + YAML, g2o, ValetudoMap JSON), Import (a map
@@ -18,9 +18,10 @@
 #pragma once
 
 #include <array>
-#include <set>
 #include <optional>
+#include <set>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -70,10 +71,39 @@ struct Rollback {};
 struct Undo {};
 using RepairAction = std::variant<RejectEdge, RejectHypothesis, CutFinding, Rollback, Undo>;
 
-/// "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo".
+/// A visitor from lambdas, one per alternative: std::visit(Overloaded{[](const RejectEdge&) {...}, ...}, action).
+template <typename... Fs>
+struct Overloaded : Fs... {
+  using Fs::operator()...;
+};
+template <typename... Fs>
+Overloaded(Fs...) -> Overloaded<Fs...>;
+
+/// "reject_edge", "reject_hypothesis", "cut_finding", "rollback", "undo" (the oneof's and the dashboard's names).
 const char* RepairActionName(const RepairAction& action);
 /// The action a name stands for, with default fields; INVALID_ARGUMENT naming `field` for any other name.
 storage::Result<RepairAction> RepairActionNamed(const std::string& name, const std::string& field);
+/// How a version made by `action` records it (a cut_finding is recorded as a cut_region).
+storage::MapAction RecordedAction(const RepairAction& action);
+
+// The wire's enums (maps.proto) for storage's (records.h): value i of a storage enum is value i + 1 of the proto
+// one, 0 being UNSPECIFIED. FromProto answers INVALID_ARGUMENT naming `field` for UNSPECIFIED or an unknown value.
+fleet::v1::MapOrigin ToProto(storage::MapOrigin origin);
+fleet::v1::MapApproval ToProto(storage::MapApproval approval);
+fleet::v1::MapAction ToProto(std::optional<storage::MapAction> action);  // none: UNSPECIFIED
+fleet::v1::FindingKind ToProto(storage::FindingKind kind);
+fleet::v1::FindingState ToProto(storage::FindingState state);
+storage::Result<storage::MapOrigin> FromProto(fleet::v1::MapOrigin origin, const std::string& field);
+storage::Result<storage::MapApproval> FromProto(fleet::v1::MapApproval approval, const std::string& field);
+storage::Result<storage::MapAction> FromProto(fleet::v1::MapAction action, const std::string& field);
+storage::Result<storage::FindingKind> FromProto(fleet::v1::FindingKind kind, const std::string& field);
+storage::Result<storage::FindingState> FromProto(fleet::v1::FindingState state, const std::string& field);
+/// The lower-case name of a wire value (storage's one table; the dashboard's JSON); "" for UNSPECIFIED.
+template <typename ProtoEnum>
+std::string_view NameOf(ProtoEnum value) {
+  auto known = FromProto(value, "");
+  return known.ok() ? storage::Name(*known) : std::string_view();
+}
 
 struct RepairRequest {
   std::string robot_id;
@@ -115,8 +145,8 @@ class MapHistory {
   storage::Result<MapVersionDetail> Repair(const RepairRequest& request);
   /// Approves or rejects a pending version. Approving a pending repair that the robot's next upload overtook
   /// (it ran on the map before the repair) carries the repair onto the current version
-  /// (analyzer::CarryRepairForward): the answer is that new, approved version (origin "repair", the pending
-  /// one's action, "carried forward from version N" in its detail), and the pending one becomes "stale".
+  /// (analyzer::CarryRepairForward): the answer is that new, approved version (origin repair, the pending
+  /// one's action, "carried forward from version N" in its detail), and the pending one becomes stale.
   /// FAILED_PRECONDITION, naming why, when it cannot be carried (a rollback or undo, a current version not
   /// built on the repair's base, or nothing of the repair still applies): reject it, or repair the current one.
   storage::Result<fleet::v1::MapVersion> Review(const std::string& robot_id, std::int64_t version,
@@ -128,7 +158,7 @@ class MapHistory {
   /// hypotheses of that run can be rejected as a whole.
   storage::Result<std::set<slamcore::NodeId>> NodesAddedByRun(const storage::RunKey& run,
                                                               const slamcore::Map& map);
-  /// A map made elsewhere becomes the robot's newest version (origin "import", parent: the head version), approved
+  /// A map made elsewhere becomes the robot's newest version (origin import, parent: the head version), approved
   /// when `approve`, else pending; the robot is registered when new. INVALID_ARGUMENT names what is wrong with
   /// the snapshot (it must hold at least one node with a local map) or the metadata (analyzer::ValidateMetadata);
   /// nothing is stored then. The metadata (rooms, path, poses, zones) is kept with the version. Its findings
@@ -154,20 +184,30 @@ class MapHistory {
   storage::Result<MapVersionDetail> RepairMapOnly(const RepairRequest& request,
                                                   const storage::MapVersionRecord& base,
                                                   const std::vector<storage::MapVersionRecord>& versions);
-  /// A pending repair carried onto a later version (Review): whose repair it is, and the head it was read at.
-  struct CarriedRepair {
-    const storage::MapVersionRecord* pending = nullptr;
-    std::int64_t expected_head = 0;
+  /// How a new version made from a base records what made it: a repair request's own, or a pending repair's
+  /// carried onto a later version (Review).
+  struct RepairRecord {
+    storage::MapOrigin origin = storage::MapOrigin::kRepair;
+    std::optional<storage::MapAction> action;
+    std::string detail;
+    std::string created_by, reason;
+    std::optional<std::string> approved_by;  // approved at once by; none: pending review
+    std::string requested_by;        // who asked (logged): the requester, or the reviewer of a carried repair
+    std::int64_t expected_head = 0;  // AppendMapVersion fails with ABORTED when the head moved from it
+    std::optional<std::int64_t>
+        supersedes_pending;        // the carried repair, marked stale in the same transaction
+    std::int64_t metadata_of = 0;  // the version whose metadata the new one keeps (whose map it derives from)
   };
-  /// Appends `repaired` (stored as `snapshot_id`) as the new version of a repair of `base`, with `findings`
-  /// and the metadata of the version whose map it derives from (`metadata_of`: the base for edits and cuts,
-  /// the restored version for rollbacks and undos). With `carried`, it is that pending repair's, approved by
-  /// `request.requested_by`, and the pending one is superseded in the same transaction.
-  storage::Result<MapVersionDetail> AppendRepair(
-      const RepairRequest& request, const storage::MapVersionRecord& base, const slamcore::Map& repaired,
-      const std::string& snapshot_id, const std::string& origin, const std::string& detail,
-      const std::vector<fleet::v1::MapFinding>& findings, std::int64_t metadata_of,
-      const CarriedRepair* carried = nullptr);
+  /// How the version that `request` makes (by `origin`; `detail`: what was done, in words) is recorded.
+  static RepairRecord RecordOf(const RepairRequest& request, storage::MapOrigin origin, std::string detail,
+                               std::int64_t metadata_of);
+  /// Appends `repaired` (stored as `snapshot_id`) as the new version made from `base`, recorded as `made`
+  /// says, with `findings`.
+  storage::Result<MapVersionDetail> AppendRepair(const RepairRecord& made,
+                                                 const storage::MapVersionRecord& base,
+                                                 const slamcore::Map& repaired,
+                                                 const std::string& snapshot_id,
+                                                 const std::vector<fleet::v1::MapFinding>& findings);
   /// Review's approval of `pending` once `current` (newer) overtook it.
   storage::Result<fleet::v1::MapVersion> ApproveOvertaken(
       const std::vector<storage::MapVersionRecord>& versions, const storage::MapVersionRecord& pending,

@@ -106,7 +106,7 @@ fleet::v1::Job ToProto(const storage::JobRecord& job) {
   fleet::v1::Job out;
   out.set_job_id(job.job_id);
   out.set_kind(job.kind);
-  out.set_state(storage::JobStateName(job.state));
+  out.set_state(std::string(storage::Name(job.state)));
   out.set_progress_done(job.progress_done);
   out.set_progress_total(job.progress_total);
   out.set_last_error(job.last_error);

@@ -160,14 +160,9 @@ grpc::Status ReprocessingHandler::ListJobs(grpc::ServerContext* call,
     return scope.Done(InvalidArgument("limit: expected 0..1000"));
   std::optional<storage::JobState> state;
   if (!request->state().empty()) {
-    for (auto candidate : {storage::JobState::kQueued, storage::JobState::kLeased, storage::JobState::kDone,
-                           storage::JobState::kFailed, storage::JobState::kCancelled}) {
-      if (request->state() == storage::JobStateName(candidate)) state = candidate;
-    }
-    if (!state) {
-      return scope.Done(InvalidArgument("state: unknown \"" + request->state() +
-                                        "\" (queued, leased, done, failed, cancelled)"));
-    }
+    auto parsed = storage::Parse<storage::JobState>(request->state());
+    if (!parsed.ok()) return scope.Done(InvalidArgument("state: " + parsed.status().message()));
+    state = *parsed;
   }
   if (!request->kind().empty() && request->kind() != kReprocessJob && request->kind() != kAnalyzeRunJob) {
     return scope.Done(InvalidArgument("kind: unknown \"" + request->kind() + "\" (reprocess, analyze_run)"));

@@ -5,12 +5,90 @@
 // Thread safety: value types.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "storage/status.h"
+
 namespace storage {
+
+// Closed sets of states kept on records. Each has one name table (storage/src/record_names.cc): Name() gives
+// the lower-case spelling stored in its TEXT column (and shown on the dashboard), Parse<E>() reads it back,
+// INVALID_ARGUMENT naming the value for any other spelling. Reads of a stored value outside the set fail with
+// DATA_LOSS instead of guessing.
+
+/// How a map version was made.
+enum class MapOrigin { kUpload, kRepair, kRollback, kUndo, kImport };
+inline constexpr std::array kMapOrigins{MapOrigin::kUpload, MapOrigin::kRepair, MapOrigin::kRollback,
+                                        MapOrigin::kUndo, MapOrigin::kImport};
+std::string_view Name(MapOrigin origin);  // "upload", "repair", "rollback", "undo", "import"
+
+/// Whether robots may get a map version.
+enum class MapApproval { kApproved, kPending, kRejected, kStale };
+inline constexpr std::array kMapApprovals{MapApproval::kApproved, MapApproval::kPending,
+                                          MapApproval::kRejected, MapApproval::kStale};
+std::string_view Name(MapApproval approval);  // "approved", "pending", "rejected", "stale"
+
+/// What a repair (or an import) did to make a version; uploads have none.
+enum class MapAction { kRejectEdge, kRejectHypothesis, kCutRegion, kRollback, kUndo, kImport };
+inline constexpr std::array kMapActions{MapAction::kRejectEdge, MapAction::kRejectHypothesis,
+                                        MapAction::kCutRegion,  MapAction::kRollback,
+                                        MapAction::kUndo,       MapAction::kImport};
+std::string_view Name(
+    MapAction action);  // "reject_edge", "reject_hypothesis", "cut_region", "rollback", "undo",
+                        // "import"
+
+/// Whether a finding still asks for a repair.
+enum class FindingState { kOpen, kResolved, kInfo };
+inline constexpr std::array kFindingStates{FindingState::kOpen, FindingState::kResolved, FindingState::kInfo};
+std::string_view Name(FindingState state);  // "open", "resolved" (the version no longer shows it), "info"
+                                            // (evidence, nothing to repair)
+
+/// What a finding is about (docs/formats/map-versions.md "Findings").
+enum class FindingKind {
+  kHighResidualEdge,
+  kUnconfirmedHypothesis,
+  kUndoneMerge,
+  kRetractedHypothesis,
+  kProtrusion,
+  kAmbiguousView,
+  kAlignment,  // imported versions: their comparison with the map before
+  kMisaligned,
+  kNewRegion,
+  kLostRegion,
+};
+inline constexpr std::array kFindingKinds{FindingKind::kHighResidualEdge, FindingKind::kUnconfirmedHypothesis,
+                                          FindingKind::kUndoneMerge,      FindingKind::kRetractedHypothesis,
+                                          FindingKind::kProtrusion,       FindingKind::kAmbiguousView,
+                                          FindingKind::kAlignment,        FindingKind::kMisaligned,
+                                          FindingKind::kNewRegion,        FindingKind::kLostRegion};
+std::string_view Name(FindingKind kind);  // "high_residual_edge", "unconfirmed_hypothesis", ...
+
+enum class JobState { kQueued, kLeased, kDone, kFailed, kCancelled };
+inline constexpr std::array kJobStates{JobState::kQueued, JobState::kLeased, JobState::kDone,
+                                       JobState::kFailed, JobState::kCancelled};
+std::string_view Name(JobState state);  // "queued", "leased", "done", "failed", "cancelled"
+
+/// The value of E that `name` spells; INVALID_ARGUMENT naming `name` and the spellings expected otherwise.
+/// Defined for MapOrigin, MapApproval, MapAction, FindingState, FindingKind and JobState.
+template <typename E>
+Result<E> Parse(std::string_view name);
+template <>
+Result<MapOrigin> Parse<MapOrigin>(std::string_view name);
+template <>
+Result<MapApproval> Parse<MapApproval>(std::string_view name);
+template <>
+Result<MapAction> Parse<MapAction>(std::string_view name);
+template <>
+Result<FindingState> Parse<FindingState>(std::string_view name);
+template <>
+Result<FindingKind> Parse<FindingKind>(std::string_view name);
+template <>
+Result<JobState> Parse<JobState>(std::string_view name);
 
 struct RobotRecord {
   std::string robot_id;
@@ -151,9 +229,6 @@ struct ModelRecord {
   bool active = false;
 };
 
-enum class JobState { kQueued, kLeased, kDone, kFailed, kCancelled };
-const char* JobStateName(JobState state);  // "queued", "leased", ...
-
 struct NewJob {
   std::string kind;     // e.g. "analyze_run", "reprocess"
   std::string payload;  // opaque to storage
@@ -254,27 +329,27 @@ struct MapVersionRecord {
   std::int64_t version = 0;  // assigned by AppendMapVersion
   std::optional<std::int64_t> parent_version;
   std::string snapshot_id;  // must name a stored snapshot
-  std::string origin;       // "upload", "repair", "rollback", "undo"
+  MapOrigin origin = MapOrigin::kUpload;
   std::string run_id;  // uploads: their run (one version per run); repairs: the run their chain started from
-  std::string action;  // repairs: what was done ("reject_edge", ...); empty for uploads
+  std::optional<MapAction> action;  // repairs and imports: what was done; none for uploads (stored as "")
   std::string action_detail;
   std::string created_by;
   std::string reason;
   std::int64_t created_at_ms = 0;
-  std::string approval;  // "approved", "pending", "rejected", "stale"
+  MapApproval approval = MapApproval::kPending;
   std::string approved_by;
   std::int64_t approved_at_ms = 0;
   // Size and health figures, computed when the version is made.
   std::int64_t nodes = 0, edges = 0, observation_edges = 0, views = 0, components = 0;
   double known_area_m2 = 0.0;
   double chi2 = 0.0;
-  std::int64_t open_findings = 0;  // kept equal to the version's findings in state "open"
+  std::int64_t open_findings = 0;  // kept equal to the version's findings in state kOpen
   // Opaque bytes kept with the version (imported maps: their rooms, zones, …), at most kMaxMapMetadataBytes.
   // AppendMapVersion stores them when not empty; lists and gets leave this empty (they stay light): read them
   // with Repository::GetMapMetadata.
   std::string metadata;
   // Append only, never read back: a pending version that this one carries forward (a repair approved after
-  // the robot's next upload overtook it). AppendMapVersion marks it "stale" in the same transaction, and
+  // the robot's next upload overtook it). AppendMapVersion marks it stale in the same transaction, and
   // fails with ABORTED when it is no longer pending.
   std::optional<std::int64_t> supersedes_pending;
 };
@@ -285,10 +360,10 @@ inline constexpr std::size_t kMaxMapMetadataBytes = 16u << 20;
 /// describes it (evidence, what a repair would act on), opaque to storage.
 struct MapFindingRecord {
   std::int64_t finding_id = 0;  // unique within the version
-  std::string kind;
+  FindingKind kind = FindingKind::kProtrusion;
   double severity = 0.0;
   std::string summary;
-  std::string state;  // "open", "resolved" or "info" (evidence, nothing to repair)
+  FindingState state = FindingState::kOpen;
   std::string detail_json;
 };
 
