@@ -1,5 +1,6 @@
 // MapHistory's wire forms (declared in server/map_history.h): a version record as the proto's MapVersion,
 // the states' proto enums to and from storage's, and the repair actions' names.
+#include <iterator>
 #include <string>
 
 #include "map_history_support.h"
@@ -25,6 +26,12 @@ storage::Result<StorageEnum> FromWire(ProtoEnum value, const std::array<StorageE
   }
   return values[static_cast<std::size_t>(index)];
 }
+
+// Every repair action, default-constructed, in the variant's order, and its spelling at the same index.
+const RepairAction kRepairActions[] = {RejectEdge{}, RejectHypothesis{}, CutFinding{}, Rollback{}, Undo{}};
+constexpr const char* kRepairActionNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback",
+                                              "undo"};
+static_assert(std::size(kRepairActionNames) == std::variant_size_v<RepairAction>);
 
 }  // namespace
 
@@ -56,12 +63,7 @@ fleet::v1::MapVersion ToProto(const storage::MapVersionRecord& record, bool curr
   return proto;
 }
 
-const char* RepairActionName(const RepairAction& action) {
-  static constexpr const char* kNames[] = {"reject_edge", "reject_hypothesis", "cut_finding", "rollback",
-                                           "undo"};
-  static_assert(std::size(kNames) == std::variant_size_v<RepairAction>);
-  return kNames[action.index()];
-}
+const char* RepairActionName(const RepairAction& action) { return kRepairActionNames[action.index()]; }
 
 storage::MapAction RecordedAction(const RepairAction& action) {
   return std::visit(Overloaded{[](const RejectEdge&) { return storage::MapAction::kRejectEdge; },
@@ -101,15 +103,16 @@ storage::Result<storage::FindingState> FromProto(fleet::v1::FindingState state, 
 }
 
 storage::Result<RepairAction> RepairActionNamed(const std::string& name, const std::string& field) {
-  if (name == "reject_edge") return RepairAction{RejectEdge{}};
-  if (name == "reject_hypothesis") return RepairAction{RejectHypothesis{}};
-  if (name == "cut_finding") return RepairAction{CutFinding{}};
-  if (name == "rollback") return RepairAction{Rollback{}};
-  if (name == "undo") return RepairAction{Undo{}};
-  return storage::InvalidArgument(
-      field + ": \"" + name.substr(0, 64) +
-      "\" is not an action; expected reject_edge, reject_hypothesis, cut_finding, rollback "
-      "or undo");
+  for (const RepairAction& action : kRepairActions) {
+    if (name == RepairActionName(action)) return action;
+  }
+  std::string expected;
+  for (std::size_t i = 0; i < std::size(kRepairActionNames); ++i) {
+    expected += i == 0 ? "" : i + 1 == std::size(kRepairActionNames) ? " or " : ", ";
+    expected += kRepairActionNames[i];
+  }
+  return storage::InvalidArgument(field + ": \"" + name.substr(0, 64) + "\" is not an action; expected " +
+                                  expected);
 }
 
 }  // namespace server
