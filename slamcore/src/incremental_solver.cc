@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calling_thread_only.h"
+
 namespace slamcore::internal {
 namespace {
 
@@ -27,6 +29,7 @@ class NormalEquations {
   }
 
   bool Factorize(const Eigen::SparseMatrix<double>& lower) {
+    const CallingThreadOnly calling_thread_only;
     if (!analysed_) large_ ? supernodal_.analyzePattern(lower) : simplicial_.analyzePattern(lower);
     analysed_ = true;
     if (large_) {

@@ -5,6 +5,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 
+#include "calling_thread_only.h"
 #include "slamcore/optimizer.h"
 
 namespace slamcore::internal {
@@ -46,6 +47,7 @@ struct MarginalCovariances::Factor {
     common.nmethods = 1;  // AMD alone: nested dissection rarely repays its cost on a pose graph
     common.method[0].ordering = CHOLMOD_AMD;
     common.supernodal = CHOLMOD_SUPERNODAL;
+    const CallingThreadOnly calling_thread_only;
     factor = cholmod_analyze(&matrix, &common);
     if (!factor || !cholmod_factorize(&matrix, factor, &common) || common.status != CHOLMOD_OK ||
         factor->minor < factor->n) {

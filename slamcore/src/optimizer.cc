@@ -12,6 +12,8 @@
 #include <memory>
 #include <unordered_set>
 
+#include "calling_thread_only.h"
+
 namespace slamcore {
 
 Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix3* d_from, Matrix3* d_to) {
@@ -213,7 +215,10 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
   solver_options.num_threads = options.num_threads;
   solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary ceres_summary;
-  ceres::Solve(solver_options, &problem, &ceres_summary);
+  {
+    const internal::CallingThreadOnly calling_thread_only;  // Ceres factorises with CHOLMOD too
+    ceres::Solve(solver_options, &problem, &ceres_summary);
+  }
   if (ceres_summary.termination_type == ceres::FAILURE) {
     return Internal("optimisation failed: " + ceres_summary.message);
   }
