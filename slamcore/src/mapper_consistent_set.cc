@@ -64,9 +64,6 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   if (!consistency.enabled || !consistency.consistent_set_check || overlay_ || !current_node_) return;
   const NodeId robot = *current_node_;
   judged_at_last_check_ = retractable_.size() + kept_refused_.size();
-  // Only a refused cluster taken into the set changes anything (below: no acceptance, no retraction), so
-  // without one the solves are skipped: the end-of-run check of most runs.
-  if (kept_refused_.empty()) return;
 
   // The judged clusters, as edge indices of a working copy of G that also holds the refused ones' edges.
   struct Cluster {
@@ -107,9 +104,11 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     clusters.push_back(std::move(cluster));
   }
   std::erase_if(clusters, [](const Cluster& cluster) { return cluster.edges.empty(); });
+  // Only a refused cluster taken into the set changes anything (below: no acceptance, so no retraction):
+  // without one in the robot's component the solves are skipped (the end-of-run check of most runs).
   if (std::none_of(clusters.begin(), clusters.end(),
                    [](const Cluster& cluster) { return cluster.kept >= 0; }))
-    return;  // no refused cluster in the robot's component
+    return;
   // Evidence by passes here too: a cluster's edges pull on the solution, and count against its threshold,
   // as one edge per pass (a group of ten views from one traversal is one observation of one place, and must
   // not outweigh two passes of the truth by its size).
