@@ -12,8 +12,10 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${FUZZ_SECONDS:-60}
 out=$root/build-fuzz
 mkdir -p "$out"
-CXX=clang++ cmake -S "$root/fuzz" -B "$out" -G Ninja -DFLEET_BUILD_DIR="$root/build" >"$out/configure.log"
-ninja -C "$out" -j2 >"$out/build.log"
+CXX=clang++ cmake -S "$root/fuzz" -B "$out" -G Ninja -DFLEET_BUILD_DIR="$root/build" >"$out/configure.log" 2>&1 ||
+  { tail -n 30 "$out/configure.log"; echo "fuzz harness configure failed (log: $out/configure.log)"; exit 1; }
+ninja -C "$out" -j2 >"$out/build.log" 2>&1 ||
+  { tail -n 30 "$out/build.log"; echo "fuzz harness build failed (log: $out/build.log)"; exit 1; }
 
 # Telemetry seeds: one small simulated run per robot, as fleet.v1.RunFile bytes.
 telemetry_seeds=$out/seeds/telemetry
