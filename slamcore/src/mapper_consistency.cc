@@ -74,9 +74,26 @@ std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
 }
 
+std::optional<PoseGaussian> Mapper::Impl::MapPredictionBound(NodeId node) const {
+  const NodeId robot = *current_node_;
+  if (!marginals_ || marginals_revision_ == map_revision_ ||
+      marginals_indirect_revision_ != indirect_revision_ || !marginals_->Contains(node) ||
+      !map_.graph.SameComponent(node, robot)) {
+    return std::nullopt;
+  }
+  // Direct edges only added information: the covariance of the marginals before them is no smaller
+  // (at the linearisation point then; direct edges move the map little). The variance factor is taken at
+  // its largest, 1, since the new edges change it.
+  const Matrix3 covariance =
+      internal::Compose(robot_T_factorized_, marginals_->Relative(marginals_->newest_node(), node))
+          .covariance;
+  return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
+}
+
 void Mapper::Impl::RefactorizeMarginals() {
   marginals_ = internal::MarginalCovariances::Factorize(map_.graph, *current_node_);
   marginals_revision_ = map_revision_;
+  marginals_indirect_revision_ = indirect_revision_;
   robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
 }
 
@@ -87,6 +104,22 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
       internal::CountPasses(hypothesis, consistency.pass_gap_seconds, consistency.pass_gap_distance);
   std::ostringstream text;
   text.precision(3);
+  // A hypothesis inconsistent with a covariance no smaller than the map's is inconsistent with the map's
+  // (d² only grows as the covariance shrinks): no refactorisation. The margin covers the linearisation
+  // point, which the direct edges since have moved a little.
+  constexpr double kBoundMargin = 2.0;
+  if (const std::optional<PoseGaussian> bound = MapPredictionBound(hypothesis.ref_node)) {
+    const double lower_d2 = internal::ComputeInnovation(*bound, hypothesis.state).mahalanobis2;
+    if (lower_d2 > kBoundMargin * consistency.map_gate_chi2) {
+      text << "map test d²≥" << lower_d2 << " (inconsistent), " << passes << " of "
+           << consistency.min_passes_against_map << " passes";
+      *why = text.str();
+      if (passes < consistency.min_passes_against_map || passes <= hypothesis.refused_at_passes) {
+        return RecoveryVerdict::kWait;
+      }
+      return RecoveryVerdict::kAcceptOverMap;
+    }
+  }
   const std::optional<PoseGaussian> prediction = MapPrediction(hypothesis.ref_node);
   if (!prediction) {
     text << "no map test, " << passes << " of " << consistency.min_passes_uninformative << " passes";
@@ -171,7 +204,7 @@ void Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {
   std::erase_if(accepted_, [&](const AcceptedObservation& edge) {
     return edge.hypothesis == hypothesis_id && edge.robot_node >= first_run_node_;
   });
-  ++map_revision_;
+  NoteObservationEdgesChanged(/*direct_edge_added=*/false);
   if (anchor_ && anchor_->hypothesis == hypothesis_id) anchor_.reset();
 }
 

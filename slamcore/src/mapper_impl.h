@@ -121,7 +121,13 @@ class Mapper::Impl {
   void AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict);
   Edge MakeObservationEdge(const internal::HypothesisObservation& observation,
                            std::int64_t hypothesis_id) const;
-  void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id);
+  /// `direct`: a direct edge (it passed the gate with a robot sure of its position), the one change to G
+  /// after which the marginals factorised before still bound the map's covariance (MapPredictionBound).
+  void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id,
+                          bool direct);
+  /// Records that G's observation edges changed: `direct_edge_added` for a direct edge added, false for
+  /// anything else (edges removed, G restored or re-posed, hypotheses' edges added).
+  void NoteObservationEdgesChanged(bool direct_edge_added);
   void RejectCompetitors(const internal::Hypothesis& accepted);
   /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional
   /// merge, which is then undone — and feeding a merge hypothesis's observations to the rejected tracker.
@@ -148,6 +154,9 @@ class Mapper::Impl {
   RecoveryVerdict JudgeRecovery(const internal::Hypothesis& hypothesis, std::string* why);
   /// robot_T_node from G with the map's marginal covariance between the two; nullopt when unavailable.
   std::optional<internal::PoseGaussian> MapPrediction(NodeId node);
+  /// robot_T_node with a covariance no smaller than MapPrediction's, from marginals factorised before
+  /// the last direct edges, without refactorising; nullopt when they are current or cannot bound it.
+  std::optional<internal::PoseGaussian> MapPredictionBound(NodeId node) const;
   void RefactorizeMarginals();
   void OptimizeAndFactorize();
   /// After a recovery's edges joined G and the component was optimised: false when its own edges fail the
@@ -210,9 +219,12 @@ class Mapper::Impl {
   std::unordered_map<ViewId, std::size_t> view_creation_order_;
 
   /// The map's marginal covariances, refactorised when observation edges changed since (map_revision_),
-  /// and the odometry chain from their newest node to the robot (robot_T_factorized_).
+  /// and the odometry chain from their newest node to the robot (robot_T_factorized_). While only direct
+  /// edges were added since (indirect_revision_ unchanged), G has only gained information, so stale
+  /// marginals still bound the map's covariance from above.
   std::optional<internal::MarginalCovariances> marginals_;
   std::uint64_t marginals_revision_ = 0, map_revision_ = 0;
+  std::uint64_t marginals_indirect_revision_ = 0, indirect_revision_ = 0;
   internal::PoseGaussian robot_T_factorized_;
   /// This run's first node: edges at or after it were added in this run (parent edges are never retracted).
   NodeId first_run_node_ = 0;

@@ -54,7 +54,7 @@ void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
     conditional_hypothesis_ = -1;
   }
   for (const HypothesisObservation& observation : accepted.observations)
-    AddObservationEdge(observation, accepted.id);
+    AddObservationEdge(observation, accepted.id, /*direct=*/false);
   robot_relative_covariance_ = accepted.state.covariance;
   std::string note;
   if (params_.optimize_after_accept) OptimizeComponentOf(robot, &note);

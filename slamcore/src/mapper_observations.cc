@@ -64,7 +64,8 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
                                       .time = event.time,
                                       .odometer = odometer_};
     AddObservationEdge(observation,
-                       params_.consistency.enabled ? AnchorForDirectEdge(observation).value_or(-1) : -1);
+                       params_.consistency.enabled ? AnchorForDirectEdge(observation).value_or(-1) : -1,
+                       /*direct=*/true);
     robot_relative_covariance_ = event.covariance;
     std::string note;
     if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, innovation.mahalanobis2, &note);
@@ -187,7 +188,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   for (const HypothesisObservation& observation : candidate->observations) {
     // They failed the direct gate, but the evidence says they were right: no longer rejected (IV-A).
     ambiguity_.RemoveRejected(observation.view, observation.odometer);
-    AddObservationEdge(observation, hypothesis_id);
+    AddObservationEdge(observation, hypothesis_id, /*direct=*/false);
   }
   robot_relative_covariance_ = candidate->state.covariance;
   anchor_ = Anchor{.hypothesis = hypothesis_id, .time = time_, .odometer = odometer_};
@@ -211,7 +212,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     anchor_ = saved->anchor;
     ambiguity_ = std::move(saved->ambiguity);
     pending_seeds_ = std::move(saved->pending_seeds);
-    ++map_revision_;
+    NoteObservationEdgesChanged(/*direct_edge_added=*/false);
     candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
                                                          params_.consistency.pass_gap_distance);
     Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
@@ -228,16 +229,22 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   RejectCompetitors(accepted);
 }
 
-void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id) {
+void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id,
+                                      bool direct) {
   const Edge edge = MakeObservationEdge(observation, hypothesis_id);
   // Cannot fail: both nodes and the view exist, and the covariance passed validation.
   if (map_.graph.AddEdge(edge).ok()) {
-    ++map_revision_;
+    NoteObservationEdgesChanged(direct);
     pending_seeds_.push_back(edge.from);
     pending_seeds_.push_back(edge.to);
     accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});
     ambiguity_.AddAccepted(observation.view, observation.odometer);
   }
+}
+
+void Mapper::Impl::NoteObservationEdgesChanged(bool direct_edge_added) {
+  ++map_revision_;
+  if (!direct_edge_added) ++indirect_revision_;
 }
 
 Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation,
