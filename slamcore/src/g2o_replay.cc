@@ -3,11 +3,19 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
-#include <set>
+#include <optional>
 
 #include "slamcore/optimizer.h"
 
 namespace slamcore {
+namespace {
+
+bool SameMeasurement(const SE2& a, const SE2& b) {
+  return a.x() == b.x() && a.y() == b.y() && a.theta() == b.theta();
+}
+
+}  // namespace
+
 Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node) {
   std::vector<NodeId> ids;
   ids.reserve(graph.num_nodes());
@@ -21,12 +29,13 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
   }
 
   std::map<NodeId, const Edge*> odometry_into;         // node k → edge k−1 → k
-  std::multimap<NodeId, const Edge*> observations_at;  // robot node → loop closures, file order
-  for (const Edge& edge : graph.edges()) {
+  std::multimap<NodeId, std::size_t> observations_at;  // robot node → loop closures (edge index), file order
+  for (std::size_t index = 0; index < graph.num_edges(); ++index) {
+    const Edge& edge = graph.edges()[index];
     if (edge.to == edge.from + 1 && !odometry_into.contains(edge.to)) {
       odometry_into.emplace(edge.to, &edge);
     } else {
-      observations_at.emplace(std::max(edge.from, edge.to), &edge);
+      observations_at.emplace(std::max(edge.from, edge.to), index);
     }
   }
 
@@ -50,7 +59,7 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
     run.events.push_back(ViewCreatedEvent{.time = time, .view = id});
     const auto [begin, end] = observations_at.equal_range(id);
     for (auto it = begin; it != end; ++it) {
-      const Edge& edge = *it->second;
+      const Edge& edge = graph.edges()[it->second];
       // z = robot_T_view: the measurement when the edge leaves the robot's node, else its inverse. The
       // inverse's left perturbations are the measurement's right ones: (z·exp(e))⁻¹ = exp(−e)·z⁻¹.
       const bool from_robot = edge.from == id;
@@ -63,6 +72,7 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
                                              .robot_T_view = z,
                                              .covariance = covariance});
       run.observation_sources.emplace_back(edge.from, edge.to);
+      run.observation_edges.push_back(it->second);
     }
   }
   return run;
@@ -73,16 +83,17 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   const auto start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(auto mapper, Mapper::Create(params));
 
-  // Observation events and the file edges they came from, keyed by (robot node, view) as the Mapper
-  // reports accepted edges (views carry the file's vertex ids, nodes the Mapper's own).
+  // Observation events and the file edges they came from, keyed by (robot node, view) as the Mapper's
+  // edges carry them (views carry the file's vertex ids, nodes the Mapper's own).
   std::multimap<std::pair<NodeId, ViewId>, std::size_t> source_of;
-  std::size_t observation = 0;
+  std::vector<SE2> measurement_of;  // by observation
   NodeId robot = -1;
   for (const Event& event : run.events) {
     RETURN_IF_ERROR((mapper)->Process(event));
     if (std::holds_alternative<OdometryEvent>(event)) robot = *(mapper)->CurrentNode();
     if (const auto* observed = std::get_if<ViewObservedEvent>(&event)) {
-      source_of.emplace(std::pair{robot, observed->view}, observation++);
+      source_of.emplace(std::pair{robot, observed->view}, measurement_of.size());
+      measurement_of.push_back(observed->robot_T_view);
     }
   }
   // The run's end may still change what is accepted (the consistent-set check), so read after Finish.
@@ -90,16 +101,19 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   result.graph = (mapper)->Finish().graph;
   result.mapper_chi2 = Chi2(result.graph);
   result.statistics = (mapper)->Statistics();
-  const std::vector<AcceptedObservation> accepted_edges = (mapper)->accepted_observations();
+  // An observation edge of G came from the observation at its (robot node, view) whose measurement it
+  // carries: two loop closures of the file between the same vertices are told apart by it.
   std::vector<bool> accepted(run.observation_sources.size(), false);
-  for (const AcceptedObservation& edge : accepted_edges) {
-    const auto [begin, end] = source_of.equal_range({edge.robot_node, edge.view});
-    for (auto it = begin; it != end; ++it) {
-      if (!accepted[it->second]) {
-        accepted[it->second] = true;
-        break;
+  for (const Edge& edge : result.graph.edges()) {
+    if (edge.kind != EdgeKind::kObservation || !edge.view) continue;
+    const auto [begin, end] = source_of.equal_range({edge.from, *edge.view});
+    std::optional<std::size_t> source;
+    for (auto it = begin; it != end && !(source && SameMeasurement(measurement_of[*source], edge.measurement)); ++it) {
+      if (!accepted[it->second] && (!source || SameMeasurement(measurement_of[it->second], edge.measurement))) {
+        source = it->second;
       }
     }
+    if (source) accepted[*source] = true;
   }
 
   OptimizerOptions final_options = params.optimizer;
@@ -110,6 +124,7 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (std::size_t k = 0; k < accepted.size(); ++k) {
     (accepted[k] ? result.accepted : result.rejected).push_back(run.observation_sources[k]);
+    (accepted[k] ? result.accepted_edges : result.rejected_edges).push_back(run.observation_edges[k]);
   }
   return result;
 }
@@ -123,24 +138,19 @@ double FilterScore::Recall() const {
   return true_total == 0 ? 1.0 : static_cast<double>(true_accepted) / true_total;
 }
 
-FilterScore ScoreReplay(const ReplayResult& result, const std::vector<VertexPair>& wrong) {
-  // A wrong pair may coincide with a true one (the generator draws vertex pairs at random): such a pair
-  // is counted by how many of each were written.
-  std::multiset<VertexPair> remaining_wrong(wrong.begin(), wrong.end());
+FilterScore ScoreReplay(const ReplayResult& result, std::size_t first_wrong_edge) {
   FilterScore score;
-  auto classify = [&](const VertexPair& pair, bool accepted) {
-    const auto it = remaining_wrong.find(pair);
-    if (it != remaining_wrong.end()) {
-      remaining_wrong.erase(it);
-      ++score.wrong_total;
-      if (accepted) ++score.wrong_accepted;
-    } else {
-      ++score.true_total;
-      if (accepted) ++score.true_accepted;
+  for (const bool accepted : {true, false}) {
+    for (const std::size_t edge : accepted ? result.accepted_edges : result.rejected_edges) {
+      if (edge >= first_wrong_edge) {
+        ++score.wrong_total;
+        score.wrong_accepted += accepted;
+      } else {
+        ++score.true_total;
+        score.true_accepted += accepted;
+      }
     }
-  };
-  for (const VertexPair& pair : result.accepted) classify(pair, true);
-  for (const VertexPair& pair : result.rejected) classify(pair, false);
+  }
   return score;
 }
 

@@ -84,7 +84,7 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::uniform_int_distribution<long> shift(3, 10);
   std::bernoulli_distribution backwards(0.5);
 
-  CorruptedGraph corrupted{graph, {}};
+  CorruptedGraph corrupted{graph, {}, graph.num_edges()};
   const auto enough = [&](int groups) {
     return options.total_edges > 0 ? static_cast<int>(corrupted.outliers.size()) >= options.total_edges
                                    : groups >= options.count;

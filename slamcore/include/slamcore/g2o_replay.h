@@ -25,8 +25,10 @@ using VertexPair = std::pair<NodeId, NodeId>;
 
 struct G2oRun {
   std::vector<Event> events;
-  /// For every ViewObservedEvent, in event order, the file's edge it came from.
+  /// For every ViewObservedEvent, in event order, the file's edge it came from: its vertices, and its
+  /// index in the graph's edges (which tells apart two loop closures written between the same vertices).
   std::vector<VertexPair> observation_sources;
+  std::vector<std::size_t> observation_edges;
 };
 
 /// Builds the run. Fails when vertex ids are not contiguous from the smallest (the replay needs node k
@@ -36,6 +38,8 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node 
 struct ReplayResult {
   std::vector<VertexPair> accepted;  // loop closures that became observation edges
   std::vector<VertexPair> rejected;  // the others
+  /// The same loop closures as indices into the replayed graph's edges.
+  std::vector<std::size_t> accepted_edges, rejected_edges;
   double final_chi2 = 0.0;           // after a final optimisation of the Mapper's graph
   double mapper_chi2 = 0.0;          // of the Mapper's graph as the run finished, before that optimisation
   double seconds = 0.0;              // Mapper plus final optimisation
@@ -53,6 +57,9 @@ struct FilterScore {
   double Precision() const;  // true accepted / all accepted (1 when nothing was accepted)
   double Recall() const;     // true accepted / all true (1 when there were none)
 };
-FilterScore ScoreReplay(const ReplayResult& result, const std::vector<VertexPair>& wrong);
+/// `first_wrong_edge`: the replayed graph's edges from this index on are the wrong ones (as
+/// AddLoopClosureOutliers appends them), so a wrong closure written between the same vertices as a true
+/// one is scored as what it is.
+FilterScore ScoreReplay(const ReplayResult& result, std::size_t first_wrong_edge);
 
 }  // namespace slamcore

@@ -45,6 +45,7 @@ int CountLoopClosures(const PoseGraph& graph);
 struct CorruptedGraph {
   PoseGraph graph;                   // the input with the outliers appended as observation edges
   std::vector<VertexPair> outliers;  // the appended edges, (from, to) as in the graph
+  std::size_t first_outlier_edge = 0;  // their index in graph.edges(): every edge from it on
 };
 
 /// Fails when the graph has no loop closure to copy the information from, or too few vertices.
