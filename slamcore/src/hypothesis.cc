@@ -21,8 +21,9 @@ EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguou
 int CountPasses(std::span<const TraversalPoint> points, double gap_seconds, double gap_distance) {
   int passes = 0;
   for (std::size_t k = 0; k < points.size(); ++k) {
-    if (k == 0 || points[k].time - points[k - 1].time > gap_seconds ||
-        std::abs(points[k].odometer - points[k - 1].odometer) > gap_distance) {
+    if ((k == 0 || points[k].time - points[k - 1].time > gap_seconds ||
+         std::abs(points[k].odometer - points[k - 1].odometer) > gap_distance) &&
+        points[k].confirms) {
       ++passes;
     }
   }
@@ -32,7 +33,8 @@ int CountPasses(std::span<const TraversalPoint> points, double gap_seconds, doub
 int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance) {
   std::vector<TraversalPoint> points;
   for (const HypothesisObservation& observation : hypothesis.observations) {
-    points.push_back({.time = observation.time, .odometer = observation.odometer});
+    points.push_back(
+        {.time = observation.time, .odometer = observation.odometer, .confirms = observation.confirms});
   }
   return CountPasses(points, gap_seconds, gap_distance);
 }

@@ -22,6 +22,10 @@ struct HypothesisObservation {
   PoseGaussian robot_T_view;  // z as observed, Σ_z
   double time = 0.0;
   double odometer = 0.0;
+  /// Whether it confirms the hypothesis: it started it, or it joined through a test that an aliasing
+  /// offset would have failed. An observation that joins a hypothesis grown uncertain by the odometry
+  /// since (an offset of consistency.aliasing_offset would have joined too) agrees with anything.
+  bool confirms = true;
 };
 
 struct Hypothesis {
@@ -50,11 +54,14 @@ EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguou
 struct TraversalPoint {
   double time = 0.0;
   double odometer = 0.0;
+  bool confirms = true;  // see HypothesisObservation::confirms
 };
 
 /// Independent passes among observations in the order they were made: a pass is a run of observations, each
 /// made within `gap_seconds` and `gap_distance` (robot odometer) of the previous one. One traversal past a
-/// look-alike is one pass however many views it matched (mapper_consistency.cc).
+/// look-alike is one pass however many views it matched (mapper_consistency.cc). A pass whose first
+/// observation does not confirm is not counted: it would have agreed with a wrong hypothesis as well (the
+/// pass's later observations are tested against a state that already took in the first).
 int CountPasses(std::span<const TraversalPoint> points, double gap_seconds, double gap_distance);
 /// The passes among a hypothesis's observations.
 int CountPasses(const Hypothesis& hypothesis, double gap_seconds, double gap_distance);

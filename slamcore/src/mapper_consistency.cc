@@ -152,17 +152,25 @@ bool Mapper::Impl::IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_i
 }
 
 std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id) const {
+  std::vector<const Edge*> all_edges;
+  for (const Edge& edge : map_.graph.edges()) {
+    if (IsRetractableEdge(edge, hypothesis_id)) all_edges.push_back(&edge);
+  }
+  if (all_edges.empty() || !marginals_) return std::nullopt;
+  // A long hypothesis is judged by evenly spaced edges: the test of a subset against everything else is
+  // still a leave-one-out test, at a bounded cost.
+  const std::size_t cap = static_cast<std::size_t>(params_.consistency.max_edges_judged);
   std::vector<const Edge*> edges;
+  for (std::size_t k = 0; k < std::min(cap, all_edges.size()); ++k) {
+    edges.push_back(all_edges[k * all_edges.size() / std::min(cap, all_edges.size())]);
+  }
   std::vector<NodeId> nodes;
   std::unordered_map<NodeId, int> column;
-  for (const Edge& edge : map_.graph.edges()) {
-    if (!IsRetractableEdge(edge, hypothesis_id)) continue;
-    edges.push_back(&edge);
-    for (const NodeId node : {edge.from, edge.to}) {
+  for (const Edge* edge : edges) {
+    for (const NodeId node : {edge->from, edge->to}) {
       if (column.emplace(node, static_cast<int>(nodes.size())).second) nodes.push_back(node);
     }
   }
-  if (edges.empty() || !marginals_) return std::nullopt;
   for (const NodeId node : nodes) {
     if (!marginals_->Contains(node)) return std::nullopt;
   }

@@ -100,20 +100,29 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
                                     .odometer = odometer_};
   // Join the hypothesis of the same kind and target component with the smallest residual under the gate.
   Hypothesis* best = nullptr;
-  double best_mahalanobis2 = std::numeric_limits<double>::infinity();
+  internal::Innovation best_innovation{.mahalanobis2 = std::numeric_limits<double>::infinity()};
   PoseGaussian best_in_ref;
   for (Hypothesis& hypothesis : hypotheses_) {
     if (hypothesis.kind != kind || !map_.graph.SameComponent(hypothesis.ref_node, view_node)) continue;
     const PoseGaussian in_ref = ExpressInRefFrame(z, view_node, hypothesis.ref_node);
-    const double mahalanobis2 = internal::ComputeInnovation(hypothesis.state, in_ref).mahalanobis2;
-    if (mahalanobis2 <= params_.gate_chi2 && mahalanobis2 < best_mahalanobis2) {
+    const internal::Innovation innovation = internal::ComputeInnovation(hypothesis.state, in_ref);
+    if (innovation.mahalanobis2 <= params_.gate_chi2 &&
+        innovation.mahalanobis2 < best_innovation.mahalanobis2) {
       best = &hypothesis;
-      best_mahalanobis2 = mahalanobis2;
+      best_innovation = innovation;
       best_in_ref = in_ref;
     }
   }
   std::int64_t id;
   if (best) {
+    const double best_mahalanobis2 = best_innovation.mahalanobis2;
+    // Would an aliasing offset, in the direction the join is least sure of, have failed this gate?
+    const double largest_variance = best_innovation.covariance.topLeftCorner<2, 2>()
+                                        .selfadjointView<Eigen::Lower>()
+                                        .eigenvalues()
+                                        .maxCoeff();
+    const double offset = params_.consistency.aliasing_offset;
+    observation.confirms = offset * offset / largest_variance > params_.gate_chi2;
     best->state = internal::UpdateWithObservation(best->state, best_in_ref);  // eqs. (5)–(6)
     best->observations.push_back(observation);
     best->last_time = event.time;
@@ -123,7 +132,8 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
     }
     id = best->id;
     Log(DecisionKind::kHypothesisUpdated, event.view, best,
-        why + "; joined with " + Chi2Text(best_mahalanobis2));
+        why + "; joined with " + Chi2Text(best_mahalanobis2) +
+            (observation.confirms ? "" : " (an aliasing offset would have joined too: confirms nothing)"));
   } else {
     Hypothesis hypothesis;  // eq. (2): G = z, Σ_G = Σ_z
     hypothesis.id = next_hypothesis_id_++;

@@ -67,6 +67,7 @@ Status ValidateConsistency(const ConsistencyParams& c) {
   RETURN_IF_ERROR(CheckRange("consistency.max_continuation_edges", c.max_continuation_edges, 0, 1000));
   RETURN_IF_ERROR(CheckRange("consistency.max_judged_per_check", c.max_judged_per_check, 1, 100));
   RETURN_IF_ERROR(CheckRange("consistency.max_retractions_per_check", c.max_retractions_per_check, 0, 100));
+  RETURN_IF_ERROR(CheckRange("consistency.max_edges_judged", c.max_edges_judged, 1, 1000));
   RETURN_IF_ERROR(
       CheckRange("consistency.consistent_set_confidence", c.consistent_set_confidence, 0.5, 0.999999));
   RETURN_IF_ERROR(CheckRange("consistency.consistent_set_growth", c.consistent_set_growth, 1.01, 100.0));

@@ -47,6 +47,19 @@ TEST(PassesTest, ObservationsAreOnePassWhileEachFollowsThePreviousWithinBothGaps
   EXPECT_EQ(internal::CountPasses(hypothesis, 20.0, 2.0), 0);
 }
 
+TEST(PassesTest, APassCountsOnlyWhenItsFirstObservationConfirms) {
+  internal::Hypothesis hypothesis;
+  // Passes start at t = 0, 50 and 100; the second's first observation joined through a gate an aliasing
+  // offset would have passed (its second one was then tested against a state that already took the
+  // first in), so two passes count.
+  hypothesis.observations = {At(0, 0), At(50, 10), At(51, 11), At(100, 20)};
+  hypothesis.observations[1].confirms = false;
+  EXPECT_EQ(internal::CountPasses(hypothesis, 20.0, 2.0), 2);
+  hypothesis.observations[1].confirms = true;
+  hypothesis.observations[2].confirms = false;  // not the first of its pass: no effect
+  EXPECT_EQ(internal::CountPasses(hypothesis, 20.0, 2.0), 3);
+}
+
 /// Nodes 0 → 1 → 2 one metre apart along x, each motion edge with left covariance diag(a, a, b).
 PoseGraph Chain(double a, double b) {
   PoseGraph graph;
@@ -163,6 +176,28 @@ TEST_F(StasisTest, OnePassAgainstTheMapIsNotEnoughAndASecondPassIs) {
   EXPECT_NEAR(mapper_->map().graph.node(2).pose.x(), 1.0, 0.02);
 }
 
+// The same two passes, but between them the robot turned on the spot with odometry so poor (σ = 1 m per
+// axis) that when it sees the views again the hypothesis could be anywhere within metres: the second pass
+// joins through a gate that a 1 m aliasing offset would have passed too (σ² ≈ 1 > 1² / 7.81), so it
+// confirms nothing and the hypothesis still has one pass against the map.
+TEST_F(StasisTest, APassThatJoinsThroughAGateAnAliasingOffsetWouldPassConfirmsNothing) {
+  MapperParams params = testing::TestParams();
+  params.consistency.min_passes_against_map = 2;
+  Start(params);
+  OnePass();
+  robot_->Drive(SE2::Identity(), std::nullopt, 1.0);
+  robot_->Wait(25.0);
+  OnePass();
+  // Without the turn on the spot the second pass is accepted (OnePassAgainstTheMapIsNotEnough… above).
+  EXPECT_EQ(mapper_->Statistics().recovery_accepted, 0);
+  EXPECT_EQ(mapper_->Statistics().recovery_created, 1);  // the second pass joined the first's hypothesis
+  bool unconfirmed_join = false;
+  for (const Decision& decision : mapper_->decisions()) {
+    unconfirmed_join = unconfirmed_join || decision.reason.find("confirms nothing") != std::string::npos;
+  }
+  EXPECT_TRUE(unconfirmed_join);
+}
+
 // Between the two passes the robot drives on and closes a loop the direct gate accepts: the marginals
 // factorised at the first pass are stale, but only information was added since, so they still bound the
 // map's covariance from above, and the second pass is judged inconsistent from them without refactorising.
@@ -264,6 +299,8 @@ TEST(ConsistencyParamsTest, EveryNewFieldIsValidated) {
               HasSubstr("consistency.max_open_hypotheses"));
   EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_continuation_edges = -1; }).message(),
               HasSubstr("consistency.max_continuation_edges"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_edges_judged = 0; }).message(),
+              HasSubstr("consistency.max_edges_judged"));
   EXPECT_THAT(MapperParams{}.Validate(), IsOk());
 }
 

@@ -58,11 +58,13 @@ struct ConsistencyParams {
   double retraction_confidence = 0.999;
   /// Bounds on the work per observation (validated ranges in mapper_params.cc): open hypotheses kept (the
   /// stalest go first); direct edges that continue an accepted recovery in its pass and share its fate;
-  /// earlier acceptances judged per verification (the worst-fitting); retractions per verification.
+  /// earlier acceptances judged per verification (the worst-fitting); retractions per verification; edges
+  /// of one hypothesis in its leave-one-out test (evenly spaced over it: the test's cost is cubic in them).
   int max_open_hypotheses = 64;
   int max_continuation_edges = 20;
   int max_judged_per_check = 8;
   int max_retractions_per_check = 4;
+  int max_edges_judged = 60;
   /// The consistent-set check (mapper_consistent_set.cc): the accepted hypotheses of the run and the refused
   /// ones kept (at most max_kept_refused, the oldest forgotten first) are judged together by graduated
   /// non-convexity; those outside the largest consistent set are retracted, refused ones inside it accepted.
