@@ -108,8 +108,10 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
     if (edge.kind != EdgeKind::kObservation || !edge.view) continue;
     const auto [begin, end] = source_of.equal_range({edge.from, *edge.view});
     std::optional<std::size_t> source;
-    for (auto it = begin; it != end && !(source && SameMeasurement(measurement_of[*source], edge.measurement)); ++it) {
-      if (!accepted[it->second] && (!source || SameMeasurement(measurement_of[it->second], edge.measurement))) {
+    for (auto it = begin;
+         it != end && !(source && SameMeasurement(measurement_of[*source], edge.measurement)); ++it) {
+      if (!accepted[it->second] &&
+          (!source || SameMeasurement(measurement_of[it->second], edge.measurement))) {
         source = it->second;
       }
     }

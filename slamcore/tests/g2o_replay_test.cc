@@ -21,19 +21,25 @@ PoseGraph SquareWithAWrongTwin(bool twin_first = false) {
   const Matrix3 information = Vector3(1e4, 1e4, 1e6).asDiagonal();  // 1 cm, 1 mrad: direct edges
   for (int k = 0; k + 1 < 60; ++k) {
     const double turn = k % 10 == 9 ? std::numbers::pi / 2 : 0.0;
-    EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, turn),
-                                   .information = information}),
+    EXPECT_THAT(graph.AddEdge(
+                    Edge{.from = k, .to = k + 1, .measurement = SE2(1, 0, turn), .information = information}),
                 IsOk());
   }
   const auto add_twin = [&] {
-    EXPECT_THAT(graph.AddEdge(Edge{.from = 12, .to = 52, .measurement = SE2(5, 0, 0),
-                                   .information = information, .kind = EdgeKind::kObservation}),
+    EXPECT_THAT(graph.AddEdge(Edge{.from = 12,
+                                   .to = 52,
+                                   .measurement = SE2(5, 0, 0),
+                                   .information = information,
+                                   .kind = EdgeKind::kObservation}),
                 IsOk());
   };
   if (twin_first) add_twin();
   for (int k = 10; k < 15; ++k) {
-    EXPECT_THAT(graph.AddEdge(Edge{.from = k, .to = k + 40, .measurement = SE2(0, 0, 0),
-                                   .information = information, .kind = EdgeKind::kObservation}),
+    EXPECT_THAT(graph.AddEdge(Edge{.from = k,
+                                   .to = k + 40,
+                                   .measurement = SE2(0, 0, 0),
+                                   .information = information,
+                                   .kind = EdgeKind::kObservation}),
                 IsOk());
   }
   if (!twin_first) add_twin();

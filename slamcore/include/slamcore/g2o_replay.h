@@ -40,9 +40,9 @@ struct ReplayResult {
   std::vector<VertexPair> rejected;  // the others
   /// The same loop closures as indices into the replayed graph's edges.
   std::vector<std::size_t> accepted_edges, rejected_edges;
-  double final_chi2 = 0.0;           // after a final optimisation of the Mapper's graph
-  double mapper_chi2 = 0.0;          // of the Mapper's graph as the run finished, before that optimisation
-  double seconds = 0.0;              // Mapper plus final optimisation
+  double final_chi2 = 0.0;   // after a final optimisation of the Mapper's graph
+  double mapper_chi2 = 0.0;  // of the Mapper's graph as the run finished, before that optimisation
+  double seconds = 0.0;      // Mapper plus final optimisation
   MapperStatistics statistics;
   PoseGraph graph;  // the Mapper's graph, optimised
 };

@@ -43,8 +43,8 @@ Result<OutlierOptions::Mode> ParseOutlierMode(const std::string& name);
 int CountLoopClosures(const PoseGraph& graph);
 
 struct CorruptedGraph {
-  PoseGraph graph;                   // the input with the outliers appended as observation edges
-  std::vector<VertexPair> outliers;  // the appended edges, (from, to) as in the graph
+  PoseGraph graph;                     // the input with the outliers appended as observation edges
+  std::vector<VertexPair> outliers;    // the appended edges, (from, to) as in the graph
   std::size_t first_outlier_edge = 0;  // their index in graph.edges(): every edge from it on
 };
 
