@@ -5,8 +5,11 @@
 // SLAM", IJRR 2013) and PCM (Mangelson et al., ICRA 2018), sized for a robot:
 //
 //  * Evidence by passes. Observations made in one traversal (each within pass_gap_seconds and
-//    pass_gap_distance of the previous) are one piece of evidence, whatever the number of views. Direct
-//    edges that follow an accepted recovery in the same pass belong to it (they were only possible because
+//    pass_gap_distance of the previous) are one piece of evidence, whatever the number of views. A pass
+//    is evidence only when its first observation confirms the hypothesis: it started it, or joined it
+//    through a gate that an aliasing offset would have failed (the issue's informativeness check applied to
+//    the passes themselves: after a long drive on noisy odometry the hypothesis could be anywhere within
+//    metres, and an observation that joins it then agrees with anything). Direct edges that follow an accepted recovery in the same pass belong to it (they were only possible because
 //    the robot believed it), so they share its fate.
 //  * The joint test against the map. When a recovery hypothesis meets the counts, its state G ≈ robot_T_ref
 //    is tested against the map's own prediction with the marginal covariance of the relative pose between
@@ -36,8 +39,8 @@
 //
 // Costs: a factorisation of the component's information matrix when observation edges changed since the
 // last test; six sparse solves per map test; per verification a copy of G, one factorisation and 3 solves
-// per node of the judged hypotheses (at most max_judged_per_check of them, each with at most its own edges
-// and max_continuation_edges), plus one optimisation per retraction (at most max_retractions_per_check).
+// per node of the judged hypotheses (at most max_judged_per_check of them, each judged by at most
+// max_edges_judged of its edges, evenly spaced), plus one optimisation per retraction (at most max_retractions_per_check).
 // Open hypotheses are capped at max_open_hypotheses.
 #include <algorithm>
 #include <sstream>
