@@ -7,10 +7,11 @@
 //  * Evidence by passes. Observations made in one traversal (each within pass_gap_seconds and
 //    pass_gap_distance of the previous) are one piece of evidence, whatever the number of views. A pass
 //    is evidence only when its first observation confirms the hypothesis: it started it, or joined it
-//    through a gate that an aliasing offset would have failed (the informativeness check applied to
-//    the passes themselves: after a long drive on noisy odometry the hypothesis could be anywhere within
-//    metres, and an observation that joins it then agrees with anything). Direct edges that follow an accepted recovery in the same pass belong to it (they were only possible because
-//    the robot believed it), so they share its fate.
+//    through a gate that an aliasing offset would have failed (the map test's informativeness check,
+//    applied to the passes themselves: after a long drive on noisy odometry the hypothesis could be
+//    anywhere within metres, and an observation that joins it then agrees with anything). Direct edges
+//    that follow an accepted recovery in the same pass belong to it (they were only possible because the
+//    robot believed it), so they share its fate.
 //  * The joint test against the map. When a recovery hypothesis meets the counts, its state G ≈ robot_T_ref
 //    is tested against the map's own prediction with the marginal covariance of the relative pose between
 //    the robot and the reference node (marginal_covariance.h), scaled by the component's a-posteriori
@@ -40,7 +41,8 @@
 // Costs: a factorisation of the component's information matrix when observation edges changed since the
 // last test; six sparse solves per map test; per verification a copy of G, one factorisation and 3 solves
 // per node of the judged hypotheses (at most max_judged_per_check of them, each judged by at most
-// max_edges_judged of its edges, evenly spaced), plus one optimisation per retraction (at most max_retractions_per_check).
+// max_edges_judged of its edges, evenly spaced), plus one optimisation per retraction (at most
+// max_retractions_per_check).
 // Open hypotheses are capped at max_open_hypotheses.
 #include <algorithm>
 #include <sstream>
@@ -132,8 +134,7 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
                : RecoveryVerdict::kWait;
   }
   const internal::Innovation innovation = internal::ComputeInnovation(*prediction, hypothesis.state);
-  const double largest_variance =
-      innovation.covariance.topLeftCorner<2, 2>().selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff();
+  const double largest_variance = internal::LargestPositionVariance(innovation.covariance);
   const bool consistent = innovation.mahalanobis2 <= consistency.map_gate_chi2;
   const bool informative = consistency.aliasing_offset * consistency.aliasing_offset / largest_variance >
                            consistency.map_gate_chi2;

@@ -4,7 +4,6 @@
 #include <limits>
 #include <sstream>
 
-#include <Eigen/Eigenvalues>
 
 #include "mapper_impl.h"
 #include "slamcore/optimizer.h"
@@ -41,10 +40,7 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
   // A robot that has driven far since it was last anchored is too uncertain for one observation to be
   // trusted: a wide gate would let any wrong match through. Such observations must gather support as a
   // recovery hypothesis (III-B); they say nothing about the view being ambiguous.
-  const double position_sigma = std::sqrt(robot_relative_covariance_.topLeftCorner<2, 2>()
-                                              .selfadjointView<Eigen::Lower>()
-                                              .eigenvalues()
-                                              .maxCoeff());
+  const double position_sigma = std::sqrt(internal::LargestPositionVariance(robot_relative_covariance_));
   if (position_sigma > params_.direct_max_position_sigma) {
     RouteToFilter(
         HypothesisKind::kRecovery, event, view_node,
@@ -117,10 +113,7 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
   if (best) {
     const double best_mahalanobis2 = best_innovation.mahalanobis2;
     // Would an aliasing offset, in the direction the join is least sure of, have failed this gate?
-    const double largest_variance = best_innovation.covariance.topLeftCorner<2, 2>()
-                                        .selfadjointView<Eigen::Lower>()
-                                        .eigenvalues()
-                                        .maxCoeff();
+    const double largest_variance = internal::LargestPositionVariance(best_innovation.covariance);
     const double offset = params_.consistency.aliasing_offset;
     observation.confirms = offset * offset / largest_variance > params_.gate_chi2;
     best->state = internal::UpdateWithObservation(best->state, best_in_ref);  // eqs. (5)–(6)

@@ -1,6 +1,7 @@
 #include "pose_gaussian.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 namespace slamcore::internal {
@@ -46,6 +47,10 @@ PoseGaussian Compose(const PoseGaussian& a_T_b, const PoseGaussian& b_T_c) {
   const Matrix3 adjoint = a_T_b.mean.Adjoint();
   return {a_T_b.mean * b_T_c.mean,
           Symmetrized(a_T_b.covariance + adjoint * b_T_c.covariance * adjoint.transpose())};
+}
+
+double LargestPositionVariance(const Matrix3& covariance) {
+  return covariance.topLeftCorner<2, 2>().selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff();
 }
 
 }  // namespace slamcore::internal

@@ -41,6 +41,9 @@ Innovation ComputeInnovation(const PoseGaussian& state, const PoseGaussian& obse
 /// Σ_G (Σ_G + Σ_z)⁻¹ = Σ_G' Σ_z⁻¹; as in the paper the Adjoint of R is left out of the gain.)
 PoseGaussian UpdateWithObservation(const PoseGaussian& state, const PoseGaussian& observation);
 
+/// The largest variance of the position part of a pose covariance (the direction it is least sure of).
+double LargestPositionVariance(const Matrix3& covariance);
+
 /// a_T_c = a_T_b · b_T_c for independent Gaussians: Σ = Σ_ab + Adj_{a_T_b} Σ_bc Adj_{a_T_b}ᵀ.
 PoseGaussian Compose(const PoseGaussian& a_T_b, const PoseGaussian& b_T_c);
 
