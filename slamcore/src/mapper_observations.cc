@@ -4,7 +4,6 @@
 #include <limits>
 #include <sstream>
 
-
 #include "mapper_impl.h"
 #include "slamcore/optimizer.h"
 
