@@ -71,7 +71,6 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
                                              .view = from_robot ? edge.to : edge.from,
                                              .robot_T_view = z,
                                              .covariance = covariance});
-      run.observation_sources.emplace_back(edge.from, edge.to);
       run.observation_edges.push_back(it->second);
     }
   }
@@ -103,18 +102,19 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   result.statistics = (mapper)->Statistics();
   // An observation edge of G came from the observation at its (robot node, view) whose measurement it
   // carries: two loop closures of the file between the same vertices are told apart by it.
-  std::vector<bool> accepted(run.observation_sources.size(), false);
+  std::vector<bool> accepted(run.observation_edges.size(), false);
   for (const Edge& edge : result.graph.edges()) {
     if (edge.kind != EdgeKind::kObservation || !edge.view) continue;
     const auto [begin, end] = source_of.equal_range({edge.from, *edge.view});
-    std::optional<std::size_t> source;
-    for (auto it = begin;
-         it != end && !(source && SameMeasurement(measurement_of[*source], edge.measurement)); ++it) {
-      if (!accepted[it->second] &&
-          (!source || SameMeasurement(measurement_of[it->second], edge.measurement))) {
-        source = it->second;
+    const auto first_untaken = [&](auto&& also) -> std::optional<std::size_t> {
+      for (auto it = begin; it != end; ++it) {
+        if (!accepted[it->second] && also(it->second)) return it->second;
       }
-    }
+      return std::nullopt;
+    };
+    std::optional<std::size_t> source =
+        first_untaken([&](std::size_t k) { return SameMeasurement(measurement_of[k], edge.measurement); });
+    if (!source) source = first_untaken([](std::size_t) { return true; });
     if (source) accepted[*source] = true;
   }
 
@@ -125,8 +125,10 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   result.final_chi2 = summary.final_chi2;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (std::size_t k = 0; k < accepted.size(); ++k) {
-    (accepted[k] ? result.accepted : result.rejected).push_back(run.observation_sources[k]);
-    (accepted[k] ? result.accepted_edges : result.rejected_edges).push_back(run.observation_edges[k]);
+    const std::size_t index = run.observation_edges[k];
+    const Edge& source = graph.edges()[index];
+    (accepted[k] ? result.accepted : result.rejected).emplace_back(source.from, source.to);
+    (accepted[k] ? result.accepted_edges : result.rejected_edges).push_back(index);
   }
   return result;
 }

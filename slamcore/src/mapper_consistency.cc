@@ -136,8 +136,7 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
   const internal::Innovation innovation = internal::ComputeInnovation(*prediction, hypothesis.state);
   const double largest_variance = internal::LargestPositionVariance(innovation.covariance);
   const bool consistent = innovation.mahalanobis2 <= consistency.map_gate_chi2;
-  const bool informative = consistency.aliasing_offset * consistency.aliasing_offset / largest_variance >
-                           consistency.map_gate_chi2;
+  const bool informative = AliasingOffsetWouldFail(largest_variance, consistency.map_gate_chi2);
   const int needed = consistent ? (informative ? 1 : consistency.min_passes_uninformative)
                                 : consistency.min_passes_against_map;
   text << "map test d²=" << innovation.mahalanobis2 << " (σ " << std::sqrt(largest_variance) << " m, "
@@ -148,6 +147,11 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
   if (passes < needed || passes <= hypothesis.refused_at_passes) return RecoveryVerdict::kWait;
   if (!consistent) return RecoveryVerdict::kAcceptOverMap;
   return informative ? RecoveryVerdict::kAccept : RecoveryVerdict::kAcceptAndVerify;
+}
+
+bool Mapper::Impl::AliasingOffsetWouldFail(double largest_variance, double gate_chi2) const {
+  const double offset = params_.consistency.aliasing_offset;
+  return offset * offset / largest_variance > gate_chi2;
 }
 
 bool Mapper::Impl::IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_id) const {

@@ -152,6 +152,9 @@ class Mapper::Impl {
   /// What a recovery hypothesis that meets the counts gets: its passes against the outcome of the test
   /// against the map. `why` says what decided.
   RecoveryVerdict JudgeRecovery(const internal::Hypothesis& hypothesis, std::string* why);
+  /// Whether a test with this largest position variance (of its innovation) against `gate_chi2` is
+  /// informative: an aliasing offset of consistency.aliasing_offset metres would have failed it.
+  bool AliasingOffsetWouldFail(double largest_variance, double gate_chi2) const;
   /// robot_T_node from G with the map's marginal covariance between the two; nullopt when unavailable.
   std::optional<internal::PoseGaussian> MapPrediction(NodeId node);
   /// robot_T_node with a covariance no smaller than MapPrediction's, from marginals factorised before

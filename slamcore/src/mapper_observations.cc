@@ -112,9 +112,8 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
   if (best) {
     const double best_mahalanobis2 = best_innovation.mahalanobis2;
     // Would an aliasing offset, in the direction the join is least sure of, have failed this gate?
-    const double largest_variance = internal::LargestPositionVariance(best_innovation.covariance);
-    const double offset = params_.consistency.aliasing_offset;
-    observation.confirms = offset * offset / largest_variance > params_.gate_chi2;
+    observation.confirms = AliasingOffsetWouldFail(
+        internal::LargestPositionVariance(best_innovation.covariance), params_.gate_chi2);
     best->state = internal::UpdateWithObservation(best->state, best_in_ref);  // eqs. (5)–(6)
     best->observations.push_back(observation);
     best->last_time = event.time;

@@ -25,9 +25,8 @@ using VertexPair = std::pair<NodeId, NodeId>;
 
 struct G2oRun {
   std::vector<Event> events;
-  /// For every ViewObservedEvent, in event order, the file's edge it came from: its vertices, and its
-  /// index in the graph's edges (which tells apart two loop closures written between the same vertices).
-  std::vector<VertexPair> observation_sources;
+  /// For every ViewObservedEvent, in event order, the index in the graph's edges of the file's edge it
+  /// came from (which tells apart two loop closures written between the same vertices).
   std::vector<std::size_t> observation_edges;
 };
 
