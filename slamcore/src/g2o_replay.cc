@@ -105,9 +105,10 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   std::vector<bool> accepted(run.observation_edges.size(), false);
   for (const Edge& edge : result.graph.edges()) {
     if (edge.kind != EdgeKind::kObservation || !edge.view) continue;
-    const auto [begin, end] = source_of.equal_range({edge.from, *edge.view});
+    // Not a structured binding: Debian 12's clang 14 cannot capture one in a lambda.
+    const auto sources = source_of.equal_range({edge.from, *edge.view});
     const auto first_untaken = [&](auto&& also) -> std::optional<std::size_t> {
-      for (auto it = begin; it != end; ++it) {
+      for (auto it = sources.first; it != sources.second; ++it) {
         if (!accepted[it->second] && also(it->second)) return it->second;
       }
       return std::nullopt;
