@@ -12,6 +12,7 @@
 #include "slamcore/mapper.h"
 #include "slamcore/occupancy_grid.h"
 #include "slamcore/protrusion_detector.h"
+#include "slamcore/slip_detection.h"
 #include "slamcore/trajectory_error.h"
 
 namespace analyzer {
@@ -92,11 +93,12 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
     classifier = built_in.get();
   }
   RETURN_IF_ERROR(regions.status());
-  std::optional<SlipTruth> truth;
+  std::optional<RegionCover> truth;
   if (has_ground_truth) {
-    ASSIGN_OR_RETURN(auto labelled, SlipTruthOf(child, slipping_nodes, grids, *regions));
+    ASSIGN_OR_RETURN(auto labelled, RegionsCoveredBy(child, slipping_nodes, grids, *regions));
     truth = std::move(labelled);
   }
+  ASSIGN_OR_RETURN(const auto classes, ClassifyRegions(parent, child, grids, *regions, classifier));
   const slamcore::OccupancyGrid& child_grid = grids.child;
   for (std::size_t index = 0; index < regions->size(); ++index) {
     const slamcore::ProtrusionRegion& region = (*regions)[index];
@@ -115,17 +117,14 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
       }
       for (const double value : {min_x, min_y, max_x, max_y}) proto->add_world_bbox(value);
     }
-    if (classifier) {
-      ASSIGN_OR_RETURN(const auto probability, classifier->Probability(region.features));
-      const bool protrusion = classifier->IsProtrusion(probability);
-      proto->set_predicted_class(protrusion ? "protrusion" : "new_space");
-      proto->set_probability(probability);
-      if (protrusion) report->set_protrusions_found(report->protrusions_found() + 1);
-    } else {
-      proto->set_predicted_class("unclassified");
-      proto->set_probability(-1.0);
-    }
-    if (truth) proto->set_truth_protrusion(truth->region_is_protrusion[index]);
+    const RegionClass& region_class = classes[index];
+    proto->set_predicted_class(region_class.decided_by == RegionClass::DecidedBy::kNone ? "unclassified"
+                               : region_class.protrusion                                ? "protrusion"
+                                                                                        : "new_space");
+    proto->set_probability(region_class.probability);
+    proto->set_decided_by(DecidedByName(region_class.decided_by));
+    if (region_class.protrusion) report->set_protrusions_found(report->protrusions_found() + 1);
+    if (truth) proto->set_truth_protrusion(truth->region_is_covered[index]);
   }
   return slamcore::Status::Ok();
 }
@@ -165,17 +164,17 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
   return part;
 }
 
-Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<NodeId>& slipping_nodes,
-                              const ComparedGrids& grids,
-                              const std::vector<slamcore::ProtrusionRegion>& regions) {
+Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child, const std::set<NodeId>& nodes,
+                                     const ComparedGrids& grids,
+                                     const std::vector<slamcore::ProtrusionRegion>& regions) {
   const slamcore::OccupancyGrid& child_grid = grids.child;
-  SlipTruth truth;
+  RegionCover truth;
   truth.covered.assign(
       static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
   std::set<NodeId> slip_nodes;
   for (const NodeId node : grids.child_nodes) {
     // Only nodes with a local map paint anything (a lidar robot attaches one to every 6th node).
-    if (slipping_nodes.contains(node) && child.local_maps.contains(node)) slip_nodes.insert(node);
+    if (nodes.contains(node) && child.local_maps.contains(node)) slip_nodes.insert(node);
   }
   if (!slip_nodes.empty()) {
     slamcore::GlobalGridRenderer slip_renderer;
@@ -196,9 +195,44 @@ Result<SlipTruth> SlipTruthOf(const slamcore::Map& child, const std::set<NodeId>
   for (const slamcore::ProtrusionRegion& region : regions) {
     std::size_t covered = 0;
     for (const std::int32_t cell : region.cells) covered += truth.covered[static_cast<std::size_t>(cell)];
-    truth.region_is_protrusion.push_back(!region.cells.empty() && 2 * covered >= region.cells.size());
+    truth.region_is_covered.push_back(!region.cells.empty() && 2 * covered >= region.cells.size());
   }
   return truth;
+}
+
+const char* DecidedByName(RegionClass::DecidedBy decided_by) {
+  switch (decided_by) {
+    case RegionClass::DecidedBy::kViews: return "views";
+    case RegionClass::DecidedBy::kClassifier: return "classifier";
+    case RegionClass::DecidedBy::kNone: break;
+  }
+  return "none";
+}
+
+Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, const slamcore::Map& child,
+                                                 const ComparedGrids& grids,
+                                                 const std::vector<slamcore::ProtrusionRegion>& regions,
+                                                 const slamcore::ProtrusionClassifier* classifier) {
+  ASSIGN_OR_RETURN(const auto findings, slamcore::FindSlipNodes(child));
+  std::set<NodeId> slipped;
+  for (const slamcore::SlipFinding& finding : findings) {
+    if (!parent.graph.HasNode(finding.node)) slipped.insert(finding.node);
+  }
+  ASSIGN_OR_RETURN(const auto cover, RegionsCoveredBy(child, slipped, grids, regions));
+  std::vector<RegionClass> classes(regions.size());
+  for (std::size_t index = 0; index < regions.size(); ++index) {
+    RegionClass& out = classes[index];
+    if (classifier != nullptr) {
+      ASSIGN_OR_RETURN(out.probability, classifier->Probability(regions[index].features));
+      out.protrusion = classifier->IsProtrusion(out.probability);
+      out.decided_by = RegionClass::DecidedBy::kClassifier;
+    }
+    if (cover.region_is_covered[index]) {
+      out.protrusion = true;
+      out.decided_by = RegionClass::DecidedBy::kViews;
+    }
+  }
+  return classes;
 }
 
 slamcore::ComponentId HomeComponent(const slamcore::PoseGraph& graph) {

@@ -47,6 +47,9 @@ void FleetStatistics::Add(const RunOutcome& outcome) {
   if (outcome.truth_protrusion_regions > 0) ++maps_with_truth_protrusion;
   truth_protrusion_regions += outcome.truth_protrusion_regions;
   truth_new_space_regions += outcome.truth_new_space_regions;
+  analysis_confusion += outcome.analysis_confusion;
+  classifier_confusion += outcome.classifier_confusion;
+  views_confusion += outcome.views_confusion;
   simulated_hours += outcome.simulated_seconds / 3600.0;
 }
 
@@ -88,6 +91,9 @@ std::string FleetStatistics::ToText() const {
       maps_with_truth_protrusion, runs, truth_protrusion_regions, truth_new_space_regions, lidar_runs,
       runs - lidar_runs);
   std::string out = text;
+  out += "regions classed as the analysis does   " + analysis_confusion.ToText() + "   (views, then model)\n";
+  out += "regions classed by the built-in model  " + classifier_confusion.ToText() + "\n";
+  out += "regions classed by the views alone     " + views_confusion.ToText() + "\n";
   if (!health.empty()) out += MapHealthLine() + "\n";
   return out;
 }
@@ -128,8 +134,17 @@ std::string FleetStatistics::ToJson() const {
       Share(maps_with_truth_protrusion, runs), truth_protrusion_regions, truth_new_space_regions, lidar_runs,
       pairs_written);
   std::string out = text;
+  out.pop_back();  // the closing brace
+  auto confusion = [](const RegionConfusion& c) {
+    return "{\"tp\":" + std::to_string(c.true_protrusion) + ",\"fn\":" + std::to_string(c.missed_protrusion) +
+           ",\"fp\":" + std::to_string(c.false_protrusion) + ",\"tn\":" + std::to_string(c.true_new_space) +
+           "}";
+  };
+  out += ",\"analysis_confusion\":" + confusion(analysis_confusion) +
+         ",\"classifier_confusion\":" + confusion(classifier_confusion) +
+         ",\"views_confusion\":" + confusion(views_confusion) + "}";
   if (!health.empty()) {
-    out.pop_back();  // the closing brace
+    out.pop_back();
     out += ",\"robots_healthy\":" + std::to_string(robots_healthy) +
            ",\"robots_repaired\":" + std::to_string(robots_repaired) +
            ",\"robots_corrupted\":" + std::to_string(robots_corrupted) + "}";

@@ -434,9 +434,19 @@ slamcore::Status Run::LabelRegions() {
   if (parent_.local_maps.empty() || parent_.graph.num_nodes() == 0) return slamcore::Status::Ok();
   ASSIGN_OR_RETURN(const auto grids, analyzer::RenderComparedGrids(parent_, s_.map));
   ASSIGN_OR_RETURN(const auto regions, slamcore::ExtractRegions(grids.parent, grids.child));
-  ASSIGN_OR_RETURN(const auto truth, analyzer::SlipTruthOf(s_.map, stuck_nodes_, grids, regions));
-  for (const bool protrusion : truth.region_is_protrusion)
+  ASSIGN_OR_RETURN(const auto truth, analyzer::RegionsCoveredBy(s_.map, stuck_nodes_, grids, regions));
+  // How the analysis would class them (the run's views, then the built-in model), against that truth.
+  ASSIGN_OR_RETURN(const auto classifier, slamcore::DefaultProtrusionClassifier());
+  ASSIGN_OR_RETURN(const auto classes,
+                   analyzer::ClassifyRegions(parent_, s_.map, grids, regions, classifier.get()));
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    const bool protrusion = truth.region_is_covered[k];
     ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
+    outcome_.analysis_confusion.Add(protrusion, classes[k].protrusion);
+    outcome_.classifier_confusion.Add(protrusion, classifier->IsProtrusion(classes[k].probability));
+    outcome_.views_confusion.Add(protrusion,
+                                 classes[k].decided_by == analyzer::RegionClass::DecidedBy::kViews);
+  }
   if (!p_.keep_truth_pairs) return slamcore::Status::Ok();
   slamcore::GeneratedPair pair;
   pair.parent = grids.parent;
@@ -527,6 +537,24 @@ slamcore::Result<RunOutcome> RobotSimulator::SimulateRun(const std::string& run_
   ++state_->run_count;
   Run run(*state_, run_id, started_at);
   return run.Simulate();
+}
+
+RegionConfusion& RegionConfusion::operator+=(const RegionConfusion& other) {
+  true_protrusion += other.true_protrusion;
+  missed_protrusion += other.missed_protrusion;
+  false_protrusion += other.false_protrusion;
+  true_new_space += other.true_new_space;
+  return *this;
+}
+
+std::string RegionConfusion::ToText() const {
+  auto percent = [](long part, long whole) { return whole > 0 ? 100.0 * part / whole : 0.0; };
+  char text[160];
+  std::snprintf(text, sizeof text, "TP %ld, FN %ld, FP %ld, TN %ld (precision %.1f %%, recall %.1f %%)",
+                true_protrusion, missed_protrusion, false_protrusion, true_new_space,
+                percent(true_protrusion, true_protrusion + false_protrusion),
+                percent(true_protrusion, true_protrusion + missed_protrusion));
+  return text;
 }
 
 }  // namespace sim

@@ -245,9 +245,10 @@ TEST(StuckTest, StuckNodesWithoutAPatchLabelNothingAndFailNothing) {
   ASSERT_THAT(grids, IsOk());
   const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
   ASSERT_THAT(regions, IsOk());
-  const auto truth = analyzer::SlipTruthOf(child, {1, 2}, *grids, *regions);  // stuck nodes 1, 2: no patch
+  const auto truth =
+      analyzer::RegionsCoveredBy(child, {1, 2}, *grids, *regions);  // stuck nodes 1, 2: no patch
   ASSERT_THAT(truth, IsOk());
-  for (const bool protrusion : truth->region_is_protrusion) EXPECT_FALSE(protrusion);
+  for (const bool protrusion : truth->region_is_covered) EXPECT_FALSE(protrusion);
   for (const std::uint8_t covered : truth->covered) EXPECT_EQ(covered, 0);
 }
 
@@ -287,7 +288,7 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   std::filesystem::remove_all(out);
   FleetOptions options;
   options.worlds = {(*worlds)[0], (*worlds)[1]};
-  options.robots = 2;
+  options.robots = 4;
   options.runs = 3;
   options.seed = 4;
   options.threads = 2;
@@ -296,6 +297,7 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   options.params.run_minutes = 10.0;
   options.params.home_clutter = HomeClutter::kHigh;
   options.params.stuck_rate_scale = 20.0;  // walls: one bump in 200; furniture and rugs: every contact
+  options.params.lidar_share = 1.0;        // wide views: the slip they show is part of what is checked
   const auto statistics = SimulateFleet(options);
   ASSERT_THAT(statistics, IsOk());
   EXPECT_GT(statistics->stuck_at_wall + statistics->stuck_under_furniture + statistics->stuck_on_rug, 10);
@@ -304,7 +306,8 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   EXPECT_GE(statistics->maps_with_truth_protrusion, 1);
   EXPECT_GE(statistics->pairs_written, 1);
 
-  long analyzer_protrusions = 0, analyzer_regions = 0;
+  long analyzer_protrusions = 0, analyzer_regions = 0, called_protrusion = 0, by_views = 0,
+       by_views_right = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(options.out)) {
     fleet::v1::RunFile run;
     std::ifstream input(entry.path(), std::ios::binary);
@@ -314,10 +317,26 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
     for (const auto& region : report->protrusion_regions()) {
       ++analyzer_regions;
       if (region.truth_protrusion()) ++analyzer_protrusions;
+      if (region.predicted_class() == "protrusion") ++called_protrusion;
+      if (region.decided_by() == "views") {
+        EXPECT_EQ(region.predicted_class(), "protrusion");
+        ++by_views;
+        by_views_right += region.truth_protrusion();
+      } else {
+        EXPECT_EQ(region.decided_by(), "classifier") << "the built-in model classes the rest";
+      }
     }
   }
   EXPECT_EQ(analyzer_protrusions, statistics->truth_protrusion_regions);
   EXPECT_EQ(analyzer_regions, statistics->truth_protrusion_regions + statistics->truth_new_space_regions);
+  // The simulator's confusion matrix is the analysis' own classification, and the slip its views show
+  // (a path through a seen wall, a view that stood still) is a real slip.
+  const RegionConfusion& analysis = statistics->analysis_confusion;
+  EXPECT_EQ(called_protrusion, analysis.true_protrusion + analysis.false_protrusion);
+  EXPECT_EQ(by_views,
+            statistics->views_confusion.true_protrusion + statistics->views_confusion.false_protrusion);
+  EXPECT_GT(by_views, 0);
+  EXPECT_GE(by_views_right, 0.9 * by_views) << by_views_right << " of " << by_views;
 
   const auto index = slamcore::ReadDatasetIndex(options.protrusion_data.string());
   ASSERT_THAT(index, IsOk());

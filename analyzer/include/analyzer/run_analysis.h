@@ -52,18 +52,34 @@ struct ComparedGrids {
 };
 slamcore::Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child);
 
-/// Ground truth of the detector's regions in a simulated run: a region is a protrusion (a slip artefact)
-/// when at least half of its cells are covered by the local maps of the nodes made while the robot was
-/// stuck, rendered at their poses in `child`. `covered` holds, per cell of `grids.child`, 1 where such a
-/// local map lies.
-struct SlipTruth {
+/// The detector's regions drawn by some nodes: a region is covered when at least half of its cells lie
+/// under the local maps of `nodes`, rendered at their poses in `child`. With the nodes a simulator made
+/// while the robot was stuck this is the ground truth of a simulated run; with the nodes whose slip the
+/// run's own views show (slamcore::FindSlipNodes) it is the analysis' evidence. `covered` holds, per cell
+/// of `grids.child`, 1 where such a local map lies.
+struct RegionCover {
   std::vector<std::uint8_t> covered;
-  std::vector<bool> region_is_protrusion;  // in the order of `regions`
+  std::vector<bool> region_is_covered;  // in the order of `regions`
 };
-slamcore::Result<SlipTruth> SlipTruthOf(const slamcore::Map& child,
-                                        const std::set<slamcore::NodeId>& slipping_nodes,
-                                        const ComparedGrids& grids,
-                                        const std::vector<slamcore::ProtrusionRegion>& regions);
+slamcore::Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child,
+                                               const std::set<slamcore::NodeId>& nodes,
+                                               const ComparedGrids& grids,
+                                               const std::vector<slamcore::ProtrusionRegion>& regions);
+
+/// How the analysis classes a region. When the run's own views show that the nodes of this run (those of
+/// `child` that `parent` does not hold) which drew it had slipped (slamcore::FindSlipNodes: a path through a seen wall, a view
+/// that stood still), it is a protrusion whatever its shape; otherwise the map-only classifier decides
+/// (paper IV-C), or nothing when there is none.
+struct RegionClass {
+  enum class DecidedBy : std::uint8_t { kViews, kClassifier, kNone };
+  bool protrusion = false;
+  double probability = -1.0;  // the classifier's, −1 without one
+  DecidedBy decided_by = DecidedBy::kNone;
+};
+const char* DecidedByName(RegionClass::DecidedBy decided_by);
+slamcore::Result<std::vector<RegionClass>> ClassifyRegions(
+    const slamcore::Map& parent, const slamcore::Map& child, const ComparedGrids& grids,
+    const std::vector<slamcore::ProtrusionRegion>& regions, const slamcore::ProtrusionClassifier* classifier);
 
 /// RMS position error of `graph` against `truth`, each component aligned on its own (components have
 /// independent frames); nullopt when fewer than two nodes carry truth. `count`: the nodes compared.

@@ -24,6 +24,18 @@
 
 namespace sim {
 
+/// Regions by truth (protrusion or new space) and by the class predicted for them.
+struct RegionConfusion {
+  long true_protrusion = 0, missed_protrusion = 0, false_protrusion = 0, true_new_space = 0;
+  void Add(bool truth_protrusion, bool predicted_protrusion) {
+    ++(truth_protrusion ? (predicted_protrusion ? true_protrusion : missed_protrusion)
+                        : (predicted_protrusion ? false_protrusion : true_new_space));
+  }
+  RegionConfusion& operator+=(const RegionConfusion& other);
+  /// "TP a, FN b, FP c, TN d (precision p %, recall r %)".
+  std::string ToText() const;
+};
+
 /// What one run produced, beside the telemetry.
 struct RunOutcome {
   fleet::v1::RunFile run;                 // header, events (with ground truth), parent and child snapshots
@@ -37,9 +49,13 @@ struct RunOutcome {
   std::size_t views_total = 0, views_ambiguous = 0;  // in the child map
   double simulated_seconds = 0.0;
   // Ground truth of the protrusion detector's regions between this run's parent and child maps
-  // (analyzer::SlipTruthOf, the rule fleetd's reports use); with SimParams::keep_truth_pairs, the pair
-  // itself with per-cell truth (1 protrusion: under a stuck node's patch; 2 new space; 0 unchanged).
+  // (analyzer::RegionsCoveredBy the stuck nodes, the rule fleetd's reports use); with
+  // SimParams::keep_truth_pairs, the pair itself with per-cell truth (1 protrusion: under a stuck node's
+  // patch; 2 new space; 0 unchanged). The confusion matrices class the same regions as the analysis does
+  // (analyzer::ClassifyRegions with the built-in model), by the built-in model alone, and by the slip the
+  // run's views show alone (protrusion where they show it, new space elsewhere).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
+  RegionConfusion analysis_confusion, classifier_confusion, views_confusion;
   std::optional<slamcore::GeneratedPair> truth_pair;
   std::int64_t map_version = 0;  // header.map_version: the service's version the run started from
   int repairs_taken = 0;         // set by a fleet's after-run hook: repaired versions taken after it

@@ -1,0 +1,57 @@
+// Wheel slip seen in a map's own views (paper I and IV-C). A robot pressed against a wall, caught under
+// furniture or lifted by a rug keeps turning its wheels: odometry carries its nodes on while its sensors
+// keep seeing the one place it is stuck at. Two physical contradictions give such nodes away, whatever the
+// sensor and however long the episode:
+//  * the path through the wall: the nodes' estimated path runs through a cell that the view of an earlier
+//    node of the same chain held as a wall (the robot cannot have gone there);
+//  * the view that stood still: a view agrees with the view before it when both are placed at the earlier
+//    node's pose, and not when placed where odometry says the robot went (it did not move).
+// Where neither can be seen (open floor with a short-range sensor, a featureless corridor along the
+// motion) nothing is claimed: the judgement is "slip seen", never "no slip".
+//
+// Thread safety: free functions over const data.
+#pragma once
+
+#include <set>
+
+#include "slamcore/mapper.h"
+#include "slamcore/status.h"
+
+namespace slamcore {
+
+struct SlipDetectionParams {
+  /// A node is judged against the last view before it along this much path at most (metres): farther on,
+  /// drift makes an earlier view a poor judge of where the robot can be.
+  double max_path_m = 3.0;
+  /// Views stood still: the estimated motion between the two views must be at least this long (metres),
+  /// the earlier view's walls must explain at least `min_still_agreement` of the later view's walls when
+  /// the later view is put at the earlier pose, and at least `min_agreement_margin` more than when it is
+  /// put where odometry says the robot went. Both placements must have `min_wall_cells` of the later
+  /// view's walls fall inside the earlier view's known cells.
+  double min_still_motion_m = 0.25;
+  double min_still_agreement = 0.8;
+  double min_agreement_margin = 0.35;
+  int min_wall_cells = 8;
+};
+
+/// How a node was judged (for reports and tests).
+enum class SlipEvidence : std::uint8_t { kPathThroughWall, kViewStoodStill };
+
+struct SlipFinding {
+  NodeId node = 0;
+  SlipEvidence evidence = SlipEvidence::kPathThroughWall;
+  NodeId judged_against = 0;  // the earlier node whose view contradicts this node's pose
+};
+
+/// The nodes of `map` whose poses the map's own views contradict, in chain order. Chains follow motion
+/// edges (a run's start or a kidnap starts a new chain; a node with several motion successors continues
+/// along the one with the smallest id). Fails on an invalid parameter.
+Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetectionParams& params = {});
+
+/// Share of `later`'s wall cells that land on (within one cell of) a wall of `earlier` when `later`'s node is
+/// placed at `earlier_T_later` in `earlier`'s node frame, among those that land on `earlier`'s known cells;
+/// `landed` receives that count.
+double WallAgreement(const LocalMapEvent& earlier, const LocalMapEvent& later, const SE2& earlier_T_later,
+                     int* landed);
+
+}  // namespace slamcore

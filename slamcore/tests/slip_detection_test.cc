@@ -1,0 +1,169 @@
+// Wheel slip from the map's own views: the path through a seen wall, the view that stood still, and the
+// motions that must not be mistaken for either.
+#include "slamcore/slip_detection.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+#include "status_matchers.h"
+
+namespace slamcore {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::Field;
+using ::testing::IsEmpty;
+
+constexpr std::int8_t kFree = 0, kWall = 100, kUnseen = -1;
+
+/// A square patch of `half_m` around its node, each cell's state given by `state(x, y)` in the node frame.
+LocalMapEvent Patch(double half_m, const std::function<std::int8_t(double, double)>& state) {
+  LocalMapEvent patch;
+  patch.resolution = 0.05;
+  patch.width = patch.height = static_cast<int>(std::lround(2 * half_m / patch.resolution));
+  patch.node_T_origin = SE2(-half_m, -half_m, 0.0);
+  for (int row = 0; row < patch.height; ++row) {
+    for (int col = 0; col < patch.width; ++col)
+      patch.cells.push_back(state(-half_m + (col + 0.5) * 0.05, -half_m + (row + 0.5) * 0.05));
+  }
+  return patch;
+}
+
+/// What a front sensor sees `wall_ahead_m` in front of a wall across its way: floor up to it, the wall,
+/// nothing behind it.
+LocalMapEvent FacingWall(double wall_ahead_m) {
+  return Patch(1.5, [=](double x, double y) {
+    if (x < -0.2 || std::abs(y) > 0.6) return kUnseen;
+    if (x < wall_ahead_m) return kFree;
+    return x < wall_ahead_m + 0.05 ? kWall : kUnseen;
+  });
+}
+
+/// A chain of nodes at `poses` joined by motion edges, with `views[k]` at node k where it is set.
+Map Chain(const std::vector<SE2>& poses, const std::vector<std::optional<LocalMapEvent>>& views) {
+  Map map;
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const NodeId id = static_cast<NodeId>(k);
+    EXPECT_THAT(map.graph.AddNode(Node{.id = id, .pose = poses[k]}), IsOk());
+    if (k > 0) {
+      EXPECT_THAT(map.graph.AddEdge(Edge{.from = id - 1,
+                                         .to = id,
+                                         .measurement = poses[k - 1].inverse() * poses[k],
+                                         .information = Matrix3::Identity(),
+                                         .kind = EdgeKind::kMotion,
+                                         .view = std::nullopt,
+                                         .hypothesis = std::nullopt}),
+                  IsOk());
+    }
+    if (k < views.size() && views[k]) map.local_maps.emplace(id, *views[k]);
+  }
+  return map;
+}
+
+TEST(SlipDetectionTest, NodesCarriedThroughTheWallTheRobotFacedAreFound) {
+  // Touching a wall 0.2 m ahead, the wheels turn on: odometry places nodes every 0.3 m through it, and the
+  // sensor keeps seeing the same wall 0.2 m ahead.
+  std::vector<SE2> poses;
+  std::vector<std::optional<LocalMapEvent>> views;
+  for (int k = 0; k < 6; ++k) {
+    poses.emplace_back(0.3 * k, 0.0, 0.0);
+    views.push_back(k % 2 == 0 ? std::optional(FacingWall(0.2)) : std::nullopt);
+  }
+  const auto findings = FindSlipNodes(Chain(poses, views));
+  ASSERT_THAT(findings, IsOk());
+  ASSERT_EQ(findings->size(), 5u);
+  for (std::size_t k = 0; k < findings->size(); ++k) {
+    EXPECT_EQ((*findings)[k].node, static_cast<NodeId>(k + 1));
+    EXPECT_EQ((*findings)[k].evidence, SlipEvidence::kPathThroughWall);
+    EXPECT_EQ((*findings)[k].judged_against, static_cast<NodeId>(2 * (k / 2)));
+  }
+}
+
+TEST(SlipDetectionTest, DrivingUpToAWallAndTurningAwayIsNoSlip) {
+  // The wall is 1.0 m ahead at the start; the robot stops 0.2 m short of it and turns along it.
+  const std::vector<SE2> poses = {SE2(0.0, 0.0, 0.0), SE2(0.3, 0.0, 0.0),      SE2(0.6, 0.0, 0.0),
+                                  SE2(0.8, 0.0, 0.0), SE2(0.8, 0.0, M_PI / 2), SE2(0.8, 0.3, M_PI / 2)};
+  const std::vector<std::optional<LocalMapEvent>> views = {FacingWall(1.0), std::nullopt, FacingWall(0.4),
+                                                           std::nullopt,    std::nullopt, std::nullopt};
+  const auto findings = FindSlipNodes(Chain(poses, views));
+  ASSERT_THAT(findings, IsOk());
+  EXPECT_THAT(*findings, IsEmpty());
+}
+
+/// A lidar's view of a 5 m × 5 m room from the point (x, 0) inside it.
+LocalMapEvent RoomSeenFrom(double x) {
+  return Patch(3.0, [=](double px, double py) {
+    const double wx = px + x, wy = py;
+    if (std::abs(wx) > 2.55 || std::abs(wy) > 2.55) return kUnseen;
+    return (std::abs(wx) > 2.5 || std::abs(wy) > 2.5) ? kWall : kFree;
+  });
+}
+
+TEST(SlipDetectionTest, AViewThatStoodStillWhileOdometryMovedIsFound) {
+  // Lifted on a rug in the middle of the room: the wheels claim 1.8 m, the lidar sees the room from where
+  // it was. Node 6's view agrees with node 0's at node 0's pose, not 1.8 m further.
+  std::vector<SE2> poses;
+  for (int k = 0; k <= 6; ++k) poses.emplace_back(0.3 * k, 0.0, 0.0);
+  const auto findings =
+      FindSlipNodes(Chain(poses, {RoomSeenFrom(0.0), {}, {}, {}, {}, {}, RoomSeenFrom(0.0)}));
+  ASSERT_THAT(findings, IsOk());
+  EXPECT_THAT(*findings, ElementsAre(AllOf(Field(&SlipFinding::node, 6),
+                                           Field(&SlipFinding::evidence, SlipEvidence::kViewStoodStill),
+                                           Field(&SlipFinding::judged_against, 0))));
+  // The same motion, made for real: the later view sees the room from 1.8 m further.
+  const auto moved = FindSlipNodes(Chain(poses, {RoomSeenFrom(0.0), {}, {}, {}, {}, {}, RoomSeenFrom(1.8)}));
+  ASSERT_THAT(moved, IsOk());
+  EXPECT_THAT(*moved, IsEmpty());
+}
+
+TEST(SlipDetectionTest, AFeaturelessCorridorAlongTheMotionClaimsNothing) {
+  // Walls 0.6 m to either side, running along the motion: every view looks the same wherever the robot is,
+  // so the views cannot tell whether it moved.
+  const LocalMapEvent corridor = Patch(3.0, [](double, double y) {
+    if (std::abs(y) > 0.65) return kUnseen;
+    return std::abs(y) > 0.6 ? kWall : kFree;
+  });
+  std::vector<SE2> poses;
+  for (int k = 0; k <= 6; ++k) poses.emplace_back(0.3 * k, 0.0, 0.0);
+  const auto findings = FindSlipNodes(Chain(poses, {corridor, {}, {}, {}, {}, {}, corridor}));
+  ASSERT_THAT(findings, IsOk());
+  EXPECT_THAT(*findings, IsEmpty());
+}
+
+TEST(SlipDetectionTest, ChainsFollowMotionEdgesOnly) {
+  // Two runs in one map: the second starts beyond the first run's wall, with no motion edge between them
+  // (the robot was carried there), so nothing crosses that wall.
+  Map map = Chain({SE2(0.0, 0.0, 0.0), SE2(0.1, 0.0, 0.0)}, {FacingWall(0.2), std::nullopt});
+  ASSERT_THAT(map.graph.AddNode(Node{.id = 10, .pose = SE2(1.0, 0.0, 0.0)}), IsOk());
+  ASSERT_THAT(map.graph.AddNode(Node{.id = 11, .pose = SE2(1.3, 0.0, 0.0)}), IsOk());
+  ASSERT_THAT(map.graph.AddEdge(Edge{.from = 10,
+                                     .to = 11,
+                                     .measurement = SE2(0.3, 0.0, 0.0),
+                                     .information = Matrix3::Identity(),
+                                     .kind = EdgeKind::kMotion,
+                                     .view = std::nullopt,
+                                     .hypothesis = std::nullopt}),
+              IsOk());
+  const auto findings = FindSlipNodes(map);
+  ASSERT_THAT(findings, IsOk());
+  EXPECT_THAT(*findings, IsEmpty());
+}
+
+TEST(SlipDetectionTest, RefusesParametersOutsideTheirRange) {
+  const Map map = Chain({SE2()}, {});
+  SlipDetectionParams params;
+  params.max_path_m = 0.0;
+  EXPECT_THAT(FindSlipNodes(map, params), StatusIs(StatusCode::kInvalidArgument, "max_path_m"));
+  params = {};
+  params.min_still_agreement = 1.5;
+  EXPECT_THAT(FindSlipNodes(map, params), StatusIs(StatusCode::kInvalidArgument, "min_still_agreement"));
+  params = {};
+  params.min_wall_cells = 0;
+  EXPECT_THAT(FindSlipNodes(map, params), StatusIs(StatusCode::kInvalidArgument, "min_wall_cells"));
+}
+
+}  // namespace
+}  // namespace slamcore
