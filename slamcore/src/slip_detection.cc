@@ -18,6 +18,12 @@ std::int8_t PatchCell(const LocalMapEvent& patch, int col, int row) {
   return patch.cells[static_cast<std::size_t>(row) * patch.width + col];
 }
 
+/// A patch whose cells can be read (the renderer refuses the others too; here they are no view at all).
+bool WellFormed(const LocalMapEvent& patch) {
+  return patch.width > 0 && patch.height > 0 && patch.resolution > 0.0 && std::isfinite(patch.resolution) &&
+         patch.cells.size() == static_cast<std::size_t>(patch.width) * static_cast<std::size_t>(patch.height);
+}
+
 /// The cell of `patch` under `in_node` (a point in the patch's node frame).
 std::pair<int, int> CellOf(const LocalMapEvent& patch, const Vector2& in_node) {
   const Vector2 local = patch.node_T_origin.inverse() * in_node;
@@ -121,7 +127,8 @@ Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetecti
       if (!walked.insert(node).second) break;  // a cycle of motion edges (a malformed map): stop there
       const SE2& pose = graph.node(node).pose;
       const LocalMapEvent* view = nullptr;
-      if (const auto it = map.local_maps.find(node); it != map.local_maps.end()) view = &it->second;
+      if (const auto it = map.local_maps.find(node); it != map.local_maps.end() && WellFormed(it->second))
+        view = &it->second;
       if (reference != nullptr && node != start) {
         const SE2 reference_T_world = world_T_reference.inverse();
         const Vector2 from = reference_T_world * graph.node(previous).pose.translation();

@@ -152,6 +152,14 @@ TEST(SlipDetectionTest, ChainsFollowMotionEdgesOnly) {
   EXPECT_THAT(*findings, IsEmpty());
 }
 
+TEST(SlipDetectionTest, AMalformedPatchIsNoView) {
+  LocalMapEvent torn = FacingWall(0.2);
+  torn.cells.resize(torn.cells.size() / 2);  // fewer cells than width × height
+  const auto findings = FindSlipNodes(Chain({SE2(0.0, 0.0, 0.0), SE2(0.3, 0.0, 0.0)}, {torn, std::nullopt}));
+  ASSERT_THAT(findings, IsOk());
+  EXPECT_THAT(*findings, IsEmpty());
+}
+
 TEST(SlipDetectionTest, RefusesParametersOutsideTheirRange) {
   const Map map = Chain({SE2()}, {});
   SlipDetectionParams params;
