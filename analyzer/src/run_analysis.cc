@@ -168,18 +168,18 @@ Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child, const std::set<
                                      const ComparedGrids& grids,
                                      const std::vector<slamcore::ProtrusionRegion>& regions) {
   const slamcore::OccupancyGrid& child_grid = grids.child;
-  RegionCover truth;
-  truth.covered.assign(
+  RegionCover result;
+  result.covered.assign(
       static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
-  std::set<NodeId> slip_nodes;
+  std::set<NodeId> drawing;
   for (const NodeId node : grids.child_nodes) {
     // Only nodes with a local map paint anything (a lidar robot attaches one to every 6th node).
-    if (nodes.contains(node) && child.local_maps.contains(node)) slip_nodes.insert(node);
+    if (nodes.contains(node) && child.local_maps.contains(node)) drawing.insert(node);
   }
-  if (!slip_nodes.empty()) {
-    slamcore::GlobalGridRenderer slip_renderer;
-    RETURN_IF_ERROR(slip_renderer.RenderAll(ComponentMap(child, slip_nodes)));
-    const slamcore::OccupancyGrid& cover = slip_renderer.grid();
+  if (!drawing.empty()) {
+    slamcore::GlobalGridRenderer renderer;
+    RETURN_IF_ERROR(renderer.RenderAll(ComponentMap(child, drawing)));
+    const slamcore::OccupancyGrid& cover = renderer.grid();
     for (int row = 0; row < child_grid.height; ++row) {
       for (int col = 0; col < child_grid.width; ++col) {
         const double x = child_grid.origin_x + (col + 0.5) * child_grid.resolution;
@@ -187,17 +187,17 @@ Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child, const std::set<
         const int cover_col = static_cast<int>(std::floor((x - cover.origin_x) / cover.resolution));
         const int cover_row = static_cast<int>(std::floor((y - cover.origin_y) / cover.resolution));
         if (cover.InBounds(cover_col, cover_row) && cover.at(cover_col, cover_row) != -1) {
-          truth.covered[static_cast<std::size_t>(row) * child_grid.width + col] = 1;
+          result.covered[static_cast<std::size_t>(row) * child_grid.width + col] = 1;
         }
       }
     }
   }
   for (const slamcore::ProtrusionRegion& region : regions) {
     std::size_t covered = 0;
-    for (const std::int32_t cell : region.cells) covered += truth.covered[static_cast<std::size_t>(cell)];
-    truth.region_is_covered.push_back(!region.cells.empty() && 2 * covered >= region.cells.size());
+    for (const std::int32_t cell : region.cells) covered += result.covered[static_cast<std::size_t>(cell)];
+    result.region_is_covered.push_back(!region.cells.empty() && 2 * covered >= region.cells.size());
   }
-  return truth;
+  return result;
 }
 
 const char* DecidedByName(RegionClass::DecidedBy decided_by) {
@@ -232,8 +232,8 @@ Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, co
       out.protrusion = classifier->IsProtrusion(out.probability);
       out.decided_by = RegionClass::DecidedBy::kClassifier;
     }
-    // Slip seen wins; confirmed motion clears a region only when no node of this run that the views could
-    // not judge drew it too (a stuck robot under furniture, its short-range sensor seeing nothing, is one).
+    // Slip seen wins; confirmed motion clears a region only when it is not also mostly drawn by nodes the
+    // views could not judge (a stuck robot under furniture, its short-range sensor seeing nothing, is one).
     if (slip_cover.region_is_covered[index]) {
       out.protrusion = true;
       out.decided_by = RegionClass::DecidedBy::kViews;
