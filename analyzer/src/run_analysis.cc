@@ -213,17 +213,12 @@ Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, co
                                                  const ComparedGrids& grids,
                                                  const std::vector<slamcore::ProtrusionRegion>& regions,
                                                  const slamcore::ProtrusionClassifier* classifier) {
-  ASSIGN_OR_RETURN(const auto judgements, slamcore::JudgeMotion(child));
-  std::set<NodeId> slipped, moved, unjudged;
-  for (const slamcore::Node& node : child.graph.nodes()) {
-    if (!parent.graph.HasNode(node.id)) unjudged.insert(node.id);
+  ASSIGN_OR_RETURN(const auto findings, slamcore::FindSlipNodes(child));
+  std::set<NodeId> slipped;
+  for (const slamcore::SlipFinding& finding : findings) {
+    if (!parent.graph.HasNode(finding.node)) slipped.insert(finding.node);
   }
-  for (const slamcore::MotionJudgement& judgement : judgements) {
-    if (unjudged.erase(judgement.node) > 0) (judgement.slipped() ? slipped : moved).insert(judgement.node);
-  }
-  ASSIGN_OR_RETURN(const auto slip_cover, RegionsCoveredBy(child, slipped, grids, regions));
-  ASSIGN_OR_RETURN(const auto motion_cover, RegionsCoveredBy(child, moved, grids, regions));
-  ASSIGN_OR_RETURN(const auto unjudged_cover, RegionsCoveredBy(child, unjudged, grids, regions));
+  ASSIGN_OR_RETURN(const auto cover, RegionsCoveredBy(child, slipped, grids, regions));
   std::vector<RegionClass> classes(regions.size());
   for (std::size_t index = 0; index < regions.size(); ++index) {
     RegionClass& out = classes[index];
@@ -232,13 +227,12 @@ Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, co
       out.protrusion = classifier->IsProtrusion(out.probability);
       out.decided_by = RegionClass::DecidedBy::kClassifier;
     }
-    // Slip seen wins; confirmed motion clears a region only when it is not also mostly drawn by nodes the
-    // views could not judge (a stuck robot under furniture, its short-range sensor seeing nothing, is one).
-    if (slip_cover.region_is_covered[index]) {
+    // The views only add protrusions. A view that moved with the wheels does not make a region real: a
+    // wall redrawn a cell off after drift is false floor too, and cutting such regions is what keeps
+    // lifelong maps healthy (clearing them made the service regime of fleetsim --lifelong no better than
+    // the filter alone).
+    if (cover.region_is_covered[index]) {
       out.protrusion = true;
-      out.decided_by = RegionClass::DecidedBy::kViews;
-    } else if (motion_cover.region_is_covered[index] && !unjudged_cover.region_is_covered[index]) {
-      out.protrusion = false;
       out.decided_by = RegionClass::DecidedBy::kViews;
     }
   }

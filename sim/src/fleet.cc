@@ -93,7 +93,7 @@ std::string FleetStatistics::ToText() const {
   std::string out = text;
   out += "regions classed as the analysis does   " + analysis_confusion.ToText() + "   (views, then model)\n";
   out += "regions classed by the built-in model  " + classifier_confusion.ToText() + "\n";
-  out += "regions the views decide, by the views " + views_confusion.ToText() + "\n";
+  out += "regions classed by the views alone     " + views_confusion.ToText() + "\n";
   if (!health.empty()) out += MapHealthLine() + "\n";
   return out;
 }

@@ -444,8 +444,8 @@ slamcore::Status Run::LabelRegions() {
     ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
     outcome_.analysis_confusion.Add(protrusion, classes[k].protrusion);
     outcome_.classifier_confusion.Add(protrusion, classifier->IsProtrusion(classes[k].probability));
-    if (classes[k].decided_by == analyzer::RegionClass::DecidedBy::kViews)
-      outcome_.views_confusion.Add(protrusion, classes[k].protrusion);
+    outcome_.views_confusion.Add(protrusion,
+                                 classes[k].decided_by == analyzer::RegionClass::DecidedBy::kViews);
   }
   if (!p_.keep_truth_pairs) return slamcore::Status::Ok();
   slamcore::GeneratedPair pair;

@@ -1,5 +1,5 @@
-// Wheel slip from the map's own views: the path through a seen wall, the view that stood still, and the
-// view that moved with the wheels (see the header).
+// Wheel slip from the map's own views: the path through a seen wall, and the view that stood still (see
+// the header).
 #include "slamcore/slip_detection.h"
 
 #include <algorithm>
@@ -64,9 +64,9 @@ Status Check(const SlipDetectionParams& params) {
     return Status::Ok();
   };
   RETURN_IF_ERROR(positive(params.max_path_m, "max_path_m"));
-  RETURN_IF_ERROR(positive(params.min_motion_m, "min_motion_m"));
-  if (!(params.min_agreement > 0.0 && params.min_agreement <= 1.0)) {
-    return InvalidArgument("slip detection: min_agreement must be in (0, 1]");
+  RETURN_IF_ERROR(positive(params.min_still_motion_m, "min_still_motion_m"));
+  if (!(params.min_still_agreement > 0.0 && params.min_still_agreement <= 1.0)) {
+    return InvalidArgument("slip detection: min_still_agreement must be in (0, 1]");
   }
   if (!(params.min_agreement_margin > 0.0 && params.min_agreement_margin <= 1.0)) {
     return InvalidArgument("slip detection: min_agreement_margin must be in (0, 1]");
@@ -100,7 +100,7 @@ double WallAgreement(const LocalMapEvent& earlier, const LocalMapEvent& later, c
   return count > 0 ? static_cast<double>(agreeing) / count : 0.0;
 }
 
-Result<std::vector<MotionJudgement>> JudgeMotion(const Map& map, const SlipDetectionParams& params) {
+Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetectionParams& params) {
   RETURN_IF_ERROR(Check(params));
   const PoseGraph& graph = map.graph;
   std::map<NodeId, NodeId> next;  // along motion edges; ordered, so chains are walked in id order
@@ -112,7 +112,7 @@ Result<std::vector<MotionJudgement>> JudgeMotion(const Map& map, const SlipDetec
       next[edge.from] = edge.to;
     has_predecessor.insert(edge.to);
   }
-  std::vector<MotionJudgement> findings;
+  std::vector<SlipFinding> findings;
   std::set<NodeId> walked;
   for (const auto& [start, unused] : next) {
     if (has_predecessor.contains(start)) continue;
@@ -136,19 +136,16 @@ Result<std::vector<MotionJudgement>> JudgeMotion(const Map& map, const SlipDetec
         path_m += (to - from).norm();
         through_wall = through_wall || CrossesWall(*reference, from, to);
         if (through_wall) {
-          findings.push_back({node, MotionEvidence::kPathThroughWall, reference_node});
+          findings.push_back({node, SlipEvidence::kPathThroughWall, reference_node});
         } else if (view != nullptr) {
           const SE2 reference_T_node = reference_T_world * pose;
           int landed_still = 0, landed_moved = 0;
           const double still = WallAgreement(*reference, *view, SE2(), &landed_still);
           const double moved = WallAgreement(*reference, *view, reference_T_node, &landed_moved);
-          if (reference_T_node.translation().norm() >= params.min_motion_m &&
-              landed_still >= params.min_wall_cells && landed_moved >= params.min_wall_cells) {
-            if (still >= params.min_agreement && still - moved >= params.min_agreement_margin) {
-              findings.push_back({node, MotionEvidence::kViewStoodStill, reference_node});
-            } else if (moved >= params.min_agreement && moved - still >= params.min_agreement_margin) {
-              findings.push_back({node, MotionEvidence::kViewMoved, reference_node});
-            }
+          if (reference_T_node.translation().norm() >= params.min_still_motion_m &&
+              landed_still >= params.min_wall_cells && landed_moved >= params.min_wall_cells &&
+              still >= params.min_still_agreement && still - moved >= params.min_agreement_margin) {
+            findings.push_back({node, SlipEvidence::kViewStoodStill, reference_node});
           }
         }
         if (path_m > params.max_path_m) reference = nullptr;

@@ -66,11 +66,10 @@ slamcore::Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child,
                                                const ComparedGrids& grids,
                                                const std::vector<slamcore::ProtrusionRegion>& regions);
 
-/// How the analysis classes a region, from the run's own views first (slamcore::JudgeMotion over this
-/// run's nodes: those of `child` that `parent` does not hold). A region drawn mostly by nodes whose slip the
-/// views show (a path through a seen wall, a view that stood still) is a protrusion whatever its shape; one
-/// drawn mostly by nodes whose motion the views confirmed, and not mostly by nodes they could not judge, is
-/// new space. The map-only classifier (paper IV-C) decides the rest, or nothing when there is none.
+/// How the analysis classes a region. When the run's own views show that the nodes of this run (those of
+/// `child` that `parent` does not hold) which drew it had slipped (slamcore::FindSlipNodes: a path through a seen wall, a view
+/// that stood still), it is a protrusion whatever its shape; otherwise the map-only classifier decides
+/// (paper IV-C), or nothing when there is none.
 struct RegionClass {
   enum class DecidedBy : std::uint8_t { kViews, kClassifier, kNone };
   bool protrusion = false;

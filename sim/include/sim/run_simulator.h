@@ -52,8 +52,8 @@ struct RunOutcome {
   // (analyzer::RegionsCoveredBy the stuck nodes, the rule fleetd's reports use); with
   // SimParams::keep_truth_pairs, the pair itself with per-cell truth (1 protrusion: under a stuck node's
   // patch; 2 new space; 0 unchanged). The confusion matrices class the same regions as the analysis does
-  // (analyzer::ClassifyRegions with the built-in model), by the built-in model alone, and, over the
-  // regions the run's views decide (slip seen, or motion confirmed), by the views.
+  // (analyzer::ClassifyRegions with the built-in model), by the built-in model alone, and by the slip the
+  // run's views show alone (protrusion where they show it, new space elsewhere).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
   RegionConfusion analysis_confusion, classifier_confusion, views_confusion;
   std::optional<slamcore::GeneratedPair> truth_pair;

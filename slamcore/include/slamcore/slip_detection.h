@@ -6,9 +6,8 @@
 //    node of the same chain held as a wall (the robot cannot have gone there);
 //  * the view that stood still: a view agrees with the view before it when both are placed at the earlier
 //    node's pose, and not when placed where odometry says the robot went (it did not move).
-// And the converse, which clears a node: the view moved with the wheels (it agrees with the view before it
-// where odometry put it, and not at the earlier pose). Where none of the three can be seen (open floor with
-// a short-range sensor, a featureless corridor along the motion) nothing is claimed about the node.
+// Where neither can be seen (open floor with a short-range sensor, a featureless corridor along the
+// motion) nothing is claimed: the judgement is "slip seen", never "no slip".
 //
 // Thread safety: free functions over const data.
 #pragma once
@@ -24,33 +23,30 @@ struct SlipDetectionParams {
   /// A node is judged against the last view before it along this much path at most (metres): farther on,
   /// drift makes an earlier view a poor judge of where the robot can be.
   double max_path_m = 3.0;
-  /// Two views are compared when the estimated motion between them is at least `min_motion_m`. A view
-  /// stood still when the earlier view's walls explain at least `min_agreement` of the later view's walls
-  /// with the later view put at the earlier pose, and at least `min_agreement_margin` more than with it
-  /// put where odometry says the robot went; it moved with the wheels in the converse case. Both
-  /// placements must have `min_wall_cells` of the later view's walls fall inside the earlier view's known
-  /// cells.
-  double min_motion_m = 0.25;
-  double min_agreement = 0.8;
+  /// Views stood still: the estimated motion between the two views must be at least this long (metres),
+  /// the earlier view's walls must explain at least `min_still_agreement` of the later view's walls when
+  /// the later view is put at the earlier pose, and at least `min_agreement_margin` more than when it is
+  /// put where odometry says the robot went. Both placements must have `min_wall_cells` of the later
+  /// view's walls fall inside the earlier view's known cells.
+  double min_still_motion_m = 0.25;
+  double min_still_agreement = 0.8;
   double min_agreement_margin = 0.35;
   int min_wall_cells = 8;
 };
 
-/// What a node's views showed: two kinds of slip, and the motion confirmed.
-enum class MotionEvidence : std::uint8_t { kPathThroughWall, kViewStoodStill, kViewMoved };
+/// How a node was judged (for reports and tests).
+enum class SlipEvidence : std::uint8_t { kPathThroughWall, kViewStoodStill };
 
-struct MotionJudgement {
+struct SlipFinding {
   NodeId node = 0;
-  MotionEvidence evidence = MotionEvidence::kPathThroughWall;
-  NodeId judged_against = 0;  // the earlier node whose view the judgement rests on
-  bool slipped() const { return evidence != MotionEvidence::kViewMoved; }
+  SlipEvidence evidence = SlipEvidence::kPathThroughWall;
+  NodeId judged_against = 0;  // the earlier node whose view contradicts this node's pose
 };
 
-/// The nodes of `map` whose poses the map's own views contradict or confirm, in chain order; nodes the
-/// views say nothing about are left out. Chains follow motion
+/// The nodes of `map` whose poses the map's own views contradict, in chain order. Chains follow motion
 /// edges (a run's start or a kidnap starts a new chain; a node with several motion successors continues
 /// along the one with the smallest id). Fails on an invalid parameter.
-Result<std::vector<MotionJudgement>> JudgeMotion(const Map& map, const SlipDetectionParams& params = {});
+Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetectionParams& params = {});
 
 /// Share of `later`'s wall cells that land on (within one cell of) a wall of `earlier` when `later`'s node is
 /// placed at `earlier_T_later` in `earlier`'s node frame, among those that land on `earlier`'s known cells;
