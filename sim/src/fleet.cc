@@ -50,6 +50,8 @@ void FleetStatistics::Add(const RunOutcome& outcome) {
   analysis_confusion += outcome.analysis_confusion;
   classifier_confusion += outcome.classifier_confusion;
   views_confusion += outcome.views_confusion;
+  erroneous_confusion += outcome.erroneous_confusion;
+  false_floor_new_space_regions += outcome.false_floor_new_space_regions;
   simulated_hours += outcome.simulated_seconds / 3600.0;
 }
 
@@ -94,6 +96,9 @@ std::string FleetStatistics::ToText() const {
   out += "regions classed as the analysis does   " + analysis_confusion.ToText() + "   (views, then model)\n";
   out += "regions classed by the built-in model  " + classifier_confusion.ToText() + "\n";
   out += "regions classed by the views alone     " + views_confusion.ToText() + "\n";
+  out += "new-space regions that are false floor " + std::to_string(false_floor_new_space_regions) + " of " +
+         std::to_string(truth_new_space_regions) + " (by the home's truth)\n";
+  out += "analysis vs protrusion or false floor  " + erroneous_confusion.ToText() + "\n";
   if (!health.empty()) out += MapHealthLine() + "\n";
   return out;
 }
@@ -142,7 +147,9 @@ std::string FleetStatistics::ToJson() const {
   };
   out += ",\"analysis_confusion\":" + confusion(analysis_confusion) +
          ",\"classifier_confusion\":" + confusion(classifier_confusion) +
-         ",\"views_confusion\":" + confusion(views_confusion) + "}";
+         ",\"views_confusion\":" + confusion(views_confusion) +
+         ",\"erroneous_confusion\":" + confusion(erroneous_confusion) +
+         ",\"false_floor_new_space_regions\":" + std::to_string(false_floor_new_space_regions) + "}";
   if (!health.empty()) {
     out.pop_back();
     out += ",\"robots_healthy\":" + std::to_string(robots_healthy) +

@@ -52,7 +52,21 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(
   int compared = 0;
   health.trajectory_rmse_m = analyzer::ComponentwiseRmse(map.graph, truth, &compared).value_or(0.0);
 
+  ASSIGN_OR_RETURN(const auto grid, analyzer::RenderHomeGrid(map));
+  ASSIGN_OR_RETURN(const auto false_floor, FalseFloor(map, truth, grid));
+  const auto false_cells = std::count(false_floor.begin(), false_floor.end(), 1);
+  health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
+  health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m ||
+                     health.false_free_m2 > threshold_.false_free_m2;
+  return health;
+}
+
+slamcore::Result<std::vector<std::uint8_t>> MapHealthMeter::FalseFloor(
+    const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth,
+    const slamcore::OccupancyGrid& grid) const {
   // The home component in the world's frame: its nodes aligned with their true positions.
+  std::vector<std::uint8_t> false_floor;
+  if (map.graph.num_nodes() == 0) return false_floor;
   const slamcore::ComponentId home = analyzer::HomeComponent(map.graph);
   std::vector<Vector2> estimate, reference;
   for (const auto& [node, pose] : truth) {
@@ -60,23 +74,18 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(
     estimate.push_back(map.graph.node(node).pose.translation());
     reference.push_back(pose.translation());
   }
-  if (estimate.size() >= 2) {
-    ASSIGN_OR_RETURN(auto world_T_map, slamcore::AlignRigidly(estimate, reference));
-    ASSIGN_OR_RETURN(auto grid, analyzer::RenderHomeGrid(map));
-    long false_cells = 0;
-    for (int row = 0; row < grid.height; ++row) {
-      for (int col = 0; col < grid.width; ++col) {
-        if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
-        const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
-                             grid.origin_y + (row + 0.5) * grid.resolution);
-        if (!NearFloor(world_T_map * in_map)) ++false_cells;
-      }
+  if (estimate.size() < 2) return false_floor;
+  ASSIGN_OR_RETURN(const auto world_T_map, slamcore::AlignRigidly(estimate, reference));
+  false_floor.assign(grid.cells.size(), 0);
+  for (int row = 0; row < grid.height; ++row) {
+    for (int col = 0; col < grid.width; ++col) {
+      if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
+      const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
+                           grid.origin_y + (row + 0.5) * grid.resolution);
+      if (!NearFloor(world_T_map * in_map)) false_floor[static_cast<std::size_t>(row) * grid.width + col] = 1;
     }
-    health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
   }
-  health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m ||
-                     health.false_free_m2 > threshold_.false_free_m2;
-  return health;
+  return false_floor;
 }
 
 }  // namespace sim

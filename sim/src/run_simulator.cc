@@ -6,6 +6,7 @@
 #include <set>
 
 #include "analyzer/run_analysis.h"
+#include "sim/map_health.h"
 #include "analyzer/telemetry_codec.h"
 #include "slamcore/protrusion_detector.h"
 
@@ -439,9 +440,24 @@ slamcore::Status Run::LabelRegions() {
   ASSIGN_OR_RETURN(const auto classifier, slamcore::DefaultProtrusionClassifier());
   ASSIGN_OR_RETURN(const auto classes,
                    analyzer::ClassifyRegions(parent_, s_.map, grids, regions, classifier.get()));
+  // Whether a region is floor the home does not have (≥ half of its free cells farther than the map-health
+  // margin from true floor): false space whatever drew it (a slip, drift, a wrong loop closure).
+  ASSIGN_OR_RETURN(const auto false_floor,
+                   MapHealthMeter(s_.world).FalseFloor(s_.map, s_.node_truth, grids.child));
   for (std::size_t k = 0; k < regions.size(); ++k) {
     const bool protrusion = truth.region_is_covered[k];
     ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
+    std::size_t free_cells = 0, false_cells = 0;
+    for (const std::int32_t cell : regions[k].cells) {
+      if (grids.child.cells[static_cast<std::size_t>(cell)] !=
+          static_cast<std::int8_t>(slamcore::CellState::kFree))
+        continue;
+      ++free_cells;
+      if (!false_floor.empty()) false_cells += false_floor[static_cast<std::size_t>(cell)];
+    }
+    const bool false_space = free_cells > 0 && 2 * false_cells >= free_cells;
+    if (!protrusion && false_space) ++outcome_.false_floor_new_space_regions;
+    outcome_.erroneous_confusion.Add(protrusion || false_space, classes[k].protrusion);
     outcome_.analysis_confusion.Add(protrusion, classes[k].protrusion);
     outcome_.classifier_confusion.Add(protrusion, classifier->IsProtrusion(classes[k].probability));
     outcome_.views_confusion.Add(protrusion,

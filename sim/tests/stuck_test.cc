@@ -336,6 +336,13 @@ TEST(StuckTest, RunTruthMatchesTheAnalyzersAndTheExportIsADataSet) {
   EXPECT_EQ(by_views,
             statistics->views_confusion.true_protrusion + statistics->views_confusion.false_protrusion);
   EXPECT_GT(by_views, 0);
+  // Against the home's truth every region is a protrusion, other false floor, or real new space.
+  const RegionConfusion& erroneous = statistics->erroneous_confusion;
+  EXPECT_EQ(erroneous.true_protrusion + erroneous.missed_protrusion + erroneous.false_protrusion +
+                erroneous.true_new_space,
+            analyzer_regions);
+  EXPECT_EQ(erroneous.true_protrusion + erroneous.missed_protrusion,
+            statistics->truth_protrusion_regions + statistics->false_floor_new_space_regions);
   EXPECT_GE(by_views_right, 0.9 * by_views) << by_views_right << " of " << by_views;
 
   const auto index = slamcore::ReadDatasetIndex(options.protrusion_data.string());

@@ -64,7 +64,9 @@ struct FleetStatistics {
   int maps_with_truth_protrusion = 0;
   long truth_protrusion_regions = 0, truth_new_space_regions = 0;
   RegionConfusion analysis_confusion, classifier_confusion, views_confusion;  // RunOutcome's, summed
-  int pairs_written = 0;                                                      // --protrusion-data
+  RegionConfusion erroneous_confusion;
+  long false_floor_new_space_regions = 0;
+  int pairs_written = 0;  // --protrusion-data
   double simulated_hours = 0.0;
   double wall_seconds = 0.0;
   // With measure_map_health: [robot][run], and the robots by their map after the last run: corrupted; else

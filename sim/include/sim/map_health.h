@@ -11,6 +11,7 @@
 
 #include "sim/world.h"
 #include "slamcore/mapper.h"
+#include "slamcore/occupancy_grid.h"
 
 namespace sim {
 
@@ -38,6 +39,13 @@ class MapHealthMeter {
   /// component is placed in the world by aligning its nodes with their truth.
   slamcore::Result<MapHealth> Measure(const slamcore::Map& map,
                                       const std::unordered_map<slamcore::NodeId, SE2>& truth) const;
+
+  /// Per cell of `grid` (a rendering of `map`'s home component, in the map's frame), 1 where it is floor
+  /// the world does not have within the margin, the component placed as Measure places it; empty when
+  /// fewer than two home nodes carry truth.
+  slamcore::Result<std::vector<std::uint8_t>> FalseFloor(
+      const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth,
+      const slamcore::OccupancyGrid& grid) const;
 
   const CorruptionThreshold& threshold() const { return threshold_; }
 

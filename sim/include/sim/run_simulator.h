@@ -56,6 +56,10 @@ struct RunOutcome {
   // run's views show alone (protrusion where they show it, new space elsewhere).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
   RegionConfusion analysis_confusion, classifier_confusion, views_confusion;
+  // The same regions against the world's truth: a region is erroneous when it is a protrusion above or
+  // floor the home does not have (MapHealthMeter::FalseFloor); how many "new space" regions are that.
+  RegionConfusion erroneous_confusion;
+  int false_floor_new_space_regions = 0;
   std::optional<slamcore::GeneratedPair> truth_pair;
   std::int64_t map_version = 0;  // header.map_version: the service's version the run started from
   int repairs_taken = 0;         // set by a fleet's after-run hook: repaired versions taken after it
