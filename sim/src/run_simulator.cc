@@ -6,8 +6,8 @@
 #include <set>
 
 #include "analyzer/run_analysis.h"
-#include "sim/map_health.h"
 #include "analyzer/telemetry_codec.h"
+#include "sim/map_health.h"
 #include "slamcore/protrusion_detector.h"
 
 namespace sim {
