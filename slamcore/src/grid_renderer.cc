@@ -28,7 +28,7 @@ bool SamePose(const SE2& a, const SE2& b) {
 
 }  // namespace
 
-Status GlobalGridRenderer::ValidatePatch(NodeId node, const LocalMapEvent& patch) const {
+Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch) {
   const std::string where = "local map of node " + std::to_string(node);
   if (patch.width <= 0 || patch.height <= 0 || patch.width > kMaxGridSide || patch.height > kMaxGridSide) {
     return InvalidArgument(where + ": bad size " + std::to_string(patch.width) + " x " +
@@ -48,7 +48,7 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (const auto& [node, patch] : map.local_maps) {
     if (!map.graph.HasNode(node)) continue;  // a patch of a removed node is not part of the map
-    RETURN_IF_ERROR(ValidatePatch(node, patch));
+    RETURN_IF_ERROR(ValidateLocalMap(node, patch));
     for (const Vector2& corner : PatchCorners(map.graph.node(node).pose, patch)) {
       if (!corner.allFinite())
         return InvalidArgument("node " + std::to_string(node) + ": pose is not finite");
@@ -111,7 +111,7 @@ Status GlobalGridRenderer::Update(const Map& map, int* nodes_rerendered) {
         existing->second.patch_width == patch.width && existing->second.patch_height == patch.height) {
       continue;
     }
-    RETURN_IF_ERROR(ValidatePatch(node, patch));
+    RETURN_IF_ERROR(ValidateLocalMap(node, patch));
     Contribution contribution;
     if (!Vote(pose, patch, &contribution)) return RenderAll(map);  // left the bounds: grow them
     if (existing != contributions_.end()) retire(existing->second);

@@ -7,6 +7,8 @@
 #include <map>
 #include <string>
 
+#include "slamcore/occupancy_grid.h"
+
 namespace slamcore {
 namespace {
 
@@ -16,12 +18,6 @@ constexpr double kShadowDepthM = 0.15;     // how far past a wall the view must 
 std::int8_t PatchCell(const LocalMapEvent& patch, int col, int row) {
   if (col < 0 || row < 0 || col >= patch.width || row >= patch.height) return -1;
   return patch.cells[static_cast<std::size_t>(row) * patch.width + col];
-}
-
-/// A patch whose cells can be read (the renderer refuses the others too; here they are no view at all).
-bool WellFormed(const LocalMapEvent& patch) {
-  return patch.width > 0 && patch.height > 0 && patch.resolution > 0.0 && std::isfinite(patch.resolution) &&
-         patch.cells.size() == static_cast<std::size_t>(patch.width) * static_cast<std::size_t>(patch.height);
 }
 
 /// The cell of `patch` under `in_node` (a point in the patch's node frame).
@@ -127,7 +123,8 @@ Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetecti
       if (!walked.insert(node).second) break;  // a cycle of motion edges (a malformed map): stop there
       const SE2& pose = graph.node(node).pose;
       const LocalMapEvent* view = nullptr;
-      if (const auto it = map.local_maps.find(node); it != map.local_maps.end() && WellFormed(it->second))
+      if (const auto it = map.local_maps.find(node);
+          it != map.local_maps.end() && ValidateLocalMap(node, it->second).ok())
         view = &it->second;
       if (reference != nullptr && node != start) {
         const SE2 reference_T_world = world_T_reference.inverse();

@@ -84,6 +84,10 @@ Result<std::string> EncodePng(const OccupancyGrid& grid);
 Result<std::string> ReadFileBytes(const std::string& path);
 Status WriteFileBytes(const std::string& path, const std::string& bytes);
 
+/// Checks that node `node`'s local map can be read cell by cell: a size within kMaxGridSide, width × height
+/// cells and a positive, finite resolution. Every reader of patches (the renderer, slip detection) asks it.
+Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch);
+
 /// Renders the global grid of a Map from its local patches at the nodes' current poses (paper II/IV-C:
 /// the occupancy map is a function of the graph, so it must follow every optimisation).
 ///
@@ -114,7 +118,6 @@ class GlobalGridRenderer {
     std::vector<std::int32_t> cells;  // global cell indices voted, with the vote in `occupied`
     std::vector<bool> occupied;
   };
-  Status ValidatePatch(NodeId node, const LocalMapEvent& patch) const;
   bool Vote(const SE2& node_pose, const LocalMapEvent& patch, Contribution* contribution) const;
   void Apply(const Contribution& contribution, int sign);
   void Resolve(std::int32_t cell);
