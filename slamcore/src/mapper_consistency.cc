@@ -61,6 +61,15 @@ using internal::Hypothesis;
 using internal::HypothesisObservation;
 using internal::PoseGaussian;
 
+double Mapper::Impl::DeclaredNoiseScale() const {
+  const ConsistencyParams& consistency = params_.consistency;
+  if (!consistency.enabled || !marginals_ ||
+      marginals_->redundancy() < consistency.min_redundancy_for_scaling) {
+    return 1.0;
+  }
+  return std::clamp(marginals_->variance_factor(), consistency.min_variance_factor, 1.0);
+}
+
 std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   const NodeId robot = *current_node_;
   if (!map_.graph.SameComponent(node, robot)) return std::nullopt;
@@ -70,11 +79,8 @@ std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   }
   // robot_T_node = robot_T_newest · newest_T_node: the chain since the factorisation, then the map.
   PoseGaussian newest_T_node = marginals_->Relative(marginals_->newest_node(), node);
-  if (marginals_->redundancy() >= params_.consistency.min_redundancy_for_scaling) {
-    // The map's covariance as the noise met so far says, never above what was declared.
-    newest_T_node.covariance *=
-        std::clamp(marginals_->variance_factor(), params_.consistency.min_variance_factor, 1.0);
-  }
+  // The map's covariance as the noise met so far says, never above what was declared.
+  newest_T_node.covariance *= DeclaredNoiseScale();
   const Matrix3 covariance = internal::Compose(robot_T_factorized_, newest_T_node).covariance;
   return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
 }

@@ -15,6 +15,11 @@
 //    (Σ_rel ← Σ_z of that observation, or Σ_G of an accepted hypothesis; both live in the robot frame like
 //    Σ_rel) or the start of a component (Σ_rel ← 0). The map itself is treated as certain here. The test is
 //    eq. (4): R = z·ẑ⁻¹, Σ_R = Adj_R Σ_rel Adj_Rᵀ + Σ_z, ln(R)ᵀ Σ_R⁻¹ ln(R) ≤ gate_chi2.
+//    With the consistency checks on, Σ_rel is scaled by the a-posteriori variance factor of the component
+//    (DeclaredNoiseScale) for both the gate and the "too uncertain for a direct edge" limit: odometry that
+//    declares several times the noise the map's residuals meet would otherwise send every observation
+//    after a few metres to the recovery filter as "uncertain", and open the gate to wrong matches within
+//    the declared noise of the truth.
 //    Since Σ_rel is reset on acceptance, G must reflect the accepted edge: with optimize_after_accept a
 //    direct edge re-optimises a local window (the robot's last `local_window_nodes` nodes, everything
 //    older held), so the recent trajectory agrees with it at O(window) cost; every
@@ -155,6 +160,11 @@ class Mapper::Impl {
   /// Whether a test with this largest position variance (of its innovation) against `gate_chi2` is
   /// informative: an aliasing offset of consistency.aliasing_offset metres would have failed it.
   bool AliasingOffsetWouldFail(double largest_variance, double gate_chi2) const;
+  /// The factor by which the declared covariances overstate the noise the robot's component meets: the
+  /// a-posteriori variance factor of the last factorisation of the marginals, clamped to
+  /// [consistency.min_variance_factor, 1], once its redundancy reaches consistency.min_redundancy_for_scaling;
+  /// else (and with the consistency checks off) 1.
+  double DeclaredNoiseScale() const;
   /// robot_T_node from G with the map's marginal covariance between the two; nullopt when unavailable.
   std::optional<internal::PoseGaussian> MapPrediction(NodeId node);
   /// robot_T_node with a covariance no smaller than MapPrediction's, from marginals factorised before

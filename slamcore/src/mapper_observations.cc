@@ -39,7 +39,9 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
   // A robot that has driven far since it was last anchored is too uncertain for one observation to be
   // trusted: a wide gate would let any wrong match through. Such observations must gather support as a
   // recovery hypothesis (III-B); they say nothing about the view being ambiguous.
-  const double position_sigma = std::sqrt(internal::LargestPositionVariance(robot_relative_covariance_));
+  // Σ_rel as the noise the map meets says (mapper_impl.h, "Gate covariance for direct observations").
+  const Matrix3 relative_covariance = robot_relative_covariance_ * DeclaredNoiseScale();
+  const double position_sigma = std::sqrt(internal::LargestPositionVariance(relative_covariance));
   if (position_sigma > params_.direct_max_position_sigma) {
     RouteToFilter(
         HypothesisKind::kRecovery, event, view_node,
@@ -48,7 +50,7 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
   }
   // Direct gate, eq. (4) with the prediction from G and Σ_rel (mapper_impl.h).
   const PoseGaussian predicted{map_.graph.node(robot).pose.inverse() * map_.graph.node(view_node).pose,
-                               robot_relative_covariance_};
+                               relative_covariance};
   const internal::Innovation innovation =
       internal::ComputeInnovation(predicted, {event.robot_T_view, event.covariance});
   if (innovation.mahalanobis2 <= params_.gate_chi2) {

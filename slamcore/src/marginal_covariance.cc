@@ -127,17 +127,19 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
 Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) const {
   // With P H Pᵀ = L Lᵀ, the blocks asked for are Eᵀ H⁻¹ E = Yᵀ Y with Y = L⁻¹ P E. A column of Y, L⁻¹ e_p,
   // is nonzero only on the elimination tree's path from p to the root (the parent of column j is its first
-  // row below the diagonal), so forward substitution walks that path alone, and two columns meet only
-  // where their paths join (Davis, "Direct Methods for Sparse Linear Systems", SIAM 2006, §4.1).
+  // row below the diagonal), so forward substitution walks that path alone (Davis, "Direct Methods for
+  // Sparse Linear Systems", SIAM 2006, §4.1). Two paths of a tree, once they meet, run together to the
+  // root: the dot product of two columns is over the common tail alone, found from where they meet.
   const cholmod_factor& lower = *factor_->factor;
   const int* column_start = static_cast<const int*>(lower.p);
   const int* row_of = static_cast<const int*>(lower.i);
   const double* value_of = static_cast<const double*>(lower.x);
   struct PathColumn {
-    std::vector<int> rows;  // ascending
+    std::vector<int> rows;  // the path, ascending
     std::vector<double> values;
   };
-  std::vector<double> scratch(static_cast<std::size_t>(factor_->size), 0.0);
+  const auto size = static_cast<std::size_t>(factor_->size);
+  std::vector<double> scratch(size, 0.0);
   const auto solve_unit = [&](int start) {
     PathColumn column;
     scratch[static_cast<std::size_t>(start)] = 1.0;
@@ -169,23 +171,27 @@ Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) con
     }
   }
   Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(3 * k, 3 * k);
+  std::vector<int> place_on_path(size, -1);  // row → its place on the first column's path
   for (int a = 0; a < 3 * k; ++a) {
     const PathColumn& first = columns[static_cast<std::size_t>(a)];
+    for (std::size_t i = 0; i < first.rows.size(); ++i) {
+      place_on_path[static_cast<std::size_t>(first.rows[i])] = static_cast<int>(i);
+    }
     for (int b = a; b < 3 * k; ++b) {
       const PathColumn& second = columns[static_cast<std::size_t>(b)];
+      std::size_t j = 0;
+      while (j < second.rows.size() && place_on_path[static_cast<std::size_t>(second.rows[j])] < 0) ++j;
       double sum = 0.0;
-      for (std::size_t i = 0, j = 0; i < first.rows.size() && j < second.rows.size();) {
-        if (first.rows[i] < second.rows[j]) {
-          ++i;
-        } else if (second.rows[j] < first.rows[i]) {
-          ++j;
-        } else {
-          sum += first.values[i] * second.values[j];
-          ++i, ++j;
-        }
+      if (j < second.rows.size()) {
+        // From here both paths are the same rows, in the same (ascending) order.
+        const std::size_t i =
+            static_cast<std::size_t>(place_on_path[static_cast<std::size_t>(second.rows[j])]);
+        const std::size_t common = second.rows.size() - j;
+        for (std::size_t t = 0; t < common; ++t) sum += first.values[i + t] * second.values[j + t];
       }
       joint(a, b) = joint(b, a) = sum;
     }
+    for (const int row : first.rows) place_on_path[static_cast<std::size_t>(row)] = -1;
   }
   return joint;
 }

@@ -195,8 +195,11 @@ double FullSolveChi2(const PoseGraph& graph) {
 
 struct EquivalenceCase {
   const char* graph;
-  /// Loop closures the two back-ends may decide differently: 0 but on SE-Sync's Manhattan, whose real noise
-  /// leaves closures at the edge of the gates (see the README, Measured).
+  /// Loop closures the two back-ends may decide differently. The direct gate uses the robot's uncertainty as
+  /// the noise the map meets says (DeclaredNoiseScale), tight where a file declares far more noise than its
+  /// residuals show, so a closure at the gate's edge can go either way with estimates that differ within
+  /// the back-ends' tolerances: 1–5 on Intel (Vertigo), CSAIL and Manhattan; about a hundred on SE-Sync's
+  /// Manhattan, whose real noise leaves many closures at the edge (see the README, Measured).
   std::size_t differing_decisions;
   friend void PrintTo(const EquivalenceCase& test_case, std::ostream* out) { *out << test_case.graph; }
 };
@@ -263,12 +266,12 @@ TEST_P(BackendEquivalenceTest, WithTheConsistentSetCheckBothEndAtTheOptimum) {
 
 INSTANTIATE_TEST_SUITE_P(
     SharedGraphs, BackendEquivalenceTest,
-    ::testing::Values(EquivalenceCase{"vertigo/ring.g2o", 0}, EquivalenceCase{"vertigo/intel.g2o", 0},
-                      EquivalenceCase{"sesync/CSAIL.g2o", 0}, EquivalenceCase{"sesync/MIT.g2o", 0},
+    ::testing::Values(EquivalenceCase{"vertigo/ring.g2o", 0}, EquivalenceCase{"vertigo/intel.g2o", 3},
+                      EquivalenceCase{"sesync/CSAIL.g2o", 3}, EquivalenceCase{"sesync/MIT.g2o", 0},
                       EquivalenceCase{"vertigo/ringCity.g2o", 0},
-                      EquivalenceCase{"vertigo/manhattanOlson3500_olson.g2o", 0},
-                      EquivalenceCase{"vertigo/manhattanOlson3500_g2o.g2o", 0},
-                      EquivalenceCase{"sesync/intel.g2o", 0}, EquivalenceCase{"sesync/manhattan.g2o", 80}),
+                      EquivalenceCase{"vertigo/manhattanOlson3500_olson.g2o", 8},
+                      EquivalenceCase{"vertigo/manhattanOlson3500_g2o.g2o", 8},
+                      EquivalenceCase{"sesync/intel.g2o", 0}, EquivalenceCase{"sesync/manhattan.g2o", 120}),
     [](const auto& test_case) {
       std::string name = test_case.param.graph;
       for (char& c : name) {

@@ -131,6 +131,68 @@ TEST(MarginalCovariancesTest, AnAddedEdgeNeverMakesTwoPlacesLessSureOfEachOther)
   }
 }
 
+// Joint reads H⁻¹ from the sparse factor along elimination-tree paths; on a graph with many loops (a 6 × 6
+// grid of slightly perturbed poses, every neighbour pair an edge) its blocks must equal the dense inverse
+// of H = Σ Jᵀ Ω J assembled here from the same edge Jacobians, the gauge node's rows and columns zero.
+TEST(MarginalCovariancesTest, JointEqualsTheDenseInverseOnAGraphWithManyLoops) {
+  constexpr int kSide = 6;
+  PoseGraph graph;
+  const auto id = [](int row, int column) { return row * kSide + column; };
+  for (int row = 0; row < kSide; ++row) {
+    for (int column = 0; column < kSide; ++column) {
+      const double wobble = 0.01 * ((row * 7 + column * 3) % 5);
+      ASSERT_THAT(
+          graph.AddNode(Node{.id = id(row, column), .pose = SE2(column + wobble, row - wobble, wobble)}),
+          IsOk());
+    }
+  }
+  for (int row = 0; row < kSide; ++row) {
+    for (int column = 0; column < kSide; ++column) {
+      for (const auto& [to_row, to_column] : {std::pair{row, column + 1}, std::pair{row + 1, column}}) {
+        if (to_row >= kSide || to_column >= kSide) continue;
+        Edge edge{.from = id(row, column),
+                  .to = id(to_row, to_column),
+                  .measurement = (to_row == row ? SE2(1, 0, 0) : SE2(0, 1, 0))};
+        edge.information =
+            EdgeInformationFromLeftCovariance(edge.measurement, Vector3(0.01, 0.02, 0.003).asDiagonal());
+        ASSERT_THAT(graph.AddEdge(edge), IsOk());
+      }
+    }
+  }
+  const int unknowns = 3 * (kSide * kSide - 1);  // node 0 is the gauge
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(unknowns, unknowns);
+  for (const Edge& edge : graph.edges()) {
+    Matrix3 d_from, d_to;
+    EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
+    const std::pair<NodeId, const Matrix3*> ends[] = {{edge.from, &d_from}, {edge.to, &d_to}};
+    for (const auto& [a, jacobian_a] : ends) {
+      for (const auto& [b, jacobian_b] : ends) {
+        if (a == 0 || b == 0) continue;
+        information.block<3, 3>(3 * (a - 1), 3 * (b - 1)) +=
+            jacobian_a->transpose() * edge.information * *jacobian_b;
+      }
+    }
+  }
+  const Eigen::MatrixXd covariance = information.inverse();
+  const auto marginals = internal::MarginalCovariances::Factorize(graph, 0);
+  ASSERT_TRUE(marginals.has_value());
+  const std::vector<NodeId> nodes = {35, 0, 7, 14, 30, 5, 21};  // corners, the gauge, the middle
+  const Eigen::MatrixXd joint = marginals->Joint(nodes);
+  for (std::size_t a = 0; a < nodes.size(); ++a) {
+    for (std::size_t b = 0; b < nodes.size(); ++b) {
+      const Eigen::Matrix3d expected =
+          nodes[a] == 0 || nodes[b] == 0
+              ? Eigen::Matrix3d::Zero()
+              : Eigen::Matrix3d(covariance.block<3, 3>(3 * (nodes[a] - 1), 3 * (nodes[b] - 1)));
+      const Eigen::Matrix3d actual = joint.block<3, 3>(3 * static_cast<int>(a), 3 * static_cast<int>(b));
+      EXPECT_LT((actual - expected).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + expected.cwiseAbs().maxCoeff()))
+          << "nodes " << nodes[a] << ", " << nodes[b] << "\nexpected\n"
+          << expected << "\nactual\n"
+          << actual;
+    }
+  }
+}
+
 // Wheel stasis as in mapper_test.cc's RecoveryTest: the robot stands at x = 1 while odometry (σ² = 1e-2 per
 // axis and step) claims x = 2; exact observations (σ² = 1e-4) of views 1 (x = 0) and 2 (x = 1).
 class StasisTest : public ::testing::Test {
@@ -224,6 +286,56 @@ TEST_F(StasisTest, AfterADirectEdgeTheMapTestUsesTheStaleMarginalsAsABound) {
   EXPECT_THAT(accepted->reason, HasSubstr("d²≥"));
   EXPECT_THAT(accepted->reason, HasSubstr("2 of 2 passes"));
   EXPECT_NEAR(mapper_->map().graph.node(2).pose.x(), 1.0, 0.02);
+}
+
+// Odometry that declares far more noise than it has (exact motion reported with σ² = 0.02 per axis and
+// step). Once the map has loops enough to show it (redundancy ≥ 30, and with exact odometry and
+// observations χ² = 0, so the variance factor is clamped at min_variance_factor = 0.01), Σ_rel is scaled
+// by it: after ten more steps the robot is σ_y ≈ 2.7 m unsure by the declared noise (heading variance 0.02
+// per step, ten steps of 1 m: Σ_yy ≈ 0.02 · (1² + … + 10²) = 7.7), 0.27 m by the noise met, and an exact
+// observation becomes a direct edge instead of going to the recovery filter as "too uncertain".
+std::unique_ptr<Mapper> RunWithOverstatedOdometry(const MapperParams& params) {
+  auto mapper = MakeMapper(params);
+  SimulatedRobot robot(*mapper);
+  constexpr double kDeclared = 0.02;
+  robot.Drive(SE2::Identity(), std::nullopt, kDeclared);
+  robot.CreateView(1);
+  // Two stretches of twelve views, each ended by a recovery (the robot too unsure for direct edges) whose
+  // map test factorises the marginals; after the first, the views behind are observed as direct edges.
+  ViewId next_view = 2;
+  for (int stretch = 0; stretch < 2; ++stretch) {
+    for (int k = 0; k < 12; ++k) {
+      robot.Drive(SE2(1.0, 0.0, 0.0), std::nullopt, kDeclared);
+      robot.CreateView(next_view++);
+    }
+    robot.Drive(SE2(1.0, 0.0, 0.0), std::nullopt, kDeclared);
+    for (const ViewId view : {next_view - 1, next_view - 2, next_view - 3})
+      robot.Observe(view, SE2::Identity(), 1e-4);
+    if (stretch == 0) {
+      for (ViewId view = 1; view <= 10; ++view) robot.Observe(view, SE2::Identity(), 1e-4);
+    }
+  }
+  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1.0, 0.0, 0.0), std::nullopt, kDeclared);
+  robot.Observe(next_view - 1, SE2::Identity(), 1e-4);
+  return mapper;
+}
+
+TEST(DeclaredNoiseTest, TheMapsVarianceFactorScalesTheRobotsUncertaintyForTheDirectGate) {
+  MapperParams params = testing::TestParams();
+  params.consistency.min_passes_uninformative = 1;  // each stretch's recovery is accepted at its first pass
+  params.consistency.verify_after_optimization = false;
+  const auto scaled = RunWithOverstatedOdometry(params);
+  ASSERT_NE(scaled, nullptr);
+  ASSERT_EQ(scaled->Statistics().recovery_accepted, 2);
+  EXPECT_EQ(scaled->decisions().back().kind, DecisionKind::kDirectEdge) << scaled->decisions().back().reason;
+
+  params.consistency.min_redundancy_for_scaling = 1 << 30;  // never scaled: the declared noise stands
+  const auto declared = RunWithOverstatedOdometry(params);
+  ASSERT_NE(declared, nullptr);
+  ASSERT_EQ(declared->Statistics().recovery_accepted, 2);
+  const Decision& last = declared->decisions().back();
+  EXPECT_EQ(last.kind, DecisionKind::kHypothesisCreated);
+  EXPECT_THAT(last.reason, HasSubstr("robot too uncertain"));
 }
 
 TEST_F(StasisTest, TheMapTestReportsItsChi2) {

@@ -37,9 +37,10 @@ struct ConsistencyParams {
   /// Joint test of a hypothesis against the map: χ² (3 dof) of its state against the map's prediction with
   /// the marginal covariance between the two ends. 16.27 is the 99.9 % quantile.
   double map_gate_chi2 = 16.27;
-  /// The map's covariance is scaled by the a-posteriori variance factor χ²/redundancy of its component
-  /// (never up, never below min_variance_factor) once the redundancy reaches this: declared odometry noise
-  /// is often far above the noise met, which would make every test uninformative.
+  /// The map's covariance, and the robot's relative uncertainty Σ_rel of the direct gate, are scaled by the
+  /// a-posteriori variance factor χ²/redundancy of its component (never up, never below
+  /// min_variance_factor) once the redundancy reaches this: declared odometry noise is often far above the
+  /// noise met, which would make every test uninformative and every robot "too uncertain" after metres.
   int min_redundancy_for_scaling = 30;
   double min_variance_factor = 0.01;
   /// The test is informative when an aliasing offset of this size (metres, in the direction the map is least
@@ -101,8 +102,10 @@ struct MapperParams {
   /// observation edges against the current estimate and for joining an observation to a hypothesis.
   double gate_chi2 = 7.81;
   /// A direct edge also needs the robot to be sure of its position relative to where it was last anchored:
-  /// above this standard deviation (metres, largest axis of Σ_rel) observations go to the recovery filter
-  /// and need the support of several views, since a wide gate would pass wrong matches.
+  /// above this standard deviation (metres, largest axis of Σ_rel; with the consistency checks on, Σ_rel
+  /// scaled as the map's a-posteriori variance factor says, see consistency.min_redundancy_for_scaling)
+  /// observations go to the recovery filter and need the support of several views, since a wide gate would
+  /// pass wrong matches.
   double direct_max_position_sigma = 0.5;
 
   /// Recovery hypotheses (observations in the current component that failed the gate).
