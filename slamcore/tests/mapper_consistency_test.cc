@@ -291,9 +291,10 @@ TEST_F(StasisTest, AfterADirectEdgeTheMapTestUsesTheStaleMarginalsAsABound) {
 // Odometry that declares far more noise than it has (exact motion reported with σ² = 0.02 per axis and
 // step). Once the map has loops enough to show it (redundancy ≥ 30, and with exact odometry and
 // observations χ² = 0, so the variance factor is clamped at min_variance_factor = 0.01), Σ_rel is scaled
-// by it: after ten more steps the robot is σ_y ≈ 2.7 m unsure by the declared noise (heading variance 0.02
-// per step, ten steps of 1 m: Σ_yy ≈ 0.02 · (1² + … + 10²) = 7.7), 0.27 m by the noise met, and an exact
-// observation becomes a direct edge instead of going to the recovery filter as "too uncertain".
+// by it: after ten more steps the robot is σ_y ≈ 2.8 m unsure by the declared noise (heading variance 0.02
+// per step carried over ten steps of 1 m, 0.02 · (1² + … + 10²) = 7.7, plus 0.02 per step across), ≈ 0.28 m
+// by the noise met — under the 0.5 m limit — and an exact observation becomes a direct edge instead of
+// going to the recovery filter as "too uncertain". The first stretch's 13 closures give redundancy 39.
 std::unique_ptr<Mapper> RunWithOverstatedOdometry(const MapperParams& params) {
   auto mapper = MakeMapper(params);
   SimulatedRobot robot(*mapper);
