@@ -150,9 +150,10 @@ TEST(MarginalCovariancesTest, JointEqualsTheDenseInverseOnAGraphWithManyLoops) {
     for (int column = 0; column < kSide; ++column) {
       for (const auto& [to_row, to_column] : {std::pair{row, column + 1}, std::pair{row + 1, column}}) {
         if (to_row >= kSide || to_column >= kSide) continue;
-        Edge edge{.from = id(row, column),
-                  .to = id(to_row, to_column),
-                  .measurement = (to_row == row ? SE2(1, 0, 0) : SE2(0, 1, 0))};
+        Edge edge;
+        edge.from = id(row, column);
+        edge.to = id(to_row, to_column);
+        edge.measurement = to_row == row ? SE2(1, 0, 0) : SE2(0, 1, 0);
         edge.information =
             EdgeInformationFromLeftCovariance(edge.measurement, Vector3(0.01, 0.02, 0.003).asDiagonal());
         ASSERT_THAT(graph.AddEdge(edge), IsOk());
