@@ -44,6 +44,7 @@ struct RobotSimulator::State {
   std::mt19937_64 random;
   double wheel_scale = 1.0;  // systematic odometry error of this robot
   RangeSensor sensor;        // this robot's model's ranging sensor
+  MapHealthMeter meter;      // the home's true floor, dilated once: which region cells are false floor
   slamcore::Map map;         // the robot's map, carried from run to run
   std::vector<ViewRecord> views;
   std::unordered_map<int, std::vector<std::size_t>> views_of_landmark;
@@ -55,7 +56,7 @@ struct RobotSimulator::State {
   std::unordered_map<slamcore::NodeId, SE2> node_truth;  // every node of every run
 
   State(const World& w, const SimParams& p, std::string id, std::string fw, std::uint64_t seed)
-      : world(w), params(p), robot_id(std::move(id)), firmware(std::move(fw)), random(seed) {
+      : world(w), params(p), robot_id(std::move(id)), firmware(std::move(fw)), random(seed), meter(w) {
     std::normal_distribution<double> scale(1.0, params.odometry_scale_error);
     wheel_scale = scale(random);
     sensor = DrawSensor(params, random);
@@ -442,8 +443,7 @@ slamcore::Status Run::LabelRegions() {
                    analyzer::ClassifyRegions(parent_, s_.map, grids, regions, classifier.get()));
   // Whether a region is floor the home does not have (≥ half of its free cells farther than the map-health
   // margin from true floor): false space whatever drew it (a slip, drift, a wrong loop closure).
-  ASSIGN_OR_RETURN(const auto false_floor,
-                   MapHealthMeter(s_.world).FalseFloor(s_.map, s_.node_truth, grids.child));
+  ASSIGN_OR_RETURN(const auto false_floor, s_.meter.FalseFloor(s_.map, s_.node_truth, grids.child));
   for (std::size_t k = 0; k < regions.size(); ++k) {
     const bool protrusion = truth.region_is_covered[k];
     ++(protrusion ? outcome_.truth_protrusion_regions : outcome_.truth_new_space_regions);
