@@ -29,16 +29,18 @@ bool SamePose(const SE2& a, const SE2& b) {
 }  // namespace
 
 Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch) {
-  const std::string where = "local map of node " + std::to_string(node);
+  // Called for every patch a rendering or the slip detector reads: the message is built only on failure.
+  const auto refuse = [&](const std::string& what) {
+    return InvalidArgument("local map of node " + std::to_string(node) + ": " + what);
+  };
   if (patch.width <= 0 || patch.height <= 0 || patch.width > kMaxGridSide || patch.height > kMaxGridSide) {
-    return InvalidArgument(where + ": bad size " + std::to_string(patch.width) + " x " +
-                           std::to_string(patch.height));
+    return refuse("bad size " + std::to_string(patch.width) + " x " + std::to_string(patch.height));
   }
   if (patch.cells.size() != static_cast<std::size_t>(patch.width) * patch.height) {
-    return InvalidArgument(where + ": cells do not match width x height");
+    return refuse("cells do not match width x height");
   }
   if (!(patch.resolution > 0.0) || !std::isfinite(patch.resolution)) {
-    return InvalidArgument(where + ": resolution must be positive");
+    return refuse("resolution must be positive");
   }
   return Status::Ok();
 }
