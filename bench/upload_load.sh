@@ -4,7 +4,7 @@
 # acknowledged runs, and stops everything again.
 #
 #   upload_load.sh BIN_DIR SHARED_DATA_DIR [--robots N] [--seconds S] [--topology single|scaleout]
-#                  [--rate-limit R] [-- UPLOAD_LOAD_ARGS...]
+#                  [--rate-limit R] [--drain-timeout D] [-- UPLOAD_LOAD_ARGS...]
 #
 # scaleout (default): a throwaway PostgreSQL 15 (started as tests/scaleout/scaleout_fault_test.sh does), two
 #   `fleetd --role server` and two `fleetd --role worker`; robots alternate between the two servers.
@@ -15,13 +15,17 @@
 # refusals show up as RESOURCE_EXHAUSTED errors in the table. (One robot token per robot would be closer to
 # production, but every server would then verify 500 PBKDF2 hashes of 600k iterations each at the start of
 # the load — minutes of CPU on a small machine — and the test would measure that instead of ingest.)
+#
+# After the storage check the script waits for the analysis workers to drain the jobs still queued or leased
+# (issue 18's goal: within 2x the upload time), polling once a second for at most --drain-timeout seconds
+# (default 600; 0: do not wait), and prints how long that took after the load ended.
 set -euo pipefail
-usage() { echo "usage: $0 BIN_DIR SHARED_DATA_DIR [--robots N] [--seconds S] [--topology single|scaleout] [--rate-limit R] [-- UPLOAD_LOAD_ARGS...]" >&2; exit 2; }
+usage() { echo "usage: $0 BIN_DIR SHARED_DATA_DIR [--robots N] [--seconds S] [--topology single|scaleout] [--rate-limit R] [--drain-timeout D] [-- UPLOAD_LOAD_ARGS...]" >&2; exit 2; }
 (($# >= 2)) || usage
 bin=$(realpath "$1")
 data=$(realpath "$2")
 shift 2
-robots=500 seconds=60 topology=scaleout rate_limit=0
+robots=500 seconds=60 topology=scaleout rate_limit=0 drain_timeout=600
 extra=()
 while (($#)); do
   case $1 in
@@ -29,6 +33,7 @@ while (($#)); do
     --seconds) seconds=${2:?}; shift 2 ;;
     --topology) topology=${2:?}; shift 2 ;;
     --rate-limit) rate_limit=${2:?}; shift 2 ;;
+    --drain-timeout) drain_timeout=${2:?}; shift 2 ;;
     --) shift; extra=("$@"); break ;;
     *) usage ;;
   esac
@@ -92,6 +97,7 @@ set +e
 "$bin/upload_load" --server "$servers" --robots "$robots" --seconds "$seconds" --world "$data/floorplans" --json \
   "${extra[@]}" | tee "$work/upload_load.txt"
 load_rc=${PIPESTATUS[0]}
+load_ended=$SECONDS
 set -e
 ((load_rc == 0)) || fail "upload_load exited with $load_rc"
 tail -1 "$work/upload_load.txt" >"$work/upload_load.json"
@@ -116,4 +122,25 @@ elif ((stored > expected && stored - expected <= errors)); then
   echo "storage check: $stored runs stored, $expected acknowledged; the $((stored - expected)) extra are among the $errors uploads reported as errors: OK"
 else
   fail "storage check: $stored runs stored, but $expected new uploads were acknowledged ($errors errors)"
+fi
+
+# ---- How long the analysis workers take to catch up ------------------------------------------------------
+unfinished_sql="SELECT count(*) FROM jobs WHERE state IN ('queued', 'leased')"
+unfinished=$(count_sql "$unfinished_sql")
+echo "analysis jobs unfinished at the end of the load: $unfinished (queued or leased)"
+if ((drain_timeout > 0)); then
+  drain_started=$SECONDS
+  while ((unfinished > 0 && SECONDS - drain_started < drain_timeout)); do
+    sleep 1
+    unfinished=$(count_sql "$unfinished_sql")
+  done
+  after_load=$((SECONDS - load_ended))
+  final=$(count_sql "SELECT state || ' ' || count(*) FROM jobs GROUP BY state ORDER BY state" | paste -sd, - | sed 's/,/, /g')
+  if ((unfinished == 0)); then
+    verdict=$( ((after_load <= 2 * ${seconds%.*})) && echo "within" || echo "beyond")
+    echo "analysis backlog drained ${after_load} s after the load ended ($verdict 2x the upload time;" \
+      "load and drain $((${seconds%.*} + after_load)) s); jobs: $final"
+  else
+    echo "analysis backlog NOT drained ${after_load} s after the load ended (--drain-timeout $drain_timeout): $unfinished unfinished; jobs: $final"
+  fi
 fi

@@ -330,10 +330,15 @@ MapFigures ComputeFigures(const Map& map) {
 }
 
 Result<double> KnownArea(const Map& map) {
-  ASSIGN_OR_RETURN(auto grid, RenderHomeGrid(map));
-  const std::int64_t known =
-      static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(slamcore::CellState::kUnknown);
-  return static_cast<double>(known) * grid.resolution * grid.resolution;
+  // RenderHomeGrid's cells counted, not rendered: every analysed upload asks for its version's area.
+  if (map.graph.num_nodes() == 0) return 0.0;
+  std::set<NodeId> home;
+  for (const NodeId node : map.graph.NodesOf(HomeComponent(map.graph))) home.insert(node);
+  const Map part = ComponentMap(map, home);
+  if (part.local_maps.empty()) return 0.0;
+  slamcore::GlobalGridRenderer renderer;
+  ASSIGN_OR_RETURN(const std::int64_t known, renderer.CountKnownCells(part));
+  return static_cast<double>(known) * renderer.resolution() * renderer.resolution();
 }
 
 std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {

@@ -270,10 +270,24 @@ Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const sla
   return grids;
 }
 
-Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options) {
+Result<RunMaps> DecodeRunMaps(const fleet::v1::RunFile& run) {
   RETURN_IF_ERROR(Validate(run.header()));
-  ASSIGN_OR_RETURN(auto parent, FromProto(run.parent_snapshot(), "parent_snapshot"));
-  ASSIGN_OR_RETURN(auto uploaded_child, FromProto(run.child_snapshot(), "child_snapshot"));
+  RunMaps maps;
+  ASSIGN_OR_RETURN(maps.parent, FromProto(run.parent_snapshot(), "parent_snapshot"));
+  ASSIGN_OR_RETURN(maps.uploaded_child, FromProto(run.child_snapshot(), "child_snapshot"));
+  return maps;
+}
+
+Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const AnalysisOptions& options) {
+  ASSIGN_OR_RETURN(const RunMaps maps, DecodeRunMaps(run));
+  return AnalyzeRun(run, maps, options);
+}
+
+Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const RunMaps& maps,
+                                        const AnalysisOptions& options) {
+  RETURN_IF_ERROR(Validate(run.header()));
+  const slamcore::Map& parent = maps.parent;
+  const slamcore::Map& uploaded_child = maps.uploaded_child;
 
   const auto replay_start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(auto mapper, slamcore::Mapper::Create(options.mapper, parent));

@@ -104,6 +104,12 @@ TEST(MapRepairTest, FiguresCountTheMapAndItsKnownArea) {
   EXPECT_NEAR(figures.chi2, 0.0, 1e-9);
   // Two strips of patches 1 m tall, 6.5 m long, 2 m apart (the grid's cells are 0.05 m like the patches).
   EXPECT_NEAR(*known_area, 2 * 6.5, 0.6);
+  // Counted without rendering, it is the rendered home grid's known area exactly.
+  const auto grid = RenderHomeGrid(s.child);
+  ASSERT_THAT(grid, IsOk());
+  const auto known = static_cast<double>(static_cast<std::int64_t>(grid->cells.size()) -
+                                         grid->CountCells(slamcore::CellState::kUnknown));
+  EXPECT_EQ(*known_area, known * grid->resolution * grid->resolution);
 }
 
 TEST(MapRepairTest, RejectingAMergeHypothesisSplitsTheComponentsAgain) {

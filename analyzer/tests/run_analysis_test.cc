@@ -60,6 +60,34 @@ TEST(RunAnalysisTest, RerunWithTheRobotsParametersReproducesTheRobotsMap) {
   EXPECT_GT(report->rerun_child().nodes_size(), 0);
 }
 
+TEST(RunAnalysisTest, MapsDecodedOnceGiveTheSameReport) {
+  const auto runs = SimulatedRuns();
+  const auto maps = DecodeRunMaps(runs[1]);
+  ASSERT_THAT(maps, IsOk());
+  EXPECT_GT(maps->parent.graph.num_nodes(), 0u);
+  EXPECT_GT(maps->uploaded_child.graph.num_nodes(), maps->parent.graph.num_nodes());
+  auto decoded_once = AnalyzeRun(runs[1], *maps, {});
+  auto from_the_run = AnalyzeRun(runs[1], {});
+  ASSERT_THAT(decoded_once, IsOk());
+  ASSERT_THAT(from_the_run, IsOk());
+  // Everything but the timings.
+  for (fleet::v1::RunReport* report : {&*decoded_once, &*from_the_run}) {
+    report->clear_replay_seconds();
+    report->clear_detection_seconds();
+  }
+  EXPECT_EQ(decoded_once->SerializeAsString(), from_the_run->SerializeAsString());
+  // The snapshots are not read again: the maps given are the ones replayed from.
+  fleet::v1::RunFile without_snapshots = runs[1];
+  without_snapshots.clear_parent_snapshot();
+  without_snapshots.clear_child_snapshot();
+  auto given = AnalyzeRun(without_snapshots, *maps, {});
+  ASSERT_THAT(given, IsOk());
+  given->clear_replay_seconds();
+  given->clear_detection_seconds();
+  EXPECT_EQ(given->SerializeAsString(), from_the_run->SerializeAsString());
+  EXPECT_EQ(DecodeRunMaps(fleet::v1::RunFile{}).status().code(), slamcore::StatusCode::kInvalidArgument);
+}
+
 TEST(RunAnalysisTest, StricterParametersChangeTheDecisions) {
   const auto runs = SimulatedRuns();
   AnalysisOptions strict;

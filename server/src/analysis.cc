@@ -164,7 +164,8 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
       return slamcore::FailedPrecondition("analysis budget: job cancelled");
     return slamcore::Status::Ok();
   };
-  ASSIGN_OR_RETURN(auto report, analyzer::AnalyzeRun(file, options));
+  ASSIGN_OR_RETURN(auto maps, analyzer::DecodeRunMaps(file));
+  ASSIGN_OR_RETURN(auto report, analyzer::AnalyzeRun(file, maps, options));
   report.set_parameter_set(parameter_set);
   // The stored identity, whatever the telemetry's header says.
   report.set_robot_id(run.robot_id);
@@ -175,6 +176,8 @@ storage::Result<AnalysisResult> AnalyzeStoredRun(storage::Repository& repository
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   result.regions = static_cast<std::int64_t>(bundle.protrusion_regions.size());
   result.report = std::move(report);
+  result.maps = std::move(maps);
+  result.child_snapshot_id = run.child_snapshot_id.value_or("");
   return result;
 }
 

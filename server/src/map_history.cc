@@ -77,15 +77,35 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
 
 storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report) {
   if (report.parameter_set() != policy_.default_parameter_set) return storage::Status::Ok();
-  const std::string& run_id = run.run_id;
   auto version = repository_.GetMapVersionOfRun(run);
   if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
   RETURN_IF_ERROR(version.status());
   ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, version->snapshot_id));
-  ASSIGN_OR_RETURN(auto context, LoadRunContext(repository_, run, report.parameter_set()));
-  context.report = report;
-  const std::vector<fleet::v1::MapFinding> findings = Findings(loaded, context);
-  ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(loaded));
+  // The stored report is not read: it is `report`, which the findings are made from.
+  ASSIGN_OR_RETURN(auto run_parent, LoadRunParent(repository_, run));
+  return OnUploadAnalysed(run, report, *version, loaded, run_parent);
+}
+
+storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
+                                          const AnalysedMaps& maps) {
+  if (report.parameter_set() != policy_.default_parameter_set) return storage::Status::Ok();
+  auto version = repository_.GetMapVersionOfRun(run);
+  if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
+  RETURN_IF_ERROR(version.status());
+  if (version->snapshot_id == maps.child_snapshot_id)
+    return OnUploadAnalysed(run, report, *version, maps.uploaded_child, maps.parent);
+  ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, version->snapshot_id));
+  return OnUploadAnalysed(run, report, *version, loaded, maps.parent);
+}
+
+storage::Status MapHistory::OnUploadAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
+                                             const storage::MapVersionRecord& upload,
+                                             const slamcore::Map& map, const slamcore::Map& run_parent) {
+  const std::string& run_id = run.run_id;
+  const storage::MapVersionRecord* version = &upload;
+  const std::vector<fleet::v1::MapFinding> findings =
+      analyzer::FindMapFindings({.map = &map, .run_parent = &run_parent, .report = &report});
+  ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(map));
   ASSIGN_OR_RETURN(auto records, ToRecords(findings));
   RETURN_IF_ERROR(
       repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, records));

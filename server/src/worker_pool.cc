@@ -151,7 +151,10 @@ void WorkerPool::ProcessAnalysis(const storage::JobLease& lease) {
                                  {"seconds", analysed->seconds},
                                  {"regions", static_cast<long long>(analysed->regions)}});
       // The upload's map version gets its findings (and the repair policy its say); a failure retries the job.
-      status = MapHistory(repository_, options_.map_policy).OnRunAnalysed(run, analysed->report);
+      status = MapHistory(repository_, options_.map_policy)
+                   .OnRunAnalysed(
+                       run, analysed->report,
+                       {analysed->maps.parent, analysed->maps.uploaded_child, analysed->child_snapshot_id});
     } else if (analysed.status().code() == storage::StatusCode::kNotFound &&
                analysed.status().message().find("run") != std::string::npos &&
                repository_.GetRun(run).status().code() == storage::StatusCode::kNotFound) {

@@ -128,6 +128,37 @@ TEST_F(MapHistoryTest, WithoutAPolicyAProtrusionIsAnOpenFindingAndTheMapStays) {
   EXPECT_EQ(head, 2);
 }
 
+TEST_F(MapHistoryTest, TheMapsTheAnalysisDecodedGiveWhatStorageGives) {
+  MapHistory history(*repository_, {});
+  UploadBoth(history);
+  const fleet::v1::RunReport report = Report();
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, report), IsOk());
+  auto from_storage = history.Get("r1", 2);
+  ASSERT_THAT(from_storage, IsOk());
+  ASSERT_GT(from_storage->version.known_area_m2(), 0.0);
+  auto upload = repository_->GetMapVersionOfRun({"r1", "run-1"});
+  ASSERT_THAT(upload, IsOk());
+
+  ASSERT_THAT(repository_->UpdateMapVersionHealth("r1", 2, 0.0, {}), IsOk());
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, report, {parent_, child_, upload->snapshot_id}), IsOk());
+  auto from_worker = history.Get("r1", 2);
+  ASSERT_THAT(from_worker, IsOk());
+  EXPECT_EQ(from_worker->version.known_area_m2(), from_storage->version.known_area_m2());
+  ASSERT_EQ(from_worker->findings.size(), from_storage->findings.size());
+  for (std::size_t i = 0; i < from_worker->findings.size(); ++i) {
+    EXPECT_EQ(from_worker->findings[i].SerializeAsString(), from_storage->findings[i].SerializeAsString());
+  }
+
+  // The maps given are the ones used (storage is not read again): a bigger uploaded map, a bigger area...
+  slamcore::Map bigger = child_;
+  AddChain(bigger, 20, 10, 10.0, true);
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, report, {parent_, bigger, upload->snapshot_id}), IsOk());
+  EXPECT_GT(history.Get("r1", 2)->version.known_area_m2(), from_storage->version.known_area_m2());
+  // ...unless they were decoded from another snapshot than the version's: then the version's is read.
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, report, {parent_, bigger, "another snapshot"}), IsOk());
+  EXPECT_EQ(history.Get("r1", 2)->version.known_area_m2(), from_storage->version.known_area_m2());
+}
+
 TEST_F(MapHistoryTest, FindingsStoredWhileKindAndStateWereStringsReadAsBefore) {
   MapHistory history(*repository_, {});
   UploadBoth(history);

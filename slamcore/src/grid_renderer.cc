@@ -45,7 +45,7 @@ Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch) {
   return Status::Ok();
 }
 
-Status GlobalGridRenderer::RenderAll(const Map& map) {
+Result<OccupancyGrid> GlobalGridRenderer::Bounds(const Map& map) const {
   if (!(resolution_ > 0.0) || !std::isfinite(resolution_)) return InvalidArgument("renderer: bad resolution");
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (const auto& [node, patch] : map.local_maps) {
@@ -70,8 +70,12 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
     return InvalidArgument("renderer: the map spans an absurd area (" + std::to_string(width) + " x " +
                            std::to_string(height) + " cells)");
   }
-  ASSIGN_OR_RETURN(auto grid, OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height),
-                                                    resolution_, origin_x, origin_y));
+  return OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height), resolution_, origin_x,
+                               origin_y);
+}
+
+Status GlobalGridRenderer::RenderAll(const Map& map) {
+  ASSIGN_OR_RETURN(auto grid, Bounds(map));
   grid_ = std::move(grid);
   free_votes_.assign(grid_.cells.size(), 0);
   occupied_votes_.assign(grid_.cells.size(), 0);
@@ -126,12 +130,14 @@ Status GlobalGridRenderer::Update(const Map& map, int* nodes_rerendered) {
   return Status::Ok();
 }
 
-bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch,
-                              Contribution* contribution) const {
-  contribution->pose = node_pose;
-  contribution->node_T_origin = patch.node_T_origin;
-  contribution->patch_width = patch.width;
-  contribution->patch_height = patch.height;
+namespace {
+
+/// Calls visit(global cell, occupied) for every known patch cell's vote into `grid` (inverse mapping: each
+/// global cell centre in the patch's bounding box is looked up in the patch, so rotations leave no holes);
+/// false, visiting nothing, when the patch's bounding box leaves the grid.
+template <typename Visit>
+bool ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_pose,
+                 const LocalMapEvent& patch, Visit&& visit) {
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (const Vector2& corner : PatchCorners(node_pose, patch)) {
     min_x = std::min(min_x, corner.x());
@@ -139,30 +145,57 @@ bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch,
     max_x = std::max(max_x, corner.x());
     max_y = std::max(max_y, corner.y());
   }
-  const int col0 = static_cast<int>(std::floor((min_x - grid_.origin_x) / resolution_));
-  const int row0 = static_cast<int>(std::floor((min_y - grid_.origin_y) / resolution_));
-  const int col1 = static_cast<int>(std::ceil((max_x - grid_.origin_x) / resolution_));
-  const int row1 = static_cast<int>(std::ceil((max_y - grid_.origin_y) / resolution_));
-  if (!grid_.InBounds(col0, row0) || !grid_.InBounds(col1 - 1, row1 - 1)) return false;
-  // Inverse mapping: each global cell centre is looked up in the patch, so rotations leave no holes.
+  const int col0 = static_cast<int>(std::floor((min_x - grid.origin_x) / resolution));
+  const int row0 = static_cast<int>(std::floor((min_y - grid.origin_y) / resolution));
+  const int col1 = static_cast<int>(std::ceil((max_x - grid.origin_x) / resolution));
+  const int row1 = static_cast<int>(std::ceil((max_y - grid.origin_y) / resolution));
+  if (!grid.InBounds(col0, row0) || !grid.InBounds(col1 - 1, row1 - 1)) return false;
   const SE2 patch_T_world = (node_pose * patch.node_T_origin).inverse();
   const double inverse_patch_resolution = 1.0 / patch.resolution;
   for (int row = row0; row < row1; ++row) {
     for (int col = col0; col < col1; ++col) {
-      const Vector2 centre(grid_.origin_x + (col + 0.5) * resolution_,
-                           grid_.origin_y + (row + 0.5) * resolution_);
+      const Vector2 centre(grid.origin_x + (col + 0.5) * resolution,
+                           grid.origin_y + (row + 0.5) * resolution);
       const Vector2 local = patch_T_world * centre;
       const int patch_col = static_cast<int>(std::floor(local.x() * inverse_patch_resolution));
       const int patch_row = static_cast<int>(std::floor(local.y() * inverse_patch_resolution));
       if (patch_col < 0 || patch_row < 0 || patch_col >= patch.width || patch_row >= patch.height) continue;
       const std::int8_t value = patch.cells[static_cast<std::size_t>(patch_row) * patch.width + patch_col];
       if (value < 0) continue;  // unknown cells do not vote
-      contribution->cells.push_back(
-          static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid_.width + col));
-      contribution->occupied.push_back(value >= 50);
+      visit(static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid.width + col), value >= 50);
     }
   }
   return true;
+}
+
+}  // namespace
+
+bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch,
+                              Contribution* contribution) const {
+  contribution->pose = node_pose;
+  contribution->node_T_origin = patch.node_T_origin;
+  contribution->patch_width = patch.width;
+  contribution->patch_height = patch.height;
+  return ForEachVote(grid_, resolution_, node_pose, patch, [&](std::int32_t cell, bool occupied) {
+    contribution->cells.push_back(cell);
+    contribution->occupied.push_back(occupied);
+  });
+}
+
+Result<std::int64_t> GlobalGridRenderer::CountKnownCells(const Map& map) const {
+  ASSIGN_OR_RETURN(const OccupancyGrid bounds, Bounds(map));
+  // A cell RenderAll resolves is unknown exactly when no patch voted into it, free or occupied.
+  std::vector<std::uint8_t> voted(bounds.cells.size(), 0);
+  std::int64_t known = 0;
+  for (const auto& [node, patch] : map.local_maps) {
+    if (!map.graph.HasNode(node)) continue;
+    ForEachVote(bounds, resolution_, map.graph.node(node).pose, patch, [&](std::int32_t cell, bool) {
+      std::uint8_t& seen = voted[static_cast<std::size_t>(cell)];
+      known += seen == 0 ? 1 : 0;
+      seen = 1;
+    });
+  }
+  return known;
 }
 
 void GlobalGridRenderer::Apply(const Contribution& contribution, int sign) {

@@ -243,5 +243,31 @@ TEST(OccupancyGridRender, RefusesBadPatchesAndAbsurdExtents) {
   EXPECT_FALSE(renderer.RenderAll(Map{}).ok());
 }
 
+TEST(OccupancyGridRender, CountsTheKnownCellsOfTheRenderWithoutRenderingIt) {
+  Map map = MakeMap(30);
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> heading(-3.1, 3.1);
+  for (NodeId node = 0; node < 30; node += 3) {  // rotated patches, whose bounding boxes hold cells they miss
+    const SE2 pose = map.graph.node(node).pose;
+    map.graph.mutable_node(node).pose = SE2(pose.x(), pose.y(), heading(random));
+  }
+  map.local_maps[4].cells.assign(40 * 40, -1);    // a patch of unknown cells only votes nowhere
+  map.local_maps.emplace(99, map.local_maps[0]);  // a patch of a node the graph does not hold is no part
+  for (const Map& tried : {map, MakeMap(1)}) {
+    GlobalGridRenderer renderer;
+    ASSERT_THAT(renderer.RenderAll(tried), IsOk());
+    const OccupancyGrid& grid = renderer.grid();
+    const std::int64_t known =
+        static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(CellState::kUnknown);
+    EXPECT_GT(known, 0);
+    const auto counted = GlobalGridRenderer().CountKnownCells(tried);
+    ASSERT_THAT(counted, IsOk());
+    EXPECT_EQ(*counted, known);
+  }
+  map.graph.mutable_node(1).pose = SE2(1e7, 0, 0);
+  EXPECT_FALSE(GlobalGridRenderer().CountKnownCells(map).ok()) << "the same bounds as RenderAll's";
+  EXPECT_FALSE(GlobalGridRenderer().CountKnownCells(Map{}).ok());
+}
+
 }  // namespace
 }  // namespace slamcore

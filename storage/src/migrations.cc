@@ -428,6 +428,11 @@ INSERT INTO report_robot_presence (parameter_set, dimension, group_key, robot_id
 INSERT INTO report_robot_counts (parameter_set, dimension, group_key, robots)
   SELECT parameter_set, dimension, group_key, COUNT(*) FROM report_robot_presence GROUP BY 1, 2, 3;
 )sql",
+      // 8: workers lease the oldest job of their kind; without kind in an index the lease walked past every
+      // queued job of other kinds (the coordinator's reprocess lease past a backlog of analyze_run jobs).
+      R"sql(
+CREATE INDEX jobs_by_kind_state ON jobs (kind, state, job_id);
+)sql",
   };
   return kMigrations;
 }

@@ -85,16 +85,33 @@ Result<std::optional<JobLease>> SqlRepository::LeaseJob(const std::string& worke
         "AND attempts >= max_attempts" +
             skip_locked + ")",
         {now}));
-    ASSIGN_OR_RETURN(
-        auto rows,
-        transaction.Query(
-            "UPDATE jobs SET state = 'leased', attempts = attempts + 1, lease_owner = $1, lease_token = $2, "
-            "lease_expires_at_ms = $3, updated_at_ms = $4 WHERE job_id = (SELECT job_id FROM jobs WHERE "
-            "(state = 'queued' OR (state = 'leased' AND lease_expires_at_ms < $4)) AND attempts < "
-            "max_attempts "
-            "AND (CAST($5 AS TEXT) = '' OR kind = $5) ORDER BY job_id LIMIT 1" +
-                skip_locked + ") RETURNING " + kJobColumns,
-            {worker, token, now + lease_duration.count(), now, kind}));
+    // The lowest job id among the queued jobs and the expired leases, each looked up on its own so that an
+    // index gives it in job id order: one OR over both made SQLite collect and sort every queued job on
+    // every lease, which grew with the backlog.
+    const std::string of_kind = kind.empty() ? "" : "kind = $1 AND ";
+    const std::string rest = " AND attempts < max_attempts ORDER BY job_id LIMIT 1" + skip_locked;
+    std::vector<SqlValue> params;
+    if (!kind.empty()) params.emplace_back(kind);
+    const std::string expired =
+        "state = 'leased' AND lease_expires_at_ms < $" + std::to_string(params.size() + 1);
+    std::optional<std::int64_t> job_id;
+    for (const bool queued : {true, false}) {
+      std::vector<SqlValue> bound = params;
+      if (!queued) bound.emplace_back(now);
+      ASSIGN_OR_RETURN(auto candidates,
+                       transaction.Query("SELECT job_id FROM jobs WHERE " + of_kind +
+                                             (queued ? std::string("state = 'queued'") : expired) + rest,
+                                         bound));
+      if (!candidates.empty() && (!job_id || candidates.front().Int(0) < *job_id))
+        job_id = candidates.front().Int(0);
+    }
+    if (!job_id) return Status::Ok();
+    ASSIGN_OR_RETURN(auto rows,
+                     transaction.Query("UPDATE jobs SET state = 'leased', attempts = attempts + 1, "
+                                       "lease_owner = $1, lease_token = $2, lease_expires_at_ms = $3, "
+                                       "updated_at_ms = $4 WHERE job_id = $5 RETURNING " +
+                                           std::string(kJobColumns),
+                                       {worker, token, now + lease_duration.count(), now, *job_id}));
     if (!rows.empty()) {
       ASSIGN_OR_RETURN(auto job, JobFromRow(rows.front()));
       lease = JobLease{std::move(job), token};

@@ -74,6 +74,30 @@ TEST_P(JobQueueContractTest, ExpiredLeaseGoesBackToTheQueue) {
   EXPECT_THAT(repo().CompleteJob(fresh), IsOk());
 }
 
+TEST_P(JobQueueContractTest, LeasesTheOldestOfTheQueuedJobsAndTheExpiredLeases) {
+  // Queued jobs and expired leases are looked up apart (each in index order); the lease takes the lower id.
+  const std::int64_t first = Enqueue();
+  const std::int64_t reprocess = Enqueue("reprocess");
+  const std::int64_t second = Enqueue();
+  JobLease stale = MustLease("dead-worker", milliseconds(50));
+  ASSERT_EQ(stale.job.job_id, first);
+  std::this_thread::sleep_for(milliseconds(120));
+  EXPECT_EQ(MustLease("live-worker").job.job_id, first) << "the expired lease is older than the queued jobs";
+  auto of_kind = repo().LeaseJob("live-worker", milliseconds(50), "analyze_run");
+  ASSERT_THAT(of_kind, IsOk());
+  ASSERT_TRUE(of_kind->has_value());
+  EXPECT_EQ((*of_kind)->job.job_id, second) << "the reprocess job between them is of another kind";
+  std::this_thread::sleep_for(milliseconds(120));
+  // Now `second` is an expired lease and `reprocess` (older) is still queued.
+  EXPECT_EQ(MustLease("live-worker").job.job_id, reprocess);
+  auto again = repo().LeaseJob("live-worker", milliseconds(60000), "analyze_run");
+  ASSERT_THAT(again, IsOk());
+  ASSERT_TRUE(again->has_value());
+  EXPECT_EQ((*again)->job.job_id, second);
+  EXPECT_EQ((*again)->job.attempts, 2);
+  EXPECT_FALSE(repo().LeaseJob("live-worker", milliseconds(1000), "")->has_value());
+}
+
 TEST_P(JobQueueContractTest, HeartbeatKeepsTheLease) {
   Enqueue();
   JobLease lease = MustLease("worker", milliseconds(150));

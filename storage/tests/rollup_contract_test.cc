@@ -260,7 +260,7 @@ TEST_P(RollupContractTest, MigrationSevenRollsUpTheReportsAlreadyStored) {
   ASSERT_THAT(upgraded, IsOk());
   repo_ = std::move(upgraded).value();
   url_ = url;
-  ASSERT_EQ(*repo().SchemaVersion(), 7);
+  ASSERT_EQ(*repo().SchemaVersion(), LatestSchemaVersion());  // migrated through 7 and whatever came after
   EXPECT_GT(RawQuery("SELECT COUNT(*) FROM report_rollup")[0].Int(0), 0);
   ExpectRollupMatchesReports("after migrating a schema-6 database");
 }

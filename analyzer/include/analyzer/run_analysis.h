@@ -94,9 +94,22 @@ slamcore::ComponentId HomeComponent(const slamcore::PoseGraph& graph);
 /// The nodes of `map` in `nodes` with their local maps (no edges), for rendering part of a map.
 slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<slamcore::NodeId>& nodes);
 
+/// The maps of a run's two snapshots, decoded: the map the run started from (empty for a robot's first run)
+/// and the map the robot uploaded.
+struct RunMaps {
+  slamcore::Map parent;
+  slamcore::Map uploaded_child;
+};
+/// Checks the run's header, then decodes its snapshots (INVALID_ARGUMENT naming the snapshot).
+slamcore::Result<RunMaps> DecodeRunMaps(const fleet::v1::RunFile& run);
+
 /// Fails (INVALID_ARGUMENT naming the field) when the run's telemetry is malformed, e.g. an event the
 /// Mapper refuses: "events[12]: ViewObservedEvent at t=3.5: view 7 does not exist".
 slamcore::Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run,
+                                                  const AnalysisOptions& options);
+/// The same with the run's snapshots already decoded (DecodeRunMaps), for callers that use the maps after
+/// the analysis too; `run`'s snapshot fields are not read.
+slamcore::Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const RunMaps& maps,
                                                   const AnalysisOptions& options);
 
 }  // namespace analyzer

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <string>
 
+#include "analyzer/run_analysis.h"
 #include "fleet/v1/report.pb.h"
 #include "slamcore/protrusion_classifier.h"
 #include "storage/repository.h"
@@ -47,7 +48,9 @@ class ClassifierCache {
 struct AnalysisResult {
   double seconds = 0.0;
   std::int64_t regions = 0;
-  fleet::v1::RunReport report;  // as stored
+  fleet::v1::RunReport report;    // as stored
+  analyzer::RunMaps maps;         // the run's parent map and uploaded map, decoded once for the replay
+  std::string child_snapshot_id;  // where the uploaded map is stored ("" when the run has none)
 };
 
 /// NOT_FOUND when the run or parameter set is missing, FAILED_PRECONDITION when retention pruned its events,

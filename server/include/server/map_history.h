@@ -131,7 +131,19 @@ class MapHistory {
   storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
                                                  const std::string& uploader = "");
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
+  /// Reads the version's map and the run's parent map from storage.
   storage::Status OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report);
+  /// The maps the analysis already decoded: the run's parent map and, as stored under
+  /// `child_snapshot_id`, the map the robot uploaded (the upload version's map).
+  struct AnalysedMaps {
+    const slamcore::Map& parent;
+    const slamcore::Map& uploaded_child;
+    std::string child_snapshot_id;
+  };
+  /// The same without reading or decoding the maps again: the worker has them from the analysis. A version
+  /// whose snapshot is not `child_snapshot_id` is still read from storage.
+  storage::Status OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
+                                const AnalysedMaps& maps);
 
   /// Versions oldest first, `current` marked; current_version 0 when none is approved; head_version: what
   /// repairs start from (the newest approved or pending version), 0 when none.
@@ -175,6 +187,10 @@ class MapHistory {
                                                                const std::string& format);
 
  private:
+  /// OnRunAnalysed once the upload version `version` of the run, its map and the run's parent map are known.
+  storage::Status OnUploadAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
+                                   const storage::MapVersionRecord& version, const slamcore::Map& map,
+                                   const slamcore::Map& run_parent);
   storage::Result<storage::MapVersionRecord> Resolve(const std::string& robot_id, std::int64_t version);
   /// The box of a version's finding that a cut removes; INVALID_ARGUMENT when the finding has none.
   storage::Result<std::array<double, 4>> CutBox(const std::string& robot_id, std::int64_t version,

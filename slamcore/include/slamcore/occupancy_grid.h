@@ -109,6 +109,11 @@ class GlobalGridRenderer {
   Status Update(const Map& map, int* nodes_rerendered = nullptr);
 
   const OccupancyGrid& grid() const { return grid_; }
+  double resolution() const { return resolution_; }  // metres per cell of the grids it renders
+
+  /// The number of cells RenderAll(map) would leave known (free or occupied), without rendering the grid:
+  /// the same bounds and the same cell lookups, but no votes kept (a map version's known area).
+  Result<std::int64_t> CountKnownCells(const Map& map) const;
 
  private:
   struct Contribution {
@@ -119,6 +124,8 @@ class GlobalGridRenderer {
     std::vector<bool> occupied;
   };
   bool Vote(const SE2& node_pose, const LocalMapEvent& patch, Contribution* contribution) const;
+  /// The empty grid whose bounds are the union of the map's patches plus the margin (RenderAll's).
+  Result<OccupancyGrid> Bounds(const Map& map) const;
   void Apply(const Contribution& contribution, int sign);
   void Resolve(std::int32_t cell);
 
