@@ -304,13 +304,18 @@ void AmbiguousViewFinding(const Map& map, std::vector<fleet::v1::MapFinding>* fi
   findings->push_back(std::move(finding));
 }
 
+// The home component's nodes with their local maps: what the home grid is drawn from (empty without any).
+Map HomePart(const Map& map) {
+  if (map.graph.num_nodes() == 0) return {};
+  std::set<NodeId> home;
+  for (const NodeId node : map.graph.NodesOf(HomeComponent(map.graph))) home.insert(node);
+  return ComponentMap(map, home);
+}
+
 }  // namespace
 
 Result<slamcore::OccupancyGrid> RenderHomeGrid(const Map& map) {
-  if (map.graph.num_nodes() == 0) return slamcore::OccupancyGrid{};
-  std::set<NodeId> home;
-  for (const NodeId node : map.graph.NodesOf(HomeComponent(map.graph))) home.insert(node);
-  const Map part = ComponentMap(map, home);
+  const Map part = HomePart(map);
   if (part.local_maps.empty()) return slamcore::OccupancyGrid{};
   slamcore::GlobalGridRenderer renderer;
   RETURN_IF_ERROR(renderer.RenderAll(part));
@@ -331,10 +336,7 @@ MapFigures ComputeFigures(const Map& map) {
 
 Result<double> KnownArea(const Map& map) {
   // RenderHomeGrid's cells counted, not rendered: every analysed upload asks for its version's area.
-  if (map.graph.num_nodes() == 0) return 0.0;
-  std::set<NodeId> home;
-  for (const NodeId node : map.graph.NodesOf(HomeComponent(map.graph))) home.insert(node);
-  const Map part = ComponentMap(map, home);
+  const Map part = HomePart(map);
   if (part.local_maps.empty()) return 0.0;
   slamcore::GlobalGridRenderer renderer;
   ASSIGN_OR_RETURN(const std::int64_t known, renderer.CountKnownCells(part));
