@@ -81,16 +81,18 @@ std::optional<double> VarianceFactor(const PoseGraph& graph, NodeId robot, const
 // retracted with no wrong closure in the file). So the accepted clusters outside the set are judged once
 // more, all of them together with the inliers, with the odometry weighted by the variance factor of the
 // inliers' own solution at the declared noise (χ² / redundancy, where nothing rejected bends the map); only
-// those still above their threshold are retracted. Returns s_c at that solution for each candidate.
-std::vector<double> JudgeAtTheNoiseTheInliersMeet(const PoseGraph& working, NodeId robot,
-                                                  const std::vector<Cluster>& clusters,
-                                                  const std::vector<std::size_t>& candidates,
-                                                  const OptimizerOptions& judged_options,
-                                                  double judged_factor, const ConsistencyParams& consistency,
-                                                  double* met_factor) {
-  std::vector<double> s;
-  for (const std::size_t c : candidates) s.push_back(NormalisedResidual(working, clusters[c]));
-  *met_factor = judged_factor;
+// those still above their threshold are retracted. Nothing when that noise is no more lenient than the judged
+// solves' (their verdict stands), else s_c at that solution for each candidate.
+struct Confirmation {
+  double variance_factor = 1.0;  // of the odometry at the inliers' solution
+  std::vector<double> normalised_residuals;
+};
+std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(const PoseGraph& working, NodeId robot,
+                                                          const std::vector<Cluster>& clusters,
+                                                          const std::vector<std::size_t>& candidates,
+                                                          const OptimizerOptions& judged_options,
+                                                          double judged_factor,
+                                                          const ConsistencyParams& consistency) {
   std::vector<bool> inlier_edge(working.num_edges(), true);
   for (const Cluster& cluster : clusters) {
     for (const std::size_t k : cluster.edges) inlier_edge[k] = cluster.weight >= 0.5;
@@ -103,20 +105,21 @@ std::vector<double> JudgeAtTheNoiseTheInliersMeet(const PoseGraph& working, Node
   (void)Optimize(declared, options);  // cannot fail on validated data, as the judged solves
   const std::optional<double> met =
       VarianceFactor(declared, robot, inlier_edge, consistency.min_redundancy_for_scaling);
-  if (!met) return s;
-  const double factor = std::clamp(*met, consistency.min_variance_factor, 1.0);
-  if (factor <= judged_factor) return s;  // no more lenient than the judged solves: their verdict stands
-  *met_factor = factor;
+  if (!met) return std::nullopt;
+  Confirmation confirmation{.variance_factor = std::clamp(*met, consistency.min_variance_factor, 1.0),
+                            .normalised_residuals = {}};
+  if (confirmation.variance_factor <= judged_factor) return std::nullopt;
   for (std::size_t k = 0; k < declared.num_edges(); ++k) {
-    if (declared.edges()[k].kind == EdgeKind::kMotion) options.edge_weights[k] = 1.0 / factor;
+    if (declared.edges()[k].kind == EdgeKind::kMotion)
+      options.edge_weights[k] = 1.0 / confirmation.variance_factor;
   }
   for (const std::size_t c : candidates) {
     for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
   }
   (void)Optimize(declared, options);
-  for (std::size_t i = 0; i < candidates.size(); ++i)
-    s[i] = NormalisedResidual(declared, clusters[candidates[i]]);
-  return s;
+  for (const std::size_t c : candidates)
+    confirmation.normalised_residuals.push_back(NormalisedResidual(declared, clusters[c]));
+  return confirmation;
 }
 
 }  // namespace
@@ -270,16 +273,18 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   if (accept.empty()) return;
   double met_factor = variance_factor;
   if (!retract.empty()) {
-    const std::vector<double> confirmed = JudgeAtTheNoiseTheInliersMeet(
-        working, robot, clusters, retract, options, variance_factor, consistency, &met_factor);
-    std::vector<std::size_t> still;
-    for (std::size_t i = 0; i < retract.size(); ++i) {
-      if (confirmed[i] > 1.0) {
-        still.push_back(retract[i]);
-        retract_confirmation.emplace(retract[i], confirmed[i]);
+    if (const std::optional<Confirmation> confirmation = JudgeAtTheNoiseTheInliersMeet(
+            working, robot, clusters, retract, options, variance_factor, consistency)) {
+      met_factor = confirmation->variance_factor;
+      std::vector<std::size_t> still;
+      for (std::size_t i = 0; i < retract.size(); ++i) {
+        if (confirmation->normalised_residuals[i] > 1.0) {
+          still.push_back(retract[i]);
+          retract_confirmation.emplace(retract[i], confirmation->normalised_residuals[i]);
+        }
       }
+      retract = std::move(still);
     }
-    retract = std::move(still);
   }
   const auto describe = [&](std::size_t c) {
     std::ostringstream text;
