@@ -75,11 +75,20 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
   return outcome;
 }
 
-storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report) {
-  if (report.parameter_set() != policy_.default_parameter_set) return storage::Status::Ok();
+storage::Result<std::optional<storage::MapVersionRecord>> MapHistory::UploadVersionToJudge(
+    const storage::RunKey& run, const fleet::v1::RunReport& report) {
+  if (report.parameter_set() != policy_.default_parameter_set)
+    return std::optional<storage::MapVersionRecord>();
   auto version = repository_.GetMapVersionOfRun(run);
-  if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
+  if (version.status().code() == storage::StatusCode::kNotFound)
+    return std::optional<storage::MapVersionRecord>();
   RETURN_IF_ERROR(version.status());
+  return std::optional<storage::MapVersionRecord>(std::move(version).value());
+}
+
+storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report) {
+  ASSIGN_OR_RETURN(const auto version, UploadVersionToJudge(run, report));
+  if (!version) return storage::Status::Ok();
   ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, version->snapshot_id));
   // The stored report is not read: it is `report`, which the findings are made from.
   ASSIGN_OR_RETURN(auto run_parent, LoadRunParent(repository_, run));
@@ -88,10 +97,8 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
 
 storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
                                           const AnalysedMaps& maps) {
-  if (report.parameter_set() != policy_.default_parameter_set) return storage::Status::Ok();
-  auto version = repository_.GetMapVersionOfRun(run);
-  if (version.status().code() == storage::StatusCode::kNotFound) return storage::Status::Ok();
-  RETURN_IF_ERROR(version.status());
+  ASSIGN_OR_RETURN(const auto version, UploadVersionToJudge(run, report));
+  if (!version) return storage::Status::Ok();
   if (version->snapshot_id == maps.child_snapshot_id)
     return OnUploadAnalysed(run, report, *version, maps.uploaded_child, maps.parent);
   ASSIGN_OR_RETURN(auto loaded, LoadMap(repository_, version->snapshot_id));
@@ -99,21 +106,19 @@ storage::Status MapHistory::OnRunAnalysed(const storage::RunKey& run, const flee
 }
 
 storage::Status MapHistory::OnUploadAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
-                                             const storage::MapVersionRecord& upload,
+                                             const storage::MapVersionRecord& version,
                                              const slamcore::Map& map, const slamcore::Map& run_parent) {
   const std::string& run_id = run.run_id;
-  const storage::MapVersionRecord* version = &upload;
   const std::vector<fleet::v1::MapFinding> findings =
       analyzer::FindMapFindings({.map = &map, .run_parent = &run_parent, .report = &report});
   ASSIGN_OR_RETURN(auto known_area, analyzer::KnownArea(map));
   ASSIGN_OR_RETURN(auto records, ToRecords(findings));
-  RETURN_IF_ERROR(
-      repository_.UpdateMapVersionHealth(version->robot_id, version->version, known_area, records));
+  RETURN_IF_ERROR(repository_.UpdateMapVersionHealth(version.robot_id, version.version, known_area, records));
 
   if (policy_.auto_repair == "none") return storage::Status::Ok();
   const std::string requested_by = "policy:" + policy_.auto_repair;
   const bool all_findings = policy_.auto_repair == "repair_findings";
-  std::int64_t base = version->version;
+  std::int64_t base = version.version;
   // Each repair makes a new version whose findings are recomputed, so the next finding is looked up in it;
   // a finding is tried once (by what it names), and a run's map is repaired at most kMaxPolicyRepairs times.
   constexpr int kMaxPolicyRepairs = 8;
@@ -142,7 +147,7 @@ storage::Status MapHistory::OnUploadAnalysed(const storage::RunKey& run, const f
     if (next == nullptr) break;
     tried.insert(key);
     RepairRequest repair;
-    repair.robot_id = version->robot_id;
+    repair.robot_id = version.robot_id;
     repair.base_version = base;
     if (next->finding_kind() == fleet::v1::FINDING_KIND_PROTRUSION) {
       repair.action = CutFinding{next->finding_id()};

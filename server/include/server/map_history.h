@@ -187,6 +187,10 @@ class MapHistory {
                                                                const std::string& format);
 
  private:
+  /// The upload version whose health the run's `report` decides: none for another set's report, or for a
+  /// run that recorded no map version.
+  storage::Result<std::optional<storage::MapVersionRecord>> UploadVersionToJudge(
+      const storage::RunKey& run, const fleet::v1::RunReport& report);
   /// OnRunAnalysed once the upload version `version` of the run, its map and the run's parent map are known.
   storage::Status OnUploadAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report,
                                    const storage::MapVersionRecord& version, const slamcore::Map& map,
