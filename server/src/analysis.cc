@@ -63,6 +63,7 @@ storage::ReportBundle ToReportBundle(const fleet::v1::RunReport& report) {
     row.features_json = features.dump();
     row.predicted_class = region.predicted_class();
     row.probability = region.probability();
+    row.decided_by = region.decided_by();
     bundle.protrusion_regions.push_back(std::move(row));
   }
   return bundle;

@@ -88,6 +88,7 @@ json RegionJson(const storage::ProtrusionRegionRecord& region) {
               {"features", features},
               {"predicted_class", region.predicted_class},
               {"probability", region.probability},
+              {"decided_by", region.decided_by},
               {"label", region.label ? json(*region.label) : json(nullptr)},
               {"labelled_by", region.labelled_by ? json(*region.labelled_by) : json(nullptr)}};
 }

@@ -433,6 +433,11 @@ INSERT INTO report_robot_counts (parameter_set, dimension, group_key, robots)
       R"sql(
 CREATE INDEX jobs_by_kind_state ON jobs (kind, state, job_id);
 )sql",
+      // 9: what decided a region's class (the run's own views, or the map-only classifier), so the run page
+      // can say why a region is called a protrusion. Regions stored before keep an empty value.
+      R"sql(
+ALTER TABLE protrusion_regions ADD COLUMN decided_by TEXT NOT NULL DEFAULT '';
+)sql",
   };
   return kMigrations;
 }

@@ -28,6 +28,7 @@ Status CheckBundle(const ReportBundle& bundle) {
   for (const ProtrusionRegionRecord& region : bundle.protrusion_regions) {
     RETURN_IF_ERROR(CheckText(region.features_json, "region features_json", kMaxDetailBytes));
     RETURN_IF_ERROR(CheckText(region.predicted_class, "region predicted_class"));
+    RETURN_IF_ERROR(CheckText(region.decided_by, "region decided_by"));
   }
   return Status::Ok();
 }
@@ -39,7 +40,7 @@ struct Label {
 
 constexpr const char* kRegionColumns =
     "SELECT run_id, parameter_set, region_id, min_x, min_y, max_x, max_y, features_json, predicted_class, "
-    "probability, label, labelled_by, robot_id FROM protrusion_regions ";
+    "probability, label, labelled_by, robot_id, decided_by FROM protrusion_regions ";
 
 ProtrusionRegionRecord RegionFromRow(const SqlRow& row) {
   ProtrusionRegionRecord region;
@@ -53,6 +54,7 @@ ProtrusionRegionRecord RegionFromRow(const SqlRow& row) {
   if (!row.IsNull(10)) region.label = row.Text(10);
   if (!row.IsNull(11)) region.labelled_by = row.Text(11);
   region.robot_id = row.Text(12);
+  region.decided_by = row.Text(13);
   return region;
 }
 
@@ -189,11 +191,11 @@ Status SqlRepository::PutReportIn(SqlTransaction& transaction, const ReportBundl
     RETURN_IF_ERROR(
         transaction.Exec("INSERT INTO protrusion_regions (robot_id, run_id, parameter_set, region_id, min_x, "
                          "min_y, max_x, max_y, "
-                         "features_json, predicted_class, probability, label, labelled_by) "
-                         "VALUES ($13, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+                         "features_json, predicted_class, probability, label, labelled_by, decided_by) "
+                         "VALUES ($13, $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $14)",
                          {report.run_id, report.parameter_set, r.region_id, r.bbox.min_x, r.bbox.min_y,
                           r.bbox.max_x, r.bbox.max_y, r.features_json, r.predicted_class, r.probability,
-                          label, labelled_by, report.robot_id}));
+                          label, labelled_by, report.robot_id, r.decided_by}));
   }
   return Status::Ok();
 }

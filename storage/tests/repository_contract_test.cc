@@ -53,9 +53,11 @@ class RepositoryContractTest : public BackendTest {
     region.features_json = R"({"height":0.12})";
     region.predicted_class = "cable";
     region.probability = 0.75;
+    region.decided_by = "views";
     bundle.protrusion_regions = {region};
     region.region_id = 2;
     region.predicted_class = "sock";
+    region.decided_by = "classifier";
     bundle.protrusion_regions.push_back(region);
     return bundle;
   }
@@ -200,6 +202,8 @@ TEST_P(RepositoryContractTest, ReportsOfParameterSetsSitSideBySide) {
   ASSERT_EQ(regions->size(), 2u);
   EXPECT_EQ((*regions)[0].features_json, R"({"height":0.12})");
   EXPECT_DOUBLE_EQ((*regions)[0].bbox.max_y, 1.5);
+  EXPECT_EQ((*regions)[0].decided_by, "views");
+  EXPECT_EQ((*regions)[1].decided_by, "classifier");
   EXPECT_EQ(repo().GetReport(RunKey{"robot-1", "run-1"}, "other").status().code(), StatusCode::kNotFound);
 }
 

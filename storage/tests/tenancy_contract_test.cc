@@ -249,6 +249,8 @@ TEST_P(TenancyContractTest, UpgradeFromSchema3KeysEveryRunByItsRobot) {
   EXPECT_EQ(report->recovery_created, 4);
   EXPECT_EQ(report->recovery_retracted, 3);
   EXPECT_EQ(repository.ListProtrusionRegions({kKept, "old-run"}, "default")->front().label, "new_space");
+  EXPECT_EQ(repository.ListProtrusionRegions({kKept, "old-run"}, "default")->front().decided_by, "")
+      << "a region analysed before migration 9 does not say what decided it";
   EXPECT_EQ(repository.GetMapVersionOfRun({kKept, "old-run"})->version, 1);
   EXPECT_EQ(repository.GetRun({kKept, "old-run"})->telemetry, "bytes");
   EXPECT_EQ(report->report, "bytes");

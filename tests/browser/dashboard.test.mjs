@@ -163,6 +163,11 @@ test('run page shows parent, child and difference maps, the pose graph and the d
   await page.waitForFunction(() => document.querySelector('main').dataset.state === 'ready', null, { timeout: 20000 });
   for (const image of ['map-parent', 'map-child', 'map-difference']) assert.ok(await imageLoaded(image) > 0, `${image} loads`);
   assert.equal(await page.locator('[data-testid=map-difference] + svg rect.region').count(), regionRun.regions);
+  // Each region says what called it: the run's own views (they show the robot slipped) or the classifier.
+  const detail = await fleet.getJson(server, `/api/runs/${regionRun.run_id}`);
+  const decidedBy = { views: "the run's views", classifier: 'the classifier', none: 'no classifier' };
+  assert.ok(detail.regions.every((g) => g.decided_by in decidedBy), 'every stored region names what decided its class');
+  assert.deepEqual(await page.getByTestId('decided-by').allTextContents(), detail.regions.map((g) => decidedBy[g.decided_by]));
   const graph = page.getByTestId('pose-graph');
   await graph.waitFor();
   assert.ok(await graph.locator('line').count() > 10, 'the pose graph has edges');

@@ -63,11 +63,12 @@ int LabelCommands::Regions(Client& client, const Global& global) const {
     PrintJson(response);
     return 0;
   }
-  std::printf("%6s %-12s %6s %-12s %-10s %s\n", "region", "predicted", "p", "label", "by", "bbox (cells)");
+  std::printf("%6s %-12s %-10s %6s %-12s %-10s %s\n", "region", "predicted", "decided by", "p", "label", "by",
+              "bbox (cells)");
   for (const auto& r : response.regions()) {
-    std::printf("%6lld %-12s %6.2f %-12s %-10s [%g %g %g %g]\n", static_cast<long long>(r.region_id()),
-                r.predicted_class().c_str(), r.probability(), r.label().c_str(), r.labelled_by().c_str(),
-                r.bbox(0), r.bbox(1), r.bbox(2), r.bbox(3));
+    std::printf("%6lld %-12s %-10s %6.2f %-12s %-10s [%g %g %g %g]\n", static_cast<long long>(r.region_id()),
+                r.predicted_class().c_str(), r.decided_by().c_str(), r.probability(), r.label().c_str(),
+                r.labelled_by().c_str(), r.bbox(0), r.bbox(1), r.bbox(2), r.bbox(3));
   }
   return 0;
 }

@@ -6,6 +6,11 @@ import { loadImage } from './api.js';
 const SVG = 'http://www.w3.org/2000/svg';
 
 export function regionClass(region) { return region.label || region.predicted_class || 'unclassified'; }
+/// What decided the region's class, in words: the run's own views (they show the robot slipped while drawing
+/// it) or the map-only classifier; '—' for regions analysed before the server kept it.
+export function decidedByText(region) {
+  return { views: "the run's views", classifier: 'the classifier', none: 'no classifier' }[region.decided_by] || '—';
+}
 
 export function mapView(src, info, regions, { testid, onRegionClick, selected } = {}) {
   const img = loadImage(h('img', { alt: testid || 'map', 'data-testid': testid }), src);
@@ -22,7 +27,7 @@ export function mapView(src, info, regions, { testid, onRegionClick, selected } 
     rect.dataset.region = region.region_id;
     rect.dataset.testid = 'region';
     const title = document.createElementNS(SVG, 'title');
-    title.textContent = `region ${region.region_id}: ${regionClass(region)}${region.label ? ' (labelled)' : ''}`;
+    title.textContent = `region ${region.region_id}: ${regionClass(region)}${region.label ? ' (labelled)' : ` (decided by ${decidedByText(region)})`}`;
     rect.append(title);
     if (onRegionClick) rect.addEventListener('click', () => onRegionClick(region));
     svg.append(rect);

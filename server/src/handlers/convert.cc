@@ -148,6 +148,7 @@ fleet::v1::Region ToProto(const storage::ProtrusionRegionRecord& region) {
   out.set_probability(region.probability);
   out.set_label(region.label.value_or(""));
   out.set_labelled_by(region.labelled_by.value_or(""));
+  out.set_decided_by(region.decided_by);
   return out;
 }
 

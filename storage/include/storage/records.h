@@ -205,6 +205,9 @@ struct ProtrusionRegionRecord {
   std::string features_json;
   std::string predicted_class;
   double probability = 0.0;
+  /// What decided predicted_class (fleet.v1.ProtrusionRegion.decided_by): "views", "classifier" or "none";
+  /// empty for regions stored before it was kept.
+  std::string decided_by;
   std::optional<std::string> label;
   std::optional<std::string> labelled_by;
 };

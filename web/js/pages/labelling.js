@@ -2,7 +2,7 @@
 // region (POST /api/runs/<id>/regions/<region>/label, engineer token) and feed classifier training.
 import { ApiError, askToken, getJson, getToken, postJson, setToken } from '../api.js';
 import { card, emptyState, h, num, setState, time } from '../ui.js';
-import { mapView, regionClass } from '../mapview.js';
+import { decidedByText, mapView, regionClass } from '../mapview.js';
 
 export async function render(main, { query, isCurrent }) {
   const meta = await getJson('/api/meta');
@@ -41,8 +41,8 @@ export async function render(main, { query, isCurrent }) {
     const region = detail.regions.find((g) => g.region_id === selected);
     panel.replaceChildren(h('h2', {}, region ? `Region ${region.region_id}` : 'Click a region'));
     if (region) {
-      panel.append(h('p', {}, 'classifier: ', h('span', { class: `badge ${region.predicted_class}` }, region.predicted_class),
-        region.probability >= 0 ? ` (p = ${num(region.probability)})` : '', ' · label: ',
+      panel.append(h('p', {}, 'class: ', h('span', { class: `badge ${region.predicted_class}` }, region.predicted_class),
+        region.probability >= 0 ? ` (p = ${num(region.probability)})` : '', ` · decided by ${decidedByText(region)} · label: `,
         h('span', { class: `badge ${region.label || ''}`, 'data-testid': 'current-label' }, region.label || 'none')),
         h('div', { class: 'pager' },
           h('button', { 'data-testid': 'label-protrusion', style: 'background:#d64541;border-color:#d64541', onclick: () => label(region, 'protrusion') }, 'Protrusion'),

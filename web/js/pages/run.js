@@ -3,7 +3,7 @@
 // ambiguous views.
 import { getJson } from '../api.js';
 import { card, emptyState, h, kpi, num, setState, time } from '../ui.js';
-import { mapView, regionClass } from '../mapview.js';
+import { decidedByText, mapView, regionClass } from '../mapview.js';
 import { poseGraph, poseGraphLegend } from '../posegraph.js';
 
 export async function render(main, { args, query, isCurrent }) {
@@ -54,8 +54,9 @@ export async function render(main, { args, query, isCurrent }) {
       h('figure', {}, mapView(`${base}/difference.png${q}`, info, regions, { testid: 'map-difference', onRegionClick: (region) => { location.hash = `#/labelling?run=${encodeURIComponent(runId)}&robot=${encodeURIComponent(run.robot_id)}&parameter_set=${detail.parameter_set}&region=${region.region_id}`; } }),
         h('figcaption', { class: 'muted' }, '(c) difference: black = new in the child; boxes: red protrusion, green new space, amber unclassified'))),
       regions.length ? h('table', { 'data-testid': 'regions-table' },
-        h('tr', {}, ['region', 'class', 'probability', 'label', 'area m²', 'minor axis m', 'mean distance m'].map((t) => h('th', {}, t))),
+        h('tr', {}, ['region', 'class', 'decided by', 'probability', 'label', 'area m²', 'minor axis m', 'mean distance m'].map((t) => h('th', {}, t))),
         regions.map((g) => h('tr', {}, h('td', {}, g.region_id), h('td', {}, h('span', { class: `badge ${g.predicted_class}` }, g.predicted_class)),
+          h('td', { 'data-testid': 'decided-by' }, decidedByText(g)),
           h('td', { class: 'num' }, g.probability >= 0 ? num(g.probability) : '—'),
           h('td', {}, g.label ? h('span', { class: `badge ${g.label}` }, g.label) : h('a', { href: `#/labelling?run=${encodeURIComponent(runId)}&robot=${encodeURIComponent(run.robot_id)}&parameter_set=${detail.parameter_set}&region=${g.region_id}` }, 'label…')),
           h('td', { class: 'num' }, num(g.features.area_m2)), h('td', { class: 'num' }, num(g.features.minor_axis_m)),
