@@ -1,13 +1,12 @@
 #include "incremental_solver.h"
 
 #include <Eigen/Cholesky>
-#include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
 
-#include "calling_thread_only.h"
+#include "supernodal_cholesky.h"
 
 namespace slamcore::internal {
 namespace {
@@ -17,30 +16,26 @@ bool SameEdge(const Edge& a, const Edge& b) {
          a.measurement.y() == b.measurement.y() && a.measurement.theta() == b.measurement.theta();
 }
 
-/// The normal equations' sparse Cholesky: Eigen's simplicial LDLᵀ for small regions (no set-up cost),
-/// CHOLMOD's supernodal LLᵀ for large ones (Chen, Davis, Hager, Rajamanickam, "Algorithm 887: CHOLMOD",
-/// ACM TOMS 2008). The symbolic analysis is done once per region, its pattern fixed across iterations.
+/// The normal equations' sparse Cholesky: Eigen's simplicial LDLᵀ for small regions (no set-up cost), the
+/// supernodal LLᵀ of supernodal_cholesky.h for large ones. The symbolic analysis is done once per region,
+/// its pattern fixed across iterations.
 class NormalEquations {
  public:
-  explicit NormalEquations(int size) : large_(size >= kLargeColumns) {
-    // AMD alone: CHOLMOD's default also tries nested dissection, whose cost a pose graph rarely repays.
-    supernodal_.cholmod().nmethods = 1;
-    supernodal_.cholmod().method[0].ordering = CHOLMOD_AMD;
-  }
+  explicit NormalEquations(int size) : large_(size >= kLargeColumns) {}
 
-  bool Factorize(const Eigen::SparseMatrix<double>& lower) {
-    const CallingThreadOnly calling_thread_only;
-    if (!analysed_) large_ ? supernodal_.analyzePattern(lower) : simplicial_.analyzePattern(lower);
-    analysed_ = true;
+  bool Factorize(Eigen::SparseMatrix<double>& lower) {
     if (large_) {
-      supernodal_.factorize(lower);
-      return supernodal_.info() == Eigen::Success;
+      if (!analysed_ && !supernodal_.Analyze(lower)) return false;
+      analysed_ = true;
+      return supernodal_.Factorize(lower);
     }
+    if (!analysed_) simplicial_.analyzePattern(lower);
+    analysed_ = true;
     simplicial_.factorize(lower);
     return simplicial_.info() == Eigen::Success;
   }
   Eigen::VectorXd Solve(const Eigen::VectorXd& rhs) {
-    if (large_) return supernodal_.solve(rhs);
+    if (large_) return supernodal_.Solve(rhs);
     return simplicial_.solve(rhs);
   }
 
@@ -48,7 +43,7 @@ class NormalEquations {
   static constexpr int kLargeColumns = 600;  // 200 nodes: where CHOLMOD's supernodes start to pay
   bool large_, analysed_ = false;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> simplicial_;
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> supernodal_;
+  SupernodalCholesky supernodal_;
 };
 
 }  // namespace

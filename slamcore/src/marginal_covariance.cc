@@ -5,58 +5,30 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 
-#include "calling_thread_only.h"
 #include "slamcore/optimizer.h"
+#include "supernodal_cholesky.h"
 
 namespace slamcore::internal {
 
-/// H = P'ᵀ L Lᵀ P' by CHOLMOD's supernodal Cholesky (AMD ordering of the nodes), then converted to a simplicial
-/// column-by-column factor for the path walks of Joint (Chen, Davis, Hager, Rajamanickam, "Algorithm 887:
-/// CHOLMOD", ACM TOMS 2008). Supernodal numeric factorisation is several times faster than a simplicial
-/// one on pose graphs of thousands of nodes, and this factorisation is redone whenever G changed.
+/// H = P'ᵀ L Lᵀ P' by the supernodal Cholesky (supernodal_cholesky.h), then converted to a simplicial
+/// column-by-column factor for the path walks of Joint. Supernodal numeric factorisation is several times
+/// faster than a simplicial one on pose graphs of thousands of nodes, and this factorisation is redone
+/// whenever G changed.
 struct MarginalCovariances::Factor {
-  cholmod_common common;
-  cholmod_factor* factor = nullptr;
-  std::vector<int> position;  // original column → its column in L
+  SupernodalCholesky cholesky;
+  const cholmod_factor* factor = nullptr;  // simplicial, owned by `cholesky`
+  std::vector<int> position;               // original column → its column in L
   int size = 0;
 
-  Factor() { cholmod_start(&common); }
-  ~Factor() {
-    if (factor) cholmod_free_factor(&factor, &common);
-    cholmod_finish(&common);
-  }
-  Factor(const Factor&) = delete;
-  Factor& operator=(const Factor&) = delete;
-
-  /// Factorises the symmetric matrix whose lower triangle is `lower` (compressed), eliminating its
-  /// columns in the order `ordering`; false when it is not positive definite.
-  bool Compute(Eigen::SparseMatrix<double>& lower, std::vector<int>& ordering) {
+  /// Factorises the symmetric matrix whose lower triangle is `lower`; false when it is not positive
+  /// definite.
+  bool Compute(Eigen::SparseMatrix<double>& lower) {
     size = static_cast<int>(lower.rows());
-    cholmod_sparse matrix{};
-    matrix.nrow = matrix.ncol = static_cast<std::size_t>(size);
-    matrix.nzmax = static_cast<std::size_t>(lower.nonZeros());
-    matrix.p = lower.outerIndexPtr();
-    matrix.i = lower.innerIndexPtr();
-    matrix.x = lower.valuePtr();
-    matrix.stype = -1;  // lower triangle stored
-    matrix.itype = CHOLMOD_INT;
-    matrix.xtype = CHOLMOD_REAL;
-    matrix.dtype = CHOLMOD_DOUBLE;
-    matrix.sorted = 1;
-    matrix.packed = 1;
-    common.nmethods = 1;
-    common.method[0].ordering = CHOLMOD_GIVEN;
-    common.supernodal = CHOLMOD_SUPERNODAL;
-    const CallingThreadOnly calling_thread_only;
-    factor = cholmod_analyze_p(&matrix, ordering.data(), nullptr, 0, &common);
-    if (!factor || !cholmod_factorize(&matrix, factor, &common) || common.status != CHOLMOD_OK ||
-        factor->minor < factor->n) {
-      return false;
-    }
-    // Simplicial, packed, LLᵀ: column j holds its diagonal first, then the rows below it.
-    if (!cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, factor, &common)) return false;
+    if (!cholesky.Analyze(lower) || !cholesky.Factorize(lower)) return false;
+    factor = cholesky.ToSimplicial();
+    if (!factor) return false;
     position.assign(static_cast<std::size_t>(size), 0);
-    const int* permutation = static_cast<const int*>(factor->Perm);
+    const int* permutation = cholesky.permutation();
     for (int k = 0; k < size; ++k) position[static_cast<std::size_t>(permutation[k])] = k;
     return true;
   }
@@ -83,12 +55,10 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
   result.num_edges_ = graph.num_edges();
   if (blocks == 0) return std::nullopt;
 
-  // H = Σ Jᵀ Ω J over the component's edges (lower triangle only, as the factorisation reads it), the
-  // block pattern it has (for the ordering), and χ² at the same errors.
-  std::vector<Eigen::Triplet<double>> triplets, block_pattern;
+  // H = Σ Jᵀ Ω J over the component's edges (lower triangle only, as the factorisation reads it), and χ²
+  // at the same errors.
+  std::vector<Eigen::Triplet<double>> triplets;
   triplets.reserve(graph.num_edges() * 27);
-  block_pattern.reserve(graph.num_edges() + static_cast<std::size_t>(blocks));
-  for (int block = 0; block < blocks; ++block) block_pattern.emplace_back(block, block, 1.0);
   const auto add_block = [&](int row, int column, const Matrix3& block) {
     if (row < 0 || column < 0) return;  // the gauge node is held
     for (int r = 0; r < 3; ++r) {
@@ -115,7 +85,6 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
     } else {
       add_block(b, a, d_to.transpose() * edge.information * d_from);
     }
-    if (a >= 0 && b >= 0 && a != b) block_pattern.emplace_back(std::max(a, b), std::min(a, b), 1.0);
   }
   // The a-posteriori variance factor σ̂₀² = χ² / redundancy (Förstner & Wrobel, Photogrammetric Computer
   // Vision, 2016, §4.2.3): how far the declared covariances overstate the noise actually met.
@@ -126,38 +95,8 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
   information.setFromTriplets(triplets.begin(), triplets.end());
   information.makeCompressed();
 
-  // The fill-reducing ordering by AMD on the nodes' pattern, each node's three columns kept together: a
-  // ninth of the entries of the scalar pattern to order (on a 10,000-pose city replay, 3 % less time than
-  // AMD on the scalar pattern, the same decisions).
-  Eigen::SparseMatrix<double> pattern(blocks, blocks);
-  pattern.setFromTriplets(block_pattern.begin(), block_pattern.end());
-  pattern.makeCompressed();
-  std::vector<int> block_order(static_cast<std::size_t>(blocks));
-  {
-    cholmod_common common;
-    cholmod_start(&common);
-    cholmod_sparse lower{};
-    lower.nrow = lower.ncol = static_cast<std::size_t>(blocks);
-    lower.nzmax = static_cast<std::size_t>(pattern.nonZeros());
-    lower.p = pattern.outerIndexPtr();
-    lower.i = pattern.innerIndexPtr();
-    lower.stype = -1;
-    lower.itype = CHOLMOD_INT;
-    lower.xtype = CHOLMOD_PATTERN;
-    lower.dtype = CHOLMOD_DOUBLE;
-    lower.sorted = 1;
-    lower.packed = 1;
-    const bool ordered = cholmod_amd(&lower, nullptr, 0, block_order.data(), &common);
-    cholmod_finish(&common);
-    if (!ordered) return std::nullopt;
-  }
-  std::vector<int> ordering;
-  ordering.reserve(static_cast<std::size_t>(3 * blocks));
-  for (const int block : block_order) {
-    for (int axis = 0; axis < 3; ++axis) ordering.push_back(3 * block + axis);
-  }
   result.factor_ = std::make_unique<Factor>();
-  if (!result.factor_->Compute(information, ordering)) return std::nullopt;
+  if (!result.factor_->Compute(information)) return std::nullopt;
   return result;
 }
 

@@ -1,0 +1,46 @@
+// The sparse Cholesky of a pose graph's normal equations, shared by the incremental back-end's large
+// regions and the marginal covariances: CHOLMOD's supernodal LLᵀ (Chen, Davis, Hager, Rajamanickam,
+// "Algorithm 887: CHOLMOD", ACM TOMS 2008), on the calling thread only (calling_thread_only.h).
+//
+// The fill-reducing ordering is AMD (Amestoy, Davis, Duff, "An approximate minimum degree ordering
+// algorithm", SIMAX 1996) on the pattern of the nodes, each node's three columns kept together: a ninth of
+// the entries of the scalar pattern to order, for the same kind of ordering (AMD alone: nested dissection
+// rarely repays its cost on a pose graph).
+//
+// Thread safety: one object per thread.
+#pragma once
+
+#include <cholmod.h>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+namespace slamcore::internal {
+
+class SupernodalCholesky {
+ public:
+  SupernodalCholesky();
+  ~SupernodalCholesky();
+  SupernodalCholesky(const SupernodalCholesky&) = delete;
+  SupernodalCholesky& operator=(const SupernodalCholesky&) = delete;
+
+  /// The symbolic analysis of the symmetric matrix whose lower triangle is `lower` (compressed; columns
+  /// 3k, 3k + 1, 3k + 2 belong to node k). False when CHOLMOD fails (out of memory).
+  bool Analyze(Eigen::SparseMatrix<double>& lower);
+  /// The numeric factorisation of a matrix with the analysed pattern; false when it is not positive
+  /// definite.
+  bool Factorize(Eigen::SparseMatrix<double>& lower);
+  /// x with H x = rhs, after a successful Factorize.
+  Eigen::VectorXd Solve(const Eigen::VectorXd& rhs);
+  /// The factor as a simplicial, packed LLᵀ (column j holds its diagonal first, then the rows below it,
+  /// in the permuted order), for walks along columns; the supernodal factor is given up. Null on failure.
+  const cholmod_factor* ToSimplicial();
+  /// The elimination order: permutation()[k] is the original column eliminated k-th.
+  const int* permutation() const { return static_cast<const int*>(factor_->Perm); }
+
+ private:
+  cholmod_common common_;
+  cholmod_factor* factor_ = nullptr;
+};
+
+}  // namespace slamcore::internal
