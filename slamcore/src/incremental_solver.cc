@@ -195,16 +195,36 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
 
-  const auto chi2 = [&] {
+  // Each edge's ends (graph indices) and its error and Jacobians at the current poses: the χ² that judges a
+  // step is computed with the Jacobians the next iteration linearises with, once per pose set.
+  struct Linearised {
+    Vector3 error;
+    Matrix3 d_from, d_to;
+  };
+  std::vector<std::pair<std::size_t, std::size_t>> ends;
+  ends.reserve(edges.size());
+  for (const std::uint32_t e : edges) {
+    const Edge& edge = graph.edges()[e];
+    ends.emplace_back(graph.IndexOf(edge.from), graph.IndexOf(edge.to));
+  }
+  const auto linearise = [&](std::vector<Linearised>& out) {
+    out.resize(edges.size());
     double sum = 0.0;
-    for (const std::uint32_t e : edges) sum += EdgeChi2(graph, graph.edges()[e]);
+    for (std::size_t k = 0; k < edges.size(); ++k) {
+      const Edge& edge = graph.edges()[edges[k]];
+      Linearised& at = out[k];
+      at.error = EdgeError(graph.nodes()[ends[k].first].pose, graph.nodes()[ends[k].second].pose,
+                           edge.measurement, &at.d_from, &at.d_to);
+      sum += at.error.dot(edge.information * at.error);
+    }
     return sum;
   };
   NormalEquations normal_equations(3 * columns);
   Eigen::SparseMatrix<double> hessian(3 * columns, 3 * columns);
   std::vector<Eigen::Triplet<double>> triplets;
   Eigen::VectorXd gradient(3 * columns);
-  double cost = chi2(), damping = 0.0;
+  std::vector<Linearised> current, trial;
+  double cost = linearise(current), damping = 0.0;
   int iterations = 0;
   std::vector<SE2> saved(region.size());
   const int max_iterations = to_convergence ? 10 * options_.max_iterations : options_.max_iterations;
@@ -220,24 +240,22 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
         }
       }
     };
-    for (const std::uint32_t e : edges) {
-      const Edge& edge = graph.edges()[e];
-      Matrix3 d_from, d_to;
-      const Vector3 error =
-          EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
-      const int a = column[graph.IndexOf(edge.from)], b = column[graph.IndexOf(edge.to)];
-      const Vector3 weighted = edge.information * error;
+    for (std::size_t k = 0; k < edges.size(); ++k) {
+      const Edge& edge = graph.edges()[edges[k]];
+      const Linearised& at = current[k];
+      const int a = column[ends[k].first], b = column[ends[k].second];
+      const Vector3 weighted = edge.information * at.error;
       if (a >= 0) {
-        add_block(a, a, d_from.transpose() * edge.information * d_from);
-        gradient.segment<3>(a) += d_from.transpose() * weighted;
+        add_block(a, a, at.d_from.transpose() * edge.information * at.d_from);
+        gradient.segment<3>(a) += at.d_from.transpose() * weighted;
       }
       if (b >= 0) {
-        add_block(b, b, d_to.transpose() * edge.information * d_to);
-        gradient.segment<3>(b) += d_to.transpose() * weighted;
+        add_block(b, b, at.d_to.transpose() * edge.information * at.d_to);
+        gradient.segment<3>(b) += at.d_to.transpose() * weighted;
       }
       if (a >= 0 && b >= 0) {
-        if (a > b) add_block(a, b, d_from.transpose() * edge.information * d_to);
-        if (b > a) add_block(b, a, d_to.transpose() * edge.information * d_from);
+        if (a > b) add_block(a, b, at.d_from.transpose() * edge.information * at.d_to);
+        if (b > a) add_block(b, a, at.d_to.transpose() * edge.information * at.d_from);
       }
     }
     hessian.setFromTriplets(triplets.begin(), triplets.end());
@@ -259,7 +277,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       largest_position = std::max({largest_position, std::abs(step(c)), std::abs(step(c + 1))});
       largest_angle = std::max(largest_angle, std::abs(step(c + 2)));
     }
-    const double new_cost = chi2();
+    const double new_cost = linearise(trial);
     if (!(new_cost <= cost)) {
       for (std::size_t k = 0; k < region.size(); ++k) graph.mutable_nodes()[region[k]].pose = saved[k];
       damping = damping == 0.0 ? 1e-4 : damping * 10.0;
@@ -268,6 +286,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     }
     const double decrease = (cost - new_cost) / std::max(cost, 1e-300);
     cost = new_cost;
+    std::swap(current, trial);
     damping = damping < 1e-8 ? 0.0 : damping / 10.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
