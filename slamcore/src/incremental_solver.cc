@@ -25,9 +25,9 @@ class NormalEquations {
 
   bool Factorize(Eigen::SparseMatrix<double>& lower) {
     if (large_) {
-      if (!analysed_ && !supernodal_.Analyze(lower)) return false;
+      if (!analysed_ && !supernodal_->Analyze(lower)) return false;
       analysed_ = true;
-      return supernodal_.Factorize(lower);
+      return supernodal_->Factorize(lower);
     }
     if (!analysed_) simplicial_.analyzePattern(lower);
     analysed_ = true;
@@ -35,15 +35,17 @@ class NormalEquations {
     return simplicial_.info() == Eigen::Success;
   }
   Eigen::VectorXd Solve(const Eigen::VectorXd& rhs) {
-    if (large_) return supernodal_.Solve(rhs);
+    if (large_) return supernodal_->Solve(rhs);
     return simplicial_.solve(rhs);
   }
+  /// The supernodal factorisation (large systems only), given up.
+  std::unique_ptr<SupernodalCholesky> Release() { return large_ ? std::move(supernodal_) : nullptr; }
 
  private:
   static constexpr int kLargeColumns = 600;  // 200 nodes: where CHOLMOD's supernodes start to pay
   bool large_, analysed_ = false;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> simplicial_;
-  SupernodalCholesky supernodal_;
+  std::unique_ptr<SupernodalCholesky> supernodal_ = std::make_unique<SupernodalCholesky>();
 };
 
 }  // namespace
@@ -73,9 +75,14 @@ IncrementalSummary IncrementalSolver::SolveComponents(PoseGraph& graph, const st
   return Run(graph, seeds, Start::kLocalUnlessFar, true);
 }
 
+std::optional<ComponentFactorisation> IncrementalSolver::TakeComponentFactorisation() {
+  return std::exchange(component_factorisation_, std::nullopt);
+}
+
 IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start,
                                           bool whole) {
   IncrementalSummary summary;
+  component_factorisation_.reset();
   SyncAdjacency(graph);
   // Marks persist between updates (all zero / −1 outside one), so an update costs what its region costs.
   in_region_.resize(graph.num_nodes(), 0);
@@ -119,7 +126,9 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
         }
       }
     }
-    summary.iterations += SolveRegion(graph, region, !anchored, whole);
+    // A region with no held neighbour is a whole component: its final factorisation is worth keeping.
+    summary.iterations +=
+        SolveRegion(graph, region, !anchored, whole, anchored ? nullptr : &component_factorisation_);
     ++summary.rounds;
     summary.region_nodes = static_cast<int>(region.size());
     summary.full = !free_neighbour;
@@ -167,7 +176,7 @@ void IncrementalSolver::Grow(const PoseGraph& graph, std::vector<std::size_t>& r
 }
 
 int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge,
-                                   bool to_convergence) {
+                                   bool to_convergence, std::optional<ComponentFactorisation>* converged) {
   // Columns: 3 per region node; the gauge (the component's first node) is held when nothing else is.
   std::vector<int>& column = column_;
   int columns = 0;
@@ -261,6 +270,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     hessian.setFromTriplets(triplets.begin(), triplets.end());
     if (damping > 0.0) hessian.diagonal() *= 1.0 + damping;  // Levenberg–Marquardt after a rejected step
     ++iterations;
+    const bool undamped = damping == 0.0;
     if (!normal_equations.Factorize(hessian)) {
       damping = damping == 0.0 ? 1e-4 : damping * 10.0;
       if (damping > 1e8) break;
@@ -290,7 +300,17 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     damping = damping < 1e-8 ? 0.0 : damping / 10.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
-    if (decrease < relative_cost_decrease || (tiny_step && !to_convergence)) break;
+    if (decrease < relative_cost_decrease || (tiny_step && !to_convergence)) {
+      if (converged != nullptr && undamped) {
+        if (std::unique_ptr<SupernodalCholesky> cholesky = normal_equations.Release()) {
+          ComponentFactorisation kept{.cholesky = std::move(cholesky), .first_column = {}};
+          for (const std::size_t index : region)
+            kept.first_column.emplace_back(graph.nodes()[index].id, column[index]);
+          *converged = std::move(kept);
+        }
+      }
+      break;
+    }
   }
   return iterations;
 }

@@ -31,11 +31,15 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "slamcore/optimizer.h"
 #include "slamcore/pose_graph.h"
+#include "supernodal_cholesky.h"
 
 namespace slamcore::internal {
 
@@ -59,6 +63,14 @@ struct IncrementalSummary {
   bool full = false;     // the region reached the whole component
 };
 
+/// The normal equations of a whole component as a solve left them: H = Σ Jᵀ Ω J over all its edges at the
+/// poses before the solve's last step, factorised, its first node held. That step was undamped, accepted and
+/// within the solver's tolerances, so H is the component's information at its solution to within them.
+struct ComponentFactorisation {
+  std::unique_ptr<SupernodalCholesky> cholesky;
+  std::vector<std::pair<NodeId, int>> first_column;  // every node: its first column, −1 for the held one
+};
+
 class IncrementalSolver {
  public:
   explicit IncrementalSolver(IncrementalSolverOptions options = {}) : options_(options) {}
@@ -76,6 +88,9 @@ class IncrementalSolver {
   /// Solves the whole components of `seeds` to convergence (relative χ² decrease below 1e-10): the end of
   /// a run, so the child map is at its optimum and not only within the wildfire tolerance.
   IncrementalSummary SolveComponents(PoseGraph& graph, const std::vector<NodeId>& seeds);
+  /// The factorisation the last update ended with, when it solved a whole component large enough for the
+  /// supernodal Cholesky and converged (see ComponentFactorisation); taken once, dropped by the next update.
+  std::optional<ComponentFactorisation> TakeComponentFactorisation();
 
  private:
   IncrementalSummary Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start, bool whole);
@@ -84,8 +99,9 @@ class IncrementalSolver {
   void Grow(const PoseGraph& graph, std::vector<std::size_t>& region, const std::vector<std::size_t>& from,
             std::size_t count);
   /// Gauss–Newton over `region` (graph indices), the rest held; returns the iterations taken.
+  /// With `converged`: the final factorisation, when the region is large and the solve converged.
   int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge,
-                  bool to_convergence);
+                  bool to_convergence, std::optional<ComponentFactorisation>* converged = nullptr);
   /// Held neighbours of the region whose lone step exceeds the tolerance.
   std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
   /// A held node's Gauss–Newton step over its own edges, the region's poses as they are or as they were.
@@ -98,6 +114,7 @@ class IncrementalSolver {
   std::vector<char> in_region_;  // by node index; all 0 between updates
   std::vector<int> column_;      // by node index: the region's columns during a solve, −1 otherwise
   std::vector<SE2> original_;    // by node index: a region node's pose when the update admitted it
+  std::optional<ComponentFactorisation> component_factorisation_;
 };
 
 }  // namespace slamcore::internal

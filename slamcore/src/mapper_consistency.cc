@@ -108,6 +108,19 @@ void Mapper::Impl::RefactorizeMarginals() {
   robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
 }
 
+bool Mapper::Impl::MarginalsFromTheSolve() {
+  std::optional<internal::ComponentFactorisation> factorisation = incremental_.TakeComponentFactorisation();
+  if (!factorisation) return false;
+  std::optional<internal::MarginalCovariances> marginals =
+      internal::MarginalCovariances::FromSolve(map_.graph, *current_node_, std::move(*factorisation));
+  if (!marginals) return false;
+  marginals_ = std::move(marginals);
+  marginals_revision_ = map_revision_;
+  marginals_indirect_revision_ = indirect_revision_;
+  robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
+  return true;
+}
+
 Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypothesis, std::string* why) {
   const ConsistencyParams& consistency = params_.consistency;
   if (!consistency.enabled) return RecoveryVerdict::kAccept;
@@ -237,11 +250,12 @@ void Mapper::Impl::OptimizeAndFactorize() {
   RefactorizeMarginals();
 }
 
-bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, std::string* note) {
+bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, bool marginals_current,
+                                    std::string* note) {
   // RRR's rule at the optimum that took the newcomer in: while the newcomer or one of the accepted
   // hypotheses that fit worst fails the leave-one-out test, the one with the largest ratio goes — the
   // newcomer (refused; the caller restores G) or an earlier acceptance (retracted).
-  RefactorizeMarginals();
+  if (!marginals_current) RefactorizeMarginals();
   std::vector<std::pair<std::int64_t, double>> retracted;
   bool refused = false;
   for (int round = 0; round <= params_.consistency.max_retractions_per_check; ++round) {

@@ -171,11 +171,16 @@ class Mapper::Impl {
   /// the last direct edges, without refactorising; nullopt when they are current or cannot bound it.
   std::optional<internal::PoseGaussian> MapPredictionBound(NodeId node) const;
   void RefactorizeMarginals();
+  /// The marginals from the factorisation the back-end's last whole-component solve ended with, when it
+  /// left one for the robot's component; false (marginals_ untouched) otherwise.
+  bool MarginalsFromTheSolve();
   void OptimizeAndFactorize();
   /// After a recovery's edges joined G and the component was optimised: false when its own edges fail the
   /// leave-one-out test (the caller restores G); else retracts the earlier acceptances that now fail it,
   /// the worst first. Appends what it found to `note`.
-  bool VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, std::string* note);
+  /// `marginals_current`: marginals_ were just made at this optimum (MarginalsFromTheSolve).
+  bool VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, bool marginals_current,
+                        std::string* note);
   /// d² of a hypothesis's edges against the rest of G over its χ² quantile (> 1 fails); nullopt when
   /// it has no edges in the factorised component.
   std::optional<double> LeaveOneOutRatio(std::int64_t hypothesis_id) const;

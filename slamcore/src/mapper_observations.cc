@@ -196,18 +196,22 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   robot_relative_covariance_ = candidate->state.covariance;
   anchor_ = Anchor{.hypothesis = hypothesis_id, .time = time_, .odometer = odometer_};
   std::string note;
+  bool marginals_current = false;
   if (params_.optimize_after_accept) {
     // The verification judges the newcomer at the optimum: the incremental back-end solves the whole
-    // component for it, as the batch one does for every acceptance.
+    // component for it, as the batch one does for every acceptance, and its final factorisation gives the
+    // marginals the verification needs (the same factorisation, not a second one).
     if (verify && UsesIncrementalBackend()) {
       direct_edges_since_full_optimization_ = 0;
       pending_seeds_.push_back(*current_node_);
       UpdateIncrementally(internal::IncrementalSolver::Start::kWhole);
+      marginals_current = MarginalsFromTheSolve();
     } else {
       OptimizeComponentOf(*current_node_, &note);
     }
   }
-  if (verify && !VerifyAcceptance(hypothesis_id, verdict == RecoveryVerdict::kAcceptAndVerify, &note)) {
+  if (verify && !VerifyAcceptance(hypothesis_id, verdict == RecoveryVerdict::kAcceptAndVerify,
+                                  marginals_current, &note)) {
     map_.graph = std::move(saved->graph);
     accepted_ = std::move(saved->accepted);
     retractable_ = std::move(saved->retractable);

@@ -4,6 +4,7 @@
 
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <limits>
 
 #include "slamcore/optimizer.h"
 #include "supernodal_cholesky.h"
@@ -15,7 +16,7 @@ namespace slamcore::internal {
 /// faster than a simplicial one on pose graphs of thousands of nodes, and this factorisation is redone
 /// whenever G changed.
 struct MarginalCovariances::Factor {
-  SupernodalCholesky cholesky;
+  std::unique_ptr<SupernodalCholesky> cholesky = std::make_unique<SupernodalCholesky>();
   const cholmod_factor* factor = nullptr;  // simplicial, owned by `cholesky`
   std::vector<int> position;               // original column → its column in L
   int size = 0;
@@ -24,11 +25,15 @@ struct MarginalCovariances::Factor {
   /// definite.
   bool Compute(Eigen::SparseMatrix<double>& lower) {
     size = static_cast<int>(lower.rows());
-    if (!cholesky.Analyze(lower) || !cholesky.Factorize(lower)) return false;
-    factor = cholesky.ToSimplicial();
+    return cholesky->Analyze(lower) && cholesky->Factorize(lower) && TakeFactor();
+  }
+  /// The factor `cholesky` holds, as Joint walks it.
+  bool TakeFactor() {
+    factor = cholesky->ToSimplicial();
     if (!factor) return false;
+    size = static_cast<int>(factor->n);
     position.assign(static_cast<std::size_t>(size), 0);
-    const int* permutation = cholesky.permutation();
+    const int* permutation = cholesky->permutation();
     for (int k = 0; k < size; ++k) position[static_cast<std::size_t>(permutation[k])] = k;
     return true;
   }
@@ -86,17 +91,53 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
       add_block(b, a, d_to.transpose() * edge.information * d_from);
     }
   }
-  // The a-posteriori variance factor σ̂₀² = χ² / redundancy (Förstner & Wrobel, Photogrammetric Computer
-  // Vision, 2016, §4.2.3): how far the declared covariances overstate the noise actually met.
-  const long redundancy = 3 * static_cast<long>(edges) - 3 * static_cast<long>(blocks);
-  if (redundancy > 0) result.variance_factor_ = chi2 / static_cast<double>(redundancy);
-  result.redundancy_ = std::max(0L, redundancy);
+  result.SetVarianceFactor(chi2, static_cast<long>(edges), blocks);
   Eigen::SparseMatrix<double> information(3 * blocks, 3 * blocks);
   information.setFromTriplets(triplets.begin(), triplets.end());
   information.makeCompressed();
 
   result.factor_ = std::make_unique<Factor>();
   if (!result.factor_->Compute(information)) return std::nullopt;
+  return result;
+}
+
+void MarginalCovariances::SetVarianceFactor(double chi2, long edges, long free_nodes) {
+  // The a-posteriori variance factor σ̂₀² = χ² / redundancy (Förstner & Wrobel, Photogrammetric Computer
+  // Vision, 2016, §4.2.3): how far the declared covariances overstate the noise actually met.
+  const long redundancy = 3 * edges - 3 * free_nodes;
+  if (redundancy > 0) variance_factor_ = chi2 / static_cast<double>(redundancy);
+  redundancy_ = std::max(0L, redundancy);
+}
+
+std::optional<MarginalCovariances> MarginalCovariances::FromSolve(const PoseGraph& graph, NodeId node,
+                                                                  ComponentFactorisation factorisation) {
+  const ComponentId component = graph.ComponentOf(node);
+  if (!factorisation.cholesky || factorisation.first_column.size() != graph.ComponentSize(component)) {
+    return std::nullopt;
+  }
+  MarginalCovariances result;
+  NodeId held = -1, gauge = std::numeric_limits<NodeId>::max();
+  for (const auto& [id, column] : factorisation.first_column) {
+    if (!graph.HasNode(id) || graph.ComponentOf(id) != component) return std::nullopt;
+    if (column < 0) held = id;
+    gauge = std::min(gauge, id);
+    result.index_.emplace(id, column);
+    result.poses_.emplace(id, graph.node(id).pose);
+    result.newest_node_ = std::max(result.newest_node_, id);
+  }
+  if (held != gauge) return std::nullopt;  // Factorize holds the smallest id: the same gauge, or nothing
+  result.num_edges_ = graph.num_edges();
+  double chi2 = 0.0;  // at the poses the solve ended with, as Factorize measures it
+  long edges = 0;
+  for (const Edge& edge : graph.edges()) {
+    if (graph.ComponentOf(edge.from) != component) continue;
+    chi2 += EdgeChi2(graph, edge);
+    ++edges;
+  }
+  result.SetVarianceFactor(chi2, edges, static_cast<long>(factorisation.first_column.size()) - 1);
+  result.factor_ = std::make_unique<Factor>();
+  result.factor_->cholesky = std::move(factorisation.cholesky);
+  if (!result.factor_->TakeFactor()) return std::nullopt;
   return result;
 }
 

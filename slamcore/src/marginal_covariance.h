@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <unordered_map>
 
+#include "incremental_solver.h"
 #include "pose_gaussian.h"
 #include "slamcore/pose_graph.h"
 
@@ -34,6 +35,11 @@ class MarginalCovariances {
   /// Factorises the component of `node`. nullopt when the information matrix is singular (a component
   /// with a node held by nothing, which the Mapper never builds).
   static std::optional<MarginalCovariances> Factorize(const PoseGraph& graph, NodeId node);
+  /// The same from the factorisation a whole-component solve of the back-end ended with (the component of
+  /// `node`, its first node held): no factorisation of its own. nullopt when it is not that component's, or
+  /// another node is held.
+  static std::optional<MarginalCovariances> FromSolve(const PoseGraph& graph, NodeId node,
+                                                      ComponentFactorisation factorisation);
 
   ~MarginalCovariances();
   MarginalCovariances(MarginalCovariances&&) noexcept;
@@ -58,6 +64,8 @@ class MarginalCovariances {
  private:
   struct Factor;
   MarginalCovariances() = default;
+  /// The a-posteriori variance factor from the component's χ² over `edges` edges and its free nodes.
+  void SetVarianceFactor(double chi2, long edges, long free_nodes);
 
   std::unordered_map<NodeId, int> index_;  // node → block column, −1 for the gauge node
   std::unordered_map<NodeId, SE2> poses_;  // at factorisation

@@ -1,5 +1,7 @@
 #include "supernodal_cholesky.h"
 
+#include <cholmod.h>
+
 #include <algorithm>
 #include <vector>
 
@@ -28,12 +30,22 @@ cholmod_sparse LowerView(Eigen::SparseMatrix<double>& lower, bool pattern_only) 
 
 }  // namespace
 
-SupernodalCholesky::SupernodalCholesky() { cholmod_start(&common_); }
+struct SupernodalCholesky::State {
+  cholmod_common common;
+  cholmod_factor* factor = nullptr;
+  State() { cholmod_start(&common); }
+  ~State() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+  State(const State&) = delete;
+  State& operator=(const State&) = delete;
+};
 
-SupernodalCholesky::~SupernodalCholesky() {
-  if (factor_) cholmod_free_factor(&factor_, &common_);
-  cholmod_finish(&common_);
-}
+SupernodalCholesky::SupernodalCholesky() : state_(std::make_unique<State>()) {}
+SupernodalCholesky::~SupernodalCholesky() = default;
+
+const int* SupernodalCholesky::permutation() const { return static_cast<const int*>(state_->factor->Perm); }
 
 bool SupernodalCholesky::Analyze(Eigen::SparseMatrix<double>& lower) {
   const CallingThreadOnly calling_thread_only;
@@ -54,28 +66,28 @@ bool SupernodalCholesky::Analyze(Eigen::SparseMatrix<double>& lower) {
   pattern.makeCompressed();
   cholmod_sparse pattern_view = LowerView(pattern, /*pattern_only=*/true);
   std::vector<int> block_order(static_cast<std::size_t>(blocks));
-  if (!cholmod_amd(&pattern_view, nullptr, 0, block_order.data(), &common_)) return false;
+  if (!cholmod_amd(&pattern_view, nullptr, 0, block_order.data(), &state_->common)) return false;
   std::vector<int> ordering;
   ordering.reserve(static_cast<std::size_t>(3 * blocks));
   for (const int block : block_order) {
     for (int axis = 0; axis < 3; ++axis) ordering.push_back(3 * block + axis);
   }
 
-  if (factor_) cholmod_free_factor(&factor_, &common_);
-  common_.nmethods = 1;
-  common_.method[0].ordering = CHOLMOD_GIVEN;
-  common_.supernodal = CHOLMOD_SUPERNODAL;
+  if (state_->factor) cholmod_free_factor(&state_->factor, &state_->common);
+  state_->common.nmethods = 1;
+  state_->common.method[0].ordering = CHOLMOD_GIVEN;
+  state_->common.supernodal = CHOLMOD_SUPERNODAL;
   cholmod_sparse view = LowerView(lower, /*pattern_only=*/false);
-  factor_ = cholmod_analyze_p(&view, ordering.data(), nullptr, 0, &common_);
-  return factor_ != nullptr;
+  state_->factor = cholmod_analyze_p(&view, ordering.data(), nullptr, 0, &state_->common);
+  return state_->factor != nullptr;
 }
 
 bool SupernodalCholesky::Factorize(Eigen::SparseMatrix<double>& lower) {
-  if (!factor_) return false;
+  if (!state_->factor) return false;
   const CallingThreadOnly calling_thread_only;
   cholmod_sparse view = LowerView(lower, /*pattern_only=*/false);
-  return cholmod_factorize(&view, factor_, &common_) && common_.status == CHOLMOD_OK &&
-         factor_->minor >= factor_->n;
+  return cholmod_factorize(&view, state_->factor, &state_->common) && state_->common.status == CHOLMOD_OK &&
+         state_->factor->minor >= state_->factor->n;
 }
 
 Eigen::VectorXd SupernodalCholesky::Solve(const Eigen::VectorXd& rhs) {
@@ -87,18 +99,19 @@ Eigen::VectorXd SupernodalCholesky::Solve(const Eigen::VectorXd& rhs) {
   right.x = copy.data();
   right.xtype = CHOLMOD_REAL;
   right.dtype = CHOLMOD_DOUBLE;
-  cholmod_dense* solution = cholmod_solve(CHOLMOD_A, factor_, &right, &common_);
+  cholmod_dense* solution = cholmod_solve(CHOLMOD_A, state_->factor, &right, &state_->common);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(copy.size());
   if (solution) {
     std::copy_n(static_cast<const double*>(solution->x), copy.size(), x.data());
-    cholmod_free_dense(&solution, &common_);
+    cholmod_free_dense(&solution, &state_->common);
   }
   return x;
 }
 
-const cholmod_factor* SupernodalCholesky::ToSimplicial() {
-  if (!factor_ || !cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, factor_, &common_)) return nullptr;
-  return factor_;
+const cholmod_factor_struct* SupernodalCholesky::ToSimplicial() {
+  if (!state_->factor || !cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, state_->factor, &state_->common))
+    return nullptr;
+  return state_->factor;
 }
 
 }  // namespace slamcore::internal

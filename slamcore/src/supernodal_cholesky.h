@@ -10,10 +10,11 @@
 // Thread safety: one object per thread.
 #pragma once
 
-#include <cholmod.h>
-
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
+
+struct cholmod_factor_struct;  // cholmod.h's cholmod_factor, kept out of this header's includers
 
 namespace slamcore::internal {
 
@@ -34,13 +35,13 @@ class SupernodalCholesky {
   Eigen::VectorXd Solve(const Eigen::VectorXd& rhs);
   /// The factor as a simplicial, packed LLᵀ (column j holds its diagonal first, then the rows below it,
   /// in the permuted order), for walks along columns; the supernodal factor is given up. Null on failure.
-  const cholmod_factor* ToSimplicial();
+  const cholmod_factor_struct* ToSimplicial();
   /// The elimination order: permutation()[k] is the original column eliminated k-th.
-  const int* permutation() const { return static_cast<const int*>(factor_->Perm); }
+  const int* permutation() const;
 
  private:
-  cholmod_common common_;
-  cholmod_factor* factor_ = nullptr;
+  struct State;  // CHOLMOD's workspace and factor
+  std::unique_ptr<State> state_;
 };
 
 }  // namespace slamcore::internal
