@@ -31,6 +31,15 @@ export function card(title, ...body) {
 /// The page's state for people (an empty or error panel) and for tests (main[data-state]).
 export function setState(main, state) { main.dataset.state = state; }
 
+/// Navigates to a hash route. The page says "loading" at once: the browser fires hashchange later, and until
+/// then the old page would still claim to be ready for the new address. The same address renders again.
+export function go(hash) {
+  const target = new URL(hash.startsWith('#') ? hash : `#${hash}`, location.href).hash;
+  setState(document.getElementById('main'), 'loading');
+  if (location.hash === target) window.dispatchEvent(new HashChangeEvent('hashchange'));
+  else location.hash = target;
+}
+
 export function emptyState(message, hint) {
   return h('div', { class: 'empty', 'data-testid': 'empty-state' }, h('p', {}, message), hint ? h('p', { class: 'muted' }, hint) : null);
 }
@@ -39,7 +48,7 @@ export function errorState(error) {
   const status = error && error.status ? ` (HTTP ${error.status})` : '';
   return h('div', { class: 'error', 'data-testid': 'error-state', role: 'alert' },
     h('strong', {}, 'Could not load this page'), h('p', {}, `${error.message || error}${status}`),
-    h('button', { class: 'secondary', onclick: () => window.dispatchEvent(new HashChangeEvent('hashchange')) }, 'Retry'));
+    h('button', { class: 'secondary', onclick: () => go(location.hash) }, 'Retry'));
 }
 
 export const NO_RUNS_HINT = h('span', {}, 'No runs yet — upload with ',

@@ -2,7 +2,7 @@
 // by firmware, and the runs whose reports changed most.
 import { getJson } from '../api.js';
 import * as charts from '../charts.js';
-import { card, emptyState, h, num, pct, setState } from '../ui.js';
+import { card, emptyState, go, h, num, pct, setState } from '../ui.js';
 import { apiFilter } from './filters.js';
 
 const figures = [
@@ -29,7 +29,7 @@ export async function render(main, { query, isCurrent }) {
     e.preventDefault();
     const values = new URLSearchParams();
     for (const el of form.querySelectorAll('[name]')) if (el.value) values.set(el.name, el.value);
-    location.hash = `#/experiments?${values}`;
+    go(`#/experiments?${values}`);
   });
   main.append(h('h1', {}, 'Experiments'), form);
   if (sets.length < 2 || a === b) {

@@ -1,7 +1,7 @@
 // Labelling: click a region on the map, label it protrusion or new space; labels are stored with the
 // region (POST /api/runs/<id>/regions/<region>/label, engineer token) and feed classifier training.
 import { ApiError, askToken, getJson, getToken, postJson, setToken } from '../api.js';
-import { card, emptyState, h, num, setState, time } from '../ui.js';
+import { card, emptyState, go, h, num, setState, time } from '../ui.js';
 import { decidedByText, mapView, regionClass } from '../mapview.js';
 
 export async function render(main, { query, isCurrent }) {
@@ -74,7 +74,7 @@ export async function render(main, { query, isCurrent }) {
   }
 
   draw();
-  const picker = h('select', { 'data-testid': 'label-run', onchange: (e) => { const picked = e.target.selectedOptions[0].dataset.robot || ''; location.hash = `#/labelling?run=${encodeURIComponent(e.target.value)}&robot=${encodeURIComponent(picked)}&parameter_set=${set}`; } },
+  const picker = h('select', { 'data-testid': 'label-run', onchange: (e) => { const picked = e.target.selectedOptions[0].dataset.robot || ''; go(`#/labelling?run=${encodeURIComponent(e.target.value)}&robot=${encodeURIComponent(picked)}&parameter_set=${set}`); } },
     queue.runs.map((r) => h('option', { value: r.run_id, 'data-robot': r.robot_id, selected: r.run_id === runId && r.robot_id === detail.run.robot_id }, `${r.run_id} — ${r.regions} regions, ${r.regions_labelled} labelled`)));
   if (!queue.runs.some((r) => r.run_id === runId && r.robot_id === detail.run.robot_id)) picker.prepend(h('option', { value: runId, 'data-robot': detail.run.robot_id, selected: true }, runId));
   left.append(h('p', {}, 'Run: ', picker, ' ', h('a', { href: `#/runs/${encodeURIComponent(runId)}?parameter_set=${set}&robot=${runRobot}` }, 'run page')), mapHolder,

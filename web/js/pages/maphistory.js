@@ -1,7 +1,7 @@
 // One robot's map history: the lineage timeline (parent → child, coloured by review state) and every version's
 // figures; a version opens its review page.
 import { ApiError, getJson, postAsEngineer } from '../api.js';
-import { card, emptyState, h, num, setState, time } from '../ui.js';
+import { card, emptyState, go, h, num, setState, time } from '../ui.js';
 import { approvalBadge, lineageLegend, lineageTimeline, originLabel, robotMapsPath, sameMapAs, versionHash } from '../maphistory.js';
 
 export async function render(main, { args, isCurrent }) {
@@ -15,7 +15,7 @@ export async function render(main, { args, isCurrent }) {
   if (!isCurrent()) return;
   const robot = robots.find((r) => r.robot_id === robotId);
   const versions = history.versions;
-  const open = (version) => { location.hash = versionHash(robotId, version.version); };
+  const open = (version) => { go(versionHash(robotId, version.version)); };
   main.append(h('p', { class: 'muted' }, h('a', { href: '#/maps' }, '← Maps')),
     h('h1', {}, `Map history — ${robotId}`),
     h('p', { class: 'muted' }, robot ? `${robot.robot_model} · firmware ${robot.firmware} · ` : '',
@@ -77,7 +77,7 @@ function importCard(robotId) {
           body = JSON.parse(await json.text());
         }
         const { version } = await postAsEngineer(`${robotMapsPath(robotId)}/import`, body, 'Importing a map needs an engineer token.');
-        location.hash = versionHash(robotId, version.version);
+        go(versionHash(robotId, version.version));
       } catch (error) {
         status.textContent = `not imported: ${error.message}`;
       }

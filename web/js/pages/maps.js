@@ -1,7 +1,7 @@
 // Maps: every robot with its map history in brief (versions, the current one, the newest and its review
 // state, open findings, versions waiting for review); a row opens the robot's history.
 import { getJson } from '../api.js';
-import { card, emptyState, h, num, setState } from '../ui.js';
+import { card, emptyState, go, h, num, setState } from '../ui.js';
 import { historyHash } from '../maphistory.js';
 
 export async function render(main, { isCurrent }) {
@@ -15,7 +15,7 @@ export async function render(main, { isCurrent }) {
     return;
   }
   const rows = robots.map((robot) => h('tr', { class: 'clickable', 'data-testid': 'robot-row', 'data-robot': robot.robot_id,
-    onclick: () => { location.hash = historyHash(robot.robot_id); } },
+    onclick: () => { go(historyHash(robot.robot_id)); } },
   h('td', {}, h('a', { href: historyHash(robot.robot_id) }, robot.robot_id)),
   h('td', {}, robot.robot_model), h('td', {}, robot.firmware),
   h('td', { class: 'num' }, num(robot.versions)),

@@ -3,7 +3,7 @@
 // repair makes a new pending version from this one (POST …/repair, engineer token) and opens it, so the
 // engineer sees the re-optimised map beside its parent before approving or rejecting it (POST …/review).
 import { ApiError, downloadLink, getJson, postAsEngineer } from '../api.js';
-import { card, h, kpi, num, setState, time } from '../ui.js';
+import { card, go, h, kpi, num, setState, time } from '../ui.js';
 import { approvalBadge, historyHash, originLabel, reviewState, robotMapsPath, sameMapAs, versionHash } from '../maphistory.js';
 import { mapOverlay, metadataPanel, nodeId, otherComponents, overlayLegend } from '../mapoverlay.js';
 import { constraintTable } from '../constraints.js';
@@ -60,7 +60,7 @@ export async function render(main, { args, query, isCurrent }) {
     show('busy', `${what}: making a new version from v${v} and re-optimising…`);
     try {
       const made = await postAsEngineer(`${versionBase}/repair`, { ...body, reason: reason.value.trim() }, TOKEN_WHY);
-      location.hash = `${versionHash(robotId, made.version.version)}?from=${v}`;
+      go(`${versionHash(robotId, made.version.version)}?from=${v}`);
     } catch (error) {
       await explain(error, what);
       setBusy(false);
@@ -73,7 +73,7 @@ export async function render(main, { args, query, isCurrent }) {
     show('busy', `${approve ? 'Approving' : 'Rejecting'} v${v}…`);
     try {
       await postAsEngineer(`${versionBase}/review`, { approve }, TOKEN_WHY);
-      location.hash = `${versionHash(robotId, v)}?reviewed=${approve ? 'approved' : 'rejected'}`;
+      go(`${versionHash(robotId, v)}?reviewed=${approve ? 'approved' : 'rejected'}`);
     } catch (error) {
       await explain(error, approve ? 'Approve' : 'Reject');
       setBusy(false);
@@ -83,7 +83,7 @@ export async function render(main, { args, query, isCurrent }) {
   /// 409 ABORTED: the map moved on (another repair or upload made a newer head); 409 FAILED_PRECONDITION:
   /// the version is no longer pending, or the repair does not apply. Say which and offer a reload.
   async function explain(error, what) {
-    const reload = h('button', { class: 'secondary', 'data-testid': 'reload', onclick: () => window.dispatchEvent(new HashChangeEvent('hashchange')) }, 'Reload');
+    const reload = h('button', { class: 'secondary', 'data-testid': 'reload', onclick: () => go(location.hash) }, 'Reload');
     if (error instanceof ApiError && error.status === 409) {
       const latest = error.code === 'ABORTED' ? await getJson(base).catch(() => null) : null;
       const moved = latest && latest.versions.find((x) => x.version === latest.head_version);

@@ -2,11 +2,11 @@
 // set, with trends by day and by firmware. Everything is aggregated by the database (/api/stats).
 import { ApiError, getJson } from '../api.js';
 import * as charts from '../charts.js';
-import { card, h, kpi, noRuns, num, pct, setState } from '../ui.js';
+import { card, go, h, kpi, noRuns, num, pct, setState } from '../ui.js';
 import { apiFilter, filterBar } from './filters.js';
 
 export async function render(main, { query, isCurrent }) {
-  const { form, meta } = await filterBar(query, (values) => { location.hash = `#/overview?${values}`; });
+  const { form, meta } = await filterBar(query, (values) => { go(`#/overview?${values}`); });
   const stats = await getJson('/api/stats', apiFilter(query, meta));
   if (!isCurrent()) return;
   const t = stats.total;

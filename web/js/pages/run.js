@@ -2,7 +2,7 @@
 // pose graph with components, hypothesis edges and conditional merges, the decision timeline and the
 // ambiguous views.
 import { getJson } from '../api.js';
-import { card, emptyState, h, kpi, num, setState, time } from '../ui.js';
+import { card, emptyState, go, h, kpi, num, setState, time } from '../ui.js';
 import { decidedByText, mapView, regionClass } from '../mapview.js';
 import { poseGraph, poseGraphLegend } from '../posegraph.js';
 
@@ -14,7 +14,7 @@ export async function render(main, { args, query, isCurrent }) {
   const detail = await getJson(`/api/runs/${encodeURIComponent(runId)}`, { parameter_set: set, robot });
   if (!isCurrent()) return;
   const run = detail.run;
-  const setPicker = h('select', { 'data-testid': 'run-parameter-set', onchange: (e) => { location.hash = `#/runs/${encodeURIComponent(runId)}?parameter_set=${e.target.value}&robot=${encodeURIComponent(run.robot_id)}`; } },
+  const setPicker = h('select', { 'data-testid': 'run-parameter-set', onchange: (e) => { go(`#/runs/${encodeURIComponent(runId)}?parameter_set=${e.target.value}&robot=${encodeURIComponent(run.robot_id)}`); } },
     (detail.report_parameter_sets.length ? detail.report_parameter_sets : [detail.parameter_set]).map((s) => h('option', { value: s, selected: s === detail.parameter_set }, s)));
   main.append(h('h1', {}, `Run ${run.run_id}`),
     h('p', { class: 'muted' }, `robot ${run.robot_id} · firmware ${run.firmware} · ${run.robot_model} · started ${time(run.started_at_ms)} UTC · `,
@@ -51,7 +51,7 @@ export async function render(main, { args, query, isCurrent }) {
     mapsCard.append(h('div', { class: 'maps' },
       h('figure', {}, mapView(`${base}/parent.png${q}`, info, [], { testid: 'map-parent' }), h('figcaption', { class: 'muted' }, '(a) parent')),
       h('figure', {}, mapView(`${base}/child.png${q}`, info, regions, { testid: 'map-child' }), h('figcaption', { class: 'muted' }, '(b) child')),
-      h('figure', {}, mapView(`${base}/difference.png${q}`, info, regions, { testid: 'map-difference', onRegionClick: (region) => { location.hash = `#/labelling?run=${encodeURIComponent(runId)}&robot=${encodeURIComponent(run.robot_id)}&parameter_set=${detail.parameter_set}&region=${region.region_id}`; } }),
+      h('figure', {}, mapView(`${base}/difference.png${q}`, info, regions, { testid: 'map-difference', onRegionClick: (region) => { go(`#/labelling?run=${encodeURIComponent(runId)}&robot=${encodeURIComponent(run.robot_id)}&parameter_set=${detail.parameter_set}&region=${region.region_id}`); } }),
         h('figcaption', { class: 'muted' }, '(c) difference: black = new in the child; boxes: red protrusion, green new space, amber unclassified'))),
       regions.length ? h('table', { 'data-testid': 'regions-table' },
         h('tr', {}, ['region', 'class', 'decided by', 'probability', 'label', 'area m²', 'minor axis m', 'mean distance m'].map((t) => h('th', {}, t))),

@@ -1,10 +1,10 @@
 // Runs: keyset-paginated (the cursor is the last run of the page), filtered like the overview.
 import { getJson } from '../api.js';
-import { h, noRuns, num, setState, time } from '../ui.js';
+import { go, h, noRuns, num, setState, time } from '../ui.js';
 import { apiFilter, filterBar } from './filters.js';
 
 export async function render(main, { query, isCurrent }) {
-  const { form, meta } = await filterBar(query, (values) => { location.hash = `#/runs?${values}`; });
+  const { form, meta } = await filterBar(query, (values) => { go(`#/runs?${values}`); });
   const filter = apiFilter(query, meta);
   const page = await getJson('/api/runs', { ...filter, limit: 25, after_ms: query.get('after_ms'), after_id: query.get('after_id'), after_robot: query.get('after_robot') });
   if (!isCurrent()) return;
@@ -16,7 +16,7 @@ export async function render(main, { query, isCurrent }) {
   }
   const rows = page.runs.map((run) => {
     const r = run.report;
-    return h('tr', { class: 'clickable', 'data-testid': 'run-row', onclick: () => { location.hash = `#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}&robot=${encodeURIComponent(run.robot_id)}`; } },
+    return h('tr', { class: 'clickable', 'data-testid': 'run-row', onclick: () => { go(`#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}&robot=${encodeURIComponent(run.robot_id)}`); } },
       h('td', {}, h('a', { href: `#/runs/${encodeURIComponent(run.run_id)}?parameter_set=${page.parameter_set}&robot=${encodeURIComponent(run.robot_id)}` }, run.run_id)),
       h('td', {}, run.robot_id), h('td', {}, run.firmware), h('td', {}, time(run.started_at_ms)),
       h('td', {}, run.parent_snapshot_id ? 'yes' : 'first run'),
@@ -35,11 +35,11 @@ export async function render(main, { query, isCurrent }) {
   const pager = h('div', { class: 'pager' });
   if (query.get('after_ms')) {
     const first = new URLSearchParams(query); first.delete('after_ms'); first.delete('after_id'); first.delete('after_robot');
-    pager.append(h('button', { class: 'secondary', onclick: () => { location.hash = `#/runs?${first}`; } }, '⟨ First page'));
+    pager.append(h('button', { class: 'secondary', onclick: () => { go(`#/runs?${first}`); } }, '⟨ First page'));
   }
   if (page.next) {
     next.set('after_ms', page.next.after_ms); next.set('after_id', page.next.after_id); next.set('after_robot', page.next.after_robot);
-    pager.append(h('button', { 'data-testid': 'next-page', onclick: () => { location.hash = `#/runs?${next}`; } }, 'Next page ⟩'));
+    pager.append(h('button', { 'data-testid': 'next-page', onclick: () => { go(`#/runs?${next}`); } }, 'Next page ⟩'));
   }
   pager.append(h('span', { class: 'muted' }, `${page.runs.length} runs on this page, ordered by start time (keyset pagination)`));
   main.append(pager);
