@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "supernodal_cholesky.h"
+#include "cholmod_cholesky.h"
 
 namespace slamcore::internal {
 namespace {
@@ -16,18 +16,18 @@ bool SameEdge(const Edge& a, const Edge& b) {
          a.measurement.y() == b.measurement.y() && a.measurement.theta() == b.measurement.theta();
 }
 
-/// The normal equations' sparse Cholesky: Eigen's simplicial LDLᵀ for small regions (no set-up cost), the
-/// supernodal LLᵀ of supernodal_cholesky.h for large ones. The symbolic analysis is done once per region,
-/// its pattern fixed across iterations.
+/// The normal equations' sparse Cholesky: Eigen's simplicial LDLᵀ for small regions (no set-up cost),
+/// CHOLMOD's (cholmod_cholesky.h) for large ones. The symbolic analysis is done once per region, its
+/// pattern fixed across iterations.
 class NormalEquations {
  public:
   explicit NormalEquations(int size) : large_(size >= kLargeColumns) {}
 
   bool Factorize(Eigen::SparseMatrix<double>& lower) {
     if (large_) {
-      if (!analysed_ && !supernodal_->Analyze(lower)) return false;
+      if (!analysed_ && !cholmod_->Analyze(lower)) return false;
       analysed_ = true;
-      return supernodal_->Factorize(lower);
+      return cholmod_->Factorize(lower);
     }
     if (!analysed_) simplicial_.analyzePattern(lower);
     analysed_ = true;
@@ -35,17 +35,17 @@ class NormalEquations {
     return simplicial_.info() == Eigen::Success;
   }
   Eigen::VectorXd Solve(const Eigen::VectorXd& rhs) {
-    if (large_) return supernodal_->Solve(rhs);
+    if (large_) return cholmod_->Solve(rhs);
     return simplicial_.solve(rhs);
   }
-  /// The supernodal factorisation (large systems only), given up.
-  std::unique_ptr<SupernodalCholesky> Release() { return large_ ? std::move(supernodal_) : nullptr; }
+  /// CHOLMOD's factorisation (large systems only), given up.
+  std::unique_ptr<CholmodCholesky> Release() { return large_ ? std::move(cholmod_) : nullptr; }
 
  private:
-  static constexpr int kLargeColumns = 600;  // 200 nodes: where CHOLMOD's supernodes start to pay
+  static constexpr int kLargeColumns = 600;  // 200 nodes: where CHOLMOD's set-up starts to pay
   bool large_, analysed_ = false;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> simplicial_;
-  std::unique_ptr<SupernodalCholesky> supernodal_ = std::make_unique<SupernodalCholesky>();
+  std::unique_ptr<CholmodCholesky> cholmod_ = std::make_unique<CholmodCholesky>();
 };
 
 }  // namespace
@@ -68,11 +68,22 @@ void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
 
 IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds,
                                              Start start) {
-  return Run(graph, seeds, start, false);
+  return Run(graph, seeds, start, std::nullopt);
 }
 
 IncrementalSummary IncrementalSolver::SolveComponents(PoseGraph& graph, const std::vector<NodeId>& seeds) {
-  return Run(graph, seeds, Start::kLocalUnlessFar, true);
+  return Run(graph, seeds, Start::kLocalUnlessFar,
+             Convergence{.max_iterations = 10 * options_.max_iterations, .relative_cost_decrease = 1e-10});
+}
+
+IncrementalSummary IncrementalSolver::SolveWeightedComponent(PoseGraph& graph, NodeId seed,
+                                                             const std::vector<double>& edge_weights,
+                                                             int max_iterations,
+                                                             double relative_cost_decrease) {
+  return Run(graph, {seed}, Start::kWhole,
+             Convergence{.max_iterations = max_iterations,
+                         .relative_cost_decrease = relative_cost_decrease,
+                         .edge_weights = &edge_weights});
 }
 
 std::optional<ComponentFactorisation> IncrementalSolver::TakeComponentFactorisation() {
@@ -80,7 +91,7 @@ std::optional<ComponentFactorisation> IncrementalSolver::TakeComponentFactorisat
 }
 
 IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start,
-                                          bool whole) {
+                                          std::optional<Convergence> whole) {
   IncrementalSummary summary;
   component_factorisation_.reset();
   SyncAdjacency(graph);
@@ -108,7 +119,7 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
     }
   }
   const bool large =
-      whole || start == Start::kWhole || largest_seed_chi2 > options_.whole_component_edge_chi2;
+      whole.has_value() || start == Start::kWhole || largest_seed_chi2 > options_.whole_component_edge_chi2;
   Grow(graph, region, region,
        large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
 
@@ -126,9 +137,11 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
         }
       }
     }
-    // A region with no held neighbour is a whole component: its final factorisation is worth keeping.
+    // A region with no held neighbour is a whole component: its final factorisation (of the edges' own
+    // information) is worth keeping.
+    const bool keep = !anchored && !(whole && whole->edge_weights);
     summary.iterations +=
-        SolveRegion(graph, region, !anchored, whole, anchored ? nullptr : &component_factorisation_);
+        SolveRegion(graph, region, !anchored, whole, keep ? &component_factorisation_ : nullptr);
     ++summary.rounds;
     summary.region_nodes = static_cast<int>(region.size());
     summary.full = !free_neighbour;
@@ -176,7 +189,8 @@ void IncrementalSolver::Grow(const PoseGraph& graph, std::vector<std::size_t>& r
 }
 
 int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge,
-                                   bool to_convergence, std::optional<ComponentFactorisation>* converged) {
+                                   const std::optional<Convergence>& to_convergence,
+                                   std::optional<ComponentFactorisation>* converged) {
   // Columns: 3 per region node; the gauge (the component's first node) is held when nothing else is.
   std::vector<int>& column = column_;
   int columns = 0;
@@ -203,6 +217,17 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  // Each edge's information, scaled by its weight when the solve is weighted; weight 0 leaves it out.
+  std::vector<Matrix3> information;
+  information.reserve(edges.size());
+  const std::vector<double>* weights = to_convergence ? to_convergence->edge_weights : nullptr;
+  if (weights != nullptr) {
+    std::erase_if(edges, [&](std::uint32_t e) { return (*weights)[e] == 0.0; });
+  }
+  for (const std::uint32_t e : edges) {
+    information.push_back(weights != nullptr ? ((*weights)[e] * graph.edges()[e].information).eval()
+                                             : graph.edges()[e].information);
+  }
 
   // Each edge's ends (graph indices) and its error and Jacobians at the current poses: the χ² that judges a
   // step is computed with the Jacobians the next iteration linearises with, once per pose set.
@@ -224,7 +249,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       Linearised& at = out[k];
       at.error = EdgeError(graph.nodes()[ends[k].first].pose, graph.nodes()[ends[k].second].pose,
                            edge.measurement, &at.d_from, &at.d_to);
-      sum += at.error.dot(edge.information * at.error);
+      sum += at.error.dot(information[k] * at.error);
     }
     return sum;
   };
@@ -233,11 +258,21 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   std::vector<Eigen::Triplet<double>> triplets;
   Eigen::VectorXd gradient(3 * columns);
   std::vector<Linearised> current, trial;
-  double cost = linearise(current), damping = 0.0;
+  // Levenberg–Marquardt damping λ (H's diagonal scaled by 1 + λ), 0 until a step is rejected: Nielsen's
+  // update (Madsen, Nielsen, Tingleff, "Methods for non-linear least squares problems", 2004, §3.2), which
+  // lowers λ by the gain ratio ρ of the accepted step, at most 3×, and raises it by a growing factor ν on
+  // a rejection. Dividing λ by 10 on every success, as before, made badly conditioned weighted solves
+  // alternate between an accepted and a rejected step for dozens of iterations.
+  double cost = linearise(current), damping = 0.0, damping_growth = 2.0;
+  const auto reject = [&] {
+    damping = damping == 0.0 ? 1e-4 : damping * damping_growth;
+    damping_growth *= 2.0;
+  };
   int iterations = 0;
   std::vector<SE2> saved(region.size());
-  const int max_iterations = to_convergence ? 10 * options_.max_iterations : options_.max_iterations;
-  const double relative_cost_decrease = to_convergence ? 1e-10 : options_.relative_cost_decrease;
+  const int max_iterations = to_convergence ? to_convergence->max_iterations : options_.max_iterations;
+  const double relative_cost_decrease =
+      to_convergence ? to_convergence->relative_cost_decrease : options_.relative_cost_decrease;
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     // Normal equations H δ = −g with H = Σ Jᵀ Ω J, g = Σ Jᵀ Ω e over the region's columns (lower triangle).
     triplets.clear();
@@ -250,33 +285,36 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       }
     };
     for (std::size_t k = 0; k < edges.size(); ++k) {
-      const Edge& edge = graph.edges()[edges[k]];
+      const Matrix3& omega = information[k];
       const Linearised& at = current[k];
       const int a = column[ends[k].first], b = column[ends[k].second];
-      const Vector3 weighted = edge.information * at.error;
+      const Vector3 weighted = omega * at.error;
       if (a >= 0) {
-        add_block(a, a, at.d_from.transpose() * edge.information * at.d_from);
+        add_block(a, a, at.d_from.transpose() * omega * at.d_from);
         gradient.segment<3>(a) += at.d_from.transpose() * weighted;
       }
       if (b >= 0) {
-        add_block(b, b, at.d_to.transpose() * edge.information * at.d_to);
+        add_block(b, b, at.d_to.transpose() * omega * at.d_to);
         gradient.segment<3>(b) += at.d_to.transpose() * weighted;
       }
       if (a >= 0 && b >= 0) {
-        if (a > b) add_block(a, b, at.d_from.transpose() * edge.information * at.d_to);
-        if (b > a) add_block(b, a, at.d_to.transpose() * edge.information * at.d_from);
+        if (a > b) add_block(a, b, at.d_from.transpose() * omega * at.d_to);
+        if (b > a) add_block(b, a, at.d_to.transpose() * omega * at.d_from);
       }
     }
     hessian.setFromTriplets(triplets.begin(), triplets.end());
-    if (damping > 0.0) hessian.diagonal() *= 1.0 + damping;  // Levenberg–Marquardt after a rejected step
+    const Eigen::VectorXd diagonal = hessian.diagonal();
+    if (damping > 0.0) hessian.diagonal() *= 1.0 + damping;
     ++iterations;
     const bool undamped = damping == 0.0;
     if (!normal_equations.Factorize(hessian)) {
-      damping = damping == 0.0 ? 1e-4 : damping * 10.0;
+      reject();
       if (damping > 1e8) break;
       continue;
     }
     const Eigen::VectorXd step = normal_equations.Solve(-gradient);
+    // The decrease the linearisation predicts: −gᵀδ + λ δᵀ diag(H) δ (of Σ eᵀΩe, with (H + λ diag H) δ = −g).
+    const double predicted = -gradient.dot(step) + damping * step.dot(diagonal.cwiseProduct(step));
     double largest_position = 0.0, largest_angle = 0.0;
     for (std::size_t k = 0; k < region.size(); ++k) {
       Node& node = graph.mutable_nodes()[region[k]];
@@ -290,19 +328,22 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     const double new_cost = linearise(trial);
     if (!(new_cost <= cost)) {
       for (std::size_t k = 0; k < region.size(); ++k) graph.mutable_nodes()[region[k]].pose = saved[k];
-      damping = damping == 0.0 ? 1e-4 : damping * 10.0;
+      reject();
       if (damping > 1e8) break;
       continue;
     }
     const double decrease = (cost - new_cost) / std::max(cost, 1e-300);
+    const double gain_ratio = predicted > 0.0 ? (cost - new_cost) / predicted : 1.0;
     cost = new_cost;
     std::swap(current, trial);
-    damping = damping < 1e-8 ? 0.0 : damping / 10.0;
+    damping *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain_ratio - 1.0, 3));
+    damping_growth = 2.0;
+    if (damping < 1e-8) damping = 0.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
     if (decrease < relative_cost_decrease || (tiny_step && !to_convergence)) {
       if (converged != nullptr && undamped) {
-        if (std::unique_ptr<SupernodalCholesky> cholesky = normal_equations.Release()) {
+        if (std::unique_ptr<CholmodCholesky> cholesky = normal_equations.Release()) {
           ComponentFactorisation kept{.cholesky = std::move(cholesky), .first_column = {}};
           for (const std::size_t index : region)
             kept.first_column.emplace_back(graph.nodes()[index].id, column[index]);

@@ -39,7 +39,7 @@
 
 #include "slamcore/optimizer.h"
 #include "slamcore/pose_graph.h"
-#include "supernodal_cholesky.h"
+#include "cholmod_cholesky.h"
 
 namespace slamcore::internal {
 
@@ -67,7 +67,7 @@ struct IncrementalSummary {
 /// poses before the solve's last step, factorised, its first node held. That step was undamped, accepted and
 /// within the solver's tolerances, so H is the component's information at its solution to within them.
 struct ComponentFactorisation {
-  std::unique_ptr<SupernodalCholesky> cholesky;
+  std::unique_ptr<CholmodCholesky> cholesky;
   std::vector<std::pair<NodeId, int>> first_column;  // every node: its first column, −1 for the held one
 };
 
@@ -88,12 +88,27 @@ class IncrementalSolver {
   /// Solves the whole components of `seeds` to convergence (relative χ² decrease below 1e-10): the end of
   /// a run, so the child map is at its optimum and not only within the wildfire tolerance.
   IncrementalSummary SolveComponents(PoseGraph& graph, const std::vector<NodeId>& seeds);
-  /// The factorisation the last update ended with, when it solved a whole component large enough for the
-  /// supernodal Cholesky and converged (see ComponentFactorisation); taken once, dropped by the next update.
+  /// Solves the whole component of `seed` with each edge's information scaled by its weight (one weight ≥ 0
+  /// per edge of the graph, in edges() order; 0 leaves the edge out), until an iteration decreases the
+  /// weighted χ² by less than `relative_cost_decrease` or after `max_iterations`: the weighted solves of the
+  /// consistent-set check (graduated non-convexity), the same Gauss–Newton as the updates. Keeps no
+  /// factorisation.
+  IncrementalSummary SolveWeightedComponent(PoseGraph& graph, NodeId seed,
+                                            const std::vector<double>& edge_weights, int max_iterations,
+                                            double relative_cost_decrease);
+  /// The factorisation the last update ended with, when it solved a whole component large enough for
+  /// CHOLMOD's Cholesky and converged (see ComponentFactorisation); taken once, dropped by the next update.
   std::optional<ComponentFactorisation> TakeComponentFactorisation();
 
  private:
-  IncrementalSummary Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start, bool whole);
+  /// When a region is solved to convergence (a whole component), and over which edges' weights.
+  struct Convergence {
+    int max_iterations = 0;
+    double relative_cost_decrease = 0.0;
+    const std::vector<double>* edge_weights = nullptr;  // none: every edge at its own information
+  };
+  IncrementalSummary Run(PoseGraph& graph, const std::vector<NodeId>& seeds, Start start,
+                         std::optional<Convergence> whole);
   void SyncAdjacency(const PoseGraph& graph);
   /// Admits up to `count` nodes to the region, breadth-first from `from`.
   void Grow(const PoseGraph& graph, std::vector<std::size_t>& region, const std::vector<std::size_t>& from,
@@ -101,7 +116,8 @@ class IncrementalSolver {
   /// Gauss–Newton over `region` (graph indices), the rest held; returns the iterations taken.
   /// With `converged`: the final factorisation, when the region is large and the solve converged.
   int SolveRegion(PoseGraph& graph, const std::vector<std::size_t>& region, bool hold_gauge,
-                  bool to_convergence, std::optional<ComponentFactorisation>* converged = nullptr);
+                  const std::optional<Convergence>& to_convergence,
+                  std::optional<ComponentFactorisation>* converged = nullptr);
   /// Held neighbours of the region whose lone step exceeds the tolerance.
   std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
   /// A held node's Gauss–Newton step over its own edges, the region's poses as they are or as they were.

@@ -19,11 +19,15 @@
 // confirmed at the noise the inliers meet (JudgeAtTheNoiseTheInliersMeet). G is left at the solution of
 // the inliers.
 //
-// Cost: a copy of G and at most gnc_max_iterations + 2 optimisations of the robot's component per check; checks
-// run when the judged clusters have grown by consistent_set_growth (so O(log n) times in a run) and once at
+// The weighted solves, within the optimiser's tolerance and iteration budget, are the incremental
+// back-end's Gauss–Newton (IncrementalSolver::SolveWeightedComponent), or Ceres with the batch baseline.
+//
+// Cost: a copy of G and at most gnc_max_iterations + 3 weighted solves of the robot's component per check;
+// checks run when the judged clusters have grown by consistent_set_growth (so O(log n) times in a run) and once at
 // the end of the run. Kept refused clusters are capped at max_kept_refused.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <sstream>
 #include <unordered_map>
@@ -73,6 +77,9 @@ std::optional<double> VarianceFactor(const PoseGraph& graph, NodeId robot, const
   return chi2 / static_cast<double>(redundancy);
 }
 
+// One judged solve: the component of the robot at the weights of `options.edge_weights`, from its poses.
+using WeightedSolve = std::function<void(PoseGraph&, const OptimizerOptions&)>;
+
 // A retraction confirmed at the noise the inliers meet. The judged solves weigh the odometry by a robust
 // but low estimate of its noise (the median edge χ² ignores that most of an edge's residual goes to the
 // redundancy of the loops it is on, so on a map with long loops it reads the noise several times too low):
@@ -87,12 +94,10 @@ struct Confirmation {
   double variance_factor = 1.0;  // of the odometry at the inliers' solution
   std::vector<double> normalised_residuals;
 };
-std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(const PoseGraph& working, NodeId robot,
-                                                          const std::vector<Cluster>& clusters,
-                                                          const std::vector<std::size_t>& candidates,
-                                                          const OptimizerOptions& judged_options,
-                                                          double judged_factor,
-                                                          const ConsistencyParams& consistency) {
+std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
+    const PoseGraph& working, NodeId robot, const std::vector<Cluster>& clusters,
+    const std::vector<std::size_t>& candidates, const OptimizerOptions& judged_options, double judged_factor,
+    const ConsistencyParams& consistency, const WeightedSolve& solve) {
   std::vector<bool> inlier_edge(working.num_edges(), true);
   for (const Cluster& cluster : clusters) {
     for (const std::size_t k : cluster.edges) inlier_edge[k] = cluster.weight >= 0.5;
@@ -102,7 +107,7 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(const PoseGraph& worki
   for (std::size_t k = 0; k < declared.num_edges(); ++k) {
     if (declared.edges()[k].kind == EdgeKind::kMotion) options.edge_weights[k] = 1.0;
   }
-  (void)Optimize(declared, options);  // cannot fail on validated data, as the judged solves
+  solve(declared, options);
   const std::optional<double> met =
       VarianceFactor(declared, robot, inlier_edge, consistency.min_redundancy_for_scaling);
   if (!met) return std::nullopt;
@@ -116,7 +121,7 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(const PoseGraph& worki
   for (const std::size_t c : candidates) {
     for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
   }
-  (void)Optimize(declared, options);
+  solve(declared, options);
   for (const std::size_t c : candidates)
     confirmation.normalised_residuals.push_back(NormalisedResidual(declared, clusters[c]));
   return confirmation;
@@ -234,12 +239,24 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   for (const Cluster& cluster : clusters) {
     for (const std::size_t k : cluster.edges) options.edge_weights[k] = cluster.edge_scale;
   }
+  // The incremental back-end's Gauss–Newton (one solver for the working copy and the copies made of it:
+  // they share its edges, so its adjacency), or Ceres for the batch one, the baseline. Neither fails on
+  // validated data; the check reads whatever the solve reached.
+  internal::IncrementalSolver solver;
+  const WeightedSolve solve = [&](PoseGraph& graph, const OptimizerOptions& weighted) {
+    if (UsesIncrementalBackend()) {
+      (void)solver.SolveWeightedComponent(graph, robot, weighted.edge_weights, weighted.max_iterations,
+                                          weighted.relative_cost_decrease);
+    } else {
+      (void)Optimize(graph, weighted);
+    }
+  };
   const auto normalised_residuals = [&] {
     std::vector<double> s;
     for (const Cluster& cluster : clusters) s.push_back(NormalisedResidual(working, cluster));
     return s;
   };
-  (void)Optimize(working, options);  // cannot fail on validated data; the check reads whatever it reached
+  solve(working, options);
   std::vector<double> s = normalised_residuals();
   const double largest = *std::max_element(s.begin(), s.end());
   int rounds = 0;
@@ -254,7 +271,7 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
         for (const std::size_t k : clusters[c].edges)
           options.edge_weights[k] = clusters[c].weight * clusters[c].edge_scale;
       }
-      (void)Optimize(working, options);
+      solve(working, options);
       s = normalised_residuals();
       if (binary) break;
     }
@@ -274,7 +291,7 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   double met_factor = variance_factor;
   if (!retract.empty()) {
     if (const std::optional<Confirmation> confirmation = JudgeAtTheNoiseTheInliersMeet(
-            working, robot, clusters, retract, options, variance_factor, consistency)) {
+            working, robot, clusters, retract, options, variance_factor, consistency, solve)) {
       met_factor = confirmation->variance_factor;
       std::vector<std::size_t> still;
       for (std::size_t i = 0; i < retract.size(); ++i) {

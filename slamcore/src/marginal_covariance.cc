@@ -7,16 +7,15 @@
 #include <limits>
 
 #include "slamcore/optimizer.h"
-#include "supernodal_cholesky.h"
+#include "cholmod_cholesky.h"
 
 namespace slamcore::internal {
 
-/// H = P'ᵀ L Lᵀ P' by the supernodal Cholesky (supernodal_cholesky.h), then converted to a simplicial
-/// column-by-column factor for the path walks of Joint. Supernodal numeric factorisation is several times
-/// faster than a simplicial one on pose graphs of thousands of nodes, and this factorisation is redone
-/// whenever G changed.
+/// H = P'ᵀ L Lᵀ P' by CHOLMOD (cholmod_cholesky.h: supernodal where the factor is dense enough to repay it),
+/// then converted to a simplicial column-by-column LLᵀ for the path walks of Joint. This factorisation is
+/// redone whenever G changed.
 struct MarginalCovariances::Factor {
-  std::unique_ptr<SupernodalCholesky> cholesky = std::make_unique<SupernodalCholesky>();
+  std::unique_ptr<CholmodCholesky> cholesky = std::make_unique<CholmodCholesky>();
   const cholmod_factor* factor = nullptr;  // simplicial, owned by `cholesky`
   std::vector<int> position;               // original column → its column in L
   int size = 0;

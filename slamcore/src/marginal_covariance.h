@@ -4,7 +4,7 @@
 //
 // Method: the Gauss–Newton information matrix H = Σ Jᵀ Ω J of one component at its current poses (the
 // error and Jacobians of optimizer.h over plain (x, y, θ) parameters), with the gauge fixed at the
-// component's first node, is factorised once by a sparse Cholesky (CHOLMOD's supernodal LLᵀ, AMD
+// component's first node, is factorised once by a sparse Cholesky (CHOLMOD's LLᵀ, AMD
 // ordering of the nodes). The covariance of
 // a relative pose a_T_b needs only the 3×3 blocks Σ_aa, Σ_bb and Σ_ab of H⁻¹: six solves with the factor
 // (the recovery of selected marginals of Kaess & Dellaert, "Covariance recovery from a square root

@@ -77,7 +77,7 @@ TEST(IncrementalSolverTest, ReachesTheBatchOptimumOnAGeneratedCity) {
 }
 
 TEST(IncrementalSolverTest, AWholeComponentSolveLeavesTheMarginalsAFreshFactorisationWouldGive) {
-  // Large enough for the supernodal Cholesky (200 nodes and more), with many loops.
+  // Large enough for CHOLMOD's Cholesky (200 nodes and more), with many loops.
   ManhattanOptions options;
   options.poses = 700;
   const auto world = GenerateManhattanWorld(options);
@@ -203,6 +203,56 @@ TEST(IncrementalSolverTest, IgnoresSeedsItDoesNotKnowAndFixedNodes) {
   IncrementalSolver solver;
   EXPECT_EQ(solver.Update(graph, {42}).rounds, 0);
   EXPECT_EQ(solver.Update(graph, {3}).rounds, 0);
+}
+
+/// Σ w_k · χ²_k over the edges: the cost a weighted solve minimises.
+double WeightedChi2(const PoseGraph& graph, const std::vector<double>& weights) {
+  double sum = 0.0;
+  for (std::size_t k = 0; k < graph.num_edges(); ++k) sum += weights[k] * EdgeChi2(graph, graph.edges()[k]);
+  return sum;
+}
+
+TEST(IncrementalSolverTest, AWeightedComponentSolveReachesCeresOptimumAtTheSameWeights) {
+  // The consistent-set check's solves: stiffer odometry, loop closures at fractional weights, a wrong
+  // closure weighted 0 (left out), from the poses odometry alone gives.
+  ManhattanOptions options;
+  options.poses = 400;
+  const auto world = GenerateManhattanWorld(options);
+  ASSERT_THAT(world, IsOk());
+  PoseGraph graph = world->graph;
+  for (const Edge& edge : graph.edges()) {
+    if (edge.kind == EdgeKind::kMotion)
+      graph.mutable_node(edge.to).pose = graph.node(edge.from).pose * edge.measurement;
+  }
+  ASSERT_THAT(graph.AddEdge(Edge{
+                  .from = 390, .to = 5, .measurement = SE2(3.0, -2.0, 1.0), .kind = EdgeKind::kObservation}),
+              IsOk());
+  std::vector<double> weights;
+  int closure = 0;
+  for (const Edge& edge : graph.edges()) {
+    weights.push_back(edge.kind == EdgeKind::kMotion ? 2.5 : (closure++ % 3 == 0 ? 0.3 : 1.0));
+  }
+  weights.back() = 0.0;
+  PoseGraph ours = graph, ceres = graph;
+  IncrementalSolver solver;
+  const IncrementalSummary summary = solver.SolveWeightedComponent(ours, 0, weights, 100, 1e-12);
+  EXPECT_TRUE(summary.full);
+  EXPECT_FALSE(solver.TakeComponentFactorisation()) << "a weighted H is not the map's information";
+  OptimizerOptions weighted;
+  weighted.max_iterations = 200;
+  weighted.relative_cost_decrease = 1e-12;
+  weighted.component = 0;
+  weighted.edge_weights = weights;
+  ASSERT_THAT(Optimize(ceres, weighted), IsOk());
+  const double optimum = WeightedChi2(ceres, weights);
+  EXPECT_GT(WeightedChi2(graph, weights), 10 * optimum) << "the start is far from the optimum";
+  EXPECT_NEAR(WeightedChi2(ours, weights), optimum, 1e-6 * optimum);
+  for (const Node& node : ceres.nodes()) {
+    EXPECT_NEAR(ours.node(node.id).pose.x(), node.pose.x(), 1e-4) << node.id;
+    EXPECT_NEAR(ours.node(node.id).pose.y(), node.pose.y(), 1e-4) << node.id;
+  }
+  // The edge weighted 0 pulled on nothing: it is far from both solutions.
+  EXPECT_GT(EdgeChi2(ours, ours.edges().back()), 100.0);
 }
 
 // ---- the Mapper with either back-end -----------------------------------------------------------------------

@@ -1,4 +1,4 @@
-#include "supernodal_cholesky.h"
+#include "cholmod_cholesky.h"
 
 #include <cholmod.h>
 
@@ -30,7 +30,7 @@ cholmod_sparse LowerView(Eigen::SparseMatrix<double>& lower, bool pattern_only) 
 
 }  // namespace
 
-struct SupernodalCholesky::State {
+struct CholmodCholesky::State {
   cholmod_common common;
   cholmod_factor* factor = nullptr;
   State() { cholmod_start(&common); }
@@ -42,12 +42,12 @@ struct SupernodalCholesky::State {
   State& operator=(const State&) = delete;
 };
 
-SupernodalCholesky::SupernodalCholesky() : state_(std::make_unique<State>()) {}
-SupernodalCholesky::~SupernodalCholesky() = default;
+CholmodCholesky::CholmodCholesky() : state_(std::make_unique<State>()) {}
+CholmodCholesky::~CholmodCholesky() = default;
 
-const int* SupernodalCholesky::permutation() const { return static_cast<const int*>(state_->factor->Perm); }
+const int* CholmodCholesky::permutation() const { return static_cast<const int*>(state_->factor->Perm); }
 
-bool SupernodalCholesky::Analyze(Eigen::SparseMatrix<double>& lower) {
+bool CholmodCholesky::Analyze(Eigen::SparseMatrix<double>& lower) {
   const CallingThreadOnly calling_thread_only;
   const int blocks = static_cast<int>(lower.cols() / 3);
   // The nodes' pattern (lower triangle), ordered by AMD, each node expanded to its three columns.
@@ -76,13 +76,13 @@ bool SupernodalCholesky::Analyze(Eigen::SparseMatrix<double>& lower) {
   if (state_->factor) cholmod_free_factor(&state_->factor, &state_->common);
   state_->common.nmethods = 1;
   state_->common.method[0].ordering = CHOLMOD_GIVEN;
-  state_->common.supernodal = CHOLMOD_SUPERNODAL;
+  state_->common.supernodal = CHOLMOD_AUTO;  // supernodal or simplicial by CHOLMOD's rule (see the header)
   cholmod_sparse view = LowerView(lower, /*pattern_only=*/false);
   state_->factor = cholmod_analyze_p(&view, ordering.data(), nullptr, 0, &state_->common);
   return state_->factor != nullptr;
 }
 
-bool SupernodalCholesky::Factorize(Eigen::SparseMatrix<double>& lower) {
+bool CholmodCholesky::Factorize(Eigen::SparseMatrix<double>& lower) {
   if (!state_->factor) return false;
   const CallingThreadOnly calling_thread_only;
   cholmod_sparse view = LowerView(lower, /*pattern_only=*/false);
@@ -90,7 +90,7 @@ bool SupernodalCholesky::Factorize(Eigen::SparseMatrix<double>& lower) {
          state_->factor->minor >= state_->factor->n;
 }
 
-Eigen::VectorXd SupernodalCholesky::Solve(const Eigen::VectorXd& rhs) {
+Eigen::VectorXd CholmodCholesky::Solve(const Eigen::VectorXd& rhs) {
   Eigen::VectorXd copy = rhs;
   cholmod_dense right{};
   right.nrow = right.d = static_cast<std::size_t>(copy.size());
@@ -108,7 +108,7 @@ Eigen::VectorXd SupernodalCholesky::Solve(const Eigen::VectorXd& rhs) {
   return x;
 }
 
-const cholmod_factor_struct* SupernodalCholesky::ToSimplicial() {
+const cholmod_factor_struct* CholmodCholesky::ToSimplicial() {
   if (!state_->factor || !cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, state_->factor, &state_->common))
     return nullptr;
   return state_->factor;
