@@ -17,6 +17,10 @@
 
 namespace {
 
+// Benchmark names: a prefix and the home's name, cut to keep the tables' columns.
+std::string HourName(const sim::World& world) { return "one_hour_" + world.name.substr(0, 20); }
+std::string AnalysisName(const sim::World& world) { return "analysis_" + world.name.substr(0, 20); }
+
 void RegisterHour(const std::string& name, const sim::World& world) {
   for (const bool optimise : {false, true}) {
     benchmark::RegisterBenchmark((name + (optimise ? "/mapper" : "/no_optimisation")).c_str(),
@@ -89,8 +93,8 @@ int main(int argc, char** argv) {
     hours.push_back(std::move(outcome->run));
   }
   for (std::size_t k = 0; k < worlds.size(); ++k) {
-    RegisterHour("one_hour_" + worlds[k].name.substr(0, 20), worlds[k]);
-    RegisterAnalysis("analysis_" + worlds[k].name.substr(0, 20), hours[k]);
+    RegisterHour(HourName(worlds[k]), worlds[k]);
+    RegisterAnalysis(AnalysisName(worlds[k]), hours[k]);
   }
   bench::RatioReporter reporter("no_optimisation", "mapper");
   benchmark::RunSpecifiedBenchmarks(&reporter);
@@ -98,7 +102,7 @@ int main(int argc, char** argv) {
       "time without optimisation / with (the Mapper's optimisation share); target: mapper < 1000 ms");
   std::printf("\n%-36s %12s %12s %10s\n", "analysis of the hour", "batch", "incremental", "ratio");
   for (const sim::World& world : worlds) {
-    const std::string name = "analysis_" + world.name.substr(0, 20);
+    const std::string name = AnalysisName(world);
     const auto batch = reporter.Times().find(name + "/batch");
     const auto incremental = reporter.Times().find(name + "/incremental");
     if (batch == reporter.Times().end() || incremental == reporter.Times().end() || incremental->second <= 0)

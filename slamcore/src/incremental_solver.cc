@@ -217,17 +217,19 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  // Each edge's information, scaled by its weight when the solve is weighted; weight 0 leaves it out.
-  std::vector<Matrix3> information;
-  information.reserve(edges.size());
+  // A weighted solve scales each edge's information by its weight (weight 0 leaves the edge out); the
+  // updates read the edges' own.
   const std::vector<double>* weights = to_convergence ? to_convergence->edge_weights : nullptr;
+  std::vector<Matrix3> weighted_information;
   if (weights != nullptr) {
     std::erase_if(edges, [&](std::uint32_t e) { return (*weights)[e] == 0.0; });
+    weighted_information.reserve(edges.size());
+    for (const std::uint32_t e : edges)
+      weighted_information.push_back((*weights)[e] * graph.edges()[e].information);
   }
-  for (const std::uint32_t e : edges) {
-    information.push_back(weights != nullptr ? ((*weights)[e] * graph.edges()[e].information).eval()
-                                             : graph.edges()[e].information);
-  }
+  const auto information = [&](std::size_t k) -> const Matrix3& {
+    return weights != nullptr ? weighted_information[k] : graph.edges()[edges[k]].information;
+  };
 
   // Each edge's ends (graph indices) and its error and Jacobians at the current poses: the χ² that judges a
   // step is computed with the Jacobians the next iteration linearises with, once per pose set.
@@ -249,7 +251,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       Linearised& at = out[k];
       at.error = EdgeError(graph.nodes()[ends[k].first].pose, graph.nodes()[ends[k].second].pose,
                            edge.measurement, &at.d_from, &at.d_to);
-      sum += at.error.dot(information[k] * at.error);
+      sum += at.error.dot(information(k) * at.error);
     }
     return sum;
   };
@@ -285,7 +287,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       }
     };
     for (std::size_t k = 0; k < edges.size(); ++k) {
-      const Matrix3& omega = information[k];
+      const Matrix3& omega = information(k);
       const Linearised& at = current[k];
       const int a = column[ends[k].first], b = column[ends[k].second];
       const Vector3 weighted = omega * at.error;
@@ -303,8 +305,11 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       }
     }
     hessian.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::VectorXd diagonal = hessian.diagonal();
-    if (damping > 0.0) hessian.diagonal() *= 1.0 + damping;
+    Eigen::VectorXd diagonal;  // H's own, for the predicted decrease of a damped step
+    if (damping > 0.0) {
+      diagonal = hessian.diagonal();
+      hessian.diagonal() *= 1.0 + damping;
+    }
     ++iterations;
     const bool undamped = damping == 0.0;
     if (!normal_equations.Factorize(hessian)) {
@@ -314,7 +319,8 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     }
     const Eigen::VectorXd step = normal_equations.Solve(-gradient);
     // The decrease the linearisation predicts: −gᵀδ + λ δᵀ diag(H) δ (of Σ eᵀΩe, with (H + λ diag H) δ = −g).
-    const double predicted = -gradient.dot(step) + damping * step.dot(diagonal.cwiseProduct(step));
+    double predicted = -gradient.dot(step);
+    if (damping > 0.0) predicted += damping * step.dot(diagonal.cwiseProduct(step));
     double largest_position = 0.0, largest_angle = 0.0;
     for (std::size_t k = 0; k < region.size(); ++k) {
       Node& node = graph.mutable_nodes()[region[k]];
