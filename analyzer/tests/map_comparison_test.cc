@@ -192,8 +192,9 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
     EXPECT_NEAR(a.residual_m, 0.12, 0.02);
     // One large new region, the room at the top (map pixels y 512–569 in the later export, world y above
     // −28.5 m), and a few fringes under 1 m²; the earlier map's parts missing later are small.
-    // (Ten with the wall the later export has as floor, which survives the clean-up as a change.)
-    ASSERT_EQ(comparison->new_regions.size(), 10u);
+    // Nine: the wall the later export draws one cell beside the earlier one is a registration error, not a
+    // change (the detector's registration tolerance).
+    ASSERT_EQ(comparison->new_regions.size(), 9u);
     const auto largest = std::max_element(
         comparison->new_regions.begin(), comparison->new_regions.end(),
         [](const ChangedRegion& a, const ChangedRegion& b) { return a.area_m2 < b.area_m2; });
@@ -203,9 +204,10 @@ TEST(MapComparison, RealHomeAtTwoTimes) {
     for (const ChangedRegion& region : comparison->new_regions) {
       if (&region != &*largest) EXPECT_LT(region.area_m2, 1.0);
     }
-    // Five lost: two patches and three stretches of wall the earlier export had as floor (kept through the
-    // clean-up as walls turned to floor are).
-    ASSERT_EQ(comparison->lost_regions.size(), 5u);
+    // Four lost: two patches and two stretches of wall the earlier export had as floor (kept through the
+    // clean-up as walls turned to floor are; a third lies beside the earlier export's own wall, within the
+    // registration tolerance).
+    ASSERT_EQ(comparison->lost_regions.size(), 4u);
     for (const ChangedRegion& region : comparison->lost_regions) EXPECT_LT(region.area_m2, 0.3);
   }
   EXPECT_EQ(by_dock->alignment.method, "dock+registration");

@@ -64,6 +64,7 @@ class Generator {
     const int protrusions = Uniform(options_.min_protrusions, options_.max_protrusions);
     for (int i = 0; i < protrusions; ++i) pair.protrusions += AddProtrusion();
     AddSpeckle();
+    Misregister();
     pair.child = std::move(child_);
     pair.truth = std::move(truth_);
     pair.parent = CropToKnown(parent_);
@@ -554,6 +555,40 @@ class Generator {
     return true;
   }
 
+  /// The child's registration error: the child and its truth moved by a small rigid transform about the
+  /// grid's centre, nearest cell, so that walls land a cell or two off (and re-rendering drops or doubles
+  /// a few wall cells) as they do between two real mapping sessions. Cells moved in from outside the grid
+  /// are unknown and unchanged.
+  void Misregister() {
+    const Interval& shift = options_.registration_shift_m;
+    const Interval& rotation = options_.registration_rotation;
+    if (shift.high <= 0.0 && rotation.high <= 0.0)
+      return;  // no random draw: version 1 pairs stay as they were
+    const double length = Uniform(shift.low, shift.high) / base_.resolution;  // cells
+    const double direction = Uniform(-std::numbers::pi, std::numbers::pi);
+    const double angle = Uniform(rotation.low, rotation.high) * (Uniform(0, 1) == 0 ? -1.0 : 1.0);
+    const double centre_col = 0.5 * (base_.width - 1), centre_row = 0.5 * (base_.height - 1);
+    const double c = std::cos(angle), s = std::sin(angle);
+    const double shift_col = length * std::cos(direction), shift_row = length * std::sin(direction);
+    OccupancyGrid moved = child_;
+    std::vector<std::uint8_t> moved_truth(truth_.size(), 0);
+    for (int row = 0; row < base_.height; ++row) {
+      for (int col = 0; col < base_.width; ++col) {
+        // The source cell: the inverse of (rotate about the centre, then shift).
+        const double u = col - centre_col - shift_col, v = row - centre_row - shift_row;
+        const int source_col = static_cast<int>(std::lround(centre_col + c * u + s * v));
+        const int source_row = static_cast<int>(std::lround(centre_row - s * u + c * v));
+        const bool inside =
+            source_col >= 0 && source_col < base_.width && source_row >= 0 && source_row < base_.height;
+        moved.at(col, row) = inside ? child_.at(source_col, source_row) : kUnknown;
+        moved_truth[static_cast<std::size_t>(Index(col, row))] =
+            inside ? truth_[static_cast<std::size_t>(Index(source_col, source_row))] : 0;
+      }
+    }
+    child_ = std::move(moved);
+    truth_ = std::move(moved_truth);
+  }
+
   /// Sensor speckle and re-scan fringes along known edges: differences the clean-up must remove.
   void AddSpeckle() {
     if (edge_cells_.empty()) return;
@@ -649,6 +684,12 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
       !(std::abs(options.stuck.max_heading_drift_per_m) <= 2.0)) {
     return InvalidArgument("generator: stuck-robot physics out of range");
   }
+  const auto within = [](const Interval& interval, double most) {
+    return interval.low >= 0.0 && interval.high >= interval.low && interval.high <= most;
+  };
+  if (!within(options.registration_shift_m, 1.0) || !within(options.registration_rotation, 0.2)) {
+    return InvalidArgument("generator: registration error out of range (shift 0..1 m, rotation 0..0.2 rad)");
+  }
   double longest_reach = options.max_protrusion_length_m;
   for (const auto& band : options.stuck.sensors) {
     if (!(band.range_m.low > 0.0) || !(band.range_m.high <= 20.0) || !(band.field_of_view.low > 0.0)) {
@@ -679,7 +720,7 @@ Result<GeneratorOptions> GeneratorFamily(const std::string& name) {
     options.stuck_robot_share = 0.8;
     return options;
   }
-  if (name == "heldout") {
+  if (name == "heldout" || name == "misregistered") {
     options.stuck_robot_share = 1.0;
     StuckRobotPhysics& physics = options.stuck;
     // Sensor ranges, fields of view and push angles disjoint from "physical"'s: other robot models,
@@ -689,9 +730,16 @@ Result<GeneratorOptions> GeneratorFamily(const std::string& name) {
     physics.stuck_travel_m = {1.0, 6.0};
     physics.max_heading_drift_per_m = 0.30;
     physics.contact_share = 0.9;
+    // "misregistered": the same pairs with the child drawn one or two cells off the parent, as a later
+    // export aligned by dock and image registration is (a test of the detector's registration tolerance).
+    if (name == "misregistered") {
+      options.registration_shift_m = {0.05, 0.10};
+      options.registration_rotation = {0.0, 0.002};  // up to 0.11°: 1 cm at 5 m from the home's centre
+    }
     return options;
   }
-  return InvalidArgument("unknown generator family \"" + name + "\" (corridor, physical, heldout)");
+  return InvalidArgument("unknown generator family \"" + name +
+                         "\" (corridor, physical, heldout, misregistered)");
 }
 
 }  // namespace slamcore

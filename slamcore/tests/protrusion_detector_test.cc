@@ -84,6 +84,57 @@ TEST(ProtrusionDetector, CleanUpRemovesSpeckleAndFringes) {
   EXPECT_TRUE(regions->empty());
 }
 
+/// `grid` drawn `cols` cells right and `rows` cells up on a grid of the same size and origin, as a later map of
+/// the same home aligned only as well as registration allows.
+OccupancyGrid DrawnOff(const OccupancyGrid& grid, int cols, int rows) {
+  OccupancyGrid moved = *OccupancyGrid::Create(grid.width, grid.height, grid.resolution);
+  for (int row = 0; row < grid.height; ++row) {
+    for (int col = 0; col < grid.width; ++col) {
+      if (col + cols >= 0 && col + cols < grid.width && row + rows >= 0 && row + rows < grid.height)
+        moved.at(col + cols, row + rows) = grid.at(col, row);
+    }
+  }
+  return moved;
+}
+
+TEST(ProtrusionDetector, RegistrationToleranceIgnoresWallsDrawnACellOffAndKeepsTheChanges) {
+  const Scene scene = MakeScene();
+  DetectorOptions exact;
+  exact.registration_tolerance_m = 0.0;
+  // The parent itself, drawn two cells (0.10 m) right and one up: nothing changed. Without the tolerance the
+  // right wall, drawn beside itself, is a 4 m "wall turned floor" that survives the clean-up.
+  const OccupancyGrid same_home = DrawnOff(scene.parent, 2, 1);
+  const auto strict = ExtractRegions(scene.parent, same_home, exact);
+  ASSERT_THAT(strict, IsOk());
+  EXPECT_FALSE(strict->empty());
+  const auto tolerant = ExtractRegions(scene.parent, same_home);
+  ASSERT_THAT(tolerant, IsOk());
+  EXPECT_TRUE(tolerant->empty());
+  // Three cells off (0.15 m) is still within the tolerance; five (0.25 m) is not.
+  const auto three = ExtractRegions(scene.parent, DrawnOff(scene.parent, 3, 0));
+  ASSERT_THAT(three, IsOk());
+  EXPECT_TRUE(three->empty());
+  const auto five = ExtractRegions(scene.parent, DrawnOff(scene.parent, 5, 0));
+  ASSERT_THAT(five, IsOk());
+  EXPECT_FALSE(five->empty());
+
+  // The child with its corridor and room, drawn two cells off: both changes are still found, and the
+  // corridor is still robot-wide (the strip along the wall it leaves is part of its region: a registration
+  // error touching a real change is described with it).
+  const auto regions = ExtractRegions(scene.parent, DrawnOff(scene.child, 2, 1));
+  ASSERT_THAT(regions, IsOk());
+  ASSERT_EQ(regions->size(), 2u);
+  const ProtrusionRegion& corridor =
+      (*regions)[0].clean_area_cells < (*regions)[1].clean_area_cells ? (*regions)[0] : (*regions)[1];
+  const ProtrusionRegion& room = &corridor == &(*regions)[0] ? (*regions)[1] : (*regions)[0];
+  EXPECT_LT(corridor.features[Feature("max_distance_m")], 0.3);
+  EXPECT_GT(room.features[Feature("max_distance_m")], 1.0);
+
+  DetectorOptions negative;
+  negative.registration_tolerance_m = -0.1;
+  EXPECT_THAT(ExtractRegions(scene.parent, scene.child, negative), StatusIs(StatusCode::kInvalidArgument));
+}
+
 TEST(ProtrusionDetector, AlignsWholeCellShiftsAndRefusesWhatCannotBeAligned) {
   const Scene scene = MakeScene();
   // The parent cropped: 30 cells less on the left, 10 below; the same map content.

@@ -139,18 +139,18 @@ e = json.loads(alignment["evidence_json"])
 assert alignment["finding_state"] == "FINDING_STATE_INFO" and e["method"] == "dock+registration" and e["previous_version"] == 1, alignment
 assert 0.64 < e["wall_overlap"] < 0.70 and 0.10 < e["residual_m"] < 0.14, e
 assert abs(e["new_T_previous"][0] - 0.55) < 0.05 and abs(e["new_T_previous"][1]) < 0.05, e
-# Ten new regions with the detector's features (with the wall the later export has as floor, kept through the
-# clean-up as a change), classed by the built-in default model (no model is active; what it calls them is
+# Nine new regions with the detector's features (the wall the later export draws one cell beside the earlier
+# one is a registration error, not a change), classed by the built-in default model (no model is active; what it calls them is
 # reported, not asserted): the room at the top (13.75 m²) and fringes under 1 m².
 new = [(json.loads(f["evidence_json"]), f) for f in by_kind["new_region"]]
-assert len(new) == 10, [f["summary"] for _, f in new]
+assert len(new) == 9, [f["summary"] for _, f in new]
 assert all(e["class"] in ("protrusion", "new_space") and 0 <= e["probability"] <= 1 and len(e["features"]) > 6
            for e, _ in new), new
 largest = max(new, key=lambda x: x[0]["area_m2"])
 assert 13.2 < largest[0]["area_m2"] < 14.3 and largest[1]["world_bbox"][3] > -26.0, largest
 assert all(e["area_m2"] < 1.0 for e, f in new if f is not largest[1])
 lost = [json.loads(f["evidence_json"]) for f in by_kind["lost_region"]]
-assert len(lost) == 5 and all(e["area_m2"] < 0.3 for e in lost), lost  # walls kept through the clean-up
+assert len(lost) == 4 and all(e["area_m2"] < 0.3 for e in lost), lost  # walls kept through the clean-up
 assert sorted(int(f["finding_id"]) for f in findings) == list(range(1, len(findings) + 1))
 print(largest[1]["finding_id"])
 PY
@@ -164,7 +164,7 @@ v, findings = r["version"], r.get("findings", [])
 assert v["version"] == "3" and v["approval_state"] == "MAP_APPROVAL_PENDING" and v["version_origin"] == "MAP_ORIGIN_REPAIR", v
 assert v["version_action"] == "MAP_ACTION_CUT_REGION" and "back to version 1" in v["action_detail"], v
 areas = [json.loads(f["evidence_json"])["area_m2"] for f in findings if f["finding_kind"] == "FINDING_KIND_NEW_REGION"]
-assert len(areas) == 9 and max(areas) < 1.0, areas  # the cut region is gone, the fringes remain
+assert len(areas) == 8 and max(areas) < 1.0, areas  # the cut region is gone, the fringes remain
 PY
 "$bin/fleetctl" maps reject "$home" 3 >/dev/null || fail "reject the cut"
 "$bin/fleetctl" maps repair "$home" --base 2 --rollback --reason "ghost room" >"$work/rollback.txt" ||

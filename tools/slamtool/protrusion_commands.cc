@@ -532,8 +532,10 @@ void AddProtrusionCommands(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   make_command
-      ->add_option("--family", make->family, "generator family: physical (default), heldout, corridor")
-      ->check(CLI::IsMember({"physical", "heldout", "corridor"}));
+      ->add_option("--family", make->family,
+                   "generator family: physical (default), heldout, misregistered (heldout, the child one or "
+                   "two cells off the parent), corridor")
+      ->check(CLI::IsMember({"physical", "heldout", "misregistered", "corridor"}));
   make_command->add_option("--out", make->out, "output data set directory")->required();
   make_command->add_option("--variants", make->variants, "pairs per map")->check(CLI::Range(1, 100000));
   make_command->add_option("--seed", make->seed, "data set seed");

@@ -22,6 +22,10 @@
 //  * Realism. Edge cells of every change drop out at random (the sensor misses some), the child gains
 //    speckle (1–4-cell blobs) and 1-cell fringes along known edges that the detector's clean-up must remove,
 //    and the parent is cropped to its known area, so parent and child differ in size and origin.
+//  * Registration error (the misregistered family). Two maps of one home are never drawn on exactly the
+//    same grid: the child is a later mapping session, aligned to the parent only as well as a dock pose and
+//    image registration allow. The child (and its truth) is moved by a small rigid transform, resampled
+//    cell by cell, so that walls land a cell or two off, as they do in real pairs.
 //
 // Data set layout (version 1): DIR/index.csv with header `pair_id,map_id,home_id,source` and, per pair,
 // DIR/pairs/<pair_id>/{parent.yaml,parent.png,child.yaml,child.png,truth.png} (map_server YAML naming a PGM or PNG); truth.png is in the child's
@@ -76,6 +80,11 @@ struct GeneratorOptions {
   /// seen through a doorway from outside: a lidar's fan), instead of copied from the real map.
   bool scan_rendering = false;
   StuckRobotPhysics stuck;
+  /// The child's registration error against the parent: a shift of this length (metres, in a uniform
+  /// direction) and a rotation of this magnitude (radians, either sign) about the map's centre. Zero: the
+  /// child is drawn on the parent's grid exactly (the corridor family, data set version 1).
+  Interval registration_shift_m = {0.0, 0.0};
+  Interval registration_rotation = {0.0, 0.0};
 };
 
 /// The named generator families (docs/protrusion-data.md): "corridor" (version 1: corridors, copied new

@@ -8,7 +8,11 @@
 //  2. Difference: child cells that are new — known in the child and unknown (or outside) in the parent, or
 //     free in the child where the parent had a wall (a door opened, a slip through a wall).
 //  3. Clean-up: a morphological opening of `clean_up_size_m` removes sensor speckle and the 1–2-cell fringes
-//     a re-scan adds along known edges; regions under `min_region_area_m2` are dropped.
+//     a re-scan adds along known edges; regions under `min_region_area_m2` are dropped, and so are regions
+//     that a registration error of `registration_tolerance_m` explains: every one of their cells lies that
+//     close to what the parent already knew (a newly known cell near a known one, a wall turned floor next
+//     to the child's own wall). Two maps of one home are never drawn on exactly the same grid: a wall drawn
+//     one cell off is not a change.
 //  4. Connected regions (8-connectivity), each with the features of ProtrusionFeatureNames(), in metres so
 //     that a model trained at one resolution transfers to another.
 //
@@ -31,6 +35,11 @@ const std::vector<std::string>& ProtrusionFeatureNames();
 struct DetectorOptions {
   double clean_up_size_m = 0.10;     // opening kernel side; 3 cells at 5 cm
   double min_region_area_m2 = 0.05;  // 20 cells at 5 cm: smaller regions are noise, not space or slip
+  /// How far apart two maps of the same place may be drawn: a region all of whose cells are this close to
+  /// the parent's knowledge is a misregistration, not a change. Three cells at 5 cm: a wall drawn one or
+  /// two cells off after a dock-and-image alignment is within it; a robot-wide band (0.3 m) or a doorway
+  /// (0.7 m) is not.
+  double registration_tolerance_m = 0.15;
 };
 
 /// A bounding box in the child map's IMAGE (x right, y down from the top-left, as in the PGM), in cells.
