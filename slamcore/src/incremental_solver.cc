@@ -238,10 +238,13 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     Matrix3 d_from, d_to;
   };
   std::vector<std::pair<std::size_t, std::size_t>> ends;
+  std::vector<Matrix2> measurement_rotation_t;  // constant across the iterations
   ends.reserve(edges.size());
+  measurement_rotation_t.reserve(edges.size());
   for (const std::uint32_t e : edges) {
     const Edge& edge = graph.edges()[e];
     ends.emplace_back(graph.IndexOf(edge.from), graph.IndexOf(edge.to));
+    measurement_rotation_t.push_back(edge.measurement.rotation().transpose());
   }
   const auto linearise = [&](std::vector<Linearised>& out) {
     out.resize(edges.size());
@@ -250,7 +253,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       const Edge& edge = graph.edges()[edges[k]];
       Linearised& at = out[k];
       at.error = EdgeError(graph.nodes()[ends[k].first].pose, graph.nodes()[ends[k].second].pose,
-                           edge.measurement, &at.d_from, &at.d_to);
+                           edge.measurement, measurement_rotation_t[k], &at.d_from, &at.d_to);
       sum += at.error.dot(information(k) * at.error);
     }
     return sum;
@@ -376,7 +379,7 @@ std::vector<std::size_t> IncrementalSolver::MovingNeighbours(const PoseGraph& gr
         checked.push_back(held);
         // What this update changed in the held node's own Gauss–Newton step (everything else where it is):
         // its step with the region where it is now against its step with the region where it was.
-        const Vector3 change = LoneStep(graph, held, false) - LoneStep(graph, held, true);
+        const Vector3 change = LoneStepChange(graph, held);
         if (std::hypot(change.x(), change.y()) > options_.position_tolerance ||
             std::abs(change.z()) > options_.angle_tolerance) {
           moving.push_back(held);
@@ -388,22 +391,37 @@ std::vector<std::size_t> IncrementalSolver::MovingNeighbours(const PoseGraph& gr
   return moving;
 }
 
-Vector3 IncrementalSolver::LoneStep(const PoseGraph& graph, std::size_t held, bool region_as_before) const {
-  const auto pose = [&](NodeId id) -> const SE2& {
-    const std::size_t index = graph.IndexOf(id);
-    return region_as_before && in_region_[index] ? original_[index] : graph.nodes()[index].pose;
-  };
-  Matrix3 block = Matrix3::Zero();
-  Vector3 gradient = Vector3::Zero();
-  for (const std::uint32_t e : incident_[held]) {
-    const Edge& edge = graph.edges()[e];
+Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t held) const {
+  // The held node's Gauss–Newton step over its own edges, −H⁻¹g, with the region's poses as they are now
+  // and as they were when the update admitted them. Both sums run over the same edges in the same order; an
+  // edge that does not touch the region adds the same term to both, computed once.
+  Matrix3 block_now = Matrix3::Zero(), block_before = Matrix3::Zero();
+  Vector3 gradient_now = Vector3::Zero(), gradient_before = Vector3::Zero();
+  const auto term = [&](const Edge& edge, bool region_as_before, Matrix3& block, Vector3& gradient) {
+    const auto pose = [&](NodeId id) -> const SE2& {
+      const std::size_t index = graph.IndexOf(id);
+      return region_as_before && in_region_[index] ? original_[index] : graph.nodes()[index].pose;
+    };
     Matrix3 d_from, d_to;
     const Vector3 error = EdgeError(pose(edge.from), pose(edge.to), edge.measurement, &d_from, &d_to);
     const Matrix3& jacobian = graph.IndexOf(edge.from) == held ? d_from : d_to;
-    block += jacobian.transpose() * edge.information * jacobian;
-    gradient += jacobian.transpose() * edge.information * error;
+    block = jacobian.transpose() * edge.information * jacobian;
+    gradient = jacobian.transpose() * edge.information * error;
+  };
+  Matrix3 block;
+  Vector3 gradient;
+  for (const std::uint32_t e : incident_[held]) {
+    const Edge& edge = graph.edges()[e];
+    term(edge, false, block, gradient);
+    block_now += block;
+    gradient_now += gradient;
+    if (in_region_[graph.IndexOf(edge.from)] || in_region_[graph.IndexOf(edge.to)]) {
+      term(edge, true, block, gradient);
+    }
+    block_before += block;
+    gradient_before += gradient;
   }
-  return -block.ldlt().solve(gradient);
+  return -block_now.ldlt().solve(gradient_now) + block_before.ldlt().solve(gradient_before);
 }
 
 }  // namespace slamcore::internal

@@ -120,8 +120,9 @@ class IncrementalSolver {
                   std::optional<ComponentFactorisation>* converged = nullptr);
   /// Held neighbours of the region whose lone step exceeds the tolerance.
   std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
-  /// A held node's Gauss–Newton step over its own edges, the region's poses as they are or as they were.
-  Vector3 LoneStep(const PoseGraph& graph, std::size_t held, bool region_as_before) const;
+  /// How much the update changed a held node's Gauss–Newton step over its own edges: the step with the
+  /// region's poses as they are, less the step with them as they were.
+  Vector3 LoneStepChange(const PoseGraph& graph, std::size_t held) const;
 
   IncrementalSolverOptions options_;
   std::vector<std::vector<std::uint32_t>> incident_;  // node index → incident edge indices

@@ -17,8 +17,12 @@
 namespace slamcore {
 
 Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix3* d_from, Matrix3* d_to) {
+  return EdgeError(from, to, measurement, measurement.rotation().transpose(), d_from, d_to);
+}
+
+Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, const Matrix2& rotation_z_t,
+                  Matrix3* d_from, Matrix3* d_to) {
   const Matrix2 rotation_from_t = from.rotation().transpose();
-  const Matrix2 rotation_z_t = measurement.rotation().transpose();
   const Vector2 local = rotation_from_t * (to.translation() - from.translation());  // R_iᵀ (t_j − t_i)
   Vector3 error;
   error.head<2>() = rotation_z_t * (local - measurement.translation());

@@ -63,6 +63,10 @@ Result<OptimizerSummary> Optimize(PoseGraph& graph, const OptimizerOptions& opti
 /// (x, y, θ) parameters of the two poses.
 Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix3* d_from = nullptr,
                   Matrix3* d_to = nullptr);
+/// The same with Rᵀ of the measurement given (`measurement.rotation().transpose()`), for solvers that
+/// linearise one edge many times: the measurement does not change, its sine and cosine need not be redone.
+Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement,
+                  const Matrix2& measurement_rotation_t, Matrix3* d_from = nullptr, Matrix3* d_to = nullptr);
 
 /// The information matrix of an edge z = from_T_to over the error above, from a covariance of left
 /// perturbations of z (the convention of events.h): z·exp(e) = exp(Adj_z e)·z, so Σ_e = Adj_z⁻¹ Σ Adj_z⁻ᵀ.

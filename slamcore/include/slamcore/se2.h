@@ -27,6 +27,9 @@ using Matrix3 = Eigen::Matrix3d;
 
 /// Wraps an angle to (-π, π].
 inline double WrapAngle(double angle) {
+  // Already in (−π, π]: std::remainder would return it unchanged (it is exact), so skip its cost — most
+  // angles the solvers wrap are small differences.
+  if (angle > -std::numbers::pi && angle <= std::numbers::pi) return angle;
   constexpr double kTwoPi = 2.0 * std::numbers::pi;
   double wrapped = std::remainder(angle, kTwoPi);  // in [-π, π]
   if (wrapped <= -std::numbers::pi) wrapped += kTwoPi;
