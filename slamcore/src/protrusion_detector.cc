@@ -229,35 +229,45 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
           shift_alignment};
 }
 
-/// Whether a registration error of `tolerance_cells` leaves some cell of a region of the difference
-/// unexplained. `piece` is a CV_8U mask over `box` of the child image (non-zero on the region's cells). A
-/// newly known cell is explained by a parent cell known within the tolerance (the same edge drawn a little
-/// farther out), a wall turned floor by a child wall within it (the same wall drawn a little to one side).
+/// What a registration error of `tolerance_cells` explains, per child cell (CV_8U, non-zero = explained):
+/// a newly known cell within the tolerance of a cell the parent knew (the same edge drawn a little farther
+/// out), a wall turned floor within it of a child wall (the same wall drawn a little to one side). Two
+/// dilations by the Euclidean disk, once per pair.
+struct RegistrationReach {
+  cv::Mat near_parent_known;
+  cv::Mat near_child_wall;
+};
+RegistrationReach ReachOfRegistrationError(const cv::Mat& child_cells, const cv::Mat& parent_cells,
+                                           double tolerance_cells) {
+  const int radius = static_cast<int>(std::floor(tolerance_cells));
+  cv::Mat disk = cv::Mat::zeros(2 * radius + 1, 2 * radius + 1, CV_8U);
+  for (int row = -radius; row <= radius; ++row) {
+    for (int col = -radius; col <= radius; ++col) {
+      if (row * row + col * col <= tolerance_cells * tolerance_cells)
+        disk.at<std::uint8_t>(row + radius, col + radius) = 1;
+    }
+  }
+  RegistrationReach reach;
+  cv::dilate(parent_cells != kUnknown, reach.near_parent_known, disk);
+  cv::dilate(child_cells == kOccupied, reach.near_child_wall, disk);
+  return reach;
+}
+
+/// Whether a registration error leaves some cell of a region of the difference unexplained. `piece` is a
+/// CV_8U mask over `box` of the child image (non-zero on the region's cells).
 bool BeyondRegistrationError(const cv::Mat& piece, const cv::Rect& box, const cv::Mat& child_cells,
-                             const cv::Mat& parent_cells, double tolerance_cells) {
-  if (tolerance_cells <= 0.0) return true;
-  const int pad = static_cast<int>(std::ceil(tolerance_cells)) + 1;
-  const cv::Rect roi = cv::Rect(box.x - pad, box.y - pad, box.width + 2 * pad, box.height + 2 * pad) &
-                       cv::Rect(0, 0, child_cells.cols, child_cells.rows);
-  const cv::Mat child = child_cells(roi), parent = parent_cells(roi);
-  // Distances (in cells) to the nearest parent-known cell and to the nearest child wall; cells beyond the
-  // padded window are farther than the tolerance, so the window sees all that matters.
-  cv::Mat to_parent_known, to_child_wall;
-  cv::distanceTransform(parent == kUnknown, to_parent_known, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  cv::distanceTransform(child != kOccupied, to_child_wall, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  for (int row = 0; row < roi.height; ++row) {
-    const int piece_row = roi.y + row - box.y;
-    if (piece_row < 0 || piece_row >= box.height) continue;
-    const std::uint8_t* in_piece = piece.ptr<std::uint8_t>(piece_row);
-    const std::int8_t* now = child.ptr<std::int8_t>(row);
-    const std::int8_t* before = parent.ptr<std::int8_t>(row);
-    const float* known_distance = to_parent_known.ptr<float>(row);
-    const float* wall_distance = to_child_wall.ptr<float>(row);
-    for (int col = 0; col < roi.width; ++col) {
-      const int piece_col = roi.x + col - box.x;
-      if (piece_col < 0 || piece_col >= box.width || !in_piece[piece_col]) continue;
-      if ((before[col] == kUnknown && now[col] != kUnknown && known_distance[col] > tolerance_cells) ||
-          (before[col] == kOccupied && now[col] == kFree && wall_distance[col] > tolerance_cells)) {
+                             const cv::Mat& parent_cells, const RegistrationReach& reach) {
+  if (reach.near_parent_known.empty()) return true;  // no tolerance
+  for (int row = 0; row < box.height; ++row) {
+    const std::uint8_t* in_piece = piece.ptr<std::uint8_t>(row);
+    const std::int8_t* now = child_cells.ptr<std::int8_t>(box.y + row) + box.x;
+    const std::int8_t* before = parent_cells.ptr<std::int8_t>(box.y + row) + box.x;
+    const std::uint8_t* near_known = reach.near_parent_known.ptr<std::uint8_t>(box.y + row) + box.x;
+    const std::uint8_t* near_wall = reach.near_child_wall.ptr<std::uint8_t>(box.y + row) + box.x;
+    for (int col = 0; col < box.width; ++col) {
+      if (!in_piece[col]) continue;
+      if ((before[col] == kUnknown && now[col] != kUnknown && !near_known[col]) ||
+          (before[col] == kOccupied && now[col] == kFree && !near_wall[col])) {
         return true;
       }
     }
@@ -268,14 +278,13 @@ bool BeyondRegistrationError(const cv::Mat& piece, const cv::Rect& box, const cv
 /// The walls turned floor that are a change and not the same wall drawn beside itself: the cells farther
 /// than `tolerance_cells` from any child wall (a doorway's middle, a band's hole), grown back by the
 /// tolerance within the wall (to the doorway's jambs). A CV_8U mask over the child image.
-cv::Mat WallsOpened(const cv::Mat& child_cells, const cv::Mat& parent_cells, double tolerance_cells) {
+cv::Mat WallsOpened(const cv::Mat& child_cells, const cv::Mat& parent_cells, double tolerance_cells,
+                    const RegistrationReach& reach) {
   const cv::Mat crossed = (child_cells == kFree) & (parent_cells == kOccupied);
-  if (tolerance_cells <= 0.0 || cv::countNonZero(crossed) == 0) return crossed;
-  cv::Mat to_child_wall;
-  cv::distanceTransform(child_cells != kOccupied, to_child_wall, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  cv::Mat opened = crossed & (to_child_wall > tolerance_cells);
-  const int reach = static_cast<int>(std::ceil(tolerance_cells));
-  cv::dilate(opened, opened, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * reach + 1, 2 * reach + 1}));
+  if (reach.near_child_wall.empty() || cv::countNonZero(crossed) == 0) return crossed;
+  cv::Mat opened = crossed & (reach.near_child_wall == 0);
+  const int grow = static_cast<int>(std::ceil(tolerance_cells));
+  cv::dilate(opened, opened, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * grow + 1, 2 * grow + 1}));
   return opened & crossed;
 }
 
@@ -358,13 +367,18 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     return InvalidArgument("detector options must be non-negative");
   }
   const double r = child.resolution;
-  const double tolerance_cells = options.registration_tolerance_m / r + 1e-6;  // 0.15 / 0.05 is 2.99…
+  // 0.15 / 0.05 is 2.99…: a hair more, so that three cells are within 0.15 m.
+  const double tolerance_cells =
+      options.registration_tolerance_m > 0.0 ? options.registration_tolerance_m / r + 1e-6 : 0.0;
   std::vector<std::uint8_t> difference = DifferenceMask(aligned, child);
   const cv::Mat raw(child.height, child.width, CV_8U, difference.data());
   // The grids' int8 cells viewed as images, without copies (OpenCV only reads them).
   const cv::Mat child_cells(child.height, child.width, CV_8S, const_cast<std::int8_t*>(child.cells.data()));
   const cv::Mat parent_cells(child.height, child.width, CV_8S, aligned.cells.data());
 
+  const RegistrationReach reach = tolerance_cells > 0.0
+                                      ? ReachOfRegistrationError(child_cells, parent_cells, tolerance_cells)
+                                      : RegistrationReach{};
   // An odd kernel, so that the opening is centred and does not shift regions by half a cell.
   const int kernel = static_cast<int>(std::lround(options.clean_up_size_m / r)) | 1;
   cv::Mat clean;
@@ -377,8 +391,8 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   // least the minimum area that is not the same wall drawn beside itself: a wall is one or two cells
   // thick, and a hole in it (a door opened, a stuck robot's band drawn through it) is a change, not speckle.
   {
-    cv::Mat crossed = WallsOpened(child_cells, parent_cells, tolerance_cells), crossed_labels, crossed_stats,
-            unused;
+    cv::Mat crossed = WallsOpened(child_cells, parent_cells, tolerance_cells, reach), crossed_labels,
+            crossed_stats, unused;
     const int pieces =
         cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
     const double min_piece = std::max(1.0, options.min_region_area_m2 / (r * r));
@@ -420,7 +434,7 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     if (area < min_cells) continue;
     // A region with any cell beyond the registration error is kept whole (a fragment of a real change near
     // known space keeps its shape); one that registration explains entirely is no change.
-    if (!BeyondRegistrationError(mask_inner, roi, child_cells, parent_cells, tolerance_cells)) continue;
+    if (!BeyondRegistrationError(mask_inner, roi, child_cells, parent_cells, reach)) continue;
     const cv::Rect local = cv::boundingRect(mask_inner);
     const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
     cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S),
