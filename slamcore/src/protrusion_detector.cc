@@ -366,6 +366,11 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
       !(options.registration_tolerance_m >= 0.0)) {
     return InvalidArgument("detector options must be non-negative");
   }
+  // Its disk is dilated over the whole pair: bounded, and a tolerance past a metre would hide rooms.
+  if (options.registration_tolerance_m > kMaxRegistrationToleranceM) {
+    return InvalidArgument("detector: registration tolerance above " +
+                           std::to_string(kMaxRegistrationToleranceM) + " m");
+  }
   const double r = child.resolution;
   // 0.15 / 0.05 is 2.99…: a hair more, so that three cells are within 0.15 m.
   const double tolerance_cells =

@@ -133,6 +133,9 @@ TEST(ProtrusionDetector, RegistrationToleranceIgnoresWallsDrawnACellOffAndKeepsT
   DetectorOptions negative;
   negative.registration_tolerance_m = -0.1;
   EXPECT_THAT(ExtractRegions(scene.parent, scene.child, negative), StatusIs(StatusCode::kInvalidArgument));
+  DetectorOptions absurd;
+  absurd.registration_tolerance_m = 1e9;
+  EXPECT_THAT(ExtractRegions(scene.parent, scene.child, absurd), StatusIs(StatusCode::kInvalidArgument));
 }
 
 TEST(ProtrusionDetector, AlignsWholeCellShiftsAndRefusesWhatCannotBeAligned) {

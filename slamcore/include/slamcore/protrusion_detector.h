@@ -41,6 +41,7 @@ struct DetectorOptions {
   /// (0.7 m) is not.
   double registration_tolerance_m = 0.15;
 };
+inline constexpr double kMaxRegistrationToleranceM = 1.0;
 
 /// A bounding box in the child map's IMAGE (x right, y down from the top-left, as in the PGM), in cells.
 struct ImageBox {
