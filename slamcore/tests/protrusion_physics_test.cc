@@ -111,6 +111,41 @@ TEST(ProtrusionPhysics, StuckRobotsPaintBandsTheDetectorFinds) {
   EXPECT_GE(protrusion_regions, protrusions);
 }
 
+TEST(ProtrusionPhysics, TheMisregisteredFamilyIsTheHeldOutPairDrawnOff) {
+  TEST_DATA_FILE_OR_SKIP(map_path, "maps/aws_small_house.yaml");
+  const auto map = ReadMapServerYaml(map_path.string());
+  ASSERT_THAT(map, IsOk());
+  const auto heldout = GeneratorFamily("heldout");
+  const auto misregistered = GeneratorFamily("misregistered");
+  ASSERT_THAT(heldout, IsOk());
+  ASSERT_THAT(misregistered, IsOk());
+  EXPECT_GE(misregistered->registration_shift_m.low, 0.05);  // at least a cell off
+  const auto aligned = GeneratePair(*map, 3, *heldout);
+  const auto moved = GeneratePair(*map, 3, *misregistered);
+  ASSERT_THAT(aligned, IsOk());
+  ASSERT_THAT(moved, IsOk());
+  // The same pair: the parent untouched, the child (and its truth) moved by the registration error.
+  EXPECT_EQ(moved->parent.cells, aligned->parent.cells);
+  EXPECT_NE(moved->child.cells, aligned->child.cells);
+  EXPECT_EQ(moved->child.cells, GeneratePair(*map, 3, *misregistered)->child.cells);  // seeded
+  const auto count = [](const std::vector<std::uint8_t>& truth, std::uint8_t label) {
+    return std::count(truth.begin(), truth.end(), label);
+  };
+  const auto protrusion_cells = count(aligned->truth, 1);
+  ASSERT_GT(protrusion_cells, 0);
+  EXPECT_NEAR(count(moved->truth, 1), protrusion_cells, 0.05 * protrusion_cells);  // nearest-cell resampling
+  // Drawn one or two cells off, the walls do not become changes: the detector reports about as many regions.
+  const auto regions_aligned = ExtractRegions(aligned->parent, aligned->child);
+  const auto regions_moved = ExtractRegions(moved->parent, moved->child);
+  ASSERT_THAT(regions_aligned, IsOk());
+  ASSERT_THAT(regions_moved, IsOk());
+  EXPECT_LE(regions_moved->size(), regions_aligned->size() + 2);  // 7 and 7 here; 23 without the tolerance
+
+  GeneratorOptions absurd = *misregistered;
+  absurd.registration_shift_m = {0.0, 5.0};
+  EXPECT_THAT(GeneratePair(*map, 3, absurd), StatusIs(StatusCode::kInvalidArgument));
+}
+
 TEST(ProtrusionDetector, AWallTurnedToFloorSurvivesTheCleanUp) {
   OccupancyGrid parent = RoomWithUnknownBeyond();
   OccupancyGrid child = parent;
