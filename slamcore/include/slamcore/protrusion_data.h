@@ -88,9 +88,10 @@ struct GeneratorOptions {
 };
 
 /// The named generator families (docs/protrusion-data.md): "corridor" (version 1: corridors, copied new
-/// space), "physical" (what the default model trains on: stuck robots and scanned new space), and
+/// space), "physical" (what the default model trains on: stuck robots and scanned new space),
 /// "heldout" (stuck robots only, with sensor ranges, fields of view, push angles, travel and drift that
-/// "physical" never uses: kept out of all training and tuning).
+/// "physical" never uses: kept out of all training and tuning) and "misregistered" (the heldout pairs with
+/// the child drawn 0.05–0.10 m off the parent: testing only).
 Result<GeneratorOptions> GeneratorFamily(const std::string& name);
 
 struct GeneratedPair {
