@@ -229,16 +229,12 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
           shift_alignment};
 }
 
-/// What a registration error of `tolerance_cells` explains, per child cell (CV_8U, non-zero = explained):
-/// a newly known cell within the tolerance of a cell the parent knew (the same edge drawn a little farther
-/// out), a wall turned floor within it of a child wall (the same wall drawn a little to one side). Two
-/// dilations by the Euclidean disk, once per pair.
-struct RegistrationReach {
-  cv::Mat near_parent_known;
-  cv::Mat near_child_wall;
-};
-RegistrationReach ReachOfRegistrationError(const cv::Mat& child_cells, const cv::Mat& parent_cells,
-                                           double tolerance_cells) {
+/// The cells of the difference (DifferenceMask) that a registration error of `tolerance_cells` explains
+/// (CV_8U, non-zero = explained): a newly known cell within the tolerance of a cell the parent knew (the same
+/// edge drawn a little farther out), a wall turned floor within it of a child wall (the same wall drawn a
+/// little to one side). `raw` is the difference; two dilations by the Euclidean disk, once per pair.
+cv::Mat ExplainedByRegistrationError(const cv::Mat& raw, const cv::Mat& child_cells,
+                                     const cv::Mat& parent_cells, double tolerance_cells) {
   const int radius = static_cast<int>(std::floor(tolerance_cells));
   cv::Mat disk = cv::Mat::zeros(2 * radius + 1, 2 * radius + 1, CV_8U);
   for (int row = -radius; row <= radius; ++row) {
@@ -247,42 +243,23 @@ RegistrationReach ReachOfRegistrationError(const cv::Mat& child_cells, const cv:
         disk.at<std::uint8_t>(row + radius, col + radius) = 1;
     }
   }
-  RegistrationReach reach;
-  cv::dilate(parent_cells != kUnknown, reach.near_parent_known, disk);
-  cv::dilate(child_cells == kOccupied, reach.near_child_wall, disk);
-  return reach;
+  cv::Mat near_parent_known, near_child_wall;
+  cv::dilate(parent_cells != kUnknown, near_parent_known, disk);
+  cv::dilate(child_cells == kOccupied, near_child_wall, disk);
+  // A cell of the difference is newly known where the parent knew nothing, else a wall turned floor.
+  const cv::Mat newly_known = parent_cells == kUnknown;
+  return (raw != 0) & ((newly_known & near_parent_known) | (~newly_known & near_child_wall));
 }
 
-/// Whether a registration error leaves some cell of a region of the difference unexplained. `piece` is a
-/// CV_8U mask over `box` of the child image (non-zero on the region's cells).
-bool BeyondRegistrationError(const cv::Mat& piece, const cv::Rect& box, const cv::Mat& child_cells,
-                             const cv::Mat& parent_cells, const RegistrationReach& reach) {
-  if (reach.near_parent_known.empty()) return true;  // no tolerance
-  for (int row = 0; row < box.height; ++row) {
-    const std::uint8_t* in_piece = piece.ptr<std::uint8_t>(row);
-    const std::int8_t* now = child_cells.ptr<std::int8_t>(box.y + row) + box.x;
-    const std::int8_t* before = parent_cells.ptr<std::int8_t>(box.y + row) + box.x;
-    const std::uint8_t* near_known = reach.near_parent_known.ptr<std::uint8_t>(box.y + row) + box.x;
-    const std::uint8_t* near_wall = reach.near_child_wall.ptr<std::uint8_t>(box.y + row) + box.x;
-    for (int col = 0; col < box.width; ++col) {
-      if (!in_piece[col]) continue;
-      if ((before[col] == kUnknown && now[col] != kUnknown && !near_known[col]) ||
-          (before[col] == kOccupied && now[col] == kFree && !near_wall[col])) {
-        return true;
-      }
-    }
-  }
-  return false;
-}
-
-/// The walls turned floor that are a change and not the same wall drawn beside itself: the cells farther
-/// than `tolerance_cells` from any child wall (a doorway's middle, a band's hole), grown back by the
-/// tolerance within the wall (to the doorway's jambs). A CV_8U mask over the child image.
+/// The walls turned floor that are a change and not the same wall drawn beside itself: those the
+/// registration error does not explain (a doorway's middle, a band's hole), grown back by the tolerance
+/// within the wall (to the doorway's jambs). A CV_8U mask over the child image; every wall turned floor
+/// when there is no tolerance (`explained` empty).
 cv::Mat WallsOpened(const cv::Mat& child_cells, const cv::Mat& parent_cells, double tolerance_cells,
-                    const RegistrationReach& reach) {
+                    const cv::Mat& explained) {
   const cv::Mat crossed = (child_cells == kFree) & (parent_cells == kOccupied);
-  if (reach.near_child_wall.empty() || cv::countNonZero(crossed) == 0) return crossed;
-  cv::Mat opened = crossed & (reach.near_child_wall == 0);
+  if (explained.empty() || cv::countNonZero(crossed) == 0) return crossed;
+  cv::Mat opened = crossed & (explained == 0);
   const int grow = static_cast<int>(std::ceil(tolerance_cells));
   cv::dilate(opened, opened, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * grow + 1, 2 * grow + 1}));
   return opened & crossed;
@@ -381,9 +358,9 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   const cv::Mat child_cells(child.height, child.width, CV_8S, const_cast<std::int8_t*>(child.cells.data()));
   const cv::Mat parent_cells(child.height, child.width, CV_8S, aligned.cells.data());
 
-  const RegistrationReach reach = tolerance_cells > 0.0
-                                      ? ReachOfRegistrationError(child_cells, parent_cells, tolerance_cells)
-                                      : RegistrationReach{};
+  const cv::Mat explained =
+      tolerance_cells > 0.0 ? ExplainedByRegistrationError(raw, child_cells, parent_cells, tolerance_cells)
+                            : cv::Mat();
   // An odd kernel, so that the opening is centred and does not shift regions by half a cell.
   const int kernel = static_cast<int>(std::lround(options.clean_up_size_m / r)) | 1;
   cv::Mat clean;
@@ -396,7 +373,7 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   // least the minimum area that is not the same wall drawn beside itself: a wall is one or two cells
   // thick, and a hole in it (a door opened, a stuck robot's band drawn through it) is a change, not speckle.
   {
-    cv::Mat crossed = WallsOpened(child_cells, parent_cells, tolerance_cells, reach), crossed_labels,
+    cv::Mat crossed = WallsOpened(child_cells, parent_cells, tolerance_cells, explained), crossed_labels,
             crossed_stats, unused;
     const int pieces =
         cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
@@ -439,7 +416,7 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     if (area < min_cells) continue;
     // A region with any cell beyond the registration error is kept whole (a fragment of a real change near
     // known space keeps its shape); one that registration explains entirely is no change.
-    if (!BeyondRegistrationError(mask_inner, roi, child_cells, parent_cells, reach)) continue;
+    if (!explained.empty() && cv::countNonZero(mask_inner & (explained(roi) == 0)) == 0) continue;
     const cv::Rect local = cv::boundingRect(mask_inner);
     const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
     cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S),
