@@ -260,7 +260,11 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   };
   NormalEquations normal_equations(3 * columns);
   Eigen::SparseMatrix<double> hessian(3 * columns, 3 * columns);
+  // H's pattern is the same in every iteration: it is built from the first iteration's triplets; from the
+  // second on (most local updates take one), each entry is added straight into its slot of H's values, in
+  // the triplets' order, so each sum is the one setFromTriplets forms, term for term.
   std::vector<Eigen::Triplet<double>> triplets;
+  std::vector<int> slots;  // by triplet: its index in H's values
   Eigen::VectorXd gradient(3 * columns);
   std::vector<Linearised> current, trial;
   // Levenberg–Marquardt damping λ (H's diagonal scaled by 1 + λ), 0 until a step is rejected: Nielsen's
@@ -280,12 +284,30 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       to_convergence ? to_convergence->relative_cost_decrease : options_.relative_cost_decrease;
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     // Normal equations H δ = −g with H = Σ Jᵀ Ω J, g = Σ Jᵀ Ω e over the region's columns (lower triangle).
-    triplets.clear();
     gradient.setZero();
+    if (iteration == 1 && !triplets.empty()) {  // a second pass over the pattern: index the slots
+      slots.reserve(triplets.size());
+      for (const Eigen::Triplet<double>& entry : triplets) {
+        const int* const begin = hessian.innerIndexPtr() + hessian.outerIndexPtr()[entry.col()];
+        const int* const end = hessian.innerIndexPtr() + hessian.outerIndexPtr()[entry.col() + 1];
+        slots.push_back(
+            static_cast<int>(std::lower_bound(begin, end, entry.row()) - hessian.innerIndexPtr()));
+      }
+      triplets = {};
+    }
+    const bool pattern_known = !slots.empty();
+    if (pattern_known) std::fill_n(hessian.valuePtr(), hessian.nonZeros(), 0.0);
+    double* const values = hessian.valuePtr();
+    std::size_t next_slot = 0;
     const auto add_block = [&](int row, int col, const Matrix3& block) {
       for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
-          if (row + r >= col + c) triplets.emplace_back(row + r, col + c, block(r, c));
+          if (row + r < col + c) continue;
+          if (pattern_known) {
+            values[slots[next_slot++]] += block(r, c);
+          } else {
+            triplets.emplace_back(row + r, col + c, block(r, c));
+          }
         }
       }
     };
@@ -307,7 +329,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
         if (b > a) add_block(b, a, at.d_to.transpose() * omega * at.d_from);
       }
     }
-    hessian.setFromTriplets(triplets.begin(), triplets.end());
+    if (!pattern_known) hessian.setFromTriplets(triplets.begin(), triplets.end());
     Eigen::VectorXd diagonal;  // H's own, for the predicted decrease of a damped step
     if (damping > 0.0) {
       diagonal = hessian.diagonal();
