@@ -430,6 +430,59 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
   std::filesystem::remove_all(directory);
 }
 
+// A lifelong robot's map outgrows one gRPC message long before a run outgrows max_run_bytes (a robot's 39th
+// daily run of 10 min: a 17 MB child snapshot against fleetd's 16 MiB). The uploader sends each snapshot in
+// parts and fleetd merges them: the stored snapshot is the one a single message would have carried. A part
+// of a parent snapshot after the child is refused.
+TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
+  FleetdProcess server({"--max-message-bytes", "32768", "--workers", "1"});
+  ASSERT_THAT(server, IsOk());
+  const fleet::v1::RunFile& run = SimulatedRuns().front();
+  ASSERT_GT(run.child_snapshot().ByteSizeLong(), 3u * 32768) << "the simulated map should need parts";
+  fleet_client::UploaderOptions options;
+  options.server = server.grpc_address();
+  options.token = FleetdProcess::AdminToken();
+  options.max_attempts = 1;
+  options.events_per_chunk = 50;
+
+  options.snapshot_part_bytes = 1 << 20;  // one part over the server's limit: refused as before
+  const fleet_client::UploadOutcome whole = fleet_client::Uploader(options).Upload(run);
+  EXPECT_FALSE(whole.ok);
+  EXPECT_EQ(whole.code, static_cast<int>(grpc::StatusCode::RESOURCE_EXHAUSTED)) << whole.message;
+
+  options.snapshot_part_bytes = 16 << 10;
+  const fleet_client::UploadOutcome parts = fleet_client::Uploader(options).Upload(run);
+  ASSERT_TRUE(parts.ok) << parts.message;
+  EXPECT_EQ(parts.child_snapshot_id, fleet_client::SnapshotId(run.child_snapshot()));
+  EXPECT_GT(parts.analysis_job_id, 0);
+
+  auto ingest = fleet::v1::Ingest::NewStub(server.Channel());
+  auto context = Context(FleetdProcess::AdminToken());
+  fleet::v1::UploadRunResponse response;
+  auto writer = ingest->UploadRun(context.get(), &response);
+  fleet::v1::UploadRunRequest message;
+  *message.mutable_header() = run.header();
+  message.mutable_header()->set_run_id("parent-after-child");
+  message.mutable_header()->set_event_count(0);
+  bool open = writer->Write(message);
+  const auto pieces = fleet_client::SnapshotParts(run.child_snapshot(), 16 << 10);
+  for (std::size_t k = 0; open && k < 2; ++k) {
+    message.Clear();
+    *message.mutable_child_snapshot() = pieces[k];
+    open = writer->Write(message);
+  }
+  message.Clear();
+  *message.mutable_parent_snapshot() = pieces.front();
+  if (open) writer->Write(message);
+  writer->WritesDone();
+  const grpc::Status refused = writer->Finish();
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused.error_message().find("nothing but further parts of child_snapshot may follow it"),
+            std::string::npos)
+      << refused.error_message();
+  EXPECT_EQ(server.Stop(), 0);
+}
+
 /// An events message of about `bytes` made of the simulated run's events, repeated.
 fleet::v1::UploadRunRequest EventsOfSize(std::size_t bytes) {
   fleet::v1::UploadRunRequest message;

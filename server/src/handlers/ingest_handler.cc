@@ -50,7 +50,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
     if (context_.admission != nullptr) {
       if (grpc::Status refused = in_flight.Reserve(message_bytes); !refused.ok()) return refused;
     }
-    if (have_child) return InvalidArgument(where + ": nothing may follow child_snapshot");
+    if (have_child && message.part_case() != fleet::v1::UploadRunRequest::kChildSnapshot)
+      return InvalidArgument(where + ": nothing but further parts of child_snapshot may follow it");
     if (auto unknown = analyzer::FindUnknownField(message, where)) {
       return InvalidArgument(*unknown +
                              ": carries bytes that are no field of fleet.v1 (trailing or unknown data)");
@@ -87,13 +88,23 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
         for (auto& event : *message.mutable_events()->mutable_events()) *run.add_events() = std::move(event);
         break;
       }
+      // A snapshot may come in parts, consecutive messages of its kind merged in order (a protobuf merge:
+      // repeated fields concatenated): a robot's map outgrows one message long before a run outgrows
+      // max_run_bytes. The byte bounds above count every part.
       case fleet::v1::UploadRunRequest::kParentSnapshot:
-        if (have_parent) return InvalidArgument(where + ".parent_snapshot: a second parent snapshot");
-        *run.mutable_parent_snapshot() = std::move(*message.mutable_parent_snapshot());
+        if (have_parent) {
+          run.mutable_parent_snapshot()->MergeFrom(message.parent_snapshot());
+        } else {
+          *run.mutable_parent_snapshot() = std::move(*message.mutable_parent_snapshot());
+        }
         have_parent = true;
         break;
       case fleet::v1::UploadRunRequest::kChildSnapshot:
-        *run.mutable_child_snapshot() = std::move(*message.mutable_child_snapshot());
+        if (have_child) {
+          run.mutable_child_snapshot()->MergeFrom(message.child_snapshot());
+        } else {
+          *run.mutable_child_snapshot() = std::move(*message.mutable_child_snapshot());
+        }
         have_child = true;
         break;
       case fleet::v1::UploadRunRequest::PART_NOT_SET:

@@ -1,5 +1,6 @@
 // Uploads runs to fleetd like a robot: one client stream per run (header, event chunks, parent snapshot
-// unless the server already holds it, child snapshot), retried with exponential backoff on UNAVAILABLE
+// unless the server already holds it, child snapshot; each snapshot in parts of at most
+// `snapshot_part_bytes`, as a lifelong map outgrows one gRPC message), retried with exponential backoff on UNAVAILABLE
 // (e.g. the database is full or read-only), DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED (rate and in-flight
 // limits) and ABORTED — safe because ingest is idempotent by run id. Never retried: what can never succeed,
 // INVALID_ARGUMENT (also a run over --max-run-bytes or --max-events-per-run), PERMISSION_DENIED, … and
@@ -10,10 +11,12 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "fleet/v1/telemetry.pb.h"
 
@@ -26,7 +29,8 @@ struct UploaderOptions {
   int max_attempts = 6;
   std::chrono::milliseconds initial_backoff{200};
   int events_per_chunk = 1000;
-  double deadline_seconds = 120.0;  // per attempt
+  std::size_t snapshot_part_bytes = 4 << 20;  // below fleetd's default max_message_bytes (16 MiB)
+  double deadline_seconds = 120.0;            // per attempt
 };
 
 struct UploadOutcome {
@@ -61,6 +65,12 @@ std::optional<std::string> ReadTokenFile(const std::string& path, std::string* e
 
 /// True when a failed attempt with this status may succeed if sent again unchanged.
 bool RetryableUpload(int code, const std::string& message);
+
+/// `snapshot` cut into the parts an upload sends, in order: each at most about `part_bytes` serialized (an
+/// item larger than that travels alone), the first with its scalar fields. Merged in order (protobuf
+/// merge: repeated fields concatenated) they are `snapshot` again, field for field.
+std::vector<fleet::v1::MapSnapshot> SnapshotParts(const fleet::v1::MapSnapshot& snapshot,
+                                                  std::size_t part_bytes);
 
 /// Hex SHA-256 of the deterministic serialization: the id fleetd gives a snapshot.
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot);
