@@ -55,8 +55,23 @@ bool HomesOf(const std::string& world, std::vector<std::filesystem::path>* homes
   return true;
 }
 
+/// Writes `object` to `path` whole or not at all (a temporary file renamed over it); false with a message on
+/// stderr when it cannot.
+bool WriteResults(const std::string& path, const std::string& object) {
+  const std::string temporary = path + ".tmp";
+  std::ofstream out(temporary, std::ios::trunc);
+  out << object << "\n";
+  out.close();
+  std::error_code error;
+  if (!out) error = std::make_error_code(std::errc::io_error);
+  if (!error) std::filesystem::rename(temporary, path, error);
+  if (error) std::cerr << "fleetsim: --results " << path << ": " << error.message() << "\n";
+  return !error;
+}
+
 /// --lifelong: validates, runs the regimes with one updating progress line on stderr, prints the table or the
-/// JSON object, and writes the object to `results_file` (whole or not at all).
+/// JSON object, and writes the object to `results_file` (whole or not at all) after each regime, so that the
+/// regimes done survive a later one's failure or a stop (regimes_to_come names the others).
 int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, bool json,
                        const std::string& results_file, bool remove_work_dir) {
   if (!HomesOf(world, &options.worlds)) return 1;
@@ -64,10 +79,17 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
     std::cerr << "fleetsim: " << valid.message() << "\n";
     return 2;
   }
-  const auto results = sim::RunLifelong(options, [](const std::string& regime, int done, int total) {
-    std::fprintf(stderr, "\rfleetsim lifelong: regime %-8s %5d/%d runs", regime.c_str(), done, total);
-    std::fflush(stderr);
-  });
+  bool written = true;
+  const auto results = sim::RunLifelong(
+      options,
+      [](const std::string& regime, int done, int total) {
+        std::fprintf(stderr, "\rfleetsim lifelong: regime %-8s %5d/%d runs", regime.c_str(), done, total);
+        std::fflush(stderr);
+      },
+      [&](const std::vector<sim::RegimeResult>& so_far) {
+        if (!results_file.empty() && so_far.size() < options.regimes.size())
+          written = WriteResults(results_file, sim::LifelongJson(options, so_far)) && written;
+      });
   std::fprintf(stderr, "\n");
   if (remove_work_dir) {
     std::error_code ignored;
@@ -78,19 +100,7 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
     return 1;
   }
   const std::string object = sim::LifelongJson(options, *results);
-  if (!results_file.empty()) {
-    const std::string temporary = results_file + ".tmp";
-    std::ofstream out(temporary, std::ios::trunc);
-    out << object << "\n";
-    out.close();
-    std::error_code error;
-    if (!out) error = std::make_error_code(std::errc::io_error);
-    if (!error) std::filesystem::rename(temporary, results_file, error);
-    if (error) {
-      std::cerr << "fleetsim: --results " << results_file << ": " << error.message() << "\n";
-      return 1;
-    }
-  }
+  if (!results_file.empty() && !(WriteResults(results_file, object) && written)) return 1;
   std::cout << (json ? object + "\n" : sim::LifelongText(options, *results));
   return 0;
 }

@@ -161,7 +161,8 @@ slamcore::Status ValidateLifelong(const LifelongOptions& options) {
 }
 
 slamcore::Result<std::vector<RegimeResult>> RunLifelong(
-    const LifelongOptions& options, const std::function<void(const std::string&, int, int)>& progress) {
+    const LifelongOptions& options, const std::function<void(const std::string&, int, int)>& progress,
+    const std::function<void(const std::vector<RegimeResult>&)>& regime_done) {
   RETURN_IF_ERROR(ValidateLifelong(options));
   std::vector<RegimeResult> results;
   for (const std::string& regime : options.regimes) {
@@ -172,6 +173,7 @@ slamcore::Result<std::vector<RegimeResult>> RunLifelong(
       return slamcore::Status(result.status().code(), "regime " + regime + ": " + result.status().message());
     }
     results.push_back(std::move(result).value());
+    if (regime_done) regime_done(results);
   }
   return results;
 }
@@ -215,7 +217,11 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
        {{"trajectory_rmse_m", options.corruption.trajectory_rmse_m},
         {"false_free_m2", options.corruption.false_free_m2}}},
       {"per_robot_fields", {"trajectory_rmse_m", "false_free_m2", "components", "repairs_taken", "outcome"}},
-      {"regimes", regimes}};
+      {"regimes", regimes},
+      {"regimes_to_come",
+       std::vector<std::string>(options.regimes.begin() + static_cast<std::ptrdiff_t>(std::min(
+                                                              results.size(), options.regimes.size())),
+                                options.regimes.end())}};
   return out.dump();
 }
 

@@ -3,7 +3,8 @@
 # a small experiment of all four regimes (it starts and stops its own fleetd beside fleetsim for two of them)
 # prints one JSON object on the last line with regimes none, filter, service, review, each holding
 # corrupted_share and corrupted_by_run (one share per run), writes the same object to --results, and keeps its
-# progress on one updating line of stderr. Arguments: the build's bin directory, a data directory.
+# progress on one updating line of stderr; a regime that fails after another finished leaves the finished one
+# in --results with the rest named in regimes_to_come. Arguments: the build's bin directory, a data directory.
 set -euo pipefail
 bin=$1
 data=$2
@@ -27,6 +28,19 @@ refused "--regimes: \"magic\" is not one of none, filter, service, review" --reg
 refused "--min-severity: expected 0..1" --min-severity 2
 refused "--review-every: expected 1..400 runs" --review-every 0
 refused "is not an executable" --regimes service --fleetd "$work/no-such-fleetd" --robots 1 --runs 1 --minutes 1
+# A regime that fails after another finished: the finished one is kept in --results, the rest named.
+if "$bin/fleetsim" --lifelong --world "$data/floorplans" --robots 1 --runs 1 --minutes 1 --regimes filter,service \
+  --fleetd "$work/no-such-fleetd" --results "$work/partial.json" >"$work/out" 2>"$work/err"; then
+  fail "a lifelong experiment whose service regime cannot start succeeded"
+fi
+grep -qF "regime service: fleetd:" "$work/err" || fail "no reason for the failed regime: $(cat "$work/err")"
+python3 - "$work/partial.json" <<'PY'
+import json, sys
+partial = json.loads(open(sys.argv[1]).read())
+assert sorted(partial["regimes"]) == ["filter"], sorted(partial["regimes"])
+assert partial["regimes_to_come"] == ["service"], partial["regimes_to_come"]
+assert len(partial["regimes"]["filter"]["corrupted_by_run"]) == 1, partial["regimes"]["filter"]
+PY
 if "$bin/fleetsim" --world "$data/floorplans" --follow-service 2>"$work/err"; then fail "--follow-service without --upload ran"; fi
 grep -q -- "--follow-service needs --upload" "$work/err" || fail "no reason for --follow-service: $(cat "$work/err")"
 
@@ -39,6 +53,7 @@ result = json.loads(last)
 assert json.loads(open(sys.argv[2]).read()) == result, "--results holds the printed object"
 regimes = result["regimes"]
 assert sorted(regimes) == ["filter", "none", "review", "service"], sorted(regimes)
+assert result["regimes_to_come"] == [], result["regimes_to_come"]
 for name, regime in regimes.items():
     assert 0.0 <= regime["corrupted_share"] <= 1.0, (name, regime["corrupted_share"])
     assert len(regime["corrupted_by_run"]) == 2, (name, regime["corrupted_by_run"])

@@ -55,13 +55,17 @@ struct RegimeResult {
   double seconds = 0.0;
 };
 
-/// Runs the regimes one after another; `progress(regime, done, total)` after each run.
+/// Runs the regimes one after another; `progress(regime, done, total)` after each run, and
+/// `regime_done(results so far)` after each regime (an experiment at the default size takes hours: what is
+/// done is kept when a later regime fails or the run is stopped).
 slamcore::Result<std::vector<RegimeResult>> RunLifelong(
-    const LifelongOptions& options, const std::function<void(const std::string&, int, int)>& progress = {});
+    const LifelongOptions& options, const std::function<void(const std::string&, int, int)>& progress = {},
+    const std::function<void(const std::vector<RegimeResult>&)>& regime_done = {});
 
-/// One JSON object: {"robots", "runs", "seed", "threshold", "regimes": {"none": {...}, ...}} with each
-/// regime's figures, corrupted_by_run and per robot and run [trajectory_rmse_m, false_free_m2, components,
-/// repairs_taken, outcome].
+/// One JSON object: {"robots", "runs", "seed", "threshold", "regimes": {"none": {...}, ...},
+/// "regimes_to_come": [...]} with each finished regime's figures, corrupted_by_run and per robot and run
+/// [trajectory_rmse_m, false_free_m2, components, repairs_taken, outcome]; regimes_to_come names those of
+/// `options` not yet in `results` (empty once the experiment is complete).
 std::string LifelongJson(const LifelongOptions& options, const std::vector<RegimeResult>& results);
 /// A table for people: a row per regime, then the corrupted share every few runs.
 std::string LifelongText(const LifelongOptions& options, const std::vector<RegimeResult>& results);
