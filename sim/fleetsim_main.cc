@@ -79,7 +79,6 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
     std::cerr << "fleetsim: " << valid.message() << "\n";
     return 2;
   }
-  bool written = true;
   const auto results = sim::RunLifelong(
       options,
       [](const std::string& regime, int done, int total) {
@@ -87,8 +86,9 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
         std::fflush(stderr);
       },
       [&](const std::vector<sim::RegimeResult>& so_far) {
+        // A failed write says so on stderr; the next regime's (or the final) write tries again.
         if (!results_file.empty() && so_far.size() < options.regimes.size())
-          written = WriteResults(results_file, sim::LifelongJson(options, so_far)) && written;
+          (void)WriteResults(results_file, sim::LifelongJson(options, so_far));
       });
   std::fprintf(stderr, "\n");
   if (remove_work_dir) {
@@ -100,7 +100,7 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
     return 1;
   }
   const std::string object = sim::LifelongJson(options, *results);
-  if (!results_file.empty() && !(WriteResults(results_file, object) && written)) return 1;
+  if (!results_file.empty() && !WriteResults(results_file, object)) return 1;
   std::cout << (json ? object + "\n" : sim::LifelongText(options, *results));
   return 0;
 }
