@@ -37,6 +37,7 @@
 #include "sim/fleet.h"
 #include "sim/follow_service.h"
 #include "sim/lifelong.h"
+#include "slamcore/graph_io.h"
 
 namespace {
 
@@ -55,18 +56,13 @@ bool HomesOf(const std::string& world, std::vector<std::filesystem::path>* homes
   return true;
 }
 
-/// Writes `object` to `path` whole or not at all (a temporary file renamed over it); false with a message on
+/// Writes `object` to `path` whole or not at all (slamcore::WriteFileReplacing); false with a message on
 /// stderr when it cannot.
 bool WriteResults(const std::string& path, const std::string& object) {
-  const std::string temporary = path + ".tmp";
-  std::ofstream out(temporary, std::ios::trunc);
-  out << object << "\n";
-  out.close();
-  std::error_code error;
-  if (!out) error = std::make_error_code(std::errc::io_error);
-  if (!error) std::filesystem::rename(temporary, path, error);
-  if (error) std::cerr << "fleetsim: --results " << path << ": " << error.message() << "\n";
-  return !error;
+  const slamcore::Status written =
+      slamcore::WriteFileReplacing(path, [&](std::ostream& out) { out << object << "\n"; });
+  if (!written.ok()) std::cerr << "fleetsim: --results: " << written.message() << "\n";
+  return written.ok();
 }
 
 /// --lifelong: validates, runs the regimes with one updating progress line on stderr, prints the table or the

@@ -206,6 +206,8 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
                             {"wall_seconds", Round(result.seconds, 0.01)},
                             {"per_robot", robots}};
   }
+  // The regimes run in the order named, so the first results.size() of them are done.
+  const auto finished = static_cast<std::ptrdiff_t>(std::min(results.size(), options.regimes.size()));
   const nlohmann::json out = {
       {"robots", options.robots},
       {"runs", options.runs},
@@ -219,9 +221,7 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
       {"per_robot_fields", {"trajectory_rmse_m", "false_free_m2", "components", "repairs_taken", "outcome"}},
       {"regimes", regimes},
       {"regimes_to_come",
-       std::vector<std::string>(options.regimes.begin() + static_cast<std::ptrdiff_t>(std::min(
-                                                              results.size(), options.regimes.size())),
-                                options.regimes.end())}};
+       std::vector<std::string>(options.regimes.begin() + finished, options.regimes.end())}};
   return out.dump();
 }
 

@@ -166,21 +166,18 @@ class Uploader::Impl {
       for (int j = i; j < end; ++j) *events->Add() = run.events(j);
       open = writer->Write(message);
     }
-    if (open && !parent_known && run.parent_snapshot().nodes_size() > 0) {
-      for (fleet::v1::MapSnapshot& part :
-           SnapshotParts(run.parent_snapshot(), options_.snapshot_part_bytes)) {
+    // Each snapshot in parts, into the message's `slot` (parent_snapshot or child_snapshot).
+    const auto send_in_parts = [&](const fleet::v1::MapSnapshot& snapshot,
+                                   fleet::v1::MapSnapshot* (fleet::v1::UploadRunRequest::*slot)()) {
+      for (fleet::v1::MapSnapshot& part : SnapshotParts(snapshot, options_.snapshot_part_bytes)) {
         message.Clear();
-        *message.mutable_parent_snapshot() = std::move(part);
-        if (!(open = writer->Write(message))) break;
+        *(message.*slot)() = std::move(part);
+        if (!(open = writer->Write(message))) return;
       }
-    }
-    if (open) {
-      for (fleet::v1::MapSnapshot& part : SnapshotParts(run.child_snapshot(), options_.snapshot_part_bytes)) {
-        message.Clear();
-        *message.mutable_child_snapshot() = std::move(part);
-        if (!(open = writer->Write(message))) break;
-      }
-    }
+    };
+    if (open && !parent_known && run.parent_snapshot().nodes_size() > 0)
+      send_in_parts(run.parent_snapshot(), &fleet::v1::UploadRunRequest::mutable_parent_snapshot);
+    if (open) send_in_parts(run.child_snapshot(), &fleet::v1::UploadRunRequest::mutable_child_snapshot);
     if (open) writer->WritesDone();
     return writer->Finish();
   }

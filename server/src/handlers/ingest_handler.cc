@@ -8,6 +8,22 @@
 #include "server/log.h"
 
 namespace server {
+namespace {
+
+// A snapshot may come in parts, consecutive messages of its kind merged in order (a protobuf merge: repeated
+// fields concatenated): a robot's map outgrows one message long before a run outgrows max_run_bytes. The
+// first part is moved in whole.
+void AddSnapshotPart(fleet::v1::MapSnapshot* part, fleet::v1::MapSnapshot* snapshot,
+                     bool have_earlier_parts) {
+  if (have_earlier_parts) {
+    snapshot->MergeFrom(*part);
+  } else {
+    *snapshot = std::move(*part);
+  }
+}
+
+}  // namespace
+
 grpc::Status IngestHandler::UploadRun(grpc::ServerContext* call,
                                       grpc::ServerReader<fleet::v1::UploadRunRequest>* reader,
                                       fleet::v1::UploadRunResponse* response) {
@@ -88,23 +104,13 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
         for (auto& event : *message.mutable_events()->mutable_events()) *run.add_events() = std::move(event);
         break;
       }
-      // A snapshot may come in parts, consecutive messages of its kind merged in order (a protobuf merge:
-      // repeated fields concatenated): a robot's map outgrows one message long before a run outgrows
-      // max_run_bytes. The byte bounds above count every part.
+      // Snapshots may come in parts (AddSnapshotPart); the byte bounds above count every part.
       case fleet::v1::UploadRunRequest::kParentSnapshot:
-        if (have_parent) {
-          run.mutable_parent_snapshot()->MergeFrom(message.parent_snapshot());
-        } else {
-          *run.mutable_parent_snapshot() = std::move(*message.mutable_parent_snapshot());
-        }
+        AddSnapshotPart(message.mutable_parent_snapshot(), run.mutable_parent_snapshot(), have_parent);
         have_parent = true;
         break;
       case fleet::v1::UploadRunRequest::kChildSnapshot:
-        if (have_child) {
-          run.mutable_child_snapshot()->MergeFrom(message.child_snapshot());
-        } else {
-          *run.mutable_child_snapshot() = std::move(*message.mutable_child_snapshot());
-        }
+        AddSnapshotPart(message.mutable_child_snapshot(), run.mutable_child_snapshot(), have_child);
         have_child = true;
         break;
       case fleet::v1::UploadRunRequest::PART_NOT_SET:
