@@ -432,8 +432,9 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
 
 // A lifelong robot's map outgrows one gRPC message long before a run outgrows max_run_bytes (a robot's 39th
 // daily run of 10 min: a 17 MB child snapshot against fleetd's 16 MiB). The uploader sends each snapshot in
-// parts and fleetd merges them: the stored snapshot is the one a single message would have carried. A part
-// of a parent snapshot after the child is refused.
+// parts and fleetd merges them: the stored snapshot is the one a single message would have carried. Hostile
+// parts: a parent part after the child's, and unknown bytes in a later part, are refused; parts that each fit
+// a message but together exceed max_run_bytes are refused and nothing is stored.
 TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
   FleetdProcess server({"--max-message-bytes", "32768", "--workers", "1"});
   ASSERT_THAT(server, IsOk());
@@ -456,31 +457,58 @@ TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
   EXPECT_EQ(parts.child_snapshot_id, fleet_client::SnapshotId(run.child_snapshot()));
   EXPECT_GT(parts.analysis_job_id, 0);
 
-  auto ingest = fleet::v1::Ingest::NewStub(server.Channel());
-  auto context = Context(FleetdProcess::AdminToken());
-  fleet::v1::UploadRunResponse response;
-  auto writer = ingest->UploadRun(context.get(), &response);
-  fleet::v1::UploadRunRequest message;
-  *message.mutable_header() = run.header();
-  message.mutable_header()->set_run_id("parent-after-child");
-  message.mutable_header()->set_event_count(0);
-  bool open = writer->Write(message);
+  // Hostile streams, by hand: the header, then these messages; what fleetd answers.
   const auto pieces = fleet_client::SnapshotParts(run.child_snapshot(), 16 << 10);
-  for (std::size_t k = 0; open && k < 2; ++k) {
-    message.Clear();
+  ASSERT_GE(pieces.size(), 3u);
+  const auto stream = [&](FleetdProcess& to, const std::string& run_id,
+                          const std::vector<fleet::v1::UploadRunRequest>& messages) {
+    auto ingest = fleet::v1::Ingest::NewStub(to.Channel());
+    auto context = Context(FleetdProcess::AdminToken());
+    fleet::v1::UploadRunResponse response;
+    auto writer = ingest->UploadRun(context.get(), &response);
+    fleet::v1::UploadRunRequest header;
+    *header.mutable_header() = run.header();
+    header.mutable_header()->set_run_id(run_id);
+    header.mutable_header()->set_event_count(0);
+    bool open = writer->Write(header);
+    for (std::size_t k = 0; open && k < messages.size(); ++k) open = writer->Write(messages[k]);
+    writer->WritesDone();
+    return writer->Finish();
+  };
+  const auto child_part = [&](std::size_t k) {
+    fleet::v1::UploadRunRequest message;
     *message.mutable_child_snapshot() = pieces[k];
-    open = writer->Write(message);
-  }
-  message.Clear();
-  *message.mutable_parent_snapshot() = pieces.front();
-  if (open) writer->Write(message);
-  writer->WritesDone();
-  const grpc::Status refused = writer->Finish();
-  EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_NE(refused.error_message().find("nothing but further parts of child_snapshot may follow it"),
-            std::string::npos)
-      << refused.error_message();
+    return message;
+  };
+  const auto refused_with = [](const grpc::Status& status, const std::string& reason) {
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find(reason), std::string::npos) << status.error_message();
+  };
+
+  // A part of the parent snapshot after the child's.
+  fleet::v1::UploadRunRequest parent_part;
+  *parent_part.mutable_parent_snapshot() = pieces.front();
+  refused_with(stream(server, "parent-after-child", {child_part(0), child_part(1), parent_part}),
+               "nothing but further parts of child_snapshot may follow it");
+  // A later part carrying bytes that are no field: every part is checked, not only the first.
+  fleet::v1::UploadRunRequest trailing = child_part(1);
+  trailing.mutable_child_snapshot()
+      ->GetReflection()
+      ->MutableUnknownFields(trailing.mutable_child_snapshot())
+      ->AddVarint(99, 1);
+  refused_with(stream(server, "unknown-bytes-in-a-part", {child_part(0), trailing, child_part(2)}),
+               "carries bytes that are no field of fleet.v1");
   EXPECT_EQ(server.Stop(), 0);
+
+  // The parts count against max_run_bytes together: each fits in a message, all of them not in a run.
+  FleetdProcess small_runs({"--max-message-bytes", "32768", "--max-run-bytes", "65536", "--workers", "1"});
+  ASSERT_THAT(small_runs, IsOk());
+  std::vector<fleet::v1::UploadRunRequest> every_part;
+  for (std::size_t k = 0; k < pieces.size(); ++k) every_part.push_back(child_part(k));
+  refused_with(stream(small_runs, "parts-over-max-run-bytes", every_part), "exceeds max_run_bytes (65536)");
+  auto queries = fleet::v1::Queries::NewStub(small_runs.Channel());
+  EXPECT_EQ(CountRuns(*queries, FleetdProcess::AdminToken()), 0) << "nothing stored";
+  EXPECT_EQ(small_runs.Stop(), 0);
 }
 
 /// An events message of about `bytes` made of the simulated run's events, repeated.
