@@ -28,7 +28,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <unistd.h>
-#include <fstream>
 #include <iostream>
 
 #include "fleet_client/local_fleetd.h"
