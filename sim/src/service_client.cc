@@ -8,6 +8,7 @@
 #include "fleet/status_codes.h"
 #include "fleet/v1/service.grpc.pb.h"
 #include "fleet_client/channel.h"
+#include "fleet_client/map_stream.h"
 
 namespace sim {
 namespace {
@@ -52,10 +53,11 @@ slamcore::Result<FetchedMap> ServiceClient::FetchMap(const std::string& token, c
   request.set_held_version(held_version);
   fleet::v1::GetMapResponse response;
   auto context = Context(token);
-  const grpc::Status status = impl_->maps->GetMap(context.get(), request, &response);
+  const grpc::Status status =
+      fleet_client::ReceiveMap(*impl_->maps, *context, request, fleet_client::kDefaultMaxMapBytes, &response);
   FetchedMap fetched;
   if (status.error_code() == grpc::StatusCode::NOT_FOUND) return fetched;  // no approved map yet
-  if (!status.ok()) return Failed("Maps.GetMap", status);
+  if (!status.ok()) return Failed("Maps.StreamMap", status);
   fetched.up_to_date = response.up_to_date();
   fetched.version = response.version();
   if (!fetched.up_to_date) fetched.snapshot = std::move(*response.mutable_snapshot());

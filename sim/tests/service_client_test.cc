@@ -22,8 +22,8 @@ using slamcore::StatusCode;
 class RefusingMaps final : public fleet::v1::Maps::Service {
  public:
   std::atomic<int> code{grpc::StatusCode::UNAVAILABLE};
-  grpc::Status GetMap(grpc::ServerContext*, const fleet::v1::GetMapRequest*,
-                      fleet::v1::GetMapResponse*) override {
+  grpc::Status StreamMap(grpc::ServerContext*, const fleet::v1::GetMapRequest*,
+                         grpc::ServerWriter<fleet::v1::GetMapResponse>*) override {
     return {static_cast<grpc::StatusCode>(code.load()), "told to refuse"};
   }
   grpc::Status ListMapVersions(grpc::ServerContext*, const fleet::v1::ListMapVersionsRequest*,
@@ -77,7 +77,7 @@ TEST_F(ServiceClientTest, EachGrpcCodeIsTheProjectCodeOfTheOneTable) {
     const auto fetched = client.FetchMap("robot:r1.secret", "r1", 0);
     const std::string name = fleet::GrpcCodeName(code);
     EXPECT_THAT(fetched, StatusIs(fleet::FromGrpcCode(static_cast<grpc::StatusCode>(code)),
-                                  "Maps.GetMap: " + name + ": told to refuse"));
+                                  "Maps.StreamMap: " + name + ": told to refuse"));
   }
 }
 

@@ -22,6 +22,9 @@
 #include <tuple>
 #include <vector>
 
+#include "fleet/serialization.h"
+#include "fleet/snapshot_parts.h"
+#include "fleet_client/map_stream.h"
 #include "fleet_client/uploader.h"
 #include "fleetd_process.h"
 #include "status_matchers.h"
@@ -432,7 +435,8 @@ TEST(OperationsTest, AFullDatabaseIsUnavailableAndUnhealthyUntilFreed) {
 
 // A lifelong robot's map outgrows one gRPC message long before a run outgrows max_run_bytes (a robot's 39th
 // daily run of 10 min: a 17 MB child snapshot against fleetd's 16 MiB). The uploader sends each snapshot in
-// parts and fleetd merges them: the stored snapshot is the one a single message would have carried. Hostile
+// parts and fleetd merges them: the stored snapshot is the one a single message would have carried; fleetd
+// hands it back in parts too (Maps.StreamMap). Hostile
 // parts: a parent part after the child's, and unknown bytes in a later part, are refused; parts that each fit
 // a message but together exceed max_run_bytes are refused and nothing is stored.
 TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
@@ -457,8 +461,59 @@ TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
   EXPECT_EQ(parts.child_snapshot_id, fleet_client::SnapshotId(run.child_snapshot()));
   EXPECT_GT(parts.analysis_job_id, 0);
 
+  // The same map handed back to its robot in parts (Maps.StreamMap): GetMap's answer, message by message.
+  auto admin = fleet::v1::Admin::NewStub(server.Channel());
+  auto maps = fleet::v1::Maps::NewStub(server.Channel());
+  const std::string owner = IssueToken(*admin, "robot:" + run.header().robot_id());
+  fleet::v1::GetMapRequest fetch;
+  fetch.set_robot_id(run.header().robot_id());
+  fleet::v1::GetMapResponse fetched;
+  auto whole_context = Context(owner);
+  ASSERT_THAT(maps->GetMap(whole_context.get(), fetch, &fetched), IsOk());
+  ASSERT_FALSE(fetched.up_to_date());
+  fetch.set_part_bytes(16 << 10);
+  auto stream_context = Context(owner);
+  auto reader = maps->StreamMap(stream_context.get(), fetch);
+  fleet::v1::GetMapResponse message, merged;
+  int messages = 0;
+  while (reader->Read(&message)) {
+    ++messages;
+    EXPECT_LE(message.ByteSizeLong(), (16u << 10) + 1024) << "message " << messages;
+    EXPECT_EQ(message.has_version(), messages == 1) << "the version travels once, first";
+    merged.MergeFrom(message);
+  }
+  ASSERT_THAT(reader->Finish(), IsOk());
+  EXPECT_GE(messages, 7) << "117 KB in parts of 16 KiB";
+  EXPECT_EQ(fleet::SerializeDeterministic(merged), fleet::SerializeDeterministic(fetched));
+  EXPECT_EQ(fleet_client::SnapshotId(merged.snapshot()), parts.child_snapshot_id);
+  // The client library's fetch: the same answer; its bound cancels a map larger than it accepts.
+  fleet::v1::GetMapResponse received;
+  auto receive_context = Context(owner);
+  ASSERT_THAT(fleet_client::ReceiveMap(*maps, *receive_context, fetch, 1 << 20, &received), IsOk());
+  EXPECT_EQ(fleet::SerializeDeterministic(received), fleet::SerializeDeterministic(fetched));
+  auto bounded_context = Context(owner);
+  const grpc::Status too_large =
+      fleet_client::ReceiveMap(*maps, *bounded_context, fetch, 40 << 10, &received);
+  EXPECT_EQ(too_large.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << too_large.error_message();
+  EXPECT_NE(too_large.error_message().find("the most this client accepts"), std::string::npos);
+  EXPECT_EQ(received.ByteSizeLong(), 0u) << "nothing half-received is kept";
+  // Parts the server will not cut, and another robot's map: refused before any part is sent.
+  for (const std::int64_t part_bytes : {std::int64_t{100}, std::int64_t{1} << 30}) {
+    fetch.set_part_bytes(part_bytes);
+    auto context = Context(owner);
+    const grpc::Status refused = fleet_client::ReceiveMap(*maps, *context, fetch, 1 << 20, &received);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << part_bytes;
+    EXPECT_NE(refused.error_message().find("part_bytes: expected 16384..16777216"), std::string::npos)
+        << refused.error_message();
+  }
+  fetch.set_part_bytes(0);
+  const std::string stranger = IssueToken(*admin, "robot:someone-else");
+  auto stranger_context = Context(stranger);
+  EXPECT_EQ(fleet_client::ReceiveMap(*maps, *stranger_context, fetch, 1 << 20, &received).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED);
+
   // Hostile streams, by hand: the header, then these messages; what fleetd answers.
-  const auto pieces = fleet_client::SnapshotParts(run.child_snapshot(), 16 << 10);
+  const auto pieces = fleet::SnapshotParts(run.child_snapshot(), 16 << 10);
   ASSERT_GE(pieces.size(), 3u);
   const auto stream = [&](FleetdProcess& to, const std::string& run_id,
                           const std::vector<fleet::v1::UploadRunRequest>& messages) {

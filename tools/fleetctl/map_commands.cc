@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "fleet_client/map_stream.h"
+
 namespace fleetctl {
 namespace {
 
@@ -92,7 +94,7 @@ MapCommands::MapCommands(CLI::App& app) {
     review->add_option("robot", robot_, "robot id")->required();
     review->add_option("version", version_, "version")->required();
   }
-  get_ = maps_->add_subcommand("get", "the map the robot would get (Maps.GetMap)");
+  get_ = maps_->add_subcommand("get", "the map the robot would get (Maps.StreamMap: in parts, of any size)");
   get_->add_option("robot", robot_, "robot id")->required();
   get_->add_option("--held", held_, "the version the robot holds (0: none)");
   get_->add_option("--out", out_, "write the MapSnapshot bytes here");
@@ -221,7 +223,9 @@ int MapCommands::Get(Client& client, const Global& global) const {
   request.set_held_version(held_);
   fleet::v1::GetMapResponse response;
   auto context = client.Context(120);
-  if (grpc::Status status = client.maps->GetMap(context.get(), request, &response); !status.ok())
+  if (grpc::Status status = fleet_client::ReceiveMap(*client.maps, *context, request,
+                                                     fleet_client::kDefaultMaxMapBytes, &response);
+      !status.ok())
     return Fail(status);
   if (!response.up_to_date() && !out_.empty() && !WriteFile(out_, response.snapshot().SerializeAsString())) {
     std::cerr << "fleetctl: cannot write " << out_ << "\n";

@@ -11,6 +11,7 @@
 #include <unordered_set>
 
 #include "fleet/serialization.h"
+#include "fleet/snapshot_parts.h"
 #include "fleet/status_codes.h"
 #include "fleet/v1/service.grpc.pb.h"
 #include "fleet_client/channel.h"
@@ -49,33 +50,6 @@ std::optional<std::string> ReadTokenFile(const std::string& path, std::string* e
     return std::nullopt;
   }
   return token;
-}
-
-std::vector<fleet::v1::MapSnapshot> SnapshotParts(const fleet::v1::MapSnapshot& snapshot,
-                                                  std::size_t part_bytes) {
-  // The first part: every field but the four long lists (so a field added later is not lost).
-  std::vector<fleet::v1::MapSnapshot> parts(1, snapshot);
-  parts.back().clear_nodes();
-  parts.back().clear_edges();
-  parts.back().clear_views();
-  parts.back().clear_local_maps();
-  std::size_t size = parts.back().ByteSizeLong();
-  // The part an item of `bytes` goes into: a new one when it would take the current one past part_bytes.
-  const auto part_for = [&](std::size_t bytes) -> fleet::v1::MapSnapshot& {
-    constexpr std::size_t kFraming = 6;  // the item's tag and length prefix, at most
-    if (size > 0 && size + bytes + kFraming > part_bytes) {
-      parts.emplace_back();
-      size = 0;
-    }
-    size += bytes + kFraming;
-    return parts.back();
-  };
-  for (const auto& node : snapshot.nodes()) *part_for(node.ByteSizeLong()).add_nodes() = node;
-  for (const auto& edge : snapshot.edges()) *part_for(edge.ByteSizeLong()).add_edges() = edge;
-  for (const auto& view : snapshot.views()) *part_for(view.ByteSizeLong()).add_views() = view;
-  for (const auto& local_map : snapshot.local_maps())
-    *part_for(local_map.ByteSizeLong()).add_local_maps() = local_map;
-  return parts;
 }
 
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot) {
@@ -169,7 +143,7 @@ class Uploader::Impl {
     // Each snapshot in parts, into the message's `slot` (parent_snapshot or child_snapshot).
     const auto send_in_parts = [&](const fleet::v1::MapSnapshot& snapshot,
                                    fleet::v1::MapSnapshot* (fleet::v1::UploadRunRequest::*slot)()) {
-      for (fleet::v1::MapSnapshot& part : SnapshotParts(snapshot, options_.snapshot_part_bytes)) {
+      for (fleet::v1::MapSnapshot& part : fleet::SnapshotParts(snapshot, options_.snapshot_part_bytes)) {
         message.Clear();
         *(message.*slot)() = std::move(part);
         if (!(open = writer->Write(message))) return;

@@ -1,6 +1,11 @@
 #include "maps_handler.h"
 
+#include <algorithm>
+#include <string>
+#include <vector>
+
 #include "analyzer/telemetry_codec.h"
+#include "fleet/snapshot_parts.h"
 
 namespace server {
 
@@ -103,27 +108,65 @@ grpc::Status MapsHandler::ReviewMapVersion(grpc::ServerContext* call,
   return scope.Done(grpc::Status::OK);
 }
 
-grpc::Status MapsHandler::GetMap(grpc::ServerContext* call, const fleet::v1::GetMapRequest* request,
-                                 fleet::v1::GetMapResponse* response) {
-  RpcScope scope(context_.metrics, "Maps/GetMap");
+grpc::Status MapsHandler::AnswerMapRequest(grpc::ServerContext* call, const fleet::v1::GetMapRequest& request,
+                                           bool streamed, fleet::v1::GetMapResponse* response) {
   Principal principal;
   if (grpc::Status denied = Authorize(context_, call, Permission::kFetchMap, &principal); !denied.ok()) {
-    return scope.Done(denied);
+    return denied;
   }
-  if (auto bad = analyzer::ValidateId(request->robot_id(), "robot_id"); !bad.ok()) {
-    return scope.Done(InvalidArgument(bad.message()));
+  if (auto bad = analyzer::ValidateId(request.robot_id(), "robot_id"); !bad.ok()) {
+    return InvalidArgument(bad.message());
   }
-  if (principal.role == Role::kRobot && principal.id != request->robot_id()) {
-    return scope.Done(
-        {grpc::StatusCode::PERMISSION_DENIED,
-         principal.name + " may fetch only its own map, not robot " + request->robot_id() + "'s"});
+  if (streamed && request.part_bytes() != 0 &&
+      (request.part_bytes() < kMinMapPartBytes || request.part_bytes() > kMaxMapPartBytes)) {
+    return InvalidArgument("part_bytes: expected " + std::to_string(kMinMapPartBytes) + ".." +
+                           std::to_string(kMaxMapPartBytes) + " (0: " + std::to_string(kDefaultMapPartBytes) +
+                           "), got " + std::to_string(request.part_bytes()));
+  }
+  if (principal.role == Role::kRobot && principal.id != request.robot_id()) {
+    return {grpc::StatusCode::PERMISSION_DENIED,
+            principal.name + " may fetch only its own map, not robot " + request.robot_id() + "'s"};
   }
   bool up_to_date = false;
   auto current =
-      history_.Fetch(request->robot_id(), request->held_version(), &up_to_date, response->mutable_snapshot());
-  if (!current.ok()) return scope.Done(ToGrpc(current.status()));
+      history_.Fetch(request.robot_id(), request.held_version(), &up_to_date, response->mutable_snapshot());
+  if (!current.ok()) return ToGrpc(current.status());
   response->set_up_to_date(up_to_date);
   *response->mutable_version() = std::move(current).value();
+  return grpc::Status::OK;
+}
+
+grpc::Status MapsHandler::GetMap(grpc::ServerContext* call, const fleet::v1::GetMapRequest* request,
+                                 fleet::v1::GetMapResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/GetMap");
+  return scope.Done(AnswerMapRequest(call, *request, /*streamed=*/false, response));
+}
+
+grpc::Status MapsHandler::StreamMap(grpc::ServerContext* call, const fleet::v1::GetMapRequest* request,
+                                    grpc::ServerWriter<fleet::v1::GetMapResponse>* writer) {
+  RpcScope scope(context_.metrics, "Maps/StreamMap");
+  fleet::v1::GetMapResponse whole;
+  if (grpc::Status answered = AnswerMapRequest(call, *request, /*streamed=*/true, &whole); !answered.ok()) {
+    return scope.Done(answered);
+  }
+  std::vector<fleet::v1::MapSnapshot> parts;
+  if (whole.has_snapshot()) {
+    parts = fleet::SnapshotParts(
+        whole.snapshot(),
+        static_cast<std::size_t>(request->part_bytes() != 0 ? request->part_bytes() : kDefaultMapPartBytes));
+    whole.clear_snapshot();
+  }
+  // The first message: the answer's own fields and the first part; then one message per further part.
+  for (std::size_t k = 0; k < std::max<std::size_t>(parts.size(), 1); ++k) {
+    fleet::v1::GetMapResponse message;
+    if (k == 0) message = std::move(whole);
+    if (k < parts.size()) *message.mutable_snapshot() = std::move(parts[k]);
+    if (!writer->Write(message)) {
+      return scope.Done({grpc::StatusCode::CANCELLED, "the client left before the map's part " +
+                                                          std::to_string(k + 1) + " of " +
+                                                          std::to_string(parts.size())});
+    }
+  }
   return scope.Done(grpc::Status::OK);
 }
 

@@ -1,6 +1,8 @@
-// Maps: each robot's map history, findings, repairs and reviews for engineers; GetMap for robots (their own
-// map only); export as map_server files or g2o. The work is MapHistory's (server/map_history.h).
+// Maps: each robot's map history, findings, repairs and reviews for engineers; GetMap and StreamMap (the same
+// answer in parts) for robots (their own map only); export as map_server files or g2o. The work is MapHistory's (server/map_history.h).
 #pragma once
+
+#include <cstdint>
 
 #include "fleet/v1/service.grpc.pb.h"
 #include "server/map_history.h"
@@ -22,12 +24,23 @@ class MapsHandler final : public fleet::v1::Maps::Service {
                                 fleet::v1::MapVersion* response) override;
   grpc::Status GetMap(grpc::ServerContext* call, const fleet::v1::GetMapRequest* request,
                       fleet::v1::GetMapResponse* response) override;
+  grpc::Status StreamMap(grpc::ServerContext* call, const fleet::v1::GetMapRequest* request,
+                         grpc::ServerWriter<fleet::v1::GetMapResponse>* writer) override;
   grpc::Status ExportMap(grpc::ServerContext* call, const fleet::v1::ExportMapRequest* request,
                          fleet::v1::ExportMapResponse* response) override;
   grpc::Status ImportMap(grpc::ServerContext* call, const fleet::v1::ImportMapRequest* request,
                          fleet::v1::ImportMapResponse* response) override;
 
  private:
+  // StreamMap's bounds on a message's snapshot part; the default fits gRPC's default receive limit (4 MiB).
+  static constexpr std::int64_t kMinMapPartBytes = 16 << 10;
+  static constexpr std::int64_t kMaxMapPartBytes = 16 << 20;
+  static constexpr std::int64_t kDefaultMapPartBytes = 1 << 20;
+
+  // GetMap's answer, whole: who asks and what they may see (a robot: its own map only), then the current version.
+  grpc::Status AnswerMapRequest(grpc::ServerContext* call, const fleet::v1::GetMapRequest& request,
+                                bool streamed, fleet::v1::GetMapResponse* response);
+
   ServiceContext& context_;
   MapHistory history_;
 };

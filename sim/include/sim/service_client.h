@@ -1,7 +1,7 @@
 // What a simulated robot (and the lifelong experiment's simulated engineer) asks fleetd besides uploads:
-// the newest approved map (Maps.GetMap), an analysis job's end, a review of a pending version, a token.
+// the newest approved map (Maps.StreamMap: GetMap's answer in parts), an analysis job's end, a review of a pending version, a token.
 // A failed call is the project's status of gRPC's code (fleet/status_codes.h: UNAVAILABLE is kUnavailable, …),
-// its message naming the call and gRPC's status ("Maps.GetMap: UNAVAILABLE: …").
+// its message naming the call and gRPC's status ("Maps.StreamMap: UNAVAILABLE: …").
 //
 // Thread safety: one ServiceClient may be used from several threads (the gRPC stubs are thread-safe).
 #pragma once
@@ -28,7 +28,8 @@ class ServiceClient {
   ServiceClient(const std::string& server, const std::string& tls_ca = "");
   ~ServiceClient();
 
-  /// Maps.GetMap as `robot_id` holding `held_version`; no approved map yet is "up to date" (nothing to take).
+  /// Maps.StreamMap as `robot_id` holding `held_version` (a map of at most fleet_client::kDefaultMaxMapBytes);
+  /// no approved map yet is "up to date" (nothing to take).
   slamcore::Result<FetchedMap> FetchMap(const std::string& token, const std::string& robot_id,
                                         std::int64_t held_version);
   /// Polls Reprocessing.GetJob until the job is done; FAILED_PRECONDITION when it failed or was cancelled,

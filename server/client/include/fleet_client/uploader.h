@@ -66,12 +66,6 @@ std::optional<std::string> ReadTokenFile(const std::string& path, std::string* e
 /// True when a failed attempt with this status may succeed if sent again unchanged.
 bool RetryableUpload(int code, const std::string& message);
 
-/// `snapshot` cut into the parts an upload sends, in order: each at most about `part_bytes` serialized (an
-/// item larger than that travels alone), the first with its scalar fields. Merged in order (protobuf
-/// merge: repeated fields concatenated) they are `snapshot` again, field for field.
-std::vector<fleet::v1::MapSnapshot> SnapshotParts(const fleet::v1::MapSnapshot& snapshot,
-                                                  std::size_t part_bytes);
-
 /// Hex SHA-256 of the deterministic serialization: the id fleetd gives a snapshot.
 std::string SnapshotId(const fleet::v1::MapSnapshot& snapshot);
 
