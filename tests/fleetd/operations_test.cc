@@ -511,6 +511,9 @@ TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
   auto stranger_context = Context(stranger);
   EXPECT_EQ(fleet_client::ReceiveMap(*maps, *stranger_context, fetch, 1 << 20, &received).error_code(),
             grpc::StatusCode::PERMISSION_DENIED);
+  grpc::ClientContext anonymous;
+  EXPECT_EQ(fleet_client::ReceiveMap(*maps, anonymous, fetch, 1 << 20, &received).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
 
   // Hostile streams, by hand: the header, then these messages; what fleetd answers.
   const auto pieces = fleet::SnapshotParts(run.child_snapshot(), 16 << 10);
