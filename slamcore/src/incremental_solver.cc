@@ -18,20 +18,25 @@ bool SameEdge(const Edge& a, const Edge& b) {
 
 /// The normal equations' sparse Cholesky: Eigen's simplicial LDLᵀ for small regions (no set-up cost),
 /// CHOLMOD's (cholmod_cholesky.h) for large ones. The symbolic analysis is done once per region, its
-/// pattern fixed across iterations.
+/// pattern fixed across iterations. A small region's H comes already in a fill-reducing order (the columns
+/// SolveRegion gives its nodes) and as its upper triangle, which the simplicial LDLᵀ factorises as it is;
+/// a large one's comes as its lower triangle, in region order, and CHOLMOD orders it.
 class NormalEquations {
  public:
-  explicit NormalEquations(int size) : large_(size >= kLargeColumns) {}
+  explicit NormalEquations(int size) : large_(IsLarge(size)) {}
+  static bool IsLarge(int size) { return size >= kLargeColumns; }
 
-  bool Factorize(Eigen::SparseMatrix<double>& lower) {
+  /// Which triangle of H Factorize expects.
+  bool upper() const { return !large_; }
+  bool Factorize(Eigen::SparseMatrix<double>& triangle) {
     if (large_) {
-      if (!analysed_ && !cholmod_->Analyze(lower)) return false;
+      if (!analysed_ && !cholmod_->Analyze(triangle)) return false;
       analysed_ = true;
-      return cholmod_->Factorize(lower);
+      return cholmod_->Factorize(triangle);
     }
-    if (!analysed_) simplicial_.analyzePattern(lower);
+    if (!analysed_) simplicial_.analyzePattern(triangle);
     analysed_ = true;
-    simplicial_.factorize(lower);
+    simplicial_.factorize(triangle);
     return simplicial_.info() == Eigen::Success;
   }
   Eigen::VectorXd Solve(const Eigen::VectorXd& rhs) {
@@ -44,9 +49,37 @@ class NormalEquations {
  private:
   static constexpr int kLargeColumns = 600;  // 200 nodes: where CHOLMOD's set-up starts to pay
   bool large_, analysed_ = false;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> simplicial_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial_;
   std::unique_ptr<CholmodCholesky> cholmod_ = std::make_unique<CholmodCholesky>();
 };
+
+/// `variables` (graph indices; variables[k] has column[·] = 3k) in the order an approximate minimum degree
+/// ordering (Amestoy, Davis, Duff, SIAM J. Matrix Anal. Appl. 1996; Eigen's) eliminates them, over the graph
+/// of their shared edges: the ordering of H's 3×3 blocks, as CHOLMOD's analysis orders a large system's
+/// (cholmod_cholesky.cc), on a pattern nine times smaller than H's.
+std::vector<std::size_t> FillReducingOrder(const PoseGraph& graph, const std::vector<std::uint32_t>& edges,
+                                           const std::vector<std::size_t>& variables,
+                                           const std::vector<int>& column) {
+  const int count = static_cast<int>(variables.size());
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(variables.size() + 2 * edges.size());
+  for (int k = 0; k < count; ++k) entries.emplace_back(k, k, 1.0);
+  for (const std::uint32_t e : edges) {
+    const Edge& edge = graph.edges()[e];
+    const int from = column[graph.IndexOf(edge.from)], to = column[graph.IndexOf(edge.to)];
+    if (from >= 0 && to >= 0 && from != to) {
+      entries.emplace_back(from / 3, to / 3, 1.0);
+      entries.emplace_back(to / 3, from / 3, 1.0);
+    }
+  }
+  Eigen::SparseMatrix<double> pattern(count, count);
+  pattern.setFromTriplets(entries.begin(), entries.end());
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> eliminated;  // k-th eliminated ← its index
+  Eigen::AMDOrdering<int>()(pattern, eliminated);
+  std::vector<std::size_t> ordered(variables.size());
+  for (int k = 0; k < count; ++k) ordered[static_cast<std::size_t>(k)] = variables[eliminated.indices()[k]];
+  return ordered;
+}
 
 }  // namespace
 
@@ -227,6 +260,17 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     for (const std::uint32_t e : edges)
       weighted_information.push_back((*weights)[e] * graph.edges()[e].information);
   }
+  NormalEquations normal_equations(3 * columns);
+  if (!NormalEquations::IsLarge(3 * columns)) {
+    // A small region's columns in a fill-reducing order (column[] holds region order: the positions).
+    std::vector<std::size_t> variables;
+    variables.reserve(static_cast<std::size_t>(columns));
+    for (const std::size_t index : region) {
+      if (index != gauge) variables.push_back(index);
+    }
+    const std::vector<std::size_t> ordered = FillReducingOrder(graph, edges, variables, column);
+    for (std::size_t k = 0; k < ordered.size(); ++k) column[ordered[k]] = 3 * static_cast<int>(k);
+  }
   const auto information = [&](std::size_t k) -> const Matrix3& {
     return weights != nullptr ? weighted_information[k] : graph.edges()[edges[k]].information;
   };
@@ -258,7 +302,6 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     }
     return sum;
   };
-  NormalEquations normal_equations(3 * columns);
   Eigen::SparseMatrix<double> hessian(3 * columns, 3 * columns);
   // H's pattern is the same in every iteration: it is built from the first iteration's triplets; from the
   // second on (most local updates take one), each entry is added straight into its slot of H's values, in
@@ -267,6 +310,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   std::vector<int> slots;  // by triplet: its index in H's values
   Eigen::VectorXd gradient(3 * columns);
   std::vector<Linearised> current, trial;
+  const bool upper = normal_equations.upper();
   // Levenberg–Marquardt damping λ (H's diagonal scaled by 1 + λ), 0 until a step is rejected: Nielsen's
   // update (Madsen, Nielsen, Tingleff, "Methods for non-linear least squares problems", 2004, §3.2), which
   // lowers λ by the gain ratio ρ of the accepted step, at most 3×, and raises it by a growing factor ν on
@@ -299,12 +343,14 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     if (pattern_known) std::fill_n(hessian.valuePtr(), hessian.nonZeros(), 0.0);
     double* const values = hessian.valuePtr();
     std::size_t next_slot = 0;
-    const auto add_block = [&](int row, int col, const Matrix3& block) {
+    const auto add_block = [&](int row, int col, const Matrix3& block) {  // H's lower triangle, or its mirror
       for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
           if (row + r < col + c) continue;
           if (pattern_known) {
             values[slots[next_slot++]] += block(r, c);
+          } else if (upper) {
+            triplets.emplace_back(col + c, row + r, block(r, c));
           } else {
             triplets.emplace_back(row + r, col + c, block(r, c));
           }
