@@ -45,6 +45,7 @@ assert report["decisions"], "no decisions"
 assert "ground_truth" in report, "no ground-truth errors"'
 "$bin/fleetctl" stats | grep -q "total" || fail "stats table lacks the total row"
 "$bin/fleetctl" label-from-truth | grep -q "regions of 4 runs labelled from ground truth" || fail "label-from-truth"
+"$bin/fleetctl" label-from-truth --json | grep -Eq '^\{"regions_labelled": [0-9]+, "runs": 4\}$' || fail "label-from-truth --json"
 
 # A robot token may upload but not read.
 robot_token=$("$bin/fleetctl" credentials robot:robot-0000 --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["token"])')

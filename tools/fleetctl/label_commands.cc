@@ -141,7 +141,11 @@ int LabelCommands::LabelFromTruth(Client& client, const Global& global) const {
     }
     token = page.next_page_token();
   } while (!token.empty());
-  std::cout << labelled << " regions of " << runs_seen << " runs labelled from ground truth\n";
+  if (global.json) {
+    std::cout << "{\"regions_labelled\": " << labelled << ", \"runs\": " << runs_seen << "}\n";
+  } else {
+    std::cout << labelled << " regions of " << runs_seen << " runs labelled from ground truth\n";
+  }
   return 0;
 }
 
