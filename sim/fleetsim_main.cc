@@ -124,6 +124,10 @@ int main(int argc, char** argv) {
   app.add_option("--stuck-rate-scale", options.params.stuck_rate_scale,
                  "multiplies the per-contact probabilities of getting stuck (0: never)")
       ->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--lookalike-pass-seconds", options.params.lookalike_pass_gap_seconds,
+                 "a look-alike taken for a landmark is taken for the whole pass: recognitions less than this "
+                 "apart (0: each recognition draws its own, the default)")
+      ->check(CLI::Range(0.0, 600.0));
   app.add_option("--lidar-share", options.params.lidar_share,
                  "share of robots with a lidar (the rest: a front ToF)")
       ->check(CLI::Range(0.0, 1.0));

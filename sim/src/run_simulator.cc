@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <set>
+#include <unordered_map>
 
 #include "analyzer/run_analysis.h"
 #include "analyzer/telemetry_codec.h"
@@ -149,6 +150,13 @@ class Run {
   int nodes_ = 0;
   double first_merge_time_ = -1.0;
   std::size_t decisions_seen_ = 0;
+  // By landmark: its last recognition, and whether the front-end took a look-alike for it in that pass.
+  struct LookalikePass {
+    double last_time = 0.0;
+    bool confused = false;
+    bool counted = false;  // its look-alike matches counted as a pass already
+  };
+  std::unordered_map<int, LookalikePass> lookalike_passes_;
 };
 
 slamcore::Status Run::Emit(const slamcore::Event& event,
@@ -351,21 +359,32 @@ slamcore::Status Run::ObserveLandmarks() {
     }
     if (observations_here >= 2 || !s_.Chance(p_.recognition_probability)) continue;
 
-    // Which view does the front-end match? Usually one of this landmark's own; sometimes a look-alike's.
+    // Which view does the front-end match? Usually one of this landmark's own; sometimes a look-alike's,
+    // drawn per recognition or, with SimParams::lookalike_pass_gap_seconds, per pass.
     const ViewRecord* matched = &s_.views[known->second.front()];
     SE2 world_T_matched_landmark = landmark.pose;  // what the front-end believes it is looking at
     bool wrong = false;
-    if (s_.Chance(p_.lookalike_probability)) {
-      for (const Landmark& other : s_.world.landmarks) {
-        if (other.id == landmark.id || other.appearance != landmark.appearance) continue;
-        const auto other_views = s_.views_of_landmark.find(other.id);
-        if (other_views == s_.views_of_landmark.end() || other_views->second.empty()) continue;
+    const auto [pass, first_recognition] = lookalike_passes_.try_emplace(landmark.id);
+    const bool new_pass = first_recognition || time_ - pass->second.last_time > p_.lookalike_pass_gap_seconds;
+    if (new_pass) {
+      pass->second.confused = s_.Chance(p_.lookalike_probability);
+      pass->second.counted = false;
+    }
+    pass->second.last_time = time_;
+    bool lookalike_candidate = false;
+    for (const Landmark& other : s_.world.landmarks) {
+      if (other.id == landmark.id || other.appearance != landmark.appearance) continue;
+      const auto other_views = s_.views_of_landmark.find(other.id);
+      if (other_views == s_.views_of_landmark.end() || other_views->second.empty()) continue;
+      lookalike_candidate = true;
+      if (pass->second.confused) {
         matched = &s_.views[other_views->second.front()];
         world_T_matched_landmark = other.pose;
         wrong = true;
-        break;
       }
+      break;
     }
+    const bool lookalike = wrong;
     const Landmark& matched_landmark = s_.world.landmarks[static_cast<std::size_t>(matched->landmark)];
     // Relative pose the front-end computes: the robot relative to the matched view, through the object.
     SE2 world_T_view = landmark.pose * world_T_matched_landmark.inverse() * matched->world_T_view;
@@ -400,6 +419,12 @@ slamcore::Status Run::ObserveLandmarks() {
     ++observations_here;
     ++outcome_.observations;
     if (wrong) ++outcome_.wrong_observations;
+    outcome_.lookalike_candidates += lookalike_candidate ? 1 : 0;
+    if (lookalike) {
+      ++outcome_.lookalike_observations;
+      if (!pass->second.counted) ++outcome_.lookalike_passes;
+      pass->second.counted = true;
+    }
   }
   return slamcore::Status::Ok();
 }

@@ -1,5 +1,6 @@
 // The simulated physics is right: odometry follows its noise model, slip moves the wheels and not the
-// robot, and a symmetric object seen from the other side gives observations turned by π. Checked from the
+// robot, a symmetric object seen from the other side gives observations turned by π, and a look-alike is
+// taken for the whole pass. Checked from the
 // telemetry a run produces, against its ground truth.
 #include <gtest/gtest.h>
 
@@ -159,6 +160,46 @@ TEST(PhysicsTest, WrongMatchesAreFlippedSymmetricObjectsOrLookAlikes) {
   EXPECT_GT(right, 50);
   EXPECT_GT(wrong, 0);
   EXPECT_EQ(flipped, wrong) << "every wrong match is a symmetric object seen from the other side";
+}
+
+// The front-end's look-alike choice holds for a pass (SimParams::lookalike_pass_gap_seconds): the look-alike
+// matches come in groups of consecutive wrong observations that agree with each other, at the same share of
+// recognitions as when each recognition draws its own. A robot's second and third runs in the home: its
+// first creates the views that a look-alike can be matched to.
+TEST(PhysicsTest, LookAlikeMatchesComeInPassesAtTheConfiguredShare) {
+  const World world = FirstWorld();
+  const auto lookalikes = [&](double gap_seconds) {
+    SimParams params;
+    params.run_minutes = 25.0;
+    params.kidnap_probability = params.reboot_probability = 0.0;
+    params.stuck_rate_scale = 0.0;
+    params.lookalike_probability = 0.3;
+    params.lookalike_pass_gap_seconds = gap_seconds;
+    RobotSimulator robot(world, params, "robot", "fw", 11);
+    RunOutcome total;
+    for (int run = 0; run < 3; ++run) {
+      auto outcome = robot.SimulateRun("run" + std::to_string(run), 3600.0 * run);
+      EXPECT_THAT(outcome, IsOk());
+      if (!outcome.ok()) break;
+      total.lookalike_candidates += outcome->lookalike_candidates;
+      total.lookalike_observations += outcome->lookalike_observations;
+      total.lookalike_passes += outcome->lookalike_passes;
+    }
+    return total;
+  };
+  const RunOutcome per_recognition = lookalikes(0.0);
+  const RunOutcome per_pass = lookalikes(5.0);
+  for (const RunOutcome* outcome : {&per_recognition, &per_pass}) {
+    ASSERT_GT(outcome->lookalike_candidates, 200);
+    const double share = static_cast<double>(outcome->lookalike_observations) / outcome->lookalike_candidates;
+    EXPECT_NEAR(share, 0.3, 0.1) << outcome->lookalike_observations << " of "
+                                 << outcome->lookalike_candidates;
+  }
+  EXPECT_EQ(per_recognition.lookalike_passes, per_recognition.lookalike_observations)
+      << "without passes each look-alike match stands alone";
+  EXPECT_GT(per_pass.lookalike_observations, 1.25 * per_pass.lookalike_passes)
+      << per_pass.lookalike_observations << " look-alike matches in " << per_pass.lookalike_passes
+      << " passes";
 }
 
 }  // namespace

@@ -46,6 +46,9 @@ struct RunOutcome {
   int stuck_at_wall = 0, stuck_under_furniture = 0, stuck_on_rug = 0;  // episodes by where they started
   int stuck_nodes = 0;                                                 // nodes made while stuck
   int wrong_observations = 0, observations = 0;
+  // Recognitions of a landmark that has a look-alike with a view (the front-end could confuse them), those it
+  // matched to the look-alike, and the passes those came in (SimParams::lookalike_pass_gap_seconds).
+  int lookalike_candidates = 0, lookalike_observations = 0, lookalike_passes = 0;
   std::size_t views_total = 0, views_ambiguous = 0;  // in the child map
   double simulated_seconds = 0.0;
   // Ground truth of the protrusion detector's regions between this run's parent and child maps

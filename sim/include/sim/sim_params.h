@@ -49,8 +49,13 @@ struct SimParams {
   double recognition_probability = 0.2;           // per node and visible view
   double recognition_failure_probability = 0.02;  // a recognised view gets a grossly wrong pose
   double lookalike_probability = 0.15;            // a look-alike view is matched instead, when one exists
-  double observation_sigma_xy = 0.04;             // metres
-  double observation_sigma_theta = 0.03;          // radians
+  // Look-alike choices by pass: recognitions of one landmark less than this apart see it from nearly the
+  // same viewpoint, so the choice drawn at a pass's first recognition holds until the next gap — one pass
+  // past a second identical basin is a run of wrong observations that agree with each other. 0 (the
+  // default, which the fleet figures are calibrated with): drawn for every recognition, independently.
+  double lookalike_pass_gap_seconds = 0.0;
+  double observation_sigma_xy = 0.04;     // metres
+  double observation_sigma_theta = 0.03;  // radians
   // Local occupancy patches from the robot's ranging sensor, by robot model: a front time-of-flight sensor
   // (short range, a cone ahead) or a spinning lidar (long range, all around); each robot draws its model
   // (lidar with probability lidar_share) and its range (uniform in the model's interval).
