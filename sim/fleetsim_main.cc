@@ -128,6 +128,9 @@ int main(int argc, char** argv) {
                  "a look-alike taken for a landmark is taken for the whole pass: recognitions less than this "
                  "apart (0: each recognition draws its own, the default)")
       ->check(CLI::Range(0.0, 600.0));
+  app.add_option("--lidar-free-range", options.params.lidar_free_range,
+                 "metres along a ray that a lidar's patch marks free (0: its whole range, the default)")
+      ->check(CLI::Range(0.0, 20.0));
   app.add_option("--lidar-share", options.params.lidar_share,
                  "share of robots with a lidar (the rest: a front ToF)")
       ->check(CLI::Range(0.0, 1.0));

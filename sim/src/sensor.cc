@@ -15,6 +15,7 @@ RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random) {
     sensor.field_of_view = 2 * std::numbers::pi;
     sensor.rays = 360;
     sensor.resolution = 0.10;
+    sensor.free_range = params.lidar_free_range;
   } else {
     sensor.model = kTofModel;
     sensor.range = params.tof_min_range + (params.tof_max_range - params.tof_min_range) * unit(random);
@@ -48,7 +49,8 @@ slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const
     const double range =
         grid.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, sensor.range);
     const Vector2 direction(std::cos(angle), std::sin(angle));
-    for (double d = 0.0; d < range; d += step) mark(d * direction, 0);
+    const double free_to = sensor.free_range > 0.0 ? std::min(range, sensor.free_range) : range;
+    for (double d = 0.0; d < free_to; d += step) mark(d * direction, 0);
     if (range < sensor.range) mark((range + step) * direction, 100);
   }
   for (double dx = -robot_radius; dx <= robot_radius; dx += step) {

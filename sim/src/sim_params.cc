@@ -51,6 +51,10 @@ slamcore::Status SimParams::Validate() const {
   RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));
   RETURN_IF_ERROR(probability(recognition_failure_probability, "recognition_failure_probability"));
   RETURN_IF_ERROR(probability(lookalike_probability, "lookalike_probability"));
+  if (!(lidar_free_range >= 0.0 && lidar_free_range <= 20.0)) {
+    return slamcore::InvalidArgument("lidar_free_range must be in [0, 20] m, found " +
+                                     std::to_string(lidar_free_range));
+  }
   if (!(lookalike_pass_gap_seconds >= 0.0 && lookalike_pass_gap_seconds <= 600.0)) {
     return slamcore::InvalidArgument("lookalike_pass_gap_seconds must be in [0, 600], found " +
                                      std::to_string(lookalike_pass_gap_seconds));

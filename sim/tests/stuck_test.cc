@@ -221,6 +221,40 @@ TEST(StuckTest, PatchesAtStuckNodesAreTheTruePlaceScanAtTheFalsePoses) {
   }
 }
 
+// A lidar's free range (SimParams::lidar_free_range) bounds the free space its patch marks, not the walls
+// it hits: in a 4 × 3 m room seen from its middle, free cells lie within the free range, and every wall cell of
+// the whole-range scan is still there.
+TEST(StuckTest, ALidarsFreeRangeBoundsFreeSpaceButNotItsHits) {
+  const World world = Room();
+  const SE2 middle(2.0, 1.5, 0.0);
+  const RangeSensor whole{kLidarModel, 5.0, 2 * std::numbers::pi, 360, 0.10};
+  RangeSensor bounded = whole;
+  bounded.free_range = 1.0;
+  const slamcore::LocalMapEvent all = ScanAt(world.grid, middle, whole, 0.17, 0.0);
+  const slamcore::LocalMapEvent near = ScanAt(world.grid, middle, bounded, 0.17, 0.0);
+  ASSERT_EQ(all.width, near.width);
+  ASSERT_EQ(all.height, near.height);
+  int far_free = 0, free_all = 0, free_near = 0, hits_all = 0, hits_kept = 0;
+  for (int row = 0; row < near.height; ++row) {
+    for (int col = 0; col < near.width; ++col) {
+      const std::size_t k = static_cast<std::size_t>(row) * near.width + col;
+      const Vector2 centre =
+          near.node_T_origin * Vector2((col + 0.5) * near.resolution, (row + 0.5) * near.resolution);
+      free_all += all.cells[k] == 0 ? 1 : 0;
+      free_near += near.cells[k] == 0 ? 1 : 0;
+      if (near.cells[k] == 0 && centre.norm() > bounded.free_range + near.resolution) ++far_free;
+      if (all.cells[k] == 100) {
+        ++hits_all;
+        hits_kept += near.cells[k] == 100 ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_EQ(far_free, 0);
+  EXPECT_LT(free_near, free_all / 2) << "the room is mostly farther than 1 m from its middle";
+  EXPECT_GT(hits_all, 100);
+  EXPECT_EQ(hits_kept, hits_all);
+}
+
 TEST(StuckTest, StuckNodesWithoutAPatchLabelNothingAndFailNothing) {
   // A lidar robot attaches a patch to every 6th node only: a stuck episode can hold none. Its regions must
   // still be labelled (none a protrusion), not fail the run's labelling or analysis.

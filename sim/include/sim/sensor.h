@@ -25,12 +25,17 @@ struct RangeSensor {
   int rays = 40;                // evenly spread over the field of view (a lidar: one per degree)
   double resolution = 0.05;     // of its patches, m per cell: a lidar's are 0.10 m (its long rays would
                                 // otherwise make a lifelong map too large to upload in one message)
+  /// How far along a ray free space is marked (hits are marked at any range): a mapping front-end's usable
+  /// range (GMapping's maxUrange). Far free space drawn at a node whose heading is a few degrees off lands
+  /// beyond the walls; SimParams::lidar_free_range sets it for lidars. 0: the whole range.
+  double free_range = 0.0;
 };
 
 /// The sensor of a new robot: its model by SimParams::lidar_share, its range uniform in the model's interval.
 RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random);
 
-/// The patch the sensor sees from `world_T_robot`: free along each ray up to its first hit (occupied), the
+/// The patch the sensor sees from `world_T_robot`: free along each ray up to its first hit (occupied) or its
+/// free range, the
 /// robot's footprint free, cropped to the cells it knows; cell (0, 0) lies at node_T_origin in the robot's
 /// frame, at the sensor's resolution.
 slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const RangeSensor& sensor,

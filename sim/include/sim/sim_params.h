@@ -63,6 +63,7 @@ struct SimParams {
   double tof_min_range = 1.0, tof_max_range = 1.5;  // metres
   double tof_field_of_view = 1.92;                  // radians (110°), centred ahead
   double lidar_min_range = 4.0, lidar_max_range = 6.0;
+  double lidar_free_range = 0.0;    // metres along a ray that a lidar's patch marks free (0: its whole range)
   int patch_every_nodes = 2;        // a ToF patch every 2 nodes (0.6 m) ...
   int lidar_patch_every_nodes = 6;  // ... a lidar patch every 6 (1.8 m: its 4–6 m overlap anyway)
   // Ground truth of the protrusion detector's regions, per run (RunOutcome)
