@@ -474,16 +474,16 @@ TEST(OperationsTest, AMapLargerThanOneMessageIsUploadedInParts) {
   fetch.set_part_bytes(16 << 10);
   auto stream_context = Context(owner);
   auto reader = maps->StreamMap(stream_context.get(), fetch);
-  fleet::v1::GetMapResponse message, merged;
-  int messages = 0;
-  while (reader->Read(&message)) {
-    ++messages;
-    EXPECT_LE(message.ByteSizeLong(), (16u << 10) + 1024) << "message " << messages;
-    EXPECT_EQ(message.has_version(), messages == 1) << "the version travels once, first";
-    merged.MergeFrom(message);
+  fleet::v1::GetMapResponse streamed, merged;
+  int streamed_messages = 0;
+  while (reader->Read(&streamed)) {
+    ++streamed_messages;
+    EXPECT_LE(streamed.ByteSizeLong(), (16u << 10) + 1024) << "message " << streamed_messages;
+    EXPECT_EQ(streamed.has_version(), streamed_messages == 1) << "the version travels once, first";
+    merged.MergeFrom(streamed);
   }
   ASSERT_THAT(reader->Finish(), IsOk());
-  EXPECT_GE(messages, 7) << "117 KB in parts of 16 KiB";
+  EXPECT_GE(streamed_messages, 7) << "117 KB in parts of 16 KiB";
   EXPECT_EQ(fleet::SerializeDeterministic(merged), fleet::SerializeDeterministic(fetched));
   EXPECT_EQ(fleet_client::SnapshotId(merged.snapshot()), parts.child_snapshot_id);
   // The client library's fetch: the same answer; its bound cancels a map larger than it accepts.
