@@ -1,6 +1,7 @@
 #include "sim/sim_params.h"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 namespace sim {
@@ -13,13 +14,15 @@ slamcore::Status SimParams::Validate() const {
     }
     return slamcore::Status::Ok();
   };
-  auto probability = [](double value, const char* name) -> slamcore::Status {
-    if (!(value >= 0.0 && value <= 1.0)) {
-      return slamcore::InvalidArgument(std::string(name) + " must be in [0, 1], found " +
-                                       std::to_string(value));
+  auto within = [](double value, double low, double high, const char* name) -> slamcore::Status {
+    if (!(value >= low && value <= high)) {  // NaN fails too
+      std::ostringstream message;
+      message << name << " must be in [" << low << ", " << high << "], found " << value;
+      return slamcore::InvalidArgument(message.str());
     }
     return slamcore::Status::Ok();
   };
+  auto probability = [&](double value, const char* name) { return within(value, 0.0, 1.0, name); };
   RETURN_IF_ERROR(positive(run_minutes, "run_minutes"));
   RETURN_IF_ERROR(positive(step_seconds, "step_seconds"));
   RETURN_IF_ERROR(positive(robot_radius, "robot_radius"));
@@ -51,17 +54,9 @@ slamcore::Status SimParams::Validate() const {
   RETURN_IF_ERROR(probability(recognition_probability, "recognition_probability"));
   RETURN_IF_ERROR(probability(recognition_failure_probability, "recognition_failure_probability"));
   RETURN_IF_ERROR(probability(lookalike_probability, "lookalike_probability"));
-  if (!(lidar_free_range >= 0.0 && lidar_free_range <= 20.0)) {
-    return slamcore::InvalidArgument("lidar_free_range must be in [0, 20] m, found " +
-                                     std::to_string(lidar_free_range));
-  }
-  if (!(lookalike_pass_gap_seconds >= 0.0 && lookalike_pass_gap_seconds <= 600.0)) {
-    return slamcore::InvalidArgument("lookalike_pass_gap_seconds must be in [0, 600], found " +
-                                     std::to_string(lookalike_pass_gap_seconds));
-  }
-  if (!(stuck_rate_scale >= 0.0 && stuck_rate_scale <= 1000.0)) {
-    return slamcore::InvalidArgument("stuck_rate_scale must be in [0, 1000]");
-  }
+  RETURN_IF_ERROR(within(lidar_free_range, 0.0, 20.0, "lidar_free_range"));
+  RETURN_IF_ERROR(within(lookalike_pass_gap_seconds, 0.0, 600.0, "lookalike_pass_gap_seconds"));
+  RETURN_IF_ERROR(within(stuck_rate_scale, 0.0, 1000.0, "stuck_rate_scale"));
   if (!(stuck_mean_extra_seconds >= 0.0 && stuck_max_seconds >= stuck_min_seconds &&
         stuck_max_seconds <= 3600.0)) {
     return slamcore::InvalidArgument("stuck durations: mean extra ≥ 0 and min ≤ max ≤ 3600 s expected");

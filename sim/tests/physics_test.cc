@@ -6,7 +6,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
+#include <string>
 #include <unordered_map>
 
 #include "sim/run_simulator.h"
@@ -200,6 +202,35 @@ TEST(PhysicsTest, LookAlikeMatchesComeInPassesAtTheConfiguredShare) {
   EXPECT_GT(per_pass.lookalike_observations, 1.25 * per_pass.lookalike_passes)
       << per_pass.lookalike_observations << " look-alike matches in " << per_pass.lookalike_passes
       << " passes";
+}
+
+// Hostile values of the options fleetsim's flags set are refused by name before a run starts; the bounds
+// themselves are accepted.
+TEST(SimParamsTest, OutOfRangeOptionsAreRefusedByName) {
+  struct Case {
+    double SimParams::*field;
+    const char* name;
+    double low, high;
+  };
+  const Case cases[] = {{&SimParams::lidar_free_range, "lidar_free_range", 0.0, 20.0},
+                        {&SimParams::lookalike_pass_gap_seconds, "lookalike_pass_gap_seconds", 0.0, 600.0},
+                        {&SimParams::stuck_rate_scale, "stuck_rate_scale", 0.0, 1000.0},
+                        {&SimParams::lookalike_probability, "lookalike_probability", 0.0, 1.0}};
+  for (const Case& c : cases) {
+    for (const double bound : {c.low, c.high}) {
+      SimParams params;
+      params.*c.field = bound;
+      EXPECT_THAT(params.Validate(), IsOk()) << c.name << " = " << bound;
+    }
+    for (const double bad :
+         {c.low - 1.0, c.high + 1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+      SimParams params;
+      params.*c.field = bad;
+      EXPECT_THAT(params.Validate(),
+                  StatusIs(slamcore::StatusCode::kInvalidArgument, std::string(c.name) + " must be in ["))
+          << bad;
+    }
+  }
 }
 
 }  // namespace
