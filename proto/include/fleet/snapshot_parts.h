@@ -14,7 +14,8 @@ namespace fleet {
 
 /// `snapshot` cut into parts, in order: each at most about `part_bytes` serialized (an item larger than that
 /// travels alone), the first with its scalar fields. Merged in order (protobuf merge: repeated fields
-/// concatenated) they are `snapshot` again, field for field.
-std::vector<v1::MapSnapshot> SnapshotParts(const v1::MapSnapshot& snapshot, std::size_t part_bytes);
+/// concatenated) they are `snapshot` again, field for field. Its items are moved into the parts: pass it with
+/// std::move when it is not needed afterwards, and a map is never held twice.
+std::vector<v1::MapSnapshot> SnapshotParts(v1::MapSnapshot snapshot, std::size_t part_bytes);
 
 }  // namespace fleet

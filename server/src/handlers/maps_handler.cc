@@ -152,7 +152,7 @@ grpc::Status MapsHandler::StreamMap(grpc::ServerContext* call, const fleet::v1::
   std::vector<fleet::v1::MapSnapshot> parts;
   if (whole.has_snapshot()) {
     parts = fleet::SnapshotParts(
-        whole.snapshot(),
+        std::move(*whole.mutable_snapshot()),
         static_cast<std::size_t>(request->part_bytes() != 0 ? request->part_bytes() : kDefaultMapPartBytes));
     whole.clear_snapshot();
   }
