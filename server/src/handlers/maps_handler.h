@@ -1,5 +1,6 @@
 // Maps: each robot's map history, findings, repairs and reviews for engineers; GetMap and StreamMap (the same
-// answer in parts) for robots (their own map only); export as map_server files or g2o. The work is MapHistory's (server/map_history.h).
+// answer in parts) for robots (their own map only); export as map_server files or g2o. The work is
+// MapHistory's (server/map_history.h).
 #pragma once
 
 #include <cstdint>

@@ -35,9 +35,8 @@ struct RangeSensor {
 RangeSensor DrawSensor(const SimParams& params, std::mt19937_64& random);
 
 /// The patch the sensor sees from `world_T_robot`: free along each ray up to its first hit (occupied) or its
-/// free range, the
-/// robot's footprint free, cropped to the cells it knows; cell (0, 0) lies at node_T_origin in the robot's
-/// frame, at the sensor's resolution.
+/// free range, the robot's footprint free, cropped to the cells it knows; cell (0, 0) lies at node_T_origin in
+/// the robot's frame, at the sensor's resolution.
 slamcore::LocalMapEvent ScanAt(const Grid& grid, const SE2& world_T_robot, const RangeSensor& sensor,
                                double robot_radius, double time);
 

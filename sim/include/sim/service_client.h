@@ -1,5 +1,6 @@
 // What a simulated robot (and the lifelong experiment's simulated engineer) asks fleetd besides uploads:
-// the newest approved map (Maps.StreamMap: GetMap's answer in parts), an analysis job's end, a review of a pending version, a token.
+// the newest approved map (Maps.StreamMap: GetMap's answer in parts), an analysis job's end, a review of a
+// pending version, a token.
 // A failed call is the project's status of gRPC's code (fleet/status_codes.h: UNAVAILABLE is kUnavailable, …),
 // its message naming the call and gRPC's status ("Maps.StreamMap: UNAVAILABLE: …").
 //

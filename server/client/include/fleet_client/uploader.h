@@ -1,7 +1,7 @@
 // Uploads runs to fleetd like a robot: one client stream per run (header, event chunks, parent snapshot
 // unless the server already holds it, child snapshot; each snapshot in parts of at most
-// `snapshot_part_bytes`, as a lifelong map outgrows one gRPC message), retried with exponential backoff on UNAVAILABLE
-// (e.g. the database is full or read-only), DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED (rate and in-flight
+// `snapshot_part_bytes`, as a lifelong map outgrows one gRPC message), retried with exponential backoff on
+// UNAVAILABLE (e.g. the database is full or read-only), DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED (rate and in-flight
 // limits) and ABORTED — safe because ingest is idempotent by run id. Never retried: what can never succeed,
 // INVALID_ARGUMENT (also a run over --max-run-bytes or --max-events-per-run), PERMISSION_DENIED, … and
 // gRPC's own RESOURCE_EXHAUSTED for one message over the server's size limit. gRPC stays in uploader.cc.
