@@ -90,54 +90,8 @@ void Detect1000Candidate(benchmark::State& state) {
   state.counters["regions"] = static_cast<double>(regions);
 }
 
-/// 400 nodes along a lawn-mower path with 4 m × 4 m patches: walls at the patch edges, free inside.
-const slamcore::Map& RenderMap() {
-  static const slamcore::Map map = [] {
-    slamcore::Map result;
-    for (int i = 0; i < 400; ++i) {
-      slamcore::Node node;
-      node.id = i;
-      const int lane = i / 40;
-      node.pose = slamcore::SE2(0.5 * (lane % 2 ? 39 - i % 40 : i % 40), 1.0 * lane, 0.1 * i);
-      (void)result.graph.AddNode(node);
-      slamcore::LocalMapEvent patch;
-      patch.width = patch.height = 80;
-      patch.node_T_origin = slamcore::SE2(-2.0, -2.0, 0.0);
-      patch.cells.assign(80 * 80, 0);
-      for (int k = 0; k < 80; ++k) patch.cells[static_cast<std::size_t>(k)] = 100;
-      result.local_maps.emplace(i, std::move(patch));
-    }
-    return result;
-  }();
-  return map;
-}
-
-void RenderBaseline(benchmark::State& state) {
-  slamcore::Map map = RenderMap();
-  int step = 0;
-  for (auto _ : state) {
-    map.graph.mutable_node(200).pose = slamcore::SE2(10.0 + 0.01 * (++step % 7), 5.0, 0.3);
-    slamcore::GlobalGridRenderer renderer;
-    benchmark::DoNotOptimize(renderer.RenderAll(map).ok());
-  }
-}
-
-void RenderCandidate(benchmark::State& state) {
-  slamcore::Map map = RenderMap();
-  slamcore::GlobalGridRenderer renderer;
-  if (!renderer.RenderAll(map).ok()) state.SkipWithError("render failed");
-  int step = 0;
-  for (auto _ : state) {
-    map.graph.mutable_node(200).pose = slamcore::SE2(10.0 + 0.01 * (++step % 7), 5.0, 0.3);
-    int rerendered = 0;
-    benchmark::DoNotOptimize(renderer.Update(map, &rerendered).ok());
-  }
-}
-
 BENCHMARK(Detect1000Baseline)->Name("Detect1000x1000/baseline")->Unit(benchmark::kMillisecond);
 BENCHMARK(Detect1000Candidate)->Name("Detect1000x1000/candidate")->Unit(benchmark::kMillisecond);
-BENCHMARK(RenderBaseline)->Name("RenderOneNodeMoved/baseline")->Unit(benchmark::kMillisecond);
-BENCHMARK(RenderCandidate)->Name("RenderOneNodeMoved/candidate")->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
@@ -145,8 +99,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   bench::RatioReporter reporter("baseline", "candidate");
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  reporter.PrintRatios(
-      "baseline: bare OpenCV difference + labelling / render from scratch; ratio < 1 = slower");
+  reporter.PrintRatios("baseline: bare OpenCV difference + labelling; ratio < 1 = slower");
   benchmark::Shutdown();
   return 0;
 }

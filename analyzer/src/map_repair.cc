@@ -335,12 +335,10 @@ MapFigures ComputeFigures(const Map& map) {
 }
 
 Result<double> KnownArea(const Map& map) {
-  // RenderHomeGrid's cells counted, not rendered: every analysed upload asks for its version's area.
-  const Map part = HomePart(map);
-  if (part.local_maps.empty()) return 0.0;
-  slamcore::GlobalGridRenderer renderer;
-  ASSIGN_OR_RETURN(const std::int64_t known, renderer.CountKnownCells(part));
-  return static_cast<double>(known) * renderer.resolution() * renderer.resolution();
+  ASSIGN_OR_RETURN(const slamcore::OccupancyGrid grid, RenderHomeGrid(map));
+  const std::int64_t known =
+      static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(slamcore::CellState::kUnknown);
+  return static_cast<double>(known) * grid.resolution * grid.resolution;
 }
 
 std::set<NodeId> NodesAddedByRun(const Map& map, const Map& run_parent) {

@@ -3,6 +3,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
+#include <vector>
 
 #include "slamcore/mapper.h"
 #include "slamcore/occupancy_grid.h"
@@ -20,10 +22,6 @@ std::array<Vector2, 4> PatchCorners(const SE2& node_pose, const LocalMapEvent& p
   const double w = patch.width * patch.resolution, h = patch.height * patch.resolution;
   return {world_T_patch * Vector2(0, 0), world_T_patch * Vector2(w, 0), world_T_patch * Vector2(0, h),
           world_T_patch * Vector2(w, h)};
-}
-
-bool SamePose(const SE2& a, const SE2& b) {
-  return a.x() == b.x() && a.y() == b.y() && a.theta() == b.theta();
 }
 
 }  // namespace
@@ -74,65 +72,9 @@ Result<OccupancyGrid> GlobalGridRenderer::Bounds(const Map& map) const {
                                origin_y);
 }
 
-Status GlobalGridRenderer::RenderAll(const Map& map) {
-  ASSIGN_OR_RETURN(auto grid, Bounds(map));
-  grid_ = std::move(grid);
-  free_votes_.assign(grid_.cells.size(), 0);
-  occupied_votes_.assign(grid_.cells.size(), 0);
-  contributions_.clear();
-  for (const auto& [node, patch] : map.local_maps) {
-    if (!map.graph.HasNode(node)) continue;
-    Contribution contribution;
-    Vote(map.graph.node(node).pose, patch, &contribution);  // always in bounds: bounds built from these poses
-    Apply(contribution, +1);
-    contributions_.emplace(node, std::move(contribution));
-  }
-  for (std::size_t cell = 0; cell < grid_.cells.size(); ++cell) Resolve(static_cast<std::int32_t>(cell));
-  return Status::Ok();
-}
-
-Status GlobalGridRenderer::Update(const Map& map, int* nodes_rerendered) {
-  if (nodes_rerendered) *nodes_rerendered = 0;
-  if (grid_.cells.empty()) return RenderAll(map);
-  std::vector<std::int32_t> touched;
-  auto retire = [&](Contribution& old) {
-    Apply(old, -1);
-    touched.insert(touched.end(), old.cells.begin(), old.cells.end());
-  };
-  for (auto it = contributions_.begin(); it != contributions_.end();) {
-    if (!map.local_maps.contains(it->first) || !map.graph.HasNode(it->first)) {
-      retire(it->second);
-      it = contributions_.erase(it);
-      if (nodes_rerendered) ++*nodes_rerendered;
-    } else {
-      ++it;
-    }
-  }
-  for (const auto& [node, patch] : map.local_maps) {
-    if (!map.graph.HasNode(node)) continue;
-    const SE2& pose = map.graph.node(node).pose;
-    auto existing = contributions_.find(node);
-    if (existing != contributions_.end() && SamePose(existing->second.pose, pose) &&
-        SamePose(existing->second.node_T_origin, patch.node_T_origin) &&
-        existing->second.patch_width == patch.width && existing->second.patch_height == patch.height) {
-      continue;
-    }
-    RETURN_IF_ERROR(ValidateLocalMap(node, patch));
-    Contribution contribution;
-    if (!Vote(pose, patch, &contribution)) return RenderAll(map);  // left the bounds: grow them
-    if (existing != contributions_.end()) retire(existing->second);
-    Apply(contribution, +1);
-    touched.insert(touched.end(), contribution.cells.begin(), contribution.cells.end());
-    contributions_[node] = std::move(contribution);
-    if (nodes_rerendered) ++*nodes_rerendered;
-  }
-  for (const std::int32_t cell : touched) Resolve(cell);
-  return Status::Ok();
-}
-
 namespace {
 
-/// Calls visit(global cell, occupied) for every known patch cell's vote into `grid` (inverse mapping: each
+/// Calls visit(global cell, occupied, cell centre) for every known patch cell's vote into `grid` (inverse mapping: each
 /// global cell centre in the patch's bounding box is looked up in the patch, so rotations leave no holes);
 /// false, visiting nothing, when the patch's bounding box leaves the grid.
 template <typename Visit>
@@ -150,71 +92,175 @@ bool ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_p
   const int col1 = static_cast<int>(std::ceil((max_x - grid.origin_x) / resolution));
   const int row1 = static_cast<int>(std::ceil((max_y - grid.origin_y) / resolution));
   if (!grid.InBounds(col0, row0) || !grid.InBounds(col1 - 1, row1 - 1)) return false;
+  // Patch coordinates (in patch cells) of a global cell centre are affine in its column and row: each
+  // row's run of centres inside the patch is found by clipping, then walked by adding one column's step.
   const SE2 patch_T_world = (node_pose * patch.node_T_origin).inverse();
   const double inverse_patch_resolution = 1.0 / patch.resolution;
+  const Vector2 origin_in_patch =
+      inverse_patch_resolution *
+      (patch_T_world * Vector2(grid.origin_x + 0.5 * resolution, grid.origin_y + 0.5 * resolution));
+  const Vector2 column_step =
+      inverse_patch_resolution * (patch_T_world.rotation() * Vector2(resolution, 0.0));
+  const Vector2 row_step = inverse_patch_resolution * (patch_T_world.rotation() * Vector2(0.0, resolution));
+  const double extent[2] = {static_cast<double>(patch.width), static_cast<double>(patch.height)};
   for (int row = row0; row < row1; ++row) {
-    for (int col = col0; col < col1; ++col) {
-      const Vector2 centre(grid.origin_x + (col + 0.5) * resolution,
-                           grid.origin_y + (row + 0.5) * resolution);
-      const Vector2 local = patch_T_world * centre;
-      const int patch_col = static_cast<int>(std::floor(local.x() * inverse_patch_resolution));
-      const int patch_row = static_cast<int>(std::floor(local.y() * inverse_patch_resolution));
-      if (patch_col < 0 || patch_row < 0 || patch_col >= patch.width || patch_row >= patch.height) continue;
+    const Vector2 row_start = origin_in_patch + row * row_step;
+    // Columns whose centre lies within [0, extent) on both patch axes, widened by one to stay safe
+    // against rounding; the exact test is made per cell below.
+    double from = col0, to = col1 - 1;
+    for (int axis = 0; axis < 2; ++axis) {
+      const double start = row_start[axis], step = column_step[axis];
+      if (std::abs(step) < 1e-12) {
+        if (start < -1e-9 || start > extent[axis] + 1e-9) from = to + 1;  // the whole row misses
+        continue;
+      }
+      const double a = (0.0 - start) / step, b = (extent[axis] - start) / step;
+      from = std::max(from, std::floor(std::min(a, b)) - 1.0);
+      to = std::min(to, std::ceil(std::max(a, b)) + 1.0);
+    }
+    if (from > to) continue;
+    Vector2 local = row_start + from * column_step;
+    for (int col = static_cast<int>(from); col <= static_cast<int>(to); ++col, local += column_step) {
+      if (local.x() < 0.0 || local.y() < 0.0) continue;
+      const int patch_col = static_cast<int>(local.x()), patch_row = static_cast<int>(local.y());
+      if (patch_col >= patch.width || patch_row >= patch.height) continue;
       const std::int8_t value = patch.cells[static_cast<std::size_t>(patch_row) * patch.width + patch_col];
       if (value < 0) continue;  // unknown cells do not vote
-      visit(static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid.width + col), value >= 50);
+      const Vector2 centre(grid.origin_x + (col + 0.5) * resolution,
+                           grid.origin_y + (row + 0.5) * resolution);
+      visit(static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid.width + col), value >= 50, centre);
     }
   }
   return true;
 }
 
+/// A direction's position around the circle, in [0, 4): monotonic in its angle from +x (a quarter turn per
+/// unit), without trigonometry. Its sectors are not of equal angle, which does not matter: crossings and
+/// votes are sorted into them by the same function.
+double PseudoAngle(const Vector2& direction) {
+  const double along = direction.x() / (std::abs(direction.x()) + std::abs(direction.y()));
+  return direction.y() < 0 ? 3.0 + along : 1.0 - along;
+}
+
+/// Where one patch's rays crossed an agreed wall, by direction from the patch's node: in each of kSectors
+/// sectors of the circle, the squared distance past which the patch's votes do not count.
+class WallCrossings {
+ public:
+  static constexpr int kSectors = 2048;  // 0.11–0.22°: at 8 m a sector is at most 3 cm wide, under a cell
+
+  explicit WallCrossings(double tolerance) : tolerance_(tolerance) {}
+
+  void Reset() {
+    limit_squared_.assign(kSectors, std::numeric_limits<double>::infinity());
+    any_ = false;
+  }
+  bool any() const { return any_; }
+
+  static int SectorOf(const Vector2& ray) {
+    return std::min(kSectors - 1, static_cast<int>(PseudoAngle(ray) * (kSectors / 4.0)));
+  }
+
+  /// A free vote of the patch for the cell centred at `ray` from the node (a cell `cell_size` wide) lies on
+  /// an agreed wall: every sector the cell spans is blocked from the cell's centre on.
+  void Cross(const Vector2& ray, double cell_size) {
+    const double distance = ray.norm();
+    const double limit = distance + tolerance_;
+    any_ = true;
+    if (distance < cell_size) {  // the node stands on the wall: every ray crosses it
+      for (double& sector : limit_squared_) sector = std::min(sector, limit * limit);
+      return;
+    }
+    // The sectors of the cell's four corners; the span between them may wrap past +x.
+    const double half = 0.5 * cell_size;
+    int first = kSectors, last = -1;
+    int corners[4];
+    for (int k = 0; k < 4; ++k) {
+      corners[k] = SectorOf(ray + Vector2(k & 1 ? half : -half, k & 2 ? half : -half));
+      first = std::min(first, corners[k]);
+      last = std::max(last, corners[k]);
+    }
+    if (last - first >
+        kSectors / 2) {  // across +x: the span is from the upper-half corners round to the lower
+      int low_end = -1, high_start = kSectors;
+      for (const int corner : corners) {
+        if (corner < kSectors / 2)
+          low_end = std::max(low_end, corner);
+        else
+          high_start = std::min(high_start, corner);
+      }
+      first = high_start;
+      last = low_end;
+    }
+    for (int sector = first;; sector = (sector + 1) % kSectors) {
+      limit_squared_[sector] = std::min(limit_squared_[sector], limit * limit);
+      if (sector == last) break;
+    }
+  }
+
+  /// Whether a vote for the cell centred at `ray` from the node lies past its sector's crossing.
+  bool Beyond(const Vector2& ray) const { return ray.squaredNorm() > limit_squared_[SectorOf(ray)]; }
+
+ private:
+  double tolerance_;
+  std::vector<double> limit_squared_;
+  bool any_ = false;
+};
+
 }  // namespace
 
-bool GlobalGridRenderer::Vote(const SE2& node_pose, const LocalMapEvent& patch,
-                              Contribution* contribution) const {
-  contribution->pose = node_pose;
-  contribution->node_T_origin = patch.node_T_origin;
-  contribution->patch_width = patch.width;
-  contribution->patch_height = patch.height;
-  return ForEachVote(grid_, resolution_, node_pose, patch, [&](std::int32_t cell, bool occupied) {
-    contribution->cells.push_back(cell);
-    contribution->occupied.push_back(occupied);
-  });
-}
-
-Result<std::int64_t> GlobalGridRenderer::CountKnownCells(const Map& map) const {
-  ASSIGN_OR_RETURN(const OccupancyGrid bounds, Bounds(map));
-  // A cell RenderAll resolves is unknown exactly when no patch voted into it, free or occupied.
-  std::vector<std::uint8_t> voted(bounds.cells.size(), 0);
-  std::int64_t known = 0;
+Status GlobalGridRenderer::RenderAll(const Map& map) {
+  ASSIGN_OR_RETURN(auto grid, Bounds(map));
+  grid_ = std::move(grid);
+  std::vector<std::int32_t> free_votes(grid_.cells.size(), 0), occupied_votes(grid_.cells.size(), 0);
+  // Bounds are built from these very poses, so no patch leaves the grid.
+  for (const auto& [node, patch] : map.local_maps) {
+    if (!map.graph.HasNode(node)) continue;  // a patch of a removed node is not part of the map
+    ForEachVote(grid_, resolution_, map.graph.node(node).pose, patch,
+                [&](std::int32_t cell, bool occupied, const Vector2&) {
+                  ++(occupied ? occupied_votes : free_votes)[static_cast<std::size_t>(cell)];
+                });
+  }
+  std::vector<std::uint8_t> agreed_wall(grid_.cells.size(), 0);
+  for (std::size_t cell = 0; cell < grid_.cells.size(); ++cell) {
+    agreed_wall[cell] = occupied_votes[cell] >= kWallVotes && occupied_votes[cell] >= free_votes[cell];
+  }
+  // Each patch's votes past the agreed walls its rays crossed are withdrawn.
+  struct PatchVote {
+    std::int32_t cell;
+    bool occupied;
+    Vector2 ray;  // from the node to the cell's centre
+  };
+  std::vector<PatchVote> votes;
+  WallCrossings crossings(kWallTolerance * resolution_);
   for (const auto& [node, patch] : map.local_maps) {
     if (!map.graph.HasNode(node)) continue;
-    ForEachVote(bounds, resolution_, map.graph.node(node).pose, patch, [&](std::int32_t cell, bool) {
-      std::uint8_t& seen = voted[static_cast<std::size_t>(cell)];
-      known += seen == 0 ? 1 : 0;
-      seen = 1;
-    });
+    const Vector2 sensor = map.graph.node(node).pose.translation();
+    votes.clear();
+    crossings.Reset();
+    ForEachVote(grid_, resolution_, map.graph.node(node).pose, patch,
+                [&](std::int32_t cell, bool occupied, const Vector2& centre) {
+                  votes.push_back({cell, occupied, centre - sensor});
+                  if (!occupied && agreed_wall[static_cast<std::size_t>(cell)]) {
+                    crossings.Cross(votes.back().ray, resolution_);
+                  }
+                });
+    if (!crossings.any()) continue;
+    for (const PatchVote& vote : votes) {
+      if (crossings.Beyond(vote.ray))
+        --(vote.occupied ? occupied_votes : free_votes)[static_cast<std::size_t>(vote.cell)];
+    }
   }
-  return known;
-}
-
-void GlobalGridRenderer::Apply(const Contribution& contribution, int sign) {
-  for (std::size_t i = 0; i < contribution.cells.size(); ++i) {
-    auto& votes = contribution.occupied[i] ? occupied_votes_ : free_votes_;
-    votes[static_cast<std::size_t>(contribution.cells[i])] += sign;
+  for (std::size_t cell = 0; cell < grid_.cells.size(); ++cell) {
+    const std::int32_t occupied = occupied_votes[cell], free = free_votes[cell];
+    std::int8_t value = kUnknown;
+    if (occupied > 0 && 2 * occupied >= free) {
+      value = kOccupied;
+    } else if (free > 0) {
+      value = kFree;
+    }
+    grid_.cells[cell] = value;
   }
-}
-
-void GlobalGridRenderer::Resolve(std::int32_t cell) {
-  const auto index = static_cast<std::size_t>(cell);
-  const std::int32_t occupied = occupied_votes_[index], free = free_votes_[index];
-  std::int8_t value = kUnknown;
-  if (occupied > 0 && 2 * occupied >= free) {
-    value = kOccupied;
-  } else if (free > 0) {
-    value = kFree;
-  }
-  grid_.cells[index] = value;
+  return Status::Ok();
 }
 
 }  // namespace slamcore

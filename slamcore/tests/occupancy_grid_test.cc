@@ -1,12 +1,15 @@
 // Occupancy grids: map_server PGM/YAML and PNG round trips on the real maps, refusal of bad files, and
-// the incremental renderer equal to a render from scratch.
+// the renderer's rule that a ray stops at the wall the other patches agree on.
 #include "slamcore/occupancy_grid.h"
 
 #include "slamcore/mapper.h"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <numbers>
+#include <utility>
 #include <random>
 
 #include "test_data.h"
@@ -174,60 +177,105 @@ Map MakeMap(int nodes) {
   return map;
 }
 
-/// Whether two grids hold the same cells at the same world positions (bounds may differ; a cell outside
-/// one grid counts as unknown).
-void ExpectSameWorldCells(const OccupancyGrid& a, const OccupancyGrid& b) {
-  ASSERT_DOUBLE_EQ(a.resolution, b.resolution);
-  const long dx = std::lround((b.origin_x - a.origin_x) / a.resolution);
-  const long dy = std::lround((b.origin_y - a.origin_y) / a.resolution);
-  int differences = 0;
-  for (int row = 0; row < a.height; ++row) {
-    for (int col = 0; col < a.width; ++col) {
-      const int bc = static_cast<int>(col - dx), br = static_cast<int>(row - dy);
-      const std::int8_t other = b.InBounds(bc, br) ? b.at(bc, br) : std::int8_t{-1};
-      differences += a.at(col, row) != other;
-    }
-  }
-  EXPECT_EQ(differences, 0);
-  EXPECT_EQ(a.CountCells(CellState::kOccupied), b.CountCells(CellState::kOccupied));
-  EXPECT_EQ(a.CountCells(CellState::kFree), b.CountCells(CellState::kFree));
+// A strip one cell high along +x from the node: free for 2 m, a wall cell at 2.00–2.05 m, unknown past it.
+LocalMapEvent WallAhead() {
+  LocalMapEvent patch;
+  patch.width = 60;
+  patch.height = 1;
+  patch.node_T_origin = SE2(0.0, -0.025, 0.0);
+  patch.cells.assign(60, -1);
+  for (int col = 0; col < 40; ++col) patch.cells[static_cast<std::size_t>(col)] = 0;
+  patch.cells[40] = 100;
+  return patch;
 }
 
-TEST(OccupancyGridRender, IncrementalUpdateEqualsRenderFromScratch) {
-  Map map = MakeMap(30);
-  GlobalGridRenderer incremental;
-  ASSERT_THAT(incremental.RenderAll(map), IsOk());
-  EXPECT_GT(incremental.grid().CountCells(CellState::kOccupied), 0);
-  std::mt19937 random(7);
-  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
-  for (int step = 0; step < 10; ++step) {
-    const NodeId moved = static_cast<NodeId>(random() % 30);
-    const SE2 old = map.graph.node(moved).pose;
-    map.graph.mutable_node(moved).pose =
-        SE2(old.x() + jitter(random), old.y() + jitter(random), old.theta() + 0.2);
-    int rerendered = 0;
-    ASSERT_THAT(incremental.Update(map, &rerendered), IsOk());
-    EXPECT_EQ(rerendered, 1);
-    GlobalGridRenderer scratch;
-    ASSERT_THAT(scratch.RenderAll(map), IsOk());
-    SCOPED_TRACE(step);
-    ExpectSameWorldCells(incremental.grid(), scratch.grid());
-  }
+void AddPatchAt(Map* map, NodeId id, const SE2& pose, LocalMapEvent patch) {
+  Node node;
+  node.id = id;
+  node.pose = pose;
+  ASSERT_THAT(map->graph.AddNode(node), IsOk());
+  map->local_maps.emplace(id, std::move(patch));
 }
 
-TEST(OccupancyGridRender, GrowsBoundsAndDropsRemovedPatches) {
-  Map map = MakeMap(5);
+// The cell whose centre is at (x, 0) in the rendered grid.
+std::int8_t CellAt(const OccupancyGrid& grid, double x) {
+  return grid.at(static_cast<int>(std::floor((x - grid.origin_x) / grid.resolution)),
+                 static_cast<int>(std::floor((0.0 - grid.origin_y) / grid.resolution)));
+}
+
+// Free and occupied cells in the row through y = 0.
+std::pair<int, int> FreeAndOccupiedAlongTheRay(const OccupancyGrid& grid) {
+  const int row = static_cast<int>(std::floor((0.0 - grid.origin_y) / grid.resolution));
+  int free = 0, occupied = 0;
+  for (int col = 0; col < grid.width; ++col) {
+    free += grid.at(col, row) == static_cast<std::int8_t>(CellState::kFree);
+    occupied += grid.at(col, row) == static_cast<std::int8_t>(CellState::kOccupied);
+  }
+  return {free, occupied};
+}
+
+TEST(OccupancyGridRender, APatchsRaysStopAtTheWallTheOtherPatchesAgreeOn) {
+  // Two patches from the node at the origin see the wall at 2.00–2.05 m; a third, from a node placed 0.5 m
+  // too far along the ray, claims free floor up to 2.5 m and its own wall at 2.50–2.55 m.
+  Map map;
+  AddPatchAt(&map, 0, SE2(0, 0, 0), WallAhead());
+  AddPatchAt(&map, 1, SE2(0, 0, 0), WallAhead());
+  AddPatchAt(&map, 2, SE2(0.5, 0, 0), WallAhead());
   GlobalGridRenderer renderer;
   ASSERT_THAT(renderer.RenderAll(map), IsOk());
-  map.graph.mutable_node(2).pose = SE2(40.0, -30.0, 1.0);  // far outside: the bounds must grow
-  ASSERT_THAT(renderer.Update(map), IsOk());
-  GlobalGridRenderer scratch;
-  ASSERT_THAT(scratch.RenderAll(map), IsOk());
-  ExpectSameWorldCells(renderer.grid(), scratch.grid());
-  map.local_maps.erase(3);
-  ASSERT_THAT(renderer.Update(map), IsOk());
-  ASSERT_THAT(scratch.RenderAll(map), IsOk());
-  ExpectSameWorldCells(renderer.grid(), scratch.grid());
+  const OccupancyGrid& grid = renderer.grid();
+  constexpr auto kFree = static_cast<std::int8_t>(CellState::kFree);
+  constexpr auto kOccupied = static_cast<std::int8_t>(CellState::kOccupied);
+  constexpr auto kUnknown = static_cast<std::int8_t>(CellState::kUnknown);
+  // The wall: 2 occupied votes against 1 free. The third patch crossed it 1.525 m from its node, so its
+  // votes farther than 1.525 + 2.5 × 0.05 = 1.65 m (cell centres from 2.175 m on) are withdrawn: 40 free cells
+  // before the wall, 2 past it within the tolerance, 1 wall cell; its 7 free cells and its wall beyond, unknown.
+  EXPECT_EQ(CellAt(grid, 2.025), kOccupied);
+  EXPECT_EQ(CellAt(grid, 2.075), kFree);
+  EXPECT_EQ(CellAt(grid, 2.125), kFree);
+  EXPECT_EQ(CellAt(grid, 2.175), kUnknown);
+  EXPECT_EQ(CellAt(grid, 2.475), kUnknown);
+  EXPECT_EQ(CellAt(grid, 2.525), kUnknown);
+  EXPECT_EQ(FreeAndOccupiedAlongTheRay(grid), std::make_pair(42, 1));
+
+  // Space past the wall that a patch from the other side saw stays free: only the crossing patch's votes go.
+  AddPatchAt(&map, 3, SE2(4.05, 0, std::numbers::pi), WallAhead());  // its wall the same cell
+  ASSERT_THAT(renderer.RenderAll(map), IsOk());
+  EXPECT_EQ(CellAt(renderer.grid(), 2.275), kFree);
+  EXPECT_EQ(CellAt(renderer.grid(), 2.525), kFree);
+}
+
+TEST(OccupancyGridRender, OnePatchsWallDoesNotStopAnothersRays) {
+  // One vote is no agreement: with one patch at the true node and one 0.5 m along, both walls stand (each
+  // one occupied vote against at most one free) and the farther patch's 9 free cells past 2.05 m count.
+  Map map;
+  AddPatchAt(&map, 0, SE2(0, 0, 0), WallAhead());
+  AddPatchAt(&map, 1, SE2(0.5, 0, 0), WallAhead());
+  GlobalGridRenderer renderer;
+  ASSERT_THAT(renderer.RenderAll(map), IsOk());
+  EXPECT_EQ(FreeAndOccupiedAlongTheRay(renderer.grid()), std::make_pair(40 + 9, 2));
+}
+
+TEST(OccupancyGridRender, TheRenderDoesNotDependOnThePatchesOrder) {
+  Map map = MakeMap(30);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  for (NodeId node = 0; node < 30; node += 2) {  // half the patches misplaced: many rays cross agreed walls
+    const SE2 pose = map.graph.node(node).pose;
+    map.graph.mutable_node(node).pose =
+        SE2(pose.x() + jitter(random), pose.y() + jitter(random), pose.theta());
+  }
+  GlobalGridRenderer forward;
+  ASSERT_THAT(forward.RenderAll(map), IsOk());
+  // The same map with the node ids reversed, so the patches are visited in the other order.
+  Map reversed;
+  for (NodeId node = 0; node < 30; ++node) {
+    AddPatchAt(&reversed, 29 - node, map.graph.node(node).pose, map.local_maps.at(node));
+  }
+  GlobalGridRenderer backward;
+  ASSERT_THAT(backward.RenderAll(reversed), IsOk());
+  EXPECT_EQ(forward.grid().cells, backward.grid().cells);
+  EXPECT_GT(forward.grid().CountCells(CellState::kOccupied), 0);
 }
 
 TEST(OccupancyGridRender, RefusesBadPatchesAndAbsurdExtents) {
@@ -241,32 +289,6 @@ TEST(OccupancyGridRender, RefusesBadPatchesAndAbsurdExtents) {
   ASSERT_FALSE(status.ok());
   EXPECT_NE(status.message().find("absurd"), std::string::npos);
   EXPECT_FALSE(renderer.RenderAll(Map{}).ok());
-}
-
-TEST(OccupancyGridRender, CountsTheKnownCellsOfTheRenderWithoutRenderingIt) {
-  Map map = MakeMap(30);
-  std::mt19937 random(11);
-  std::uniform_real_distribution<double> heading(-3.1, 3.1);
-  for (NodeId node = 0; node < 30; node += 3) {  // rotated patches, whose bounding boxes hold cells they miss
-    const SE2 pose = map.graph.node(node).pose;
-    map.graph.mutable_node(node).pose = SE2(pose.x(), pose.y(), heading(random));
-  }
-  map.local_maps[4].cells.assign(40 * 40, -1);    // a patch of unknown cells only votes nowhere
-  map.local_maps.emplace(99, map.local_maps[0]);  // a patch of a node the graph does not hold is no part
-  for (const Map& tried : {map, MakeMap(1)}) {
-    GlobalGridRenderer renderer;
-    ASSERT_THAT(renderer.RenderAll(tried), IsOk());
-    const OccupancyGrid& grid = renderer.grid();
-    const std::int64_t known =
-        static_cast<std::int64_t>(grid.cells.size()) - grid.CountCells(CellState::kUnknown);
-    EXPECT_GT(known, 0);
-    const auto counted = GlobalGridRenderer().CountKnownCells(tried);
-    ASSERT_THAT(counted, IsOk());
-    EXPECT_EQ(*counted, known);
-  }
-  map.graph.mutable_node(1).pose = SE2(1e7, 0, 0);
-  EXPECT_FALSE(GlobalGridRenderer().CountKnownCells(map).ok()) << "the same bounds as RenderAll's";
-  EXPECT_FALSE(GlobalGridRenderer().CountKnownCells(Map{}).ok());
 }
 
 }  // namespace

@@ -6,8 +6,7 @@
 //    and writers flip rows; ImageRowOf() converts.
 //  * ROS map_server PGM + YAML read/write (trinary mode: 254 free, 0 occupied, 205 unknown on write;
 //    occupied_thresh / free_thresh / negate honoured on read), and PNG read/write of the same image.
-//  * GlobalGridRenderer: the global grid rendered from Map::local_maps at the nodes' current poses, with an
-//    incremental update that re-renders only the cells of nodes whose pose or patch changed.
+//  * GlobalGridRenderer: the global grid rendered from Map::local_maps at the nodes' current poses.
 //
 // Error contract: every reader returns a Status naming the file and what was wrong (corrupt header,
 // truncated pixels, absurd size, missing key); nothing here crashes on bad input.
@@ -17,7 +16,6 @@
 #include <cstdint>
 #include <functional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "slamcore/events.h"
@@ -93,47 +91,42 @@ Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch);
 ///
 /// Each patch cell votes free or occupied into the global cells it covers (inverse mapping, so rotated
 /// patches leave no holes). A global cell is occupied when it has an occupied vote and occupied votes are
-/// at least half its free votes, free when it has only/mostly free votes, unknown without votes. Votes are
-/// kept per cell so that a moved node's old votes can be subtracted and its new ones added: Update() costs
-/// O(cells of the moved patches), and its grid equals RenderAll()'s on the same map exactly.
+/// at least half its free votes, free when it has only/mostly free votes, unknown without votes.
+///
+/// A ray does not pass through a wall. A patch is what the sensor saw from its node, so a patch whose free
+/// cells cover a wall the other patches agree on (at least kWallVotes occupied votes, no fewer than its free
+/// votes) is misplaced along those bearings: a node turned by a few degrees puts a lidar's ray ends tens of
+/// centimetres beyond the wall it hit. Such a patch's votes along a bearing farther than kWallTolerance cells
+/// past the first agreed wall its free cells cover are withdrawn (the first two cells past it still count): the inverse sensor model of occupancy grid
+/// mapping (a beam tells nothing past the first obstacle; Moravec & Elfes 1985, Thrun et al., Probabilistic
+/// Robotics, ch. 9) applied across patches, with the map's agreed walls as the obstacles. The agreed walls are taken from all votes before any is withdrawn, so the result does not depend on
+/// the order of the patches. Without it, the outermost of many slightly turned patches sets a home's edge: a
+/// lifelong map grows false floor outside its walls run after run.
 class GlobalGridRenderer {
  public:
+  /// A wall that blocks rays has at least this many occupied votes (one patch's wall is not agreement).
+  static constexpr int kWallVotes = 2;
+  /// Votes within this many cells past the first agreed wall along their bearing still count: a wall drawn
+  /// by many patches is a few cells thick, and a patch's own wall lies just behind its free cells. Not a
+  /// whole number, so that cells along an axis are never on the boundary.
+  static constexpr double kWallTolerance = 2.5;
+
   explicit GlobalGridRenderer(double resolution = 0.05, double margin_m = 2.0)
       : resolution_(resolution), margin_m_(margin_m) {}
 
-  /// From scratch: bounds are the union of all patches plus the margin.
+  /// Bounds are the union of all patches plus the margin.
   Status RenderAll(const Map& map);
-  /// Re-renders only nodes whose pose or patch placement/size differs from the last render (added and
-  /// removed nodes included; a patch's cells are taken as immutable once attached, as the Mapper does); falls back to RenderAll when a patch leaves the current bounds. Returns the number of
-  /// nodes re-rendered through `nodes_rerendered` when not null.
-  Status Update(const Map& map, int* nodes_rerendered = nullptr);
 
   const OccupancyGrid& grid() const { return grid_; }
   double resolution() const { return resolution_; }  // metres per cell of the grids it renders
 
-  /// The number of cells RenderAll(map) would leave known (free or occupied), without rendering the grid:
-  /// the same bounds and the same cell lookups, but no votes kept (a map version's known area).
-  Result<std::int64_t> CountKnownCells(const Map& map) const;
-
  private:
-  struct Contribution {
-    SE2 pose;           // node pose used for the votes below
-    SE2 node_T_origin;  // and the patch's placement: a change of either re-renders the node
-    int patch_width = 0, patch_height = 0;
-    std::vector<std::int32_t> cells;  // global cell indices voted, with the vote in `occupied`
-    std::vector<bool> occupied;
-  };
-  bool Vote(const SE2& node_pose, const LocalMapEvent& patch, Contribution* contribution) const;
-  /// The empty grid whose bounds are the union of the map's patches plus the margin (RenderAll's).
+  /// The empty grid whose bounds are the union of the map's patches plus the margin.
   Result<OccupancyGrid> Bounds(const Map& map) const;
-  void Apply(const Contribution& contribution, int sign);
-  void Resolve(std::int32_t cell);
 
   double resolution_;
   double margin_m_;
   OccupancyGrid grid_;
-  std::vector<std::int32_t> free_votes_, occupied_votes_;
-  std::unordered_map<NodeId, Contribution> contributions_;
 };
 
 }  // namespace slamcore
