@@ -3,8 +3,9 @@
 // really is and drawn at the pose the robot BELIEVES it has; for a stuck robot the two differ, and the
 // scan's copy of the real surroundings lands in the wrong place (the protrusion).
 //
-// Votes follow GlobalGridRenderer's rule (occupancy_grid.h): a cell with an occupied vote and occupied
-// votes at least half its free votes is occupied, otherwise free. Votes from erroneous poses and from
+// Votes follow GlobalGridRenderer's cell rule (occupancy_grid.h): a cell with an occupied vote and occupied
+// votes at least half its free votes is occupied, otherwise free. The renderer's withdrawal of a patch's
+// votes past an agreed wall is not modelled (docs/protrusion-data.md). Votes from erroneous poses and from
 // true poses are kept apart, so every changed cell can be labelled by what made it.
 //
 // Thread safety: value types; one ScanVotes per thread.
