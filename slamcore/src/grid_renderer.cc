@@ -74,11 +74,11 @@ Result<OccupancyGrid> GlobalGridRenderer::Bounds(const Map& map) const {
 
 namespace {
 
-/// Calls visit(global cell, occupied, cell centre) for every known patch cell's vote into `grid` (inverse mapping: each
-/// global cell centre in the patch's bounding box is looked up in the patch, so rotations leave no holes);
-/// false, visiting nothing, when the patch's bounding box leaves the grid.
+/// Calls visit(global cell, occupied, cell centre) for every known patch cell's vote into `grid` (inverse
+/// mapping: each global cell centre the patch covers is looked up in the patch, so rotations leave no holes).
+/// Visits nothing when the patch's bounding box leaves the grid (never within RenderAll's own bounds).
 template <typename Visit>
-bool ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_pose,
+void ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_pose,
                  const LocalMapEvent& patch, Visit&& visit) {
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (const Vector2& corner : PatchCorners(node_pose, patch)) {
@@ -91,7 +91,7 @@ bool ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_p
   const int row0 = static_cast<int>(std::floor((min_y - grid.origin_y) / resolution));
   const int col1 = static_cast<int>(std::ceil((max_x - grid.origin_x) / resolution));
   const int row1 = static_cast<int>(std::ceil((max_y - grid.origin_y) / resolution));
-  if (!grid.InBounds(col0, row0) || !grid.InBounds(col1 - 1, row1 - 1)) return false;
+  if (!grid.InBounds(col0, row0) || !grid.InBounds(col1 - 1, row1 - 1)) return;
   // Patch coordinates (in patch cells) of a global cell centre are affine in its column and row: each
   // row's run of centres inside the patch is found by clipping, then walked by adding one column's step.
   const SE2 patch_T_world = (node_pose * patch.node_T_origin).inverse();
@@ -131,7 +131,6 @@ bool ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_p
       visit(static_cast<std::int32_t>(static_cast<std::size_t>(row) * grid.width + col), value >= 50, centre);
     }
   }
-  return true;
 }
 
 /// A direction's position around the circle, in [0, 4): monotonic in its angle from +x (a quarter turn per
@@ -179,8 +178,9 @@ class WallCrossings {
       first = std::min(first, corners[k]);
       last = std::max(last, corners[k]);
     }
-    if (last - first >
-        kSectors / 2) {  // across +x: the span is from the upper-half corners round to the lower
+    // Across +x the corners lie at both ends of [0, kSectors): the span runs from those near its end round
+    // through +x to those near its start.
+    if (last - first > kSectors / 2) {
       int low_end = -1, high_start = kSectors;
       for (const int corner : corners) {
         if (corner < kSectors / 2)
