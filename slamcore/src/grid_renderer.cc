@@ -222,7 +222,7 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
   }
   std::vector<std::uint8_t> agreed_wall(grid_.cells.size(), 0);
   for (std::size_t cell = 0; cell < grid_.cells.size(); ++cell) {
-    agreed_wall[cell] = occupied_votes[cell] >= kWallVotes && occupied_votes[cell] >= free_votes[cell];
+    agreed_wall[cell] = occupied_votes[cell] >= kWallVotes && 2 * occupied_votes[cell] >= free_votes[cell];
   }
   // Each patch's votes past the agreed walls its rays crossed are withdrawn.
   struct PatchVote {

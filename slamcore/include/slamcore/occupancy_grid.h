@@ -94,8 +94,8 @@ Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch);
 /// at least half its free votes, free when it has only/mostly free votes, unknown without votes.
 ///
 /// A ray does not pass through a wall. A patch is what the sensor saw from its node, so a patch whose free
-/// cells cover a wall the other patches agree on (at least kWallVotes occupied votes, no fewer than its free
-/// votes) is misplaced along those bearings: a node turned by a few degrees puts a lidar's ray ends tens of
+/// cells cover a wall the map agrees on (a cell drawn occupied by the rule above, with at least kWallVotes
+/// occupied votes) is misplaced along those bearings: a node turned by a few degrees puts a lidar's ray ends tens of
 /// centimetres beyond the wall it hit. Such a patch's votes along a bearing farther than kWallTolerance cells
 /// past the first agreed wall its free cells cover are withdrawn (the first two cells past it still count): the inverse sensor model of occupancy grid
 /// mapping (a beam tells nothing past the first obstacle; Moravec & Elfes 1985, Thrun et al., Probabilistic
