@@ -137,7 +137,9 @@ void ForEachVote(const OccupancyGrid& grid, double resolution, const SE2& node_p
 /// unit), without trigonometry. Its sectors are not of equal angle, which does not matter: crossings and
 /// votes are sorted into them by the same function.
 double PseudoAngle(const Vector2& direction) {
-  const double along = direction.x() / (std::abs(direction.x()) + std::abs(direction.y()));
+  const double length = std::abs(direction.x()) + std::abs(direction.y());
+  if (length == 0.0) return 0.0;  // a cell centred on the node: any sector will do
+  const double along = direction.x() / length;
   return direction.y() < 0 ? 3.0 + along : 1.0 - along;
 }
 

@@ -177,15 +177,18 @@ Map MakeMap(int nodes) {
   return map;
 }
 
-// A strip one cell high along +x from the node: free for 2 m, a wall cell at 2.00–2.05 m, unknown past it.
+// A strip two cells high (y from -0.05 to 0.05) along +x from the node: free for 2 m, a wall at 2.00–2.05 m,
+// unknown past it. Global cell centres fall mid-cell in it (rows at y = ±0.025), never on a cell's edge.
 LocalMapEvent WallAhead() {
   LocalMapEvent patch;
   patch.width = 60;
-  patch.height = 1;
-  patch.node_T_origin = SE2(0.0, -0.025, 0.0);
-  patch.cells.assign(60, -1);
-  for (int col = 0; col < 40; ++col) patch.cells[static_cast<std::size_t>(col)] = 0;
-  patch.cells[40] = 100;
+  patch.height = 2;
+  patch.node_T_origin = SE2(0.0, -0.05, 0.0);
+  patch.cells.assign(120, -1);
+  for (int row = 0; row < 2; ++row) {
+    for (int col = 0; col < 40; ++col) patch.cells[static_cast<std::size_t>(row * 60 + col)] = 0;
+    patch.cells[static_cast<std::size_t>(row * 60 + 40)] = 100;
+  }
   return patch;
 }
 
@@ -197,15 +200,15 @@ void AddPatchAt(Map* map, NodeId id, const SE2& pose, LocalMapEvent patch) {
   map->local_maps.emplace(id, std::move(patch));
 }
 
-// The cell whose centre is at (x, 0) in the rendered grid.
+// The cell whose centre is at (x, 0.025) in the rendered grid.
 std::int8_t CellAt(const OccupancyGrid& grid, double x) {
   return grid.at(static_cast<int>(std::floor((x - grid.origin_x) / grid.resolution)),
-                 static_cast<int>(std::floor((0.0 - grid.origin_y) / grid.resolution)));
+                 static_cast<int>(std::floor((0.025 - grid.origin_y) / grid.resolution)));
 }
 
-// Free and occupied cells in the row through y = 0.
+// Free and occupied cells in the row through y = 0.025.
 std::pair<int, int> FreeAndOccupiedAlongTheRay(const OccupancyGrid& grid) {
-  const int row = static_cast<int>(std::floor((0.0 - grid.origin_y) / grid.resolution));
+  const int row = static_cast<int>(std::floor((0.025 - grid.origin_y) / grid.resolution));
   int free = 0, occupied = 0;
   for (int col = 0; col < grid.width; ++col) {
     free += grid.at(col, row) == static_cast<std::int8_t>(CellState::kFree);
