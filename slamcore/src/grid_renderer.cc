@@ -12,10 +12,6 @@
 namespace slamcore {
 namespace {
 
-constexpr std::int8_t kFree = static_cast<std::int8_t>(CellState::kFree);
-constexpr std::int8_t kOccupied = static_cast<std::int8_t>(CellState::kOccupied);
-constexpr std::int8_t kUnknown = static_cast<std::int8_t>(CellState::kUnknown);
-
 /// The world-frame corners of a patch placed at `node_pose`.
 std::array<Vector2, 4> PatchCorners(const SE2& node_pose, const LocalMapEvent& patch) {
   const SE2 world_T_patch = node_pose * patch.node_T_origin;
@@ -224,7 +220,8 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
   }
   std::vector<std::uint8_t> agreed_wall(grid_.cells.size(), 0);
   for (std::size_t cell = 0; cell < grid_.cells.size(); ++cell) {
-    agreed_wall[cell] = occupied_votes[cell] >= kWallVotes && 2 * occupied_votes[cell] >= free_votes[cell];
+    agreed_wall[cell] = occupied_votes[cell] >= kWallVotes &&
+                        CellFromVotes(occupied_votes[cell], free_votes[cell]) == CellState::kOccupied;
   }
   // Each patch's votes past the agreed walls its rays crossed are withdrawn.
   struct PatchVote {
@@ -253,14 +250,7 @@ Status GlobalGridRenderer::RenderAll(const Map& map) {
     }
   }
   for (std::size_t cell = 0; cell < grid_.cells.size(); ++cell) {
-    const std::int32_t occupied = occupied_votes[cell], free = free_votes[cell];
-    std::int8_t value = kUnknown;
-    if (occupied > 0 && 2 * occupied >= free) {
-      value = kOccupied;
-    } else if (free > 0) {
-      value = kFree;
-    }
-    grid_.cells[cell] = value;
+    grid_.cells[cell] = static_cast<std::int8_t>(CellFromVotes(occupied_votes[cell], free_votes[cell]));
   }
   return Status::Ok();
 }

@@ -8,7 +8,6 @@
 namespace slamcore::internal {
 namespace {
 
-constexpr std::int8_t kFree = static_cast<std::int8_t>(CellState::kFree);
 constexpr std::int8_t kOccupied = static_cast<std::int8_t>(CellState::kOccupied);
 constexpr std::int8_t kUnknown = static_cast<std::int8_t>(CellState::kUnknown);
 
@@ -77,9 +76,7 @@ int ScanVotes::AddScan(const OccupancyGrid& world, const SE2& sensor_pose, const
 }
 
 std::int8_t ScanVotes::Resolve(std::size_t cell) const {
-  const int free = Free(cell), occupied = Occupied(cell);
-  if (free + occupied == 0) return kUnknown;
-  return occupied > 0 && 2 * occupied >= free ? kOccupied : kFree;
+  return static_cast<std::int8_t>(CellFromVotes(Occupied(cell), Free(cell)));
 }
 
 }  // namespace slamcore::internal

@@ -86,12 +86,19 @@ Status WriteFileBytes(const std::string& path, const std::string& bytes);
 /// cells and a positive, finite resolution. Every reader of patches (the renderer, slip detection) asks it.
 Status ValidateLocalMap(NodeId node, const LocalMapEvent& patch);
 
+/// The cell rule of every grid drawn from votes (the renderer's, and the protrusion generator's scans): a
+/// cell is occupied when it has an occupied vote and occupied votes are at least half its free votes, free
+/// when it has only or mostly free votes, unknown without votes.
+constexpr CellState CellFromVotes(std::int64_t occupied, std::int64_t free) {
+  if (occupied > 0 && 2 * occupied >= free) return CellState::kOccupied;
+  return free > 0 ? CellState::kFree : CellState::kUnknown;
+}
+
 /// Renders the global grid of a Map from its local patches at the nodes' current poses (paper II/IV-C:
 /// the occupancy map is a function of the graph, so it must follow every optimisation).
 ///
 /// Each patch cell votes free or occupied into the global cells it covers (inverse mapping, so rotated
-/// patches leave no holes). A global cell is occupied when it has an occupied vote and occupied votes are
-/// at least half its free votes, free when it has only/mostly free votes, unknown without votes.
+/// patches leave no holes); CellFromVotes decides each global cell.
 ///
 /// A ray does not pass through a wall. A patch is what the sensor saw from its node, so a patch whose free
 /// cells cover a wall the map agrees on (a cell drawn occupied by the rule above, with at least kWallVotes
