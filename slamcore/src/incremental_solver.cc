@@ -410,6 +410,8 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       continue;
     }
     const double decrease = (cost - new_cost) / std::max(cost, 1e-300);
+    // How far the decrease strayed from the one the linearisation predicted, relative to the cost.
+    const double model_error = std::abs((cost - new_cost) - predicted) / std::max(cost, 1e-300);
     const double gain_ratio = predicted > 0.0 ? (cost - new_cost) / predicted : 1.0;
     cost = new_cost;
     std::swap(current, trial);
@@ -418,7 +420,15 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     if (damping < 1e-8) damping = 0.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
-    if (decrease < relative_cost_decrease || (tiny_step && !to_convergence)) {
+    // A region held at its boundary whose undamped step decreased χ² as its linearisation predicted, to
+    // within the tolerance, met a problem that is linear at the scale of the step: the next Gauss–Newton
+    // step would only remove the model's own error, below the tolerance, so it is not taken (it was a
+    // whole factorisation of the region that only confirmed convergence). Whole components still iterate
+    // until the step is tiny: their last factorisation stands for H at the solution (ComponentFactorisation),
+    // and solves to convergence (end of run, weighted solves) until the decrease stops.
+    const bool linear_enough =
+        undamped && !to_convergence && converged == nullptr && model_error < relative_cost_decrease;
+    if (decrease < relative_cost_decrease || (tiny_step && !to_convergence) || linear_enough) {
       if (converged != nullptr && undamped) {
         if (std::unique_ptr<CholmodCholesky> cholesky = normal_equations.Release()) {
           ComponentFactorisation kept{.cholesky = std::move(cholesky), .first_column = {}};
