@@ -172,6 +172,40 @@ TEST(IncrementalSolverTest, AnEdgeThatAgreesLeavesTheRegionSmall) {
   EXPECT_FALSE(summary.full);
 }
 
+TEST(IncrementalSolverTest, ALocalUpdateOnALinearProblemTakesOneStepPerRegion) {
+  // A straight corridor, every heading 0; a closure from node 199 back to 190 that says the stretch is
+  // 5 cm shorter. Its error is only along x, which couples to no heading or y (their Jacobian columns meet
+  // x-errors with zeros), so the problem is linear in the step: one Gauss–Newton step reaches the region's
+  // optimum, its χ² falls exactly as predicted, and no second factorisation is taken to confirm it.
+  PoseGraph corridor;
+  for (int k = 0; k < 200; ++k)
+    ASSERT_THAT(corridor.AddNode(Node{.id = k, .pose = SE2(k, 0.0, 0.0)}), IsOk());
+  for (int k = 1; k < 200; ++k) {
+    ASSERT_THAT(corridor.AddEdge(Edge{.from = k - 1, .to = k, .measurement = SE2(1.0, 0.0, 0.0)}), IsOk());
+  }
+  ASSERT_THAT(
+      corridor.AddEdge(
+          Edge{.from = 190, .to = 199, .measurement = SE2(8.95, 0.0, 0.0), .kind = EdgeKind::kObservation}),
+      IsOk());
+  IncrementalSolver solver;
+  const IncrementalSummary summary = solver.Update(corridor, {190, 199}, IncrementalSolver::Start::kLocal);
+  EXPECT_FALSE(summary.full);
+  EXPECT_EQ(summary.iterations, summary.rounds) << "one step per region solved";
+  // That step is the optimum of its region: the held part stayed, the closure's 5 cm went to the edges
+  // between the region's nodes, and another update from the same seeds finds nothing left to do.
+  EXPECT_DOUBLE_EQ(corridor.node(100).pose.x(), 100.0);
+  EXPECT_LT(corridor.node(199).pose.x(), 199.0);
+  for (int k = 0; k < 200; ++k) {
+    EXPECT_DOUBLE_EQ(corridor.node(k).pose.y(), 0.0);
+    EXPECT_DOUBLE_EQ(corridor.node(k).pose.theta(), 0.0);
+  }
+  const double chi2 = Chi2(corridor);
+  EXPECT_GT(chi2, 0.0);
+  const IncrementalSummary again = solver.Update(corridor, {190, 199}, IncrementalSolver::Start::kLocal);
+  EXPECT_EQ(again.rounds, 1);
+  EXPECT_NEAR(Chi2(corridor), chi2, 1e-9 * chi2);
+}
+
 TEST(IncrementalSolverTest, NoticesRemovedEdgesAndAReplacedGraph) {
   PoseGraph graph = BentLoop(100, 0.003);
   IncrementalSolver solver;
