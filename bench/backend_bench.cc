@@ -24,6 +24,7 @@
 #include "slamcore/graph_io.h"
 #include "slamcore/loop_closure_outliers.h"
 #include "slamcore/manhattan_world.h"
+#include "test_data.h"
 
 namespace {
 
@@ -45,7 +46,7 @@ Timing Replay(const slamcore::PoseGraph& graph, MapperBackend backend, double de
   params.backend = backend;
   const auto start = std::chrono::steady_clock::now();
   auto mapper = slamcore::Mapper::Create(params);
-  Timing timing{.events = run->events.size()};
+  Timing timing{.seconds = std::nullopt, .events = run->events.size()};
   for (std::size_t k = 0; k < run->events.size(); ++k) {
     if (!(*mapper)->Process(run->events[k]).ok()) {
       std::fprintf(stderr, "event %zu refused\n", k);
@@ -126,7 +127,7 @@ int main(int argc, char** argv) {
                                 "scaling"};
   double deadline = 300.0;
   std::uint64_t seed = 1;
-  std::string data = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
+  std::string data = test_data::WidestDir("posegraphs").string();
   app.add_option("--row", rows, "manhattan-random, manhattan-grouped, city-random, city-local, scaling")
       ->check(
           CLI::IsMember({"manhattan-random", "manhattan-grouped", "city-random", "city-local", "scaling"}));

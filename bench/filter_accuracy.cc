@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "filter_evaluation.h"
+#include "test_data.h"
 
 namespace {
 
@@ -44,7 +45,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> modes{"random", "local", "grouped", "variable", "mixed", "first"};
   std::vector<double> fractions{0.1, 0.5, 1.0};
   std::vector<int> seeds{1, 2, 3};
-  std::string data = std::filesystem::path(SHARED_DATA_DIR) / "posegraphs";
+  std::string data = test_data::WidestDir("posegraphs").string();
   app.add_option("--graph", graphs, "manhattan, ring, ringCity, intel, intel-sesync, csail");
   app.add_option("--mode", modes,
                  "random, local, grouped, variable, mixed, first, shifted (held out: never tuned on)")

@@ -33,6 +33,7 @@
 #include "sim/run_simulator.h"
 #include "sim/world.h"
 #include "storage/repository.h"
+#include "test_data.h"
 
 namespace {
 
@@ -41,13 +42,13 @@ const std::string kAdmin = "admin:bench.9c4e1f7a2b6d3e8f0a5c7b1d9e2f4a6c8b0d3e5f
 std::vector<fleet::v1::RunFile>& Runs() {
   static std::vector<fleet::v1::RunFile> runs = [] {
     std::vector<fleet::v1::RunFile> out;
-    auto worlds = sim::ListWorlds(std::filesystem::path(SHARED_DATA_DIR) / "floorplans");
-    if (!worlds.ok()) return out;
+    auto worlds = sim::ListWorlds(test_data::WidestDir("floorplans"));
+    if (!worlds.ok() || worlds->empty()) return out;
     sim::SimParams params;
     params.run_minutes = 2.0;
     for (int robot = 0; robot < 8; ++robot) {
-      auto world =
-          sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot)], 3 + static_cast<std::uint64_t>(robot));
+      auto world = sim::LoadWorld((*worlds)[static_cast<std::size_t>(robot) % worlds->size()],
+                                  3 + static_cast<std::uint64_t>(robot));
       if (!world.ok()) continue;
       sim::RobotSimulator simulator(*world, params, "bench-" + std::to_string(robot), "1.0", 5 + robot);
       for (int run = 0; run < 3; ++run) {
@@ -245,6 +246,11 @@ BENCHMARK(Analysis_candidate)
 
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
+  if (Runs().empty()) {
+    std::fprintf(stderr, "ingest_bench: no floor plans to simulate in %s\n",
+                 test_data::WidestDir("floorplans").string().c_str());
+    return 1;
+  }
   std::printf("%zu runs, %lld events (8 robots x 3 runs of 2 simulated minutes)\n", Runs().size(),
               static_cast<long long>(EventCount()));
   bench::RatioReporter reporter("baseline", "candidate");

@@ -17,6 +17,7 @@
 #include "slamcore/occupancy_grid.h"
 #include "slamcore/protrusion_data.h"
 #include "slamcore/protrusion_detector.h"
+#include "test_data.h"
 
 namespace {
 
@@ -42,9 +43,13 @@ OccupancyGrid Crop(const OccupancyGrid& grid, int col0, int row0, int size) {
 
 const Pair& BenchPair() {
   static const Pair pair = [] {
-    const auto path =
-        std::filesystem::path(SHARED_DATA_DIR) / "maps" / "valetudo_dreame_l10su_3031_giant.yaml";
-    const auto map = slamcore::ReadMapServerYaml(path.string());
+    const char* const relative = "maps/valetudo_dreame_l10su_3031_giant.yaml";
+    const std::optional<std::filesystem::path> path = test_data::Find(relative);
+    if (!path) {
+      std::fprintf(stderr, "protrusion_bench: %s\n", test_data::NeedsLargerSet(relative).c_str());
+      std::exit(1);
+    }
+    const auto map = slamcore::ReadMapServerYaml(path->string());
     if (!map.ok()) {
       std::fprintf(stderr, "%s\n", map.status().ToString().c_str());
       std::exit(1);

@@ -14,6 +14,7 @@
 #include "analyzer/run_analysis.h"
 #include "bench_report.h"
 #include "sim/run_simulator.h"
+#include "test_data.h"
 
 namespace {
 
@@ -67,11 +68,15 @@ void RegisterAnalysis(const std::string& name, const fleet::v1::RunFile& run) {
 
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
-  const std::filesystem::path data = std::filesystem::path(SHARED_DATA_DIR);
   static std::vector<sim::World> worlds;
-  for (const std::filesystem::path& file : {data / "floorplans/00_02_09a30b61b563f93faf6a6466ffab_0001.txt",
-                                            data / "maps/valetudo_dreame_d9_1058_with_segments.yaml"}) {
-    auto world = sim::LoadWorld(file, 1);
+  for (const char* relative : {"floorplans/00_02_09a30b61b563f93faf6a6466ffab_0001.txt",
+                               "maps/valetudo_dreame_d9_1058_with_segments.yaml"}) {
+    const std::optional<std::filesystem::path> file = test_data::Find(relative);
+    if (!file) {
+      std::fprintf(stderr, "sim_bench: %s\n", test_data::NeedsLargerSet(relative).c_str());
+      return 1;
+    }
+    auto world = sim::LoadWorld(*file, 1);
     if (!world.ok()) {
       std::fprintf(stderr, "%s\n", world.status().ToString().c_str());
       return 1;

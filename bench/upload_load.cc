@@ -54,6 +54,7 @@
 #include "sim/run_simulator.h"
 #include "sim/sim_params.h"
 #include "sim/world.h"
+#include "test_data.h"
 
 namespace {
 
@@ -75,7 +76,7 @@ struct LoadOptions {
   int max_attempts = 1;
   double upload_timeout_seconds = 120.0;
   double progress_seconds = 5.0;
-  std::string world_dir = std::string(SHARED_DATA_DIR) + "/floorplans";
+  std::string world_dir = test_data::WidestDir("floorplans").string();
   bool json = false;
 };
 
