@@ -123,7 +123,10 @@ int main(int argc, char** argv) {
                  std::filesystem::path(file).parent_path().string() + ")",
              *graph);
   }
-  if (registered == 0) return 1;
+  if (registered == 0) {
+    std::fprintf(stderr, "optimizer_bench: none of its graphs is in data/ or the larger set\n");
+    return 1;
+  }
   bench::RatioReporter reporter("textbook", "ours");
   benchmark::RunSpecifiedBenchmarks(&reporter);
   reporter.PrintRatios("time textbook/ours (target >= 2)");
