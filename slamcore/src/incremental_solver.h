@@ -11,7 +11,11 @@
 //     closed, whose correction a small region held at its boundary would absorb by bending).
 //  2. Gauss–Newton (Levenberg–Marquardt damping on a rejected step) over the region, every node outside it
 //     held: the edges touching the region are linearised at the current poses and the normal equations
-//     solved by a sparse Cholesky (LDLᵀ, AMD ordering), the symbolic analysis done once per region.
+//     solved by a sparse Cholesky (LDLᵀ, AMD ordering), the symbolic analysis done once per region. It
+//     stops when an iteration decreases χ² by less than `relative_cost_decrease` (relative) or moves no node
+//     by more than a hundredth of the tolerances below, or, for a region held at its boundary, when an
+//     undamped step decreased χ² by what its linearisation predicted, to within `relative_cost_decrease`:
+//     the problem is linear at that scale, and a further factorisation would only confirm it.
 //  3. The wildfire test: for each held node next to the region, how much the update changed the step it
 //     would take alone (its own Gauss–Newton block, −H_uu⁻¹ g_u over its edges, with the region's poses
 //     after against before). When every change is below `position_tolerance` / `angle_tolerance`, the
