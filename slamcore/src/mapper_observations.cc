@@ -97,7 +97,10 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
                                     .odometer = odometer_};
   // Join the hypothesis of the same kind and target component with the smallest residual under the gate.
   Hypothesis* best = nullptr;
-  internal::Innovation best_innovation{.mahalanobis2 = std::numeric_limits<double>::infinity()};
+  internal::Innovation best_innovation{.residual = SE2(),
+                                       .log = Vector3::Zero(),
+                                       .covariance = Matrix3::Zero(),
+                                       .mahalanobis2 = std::numeric_limits<double>::infinity()};
   PoseGaussian best_in_ref;
   for (Hypothesis& hypothesis : hypotheses_) {
     if (hypothesis.kind != kind || !map_.graph.SameComponent(hypothesis.ref_node, view_node)) continue;
