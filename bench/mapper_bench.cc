@@ -11,13 +11,13 @@
 #include <filesystem>
 #include <map>
 
+#include "bench_data.h"
 #include "bench_report.h"
 #include "merge_overlay.h"
 #include "full_copy_merged_graph.h"
 #include "slamcore/g2o_replay.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/mapper.h"
-#include "test_data.h"
 
 namespace {
 
@@ -130,13 +130,9 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   for (const char* file :
        {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/intel.g2o", "vertigo/ringCity.g2o"}) {
-    const std::string relative = std::string("posegraphs/") + file;
-    const std::optional<std::filesystem::path> path = test_data::Find(relative);
-    if (!path) {  // data/ carries Intel; the other two are in the larger set
-      std::fprintf(stderr, "mapper_bench: skipping %s: %s\n", file,
-                   test_data::NeedsLargerSet(relative).c_str());
-      continue;
-    }
+    // data/ carries Intel; the other two are in the larger set, and are skipped without it.
+    const auto path = bench::FindData("mapper_bench", std::string("posegraphs/") + file);
+    if (!path) continue;
     const auto graph = slamcore::ReadPoseGraph(*path);
     const auto run =
         graph.ok() ? slamcore::RunFromPoseGraph(*graph) : slamcore::Result<slamcore::G2oRun>(graph.status());

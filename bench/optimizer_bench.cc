@@ -10,10 +10,10 @@
 #include <map>
 #include <string>
 
+#include "bench_data.h"
 #include "bench_report.h"
 #include "slamcore/graph_io.h"
 #include "slamcore/optimizer.h"
-#include "test_data.h"
 
 namespace {
 
@@ -106,13 +106,9 @@ int main(int argc, char** argv) {
   for (const char* file :
        {"vertigo/manhattanOlson3500_olson.g2o", "vertigo/intel.g2o", "sesync/intel.g2o", "sesync/CSAIL.g2o",
         "sesync/MIT.g2o", "sesync/manhattan.g2o", "vertigo/ringCity.g2o"}) {
-    const std::string relative = std::string("posegraphs/") + file;
-    const std::optional<std::filesystem::path> path = test_data::Find(relative);
-    if (!path) {  // data/ carries a few of the graphs; the rest are in the larger set
-      std::fprintf(stderr, "optimizer_bench: skipping %s: %s\n", file,
-                   test_data::NeedsLargerSet(relative).c_str());
-      continue;
-    }
+    // data/ carries a few of the graphs; the rest are in the larger set, and are skipped without it.
+    const auto path = bench::FindData("optimizer_bench", std::string("posegraphs/") + file);
+    if (!path) continue;
     ++registered;
     auto graph = slamcore::ReadPoseGraph(*path);
     if (!graph.ok()) {

@@ -12,12 +12,12 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "bench_data.h"
 #include "bench_report.h"
 #include "slamcore/mapper.h"
 #include "slamcore/occupancy_grid.h"
 #include "slamcore/protrusion_data.h"
 #include "slamcore/protrusion_detector.h"
-#include "test_data.h"
 
 namespace {
 
@@ -43,12 +43,8 @@ OccupancyGrid Crop(const OccupancyGrid& grid, int col0, int row0, int size) {
 
 const Pair& BenchPair() {
   static const Pair pair = [] {
-    const char* const relative = "maps/valetudo_dreame_l10su_3031_giant.yaml";
-    const std::optional<std::filesystem::path> path = test_data::Find(relative);
-    if (!path) {
-      std::fprintf(stderr, "protrusion_bench: %s\n", test_data::NeedsLargerSet(relative).c_str());
-      std::exit(1);
-    }
+    const auto path = bench::FindData("protrusion_bench", "maps/valetudo_dreame_l10su_3031_giant.yaml");
+    if (!path) std::exit(1);
     const auto map = slamcore::ReadMapServerYaml(path->string());
     if (!map.ok()) {
       std::fprintf(stderr, "%s\n", map.status().ToString().c_str());

@@ -12,9 +12,9 @@
 #include <filesystem>
 
 #include "analyzer/run_analysis.h"
+#include "bench_data.h"
 #include "bench_report.h"
 #include "sim/run_simulator.h"
-#include "test_data.h"
 
 namespace {
 
@@ -71,11 +71,8 @@ int main(int argc, char** argv) {
   static std::vector<sim::World> worlds;
   for (const char* relative : {"floorplans/00_02_09a30b61b563f93faf6a6466ffab_0001.txt",
                                "maps/valetudo_dreame_d9_1058_with_segments.yaml"}) {
-    const std::optional<std::filesystem::path> file = test_data::Find(relative);
-    if (!file) {
-      std::fprintf(stderr, "sim_bench: %s\n", test_data::NeedsLargerSet(relative).c_str());
-      return 1;
-    }
+    const auto file = bench::FindData("sim_bench", relative);
+    if (!file) return 1;
     auto world = sim::LoadWorld(*file, 1);
     if (!world.ok()) {
       std::fprintf(stderr, "%s\n", world.status().ToString().c_str());
