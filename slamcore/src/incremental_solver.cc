@@ -409,10 +409,11 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       if (damping > 1e8) break;
       continue;
     }
-    const double decrease = (cost - new_cost) / std::max(cost, 1e-300);
+    const double actual = cost - new_cost, scale = std::max(cost, 1e-300);
+    const double decrease = actual / scale;
     // How far the decrease strayed from the one the linearisation predicted, relative to the cost.
-    const double model_error = std::abs((cost - new_cost) - predicted) / std::max(cost, 1e-300);
-    const double gain_ratio = predicted > 0.0 ? (cost - new_cost) / predicted : 1.0;
+    const double model_error = std::abs(actual - predicted) / scale;
+    const double gain_ratio = predicted > 0.0 ? actual / predicted : 1.0;
     cost = new_cost;
     std::swap(current, trial);
     damping *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain_ratio - 1.0, 3));
@@ -420,12 +421,9 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     if (damping < 1e-8) damping = 0.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
-    // A region held at its boundary whose undamped step decreased χ² as its linearisation predicted, to
-    // within the tolerance, met a problem that is linear at the scale of the step: the next Gauss–Newton
-    // step would only remove the model's own error, below the tolerance, so it is not taken (it was a
-    // whole factorisation of the region that only confirmed convergence). Whole components still iterate
-    // until the step is tiny: their last factorisation stands for H at the solution (ComponentFactorisation),
-    // and solves to convergence (end of run, weighted solves) until the decrease stops.
+    // The stopping rules are at the top of incremental_solver.h. The linear step applies only to a region
+    // held at its boundary: a whole component's last factorisation stands for H at the solution
+    // (ComponentFactorisation), so it iterates until the step is tiny.
     const bool linear_enough =
         undamped && !to_convergence && converged == nullptr && model_error < relative_cost_decrease;
     if (decrease < relative_cost_decrease || (tiny_step && !to_convergence) || linear_enough) {
