@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -89,6 +90,26 @@ std::unique_ptr<fleet_client::LocalFleetd> StartFleetd(const std::filesystem::pa
 
 std::mutex g_latency_mutex;
 std::vector<double> g_latencies;
+// CPU seconds spent during the timed uploads, by fleetd and by this process (the uploader's threads).
+double g_fleetd_cpu = 0.0, g_uploader_cpu = 0.0;
+std::int64_t g_uploads_timed = 0;
+
+/// User plus system CPU seconds of a process so far (/proc/<pid>/stat); 0 when it cannot be read.
+double CpuSeconds(const std::string& pid) {
+  std::ifstream file("/proc/" + pid + "/stat");
+  std::string stat;
+  std::getline(file, stat);                      // one line
+  const std::size_t name_end = stat.rfind(')');  // the command name may hold spaces
+  if (name_end == std::string::npos) return 0.0;
+  std::istringstream fields(stat.substr(name_end + 2));
+  std::string field;
+  long long user = 0, system = 0;
+  for (int index = 3; fields >> field && index <= 15; ++index) {  // field numbers as in proc(5)
+    if (index == 14) user = std::stoll(field);
+    if (index == 15) system = std::stoll(field);
+  }
+  return static_cast<double>(user + system) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
 
 void SetCounters(benchmark::State& state, std::int64_t runs, std::int64_t events) {
   state.counters["runs/s"] = benchmark::Counter(static_cast<double>(runs), benchmark::Counter::kIsRate);
@@ -144,6 +165,8 @@ void Ingest_candidate(benchmark::State& state) {
     options.server = server->grpc_address();
     options.token = kAdmin;
     fleet_client::Uploader uploader(options);
+    const std::string fleetd_pid = std::to_string(server->pid());
+    const double fleetd_cpu_before = CpuSeconds(fleetd_pid), uploader_cpu_before = CpuSeconds("self");
     state.ResumeTiming();
     std::atomic<std::size_t> next{0};
     std::vector<std::thread> threads;
@@ -163,6 +186,9 @@ void Ingest_candidate(benchmark::State& state) {
     for (auto& thread : threads) thread.join();
     runs += static_cast<std::int64_t>(Runs().size());
     state.PauseTiming();
+    g_fleetd_cpu += CpuSeconds(fleetd_pid) - fleetd_cpu_before;
+    g_uploader_cpu += CpuSeconds("self") - uploader_cpu_before;
+    g_uploads_timed += static_cast<std::int64_t>(Runs().size());
     server.reset();
     std::filesystem::remove_all(directory);
     state.ResumeTiming();
@@ -265,6 +291,12 @@ int main(int argc, char** argv) {
     };
     std::printf("upload latency over %zu uploads (4 parallel streams): p50 %.1f ms, p99 %.1f ms\n",
                 g_latencies.size(), 1000 * percentile(50), 1000 * percentile(99));
+  }
+  if (g_uploads_timed > 0) {
+    // Where ingest's time goes on a machine whose cores the server and the uploader share.
+    std::printf("CPU per upload: fleetd %.1f ms, uploader %.1f ms\n",
+                1000 * g_fleetd_cpu / static_cast<double>(g_uploads_timed),
+                1000 * g_uploader_cpu / static_cast<double>(g_uploads_timed));
   }
   return 0;
 }

@@ -26,9 +26,10 @@ MapPolicy MapPolicyOf(const FleetdConfig& config) {
 MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
     : repository_(repository), policy_(std::move(policy)) {}
 
-storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRecord& run,
-                                                           const slamcore::Map& child,
-                                                           const std::string& uploader) {
+storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upload,
+                                                       const slamcore::Map& child,
+                                                       const std::string& uploader) {
+  const storage::RunRecord& run = upload.run;
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(run.robot_id));
   const storage::MapVersionRecord* current = Current(versions);
@@ -58,20 +59,25 @@ storage::Result<UploadMapOutcome> MapHistory::RecordUpload(const storage::RunRec
     record.approved_at_ms = run.ended_at_ms;
   }
   // Findings on the map alone for now; OnRunAnalysed adds those that need the server's rerun.
-  ASSIGN_OR_RETURN(auto findings, ToRecords(analyzer::FindMapFindings({.map = &child})));
-  ASSIGN_OR_RETURN(auto appended, repository_.AppendMapVersion(record, std::nullopt, findings));
-  UploadMapOutcome outcome;
-  outcome.version = appended.version;
+  ASSIGN_OR_RETURN(upload.findings, ToRecords(analyzer::FindMapFindings({.map = &child})));
+  upload.map_version = std::move(record);
+  ASSIGN_OR_RETURN(const storage::StoredUpload stored, repository_.StoreUpload(upload));
+  UploadOutcome outcome;
+  outcome.already_present = stored.run == storage::InsertOutcome::kAlreadyPresent;
+  outcome.analysis_job_id = stored.analysis_job_id;
+  outcome.version = stored.map_version.version;
   const std::int64_t newest_before = versions.empty() ? 0 : versions.back().version;
-  if (appended.approval == storage::MapApproval::kApproved && appended.version > newest_before) {
-    outcome.current_version = appended.version;  // just made, on the current map: it is the current one now
+  if (stored.map_version.approval == storage::MapApproval::kApproved &&
+      stored.map_version.version > newest_before) {
+    outcome.current_version =
+        stored.map_version.version;  // just made, on the current map: it is the current one now
   } else {
     // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
     ASSIGN_OR_RETURN(auto after, repository_.ListMapVersions(run.robot_id));
     const storage::MapVersionRecord* now_current = Current(after);
     outcome.current_version = now_current ? now_current->version : 0;
   }
-  outcome.outdated = outcome.current_version != appended.version;
+  outcome.outdated = outcome.current_version != stored.map_version.version;
   return outcome;
 }
 

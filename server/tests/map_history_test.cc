@@ -13,6 +13,7 @@
 #include "analyzer/telemetry_codec.h"
 #include "fleet/serialization.h"
 #include "server/analysis.h"
+#include "server/auth.h"
 #include "sqlite_repository_test.h"
 #include "status_matchers.h"
 
@@ -62,20 +63,23 @@ class MapHistoryTest : public SqliteRepositoryTest {
     child_ = parent_;
     AddChain(child_, 10, 10, 5.0, true);  // the run drove on past the end of the home map
   }
-  /// Stores a run whose parent and child maps are given; returns its record.
-  storage::RunRecord StoreRun(const std::string& run_id, const slamcore::Map* parent,
-                              const slamcore::Map& child) {
-    storage::RunRecord run;
+  /// An upload of robot r1's run whose parent and child maps are given, as ingest builds it.
+  storage::UploadBundle Upload(const std::string& run_id, const slamcore::Map* parent,
+                               const slamcore::Map& child) {
+    storage::UploadBundle upload;
+    upload.robot = {"r1", "vac", "fw", 0};
+    storage::RunRecord& run = upload.run;
     run.run_id = run_id;
     run.robot_id = "r1";
-    if (parent)
-      run.parent_snapshot_id =
-          *repository_->PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(*parent)));
-    run.child_snapshot_id =
-        *repository_->PutSnapshot(fleet::SerializeDeterministic(analyzer::ToProto(child)));
+    if (parent) {
+      upload.snapshots.push_back(fleet::SerializeDeterministic(analyzer::ToProto(*parent)));
+      run.parent_snapshot_id = Sha256Hex(upload.snapshots.back());
+    }
+    upload.snapshots.push_back(fleet::SerializeDeterministic(analyzer::ToProto(child)));
+    run.child_snapshot_id = Sha256Hex(upload.snapshots.back());
     run.telemetry = "telemetry of " + run_id;
-    EXPECT_THAT(repository_->InsertRun(run), IsOk());
-    return run;
+    upload.analysis_job.kind = "analyze_run";
+    return upload;
   }
 
   /// The default set's report of the second run, stored as a worker stores it: the rerun agrees with the
@@ -96,17 +100,22 @@ class MapHistoryTest : public SqliteRepositoryTest {
   }
 
   void UploadBoth(MapHistory& history) {
-    const storage::RunRecord first = StoreRun("run-0", nullptr, parent_);
-    auto v1 = history.RecordUpload(first, parent_);
+    auto v1 = history.StoreUpload(Upload("run-0", nullptr, parent_), parent_);
     ASSERT_THAT(v1, IsOk());
-    const storage::RunRecord second = StoreRun("run-1", &parent_, child_);
-    auto v2 = history.RecordUpload(second, child_);
+    auto v2 = history.StoreUpload(Upload("run-1", &parent_, child_), child_);
     ASSERT_THAT(v2, IsOk());
     EXPECT_EQ(v2->version, 2);
     EXPECT_EQ(v2->current_version, 2);
     EXPECT_FALSE(v2->outdated);
-    // A retried upload gets the same version.
-    EXPECT_EQ(history.RecordUpload(second, child_)->version, 2);
+    EXPECT_FALSE(v2->already_present);
+    EXPECT_GT(v2->analysis_job_id, 0);
+    // A retried upload gets the same version, and no second analysis job.
+    auto retried = history.StoreUpload(Upload("run-1", &parent_, child_), child_);
+    ASSERT_THAT(retried, IsOk());
+    EXPECT_EQ(retried->version, 2);
+    EXPECT_TRUE(retried->already_present);
+    EXPECT_EQ(retried->analysis_job_id, 0);
+    EXPECT_EQ(repository_->ListJobs(std::nullopt, 10)->size(), 2u);
   }
 
   slamcore::Map parent_, child_;

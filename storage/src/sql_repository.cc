@@ -1,6 +1,8 @@
 // SqlRepository: robots, credentials, snapshots, parameter sets and models.
 #include "sql_repository.h"
 
+#include <algorithm>
+
 #include "blob_codec.h"
 #include "crypto.h"
 #include "migrations.h"
@@ -55,19 +57,25 @@ constexpr const char* kRobotColumns = "robot_id, robot_model, firmware, register
 
 }  // namespace
 
-Status SqlRepository::PutRobot(const RobotRecord& robot) {
+Status CheckRobot(const RobotRecord& robot) {
   if (robot.robot_id.empty()) return InvalidArgument("robot_id is empty");
   RETURN_IF_ERROR(CheckText(robot.robot_id, "robot_id", 128));
   RETURN_IF_ERROR(CheckText(robot.robot_model, "robot_model"));
-  RETURN_IF_ERROR(CheckText(robot.firmware, "firmware"));
+  return CheckText(robot.firmware, "firmware");
+}
+
+Status SqlRepository::PutRobotIn(SqlTransaction& transaction, const RobotRecord& robot) {
   const std::int64_t registered = robot.registered_at_ms != 0 ? robot.registered_at_ms : NowMs();
-  return Write([&](SqlTransaction& transaction) {
-    return transaction.Exec(
-        "INSERT INTO robots (robot_id, robot_model, firmware, registered_at_ms) VALUES ($1, $2, $3, $4) "
-        "ON CONFLICT (robot_id) DO UPDATE SET robot_model = excluded.robot_model, firmware = "
-        "excluded.firmware",
-        {robot.robot_id, robot.robot_model, robot.firmware, registered});
-  });
+  return transaction.Exec(
+      "INSERT INTO robots (robot_id, robot_model, firmware, registered_at_ms) VALUES ($1, $2, $3, $4) "
+      "ON CONFLICT (robot_id) DO UPDATE SET robot_model = excluded.robot_model, firmware = "
+      "excluded.firmware",
+      {robot.robot_id, robot.robot_model, robot.firmware, registered});
+}
+
+Status SqlRepository::PutRobot(const RobotRecord& robot) {
+  RETURN_IF_ERROR(CheckRobot(robot));
+  return Write([&](SqlTransaction& transaction) { return PutRobotIn(transaction, robot); });
 }
 
 Result<RobotRecord> SqlRepository::GetRobot(const std::string& robot_id) {
@@ -146,25 +154,43 @@ Result<bool> SqlRepository::VerifyCredential(const std::string& principal, const
 
 // ---- Snapshots ----
 
-Result<std::string> SqlRepository::PutSnapshot(const std::string& bytes) {
-  const std::string id = Sha256Hex(bytes);
-  bool present = false;
+Result<SqlRepository::SnapshotsToStore> SqlRepository::EncodeNewSnapshots(
+    const std::vector<const std::string*>& snapshots) {
+  SnapshotsToStore result;
+  for (const std::string* bytes : snapshots) result.ids.push_back(Sha256Hex(*bytes));
+  std::vector<bool> stored(snapshots.size(), false);
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
-    ASSIGN_OR_RETURN(auto rows, transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {id}));
-    present = !rows.empty();
+    for (std::size_t i = 0; i < snapshots.size(); ++i) {
+      ASSIGN_OR_RETURN(auto rows,
+                       transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1", {result.ids[i]}));
+      stored[i] = !rows.empty();
+    }
     return Status::Ok();
   }));
-  if (present) return id;  // deduplicated: skip compressing again
-  const EncodedBlob blob = EncodeBlob(bytes);
-  Status status = Write([&](SqlTransaction& transaction) {
-    return transaction.Exec(
-        "INSERT INTO snapshots (snapshot_id, data, data_crc32, data_size, created_at_ms) VALUES ($1, $2, $3, "
-        "$4, $5) "
-        "ON CONFLICT (snapshot_id) DO NOTHING",
-        {id, SqlBlob{blob.compressed}, blob.crc32, blob.raw_size, NowMs()});
-  });
-  RETURN_IF_ERROR(status);
-  return id;
+  for (std::size_t i = 0; i < snapshots.size(); ++i) {
+    const std::string& id = result.ids[i];
+    const bool repeated = std::any_of(result.absent.begin(), result.absent.end(),
+                                      [&](const EncodedSnapshot& kept) { return kept.id == id; });
+    if (!stored[i] && !repeated) result.absent.push_back({id, EncodeBlob(*snapshots[i])});
+  }
+  return result;
+}
+
+Status SqlRepository::PutSnapshotIn(SqlTransaction& transaction, const EncodedSnapshot& snapshot) {
+  return transaction.Exec(
+      "INSERT INTO snapshots (snapshot_id, data, data_crc32, data_size, created_at_ms) VALUES ($1, $2, $3, "
+      "$4, $5) "
+      "ON CONFLICT (snapshot_id) DO NOTHING",
+      {snapshot.id, SqlBlob{snapshot.blob.compressed}, snapshot.blob.crc32, snapshot.blob.raw_size, NowMs()});
+}
+
+Result<std::string> SqlRepository::PutSnapshot(const std::string& bytes) {
+  ASSIGN_OR_RETURN(auto snapshots, EncodeNewSnapshots({&bytes}));
+  if (!snapshots.absent.empty()) {
+    RETURN_IF_ERROR(
+        Write([&](SqlTransaction& transaction) { return PutSnapshotIn(transaction, snapshots.absent[0]); }));
+  }
+  return snapshots.ids[0];
 }
 
 Result<SnapshotRecord> SqlRepository::GetSnapshot(const std::string& snapshot_id) {

@@ -47,6 +47,7 @@ class SqlRepository final : public Repository {
   Result<SnapshotRecord> GetSnapshot(const std::string& snapshot_id) override;
 
   Result<InsertOutcome> InsertRun(const RunRecord& run) override;
+  Result<StoredUpload> StoreUpload(const UploadBundle& upload) override;
   Result<RunRecord> GetRun(const RunKey& key) override;
   Result<std::vector<std::string>> ListRunRobots(const std::string& run_id, int limit) override;
   Result<RunPage> ListRuns(const RunFilter& filter, int page_size,
@@ -142,6 +143,25 @@ class SqlRepository final : public Repository {
   /// digest and blobs are computed before the transaction so its lock is held briefly.
   Result<InsertOutcome> InsertRunIn(SqlTransaction& transaction, const RunRecord& run,
                                     const std::string& digest, const EncodedBlob& telemetry);
+  // The writes StoreUpload combines, each also its own method's transaction body. Checks and encoding happen
+  // before the transaction (CheckRobot, CheckJob, CheckMapVersion, EncodeNewSnapshots).
+  Status PutRobotIn(SqlTransaction& transaction, const RobotRecord& robot);
+  struct EncodedSnapshot {
+    std::string id;
+    EncodedBlob blob;
+  };
+  struct SnapshotsToStore {
+    std::vector<std::string> ids;         // every snapshot's id, in order
+    std::vector<EncodedSnapshot> absent;  // those not stored yet, each once, compressed
+  };
+  /// Hashes the snapshots and compresses those the database does not hold yet (a read transaction).
+  Result<SnapshotsToStore> EncodeNewSnapshots(const std::vector<const std::string*>& snapshots);
+  Status PutSnapshotIn(SqlTransaction& transaction, const EncodedSnapshot& snapshot);
+  Result<std::int64_t> EnqueueJobIn(SqlTransaction& transaction, const NewJob& job);
+  Result<MapVersionRecord> AppendMapVersionIn(SqlTransaction& transaction, const MapVersionRecord& version,
+                                              std::optional<std::int64_t> expected_head,
+                                              const std::vector<MapFindingRecord>& findings,
+                                              const EncodedBlob& metadata);
   Status PutReportIn(SqlTransaction& transaction, const ReportBundle& bundle, const EncodedBlob& blob);
   /// Without `group_by`: the total as one group (none when no report matches).
   Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, std::optional<GroupBy> group_by);
@@ -163,6 +183,11 @@ inline constexpr const char* kRevokedAlgorithm = "revoked";
 /// Takes the next credential epoch inside a write transaction. The counter's row lock (PostgreSQL) or the
 /// write lock (SQLite) is held until commit, so epochs commit in order.
 Result<std::int64_t> NextCredentialEpoch(SqlTransaction& transaction);
+
+/// The argument checks of PutRobot, EnqueueJob and AppendMapVersion (INVALID_ARGUMENT naming the field).
+Status CheckRobot(const RobotRecord& robot);
+Status CheckJob(const NewJob& job);
+Status CheckMapVersion(const MapVersionRecord& version, const std::vector<MapFindingRecord>& findings);
 
 /// Milliseconds since the Unix epoch, from the system clock.
 std::int64_t NowMs();

@@ -40,27 +40,36 @@ Status LeaseLost(const JobLease& lease) {
 
 }  // namespace
 
-Result<std::int64_t> SqlRepository::EnqueueJob(const NewJob& job) {
+Status CheckJob(const NewJob& job) {
   if (job.kind.empty()) return InvalidArgument("job kind is empty");
   RETURN_IF_ERROR(CheckText(job.kind, "job kind", 128));
   if (job.max_attempts < 1) return InvalidArgument("job max_attempts must be at least 1");
   if (job.progress_total < 0) return InvalidArgument("job progress_total is negative");
   if (job.robot_id) RETURN_IF_ERROR(CheckText(*job.robot_id, "job robot_id", 128));
+  return Status::Ok();
+}
+
+Result<std::int64_t> SqlRepository::EnqueueJobIn(SqlTransaction& transaction, const NewJob& job) {
+  const std::int64_t now = NowMs();
+  SqlValue parent = SqlNull{};
+  if (job.parent_job_id) parent = *job.parent_job_id;
+  ASSIGN_OR_RETURN(
+      auto rows,
+      transaction.Query("INSERT INTO jobs (kind, payload, state, attempts, max_attempts, parent_job_id, "
+                        "last_error, progress_done, "
+                        "progress_total, created_at_ms, updated_at_ms, robot_id) VALUES ($1, $2, 'queued', "
+                        "0, $3, $4, '', 0, $5, $6, "
+                        "$6, $7) RETURNING job_id",
+                        {job.kind, SqlBlob{job.payload}, job.max_attempts, parent, job.progress_total, now,
+                         job.robot_id ? SqlValue{*job.robot_id} : SqlValue{SqlNull{}}}));
+  return rows.front().Int(0);
+}
+
+Result<std::int64_t> SqlRepository::EnqueueJob(const NewJob& job) {
+  RETURN_IF_ERROR(CheckJob(job));
   std::int64_t job_id = 0;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    const std::int64_t now = NowMs();
-    SqlValue parent = SqlNull{};
-    if (job.parent_job_id) parent = *job.parent_job_id;
-    ASSIGN_OR_RETURN(
-        auto rows,
-        transaction.Query("INSERT INTO jobs (kind, payload, state, attempts, max_attempts, parent_job_id, "
-                          "last_error, progress_done, "
-                          "progress_total, created_at_ms, updated_at_ms, robot_id) VALUES ($1, $2, 'queued', "
-                          "0, $3, $4, '', 0, $5, $6, "
-                          "$6, $7) RETURNING job_id",
-                          {job.kind, SqlBlob{job.payload}, job.max_attempts, parent, job.progress_total, now,
-                           job.robot_id ? SqlValue{*job.robot_id} : SqlValue{SqlNull{}}}));
-    job_id = rows.front().Int(0);
+    ASSIGN_OR_RETURN(job_id, EnqueueJobIn(transaction, job));
     return Status::Ok();
   }));
   return job_id;

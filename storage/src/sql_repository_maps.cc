@@ -106,111 +106,118 @@ Status InsertFindings(SqlTransaction& transaction, const std::string& robot_id, 
 
 }  // namespace
 
+Status CheckMapVersion(const MapVersionRecord& version, const std::vector<MapFindingRecord>& findings) {
+  RETURN_IF_ERROR(CheckVersion(version));
+  return CheckFindings(findings);
+}
+
+Result<MapVersionRecord> SqlRepository::AppendMapVersionIn(SqlTransaction& transaction,
+                                                           const MapVersionRecord& version,
+                                                           std::optional<std::int64_t> expected_head,
+                                                           const std::vector<MapFindingRecord>& findings,
+                                                           const EncodedBlob& metadata) {
+  MapVersionRecord stored = version;
+  stored.metadata.clear();
+  // The robot's row lock serialises appends for one robot across connections and processes (SQLite
+  // serialises every write transaction anyway).
+  ASSIGN_OR_RETURN(
+      auto locked,
+      transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
+                        {version.robot_id}));
+  if (locked.empty())
+    return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
+  if (version.origin == MapOrigin::kUpload) {
+    ASSIGN_OR_RETURN(auto existing,
+                     transaction.Query(std::string(kVersionColumns) +
+                                           "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
+                                       {version.robot_id, version.run_id}));
+    if (!existing.empty()) return VersionFromRow(existing.front());
+  }
+  ASSIGN_OR_RETURN(auto head, transaction.Query("SELECT MAX(version), MAX(CASE WHEN approval IN ('approved', "
+                                                "'pending') THEN version END) FROM map_versions "
+                                                "WHERE robot_id = $1",
+                                                {version.robot_id}));
+  const std::int64_t newest = head.empty() || head.front().IsNull(0) ? 0 : head.front().Int(0);
+  const std::int64_t head_version = head.empty() || head.front().IsNull(1) ? 0 : head.front().Int(1);
+  if (expected_head && *expected_head != head_version) {
+    return Aborted("the map of robot " + version.robot_id + " is at version " + std::to_string(head_version) +
+                   ", not " + std::to_string(*expected_head) +
+                   ": it changed meanwhile; look again and retry");
+  }
+  if (version.supersedes_pending) {
+    ASSIGN_OR_RETURN(
+        auto superseded,
+        transaction.Query("UPDATE map_versions SET approval = 'stale', approved_by = $3, approved_at_ms = $4 "
+                          "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
+                          {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()}));
+    if (superseded.empty()) {
+      return Aborted("map version " + std::to_string(*version.supersedes_pending) + " of robot " +
+                     version.robot_id + " is no longer pending: it was reviewed meanwhile");
+    }
+  }
+  if (version.parent_version && (*version.parent_version < 1 || *version.parent_version > newest)) {
+    return FailedPrecondition("parent version " + std::to_string(*version.parent_version) + " of robot " +
+                              version.robot_id + " does not exist");
+  }
+  ASSIGN_OR_RETURN(auto snapshot, transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1",
+                                                    {version.snapshot_id}));
+  if (snapshot.empty())
+    return FailedPrecondition("map version names snapshot " + version.snapshot_id + ", which is not stored");
+  stored.version = newest + 1;
+  stored.open_findings = OpenCount(findings);
+  if (stored.created_at_ms == 0) stored.created_at_ms = NowMs();
+  SqlValue parent = SqlNull{};
+  if (stored.parent_version) parent = *stored.parent_version;
+  SqlValue run = SqlNull{};
+  if (!stored.run_id.empty()) run = stored.run_id;
+  RETURN_IF_ERROR(transaction.Exec(
+      "INSERT INTO map_versions (robot_id, version, parent_version, snapshot_id, origin, run_id, action, "
+      "action_detail, created_by, reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, "
+      "edges, "
+      "observation_edges, views, components, known_area_m2, chi2, open_findings) VALUES ($1, $2, $3, $4, "
+      "$5, $6, "
+      "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22)",
+      {stored.robot_id,
+       stored.version,
+       parent,
+       stored.snapshot_id,
+       std::string(Name(stored.origin)),
+       run,
+       ActionText(stored.action),
+       stored.action_detail,
+       stored.created_by,
+       stored.reason,
+       stored.created_at_ms,
+       std::string(Name(stored.approval)),
+       stored.approved_by,
+       stored.approved_at_ms,
+       stored.nodes,
+       stored.edges,
+       stored.observation_edges,
+       stored.views,
+       stored.components,
+       stored.known_area_m2,
+       stored.chi2,
+       stored.open_findings}));
+  RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
+  if (!version.metadata.empty()) {
+    RETURN_IF_ERROR(transaction.Exec(
+        "INSERT INTO map_metadata (robot_id, version, data, data_crc32, data_size) VALUES "
+        "($1, $2, $3, $4, $5)",
+        {stored.robot_id, stored.version, SqlBlob{metadata.compressed}, metadata.crc32, metadata.raw_size}));
+  }
+  return stored;
+}
+
 Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord& version,
                                                          std::optional<std::int64_t> expected_head,
                                                          const std::vector<MapFindingRecord>& findings) {
-  RETURN_IF_ERROR(CheckVersion(version));
-  RETURN_IF_ERROR(CheckFindings(findings));
+  RETURN_IF_ERROR(CheckMapVersion(version, findings));
   const EncodedBlob metadata =
       EncodeBlob(version.metadata);  // before the transaction: the lock is held briefly
-  MapVersionRecord stored = version;
-  stored.metadata.clear();
+  MapVersionRecord stored;
   RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
-    // The robot's row lock serialises appends for one robot across connections and processes (SQLite
-    // serialises every write transaction anyway).
-    ASSIGN_OR_RETURN(
-        auto locked,
-        transaction.Query("UPDATE robots SET robot_id = robot_id WHERE robot_id = $1 RETURNING robot_id",
-                          {version.robot_id}));
-    if (locked.empty())
-      return FailedPrecondition("map version names robot " + version.robot_id + ", which is not stored");
-    if (version.origin == MapOrigin::kUpload) {
-      ASSIGN_OR_RETURN(auto existing,
-                       transaction.Query(std::string(kVersionColumns) +
-                                             "WHERE robot_id = $1 AND run_id = $2 AND origin = 'upload'",
-                                         {version.robot_id, version.run_id}));
-      if (!existing.empty()) {
-        ASSIGN_OR_RETURN(stored, VersionFromRow(existing.front()));
-        return Status::Ok();
-      }
-    }
-    ASSIGN_OR_RETURN(auto head,
-                     transaction.Query("SELECT MAX(version), MAX(CASE WHEN approval IN ('approved', "
-                                       "'pending') THEN version END) FROM map_versions "
-                                       "WHERE robot_id = $1",
-                                       {version.robot_id}));
-    const std::int64_t newest = head.empty() || head.front().IsNull(0) ? 0 : head.front().Int(0);
-    const std::int64_t head_version = head.empty() || head.front().IsNull(1) ? 0 : head.front().Int(1);
-    if (expected_head && *expected_head != head_version) {
-      return Aborted("the map of robot " + version.robot_id + " is at version " +
-                     std::to_string(head_version) + ", not " + std::to_string(*expected_head) +
-                     ": it changed meanwhile; look again and retry");
-    }
-    if (version.supersedes_pending) {
-      ASSIGN_OR_RETURN(
-          auto superseded,
-          transaction.Query(
-              "UPDATE map_versions SET approval = 'stale', approved_by = $3, approved_at_ms = $4 "
-              "WHERE robot_id = $1 AND version = $2 AND approval = 'pending' RETURNING version",
-              {version.robot_id, *version.supersedes_pending, version.approved_by, NowMs()}));
-      if (superseded.empty()) {
-        return Aborted("map version " + std::to_string(*version.supersedes_pending) + " of robot " +
-                       version.robot_id + " is no longer pending: it was reviewed meanwhile");
-      }
-    }
-    if (version.parent_version && (*version.parent_version < 1 || *version.parent_version > newest)) {
-      return FailedPrecondition("parent version " + std::to_string(*version.parent_version) + " of robot " +
-                                version.robot_id + " does not exist");
-    }
-    ASSIGN_OR_RETURN(auto snapshot, transaction.Query("SELECT 1 FROM snapshots WHERE snapshot_id = $1",
-                                                      {version.snapshot_id}));
-    if (snapshot.empty())
-      return FailedPrecondition("map version names snapshot " + version.snapshot_id +
-                                ", which is not stored");
-    stored.version = newest + 1;
-    stored.open_findings = OpenCount(findings);
-    if (stored.created_at_ms == 0) stored.created_at_ms = NowMs();
-    SqlValue parent = SqlNull{};
-    if (stored.parent_version) parent = *stored.parent_version;
-    SqlValue run = SqlNull{};
-    if (!stored.run_id.empty()) run = stored.run_id;
-    RETURN_IF_ERROR(transaction.Exec(
-        "INSERT INTO map_versions (robot_id, version, parent_version, snapshot_id, origin, run_id, action, "
-        "action_detail, created_by, reason, created_at_ms, approval, approved_by, approved_at_ms, nodes, "
-        "edges, "
-        "observation_edges, views, components, known_area_m2, chi2, open_findings) VALUES ($1, $2, $3, $4, "
-        "$5, $6, "
-        "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22)",
-        {stored.robot_id,
-         stored.version,
-         parent,
-         stored.snapshot_id,
-         std::string(Name(stored.origin)),
-         run,
-         ActionText(stored.action),
-         stored.action_detail,
-         stored.created_by,
-         stored.reason,
-         stored.created_at_ms,
-         std::string(Name(stored.approval)),
-         stored.approved_by,
-         stored.approved_at_ms,
-         stored.nodes,
-         stored.edges,
-         stored.observation_edges,
-         stored.views,
-         stored.components,
-         stored.known_area_m2,
-         stored.chi2,
-         stored.open_findings}));
-    RETURN_IF_ERROR(InsertFindings(transaction, stored.robot_id, stored.version, findings));
-    if (!version.metadata.empty()) {
-      RETURN_IF_ERROR(
-          transaction.Exec("INSERT INTO map_metadata (robot_id, version, data, data_crc32, data_size) VALUES "
-                           "($1, $2, $3, $4, $5)",
-                           {stored.robot_id, stored.version, SqlBlob{metadata.compressed}, metadata.crc32,
-                            metadata.raw_size}));
-    }
+    ASSIGN_OR_RETURN(stored, AppendMapVersionIn(transaction, version, expected_head, findings, metadata));
     Fault("append_map_version:before_commit");
     return Status::Ok();
   }));

@@ -171,6 +171,43 @@ Result<InsertOutcome> SqlRepository::InsertRun(const RunRecord& run) {
   return outcome;
 }
 
+Result<StoredUpload> SqlRepository::StoreUpload(const UploadBundle& upload) {
+  RETURN_IF_ERROR(CheckRobot(upload.robot));
+  RETURN_IF_ERROR(CheckRun(upload.run));
+  RETURN_IF_ERROR(CheckJob(upload.analysis_job));
+  RETURN_IF_ERROR(CheckMapVersion(upload.map_version, upload.findings));
+  if (upload.run.robot_id != upload.robot.robot_id || upload.map_version.robot_id != upload.robot.robot_id)
+    return InvalidArgument("upload of robot " + upload.robot.robot_id +
+                           ": its run and map version name robot " + upload.run.robot_id + " and " +
+                           upload.map_version.robot_id);
+  if (upload.map_version.origin != MapOrigin::kUpload || upload.map_version.run_id != upload.run.run_id)
+    return InvalidArgument("upload of run " + upload.run.run_id +
+                           ": its map version must be the run's upload");
+  // Hashing and compressing happen before the transaction so the write lock is held briefly.
+  std::vector<const std::string*> snapshots;
+  for (const std::string& bytes : upload.snapshots) snapshots.push_back(&bytes);
+  ASSIGN_OR_RETURN(auto new_snapshots, EncodeNewSnapshots(snapshots));
+  const std::string digest = RunDigest(upload.run);
+  const EncodedBlob telemetry = EncodeBlob(upload.run.telemetry);
+  const EncodedBlob metadata = EncodeBlob(upload.map_version.metadata);
+  StoredUpload stored;
+  RETURN_IF_ERROR(Write([&](SqlTransaction& transaction) -> Status {
+    RETURN_IF_ERROR(PutRobotIn(transaction, upload.robot));
+    for (const EncodedSnapshot& snapshot : new_snapshots.absent)
+      RETURN_IF_ERROR(PutSnapshotIn(transaction, snapshot));
+    ASSIGN_OR_RETURN(stored.run, InsertRunIn(transaction, upload.run, digest, telemetry));
+    stored.analysis_job_id = 0;
+    if (stored.run == InsertOutcome::kInserted) {
+      ASSIGN_OR_RETURN(stored.analysis_job_id, EnqueueJobIn(transaction, upload.analysis_job));
+    }
+    ASSIGN_OR_RETURN(stored.map_version, AppendMapVersionIn(transaction, upload.map_version, std::nullopt,
+                                                            upload.findings, metadata));
+    Fault("store_upload:before_commit");
+    return Status::Ok();
+  }));
+  return stored;
+}
+
 Status SqlRepository::InsertRuns(const std::vector<RunRecord>& runs) {
   if (runs.size() > kMaxBatch) return InvalidArgument("runs: at most 10000 per batch");
   std::vector<std::string> digests;

@@ -8,6 +8,7 @@
 #include <functional>
 #include <thread>
 
+#include "crypto.h"
 #include "test_databases.h"
 #include "status_matchers.h"
 
@@ -74,6 +75,32 @@ TEST_P(CrashConsistencyTest, WriterKilledInsideTheTransactionLeavesNoTrace) {
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM runs")[0].Int(0), 0);
   EXPECT_EQ(*repo().InsertRun(run), InsertOutcome::kInserted) << "the database stays writable";
   EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "big-run"})->telemetry, run.telemetry);
+}
+
+TEST_P(CrashConsistencyTest, AnUploadKilledBeforeItsCommitLeavesNoTrace) {
+  UploadBundle upload;
+  upload.robot = {"robot-1", "vac-s", "fw-2.0", 0};
+  upload.snapshots = {"child map"};
+  upload.run = MakeRun("run-1", 1000, 1 << 20);
+  upload.run.child_snapshot_id = internal::Sha256Hex("child map");
+  upload.analysis_job.kind = "analyze_run";
+  upload.map_version.robot_id = "robot-1";
+  upload.map_version.snapshot_id = *upload.run.child_snapshot_id;
+  upload.map_version.run_id = "run-1";
+  // Killed once the robot, the map, the run, the job and the map version are written, before COMMIT.
+  KillWriterAt("store_upload:before_commit",
+               [&](internal::SqlRepository& repository) { (void)repository.StoreUpload(upload); });
+  if (HasFatalFailure()) return;
+
+  Reopen();
+  ExpectDatabaseValid();
+  EXPECT_EQ(repo().GetRobot("robot-1")->firmware, "fw-1.2") << "the robot as it was";
+  for (const char* table : {"snapshots", "runs", "jobs", "map_versions"})
+    EXPECT_EQ(RawQuery(std::string("SELECT COUNT(*) FROM ") + table)[0].Int(0), 0) << table;
+  auto stored = repo().StoreUpload(upload);
+  ASSERT_THAT(stored, IsOk()) << "the client's retry stores it";
+  EXPECT_EQ(stored->map_version.version, 1);
+  EXPECT_GT(stored->analysis_job_id, 0);
 }
 
 TEST_P(CrashConsistencyTest, AnErasureKilledMidwayLeavesTheRobotWhole) {

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <thread>
 
+#include "crypto.h"
 #include "test_databases.h"
 #include "status_matchers.h"
 
@@ -141,6 +142,92 @@ TEST_P(RepositoryContractTest, DifferentPayloadUnderTheSameRunIdIsAConflict) {
   run = MakeRun("run-1", 10001);
   EXPECT_EQ(repo().InsertRun(run).status().code(), StatusCode::kAlreadyExists);
   EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-1"})->started_at_ms, 10000) << "the first payload stays";
+}
+
+/// An upload as ingest stores it: robot-1's run with its child map (and a parent map sent along).
+UploadBundle MakeUpload(const std::string& run_id, const std::string& child_map,
+                        const std::string& parent_map = "") {
+  UploadBundle upload;
+  upload.robot = {"robot-1", "vac-s", "fw-2.0", 0};
+  upload.run = MakeRun(run_id, 10000);
+  if (!parent_map.empty()) {
+    upload.snapshots.push_back(parent_map);
+    upload.run.parent_snapshot_id = internal::Sha256Hex(parent_map);
+  }
+  upload.snapshots.push_back(child_map);
+  upload.run.child_snapshot_id = internal::Sha256Hex(child_map);
+  upload.analysis_job = {.kind = "analyze_run", .payload = run_id, .robot_id = "robot-1"};
+  upload.map_version.robot_id = "robot-1";
+  upload.map_version.snapshot_id = *upload.run.child_snapshot_id;
+  upload.map_version.origin = MapOrigin::kUpload;
+  upload.map_version.run_id = run_id;
+  upload.map_version.approval = MapApproval::kApproved;
+  MapFindingRecord finding;
+  finding.finding_id = 1;
+  finding.summary = "a loose edge";
+  upload.findings = {finding};
+  return upload;
+}
+
+TEST_P(RepositoryContractTest, AnUploadIsStoredWholeAndARetryAddsNothing) {
+  auto stored = repo().StoreUpload(MakeUpload("run-1", "child map", "parent map"));
+  ASSERT_THAT(stored, IsOk());
+  EXPECT_EQ(stored->run, InsertOutcome::kInserted);
+  EXPECT_EQ(stored->map_version.version, 1);
+  EXPECT_EQ(stored->map_version.open_findings, 1);
+  EXPECT_EQ(repo().GetRobot("robot-1")->firmware, "fw-2.0");
+  EXPECT_EQ(repo().GetSnapshot(internal::Sha256Hex("parent map"))->bytes, "parent map");
+  EXPECT_EQ(repo().GetSnapshot(internal::Sha256Hex("child map"))->bytes, "child map");
+  EXPECT_EQ(repo().GetRun(RunKey{"robot-1", "run-1"})->telemetry, MakeRun("run-1", 10000).telemetry);
+  auto job = repo().GetJob(stored->analysis_job_id);
+  ASSERT_THAT(job, IsOk());
+  EXPECT_EQ(job->payload, "run-1");
+  EXPECT_EQ(repo().ListMapFindings("robot-1", 1)->size(), 1u);
+
+  // The same upload again (a client retrying after a lost answer): the same version, no second job.
+  auto retried = repo().StoreUpload(MakeUpload("run-1", "child map", "parent map"));
+  ASSERT_THAT(retried, IsOk());
+  EXPECT_EQ(retried->run, InsertOutcome::kAlreadyPresent);
+  EXPECT_EQ(retried->analysis_job_id, 0);
+  EXPECT_EQ(retried->map_version.version, 1);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM jobs")[0].Int(0), 1);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM map_versions")[0].Int(0), 1);
+
+  // The next run, built on the first run's map, sent by id: the parent is not sent again.
+  UploadBundle next = MakeUpload("run-2", "next child map");
+  next.run.parent_snapshot_id = internal::Sha256Hex("child map");
+  next.map_version.parent_version = 1;
+  auto second = repo().StoreUpload(next);
+  ASSERT_THAT(second, IsOk());
+  EXPECT_EQ(second->map_version.version, 2);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM snapshots")[0].Int(0), 3);
+}
+
+TEST_P(RepositoryContractTest, AnUploadThatFailsLeavesNothingBehind) {
+  ASSERT_THAT(repo().StoreUpload(MakeUpload("run-1", "child map")), IsOk());
+  const auto count = [&](const std::string& table) {
+    return RawQuery("SELECT COUNT(*) FROM " + table)[0].Int(0);
+  };
+  // A different payload under the same run id: refused before anything of it is kept, even the robot's
+  // new firmware and the new map, which were written earlier in the same transaction.
+  UploadBundle conflicting = MakeUpload("run-1", "another child map");
+  conflicting.robot.firmware = "fw-3.0";
+  EXPECT_EQ(repo().StoreUpload(conflicting).status().code(), StatusCode::kAlreadyExists);
+  // A parent map that is neither sent nor stored: the run cannot name it.
+  UploadBundle orphan = MakeUpload("run-2", "third child map");
+  orphan.run.parent_snapshot_id = std::string(64, 'a');
+  EXPECT_EQ(repo().StoreUpload(orphan).status().code(), StatusCode::kFailedPrecondition);
+  // A map version of another robot's run is no part of this upload.
+  UploadBundle mismatched = MakeUpload("run-3", "fourth child map");
+  mismatched.map_version.robot_id = "robot-2";
+  EXPECT_EQ(repo().StoreUpload(mismatched).status().code(), StatusCode::kInvalidArgument);
+
+  EXPECT_EQ(repo().GetRobot("robot-1")->firmware, "fw-2.0");
+  EXPECT_EQ(count("snapshots"), 1);
+  EXPECT_EQ(count("runs"), 1);
+  EXPECT_EQ(count("jobs"), 1);
+  EXPECT_EQ(count("map_versions"), 1);
+  EXPECT_EQ(count("map_findings"), 1);
 }
 
 TEST_P(RepositoryContractTest, RunMustNameStoredRobotAndSnapshots) {

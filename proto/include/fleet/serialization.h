@@ -10,7 +10,8 @@
 
 namespace fleet {
 
-/// The message's bytes with deterministic serialisation.
+/// The message's bytes with deterministic serialisation; empty for a message over protobuf's 2 GiB limit
+/// (protobuf cannot encode one; every input the service takes is bounded far below it).
 std::string SerializeDeterministic(const google::protobuf::Message& message);
 
 }  // namespace fleet

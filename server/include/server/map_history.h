@@ -1,7 +1,7 @@
 // Each robot's map history (docs/formats/map-versions.md): what ingest, the analysis workers, the Maps gRPC
 // service and the dashboard do with map versions, in one place.
 //
-//   upload      → RecordUpload: the run's child map becomes the robot's newest version; approved when it was
+//   upload      → StoreUpload: the run's child map becomes the robot's newest version; approved when it was
 //                 built on the current approved map, stale when on an older one (the robot is told)
 //   analysis    → OnRunAnalysed: findings from the default set's report; the repair policy may act on them
 //   engineers   → Repair (reject an edge or hypothesis, cut a protrusion, roll back, undo), Review (approve or
@@ -50,7 +50,9 @@ struct MapPolicy {
 
 MapPolicy MapPolicyOf(const FleetdConfig& config);
 
-struct UploadMapOutcome {
+struct UploadOutcome {
+  bool already_present = false;      // the same run was stored before (a retried upload)
+  std::int64_t analysis_job_id = 0;  // 0 when it was already present
   std::int64_t version = 0;          // the version the run's child map became
   std::int64_t current_version = 0;  // the robot's current approved version after the upload
   bool outdated = false;             // the run was built on a map older than the current one
@@ -124,12 +126,13 @@ class MapHistory {
  public:
   MapHistory(storage::Repository& repository, MapPolicy policy);
 
-  /// Called by ingest once the run is stored; idempotent by run id (a retried upload gets the same version).
-  /// `uploader`: the principal that sent the run ("robot:<id>" or empty: the robot itself). An engineer's
-  /// upload for a robot is recorded as the engineer's and waits for review ("pending"); an admin's is
-  /// recorded as the admin's.
-  storage::Result<UploadMapOutcome> RecordUpload(const storage::RunRecord& run, const slamcore::Map& child,
-                                                 const std::string& uploader = "");
+  /// Stores an upload (its robot, maps, run and analysis job, filled in by ingest) with the run's child map
+  /// as the robot's newest version, all in one transaction (storage::Repository::StoreUpload); idempotent by
+  /// run id (a retried upload gets the same version). `uploader`: the principal that sent the run
+  /// ("robot:<id>" or empty: the robot itself). An engineer's upload for a robot is recorded as the
+  /// engineer's and waits for review ("pending"); an admin's is recorded as the admin's.
+  storage::Result<UploadOutcome> StoreUpload(storage::UploadBundle upload, const slamcore::Map& child,
+                                             const std::string& uploader = "");
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
   /// Reads the version's map and the run's parent map from storage.
   storage::Status OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report);

@@ -164,23 +164,20 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
     if (std::none_of(versions->begin(), versions->end(), [&](const storage::MapVersionRecord& version) {
           return version.snapshot_id == parent_id;
         })) {
-      return not_held;
-    }
-    auto stored = context_.repository->GetSnapshot(parent_id);
-    if (!stored.ok()) {
-      if (stored.status().code() == storage::StatusCode::kNotFound) return not_held;
-      return ToGrpc(stored.status());
+      return not_held;  // a version's snapshot is stored (AppendMapVersion checks), so no need to read it
     }
   }
   header.set_parent_snapshot_id(parent_id);  // the stored run names its parent the same way on every retry
-  const std::string child_bytes = fleet::SerializeDeterministic(run.child_snapshot());
 
-  // Enqueue first, store second: a stored run always has its analysis job (a job whose store failed finds no
-  // run and completes as a no-op); a duplicate upload cancels its job again.
-  fleet::v1::RunFile telemetry;
-  *telemetry.mutable_header() = header;
-  *telemetry.mutable_events() = std::move(*run.mutable_events());
-  storage::RunRecord record;
+  // One transaction stores the robot, the maps, the run, its analysis job and the child map's version: a
+  // crash or an error leaves all of it or none.
+  storage::UploadBundle upload;
+  upload.robot.robot_id = header.robot_id();
+  upload.robot.robot_model = header.robot_model();
+  upload.robot.firmware = header.firmware();
+  if (!parent_bytes.empty()) upload.snapshots.push_back(std::move(parent_bytes));
+  upload.snapshots.push_back(fleet::SerializeDeterministic(run.child_snapshot()));
+  storage::RunRecord& record = upload.run;
   record.run_id = header.run_id();
   record.robot_id = header.robot_id();
   record.firmware = header.firmware();
@@ -188,54 +185,36 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   record.started_at_ms = ToMillis(header.started_at());
   record.ended_at_ms = ToMillis(header.ended_at());
   if (!parent_id.empty()) record.parent_snapshot_id = parent_id;
+  record.child_snapshot_id = Sha256Hex(upload.snapshots.back());
+  fleet::v1::RunFile telemetry;
+  *telemetry.mutable_header() = header;
+  *telemetry.mutable_events() = std::move(*run.mutable_events());
   record.telemetry = fleet::SerializeDeterministic(telemetry);
+  upload.analysis_job.kind = kAnalyzeRunJob;
+  upload.analysis_job.payload =
+      EncodeAnalyzePayload({record.robot_id, record.run_id, context_.default_parameter_set});
+  upload.analysis_job.robot_id = record.robot_id;
+  const std::string run_id = record.run_id, robot_id = record.robot_id, child_id = *record.child_snapshot_id;
 
-  storage::RobotRecord robot;
-  robot.robot_id = header.robot_id();
-  robot.robot_model = header.robot_model();
-  robot.firmware = header.firmware();
-  if (storage::Status put = context_.repository->PutRobot(robot); !put.ok()) return ToGrpc(put);
-  if (!parent_bytes.empty()) {
-    auto stored = context_.repository->PutSnapshot(parent_bytes);
-    if (!stored.ok()) return ToGrpc(stored.status());
-  }
-  auto child_id = context_.repository->PutSnapshot(child_bytes);
-  if (!child_id.ok()) return ToGrpc(child_id.status());
-  record.child_snapshot_id = *child_id;
-
-  storage::NewJob job;
-  job.kind = kAnalyzeRunJob;
-  job.payload = EncodeAnalyzePayload({record.robot_id, record.run_id, context_.default_parameter_set});
-  job.robot_id = record.robot_id;
-  auto job_id = context_.repository->EnqueueJob(job);
-  if (!job_id.ok()) return ToGrpc(job_id.status());
-
-  auto inserted = context_.repository->InsertRun(record);
-  if (!inserted.ok() || *inserted == storage::InsertOutcome::kAlreadyPresent) {
-    (void)context_.repository->CancelJob(*job_id);
-  }
-  if (!inserted.ok()) {
-    if (inserted.status().code() == storage::StatusCode::kAlreadyExists) {
-      return {grpc::StatusCode::ALREADY_EXISTS, "header.run_id: run \"" + record.run_id + "\" of robot " +
-                                                    record.robot_id + " is stored with a different payload"};
+  auto stored = MapHistory(*context_.repository, context_.map_policy)
+                    .StoreUpload(std::move(upload), *child_map, principal.name);
+  if (!stored.ok()) {
+    if (stored.status().code() == storage::StatusCode::kAlreadyExists) {
+      return {grpc::StatusCode::ALREADY_EXISTS, "header.run_id: run \"" + run_id + "\" of robot " + robot_id +
+                                                    " is stored with a different payload"};
     }
-    return ToGrpc(inserted.status());
+    return ToGrpc(stored.status());
   }
-  const bool already = *inserted == storage::InsertOutcome::kAlreadyPresent;
-  // The child map becomes a version of the robot's map; also on a retry, in case the first attempt stored the
-  // run but failed before this (RecordUpload is idempotent by run id).
-  auto map =
-      MapHistory(*context_.repository, context_.map_policy).RecordUpload(record, *child_map, principal.name);
-  if (!map.ok()) return ToGrpc(map.status());
-  response->set_run_id(record.run_id);
+  const bool already = stored->already_present;
+  response->set_run_id(run_id);
   response->set_already_present(already);
   response->set_parent_snapshot_id(parent_id);
-  response->set_child_snapshot_id(*child_id);
+  response->set_child_snapshot_id(child_id);
   response->set_events_stored(static_cast<std::uint64_t>(telemetry.events_size()));
-  response->set_analysis_job_id(already ? 0 : *job_id);
-  response->set_map_version(map->version);
-  response->set_current_map_version(map->current_version);
-  response->set_map_outdated(map->outdated);
+  response->set_analysis_job_id(stored->analysis_job_id);
+  response->set_map_version(stored->version);
+  response->set_current_map_version(stored->current_version);
+  response->set_map_outdated(stored->outdated);
   context_.metrics->Increment("fleetd_ingest_runs_total",
                               already ? "outcome=\"already_present\"" : "outcome=\"stored\"");
   context_.metrics->Increment("fleetd_ingest_bytes_total", "", static_cast<double>(bytes));
@@ -243,8 +222,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
     context_.metrics->Increment("fleetd_ingest_events_total", "", telemetry.events_size());
     if (context_.job_enqueued) context_.job_enqueued();
   }
-  log::Info("run_uploaded", {{"run_id", record.run_id},
-                             {"robot_id", record.robot_id},
+  log::Info("run_uploaded", {{"run_id", run_id},
+                             {"robot_id", robot_id},
                              {"principal", principal.name},
                              {"events", telemetry.events_size()},
                              {"bytes", static_cast<long long>(bytes)},

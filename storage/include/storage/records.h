@@ -372,6 +372,22 @@ struct MapFindingRecord {
 
 enum class InsertOutcome { kInserted, kAlreadyPresent };
 
+/// Everything one uploaded run adds, stored by Repository::StoreUpload in one transaction.
+struct UploadBundle {
+  RobotRecord robot;                   // registered, or its model and firmware updated
+  std::vector<std::string> snapshots;  // the maps' bytes (the child and a parent sent with it), deduplicated
+  RunRecord run;                       // its snapshot ids name `snapshots` or snapshots stored before
+  NewJob analysis_job;                 // enqueued only when the run is new
+  MapVersionRecord map_version;        // the child map as the robot's newest version (once per run)
+  std::vector<MapFindingRecord> findings;
+};
+
+struct StoredUpload {
+  InsertOutcome run = InsertOutcome::kInserted;
+  std::int64_t analysis_job_id = 0;  // 0 when the run was already present
+  MapVersionRecord map_version;      // as stored: its number assigned, or the run's earlier version
+};
+
 /// What Repository::DeleteRobot removed, table by table.
 struct RobotErasure {
   std::int64_t runs = 0;

@@ -81,6 +81,12 @@ class Repository {
   /// another robot's run of the same id is a different run. The robot and snapshots it names must be
   /// stored (FAILED_PRECONDITION).
   virtual Result<InsertOutcome> InsertRun(const RunRecord& run) = 0;
+  /// An upload in one transaction, so a crash or an error stores all of it or nothing: PutRobot, the new
+  /// snapshots, InsertRun, the analysis job when the run is new, and AppendMapVersion (no expected head).
+  /// A run already present with the same payload stores no second job and returns its map version; a
+  /// different payload is ALREADY_EXISTS and nothing is written. One commit instead of five is also what
+  /// makes ingest fast: each commit waits for the disk.
+  virtual Result<StoredUpload> StoreUpload(const UploadBundle& upload) = 0;
   /// The run with its telemetry (empty when retention pruned it: see telemetry_pruned_at_ms); NOT_FOUND or
   /// DATA_LOSS.
   virtual Result<RunRecord> GetRun(const RunKey& key) = 0;
