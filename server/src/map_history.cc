@@ -69,8 +69,8 @@ storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upl
   const std::int64_t newest_before = versions.empty() ? 0 : versions.back().version;
   if (stored.map_version.approval == storage::MapApproval::kApproved &&
       stored.map_version.version > newest_before) {
-    outcome.current_version =
-        stored.map_version.version;  // just made, on the current map: it is the current one now
+    // Just made, on the current map: it is the current one now.
+    outcome.current_version = stored.map_version.version;
   } else {
     // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
     ASSIGN_OR_RETURN(auto after, repository_.ListMapVersions(run.robot_id));
