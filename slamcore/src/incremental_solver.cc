@@ -132,6 +132,8 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
   in_region_.resize(graph.num_nodes(), 0);
   column_.resize(graph.num_nodes(), -1);
   original_.resize(graph.num_nodes());
+  ++updates_;  // the terms kept from earlier updates are stale
+  if (start_terms_.size() < 2 * graph.num_edges()) start_terms_.resize(2 * graph.num_edges());
   std::vector<std::size_t> region;
   for (const NodeId seed : seeds) {
     if (!graph.HasNode(seed)) continue;
@@ -467,12 +469,13 @@ std::vector<std::size_t> IncrementalSolver::MovingNeighbours(const PoseGraph& gr
   return moving;
 }
 
-Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t held) const {
+Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t held) {
   // The held node's Gauss–Newton step over its own edges, −H⁻¹g, with the region's poses as they are now
-  // and as they were when the update admitted them. Both sums run over the same edges in the same order; an
-  // edge that does not touch the region adds the same term to both, computed once.
-  Matrix3 block_now = Matrix3::Zero(), block_before = Matrix3::Zero();
-  Vector3 gradient_now = Vector3::Zero(), gradient_before = Vector3::Zero();
+  // and as they were when the update admitted them. Both sums run over the same edges in the same order.
+  // Only region nodes move during an update, and a region node's pose "as it was" is where the update found
+  // it: so an edge's term "as before", and its term "now" when it does not touch the region, is its term at
+  // the poses the update started from. That term is computed once per update and kept (start_terms_): the
+  // same held nodes are checked again after every round.
   const auto term = [&](const Edge& edge, bool region_as_before, Matrix3& block, Vector3& gradient) {
     const auto pose = [&](NodeId id) -> const SE2& {
       const std::size_t index = graph.IndexOf(id);
@@ -484,18 +487,28 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
     block = jacobian.transpose() * edge.information * jacobian;
     gradient = jacobian.transpose() * edge.information * error;
   };
+  Matrix3 block_now = Matrix3::Zero(), block_before = Matrix3::Zero();
+  Vector3 gradient_now = Vector3::Zero(), gradient_before = Vector3::Zero();
   Matrix3 block;
   Vector3 gradient;
   for (const std::uint32_t e : incident_[held]) {
     const Edge& edge = graph.edges()[e];
-    term(edge, false, block, gradient);
-    block_now += block;
-    gradient_now += gradient;
-    if (in_region_[graph.IndexOf(edge.from)] || in_region_[graph.IndexOf(edge.to)]) {
-      term(edge, true, block, gradient);
+    const std::size_t from = graph.IndexOf(edge.from), to = graph.IndexOf(edge.to);
+    StartTerm& start = start_terms_[2 * e + (from == held ? 0 : 1)];
+    if (start.update != updates_) {
+      term(edge, true, start.block, start.gradient);
+      start.update = updates_;
     }
-    block_before += block;
-    gradient_before += gradient;
+    if (in_region_[from] || in_region_[to]) {
+      term(edge, false, block, gradient);
+      block_now += block;
+      gradient_now += gradient;
+    } else {
+      block_now += start.block;
+      gradient_now += start.gradient;
+    }
+    block_before += start.block;
+    gradient_before += start.gradient;
   }
   return -block_now.ldlt().solve(gradient_now) + block_before.ldlt().solve(gradient_before);
 }

@@ -126,7 +126,7 @@ class IncrementalSolver {
   std::vector<std::size_t> MovingNeighbours(const PoseGraph& graph, const std::vector<std::size_t>& region);
   /// How much the update changed a held node's Gauss–Newton step over its own edges: the step with the
   /// region's poses as they are, less the step with them as they were.
-  Vector3 LoneStepChange(const PoseGraph& graph, std::size_t held) const;
+  Vector3 LoneStepChange(const PoseGraph& graph, std::size_t held);
 
   IncrementalSolverOptions options_;
   std::vector<std::vector<std::uint32_t>> incident_;  // node index → incident edge indices
@@ -135,6 +135,15 @@ class IncrementalSolver {
   std::vector<char> in_region_;  // by node index; all 0 between updates
   std::vector<int> column_;      // by node index: the region's columns during a solve, −1 otherwise
   std::vector<SE2> original_;    // by node index: a region node's pose when the update admitted it
+  // A held node's term (JᵀΩJ and JᵀΩe) of one edge at the poses the update started from, by 2 × edge index
+  // + (the held node is the edge's `to`); valid while `update` is the current update's number.
+  struct StartTerm {
+    Matrix3 block;
+    Vector3 gradient;
+    std::uint64_t update = 0;
+  };
+  std::vector<StartTerm> start_terms_;
+  std::uint64_t updates_ = 0;
   std::optional<ComponentFactorisation> component_factorisation_;
 };
 
