@@ -44,12 +44,24 @@ TEST(SerializationTest, TheBytesAreProtobufsDeterministicEncoding) {
   fleet::v1::RunFile parsed;
   ASSERT_TRUE(parsed.ParseFromString(bytes));
   EXPECT_EQ(fleet::SerializeDeterministic(parsed), bytes);
-  // A small message (its bytes fit in the stream's own buffer, and in the string without allocation).
-  fleet::v1::MapSnapshot small;
-  for (int k = 0; k < 3; ++k) small.add_nodes()->set_id(k);
-  EXPECT_EQ(fleet::SerializeDeterministic(small), ReferenceEncoding(small));
   // An empty message is no bytes.
   EXPECT_EQ(fleet::SerializeDeterministic(fleet::v1::MapSnapshot()), "");
+}
+
+// A small message: its bytes fit in the stream's own buffer, and in the string without an allocation.
+TEST(SerializationTest, DeterministicBytesParseBackToTheSameMessage) {
+  fleet::v1::MapSnapshot snapshot;
+  for (int k = 0; k < 3; ++k) {
+    fleet::v1::Node* node = snapshot.add_nodes();
+    node->set_id(k);
+  }
+  const std::string bytes = fleet::SerializeDeterministic(snapshot);
+  EXPECT_EQ(bytes, fleet::SerializeDeterministic(snapshot));
+  EXPECT_EQ(bytes, ReferenceEncoding(snapshot));
+  fleet::v1::MapSnapshot back;
+  ASSERT_TRUE(back.ParseFromString(bytes));
+  EXPECT_EQ(back.nodes_size(), 3);
+  EXPECT_EQ(fleet::SerializeDeterministic(back), bytes);
 }
 
 }  // namespace

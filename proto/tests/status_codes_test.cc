@@ -1,11 +1,9 @@
-// The status-code table both ways and gRPC's code names; deterministic serialisation.
+// The status-code table both ways and gRPC's code names.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "fleet/serialization.h"
 #include "fleet/status_codes.h"
-#include "fleet/v1/telemetry.pb.h"
 #include "slamcore/status.h"
 
 namespace fleet {
@@ -43,20 +41,6 @@ TEST(StatusCodesTest, EveryGrpcCodeHasItsName) {
   EXPECT_STREQ(GrpcCodeName(grpc::StatusCode::UNAUTHENTICATED), "UNAUTHENTICATED");
   EXPECT_STREQ(GrpcCodeName(-1), "UNKNOWN");
   EXPECT_STREQ(GrpcCodeName(17), "UNKNOWN");
-}
-
-TEST(SerializationTest, DeterministicBytesParseBackToTheSameMessage) {
-  v1::MapSnapshot snapshot;
-  for (int k = 0; k < 3; ++k) {
-    v1::Node* node = snapshot.add_nodes();
-    node->set_id(k);
-  }
-  const std::string bytes = SerializeDeterministic(snapshot);
-  EXPECT_EQ(bytes, SerializeDeterministic(snapshot));
-  v1::MapSnapshot back;
-  ASSERT_TRUE(back.ParseFromString(bytes));
-  EXPECT_EQ(back.nodes_size(), 3);
-  EXPECT_EQ(SerializeDeterministic(back), bytes);
 }
 
 }  // namespace
