@@ -476,14 +476,15 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
   // it: so an edge's term "as before", and its term "now" when it does not touch the region, is its term at
   // the poses the update started from. That term is computed once per update and kept (start_terms_): the
   // same held nodes are checked again after every round.
-  const auto term = [&](const Edge& edge, bool region_as_before, Matrix3& block, Vector3& gradient) {
-    const auto pose = [&](NodeId id) -> const SE2& {
-      const std::size_t index = graph.IndexOf(id);
+  // The edge's ends by graph index (`from`, `to`), looked up once per edge by the loop below.
+  const auto term = [&](const Edge& edge, std::size_t from, std::size_t to, bool region_as_before,
+                        Matrix3& block, Vector3& gradient) {
+    const auto pose = [&](std::size_t index) -> const SE2& {
       return region_as_before && in_region_[index] ? original_[index] : graph.nodes()[index].pose;
     };
     Matrix3 d_from, d_to;
-    const Vector3 error = EdgeError(pose(edge.from), pose(edge.to), edge.measurement, &d_from, &d_to);
-    const Matrix3& jacobian = graph.IndexOf(edge.from) == held ? d_from : d_to;
+    const Vector3 error = EdgeError(pose(from), pose(to), edge.measurement, &d_from, &d_to);
+    const Matrix3& jacobian = from == held ? d_from : d_to;
     block = jacobian.transpose() * edge.information * jacobian;
     gradient = jacobian.transpose() * edge.information * error;
   };
@@ -496,11 +497,11 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
     const std::size_t from = graph.IndexOf(edge.from), to = graph.IndexOf(edge.to);
     StartTerm& start = start_terms_[2 * e + (from == held ? 0 : 1)];
     if (start.update != updates_) {
-      term(edge, true, start.block, start.gradient);
+      term(edge, from, to, true, start.block, start.gradient);
       start.update = updates_;
     }
     if (in_region_[from] || in_region_[to]) {
-      term(edge, false, block, gradient);
+      term(edge, from, to, false, block, gradient);
       block_now += block;
       gradient_now += gradient;
     } else {
