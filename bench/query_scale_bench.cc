@@ -6,7 +6,9 @@
 // a fleet of --robots robots (500: the load test's fleet) over --days days (365), four firmware versions,
 // three models, so a larger fleet is more runs per robot and day. Each query is timed through FleetQueries
 // (what both transports call) as the median of --repeats calls; the robots page as the dashboard's
-// /api/robots reads it (robots, then each robot's map versions).
+// /api/robots reads it (a page of 100 robots with their histories in brief, one read), beside the way it read
+// them before (every robot, then each robot's whole history), the baseline. Every tenth run of a robot also
+// leaves a map version (mostly approved, some pending or rejected), so histories grow with the fleet's runs.
 //
 //   bin/query_scale_bench [--sizes 5000,500000] [--backends sqlite,postgres] [--repeats 15]
 #include <algorithm>
@@ -52,8 +54,30 @@ void Check(const storage::Status& status, const char* what) {
   }
 }
 
+/// Every tenth run of a robot leaves a map version of it: 1 in 7 waits for review, 1 in 13 was rejected.
+void AppendVersions(storage::Repository& repo, const std::vector<storage::RunRecord>& runs,
+                    const std::string& snapshot) {
+  for (const storage::RunRecord& run : runs) {
+    const long index = std::stol(run.run_id.substr(4));
+    if (index % 10 != 0) continue;
+    storage::MapVersionRecord version;
+    version.robot_id = run.robot_id;
+    version.snapshot_id = snapshot;
+    version.origin = storage::MapOrigin::kUpload;
+    version.run_id = run.run_id;
+    version.created_by = "robot:" + run.robot_id;
+    version.approval = index % 70 == 0    ? storage::MapApproval::kPending
+                       : index % 130 == 0 ? storage::MapApproval::kRejected
+                                          : storage::MapApproval::kApproved;
+    Check(repo.AppendMapVersion(version, std::nullopt, {}).status(), "AppendMapVersion");
+  }
+}
+
 /// Writes `count` runs (and their reports under "default" and "candidate") after the `already` written.
 void Generate(storage::Repository& repo, const Options& options, long already, long count) {
+  auto stored = repo.PutSnapshot("a map the bench's versions share");  // content-addressed: stored once
+  Check(stored.status(), "PutSnapshot");
+  const std::string snapshot = *stored;
   static const char* const kFirmware[] = {"fw-3.1", "fw-3.2", "fw-3.3", "fw-4.0"};
   static const char* const kModels[] = {"vac-s", "vac-m", "vac-l"};
   std::mt19937_64 random(static_cast<std::uint64_t>(already) + 1);
@@ -93,6 +117,7 @@ void Generate(storage::Repository& repo, const Options& options, long already, l
     }
     if (static_cast<long>(runs.size()) == kBatch || i + 1 == already + count) {
       Check(repo.InsertRuns(runs), "InsertRuns");
+      AppendVersions(repo, runs, snapshot);
       for (std::size_t from = 0; from < reports.size(); from += kBatch) {
         const auto to = std::min(reports.size(), from + kBatch);
         Check(repo.PutReports({reports.begin() + static_cast<std::ptrdiff_t>(from),
@@ -139,7 +164,14 @@ std::vector<Query> Queries(storage::Repository& repo, server::FleetQueries& quer
          query.with_regions = true;
          must(queries.Runs(engineer, query), "runs page");
        }},
-      {"robots page",
+      {"robots page (100 robots, one read)",
+       [&repo] {
+         storage::RobotSummaryQuery page;
+         page.limit = 100;
+         auto robots = repo.ListRobotSummaries(page);
+         if (!robots.ok()) Check(robots.status(), "robots page");
+       }},
+      {"robots page, before (every history)",
        [&repo] {
          auto robots = repo.ListRobots();
          if (!robots.ok()) Check(robots.status(), "robots");
@@ -157,11 +189,11 @@ void PrintTable(const std::string& backend, const Options& options, const std::v
                 const std::map<std::string, std::vector<double>>& times) {
   std::printf("\n%s, %d robots, %d days; median of %d calls; ratio = time / time at %ld runs\n",
               backend.c_str(), options.robots, options.days, options.repeats, sizes.front());
-  std::printf("%-32s", "query");
+  std::printf("%-38s", "query");
   for (const long size : sizes) std::printf(" %10ld runs", size);
   std::printf("   ratio\n");
   for (const auto& [name, medians] : times) {
-    std::printf("%-32s", name.c_str());
+    std::printf("%-38s", name.c_str());
     for (double seconds : medians) std::printf(" %12.2f ms", seconds * 1e3);
     std::printf("   %5.2f\n", medians.back() / medians.front());
   }

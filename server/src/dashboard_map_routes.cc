@@ -112,7 +112,8 @@ class MapRoutes {
         limiter_(config.rate_limit_per_second, config.rate_limit_burst) {}
 
   HttpResponse Get(const HttpRequest& request) {
-    if (http::MatchPath("/api/robots", request.path)) return Robots();
+    if (http::MatchPath("/api/robots", request.path)) return Robots(http::ParseQuery(request.query));
+    if (auto path = http::MatchPath("/api/robots/{robot}", request.path)) return Robot(path->at("robot"));
     if (auto path = http::MatchPath("/api/robots/{robot}/maps", request.path))
       return Versions(path->at("robot"));
     // The routes of one version: {version} is a number or "current".
@@ -282,29 +283,44 @@ class MapRoutes {
     return value;
   }
 
-  HttpResponse Robots() {
-    auto robots = repository_.ListRobots();
-    if (!robots.ok()) return Error(robots.status());
-    json out = json::array();
-    for (const storage::RobotRecord& robot : *robots) {
-      std::int64_t current = 0, head = 0;
-      auto versions = history_.List(robot.robot_id, &current, &head);
-      if (!versions.ok()) return Error(versions.status());
-      std::int64_t pending = 0;
-      for (const auto& version : *versions)
-        pending += version.approval_state() == fleet::v1::MAP_APPROVAL_PENDING ? 1 : 0;
-      json row = {{"robot_id", robot.robot_id}, {"robot_model", robot.robot_model},
-                  {"firmware", robot.firmware}, {"versions", versions->size()},
-                  {"current_version", current}, {"head_version", head},
-                  {"pending", pending}};
-      if (!versions->empty()) {
-        row["head_version"] = versions->back().version();
-        row["head_approval"] = Spelled(versions->back().approval_state());
-        row["open_findings"] = versions->back().open_findings();
-      }
-      out.push_back(row);
+  static json RobotJson(const storage::RobotMapSummary& summary) {
+    json row = {{"robot_id", summary.robot.robot_id},         {"robot_model", summary.robot.robot_model},
+                {"firmware", summary.robot.firmware},         {"versions", summary.versions},
+                {"current_version", summary.current_version}, {"head_version", summary.versions},
+                {"pending", summary.pending_versions}};
+    if (summary.newest_approval) {
+      row["head_approval"] = std::string(storage::Name(*summary.newest_approval));
+      row["open_findings"] = summary.newest_open_findings;
     }
-    return Json({{"robots", out}});
+    return row;
+  }
+
+  /// A page of robots in id order: ?limit=1..1000 (100), ?after=<robot id> (the previous page's
+  /// next.after), ?pending=1 for only the robots with a version waiting for review.
+  HttpResponse Robots(const std::map<std::string, std::string>& params) {
+    std::string error;
+    const auto limit = http::IntParam(params, "limit", 1, storage::kMaxRobotPage, &error);
+    const std::string pending = http::Param(params, "pending");
+    if (pending != "" && pending != "0" && pending != "1")
+      error = "pending: expected 0 or 1, got \"" + pending + "\"";
+    if (!error.empty()) return Error(400, error);
+    storage::RobotSummaryQuery query;
+    query.after_robot_id = http::Param(params, "after");
+    query.limit = static_cast<int>(limit.value_or(100));
+    query.only_pending = pending == "1";
+    auto page = repository_.ListRobotSummaries(query);
+    if (!page.ok()) return Error(page.status());
+    json robots = json::array();
+    for (const storage::RobotMapSummary& summary : page->robots) robots.push_back(RobotJson(summary));
+    json next = nullptr;
+    if (page->more) next = {{"after", page->robots.back().robot.robot_id}};
+    return Json({{"robots", robots}, {"total", page->total}, {"next", next}});
+  }
+
+  HttpResponse Robot(const std::string& robot) {
+    auto summary = repository_.GetRobotSummary(robot);
+    if (!summary.ok()) return Error(summary.status());
+    return Json(RobotJson(*summary));
   }
 
   HttpResponse Versions(const std::string& robot) {

@@ -33,34 +33,14 @@ using dashboard_json::RegionJson;
 using dashboard_json::ReportCountersJson;
 using dashboard_json::RunJson;
 using http::Error;
+using http::IntParam;
 using http::Json;
+using http::Param;
 using http::ParseInt;
 using http::ParseQuery;
 using http::SplitPath;
 
 constexpr int kMaxPageSize = 200;
-
-// ---- HTTP helpers ---------------------------------------------------------------------------------------
-
-/// Reads an integer parameter; `error` gets a message naming it when it is malformed or out of range.
-std::optional<std::int64_t> IntParam(const std::map<std::string, std::string>& params,
-                                     const std::string& name, std::int64_t low, std::int64_t high,
-                                     std::string* error) {
-  const auto it = params.find(name);
-  if (it == params.end() || it->second.empty()) return std::nullopt;
-  const auto value = ParseInt(it->second);
-  if (!value || *value < low || *value > high) {
-    *error = name + ": expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) +
-             "], got \"" + it->second + "\"";
-    return std::nullopt;
-  }
-  return value;
-}
-
-std::string Param(const std::map<std::string, std::string>& params, const std::string& name) {
-  const auto it = params.find(name);
-  return it == params.end() ? std::string() : it->second;
-}
 
 // ---- The routes ------------------------------------------------------------------------------------------
 

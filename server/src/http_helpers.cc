@@ -121,6 +121,25 @@ std::optional<std::int64_t> ParseInt(const std::string& text) {
   return value;
 }
 
+std::optional<std::int64_t> IntParam(const std::map<std::string, std::string>& params,
+                                     const std::string& name, std::int64_t low, std::int64_t high,
+                                     std::string* error) {
+  const auto it = params.find(name);
+  if (it == params.end() || it->second.empty()) return std::nullopt;
+  const auto value = ParseInt(it->second);
+  if (!value || *value < low || *value > high) {
+    *error = name + ": expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) +
+             "], got \"" + it->second + "\"";
+    return std::nullopt;
+  }
+  return value;
+}
+
+std::string Param(const std::map<std::string, std::string>& params, const std::string& name) {
+  const auto it = params.find(name);
+  return it == params.end() ? std::string() : it->second;
+}
+
 std::optional<Principal> AuthorizeRequest(Authenticator& authenticator, const HttpRequest& request,
                                           Permission permission, const std::string& what,
                                           HttpResponse* refusal) {

@@ -35,6 +35,13 @@ using PathParams = std::map<std::string, std::string>;
 std::optional<PathParams> MatchPath(const std::string& pattern, const std::string& path);
 /// A whole decimal integer, or nullopt.
 std::optional<std::int64_t> ParseInt(const std::string& text);
+/// A query parameter as an integer in [low, high]; nullopt when absent or empty, and then also when malformed
+/// or out of range, with `*error` naming the parameter and what was expected.
+std::optional<std::int64_t> IntParam(const std::map<std::string, std::string>& params,
+                                     const std::string& name, std::int64_t low, std::int64_t high,
+                                     std::string* error);
+/// A query parameter's value, empty when absent.
+std::string Param(const std::map<std::string, std::string>& params, const std::string& name);
 
 /// Authenticates the request's bearer token and checks `permission`; on failure `*refusal` is the 401/403/503
 /// response, naming `what` the caller tried ("labelling", "repairing maps").

@@ -34,6 +34,8 @@ class SqlRepository final : public Repository {
   Status PutRobot(const RobotRecord& robot) override;
   Result<RobotRecord> GetRobot(const std::string& robot_id) override;
   Result<std::vector<RobotRecord>> ListRobots() override;
+  Result<RobotSummaryPage> ListRobotSummaries(const RobotSummaryQuery& query) override;
+  Result<RobotMapSummary> GetRobotSummary(const std::string& robot_id) override;
   Status SetCredential(const std::string& principal, const std::string& secret) override;
   Result<bool> VerifyCredential(const std::string& principal, const std::string& secret) override;
   Status RevokeCredential(const std::string& principal) override;

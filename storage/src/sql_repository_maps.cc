@@ -224,6 +224,95 @@ Result<MapVersionRecord> SqlRepository::AppendMapVersion(const MapVersionRecord&
   return stored;
 }
 
+namespace {
+
+// The robots page. Each robot's figures are index probes (migration 10: map_versions (robot_id, approval,
+// version)), so a page costs the same whatever the robots' history lengths or the fleet's runs; the newest
+// version's number is its count (versions are numbered 1, 2, … and never deleted one by one).
+constexpr const char* kRobotSummarySelect =
+    "SELECT s.robot_id, s.robot_model, s.firmware, s.registered_at_ms, s.newest, s.current_version, "
+    "s.pending, n.approval, n.open_findings FROM (SELECT r.robot_id, r.robot_model, r.firmware, "
+    "r.registered_at_ms, "
+    "(SELECT MAX(v.version) FROM map_versions v WHERE v.robot_id = r.robot_id) AS newest, "
+    "(SELECT MAX(v.version) FROM map_versions v WHERE v.robot_id = r.robot_id AND v.approval = 'approved') "
+    "AS current_version, "
+    "(SELECT COUNT(*) FROM map_versions v WHERE v.robot_id = r.robot_id AND v.approval = 'pending') AS "
+    "pending "
+    "FROM robots r WHERE ";
+constexpr const char* kRobotSummaryEnd =
+    ") s LEFT JOIN map_versions n ON n.robot_id = s.robot_id AND n.version = s.newest ORDER BY s.robot_id";
+
+Result<RobotMapSummary> RobotSummaryFromRow(const SqlRow& row) {
+  RobotMapSummary summary;
+  summary.robot = RobotRecord{row.Text(0), row.Text(1), row.Text(2), row.Int(3)};
+  summary.versions = row.IsNull(4) ? 0 : row.Int(4);
+  summary.current_version = row.IsNull(5) ? 0 : row.Int(5);
+  summary.pending_versions = row.Int(6);
+  if (!row.IsNull(7)) {
+    ASSIGN_OR_RETURN(summary.newest_approval,
+                     StoredState<MapApproval>(row, 7,
+                                              "map version " + std::to_string(summary.versions) +
+                                                  " of robot " + summary.robot.robot_id));
+    summary.newest_open_findings = row.Int(8);
+  }
+  return summary;
+}
+
+Result<std::vector<RobotMapSummary>> RobotSummariesWhere(SqlTransaction& transaction,
+                                                         const std::string& where,
+                                                         const std::vector<SqlValue>& params) {
+  ASSIGN_OR_RETURN(auto rows, transaction.Query(kRobotSummarySelect + where + kRobotSummaryEnd, params));
+  std::vector<RobotMapSummary> summaries;
+  summaries.reserve(rows.size());
+  for (const SqlRow& row : rows) {
+    ASSIGN_OR_RETURN(auto summary, RobotSummaryFromRow(row));
+    summaries.push_back(std::move(summary));
+  }
+  return summaries;
+}
+
+}  // namespace
+
+Result<RobotSummaryPage> SqlRepository::ListRobotSummaries(const RobotSummaryQuery& query) {
+  if (query.limit < 1 || query.limit > kMaxRobotPage) {
+    return InvalidArgument("limit: expected 1.." + std::to_string(kMaxRobotPage) + " robots, got " +
+                           std::to_string(query.limit));
+  }
+  RETURN_IF_ERROR(CheckText(query.after_robot_id, "after_robot_id", 128));
+  // One more than the page, to tell whether another page follows. Robots waiting for review are read from
+  // the partial index of pending versions, so that filter does not walk the whole fleet.
+  const std::string where =
+      query.only_pending
+          ? "r.robot_id IN (SELECT DISTINCT robot_id FROM map_versions WHERE approval = 'pending' AND "
+            "robot_id > $1 ORDER BY robot_id LIMIT $2) ORDER BY r.robot_id"
+          : "r.robot_id > $1 ORDER BY r.robot_id LIMIT $2";
+  RobotSummaryPage page;
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(page.robots, RobotSummariesWhere(transaction, where,
+                                                      {query.after_robot_id, std::int64_t{query.limit} + 1}));
+    ASSIGN_OR_RETURN(auto total, transaction.Query(query.only_pending
+                                                       ? "SELECT COUNT(DISTINCT robot_id) FROM map_versions "
+                                                         "WHERE approval = 'pending'"
+                                                       : "SELECT COUNT(*) FROM robots",
+                                                   {}));
+    page.total = total.front().Int(0);
+    return Status::Ok();
+  }));
+  page.more = page.robots.size() > static_cast<std::size_t>(query.limit);
+  if (page.more) page.robots.pop_back();
+  return page;
+}
+
+Result<RobotMapSummary> SqlRepository::GetRobotSummary(const std::string& robot_id) {
+  std::vector<RobotMapSummary> found;
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(found, RobotSummariesWhere(transaction, "r.robot_id = $1", {robot_id}));
+    return Status::Ok();
+  }));
+  if (found.empty()) return NotFound("no robot " + robot_id);
+  return found.front();
+}
+
 Result<std::vector<MapVersionRecord>> SqlRepository::ListMapVersions(const std::string& robot_id) {
   std::vector<MapVersionRecord> versions;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {

@@ -539,6 +539,99 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   EXPECT_EQ(repo().UpdateMapVersionHealth("robot-1", 7, 0.0, {}).code(), StatusCode::kNotFound);
 }
 
+TEST_P(RepositoryContractTest, TheRobotsPageSummarisesEachHistoryAndPagesByRobot) {
+  // robot-1: v1 upload (approved), v2 repair (pending, 2 open findings), v3 rejected, v4 pending (1 open).
+  // robot-2: no versions. robot-3: v1 approved, v2 approved. robot-4: v1 pending.
+  const std::string a = *repo().PutSnapshot("map a");
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-3", "vac-l", "fw-3.0", 7000}), IsOk());
+  ASSERT_THAT(repo().PutRobot(RobotRecord{"robot-4", "vac-s", "fw-3.0", 8000}), IsOk());
+  ASSERT_EQ(*repo().InsertRun(MakeRun("run-1", 1000, 10)), InsertOutcome::kInserted);
+  ASSERT_THAT(
+      repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kUpload, "run-1"), std::nullopt, {}),
+      IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 1,
+                                      {{1, FindingKind::kProtrusion, 0.8, "r", FindingState::kOpen, "{}"},
+                                       {2, FindingKind::kProtrusion, 0.7, "s", FindingState::kOpen, "{}"}}),
+              IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2, {}), IsOk());
+  ASSERT_THAT(repo().ReviewMapVersion("robot-1", 3, false, "engineer:ana"), IsOk());
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRepair), 2,
+                                      {{1, FindingKind::kProtrusion, 0.9, "t", FindingState::kOpen, "{}"}}),
+              IsOk());
+  for (int i = 0; i < 2; ++i) {
+    MapVersionRecord approved = MakeVersion("robot-3", a, MapOrigin::kRollback);
+    approved.approval = MapApproval::kApproved;
+    ASSERT_THAT(repo().AppendMapVersion(approved, std::nullopt, {}), IsOk());
+  }
+  ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-4", a, MapOrigin::kRollback), std::nullopt, {}),
+              IsOk());
+
+  const auto Page = [](const std::string& after, int limit, bool only_pending) {
+    RobotSummaryQuery query;
+    query.after_robot_id = after;
+    query.limit = limit;
+    query.only_pending = only_pending;
+    return query;
+  };
+  auto all = repo().ListRobotSummaries(RobotSummaryQuery{});
+  ASSERT_THAT(all, IsOk());
+  EXPECT_EQ(all->total, 4);
+  EXPECT_FALSE(all->more);
+  ASSERT_EQ(all->robots.size(), 4u);
+  const RobotMapSummary& one = all->robots[0];
+  EXPECT_EQ(one.robot.robot_id, "robot-1");
+  EXPECT_EQ(one.versions, static_cast<std::int64_t>(repo().ListMapVersions("robot-1")->size()));
+  EXPECT_EQ(one.versions, 4);
+  EXPECT_EQ(one.current_version, 1) << "the newest approved version";
+  EXPECT_EQ(one.pending_versions, 2);
+  EXPECT_EQ(one.newest_approval, MapApproval::kPending);
+  EXPECT_EQ(one.newest_open_findings, 1) << "the newest version's, not v2's";
+  const RobotMapSummary& two = all->robots[1];
+  EXPECT_EQ(two.robot.robot_model, "vac-s");
+  EXPECT_EQ(two.versions, 0);
+  EXPECT_EQ(two.current_version, 0);
+  EXPECT_FALSE(two.newest_approval.has_value());
+  EXPECT_EQ(all->robots[2].current_version, 2);
+  EXPECT_EQ(all->robots[2].pending_versions, 0);
+  EXPECT_EQ(all->robots[2].newest_approval, MapApproval::kApproved);
+  EXPECT_EQ(all->robots[3].robot.firmware, "fw-3.0");
+  EXPECT_EQ(all->robots[3].current_version, 0);
+
+  // Keyset pages of two: robot-1, robot-2, then robot-3, robot-4 and no more.
+  auto first = repo().ListRobotSummaries(Page("", 2, false));
+  ASSERT_THAT(first, IsOk());
+  ASSERT_EQ(first->robots.size(), 2u);
+  EXPECT_TRUE(first->more);
+  auto second = repo().ListRobotSummaries(Page(first->robots.back().robot.robot_id, 2, false));
+  ASSERT_THAT(second, IsOk());
+  ASSERT_EQ(second->robots.size(), 2u);
+  EXPECT_EQ(second->robots[0].robot.robot_id, "robot-3");
+  EXPECT_FALSE(second->more);
+
+  // Only robots waiting for review: robot-1 and robot-4, paged the same way.
+  auto pending = repo().ListRobotSummaries(Page("", 1, true));
+  ASSERT_THAT(pending, IsOk());
+  EXPECT_EQ(pending->total, 2);
+  ASSERT_EQ(pending->robots.size(), 1u);
+  EXPECT_EQ(pending->robots[0].robot.robot_id, "robot-1");
+  EXPECT_TRUE(pending->more);
+  pending = repo().ListRobotSummaries(Page("robot-1", 1, true));
+  ASSERT_THAT(pending, IsOk());
+  ASSERT_EQ(pending->robots.size(), 1u);
+  EXPECT_EQ(pending->robots[0].robot.robot_id, "robot-4");
+  EXPECT_FALSE(pending->more);
+
+  auto single = repo().GetRobotSummary("robot-3");
+  ASSERT_THAT(single, IsOk());
+  EXPECT_EQ(single->versions, 2);
+  EXPECT_EQ(repo().GetRobotSummary("robot-9").status().code(), StatusCode::kNotFound);
+  for (const int limit : {0, -1, kMaxRobotPage + 1}) {
+    auto refused = repo().ListRobotSummaries(Page("", limit, false));
+    EXPECT_EQ(refused.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_THAT(refused.status().message(), ::testing::HasSubstr("limit"));
+  }
+}
+
 TEST_P(RepositoryContractTest, AMapVersionBasedOnAnOldHeadIsAborted) {
   const std::string a = *repo().PutSnapshot("map a");
   ASSERT_THAT(repo().AppendMapVersion(MakeVersion("robot-1", a, MapOrigin::kRollback), std::nullopt, {}),

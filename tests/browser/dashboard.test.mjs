@@ -553,6 +553,24 @@ test('maps: two map_server saves of one home uploaded on its map page (YAML + im
   assert.equal((await fleet.getJson(server, mapsApi(home))).versions.length, 2);
 });
 
+test('maps: the robots page lists only the robots waiting for review when asked, a page at a time', async () => {
+  const { robots, total } = await fleet.getJson(server, '/api/robots');
+  assert.equal(total, robots.length);
+  const waiting = robots.filter((r) => r.pending > 0).map((r) => r.robot_id);
+  assert.ok(waiting.length >= 1, 'the repairs above left a version waiting for review');
+  assert.equal(await visit('/maps?pending=1'), 'ready');
+  assert.ok(await page.getByTestId('pending-only').isChecked());
+  const rows = await page.getByTestId('robot-row').evaluateAll((all) => all.map((r) => r.dataset.robot));
+  assert.deepEqual(rows, waiting);
+  await page.getByTestId('pending-only').uncheck();
+  await page.waitForFunction((n) => document.querySelector('main').dataset.state === 'ready' &&
+    document.querySelectorAll('[data-testid=robot-row]').length === n, robots.length);
+  // One robot per page: the pager walks the fleet in robot-id order.
+  const first = await fleet.getJson(server, '/api/robots?limit=1');
+  assert.equal(first.robots.length, 1);
+  assert.equal(first.next.after, robots[0].robot_id);
+});
+
 test('error states: a missing run and an unknown endpoint', async () => {
   assert.equal(await visit('/runs/no-such-run'), 'error');
   assert.match(await page.getByTestId('error-state').innerText(), /HTTP 404/);

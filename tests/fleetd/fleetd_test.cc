@@ -867,5 +867,53 @@ TEST_F(FleetdTest, GrpcAndHttpAnswerTheSameNumbersForTheSameSlice) {
   }
 }
 
+// The robots page is paged by robot id and summarises each history as the robot's own history page does.
+TEST_F(FleetdTest, TheRobotsPagePagesByRobotAndAgreesWithEachHistory) {
+  UploadAll();
+  std::set<std::string> uploaded;
+  for (const RunFile& run : SimulatedRuns()) uploaded.insert(run.header().robot_id());
+  ASSERT_GE(uploaded.size(), 2u);
+  std::string body;
+  std::vector<std::string> listed;
+  std::int64_t versions = 0;
+  std::string after;
+  for (int page = 0; page < 100; ++page) {
+    const std::string path = "/api/robots?limit=1" + (after.empty() ? "" : "&after=" + after);
+    ASSERT_EQ(HttpGet(server_->http_address(), path, &body, *engineer_), 200) << body;
+    const auto answer = nlohmann::json::parse(body);
+    ASSERT_EQ(answer["robots"].size(), 1u) << body;
+    const auto& robot = answer["robots"][0];
+    const std::string id = robot["robot_id"].get<std::string>();
+    listed.push_back(id);
+    versions += robot["versions"].get<std::int64_t>();
+    // The row agrees with the robot's own history and with its one-robot summary.
+    ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + id + "/maps", &body, *engineer_), 200)
+        << body;
+    const auto history = nlohmann::json::parse(body);
+    EXPECT_EQ(robot["versions"].get<std::size_t>(), history["versions"].size()) << id;
+    EXPECT_EQ(robot["current_version"].get<std::int64_t>(), history["current_version"].get<std::int64_t>());
+    ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + id, &body, *engineer_), 200) << body;
+    EXPECT_EQ(nlohmann::json::parse(body), robot);
+    EXPECT_EQ(answer["total"].get<std::size_t>(), uploaded.size());
+    if (answer["next"].is_null()) break;
+    after = answer["next"]["after"].get<std::string>();
+    EXPECT_EQ(after, id);
+  }
+  EXPECT_EQ(std::set<std::string>(listed.begin(), listed.end()), uploaded);
+  EXPECT_EQ(listed.size(), uploaded.size()) << "each robot on exactly one page";
+  EXPECT_TRUE(std::is_sorted(listed.begin(), listed.end()));
+  EXPECT_GE(versions, static_cast<std::int64_t>(uploaded.size())) << "every robot's uploads made versions";
+
+  // A robot reads its own row, never the fleet's; bad parameters are named.
+  const std::string own = *uploaded.begin();
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots/" + own, &body, RobotToken(own)), 200) << body;
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots?limit=5", &body, RobotToken(own)), 403) << body;
+  EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots/no-such-robot", &body, *engineer_), 404) << body;
+  for (const std::string query : {"limit=0", "limit=1001", "limit=x", "pending=yes"}) {
+    EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots?" + query, &body, *engineer_), 400) << query;
+    EXPECT_NE(body.find(query.substr(0, query.find('='))), std::string::npos) << body;
+  }
+}
+
 }  // namespace
 }  // namespace fleetd_test

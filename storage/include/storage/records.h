@@ -359,6 +359,32 @@ struct MapVersionRecord {
 
 inline constexpr std::size_t kMaxMapMetadataBytes = 16u << 20;
 
+/// A robot and its map history in brief: one row of the fleet's robots page. Versions are numbered 1, 2, …
+/// per robot and never deleted one by one, so the count is also the newest version's number.
+struct RobotMapSummary {
+  RobotRecord robot;
+  std::int64_t versions = 0;
+  std::int64_t current_version = 0;            // the newest approved version; 0 when none is approved
+  std::int64_t pending_versions = 0;           // versions waiting for an engineer's review
+  std::optional<MapApproval> newest_approval;  // the newest version's state; none without versions
+  std::int64_t newest_open_findings = 0;
+};
+
+inline constexpr int kMaxRobotPage = 1000;
+
+/// A page of robots in robot_id order (keyset: robots after `after_robot_id`).
+struct RobotSummaryQuery {
+  std::string after_robot_id;
+  int limit = 100;            // 1..kMaxRobotPage
+  bool only_pending = false;  // only robots with a version waiting for review
+};
+
+struct RobotSummaryPage {
+  std::vector<RobotMapSummary> robots;
+  bool more = false;       // robots after the last one listed match too
+  std::int64_t total = 0;  // robots matching the query on all pages
+};
+
 /// Something the analysis flags on one map version; `detail_json` is the whole finding as the server
 /// describes it (evidence, what a repair would act on), opaque to storage.
 struct MapFindingRecord {

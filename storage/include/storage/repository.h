@@ -39,6 +39,11 @@ class Repository {
   /// NOT_FOUND when no such robot.
   virtual Result<RobotRecord> GetRobot(const std::string& robot_id) = 0;
   virtual Result<std::vector<RobotRecord>> ListRobots() = 0;
+  /// A page of robots with their map histories in brief, in one read whose cost follows the page, not the
+  /// fleet's runs or the robots' history lengths. INVALID_ARGUMENT for a limit outside 1..kMaxRobotPage.
+  virtual Result<RobotSummaryPage> ListRobotSummaries(const RobotSummaryQuery& query) = 0;
+  /// One robot's row of that page; NOT_FOUND when no such robot.
+  virtual Result<RobotMapSummary> GetRobotSummary(const std::string& robot_id) = 0;
   /// Stores a salted SHA-256 of `secret` for `principal` (a robot or a user), replacing the previous one.
   /// The secret itself is never stored. Secrets are tokens of 256 random bits (server/auth.h), so a fast
   /// hash suffices and makes checking cheap. Credentials stored as PBKDF2 by older versions are still

@@ -11,9 +11,13 @@ export async function render(main, { args, isCurrent }) {
     if (error instanceof ApiError && error.status === 404) return { versions: [], current_version: 0 };
     throw error;
   };
-  const [history, { robots }] = await Promise.all([getJson(robotMapsPath(robotId)).catch(noHistory), getJson('/api/robots')]);
+  const noRobot = (error) => {
+    if (error instanceof ApiError && error.status === 404) return null;
+    throw error;
+  };
+  const [history, robot] = await Promise.all([getJson(robotMapsPath(robotId)).catch(noHistory),
+    getJson(`/api/robots/${encodeURIComponent(robotId)}`).catch(noRobot)]);
   if (!isCurrent()) return;
-  const robot = robots.find((r) => r.robot_id === robotId);
   const versions = history.versions;
   const open = (version) => { go(versionHash(robotId, version.version)); };
   main.append(h('p', { class: 'muted' }, h('a', { href: '#/maps' }, '← Maps')),
