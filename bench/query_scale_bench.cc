@@ -259,6 +259,11 @@ int main(int argc, char** argv) {
       PrintTable(backend, options, {options.sizes.begin(), options.sizes.begin() + measured}, times);
     }
     std::printf("\n");
+    repo->reset();
+    if (url->rfind("sqlite:", 0) == 0) {  // the fleet's file is hundreds of MB: not left behind
+      std::error_code ignored;
+      std::filesystem::remove_all(std::filesystem::path(url->substr(7)).parent_path(), ignored);
+    }
   }
   return 0;
 }
