@@ -8,7 +8,9 @@
 // (what both transports call) as the median of --repeats calls; the robots page as the dashboard's
 // /api/robots reads it (a page of 100 robots with their histories in brief, one read), beside the way it read
 // them before (every robot, then each robot's whole history), the baseline. Every tenth run of a robot also
-// leaves a map version (mostly approved, some pending or rejected), so histories grow with the fleet's runs.
+// leaves a map version (mostly approved, some pending or rejected), so histories grow with the fleet's runs;
+// a robot's current version (what it reads before every run) is timed beside the whole-history read it
+// replaced.
 //
 //   bin/query_scale_bench [--sizes 5000,500000] [--backends sqlite,postgres] [--repeats 15]
 #include <algorithm>
@@ -23,6 +25,7 @@
 #include <vector>
 
 #include "server/fleet_queries.h"
+#include "server/map_history.h"
 #include "storage/repository.h"
 #include "test_databases.h"
 
@@ -66,9 +69,9 @@ void AppendVersions(storage::Repository& repo, const std::vector<storage::RunRec
     version.origin = storage::MapOrigin::kUpload;
     version.run_id = run.run_id;
     version.created_by = "robot:" + run.robot_id;
-    version.approval = index % 70 == 0    ? storage::MapApproval::kPending
-                       : index % 130 == 0 ? storage::MapApproval::kRejected
-                                          : storage::MapApproval::kApproved;
+    version.approval = index % 70 == 30    ? storage::MapApproval::kPending
+                       : index % 130 == 50 ? storage::MapApproval::kRejected
+                                           : storage::MapApproval::kApproved;
     Check(repo.AppendMapVersion(version, std::nullopt, {}).status(), "AppendMapVersion");
   }
 }
@@ -180,6 +183,27 @@ std::vector<Query> Queries(storage::Repository& repo, server::FleetQueries& quer
            if (!versions.ok()) Check(versions.status(), "map versions");
          }
        }},
+      // What a robot reads before every run (Maps.GetMap's lookup), for a robot whose history grows with the
+      // fleet, beside the whole-history read it replaced.
+      {"robot's current map version",
+       [&repo] {
+         server::MapHistory history(repo, server::MapPolicy{});
+         auto current = history.Get("robot-7", 0);
+         if (!current.ok()) Check(current.status(), "current version");
+       }},
+      {"robot's current map version, before (history)",
+       [&repo] {
+         auto versions = repo.ListMapVersions("robot-7");
+         if (!versions.ok()) Check(versions.status(), "map versions");
+         const auto current = std::find_if(versions->rbegin(), versions->rend(), [](const auto& version) {
+           return version.approval == storage::MapApproval::kApproved;
+         });
+         if (current == versions->rend()) Check(storage::NotFound("no current version"), "current version");
+         auto findings = repo.ListMapFindings("robot-7", current->version);
+         if (!findings.ok()) Check(findings.status(), "findings");
+         auto metadata = repo.GetMapMetadata("robot-7", current->version);
+         if (!metadata.ok()) Check(metadata.status(), "metadata");
+       }},
       {"compare default vs candidate",
        [=, &queries] { must(queries.Compare(engineer, {}, "default", "candidate", 15), "compare"); }},
   };
@@ -189,11 +213,11 @@ void PrintTable(const std::string& backend, const Options& options, const std::v
                 const std::map<std::string, std::vector<double>>& times) {
   std::printf("\n%s, %d robots, %d days; median of %d calls; ratio = time / time at %ld runs\n",
               backend.c_str(), options.robots, options.days, options.repeats, sizes.front());
-  std::printf("%-38s", "query");
+  std::printf("%-48s", "query");
   for (const long size : sizes) std::printf(" %10ld runs", size);
   std::printf("   ratio\n");
   for (const auto& [name, medians] : times) {
-    std::printf("%-38s", name.c_str());
+    std::printf("%-48s", name.c_str());
     for (double seconds : medians) std::printf(" %12.2f ms", seconds * 1e3);
     std::printf("   %5.2f\n", medians.back() / medians.front());
   }

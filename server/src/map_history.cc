@@ -31,8 +31,9 @@ storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upl
                                                        const std::string& uploader) {
   const storage::RunRecord& run = upload.run;
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
-  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(run.robot_id));
-  const storage::MapVersionRecord* current = Current(versions);
+  // Index probes, not the robot's history: an upload costs the same on a map's first day and its thousandth.
+  ASSIGN_OR_RETURN(const std::optional<storage::MapVersionRecord> current,
+                   repository_.GetCurrentMapVersion(run.robot_id));
   ASSIGN_OR_RETURN(auto record, NewVersion(child, *run.child_snapshot_id, /*with_known_area=*/false));
   record.robot_id = run.robot_id;
   record.origin = storage::MapOrigin::kUpload;
@@ -42,15 +43,13 @@ storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upl
   // is a map a person made, and goes through review like a repair.
   const bool needs_review = uploader.rfind("engineer:", 0) == 0;
   const std::string parent = run.parent_snapshot_id.value_or("");
-  for (auto it = versions.rbegin(); it != versions.rend() && !parent.empty(); ++it) {
-    if (it->snapshot_id == parent) {
-      record.parent_version = it->version;
-      break;
-    }
+  if (!parent.empty()) {
+    ASSIGN_OR_RETURN(const auto parent_version, repository_.FindMapVersionOfSnapshot(run.robot_id, parent));
+    if (parent_version) record.parent_version = parent_version->version;
   }
   // Built on the current map (or there is none yet): this is the robot's map now. Built on an older one: kept
   // in the history, but the robot should take the current version instead.
-  const bool outdated = current != nullptr && current->snapshot_id != parent;
+  const bool outdated = current.has_value() && current->snapshot_id != parent;
   record.approval = outdated       ? storage::MapApproval::kStale
                     : needs_review ? storage::MapApproval::kPending
                                    : storage::MapApproval::kApproved;
@@ -66,15 +65,12 @@ storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upl
   outcome.already_present = stored.run == storage::InsertOutcome::kAlreadyPresent;
   outcome.analysis_job_id = stored.analysis_job_id;
   outcome.version = stored.map_version.version;
-  const std::int64_t newest_before = versions.empty() ? 0 : versions.back().version;
-  if (stored.map_version.approval == storage::MapApproval::kApproved &&
-      stored.map_version.version > newest_before) {
-    // Just made, on the current map: it is the current one now.
+  if (stored.map_version.approval == storage::MapApproval::kApproved && !outcome.already_present) {
+    // Just made (a new run's version is made in its transaction), on the current map: the current one now.
     outcome.current_version = stored.map_version.version;
   } else {
-    // Stale, or a retried upload's earlier version: the current map is whatever the history says now.
-    ASSIGN_OR_RETURN(auto after, repository_.ListMapVersions(run.robot_id));
-    const storage::MapVersionRecord* now_current = Current(after);
+    // Stale, pending, or a retried upload's earlier version: the current map is whatever the history says now.
+    ASSIGN_OR_RETURN(const auto now_current, repository_.GetCurrentMapVersion(run.robot_id));
     outcome.current_version = now_current ? now_current->version : 0;
   }
   outcome.outdated = outcome.current_version != stored.map_version.version;
@@ -220,17 +216,25 @@ storage::Result<std::array<double, 4>> MapHistory::CutBox(const std::string& rob
 
 storage::Result<storage::MapVersionRecord> MapHistory::Resolve(const std::string& robot_id,
                                                                std::int64_t version) {
-  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
-  return Find(versions, robot_id, version);
+  if (version < 0)
+    return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
+  if (version > 0) return repository_.GetMapVersion(robot_id, version);
+  // The current version, as a robot asks for it before every run: an index probe, not its history.
+  ASSIGN_OR_RETURN(auto current, repository_.GetCurrentMapVersion(robot_id));
+  if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
+  return *std::move(current);
 }
 
 storage::Result<MapVersionDetail> MapHistory::Get(const std::string& robot_id, std::int64_t version,
                                                   fleet::v1::MapSnapshot* snapshot) {
-  ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(robot_id));
-  const storage::MapVersionRecord* current = Current(versions);
-  ASSIGN_OR_RETURN(auto record, Find(versions, robot_id, version));
+  ASSIGN_OR_RETURN(auto record, Resolve(robot_id, version));
+  bool is_current = version == 0;
+  if (!is_current && record.approval == storage::MapApproval::kApproved) {
+    ASSIGN_OR_RETURN(const auto current, repository_.GetCurrentMapVersion(robot_id));
+    is_current = current && current->version == record.version;
+  }
   MapVersionDetail detail;
-  detail.version = ToProto(record, current && current->version == record.version);
+  detail.version = ToProto(record, is_current);
   ASSIGN_OR_RETURN(auto findings, repository_.ListMapFindings(robot_id, record.version));
   ASSIGN_OR_RETURN(auto parsed, FromRecords(findings));
   detail.findings = std::move(parsed);

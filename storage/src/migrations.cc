@@ -438,10 +438,12 @@ CREATE INDEX jobs_by_kind_state ON jobs (kind, state, job_id);
       R"sql(
 ALTER TABLE protrusion_regions ADD COLUMN decided_by TEXT NOT NULL DEFAULT '';
 )sql",
-      // 10: the robots page reads each robot's newest, current (newest approved) and pending versions by index
-      // probes instead of walking its history; robots waiting for review come from the partial index.
+      // 10: a robot's newest, current (newest approved) and pending versions, and the version holding a
+      // snapshot, are index probes instead of walks of its history (the robots page, GetMap, every upload);
+      // robots waiting for review come from the partial index.
       R"sql(
 CREATE INDEX map_versions_by_approval ON map_versions (robot_id, approval, version);
+CREATE INDEX map_versions_by_snapshot ON map_versions (robot_id, snapshot_id, version);
 CREATE INDEX map_versions_pending ON map_versions (robot_id) WHERE approval = 'pending';
 )sql",
   };

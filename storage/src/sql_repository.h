@@ -92,6 +92,9 @@ class SqlRepository final : public Repository {
                                             std::optional<std::int64_t> expected_head,
                                             const std::vector<MapFindingRecord>& findings) override;
   Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) override;
+  Result<std::optional<MapVersionRecord>> GetCurrentMapVersion(const std::string& robot_id) override;
+  Result<std::optional<MapVersionRecord>> FindMapVersionOfSnapshot(const std::string& robot_id,
+                                                                   const std::string& snapshot_id) override;
   Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) override;
   Result<MapVersionRecord> GetMapVersionOfRun(const RunKey& run) override;
@@ -127,6 +130,10 @@ class SqlRepository final : public Repository {
     return status;
   }
   void NoteWriteFailure(const Status& status);
+  /// The robot's ($1) newest version meeting `condition` (SQL over map_versions' columns, its parameters from
+  /// $2 on).
+  Result<std::optional<MapVersionRecord>> NewestMapVersionWhere(const std::string& condition,
+                                                                const std::vector<SqlValue>& params);
   Status Read(const std::function<Status(SqlTransaction&)>& body) {
     return database_->InTransaction(TransactionMode::kRead, body);
   }

@@ -340,6 +340,30 @@ Result<MapVersionRecord> SqlRepository::GetMapVersion(const std::string& robot_i
   return *found;
 }
 
+Result<std::optional<MapVersionRecord>> SqlRepository::NewestMapVersionWhere(
+    const std::string& condition, const std::vector<SqlValue>& params) {
+  std::optional<MapVersionRecord> found;
+  RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {
+    ASSIGN_OR_RETURN(auto rows, transaction.Query(std::string(kVersionColumns) + "WHERE robot_id = $1 AND " +
+                                                      condition + " ORDER BY version DESC LIMIT 1",
+                                                  params));
+    if (!rows.empty()) {
+      ASSIGN_OR_RETURN(found, VersionFromRow(rows.front()));
+    }
+    return Status::Ok();
+  }));
+  return found;
+}
+
+Result<std::optional<MapVersionRecord>> SqlRepository::GetCurrentMapVersion(const std::string& robot_id) {
+  return NewestMapVersionWhere("approval = 'approved'", {robot_id});
+}
+
+Result<std::optional<MapVersionRecord>> SqlRepository::FindMapVersionOfSnapshot(
+    const std::string& robot_id, const std::string& snapshot_id) {
+  return NewestMapVersionWhere("snapshot_id = $2", {robot_id, snapshot_id});
+}
+
 Result<std::string> SqlRepository::GetMapMetadata(const std::string& robot_id, std::int64_t version) {
   std::optional<SqlRow> row;
   RETURN_IF_ERROR(Read([&](SqlTransaction& transaction) -> Status {

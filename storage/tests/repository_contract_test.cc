@@ -539,6 +539,32 @@ TEST_P(RepositoryContractTest, MapVersionsNumberPerRobotWithLineageAndFindings) 
   EXPECT_EQ(repo().UpdateMapVersionHealth("robot-1", 7, 0.0, {}).code(), StatusCode::kNotFound);
 }
 
+TEST_P(RepositoryContractTest, TheCurrentVersionAndTheVersionOfASnapshotAreTheNewestThatFit) {
+  const std::string a = *repo().PutSnapshot("map a"), b = *repo().PutSnapshot("map b");
+  EXPECT_FALSE(repo().GetCurrentMapVersion("robot-1")->has_value()) << "no versions yet";
+  EXPECT_FALSE(repo().GetCurrentMapVersion("robot-9")->has_value()) << "no such robot: no current version";
+  // v1 a approved, v2 b approved, v3 a pending, v4 b rejected.
+  for (const auto& [snapshot, approval] :
+       std::vector<std::pair<std::string, MapApproval>>{{a, MapApproval::kApproved},
+                                                        {b, MapApproval::kApproved},
+                                                        {a, MapApproval::kPending},
+                                                        {b, MapApproval::kPending}}) {
+    MapVersionRecord version = MakeVersion("robot-1", snapshot, MapOrigin::kRollback);
+    version.approval = approval;
+    ASSERT_THAT(repo().AppendMapVersion(version, std::nullopt, {}), IsOk());
+  }
+  ASSERT_THAT(repo().ReviewMapVersion("robot-1", 4, false, "engineer:ana"), IsOk());
+  auto current = repo().GetCurrentMapVersion("robot-1");
+  ASSERT_THAT(current, IsOk());
+  ASSERT_TRUE(current->has_value());
+  EXPECT_EQ((*current)->version, 2) << "the newest approved, not the newest";
+  EXPECT_EQ((*current)->snapshot_id, b);
+  EXPECT_EQ((*repo().FindMapVersionOfSnapshot("robot-1", a))->version, 3);
+  EXPECT_EQ((*repo().FindMapVersionOfSnapshot("robot-1", b))->version, 4) << "whatever its approval";
+  EXPECT_FALSE(repo().FindMapVersionOfSnapshot("robot-2", a)->has_value()) << "another robot's versions";
+  EXPECT_FALSE(repo().FindMapVersionOfSnapshot("robot-1", std::string(64, 'f'))->has_value());
+}
+
 TEST_P(RepositoryContractTest, TheRobotsPageSummarisesEachHistoryAndPagesByRobot) {
   // robot-1: v1 upload (approved), v2 repair (pending, 2 open findings), v3 rejected, v4 pending (1 open).
   // robot-2: no versions. robot-3: v1 approved, v2 approved. robot-4: v1 pending.

@@ -159,13 +159,10 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
                                 "header.parent_snapshot_id: snapshot " + parent_id +
                                     " is not stored for robot " + header.robot_id() +
                                     "; send parent_snapshot in the stream"};
-    auto versions = context_.repository->ListMapVersions(header.robot_id());
-    if (!versions.ok()) return ToGrpc(versions.status());
-    if (std::none_of(versions->begin(), versions->end(), [&](const storage::MapVersionRecord& version) {
-          return version.snapshot_id == parent_id;
-        })) {
-      return not_held;  // a version's snapshot is stored (AppendMapVersion checks), so no need to read it
-    }
+    auto holder = context_.repository->FindMapVersionOfSnapshot(header.robot_id(), parent_id);
+    if (!holder.ok()) return ToGrpc(holder.status());
+    // A version's snapshot is stored (AppendMapVersion checks), so there is no need to read it.
+    if (!holder->has_value()) return not_held;
   }
   header.set_parent_snapshot_id(parent_id);  // the stored run names its parent the same way on every retry
 

@@ -171,6 +171,12 @@ class Repository {
   /// The robot's versions, oldest first (empty when it has none).
   virtual Result<std::vector<MapVersionRecord>> ListMapVersions(const std::string& robot_id) = 0;
   virtual Result<MapVersionRecord> GetMapVersion(const std::string& robot_id, std::int64_t version) = 0;
+  /// The robot's newest approved version (the map it should run on), none when no version is approved. An
+  /// index probe, whatever the history's length: what a robot's daily GetMap and upload read.
+  virtual Result<std::optional<MapVersionRecord>> GetCurrentMapVersion(const std::string& robot_id) = 0;
+  /// The robot's newest version holding `snapshot_id`, none when no version of this robot holds it.
+  virtual Result<std::optional<MapVersionRecord>> FindMapVersionOfSnapshot(
+      const std::string& robot_id, const std::string& snapshot_id) = 0;
   /// The metadata stored with a version (MapVersionRecord::metadata); empty when it has none or there is no
   /// such version. DATA_LOSS when the stored bytes are corrupt.
   virtual Result<std::string> GetMapMetadata(const std::string& robot_id, std::int64_t version) = 0;
