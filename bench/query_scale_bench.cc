@@ -8,7 +8,7 @@
 // (what both transports call) as the median of --repeats calls; the robots page as the dashboard's
 // /api/robots reads it (a page of 100 robots with their histories in brief, one read), beside the way it read
 // them before (every robot, then each robot's whole history), the baseline. Every tenth run of a robot also
-// leaves a map version (mostly approved, some pending or rejected), so histories grow with the fleet's runs;
+// leaves a map version (mostly approved, some stale, a few pending), so histories grow with the fleet's runs;
 // a robot's current version (what it reads before every run) is timed beside the whole-history read it
 // replaced.
 //
@@ -57,21 +57,24 @@ void Check(const storage::Status& status, const char* what) {
   }
 }
 
-/// Every tenth run of a robot leaves a map version of it: 1 in 7 waits for review, 1 in 13 was rejected.
+/// Every tenth run of a robot leaves a map version of it, as fleets make them: robots' own uploads are
+/// approved, 1 in 7 is stale (built on a map the robot no longer ran), and one robot in 25 has a version still
+/// waiting for an engineer's review (an early repair nobody looked at).
 void AppendVersions(storage::Repository& repo, const std::vector<storage::RunRecord>& runs,
                     const std::string& snapshot) {
   for (const storage::RunRecord& run : runs) {
     const long index = std::stol(run.run_id.substr(4));
     if (index % 10 != 0) continue;
+    const long robot = std::stol(run.robot_id.substr(6));
     storage::MapVersionRecord version;
     version.robot_id = run.robot_id;
     version.snapshot_id = snapshot;
     version.origin = storage::MapOrigin::kUpload;
     version.run_id = run.run_id;
     version.created_by = "robot:" + run.robot_id;
-    version.approval = index % 70 == 30    ? storage::MapApproval::kPending
-                       : index % 130 == 50 ? storage::MapApproval::kRejected
-                                           : storage::MapApproval::kApproved;
+    version.approval = index == 30 && robot % 25 == 0 ? storage::MapApproval::kPending
+                       : index % 70 == 50             ? storage::MapApproval::kStale
+                                                      : storage::MapApproval::kApproved;
     Check(repo.AppendMapVersion(version, std::nullopt, {}).status(), "AppendMapVersion");
   }
 }
