@@ -202,9 +202,18 @@ storage::Result<Comparison> FleetQueries::Compare(const Principal& caller, const
   }
   out.by_firmware.assign(by_firmware.begin(), by_firmware.end());
 
+  // A set with few reports in the slice (a candidate tried on part of the fleet) is walked itself: walking
+  // the slice's runs for its pairs would cost the whole slice. Two sets that both cover the slice are
+  // walked by run, which finds a pair at nearly every step.
+  const std::int64_t reports_a = out.a.counts.reports, reports_b = out.b.counts.reports;
+  storage::ReportPairScan scan = storage::ReportPairScan::kRunsInStartOrder;
+  if (std::min(reports_a, reports_b) <= kCompareScanLimit) {
+    scan = reports_a <= reports_b ? storage::ReportPairScan::kReportsOfSetA
+                                  : storage::ReportPairScan::kReportsOfSetB;
+  }
   std::optional<storage::RunCursor> after;
   do {
-    ASSIGN_OR_RETURN(auto page, repository_.ListReportPairs(scoped, set_a, set_b, 500, after));
+    ASSIGN_OR_RETURN(auto page, repository_.ListReportPairs(scoped, set_a, set_b, 1000, after, scan));
     for (auto& pair : page.pairs) {
       if (out.runs_compared >= kCompareScanLimit) {
         out.scan_truncated = true;

@@ -81,7 +81,7 @@ class SqlRepository final : public Repository {
   Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) override;
   Result<ReportPairPage> ListReportPairs(const RunFilter& filter, const std::string& set_a,
                                          const std::string& set_b, int page_size,
-                                         const std::optional<RunCursor>& after) override;
+                                         const std::optional<RunCursor>& after, ReportPairScan scan) override;
   Status InsertRuns(const std::vector<RunRecord>& runs) override;
   Status PutReports(const std::vector<ReportBundle>& bundles) override;
   /// Tests only: the statistics read from the reports themselves, as without the roll-up.

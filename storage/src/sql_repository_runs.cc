@@ -334,7 +334,8 @@ Result<std::vector<GroupStatistics>> SqlRepository::AggregateBy(const RunFilter&
 
 Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, const std::string& set_a,
                                                       const std::string& set_b, int page_size,
-                                                      const std::optional<RunCursor>& after) {
+                                                      const std::optional<RunCursor>& after,
+                                                      ReportPairScan scan) {
   if (page_size < 1 || page_size > 1000) return InvalidArgument("page_size must be in 1..1000");
   std::string counters_a, counters_b;
   for (const char* column :
@@ -354,10 +355,16 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
   params.emplace_back(set_b);                                                                    // $12
   const std::string sql =
       std::string("SELECT ") + kRunColumns + counters_a + counters_b +
-      // CROSS JOIN keeps SQLite walking runs in keyset order (runs_by_start) and probing each run's two
-      // reports by key, so a page costs its size, not the table's; PostgreSQL plans it as an inner join.
-      " FROM runs r CROSS JOIN reports a CROSS JOIN reports b WHERE a.robot_id = r.robot_id AND a.run_id = "
-      "r.run_id"
+      // CROSS JOIN fixes SQLite's walk: the runs in keyset order (runs_by_start), probing each run's two
+      // reports by key, so a page costs its size when both sets cover the runs; or one set's reports
+      // (reports_by_parameter_set), probing the run and the other report, so a set that covers few runs
+      // costs its own size, not the fleet's. PostgreSQL plans it as an inner join either way.
+      " FROM " +
+      std::string(scan == ReportPairScan::kReportsOfSetA ? "reports a CROSS JOIN runs r CROSS JOIN reports b"
+                  : scan == ReportPairScan::kReportsOfSetB
+                      ? "reports b CROSS JOIN runs r CROSS JOIN reports a"
+                      : "runs r CROSS JOIN reports a CROSS JOIN reports b") +
+      " WHERE a.robot_id = r.robot_id AND a.run_id = r.run_id"
       " AND a.parameter_set = $11 AND b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = "
       "$12"
       " AND " +

@@ -191,32 +191,46 @@ TEST_P(RollupContractTest, ReportPairsPageThroughRunsWithBothSets) {
   for (const RunRecord& run : written_) {
     expected += repo().GetReport(run.key(), "tuned").ok() ? 1 : 0;
   }
-  std::size_t seen = 0;
-  std::optional<RunCursor> after;
-  do {
-    auto page = repo().ListReportPairs(RunFilter{}, "default", "tuned", 5, after);
-    ASSERT_THAT(page, IsOk());
-    for (const ReportPair& pair : page->pairs) {
-      ++seen;
-      auto a = repo().GetReport(pair.run.key(), "default");
-      auto b = repo().GetReport(pair.run.key(), "tuned");
-      ASSERT_THAT(a, IsOk()) << pair.run.run_id;
-      ASSERT_THAT(b, IsOk()) << pair.run.run_id;
-      EXPECT_EQ(pair.a.recovery_created, a->recovery_created);
-      EXPECT_EQ(pair.b.views_ambiguous, b->views_ambiguous);
-      EXPECT_EQ(pair.b.started_localized, b->started_localized);
-      EXPECT_EQ(pair.a.recovery_retracted, a->recovery_retracted);
-      EXPECT_TRUE(pair.a.report.empty()) << "counters only";
-    }
-    after = page->next;
-  } while (after);
-  EXPECT_EQ(seen, expected);
+  // Whatever the scan walks, the same pairs come back in the same order, page after page.
+  std::vector<std::vector<std::string>> orders;
+  for (const ReportPairScan scan :
+       {ReportPairScan::kRunsInStartOrder, ReportPairScan::kReportsOfSetA, ReportPairScan::kReportsOfSetB}) {
+    std::vector<std::string>& order = orders.emplace_back();
+    std::optional<RunCursor> after;
+    do {
+      auto page = repo().ListReportPairs(RunFilter{}, "default", "tuned", 5, after, scan);
+      ASSERT_THAT(page, IsOk());
+      for (const ReportPair& pair : page->pairs) {
+        order.push_back(pair.run.robot_id + "/" + pair.run.run_id);
+        auto a = repo().GetReport(pair.run.key(), "default");
+        auto b = repo().GetReport(pair.run.key(), "tuned");
+        ASSERT_THAT(a, IsOk()) << pair.run.run_id;
+        ASSERT_THAT(b, IsOk()) << pair.run.run_id;
+        EXPECT_EQ(pair.a.recovery_created, a->recovery_created);
+        EXPECT_EQ(pair.b.views_ambiguous, b->views_ambiguous);
+        EXPECT_EQ(pair.b.started_localized, b->started_localized);
+        EXPECT_EQ(pair.a.recovery_retracted, a->recovery_retracted);
+        EXPECT_TRUE(pair.a.report.empty()) << "counters only";
+      }
+      after = page->next;
+    } while (after);
+    EXPECT_EQ(order.size(), expected);
+  }
+  EXPECT_GT(expected, 5u) << "more than one page";
+  EXPECT_EQ(orders[1], orders[0]);
+  EXPECT_EQ(orders[2], orders[0]);
   RunFilter fw;
   fw.firmware = "fw-2";
-  auto filtered = repo().ListReportPairs(fw, "default", "tuned", 1000, std::nullopt);
-  ASSERT_THAT(filtered, IsOk());
-  for (const ReportPair& pair : filtered->pairs) EXPECT_EQ(pair.run.firmware, "fw-2");
-  EXPECT_FALSE(repo().ListReportPairs(RunFilter{}, "default", "tuned", 0, std::nullopt).ok());
+  for (const ReportPairScan scan : {ReportPairScan::kRunsInStartOrder, ReportPairScan::kReportsOfSetB}) {
+    auto filtered = repo().ListReportPairs(fw, "default", "tuned", 1000, std::nullopt, scan);
+    ASSERT_THAT(filtered, IsOk());
+    EXPECT_FALSE(filtered->pairs.empty());
+    for (const ReportPair& pair : filtered->pairs) EXPECT_EQ(pair.run.firmware, "fw-2");
+  }
+  EXPECT_FALSE(repo()
+                   .ListReportPairs(RunFilter{}, "default", "tuned", 0, std::nullopt,
+                                    ReportPairScan::kRunsInStartOrder)
+                   .ok());
 }
 
 TEST_P(RollupContractTest, MigrationSevenRollsUpTheReportsAlreadyStored) {

@@ -313,6 +313,12 @@ struct ReportPair {
   ReportRecord a, b;
 };
 
+/// What a report-pair scan walks; the pairs and their order are the same either way. kRunsInStartOrder:
+/// the filter's runs, probing each one's two reports (best when both sets cover most of those runs);
+/// kReportsOfSetA / kReportsOfSetB: that set's reports, probing the run and the other report (best when the
+/// set covers few runs: a candidate tried on a slice of the fleet), each page sorted by start time.
+enum class ReportPairScan { kRunsInStartOrder, kReportsOfSetA, kReportsOfSetB };
+
 struct ReportPairPage {
   std::vector<ReportPair> pairs;
   std::optional<RunCursor> next;  // absent on the last page

@@ -147,9 +147,11 @@ class Repository {
   virtual Result<std::vector<GroupStatistics>> AggregateBy(const RunFilter& filter, GroupBy group_by) = 0;
   /// Runs matching `filter` (its parameter_set ignored) that have a report under both sets, in ListRuns
   /// order, at most page_size (1..1000) after `after`; the reports carry their counters only (no bytes).
+  /// `scan` chooses what the read walks (ReportPairScan): a page costs the rows walked to fill it.
   virtual Result<ReportPairPage> ListReportPairs(const RunFilter& filter, const std::string& set_a,
                                                  const std::string& set_b, int page_size,
-                                                 const std::optional<RunCursor>& after) = 0;
+                                                 const std::optional<RunCursor>& after,
+                                                 ReportPairScan scan) = 0;
 
   // ---- Bulk writes (importers and generators): each is one transaction, all or nothing ----
   /// InsertRun for each run, at most 10,000; a run already stored with the same payload is kept.
