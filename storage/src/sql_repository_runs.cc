@@ -353,17 +353,25 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
   params.emplace_back(after ? after->robot_id : std::string());                                  // $10
   params.emplace_back(set_a);                                                                    // $11
   params.emplace_back(set_b);                                                                    // $12
+  // What the read walks. CROSS JOIN fixes SQLite's order: the runs in keyset order (runs_by_start), probing
+  // each run's two reports by key, so a page costs its size when both sets cover the runs; or one set's
+  // reports (reports_by_parameter_set), probing the run and the other report, so a set that covers few runs
+  // costs its own size, not the fleet's. PostgreSQL reorders joins, and for a few hundred reports prefers
+  // hashing them against a scan of every run; a LATERAL probe (OFFSET 0 keeps it a probe) makes it walk the
+  // set's reports too.
+  std::string walk = "runs r CROSS JOIN reports a CROSS JOIN reports b";
+  if (scan != ReportPairScan::kRunsInStartOrder) {
+    const std::string walked = scan == ReportPairScan::kReportsOfSetA ? "a" : "b";
+    const std::string other = walked == "a" ? "b" : "a";
+    const std::string run = database_->dialect() == Dialect::kPostgres
+                                ? std::string("LATERAL (SELECT ") + kRunColumns +
+                                      " FROM runs r WHERE r.robot_id = " + walked +
+                                      ".robot_id AND r.run_id = " + walked + ".run_id OFFSET 0) r"
+                                : "runs r";
+    walk = "reports " + walked + " CROSS JOIN " + run + " CROSS JOIN reports " + other;
+  }
   const std::string sql =
-      std::string("SELECT ") + kRunColumns + counters_a + counters_b +
-      // CROSS JOIN fixes SQLite's walk: the runs in keyset order (runs_by_start), probing each run's two
-      // reports by key, so a page costs its size when both sets cover the runs; or one set's reports
-      // (reports_by_parameter_set), probing the run and the other report, so a set that covers few runs
-      // costs its own size, not the fleet's. PostgreSQL plans it as an inner join either way.
-      " FROM " +
-      std::string(scan == ReportPairScan::kReportsOfSetA ? "reports a CROSS JOIN runs r CROSS JOIN reports b"
-                  : scan == ReportPairScan::kReportsOfSetB
-                      ? "reports b CROSS JOIN runs r CROSS JOIN reports a"
-                      : "runs r CROSS JOIN reports a CROSS JOIN reports b") +
+      std::string("SELECT ") + kRunColumns + counters_a + counters_b + " FROM " + walk +
       " WHERE a.robot_id = r.robot_id AND a.run_id = r.run_id"
       " AND a.parameter_set = $11 AND b.robot_id = r.robot_id AND b.run_id = r.run_id AND b.parameter_set = "
       "$12"
@@ -371,7 +379,7 @@ Result<ReportPairPage> SqlRepository::ListReportPairs(const RunFilter& filter, c
       std::string(kRunFilterSql) + " AND CAST($4 AS TEXT) = ''" +
       " AND (r.started_at_ms > $7 OR (r.started_at_ms = $7 AND (r.run_id > $8 OR"
       " (r.run_id = $8 AND CAST($10 AS TEXT) <> '' AND r.robot_id > $10))))"
-      " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";
+      " ORDER BY r.started_at_ms, r.run_id, r.robot_id LIMIT $9";  // a walk of a set's reports: sorted after
   const auto report_of = [](const SqlRow& row, std::size_t first, const RunRecord& run,
                             const std::string& set) {
     ReportRecord report;
