@@ -83,6 +83,16 @@ python3 -c '
 import json, sys
 v = json.load(open(sys.argv[1]))["version"]
 assert v["version"] == "3" and v["approval_state"] == "MAP_APPROVAL_PENDING" and v["version_origin"] == "MAP_ORIGIN_ROLLBACK", v' "$work/repair.json"
+# The robots waiting for review: the repaired robot, with its pending version; pages of one robot name the next.
+"$bin/fleetctl" maps robots --pending --json | python3 -c '
+import json, sys
+page = json.load(sys.stdin)
+rows = {r["robot_id"]: r for r in page["robots"]}
+assert page["total"] == "1" and list(rows) == [sys.argv[1]], page
+assert rows[sys.argv[1]]["pending_versions"] == "1" and rows[sys.argv[1]]["current_version"] == "2", rows' "$robot"
+"$bin/fleetctl" maps robots --limit 1 | grep -q "next page: --after $robot" || fail "maps robots --limit 1: $("$bin/fleetctl" maps robots --limit 1)"
+if FLEET_TOKEN=$robot_token "$bin/fleetctl" maps robots 2>"$work/err"; then fail "a robot listed the fleet"; fi
+grep -q PERMISSION_DENIED "$work/err" || fail "no PERMISSION_DENIED for a robot: $(cat "$work/err")"
 if "$bin/fleetctl" maps repair "$robot" --base 2 --undo 2>"$work/err"; then fail "a repair of an old version succeeded"; fi
 grep -q ABORTED "$work/err" || fail "no ABORTED for a stale base: $(cat "$work/err")"
 if "$bin/fleetctl" maps repair "$robot" --base 3 --reject-edge 1-2 2>"$work/err"; then fail "a malformed edge was accepted"; fi

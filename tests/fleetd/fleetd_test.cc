@@ -913,6 +913,37 @@ TEST_F(FleetdTest, TheRobotsPagePagesByRobotAndAgreesWithEachHistory) {
     EXPECT_EQ(HttpGet(server_->http_address(), "/api/robots?" + query, &body, *engineer_), 400) << query;
     EXPECT_NE(body.find(query.substr(0, query.find('='))), std::string::npos) << body;
   }
+
+  // Maps.ListRobots (fleetctl maps robots) pages the same rows.
+  auto maps = fleet::v1::Maps::NewStub(server_->Channel());
+  std::vector<std::string> over_grpc;
+  fleet::v1::ListRobotsRequest request;
+  request.set_page_size(1);
+  for (int page = 0; page < 100; ++page) {
+    fleet::v1::ListRobotsResponse response;
+    auto context = Context(*engineer_);
+    ASSERT_THAT(maps->ListRobots(context.get(), request, &response), IsOk());
+    ASSERT_EQ(response.robots_size(), 1);
+    EXPECT_EQ(response.total(), static_cast<std::int64_t>(uploaded.size()));
+    over_grpc.push_back(response.robots(0).robot_id());
+    ASSERT_EQ(HttpGet(server_->http_address(), "/api/robots/" + over_grpc.back(), &body, *engineer_), 200);
+    const auto row = nlohmann::json::parse(body);
+    EXPECT_EQ(response.robots(0).versions(), row["versions"].get<std::int64_t>());
+    EXPECT_EQ(response.robots(0).current_version(), row["current_version"].get<std::int64_t>());
+    if (response.next_after_robot_id().empty()) break;
+    request.set_after_robot_id(response.next_after_robot_id());
+  }
+  EXPECT_EQ(over_grpc, listed);
+  fleet::v1::ListRobotsResponse refused;
+  auto context = Context(RobotToken(own));
+  EXPECT_EQ(maps->ListRobots(context.get(), fleet::v1::ListRobotsRequest(), &refused).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED)
+      << "a robot does not list the fleet";
+  request.set_page_size(1001);
+  context = Context(*engineer_);
+  const grpc::Status too_large = maps->ListRobots(context.get(), request, &refused);
+  EXPECT_EQ(too_large.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(too_large.error_message().find("page_size"), std::string::npos) << too_large.error_message();
 }
 
 }  // namespace

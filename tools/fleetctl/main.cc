@@ -13,7 +13,7 @@
 //     models train NAME [--classifier K] | models eval NAME [--version V] | models activate NAME V | models list NAME
 //     credentials PRINCIPAL | credentials rotate|revoke PRINCIPAL | credentials list   tokens (credential_commands.h)
 //     robots delete R --confirm R | audit         erasure and the audit log (admins; admin_commands.h)
-//     maps list|show|repair|approve|reject|get|export   map history (map_commands.h)
+//     maps robots|list|show|repair|approve|reject|get|export   map history (map_commands.h)
 //     import valetudo|map-server FILE... --robot R       maps made elsewhere into the history (import_commands.h)
 // Command groups live in their own files (query_, job_, label_, credential_, admin_, map_, import_commands).
 // Every command takes --json: one JSON object on stdout instead of a table. Exit status 0 on success, 1 on

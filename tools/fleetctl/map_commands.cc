@@ -62,6 +62,10 @@ bool WriteFile(const std::filesystem::path& path, const std::string& bytes) {
 MapCommands::MapCommands(CLI::App& app) {
   maps_ = app.add_subcommand("maps", "robots' map history: findings, repairs, approval, hand-back, export");
   maps_->require_subcommand(1);
+  robots_ = maps_->add_subcommand("robots", "robots with their map history in brief, a page at a time");
+  robots_->add_option("--limit", page_size_, "robots per page (1..1000)")->check(CLI::Range(1, 1000));
+  robots_->add_option("--after", after_robot_, "robots after this id (the previous page's last)");
+  robots_->add_flag("--pending", only_pending_, "only robots with a version waiting for review");
   list_ = maps_->add_subcommand("list", "a robot's map versions");
   list_->add_option("robot", robot_, "robot id")->required();
   show_ = maps_->add_subcommand("show", "one version with its findings");
@@ -110,6 +114,7 @@ MapCommands::MapCommands(CLI::App& app) {
 
 std::optional<int> MapCommands::Run(Client& client, const Global& global) const {
   if (!*maps_) return std::nullopt;
+  if (*robots_) return Robots(client, global);
   if (*list_) return List(client, global);
   if (*show_) return Show(client, global);
   if (*repair_) return Repair(client, global);
@@ -118,6 +123,36 @@ std::optional<int> MapCommands::Run(Client& client, const Global& global) const 
   if (*get_) return Get(client, global);
   if (*export_) return Export(client, global);
   return 2;
+}
+
+int MapCommands::Robots(Client& client, const Global& global) const {
+  fleet::v1::ListRobotsRequest request;
+  request.set_page_size(page_size_);
+  request.set_after_robot_id(after_robot_);
+  request.set_only_pending(only_pending_);
+  fleet::v1::ListRobotsResponse response;
+  auto context = client.Context();
+  if (grpc::Status status = client.maps->ListRobots(context.get(), request, &response); !status.ok())
+    return Fail(status);
+  if (global.json) {
+    PrintJson(response);
+    return 0;
+  }
+  std::printf("%-24s %-10s %-10s %8s %8s %8s %-9s %5s\n", "robot", "model", "firmware", "versions", "current",
+              "pending", "newest", "open");
+  for (const auto& robot : response.robots()) {
+    std::printf("%-24s %-10s %-10s %8lld %8lld %8lld %-9s %5lld\n", robot.robot_id().c_str(),
+                robot.robot_model().c_str(), robot.firmware().c_str(),
+                static_cast<long long>(robot.versions()), static_cast<long long>(robot.current_version()),
+                static_cast<long long>(robot.pending_versions()),
+                Spelled(fleet::v1::MapApproval_Name(robot.newest_approval()), "MAP_APPROVAL_").c_str(),
+                static_cast<long long>(robot.newest_open_findings()));
+  }
+  std::printf("%d of %lld robots%s\n", response.robots_size(), static_cast<long long>(response.total()),
+              response.next_after_robot_id().empty()
+                  ? ""
+                  : ("; next page: --after " + response.next_after_robot_id()).c_str());
+  return 0;
 }
 
 int MapCommands::List(Client& client, const Global& global) const {

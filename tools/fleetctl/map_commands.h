@@ -1,5 +1,6 @@
 // fleetctl maps …: a robot's map history, its findings, repairs, reviews, the robot's hand-back and export.
 //
+//   maps robots [--pending] [--limit N] [--after ROBOT]   robots with their history in brief, a page at a time
 //   maps list ROBOT                       versions with lineage, approval, figures, open findings
 //   maps show ROBOT [VERSION]             one version (default: the current one) with its findings
 //   maps repair ROBOT --base V (--reject-edge FROM:TO[:VIEW] | --reject-hypothesis H | --cut-finding F |
@@ -36,6 +37,7 @@ class MapCommands {
   std::optional<int> Run(Client& client, const Global& global) const;
 
  private:
+  int Robots(Client& client, const Global& global) const;
   int List(Client& client, const Global& global) const;
   int Show(Client& client, const Global& global) const;
   int Repair(Client& client, const Global& global) const;
@@ -44,12 +46,14 @@ class MapCommands {
   int Export(Client& client, const Global& global) const;
 
   CLI::App* maps_ = nullptr;
-  CLI::App *list_ = nullptr, *show_ = nullptr, *repair_ = nullptr, *approve_ = nullptr, *reject_ = nullptr,
-           *get_ = nullptr, *export_ = nullptr;
+  CLI::App *robots_ = nullptr, *list_ = nullptr, *show_ = nullptr, *repair_ = nullptr, *approve_ = nullptr,
+           *reject_ = nullptr, *get_ = nullptr, *export_ = nullptr;
   std::string robot_, reject_edge_, reason_, format_, out_;
   std::int64_t version_ = 0, held_ = 0;
   std::int64_t reject_hypothesis_ = -1, cut_finding_ = 0;
-  bool rollback_ = false, undo_ = false, approve_now_ = false;
+  bool rollback_ = false, undo_ = false, approve_now_ = false, only_pending_ = false;
+  int page_size_ = 100;
+  std::string after_robot_;
 };
 
 }  // namespace fleetctl

@@ -28,6 +28,42 @@ grpc::Status MapsHandler::ListMapVersions(grpc::ServerContext* call,
   return scope.Done(grpc::Status::OK);
 }
 
+grpc::Status MapsHandler::ListRobots(grpc::ServerContext* call, const fleet::v1::ListRobotsRequest* request,
+                                     fleet::v1::ListRobotsResponse* response) {
+  RpcScope scope(context_.metrics, "Maps/ListRobots");
+  Principal principal;
+  if (grpc::Status denied = Authorize(context_, call, Permission::kRead, &principal); !denied.ok())
+    return scope.Done(denied);
+  if (request->page_size() < 0 || request->page_size() > storage::kMaxRobotPage) {
+    return scope.Done(InvalidArgument("page_size: expected 1.." + std::to_string(storage::kMaxRobotPage) +
+                                      " (0: 100), got " + std::to_string(request->page_size())));
+  }
+  if (!request->after_robot_id().empty()) {
+    if (auto bad = analyzer::ValidateId(request->after_robot_id(), "after_robot_id"); !bad.ok())
+      return scope.Done(InvalidArgument(bad.message()));
+  }
+  storage::RobotSummaryQuery query;
+  query.after_robot_id = request->after_robot_id();
+  query.limit = request->page_size() == 0 ? 100 : request->page_size();
+  query.only_pending = request->only_pending();
+  auto page = context_.repository->ListRobotSummaries(query);
+  if (!page.ok()) return scope.Done(ToGrpc(page.status()));
+  for (const storage::RobotMapSummary& summary : page->robots) {
+    fleet::v1::RobotMapSummary& row = *response->add_robots();
+    row.set_robot_id(summary.robot.robot_id);
+    row.set_robot_model(summary.robot.robot_model);
+    row.set_firmware(summary.robot.firmware);
+    row.set_versions(summary.versions);
+    row.set_current_version(summary.current_version);
+    row.set_pending_versions(summary.pending_versions);
+    if (summary.newest_approval) row.set_newest_approval(ToProto(*summary.newest_approval));
+    row.set_newest_open_findings(summary.newest_open_findings);
+  }
+  if (page->more) response->set_next_after_robot_id(page->robots.back().robot.robot_id);
+  response->set_total(page->total);
+  return scope.Done(grpc::Status::OK);
+}
+
 grpc::Status MapsHandler::GetMapVersion(grpc::ServerContext* call,
                                         const fleet::v1::GetMapVersionRequest* request,
                                         fleet::v1::GetMapVersionResponse* response) {

@@ -17,6 +17,8 @@ class MapsHandler final : public fleet::v1::Maps::Service {
       : context_(context), history_(*context.repository, context.map_policy) {}
   grpc::Status ListMapVersions(grpc::ServerContext* call, const fleet::v1::ListMapVersionsRequest* request,
                                fleet::v1::ListMapVersionsResponse* response) override;
+  grpc::Status ListRobots(grpc::ServerContext* call, const fleet::v1::ListRobotsRequest* request,
+                          fleet::v1::ListRobotsResponse* response) override;
   grpc::Status GetMapVersion(grpc::ServerContext* call, const fleet::v1::GetMapVersionRequest* request,
                              fleet::v1::GetMapVersionResponse* response) override;
   grpc::Status RepairMap(grpc::ServerContext* call, const fleet::v1::RepairMapRequest* request,
