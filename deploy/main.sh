@@ -118,11 +118,20 @@ echo "== Fleet statistics (the paper's Fig. 6, 7, 8, 12) =="
 echo
 echo "== Map health: each robot's map versions and open findings (review and repair at #/maps) =="
 python3 - "$http" <<'PY'
-import json, os, sys, urllib.request
+import json, os, sys, urllib.parse, urllib.request
 # fleetd serves no data without a token; FLEET_TOKEN comes through the environment, not the command line.
-request = urllib.request.Request(f"http://{sys.argv[1]}/api/robots",
-                                 headers={"Authorization": f"Bearer {os.environ['FLEET_TOKEN']}"})
-robots = json.load(urllib.request.urlopen(request))["robots"]
+def page(after):
+    query = "limit=1000" + (f"&after={urllib.parse.quote(after)}" if after else "")
+    request = urllib.request.Request(f"http://{sys.argv[1]}/api/robots?{query}",
+                                     headers={"Authorization": f"Bearer {os.environ['FLEET_TOKEN']}"})
+    return json.load(urllib.request.urlopen(request))
+robots, after = [], ""
+while True:  # the robots page is paged (1,000 robots at most a page)
+    answer = page(after)
+    robots += answer["robots"]
+    if not answer["next"]:
+        break
+    after = answer["next"]["after"]
 print(f"{'robot':<14} {'versions':>8} {'current':>8} {'open findings':>14}")
 for robot in robots:
     print(f"{robot['robot_id']:<14} {robot['versions']:>8} {robot['current_version']:>8} {robot.get('open_findings', 0):>14}")
