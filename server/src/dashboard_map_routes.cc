@@ -295,7 +295,7 @@ class MapRoutes {
     return row;
   }
 
-  /// A page of robots in id order: ?limit=1..1000 (100), ?after=<robot id> (the previous page's
+  /// A page of robots in id order: ?limit=1..1000 (RobotSummaryQuery's default), ?after=<robot id> (the previous page's
   /// next.after), ?pending=1 for only the robots with a version waiting for review.
   HttpResponse Robots(const std::map<std::string, std::string>& params) {
     std::string error;
@@ -306,7 +306,7 @@ class MapRoutes {
     if (!error.empty()) return Error(400, error);
     storage::RobotSummaryQuery query;
     query.after_robot_id = http::Param(params, "after");
-    query.limit = static_cast<int>(limit.value_or(100));
+    if (limit) query.limit = static_cast<int>(*limit);
     query.only_pending = pending == "1";
     auto page = repository_.ListRobotSummaries(query);
     if (!page.ok()) return Error(page.status());

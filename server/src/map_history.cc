@@ -257,7 +257,12 @@ storage::Result<MapVersionDetail> MapHistory::Repair(const RepairRequest& reques
   ASSIGN_OR_RETURN(auto versions, repository_.ListMapVersions(request.robot_id));
   if (request.base_version <= 0)
     return storage::InvalidArgument("base_version: the version repaired is required");
-  ASSIGN_OR_RETURN(auto base, Find(versions, request.robot_id, request.base_version));
+  const storage::MapVersionRecord* found = FindRecord(versions, request.base_version);
+  if (found == nullptr) {
+    return storage::NotFound("robot " + request.robot_id + " has no map version " +
+                             std::to_string(request.base_version));
+  }
+  const storage::MapVersionRecord base = *found;
   // Fail fast on a base that is not the head; AppendMapVersion checks again, atomically, at the end.
   const storage::MapVersionRecord* head = Head(versions);
   if (head == nullptr || head->version != base.version) {

@@ -138,21 +138,6 @@ const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRe
   return nullptr;
 }
 
-storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVersionRecord>& versions,
-                                                const std::string& robot_id, std::int64_t version) {
-  if (version < 0)
-    return storage::InvalidArgument("version: expected a positive number, or 0 for the current one");
-  if (version == 0) {
-    const storage::MapVersionRecord* current = Current(versions);
-    if (!current) return storage::NotFound("robot " + robot_id + " has no approved map version");
-    return *current;
-  }
-  for (const storage::MapVersionRecord& record : versions) {
-    if (record.version == version) return record;
-  }
-  return storage::NotFound("robot " + robot_id + " has no map version " + std::to_string(version));
-}
-
 const storage::MapVersionRecord* Head(const std::vector<storage::MapVersionRecord>& versions) {
   for (auto it = versions.rbegin(); it != versions.rend(); ++it) {
     if (it->approval == storage::MapApproval::kApproved || it->approval == storage::MapApproval::kPending)

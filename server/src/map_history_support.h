@@ -55,10 +55,6 @@ std::int64_t NowMillis();
 
 const storage::MapVersionRecord* Current(const std::vector<storage::MapVersionRecord>& versions);
 
-/// `version` of a robot's versions, or its current one for 0.
-storage::Result<storage::MapVersionRecord> Find(const std::vector<storage::MapVersionRecord>& versions,
-                                                const std::string& robot_id, std::int64_t version);
-
 /// What repairs continue: the newest approved or pending version (rejected and stale ones are side branches).
 const storage::MapVersionRecord* Head(const std::vector<storage::MapVersionRecord>& versions);
 

@@ -49,13 +49,13 @@ Result<std::int64_t> SqlRepository::SchemaVersion() {
 
 namespace {
 
-RobotRecord RobotFromRow(const SqlRow& row) {
-  return RobotRecord{row.Text(0), row.Text(1), row.Text(2), row.Int(3)};
-}
-
 constexpr const char* kRobotColumns = "robot_id, robot_model, firmware, registered_at_ms";
 
 }  // namespace
+
+RobotRecord RobotFromRow(const SqlRow& row) {
+  return RobotRecord{row.Text(0), row.Text(1), row.Text(2), row.Int(3)};
+}
 
 Status CheckRobot(const RobotRecord& robot) {
   if (robot.robot_id.empty()) return InvalidArgument("robot_id is empty");

@@ -194,6 +194,8 @@ inline constexpr const char* kRevokedAlgorithm = "revoked";
 Result<std::int64_t> NextCredentialEpoch(SqlTransaction& transaction);
 
 /// The argument checks of PutRobot, EnqueueJob and AppendMapVersion (INVALID_ARGUMENT naming the field).
+/// A robot from its columns (robot_id, robot_model, firmware, registered_at_ms) at the row's start.
+RobotRecord RobotFromRow(const SqlRow& row);
 Status CheckRobot(const RobotRecord& robot);
 Status CheckJob(const NewJob& job);
 Status CheckMapVersion(const MapVersionRecord& version, const std::vector<MapFindingRecord>& findings);

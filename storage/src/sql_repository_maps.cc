@@ -244,7 +244,7 @@ constexpr const char* kRobotSummaryEnd =
 
 Result<RobotMapSummary> RobotSummaryFromRow(const SqlRow& row) {
   RobotMapSummary summary;
-  summary.robot = RobotRecord{row.Text(0), row.Text(1), row.Text(2), row.Int(3)};
+  summary.robot = RobotFromRow(row);
   summary.versions = row.IsNull(4) ? 0 : row.Int(4);
   summary.current_version = row.IsNull(5) ? 0 : row.Int(5);
   summary.pending_versions = row.Int(6);

@@ -36,7 +36,8 @@ grpc::Status MapsHandler::ListRobots(grpc::ServerContext* call, const fleet::v1:
     return scope.Done(denied);
   if (request->page_size() < 0 || request->page_size() > storage::kMaxRobotPage) {
     return scope.Done(InvalidArgument("page_size: expected 1.." + std::to_string(storage::kMaxRobotPage) +
-                                      " (0: 100), got " + std::to_string(request->page_size())));
+                                      " (0: " + std::to_string(storage::RobotSummaryQuery().limit) +
+                                      "), got " + std::to_string(request->page_size())));
   }
   if (!request->after_robot_id().empty()) {
     if (auto bad = analyzer::ValidateId(request->after_robot_id(), "after_robot_id"); !bad.ok())
@@ -44,7 +45,7 @@ grpc::Status MapsHandler::ListRobots(grpc::ServerContext* call, const fleet::v1:
   }
   storage::RobotSummaryQuery query;
   query.after_robot_id = request->after_robot_id();
-  query.limit = request->page_size() == 0 ? 100 : request->page_size();
+  if (request->page_size() != 0) query.limit = request->page_size();
   query.only_pending = request->only_pending();
   auto page = context_.repository->ListRobotSummaries(query);
   if (!page.ok()) return scope.Done(ToGrpc(page.status()));
