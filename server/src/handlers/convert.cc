@@ -5,6 +5,7 @@
 #include <ctime>
 
 #include "server/jobs.h"
+#include "server/map_history.h"
 
 namespace server {
 namespace {
@@ -149,6 +150,19 @@ fleet::v1::Region ToProto(const storage::ProtrusionRegionRecord& region) {
   out.set_label(region.label.value_or(""));
   out.set_labelled_by(region.labelled_by.value_or(""));
   out.set_decided_by(region.decided_by);
+  return out;
+}
+
+fleet::v1::RobotMapSummary ToProto(const storage::RobotMapSummary& summary) {
+  fleet::v1::RobotMapSummary out;
+  out.set_robot_id(summary.robot.robot_id);
+  out.set_robot_model(summary.robot.robot_model);
+  out.set_firmware(summary.robot.firmware);
+  out.set_versions(summary.versions);
+  out.set_current_version(summary.current_version);
+  out.set_pending_versions(summary.pending_versions);
+  if (summary.newest_approval) out.set_newest_approval(ToProto(*summary.newest_approval));
+  out.set_newest_open_findings(summary.newest_open_findings);
   return out;
 }
 

@@ -18,5 +18,6 @@ fleet::v1::FleetFigures Delta(const fleet::v1::FleetFigures& a, const fleet::v1:
 
 fleet::v1::Job ToProto(const storage::JobRecord& job);
 fleet::v1::Region ToProto(const storage::ProtrusionRegionRecord& region);
+fleet::v1::RobotMapSummary ToProto(const storage::RobotMapSummary& summary);
 
 }  // namespace server

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "analyzer/telemetry_codec.h"
+#include "convert.h"
 #include "fleet/snapshot_parts.h"
 
 namespace server {
@@ -49,17 +50,7 @@ grpc::Status MapsHandler::ListRobots(grpc::ServerContext* call, const fleet::v1:
   query.only_pending = request->only_pending();
   auto page = context_.repository->ListRobotSummaries(query);
   if (!page.ok()) return scope.Done(ToGrpc(page.status()));
-  for (const storage::RobotMapSummary& summary : page->robots) {
-    fleet::v1::RobotMapSummary& row = *response->add_robots();
-    row.set_robot_id(summary.robot.robot_id);
-    row.set_robot_model(summary.robot.robot_model);
-    row.set_firmware(summary.robot.firmware);
-    row.set_versions(summary.versions);
-    row.set_current_version(summary.current_version);
-    row.set_pending_versions(summary.pending_versions);
-    if (summary.newest_approval) row.set_newest_approval(ToProto(*summary.newest_approval));
-    row.set_newest_open_findings(summary.newest_open_findings);
-  }
+  for (const storage::RobotMapSummary& summary : page->robots) *response->add_robots() = ToProto(summary);
   if (page->more) response->set_next_after_robot_id(page->robots.back().robot.robot_id);
   response->set_total(page->total);
   return scope.Done(grpc::Status::OK);
