@@ -25,6 +25,7 @@
 // table (or with --json one object on the last line), --results also writes that object to FILE.
 #include <CLI/CLI.hpp>
 
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <unistd.h>
@@ -64,6 +65,19 @@ bool WriteResults(const std::string& path, const std::string& object) {
   return written.ok();
 }
 
+/// "42 s", "3 min 05 s", "2 h 07 min": the time a regime has run, on the progress line.
+std::string ElapsedText(long long seconds) {
+  char text[48];
+  if (seconds < 60) {
+    std::snprintf(text, sizeof text, "%lld s", seconds);
+  } else if (seconds < 3600) {
+    std::snprintf(text, sizeof text, "%lld min %02lld s", seconds / 60, seconds % 60);
+  } else {
+    std::snprintf(text, sizeof text, "%lld h %02lld min", seconds / 3600, seconds / 60 % 60);
+  }
+  return text;
+}
+
 /// --lifelong: validates, runs the regimes with one updating progress line on stderr, prints the table or the
 /// JSON object, and writes the object to `results_file` (whole or not at all) after each regime, so that the
 /// regimes done survive a later one's failure or a stop (regimes_to_come names the others).
@@ -74,10 +88,22 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
     std::cerr << "fleetsim: " << valid.message() << "\n";
     return 2;
   }
+  // The line also says how long the regime has run: the unprotected one slows as its maps grow and can
+  // take hours at the default size, so a rate read off the first runs would promise too much. Each regime
+  // announces itself with done = 0 as it starts.
+  std::string current_regime;
+  auto regime_start = std::chrono::steady_clock::now();
   const auto results = sim::RunLifelong(
       options,
-      [](const std::string& regime, int done, int total) {
-        std::fprintf(stderr, "\rfleetsim lifelong: regime %-8s %5d/%d runs", regime.c_str(), done, total);
+      [&](const std::string& regime, int done, int total) {
+        const auto now = std::chrono::steady_clock::now();
+        if (regime != current_regime) {
+          current_regime = regime;
+          regime_start = now;
+        }
+        const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(now - regime_start).count();
+        std::fprintf(stderr, "\rfleetsim lifelong: regime %-8s %5d/%d runs, %-10s", regime.c_str(), done,
+                     total, ElapsedText(seconds).c_str());
         std::fflush(stderr);
       },
       [&](const std::vector<sim::RegimeResult>& so_far) {

@@ -166,6 +166,7 @@ slamcore::Result<std::vector<RegimeResult>> RunLifelong(
   RETURN_IF_ERROR(ValidateLifelong(options));
   std::vector<RegimeResult> results;
   for (const std::string& regime : options.regimes) {
+    if (progress) progress(regime, 0, options.robots * options.runs);  // the regime has started
     auto result = RunRegime(options, regime, [&](int done, int total) {
       if (progress) progress(regime, done, total);
     });

@@ -70,6 +70,14 @@ for name, regime in regimes.items():
             assert outcome != "corrupted", (name, rmse, false_m2, outcome)
 stderr = open(sys.argv[3], newline="").read()  # keep the carriage returns
 assert stderr.count("\n") == 1 and stderr.count("\r") >= 8, repr(stderr[-200:])
+# Each regime's line starts at 0 runs as the regime starts and says how long the regime has run.
+import re
+lines = [line.strip() for line in re.split(r"[\r\n]", stderr) if line.startswith("fleetsim lifelong:")]
+elapsed = r"(\d+ s|\d+ min \d\d s|\d+ h \d\d min)"
+for name in regimes:
+    mine = [line for line in lines if re.match(r"fleetsim lifelong: regime %s\s" % name, line)]
+    assert mine and re.search(r" 0/4 runs, %s$" % elapsed, mine[0]), (name, mine[:1])
+    assert re.search(r" 4/4 runs, %s$" % elapsed, mine[-1]), (name, mine[-1])
 print("lifelong:", {name: regime["corrupted_share"] for name, regime in regimes.items()})
 PY
 echo "fleetsim --lifelong: refusals, JSON object, results file and progress line ok"

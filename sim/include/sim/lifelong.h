@@ -55,9 +55,9 @@ struct RegimeResult {
   double seconds = 0.0;
 };
 
-/// Runs the regimes one after another; `progress(regime, done, total)` after each run, and
-/// `regime_done(results so far)` after each regime (an experiment at the default size takes hours: what is
-/// done is kept when a later regime fails or the run is stopped).
+/// Runs the regimes one after another; `progress(regime, done, total)` as each regime starts (done 0) and
+/// after each run, and `regime_done(results so far)` after each regime (an experiment at the default size
+/// takes hours: what is done is kept when a later regime fails or the run is stopped).
 slamcore::Result<std::vector<RegimeResult>> RunLifelong(
     const LifelongOptions& options, const std::function<void(const std::string&, int, int)>& progress = {},
     const std::function<void(const std::vector<RegimeResult>&)>& regime_done = {});
