@@ -47,7 +47,7 @@ grep -q -- "--follow-service needs --upload" "$work/err" || fail "no reason for 
 "$bin/fleetsim" --lifelong --world "$data/floorplans" --robots 2 --runs 2 --minutes 2 --seed 3 --json \
   --results "$work/results.json" --work-dir "$work/fleetd" >"$work/out" 2>"$work/err" || fail "lifelong failed: $(tail -3 "$work/err")"
 python3 - "$work/out" "$work/results.json" "$work/err" <<'PY'
-import json, sys
+import json, re, sys
 last = open(sys.argv[1]).read().strip().splitlines()[-1]
 result = json.loads(last)
 assert json.loads(open(sys.argv[2]).read()) == result, "--results holds the printed object"
@@ -71,7 +71,6 @@ for name, regime in regimes.items():
 stderr = open(sys.argv[3], newline="").read()  # keep the carriage returns
 assert stderr.count("\n") == 1 and stderr.count("\r") >= 8, repr(stderr[-200:])
 # Each regime's line starts at 0 runs as the regime starts and says how long the regime has run.
-import re
 lines = [line.strip() for line in re.split(r"[\r\n]", stderr) if line.startswith("fleetsim lifelong:")]
 elapsed = r"(\d+ s|\d+ min \d\d s|\d+ h \d\d min)"
 for name in regimes:
