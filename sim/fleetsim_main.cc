@@ -91,16 +91,12 @@ int RunLifelongCommand(const std::string& world, sim::LifelongOptions& options, 
   // The line also says how long the regime has run: the unprotected one slows as its maps grow and can
   // take hours at the default size, so a rate read off the first runs would promise too much. Each regime
   // announces itself with done = 0 as it starts.
-  std::string current_regime;
   auto regime_start = std::chrono::steady_clock::now();
   const auto results = sim::RunLifelong(
       options,
       [&](const std::string& regime, int done, int total) {
         const auto now = std::chrono::steady_clock::now();
-        if (regime != current_regime) {
-          current_regime = regime;
-          regime_start = now;
-        }
+        if (done == 0) regime_start = now;
         const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(now - regime_start).count();
         std::fprintf(stderr, "\rfleetsim lifelong: regime %-8s %5d/%d runs, %-10s", regime.c_str(), done,
                      total, ElapsedText(seconds).c_str());
