@@ -63,7 +63,8 @@ MapCommands::MapCommands(CLI::App& app) {
   maps_ = app.add_subcommand("maps", "robots' map history: findings, repairs, approval, hand-back, export");
   maps_->require_subcommand(1);
   robots_ = maps_->add_subcommand("robots", "robots with their map history in brief, a page at a time");
-  robots_->add_option("--limit", page_size_, "robots per page (1..1000)")->check(CLI::Range(1, 1000));
+  robots_->add_option("--limit", page_size_, "robots per page (1..1000; default: the server's, 100)")
+      ->check(CLI::Range(1, 1000));
   robots_->add_option("--after", after_robot_, "robots after this id (the previous page's last)");
   robots_->add_flag("--pending", only_pending_, "only robots with a version waiting for review");
   list_ = maps_->add_subcommand("list", "a robot's map versions");

@@ -52,7 +52,7 @@ class MapCommands {
   std::int64_t version_ = 0, held_ = 0;
   std::int64_t reject_hypothesis_ = -1, cut_finding_ = 0;
   bool rollback_ = false, undo_ = false, approve_now_ = false, only_pending_ = false;
-  int page_size_ = 100;
+  int page_size_ = 0;  // 0: the server's default page
   std::string after_robot_;
 };
 
