@@ -49,7 +49,6 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include <Eigen/Eigenvalues>
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "mapper_impl.h"
@@ -184,54 +183,14 @@ std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id)
     if (IsRetractableEdge(edge, hypothesis_id)) all_edges.push_back(&edge);
   }
   if (all_edges.empty() || !marginals_) return std::nullopt;
-  // A long hypothesis is judged by evenly spaced edges: the test of a subset against everything else is
-  // still a leave-one-out test, at a bounded cost.
-  const std::size_t cap = static_cast<std::size_t>(params_.consistency.max_edges_judged);
-  std::vector<const Edge*> edges;
-  for (std::size_t k = 0; k < std::min(cap, all_edges.size()); ++k) {
-    edges.push_back(all_edges[k * all_edges.size() / std::min(cap, all_edges.size())]);
-  }
-  std::vector<NodeId> nodes;
-  std::unordered_map<NodeId, int> column;
-  for (const Edge* edge : edges) {
-    for (const NodeId node : {edge->from, edge->to}) {
-      if (column.emplace(node, static_cast<int>(nodes.size())).second) nodes.push_back(node);
-    }
-  }
-  for (const NodeId node : nodes) {
-    if (!marginals_->Contains(node)) return std::nullopt;
-  }
-  const Eigen::MatrixXd joint = marginals_->Joint(nodes);
-  const int rows = 3 * static_cast<int>(edges.size());
-  Eigen::VectorXd residual(rows);
-  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(rows, 3 * static_cast<int>(nodes.size()));
-  Eigen::MatrixXd measurement_covariance = Eigen::MatrixXd::Zero(rows, rows);
-  for (int k = 0; k < static_cast<int>(edges.size()); ++k) {
-    const Edge& edge = *edges[static_cast<std::size_t>(k)];
-    Matrix3 d_from, d_to;
-    residual.segment<3>(3 * k) = EdgeError(map_.graph.node(edge.from).pose, map_.graph.node(edge.to).pose,
-                                           edge.measurement, &d_from, &d_to);
-    jacobian.block<3, 3>(3 * k, 3 * column.at(edge.from)) += d_from;
-    jacobian.block<3, 3>(3 * k, 3 * column.at(edge.to)) += d_to;
-    measurement_covariance.block<3, 3>(3 * k, 3 * k) = edge.information.inverse();
-  }
-  const Eigen::MatrixXd residual_covariance =
-      measurement_covariance - jacobian * joint * jacobian.transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(
-      0.5 * (residual_covariance + residual_covariance.transpose()));
-  // Directions nothing but W constrains have (numerically) no residual variance: not testable.
-  const double floor = 1e-4 * measurement_covariance.diagonal().minCoeff();
-  double chi2 = 0.0;
-  int dof = 0;
-  for (int i = 0; i < rows; ++i) {
-    if (eigen.eigenvalues()(i) <= floor) continue;
-    const double projection = eigen.eigenvectors().col(i).dot(residual);
-    chi2 += projection * projection / eigen.eigenvalues()(i);
-    ++dof;
-  }
-  if (dof == 0) return 0.0;
-  const boost::math::chi_squared_distribution<double> distribution(dof);
-  return chi2 / boost::math::quantile(distribution, params_.consistency.retraction_confidence);
+  // A long hypothesis is judged by evenly spaced edges.
+  const std::vector<const Edge*> edges =
+      internal::EvenlySpaced(all_edges, static_cast<std::size_t>(params_.consistency.max_edges_judged));
+  const std::optional<internal::EdgeSetChi2> test = internal::LeaveOneOutChi2(map_.graph, *marginals_, edges);
+  if (!test) return std::nullopt;
+  if (test->dof == 0) return 0.0;
+  const boost::math::chi_squared_distribution<double> distribution(test->dof);
+  return test->chi2 / boost::math::quantile(distribution, params_.consistency.retraction_confidence);
 }
 
 void Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {

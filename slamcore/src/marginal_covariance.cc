@@ -2,9 +2,11 @@
 
 #include <cholmod.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <limits>
+#include <unordered_map>
 
 #include "slamcore/optimizer.h"
 #include "cholmod_cholesky.h"
@@ -237,6 +239,71 @@ PoseGaussian MarginalCovariances::Relative(NodeId a, NodeId b) const {
   }
   Matrix3 covariance = jacobian * joint * jacobian.transpose();
   return {relative, 0.5 * (covariance + covariance.transpose())};
+}
+
+std::vector<const Edge*> EvenlySpaced(std::span<const Edge* const> edges, std::size_t cap) {
+  const std::size_t count = std::min(cap, edges.size());
+  std::vector<const Edge*> spaced;
+  for (std::size_t k = 0; k < count; ++k) spaced.push_back(edges[k * edges.size() / count]);
+  return spaced;
+}
+
+namespace {
+
+/// W's residuals, Jacobians and measurement covariance stacked, and the joint covariance of its nodes.
+struct StackedEdges {
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jacobian, measurement_covariance, joint;
+};
+std::optional<StackedEdges> Stack(const PoseGraph& graph, const MarginalCovariances& marginals,
+                                  std::span<const Edge* const> edges) {
+  std::vector<NodeId> nodes;
+  std::unordered_map<NodeId, int> column;
+  for (const Edge* edge : edges) {
+    for (const NodeId node : {edge->from, edge->to}) {
+      if (column.emplace(node, static_cast<int>(nodes.size())).second) nodes.push_back(node);
+    }
+  }
+  for (const NodeId node : nodes) {
+    if (!marginals.Contains(node)) return std::nullopt;
+  }
+  const int rows = 3 * static_cast<int>(edges.size());
+  StackedEdges stacked{.residual = Eigen::VectorXd(rows),
+                       .jacobian = Eigen::MatrixXd::Zero(rows, 3 * static_cast<int>(nodes.size())),
+                       .measurement_covariance = Eigen::MatrixXd::Zero(rows, rows),
+                       .joint = marginals.Joint(nodes)};
+  for (int k = 0; k < static_cast<int>(edges.size()); ++k) {
+    const Edge& edge = *edges[static_cast<std::size_t>(k)];
+    Matrix3 d_from, d_to;
+    stacked.residual.segment<3>(3 * k) =
+        EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
+    stacked.jacobian.block<3, 3>(3 * k, 3 * column.at(edge.from)) += d_from;
+    stacked.jacobian.block<3, 3>(3 * k, 3 * column.at(edge.to)) += d_to;
+    stacked.measurement_covariance.block<3, 3>(3 * k, 3 * k) = edge.information.inverse();
+  }
+  return stacked;
+}
+
+}  // namespace
+
+std::optional<EdgeSetChi2> LeaveOneOutChi2(const PoseGraph& graph, const MarginalCovariances& marginals,
+                                           std::span<const Edge* const> edges) {
+  const std::optional<StackedEdges> w = Stack(graph, marginals, edges);
+  if (!w) return std::nullopt;
+  const Eigen::MatrixXd residual_covariance =
+      w->measurement_covariance - w->jacobian * w->joint * w->jacobian.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(
+      0.5 * (residual_covariance + residual_covariance.transpose()));
+  // Directions nothing but W constrains have (numerically) no residual variance: not testable.
+  const double floor = 1e-4 * w->measurement_covariance.diagonal().minCoeff();
+  EdgeSetChi2 result;
+  for (int i = 0; i < static_cast<int>(w->residual.size()); ++i) {
+    if (eigen.eigenvalues()(i) <= floor) continue;
+    const double projection = eigen.eigenvectors().col(i).dot(w->residual);
+    result.chi2 += projection * projection / eigen.eigenvalues()(i);
+    ++result.dof;
+  }
+  return result;
 }
 
 }  // namespace slamcore::internal

@@ -19,6 +19,7 @@
 
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -75,5 +76,23 @@ class MarginalCovariances {
   double variance_factor_ = 1.0;
   long redundancy_ = 0;
 };
+
+/// χ² of a set of edges W against a factorised graph, and its degrees of freedom.
+struct EdgeSetChi2 {
+  double chi2 = 0.0;
+  int dof = 0;
+};
+/// At most `cap` of `edges`, evenly spaced: the test of a subset of W against everything else is still a
+/// leave-one-out test, at a bounded cost.
+std::vector<const Edge*> EvenlySpaced(std::span<const Edge* const> edges, std::size_t cap);
+/// The leave-one-out χ² of edges W of the factorised graph, at the poses `marginals` was factorised at
+/// (the studentised residual of regression diagnostics): with W's stacked residuals r, the joint covariance
+/// P of the nodes they touch and their Jacobians J, d² = rᵀ (Σ_z − J P Jᵀ)⁺ r is the χ² of W's measurements
+/// against what every *other* edge predicts. It sees what an edge's own χ² hides: a flexible map bends to
+/// fit every edge, moving the conflict into the odometry between them. Directions in which nothing else
+/// constrains W are not testable and are dropped; `dof` counts the kept ones. nullopt when an edge's node is
+/// not in the factorised component.
+std::optional<EdgeSetChi2> LeaveOneOutChi2(const PoseGraph& graph, const MarginalCovariances& marginals,
+                                           std::span<const Edge* const> edges);
 
 }  // namespace slamcore::internal

@@ -131,6 +131,51 @@ TEST(MarginalCovariancesTest, AnAddedEdgeNeverMakesTwoPlacesLessSureOfEachOther)
   }
 }
 
+// The leave-one-out χ² of a closure that disagrees with the odometry by 0.3 m along x, both with variance
+// σ² = 0.01 on every axis: at the optimum node 1 sits halfway (x = 1.15) and each residual is 0.15 m; node 1's
+// variance along x is σ²/2, so the closure's residual has variance σ² − σ²/2 and d² = 0.15² / 0.005 = 4.5 —
+// the 0.3 m disagreement against its variance 2σ², i.e. the closure against what the odometry alone predicts
+// (its own fitted χ², 0.15² / σ² = 2.25, is half that). y and θ are testable (the odometry predicts them too)
+// and carry no residual.
+TEST(MarginalCovariancesTest, TheLeaveOneOutChi2JudgesAnEdgeAgainstWhatTheOthersPredict) {
+  PoseGraph graph;
+  ASSERT_THAT(graph.AddNode(Node{.id = 0, .pose = SE2::Identity()}), IsOk());
+  ASSERT_THAT(graph.AddNode(Node{.id = 1, .pose = SE2(1.15, 0, 0)}), IsOk());
+  ASSERT_THAT(graph.AddNode(Node{.id = 2, .pose = SE2(5, 0, 0)}), IsOk());  // another component
+  const auto edge = [](NodeId to, double x, EdgeKind kind) {
+    Edge made;
+    made.from = 0;
+    made.to = to;
+    made.measurement = SE2(x, 0, 0);
+    made.information = Matrix3::Identity() / 0.01;
+    made.kind = kind;
+    return made;
+  };
+  ASSERT_THAT(graph.AddEdge(edge(1, 1.0, EdgeKind::kMotion)), IsOk());
+  ASSERT_THAT(graph.AddEdge(edge(1, 1.3, EdgeKind::kObservation)), IsOk());
+  const auto marginals = internal::MarginalCovariances::Factorize(graph, 1);
+  ASSERT_TRUE(marginals.has_value());
+  const Edge* closure[] = {&graph.edges()[1]};
+  const std::optional<internal::EdgeSetChi2> test = internal::LeaveOneOutChi2(graph, *marginals, closure);
+  ASSERT_TRUE(test.has_value());
+  EXPECT_NEAR(test->chi2, 4.5, 1e-9);
+  EXPECT_EQ(test->dof, 3);
+  EXPECT_NEAR(EdgeChi2(graph, graph.edges()[1]), 2.25, 1e-9);
+
+  const Edge elsewhere = edge(2, 5.0, EdgeKind::kObservation);
+  const Edge* outside[] = {&elsewhere};
+  EXPECT_FALSE(internal::LeaveOneOutChi2(graph, *marginals, outside).has_value());
+}
+
+// At most `cap` edges, evenly spaced from the first; all of them when there are no more.
+TEST(MarginalCovariancesTest, EvenlySpacedKeepsAtMostTheCap) {
+  std::vector<Edge> edges(10);
+  std::vector<const Edge*> all;
+  for (const Edge& edge : edges) all.push_back(&edge);
+  EXPECT_EQ(internal::EvenlySpaced(all, 4), (std::vector<const Edge*>{all[0], all[2], all[5], all[7]}));
+  EXPECT_EQ(internal::EvenlySpaced(all, 60), all);
+}
+
 // Joint reads H⁻¹ from the sparse factor along elimination-tree paths; on a graph with many loops (a 6 × 6
 // grid of slightly perturbed poses, every neighbour pair an edge) its blocks must equal the dense inverse
 // of H = Σ Jᵀ Ω J assembled here from the same edge Jacobians, the gauge node's rows and columns zero.
