@@ -30,6 +30,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <iomanip>
 #include <optional>
 #include <sstream>
 #include <unordered_map>
@@ -133,18 +134,23 @@ using WeightedSolve = std::function<void(PoseGraph&, const OptimizerOptions&)>;
 // correct the drift a long loop really carries (on a generated 10,000-pose city, 145 true hypotheses were
 // retracted with no wrong closure in the file). So the accepted clusters outside the set are judged once
 // more with the odometry weighted by the variance factor of the inliers' own solution at the declared noise
-// (χ² / redundancy, where nothing rejected bends the map), RRR's way: all of them in the solve, from G's
-// poses (which hold them all; the judged solves' solution, bent by stiff odometry, is a start from which the
-// lenient solve can settle in another minimum), each judged by its leave-one-out χ² at retraction_confidence
-// (internal::LeaveOneOutChi2) — not by its own residual, since at the lenient noise a wrong group bends a
-// long loop's odometry until its own edges fit (ringCity: a group of 20 wrong closures at 0.64 of its
-// threshold after the solve, 11.6 by leave-one-out) — and while any fails, the one of those the judged
-// solves found worst goes and the rest are judged again without it (a wrong group in the solve bends the
-// map against the true candidates beside it, so that a true one can fail by more than the wrong group).
+// (χ² / redundancy, where nothing rejected bends the map), RRR's way:
+//  * all of them in the solve, from G's poses (which hold them all; the judged solves' solution, bent by
+//    stiff odometry, is a start from which the lenient solve can settle in another minimum);
+//  * each judged by its leave-one-out χ² (internal::LeaveOneOutChi2), not by its own residual: at the
+//    lenient noise a wrong group bends a long loop's odometry until its own edges fit (ringCity: a group of
+//    20 wrong closures at 0.64 of its threshold after the solve, 11.6 by leave-one-out);
+//  * at retraction_confidence shared among the candidates (Bonferroni: the check as a whole retracts a true
+//    hypothesis no more often than one test would; at 99.9 % each, a 30,000-pose city without a wrong
+//    closure lost 40 true closures);
+//  * while any fails, the one of those the judged solves found worst goes and the rest are judged again
+//    without it (a wrong group in the solve bends the map against the true candidates beside it, so that a
+//    true one can fail by more than the wrong group).
 // Nothing when that noise is no more lenient than the judged solves' (their verdict stands), else the
 // candidates confirmed, with their s_c.
 struct Confirmation {
   double variance_factor = 1.0;                           // of the odometry at the inliers' solution
+  double confidence = 1.0;                                // of each candidate's test
   std::vector<std::pair<std::size_t, double>> confirmed;  // candidate cluster, s_c when it went
 };
 std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
@@ -167,12 +173,15 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
       VarianceFactor(declared, robot, inlier_edge, consistency.min_redundancy_for_scaling);
   if (!met) return std::nullopt;
   Confirmation confirmation{.variance_factor = std::clamp(*met, consistency.min_variance_factor, 1.0),
+                            .confidence = 1.0,
                             .confirmed = {}};
   if (confirmation.variance_factor <= judged_factor) return std::nullopt;
   for (std::size_t k = 0; k < declared.num_edges(); ++k) {
     if (declared.edges()[k].kind == EdgeKind::kMotion)
       options.edge_weights[k] = 1.0 / confirmation.variance_factor;
   }
+  confirmation.confidence =
+      1.0 - (1.0 - consistency.retraction_confidence) / static_cast<double>(candidates.size());
   std::vector<std::size_t> judged = candidates;
   for (const std::size_t c : judged) {
     for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
@@ -189,7 +198,7 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
       std::optional<double> s;
       if (marginals) {
         s = LeaveOneOutNormalised(weighted, *marginals, cluster, consistency.max_edges_judged,
-                                  consistency.retraction_confidence);
+                                  confirmation.confidence);
       }
       const double value = s.value_or(NormalisedResidual(declared, cluster));
       if (value > 1.0 && (!worst || judged_s[judged[i]] > judged_s[judged[*worst]]))
@@ -368,11 +377,12 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   // one, or no redundancy to measure it) the judged verdict stands only beside a refused hypothesis that the
   // set takes in; an accepted one that fits the odometry's estimated noise badly, with nothing to replace
   // it, stays.
-  double met_factor = variance_factor;
+  double met_factor = variance_factor, met_confidence = consistency.retraction_confidence;
   if (!retract.empty()) {
     if (const std::optional<Confirmation> confirmation = JudgeAtTheNoiseTheInliersMeet(
             working, map_.graph, robot, clusters, retract, s, options, variance_factor, consistency, solve)) {
       met_factor = confirmation->variance_factor;
+      met_confidence = confirmation->confidence;
       retract.clear();
       for (const auto& [c, s_met] : confirmation->confirmed) {
         retract.push_back(c);
@@ -391,8 +401,9 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
          << 100 * consistency.consistent_set_confidence
          << " % quantile at the solution of the largest consistent set";
     if (const auto it = retract_confirmation.find(c); it != retract_confirmation.end()) {
-      text << "; leave-one-out χ² " << it->second << "× its " << 100 * consistency.retraction_confidence
-           << " % quantile at the noise the inliers meet (odometry variance factor " << met_factor << ")";
+      text << "; leave-one-out χ² " << it->second << "× its " << std::setprecision(6) << 100 * met_confidence
+           << std::setprecision(3) << " % quantile at the noise the inliers meet (odometry variance factor "
+           << met_factor << ")";
     }
     return text.str();
   };
