@@ -172,16 +172,16 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
   const std::optional<double> met =
       VarianceFactor(declared, robot, inlier_edge, consistency.min_redundancy_for_scaling);
   if (!met) return std::nullopt;
-  Confirmation confirmation{.variance_factor = std::clamp(*met, consistency.min_variance_factor, 1.0),
-                            .confidence = 1.0,
-                            .confirmed = {}};
+  Confirmation confirmation{
+      .variance_factor = std::clamp(*met, consistency.min_variance_factor, 1.0),
+      .confidence = 1.0 - (1.0 - consistency.retraction_confidence) /
+                              static_cast<double>(std::max<std::size_t>(1, candidates.size())),
+      .confirmed = {}};
   if (confirmation.variance_factor <= judged_factor) return std::nullopt;
   for (std::size_t k = 0; k < declared.num_edges(); ++k) {
     if (declared.edges()[k].kind == EdgeKind::kMotion)
       options.edge_weights[k] = 1.0 / confirmation.variance_factor;
   }
-  confirmation.confidence =
-      1.0 - (1.0 - consistency.retraction_confidence) / static_cast<double>(candidates.size());
   std::vector<std::size_t> judged = candidates;
   for (const std::size_t c : judged) {
     for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
@@ -365,8 +365,7 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
 
   // Apply: retract the accepted outliers, accept the refused inliers, keep the solution of the inliers.
   std::vector<std::size_t> accept, retract;
-  std::unordered_map<std::size_t, double>
-      retract_confirmation;  // leave-one-out, at the noise the inliers meet
+  std::unordered_map<std::size_t, double> retract_confirmation;  // s_c by leave-one-out
   for (std::size_t c = 0; c < clusters.size(); ++c) {
     const bool inlier = clusters[c].weight >= 0.5;
     if (inlier && clusters[c].kept >= 0) accept.push_back(c);
