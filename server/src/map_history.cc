@@ -28,7 +28,8 @@ MapHistory::MapHistory(storage::Repository& repository, MapPolicy policy)
 
 storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upload,
                                                        const slamcore::Map& child,
-                                                       const std::string& uploader) {
+                                                       const std::string& uploader,
+                                                       const storage::MapVersionRecord* parent_version) {
   const storage::RunRecord& run = upload.run;
   if (!run.child_snapshot_id) return storage::InvalidArgument("run " + run.run_id + " has no child map");
   // Index probes, not the robot's history: an upload costs the same on a map's first day and its thousandth.
@@ -43,9 +44,11 @@ storage::Result<UploadOutcome> MapHistory::StoreUpload(storage::UploadBundle upl
   // is a map a person made, and goes through review like a repair.
   const bool needs_review = uploader.rfind("engineer:", 0) == 0;
   const std::string parent = run.parent_snapshot_id.value_or("");
-  if (!parent.empty()) {
-    ASSIGN_OR_RETURN(const auto parent_version, repository_.FindMapVersionOfSnapshot(run.robot_id, parent));
-    if (parent_version) record.parent_version = parent_version->version;
+  if (parent_version != nullptr) {
+    record.parent_version = parent_version->version;
+  } else if (!parent.empty()) {
+    ASSIGN_OR_RETURN(const auto found, repository_.FindMapVersionOfSnapshot(run.robot_id, parent));
+    if (found) record.parent_version = found->version;
   }
   // Built on the current map (or there is none yet): this is the robot's map now. Built on an older one: kept
   // in the history, but the robot should take the current version instead.

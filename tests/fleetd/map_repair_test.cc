@@ -385,6 +385,31 @@ TEST_F(MapRepairTest, AWrongMergeIsFoundRepairedApprovedAndHandedBack) {
   ASSERT_THAT(status, IsOk());
   EXPECT_TRUE(outdated.map_outdated());
   EXPECT_EQ(outdated.current_map_version(), repaired_version);
+  // A run's version names as its parent the newest version holding the parent's snapshot when it came in
+  // (here a later version holding the merged map's snapshot again, not the merge itself).
+  const auto newest_holding = [&](const std::string& snapshot, std::int64_t below) {
+    std::int64_t newest = 0;
+    for (std::int64_t v = 1; v < below; ++v) {
+      if (Version(v).version().snapshot_id() == snapshot) newest = v;
+    }
+    return newest;
+  };
+  const std::string& parent_snapshot = merged.version().snapshot_id();
+  EXPECT_GT(newest_holding(parent_snapshot, outdated.map_version()), merged_version);
+  EXPECT_EQ(Version(outdated.map_version()).version().parent_version(),
+            newest_holding(parent_snapshot, outdated.map_version()));
+  // The same parent named by id only (ingest looks its version up once and hands it on): the same rule.
+  RunFile by_id = next;
+  by_id.mutable_header()->set_run_id("repair-run-after-by-id");
+  UploadOptions by_id_options;
+  by_id_options.send_parent = false;
+  by_id_options.parent_id = parent_snapshot;
+  fleet::v1::UploadRunResponse named;
+  status = Upload(*ingest_, robot_, by_id, &named, by_id_options);
+  ASSERT_THAT(status, IsOk());
+  EXPECT_TRUE(named.map_outdated());
+  EXPECT_EQ(Version(named.map_version()).version().parent_version(),
+            newest_holding(parent_snapshot, named.map_version()));
 
   // Export: map_server files and a g2o graph that reads back.
   for (const std::string format : {"map_server", "g2o"}) {

@@ -131,8 +131,11 @@ class MapHistory {
   /// run id (a retried upload gets the same version). `uploader`: the principal that sent the run
   /// ("robot:<id>" or empty: the robot itself). An engineer's upload for a robot is recorded as the
   /// engineer's and waits for review ("pending"); an admin's is recorded as the admin's.
+  /// `parent_version`: the version holding the run's parent snapshot when the caller has already looked it
+  /// up (ingest does, for a parent named by id); otherwise StoreUpload looks it up.
   storage::Result<UploadOutcome> StoreUpload(storage::UploadBundle upload, const slamcore::Map& child,
-                                             const std::string& uploader = "");
+                                             const std::string& uploader = "",
+                                             const storage::MapVersionRecord* parent_version = nullptr);
   /// Called by the worker after storing a report; acts only on the default set's report of an upload version.
   /// Reads the version's map and the run's parent map from storage.
   storage::Status OnRunAnalysed(const storage::RunKey& run, const fleet::v1::RunReport& report);

@@ -1,6 +1,7 @@
 #include "ingest_handler.h"
 
 #include <algorithm>
+#include <optional>
 
 #include "analyzer/telemetry_codec.h"
 #include "fleet/serialization.h"
@@ -144,6 +145,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
 
   // The parent map: sent (an empty one means "first run"), or named by id and already stored.
   std::string parent_bytes, parent_id;
+  std::optional<storage::MapVersionRecord> parent_version;  // looked up here for a parent named by id
   if (have_parent && run.parent_snapshot().nodes_size() > 0) {
     parent_bytes = fleet::SerializeDeterministic(run.parent_snapshot());
     parent_id = Sha256Hex(parent_bytes);
@@ -163,6 +165,7 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
     if (!holder.ok()) return ToGrpc(holder.status());
     // A version's snapshot is stored (AppendMapVersion checks), so there is no need to read it.
     if (!holder->has_value()) return not_held;
+    parent_version = std::move(holder).value();
   }
   header.set_parent_snapshot_id(parent_id);  // the stored run names its parent the same way on every retry
 
@@ -194,7 +197,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   const std::string run_id = record.run_id, robot_id = record.robot_id, child_id = *record.child_snapshot_id;
 
   auto stored = MapHistory(*context_.repository, context_.map_policy)
-                    .StoreUpload(std::move(upload), *child_map, principal.name);
+                    .StoreUpload(std::move(upload), *child_map, principal.name,
+                                 parent_version ? &*parent_version : nullptr);
   if (!stored.ok()) {
     if (stored.status().code() == storage::StatusCode::kAlreadyExists) {
       return {grpc::StatusCode::ALREADY_EXISTS, "header.run_id: run \"" + run_id + "\" of robot " + robot_id +
