@@ -200,7 +200,7 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
         s = LeaveOneOutNormalised(weighted, *marginals, cluster, consistency.max_edges_judged,
                                   confirmation.confidence);
       }
-      const double value = s.value_or(NormalisedResidual(declared, cluster));
+      const double value = s ? *s : NormalisedResidual(declared, cluster);  // the fallback only when needed
       if (value > 1.0 && (!worst || judged_s[judged[i]] > judged_s[judged[*worst]]))
         worst = i, worst_s = value;
     }

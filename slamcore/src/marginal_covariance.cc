@@ -248,15 +248,8 @@ std::vector<const Edge*> EvenlySpaced(std::span<const Edge* const> edges, std::s
   return spaced;
 }
 
-namespace {
-
-/// W's residuals, Jacobians and measurement covariance stacked, and the joint covariance of its nodes.
-struct StackedEdges {
-  Eigen::VectorXd residual;
-  Eigen::MatrixXd jacobian, measurement_covariance, joint;
-};
-std::optional<StackedEdges> Stack(const PoseGraph& graph, const MarginalCovariances& marginals,
-                                  std::span<const Edge* const> edges) {
+std::optional<EdgeSetChi2> LeaveOneOutChi2(const PoseGraph& graph, const MarginalCovariances& marginals,
+                                           std::span<const Edge* const> edges) {
   std::vector<NodeId> nodes;
   std::unordered_map<NodeId, int> column;
   for (const Edge* edge : edges) {
@@ -267,39 +260,30 @@ std::optional<StackedEdges> Stack(const PoseGraph& graph, const MarginalCovarian
   for (const NodeId node : nodes) {
     if (!marginals.Contains(node)) return std::nullopt;
   }
+  const Eigen::MatrixXd joint = marginals.Joint(nodes);
   const int rows = 3 * static_cast<int>(edges.size());
-  StackedEdges stacked{.residual = Eigen::VectorXd(rows),
-                       .jacobian = Eigen::MatrixXd::Zero(rows, 3 * static_cast<int>(nodes.size())),
-                       .measurement_covariance = Eigen::MatrixXd::Zero(rows, rows),
-                       .joint = marginals.Joint(nodes)};
+  Eigen::VectorXd residual(rows);
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(rows, 3 * static_cast<int>(nodes.size()));
+  Eigen::MatrixXd measurement_covariance = Eigen::MatrixXd::Zero(rows, rows);
   for (int k = 0; k < static_cast<int>(edges.size()); ++k) {
     const Edge& edge = *edges[static_cast<std::size_t>(k)];
     Matrix3 d_from, d_to;
-    stacked.residual.segment<3>(3 * k) =
+    residual.segment<3>(3 * k) =
         EdgeError(graph.node(edge.from).pose, graph.node(edge.to).pose, edge.measurement, &d_from, &d_to);
-    stacked.jacobian.block<3, 3>(3 * k, 3 * column.at(edge.from)) += d_from;
-    stacked.jacobian.block<3, 3>(3 * k, 3 * column.at(edge.to)) += d_to;
-    stacked.measurement_covariance.block<3, 3>(3 * k, 3 * k) = edge.information.inverse();
+    jacobian.block<3, 3>(3 * k, 3 * column.at(edge.from)) += d_from;
+    jacobian.block<3, 3>(3 * k, 3 * column.at(edge.to)) += d_to;
+    measurement_covariance.block<3, 3>(3 * k, 3 * k) = edge.information.inverse();
   }
-  return stacked;
-}
-
-}  // namespace
-
-std::optional<EdgeSetChi2> LeaveOneOutChi2(const PoseGraph& graph, const MarginalCovariances& marginals,
-                                           std::span<const Edge* const> edges) {
-  const std::optional<StackedEdges> w = Stack(graph, marginals, edges);
-  if (!w) return std::nullopt;
   const Eigen::MatrixXd residual_covariance =
-      w->measurement_covariance - w->jacobian * w->joint * w->jacobian.transpose();
+      measurement_covariance - jacobian * joint * jacobian.transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(
       0.5 * (residual_covariance + residual_covariance.transpose()));
   // Directions nothing but W constrains have (numerically) no residual variance: not testable.
-  const double floor = 1e-4 * w->measurement_covariance.diagonal().minCoeff();
+  const double floor = 1e-4 * measurement_covariance.diagonal().minCoeff();
   EdgeSetChi2 result;
-  for (int i = 0; i < static_cast<int>(w->residual.size()); ++i) {
+  for (int i = 0; i < rows; ++i) {
     if (eigen.eigenvalues()(i) <= floor) continue;
-    const double projection = eigen.eigenvectors().col(i).dot(w->residual);
+    const double projection = eigen.eigenvectors().col(i).dot(residual);
     result.chi2 += projection * projection / eigen.eigenvalues()(i);
     ++result.dof;
   }
