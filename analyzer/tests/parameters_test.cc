@@ -34,8 +34,9 @@ TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
 
 TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   // A what-if parameter set: the paper's filter alone, or other caps.
-  const auto off =
-      ParseParameterSetJson(R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2}})", "off.json");
+  const auto off = ParseParameterSetJson(
+      R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2, "maxMarginalUpdateNodes": 0}})",
+      "off.json");
   ASSERT_THAT(off, IsOk());
   const auto params = FromProto(off->mapper());
   ASSERT_THAT(params, IsOk());
@@ -45,6 +46,7 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   const auto round_trip = FromProto(ToProto(*params));
   ASSERT_THAT(round_trip, IsOk());
   EXPECT_EQ(round_trip->consistency.min_passes_against_map, 2);
+  EXPECT_EQ(round_trip->consistency.max_marginal_update_nodes, 0);  // factorise whenever G changed
   EXPECT_FALSE(round_trip->consistency.enabled);
   // Unbounded caps are refused, naming the field.
   const auto unbounded =

@@ -155,6 +155,7 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
   }
   const bool large =
       whole.has_value() || start == Start::kWhole || largest_seed_chi2 > options_.whole_component_edge_chi2;
+  summary.whole_start = large;
   Grow(graph, region, region,
        large ? graph.num_nodes() : static_cast<std::size_t>(options_.initial_region_nodes));
 

@@ -61,10 +61,11 @@ struct IncrementalSolverOptions {
 };
 
 struct IncrementalSummary {
-  int region_nodes = 0;  // variables of the last region solved
-  int rounds = 0;        // regions solved (1 + growths)
-  int iterations = 0;    // Gauss–Newton iterations over all rounds
-  bool full = false;     // the region reached the whole component
+  int region_nodes = 0;      // variables of the last region solved
+  int rounds = 0;            // regions solved (1 + growths)
+  int iterations = 0;        // Gauss–Newton iterations over all rounds
+  bool full = false;         // the region reached the whole component
+  bool whole_start = false;  // it started from the whole component (a far edge, or asked to)
 };
 
 /// The normal equations of a whole component as a solve left them: H = Σ Jᵀ Ω J over all its edges at the

@@ -63,15 +63,27 @@ using internal::PoseGaussian;
 double Mapper::Impl::DeclaredNoiseScale() const {
   const ConsistencyParams& consistency = params_.consistency;
   if (!consistency.enabled || !marginals_ ||
-      marginals_->redundancy() < consistency.min_redundancy_for_scaling) {
+      variance_factor_.redundancy < consistency.min_redundancy_for_scaling) {
     return 1.0;
   }
-  return std::clamp(marginals_->variance_factor(), consistency.min_variance_factor, 1.0);
+  return std::clamp(variance_factor_.factor, consistency.min_variance_factor, 1.0);
 }
 
 std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   const NodeId robot = *current_node_;
   if (!map_.graph.SameComponent(node, robot)) return std::nullopt;
+  const SE2 robot_T_node = map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose;
+  if (marginals_ && marginals_revision_ != map_revision_ &&
+      marginals_structure_revision_ == structure_revision_) {
+    // Edges were only added since the factorisation: they update its marginals (a small dense solve)
+    // until they touch more nodes than that is worth.
+    if (const std::optional<Matrix3> covariance = internal::RelativeCovarianceWithEdgesSince(
+            map_.graph, *marginals_, robot, node,
+            static_cast<std::size_t>(params_.consistency.max_marginal_update_nodes))) {
+      variance_factor_ = internal::ComponentVarianceFactor(map_.graph, robot);
+      return PoseGaussian{robot_T_node, DeclaredNoiseScale() * *covariance};
+    }
+  }
   if (!marginals_ || marginals_revision_ != map_revision_ || !marginals_->Contains(node)) {
     RefactorizeMarginals();
     if (!marginals_) return std::nullopt;
@@ -81,7 +93,7 @@ std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   // The map's covariance as the noise met so far says, never above what was declared.
   newest_T_node.covariance *= DeclaredNoiseScale();
   const Matrix3 covariance = internal::Compose(robot_T_factorized_, newest_T_node).covariance;
-  return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
+  return PoseGaussian{robot_T_node, covariance};
 }
 
 std::optional<PoseGaussian> Mapper::Impl::MapPredictionBound(NodeId node) const {
@@ -101,9 +113,15 @@ std::optional<PoseGaussian> Mapper::Impl::MapPredictionBound(NodeId node) const 
 }
 
 void Mapper::Impl::RefactorizeMarginals() {
-  marginals_ = internal::MarginalCovariances::Factorize(map_.graph, *current_node_);
+  SetMarginals(internal::MarginalCovariances::Factorize(map_.graph, *current_node_));
+}
+
+void Mapper::Impl::SetMarginals(std::optional<internal::MarginalCovariances> marginals) {
+  marginals_ = std::move(marginals);
   marginals_revision_ = map_revision_;
   marginals_indirect_revision_ = indirect_revision_;
+  marginals_structure_revision_ = structure_revision_;
+  if (marginals_) variance_factor_ = {marginals_->variance_factor(), marginals_->redundancy()};
   robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
 }
 
@@ -113,10 +131,7 @@ bool Mapper::Impl::MarginalsFromTheSolve() {
   std::optional<internal::MarginalCovariances> marginals =
       internal::MarginalCovariances::FromSolve(map_.graph, *current_node_, std::move(*factorisation));
   if (!marginals) return false;
-  marginals_ = std::move(marginals);
-  marginals_revision_ = map_revision_;
-  marginals_indirect_revision_ = indirect_revision_;
-  robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
+  SetMarginals(std::move(marginals));
   return true;
 }
 
@@ -198,7 +213,7 @@ void Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {
   std::erase_if(accepted_, [&](const AcceptedObservation& edge) {
     return edge.hypothesis == hypothesis_id && edge.robot_node >= first_run_node_;
   });
-  NoteObservationEdgesChanged(/*direct_edge_added=*/false);
+  NoteGraphChanged(GraphChange::kRestructured);
   if (anchor_ && anchor_->hypothesis == hypothesis_id) anchor_.reset();
 }
 

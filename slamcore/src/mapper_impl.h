@@ -130,9 +130,12 @@ class Mapper::Impl {
   /// after which the marginals factorised before still bound the map's covariance (MapPredictionBound).
   void AddObservationEdge(const internal::HypothesisObservation& observation, std::int64_t hypothesis_id,
                           bool direct);
-  /// Records that G's observation edges changed: `direct_edge_added` for a direct edge added, false for
-  /// anything else (edges removed, G restored or re-posed, hypotheses' edges added).
-  void NoteObservationEdgesChanged(bool direct_edge_added);
+  /// How G changed, for what the marginals factorised before it can still tell: while only direct edges
+  /// were added they bound the map's covariance (MapPredictionBound); while only edges were added they are
+  /// the prior the new edges update (MapPrediction); after edges were removed, or G was restored or
+  /// re-posed as a whole, only a new factorisation describes it.
+  enum class GraphChange : std::uint8_t { kDirectEdgeAdded, kEdgesAdded, kRestructured };
+  void NoteGraphChanged(GraphChange change);
   void RejectCompetitors(const internal::Hypothesis& accepted);
   /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional
   /// merge, which is then undone — and feeding a merge hypothesis's observations to the rejected tracker.
@@ -161,7 +164,7 @@ class Mapper::Impl {
   /// informative: an aliasing offset of consistency.aliasing_offset metres would have failed it.
   bool AliasingOffsetWouldFail(double largest_variance, double gate_chi2) const;
   /// The factor by which the declared covariances overstate the noise the robot's component meets: the
-  /// a-posteriori variance factor of the last factorisation of the marginals, clamped to
+  /// a-posteriori variance factor the last map test measured (variance_factor_), clamped to
   /// [consistency.min_variance_factor, 1], once its redundancy reaches consistency.min_redundancy_for_scaling;
   /// else (and with the consistency checks off) 1.
   double DeclaredNoiseScale() const;
@@ -171,6 +174,8 @@ class Mapper::Impl {
   /// the last direct edges, without refactorising; nullopt when they are current or cannot bound it.
   std::optional<internal::PoseGaussian> MapPredictionBound(NodeId node) const;
   void RefactorizeMarginals();
+  /// Takes `marginals` as those of G as it is now.
+  void SetMarginals(std::optional<internal::MarginalCovariances> marginals);
   /// The marginals from the factorisation the back-end's last whole-component solve ended with, when it
   /// left one for the robot's component; false (marginals_ untouched) otherwise.
   bool MarginalsFromTheSolve();
@@ -243,6 +248,10 @@ class Mapper::Impl {
   std::optional<internal::MarginalCovariances> marginals_;
   std::uint64_t marginals_revision_ = 0, map_revision_ = 0;
   std::uint64_t marginals_indirect_revision_ = 0, indirect_revision_ = 0;
+  std::uint64_t marginals_structure_revision_ = 0, structure_revision_ = 0;
+  /// The variance factor of the robot's component as the last map test measured it (from the marginals
+  /// when they were factorised for it, else from G): DeclaredNoiseScale's.
+  internal::VarianceFactor variance_factor_;
   internal::PoseGaussian robot_T_factorized_;
   /// This run's first node: edges at or after it were added in this run (parent edges are never retracted).
   NodeId first_run_node_ = 0;

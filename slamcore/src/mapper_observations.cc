@@ -222,7 +222,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     anchor_ = saved->anchor;
     ambiguity_ = std::move(saved->ambiguity);
     pending_seeds_ = std::move(saved->pending_seeds);
-    NoteObservationEdgesChanged(/*direct_edge_added=*/false);
+    NoteGraphChanged(GraphChange::kRestructured);
     candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
                                                          params_.consistency.pass_gap_distance);
     Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
@@ -244,7 +244,7 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
   const Edge edge = MakeObservationEdge(observation, hypothesis_id);
   // Cannot fail: both nodes and the view exist, and the covariance passed validation.
   if (map_.graph.AddEdge(edge).ok()) {
-    NoteObservationEdgesChanged(direct);
+    NoteGraphChanged(direct ? GraphChange::kDirectEdgeAdded : GraphChange::kEdgesAdded);
     pending_seeds_.push_back(edge.from);
     pending_seeds_.push_back(edge.to);
     accepted_.push_back({.robot_node = edge.from, .view = observation.view, .hypothesis = hypothesis_id});
@@ -252,9 +252,10 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
   }
 }
 
-void Mapper::Impl::NoteObservationEdgesChanged(bool direct_edge_added) {
+void Mapper::Impl::NoteGraphChanged(GraphChange change) {
   ++map_revision_;
-  if (!direct_edge_added) ++indirect_revision_;
+  if (change != GraphChange::kDirectEdgeAdded) ++indirect_revision_;
+  if (change == GraphChange::kRestructured) ++structure_revision_;
 }
 
 Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation,
@@ -324,13 +325,15 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   OptimizerOptions options = params_.optimizer;
   options.component = node;
   const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
+  NoteGraphChanged(GraphChange::kRestructured);  // the whole component re-posed
   // Optimisation cannot fail on validated data; if Ceres does, G keeps its poses and the log says so.
   if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
 }
 
 void Mapper::Impl::UpdateIncrementally(internal::IncrementalSolver::Start start) {
-  (void)incremental_.Update(map_.graph, pending_seeds_, start);
+  const internal::IncrementalSummary summary = incremental_.Update(map_.graph, pending_seeds_, start);
   pending_seeds_.clear();
+  if (summary.whole_start) NoteGraphChanged(GraphChange::kRestructured);
 }
 
 // Below this innovation (Mahalanobis², 3 dof: about 0.6 σ per degree of freedom) a direct edge is not worth a

@@ -2,6 +2,7 @@
 
 #include <cholmod.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -215,11 +216,13 @@ Eigen::MatrixXd MarginalCovariances::Joint(const std::vector<NodeId>& nodes) con
 }
 
 PoseGaussian MarginalCovariances::Relative(NodeId a, NodeId b) const {
-  const Eigen::Matrix<double, 6, 6> joint = Joint({a, b});
+  const SE2 pose_a = poses_.at(a), pose_b = poses_.at(b);
+  return {pose_a.inverse() * pose_b, RelativeCovariance(pose_a, pose_b, Joint({a, b}))};
+}
 
+Matrix3 RelativeCovariance(const SE2& pose_a, const SE2& pose_b, const Eigen::Matrix<double, 6, 6>& joint) {
   // Left perturbation ε of a_T_b against the plain parameters of a and b, by central differences (the
   // relative pose is smooth; six evaluations cost nothing next to the solves).
-  const SE2 pose_a = poses_.at(a), pose_b = poses_.at(b);
   const SE2 relative = pose_a.inverse() * pose_b;
   Eigen::Matrix<double, 3, 6> jacobian;
   constexpr double kStep = 1e-6;
@@ -237,8 +240,140 @@ PoseGaussian MarginalCovariances::Relative(NodeId a, NodeId b) const {
     };
     jacobian.col(k) = (perturbed(1.0) - perturbed(-1.0)) / (2 * kStep);
   }
-  Matrix3 covariance = jacobian * joint * jacobian.transpose();
-  return {relative, 0.5 * (covariance + covariance.transpose())};
+  const Matrix3 covariance = jacobian * joint * jacobian.transpose();
+  return 0.5 * (covariance + covariance.transpose());
+}
+
+std::optional<Matrix3> RelativeCovarianceWithEdgesSince(const PoseGraph& graph,
+                                                        const MarginalCovariances& marginals, NodeId a,
+                                                        NodeId b, std::size_t max_nodes) {
+  const std::span<const Edge> edges = graph.edges();
+  if (edges.size() < marginals.num_edges()) return std::nullopt;
+  const NodeId newest = marginals.newest_node();
+  // The chain: node id → the motion edge from id − 1; every other new edge is a factor of its own.
+  std::unordered_map<NodeId, const Edge*> chain_step;
+  std::vector<const Edge*> factors;
+  for (std::size_t k = marginals.num_edges(); k < edges.size(); ++k) {
+    const Edge& edge = edges[k];
+    if (edge.kind == EdgeKind::kMotion && edge.to == edge.from + 1 && edge.to > newest) {
+      if (!chain_step.emplace(edge.to, &edge).second) return std::nullopt;
+    } else {
+      factors.push_back(&edge);
+    }
+  }
+  NodeId chain_end = newest;
+  while (chain_step.contains(chain_end + 1)) ++chain_end;
+
+  // The nodes of S: factorised ones (the gauge is held, so it has no column) and the chain's that new
+  // edges touch; the chain's first node anchors it when any of its nodes is in S.
+  std::vector<NodeId> old_nodes, chain_nodes;
+  std::unordered_map<NodeId, int> column;  // node → its block in the joint information
+  const auto take = [&](NodeId node) {
+    if (marginals.Contains(node)) {
+      if (!marginals.IsHeld(node) && column.emplace(node, -1).second) old_nodes.push_back(node);
+      return true;
+    }
+    if (node <= newest || node > chain_end) return false;
+    if (column.emplace(node, -1).second) chain_nodes.push_back(node);
+    return true;
+  };
+  for (const Edge* edge : factors) {
+    if (!take(edge->from) || !take(edge->to)) return std::nullopt;
+  }
+  if (!take(a) || !take(b)) return std::nullopt;
+  if (!chain_nodes.empty() && !take(newest)) return std::nullopt;
+  if (old_nodes.size() + chain_nodes.size() > max_nodes) return std::nullopt;
+  std::sort(chain_nodes.begin(), chain_nodes.end());
+  int blocks = 0;
+  for (const NodeId node : old_nodes) column[node] = blocks++;
+  for (const NodeId node : chain_nodes) column[node] = blocks++;
+
+  // Each new edge as a linear factor on S, e = J_from δx_from + J_to δx_to with information Ω, at G's poses.
+  struct LinearFactor {
+    NodeId from, to;
+    Matrix3 d_from, d_to, information;
+  };
+  std::vector<LinearFactor> linear;
+  for (const Edge* edge : factors) {
+    LinearFactor factor{
+        .from = edge->from, .to = edge->to, .d_from = {}, .d_to = {}, .information = edge->information};
+    (void)EdgeError(graph.node(edge->from).pose, graph.node(edge->to).pose, edge->measurement, &factor.d_from,
+                    &factor.d_to);
+    linear.push_back(factor);
+  }
+  // The chain's stretch from one node of S to the next, its inner nodes eliminated: each motion edge gives
+  // δx_to = F δx_from + w (F = −J_to⁻¹ J_from, cov w = J_to⁻¹ Ω⁻¹ J_to⁻ᵀ), and the products along the
+  // stretch give δx_to = F δx_from + w, a factor with J_from = −F, J_to = I, Ω = (cov w)⁻¹.
+  NodeId from = newest;
+  for (const NodeId to : chain_nodes) {
+    Matrix3 transition = Matrix3::Identity(), noise = Matrix3::Zero();
+    for (NodeId id = from + 1; id <= to; ++id) {
+      const Edge& step = *chain_step.at(id);
+      Matrix3 d_from, d_to;
+      (void)EdgeError(graph.node(step.from).pose, graph.node(step.to).pose, step.measurement, &d_from, &d_to);
+      const Matrix3 to_inverse = d_to.inverse();
+      const Matrix3 step_transition = -to_inverse * d_from;
+      transition = step_transition * transition;
+      noise = step_transition * noise * step_transition.transpose() +
+              to_inverse * step.information.inverse() * to_inverse.transpose();
+    }
+    linear.push_back({.from = from,
+                      .to = to,
+                      .d_from = -transition,
+                      .d_to = Matrix3::Identity(),
+                      .information = noise.inverse()});
+    from = to;
+  }
+
+  const int size = 3 * blocks;
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(size, size);
+  if (!old_nodes.empty()) {
+    const Eigen::LDLT<Eigen::MatrixXd> prior(marginals.Joint(old_nodes));
+    if (prior.info() != Eigen::Success || !prior.isPositive()) return std::nullopt;
+    const int old_size = 3 * static_cast<int>(old_nodes.size());
+    information.topLeftCorner(old_size, old_size) =
+        prior.solve(Eigen::MatrixXd::Identity(old_size, old_size));
+  }
+  const auto block = [&](NodeId node) {
+    const auto it = column.find(node);
+    return it == column.end() ? -1 : 3 * it->second;  // −1: the gauge, held
+  };
+  for (const LinearFactor& factor : linear) {
+    const int i = block(factor.from), j = block(factor.to);
+    if (i >= 0)
+      information.block<3, 3>(i, i) += factor.d_from.transpose() * factor.information * factor.d_from;
+    if (j >= 0) information.block<3, 3>(j, j) += factor.d_to.transpose() * factor.information * factor.d_to;
+    if (i >= 0 && j >= 0) {
+      const Matrix3 cross = factor.d_from.transpose() * factor.information * factor.d_to;
+      information.block<3, 3>(i, j) += cross;
+      information.block<3, 3>(j, i) += cross.transpose();
+    }
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> posterior(information);
+  if (posterior.info() != Eigen::Success || !posterior.isPositive()) return std::nullopt;
+  // Σ's columns of a and b only.
+  Eigen::MatrixXd selector = Eigen::MatrixXd::Zero(size, 6);
+  for (int end = 0; end < 2; ++end) {
+    const auto it = column.find(end == 0 ? a : b);
+    if (it != column.end()) selector.block<3, 3>(3 * it->second, 3 * end).setIdentity();
+  }
+  const Eigen::MatrixXd columns = posterior.solve(selector);
+  const Eigen::Matrix<double, 6, 6> joint = selector.transpose() * columns;
+  return RelativeCovariance(graph.node(a).pose, graph.node(b).pose, 0.5 * (joint + joint.transpose()));
+}
+
+VarianceFactor ComponentVarianceFactor(const PoseGraph& graph, NodeId node) {
+  const ComponentId component = graph.ComponentOf(node);
+  double chi2 = 0.0;
+  long edges = 0;
+  for (const Edge& edge : graph.edges()) {
+    if (graph.ComponentOf(edge.from) != component) continue;
+    chi2 += EdgeChi2(graph, edge);
+    ++edges;
+  }
+  const long redundancy = 3 * edges - 3 * (static_cast<long>(graph.ComponentSize(component)) - 1);
+  if (redundancy <= 0) return {};
+  return {.factor = chi2 / static_cast<double>(redundancy), .redundancy = redundancy};
 }
 
 std::vector<const Edge*> EvenlySpaced(std::span<const Edge* const> edges, std::size_t cap) {

@@ -47,6 +47,11 @@ class MarginalCovariances {
   MarginalCovariances& operator=(MarginalCovariances&&) noexcept;
 
   bool Contains(NodeId node) const { return index_.contains(node); }
+  /// The gauge: the factorised node held fixed (zero covariance).
+  bool IsHeld(NodeId node) const {
+    const auto it = index_.find(node);
+    return it != index_.end() && it->second < 0;
+  }
   /// The newest (largest id) node of the factorised component.
   NodeId newest_node() const { return newest_node_; }
   std::size_t num_edges() const { return num_edges_; }
@@ -76,6 +81,33 @@ class MarginalCovariances {
   double variance_factor_ = 1.0;
   long redundancy_ = 0;
 };
+
+/// The covariance of the left perturbation of a_T_b (in a's frame) from the joint covariance (6 × 6) of
+/// the plain (x, y, θ) parameters of a and b at these poses.
+Matrix3 RelativeCovariance(const SE2& pose_a, const SE2& pose_b, const Eigen::Matrix<double, 6, 6>& joint);
+
+/// The covariance of a_T_b (left perturbation, in a's frame) once the edges graph.edges() holds beyond the
+/// marginals' num_edges() joined the factorised graph, without factorising it again. Those edges must join
+/// factorised nodes and the chain the robot drove since (the ids after the newest factorised node, each
+/// joined to the one before by one of them: a motion edge); nullopt otherwise, or when more than
+/// `max_nodes` nodes carry them. By Bayes' rule on the linearised problem, the new edges act only on the
+/// nodes they touch (S), so the old graph enters through the marginal of S alone: the information of S is
+/// (Σ_SS)⁻¹ plus the new edges' Jᵀ Ω J, the chain's stretches between nodes of S composed into one edge each
+/// (eq. (3)), and its inverse holds a_T_b's joint — exact but for the linearisation points (the
+/// factorisation's poses for Σ_SS, G's current poses for the new edges and a_T_b). The caller keeps to
+/// edges only added since (a removal, or G re-posed, calls for a new factorisation).
+std::optional<Matrix3> RelativeCovarianceWithEdgesSince(const PoseGraph& graph,
+                                                        const MarginalCovariances& marginals, NodeId a,
+                                                        NodeId b, std::size_t max_nodes);
+
+/// The a-posteriori variance factor χ² / redundancy of the component of `node` at G's poses (1 without
+/// redundancy), and the redundancy: what MarginalCovariances::variance_factor() and redundancy() hold for
+/// the graph as it was factorised.
+struct VarianceFactor {
+  double factor = 1.0;
+  long redundancy = 0;
+};
+VarianceFactor ComponentVarianceFactor(const PoseGraph& graph, NodeId node);
 
 /// χ² of a set of edges W against a factorised graph, and its degrees of freedom.
 struct EdgeSetChi2 {

@@ -176,17 +176,15 @@ TEST(MarginalCovariancesTest, EvenlySpacedKeepsAtMostTheCap) {
   EXPECT_EQ(internal::EvenlySpaced(all, 60), all);
 }
 
-// Joint reads H⁻¹ from the sparse factor along elimination-tree paths; on a graph with many loops (a 6 × 6
-// grid of slightly perturbed poses, every neighbour pair an edge) its blocks must equal the dense inverse
-// of H = Σ Jᵀ Ω J assembled here from the same edge Jacobians, the gauge node's rows and columns zero.
-TEST(MarginalCovariancesTest, JointEqualsTheDenseInverseOnAGraphWithManyLoops) {
-  constexpr int kSide = 6;
+/// A 6 × 6 grid of slightly perturbed poses, node id row · 6 + column, every neighbour pair an edge.
+constexpr int kSide = 6;
+PoseGraph Grid() {
   PoseGraph graph;
   const auto id = [](int row, int column) { return row * kSide + column; };
   for (int row = 0; row < kSide; ++row) {
     for (int column = 0; column < kSide; ++column) {
       const double wobble = 0.01 * ((row * 7 + column * 3) % 5);
-      ASSERT_THAT(
+      EXPECT_THAT(
           graph.AddNode(Node{.id = id(row, column), .pose = SE2(column + wobble, row - wobble, wobble)}),
           IsOk());
     }
@@ -201,10 +199,18 @@ TEST(MarginalCovariancesTest, JointEqualsTheDenseInverseOnAGraphWithManyLoops) {
         edge.measurement = to_row == row ? SE2(1, 0, 0) : SE2(0, 1, 0);
         edge.information =
             EdgeInformationFromLeftCovariance(edge.measurement, Vector3(0.01, 0.02, 0.003).asDiagonal());
-        ASSERT_THAT(graph.AddEdge(edge), IsOk());
+        EXPECT_THAT(graph.AddEdge(edge), IsOk());
       }
     }
   }
+  return graph;
+}
+
+// Joint reads H⁻¹ from the sparse factor along elimination-tree paths; on a graph with many loops (a 6 × 6
+// grid of slightly perturbed poses, every neighbour pair an edge) its blocks must equal the dense inverse
+// of H = Σ Jᵀ Ω J assembled here from the same edge Jacobians, the gauge node's rows and columns zero.
+TEST(MarginalCovariancesTest, JointEqualsTheDenseInverseOnAGraphWithManyLoops) {
+  const PoseGraph graph = Grid();
   const int unknowns = 3 * (kSide * kSide - 1);  // node 0 is the gauge
   Eigen::MatrixXd information = Eigen::MatrixXd::Zero(unknowns, unknowns);
   for (const Edge& edge : graph.edges()) {
@@ -237,6 +243,58 @@ TEST(MarginalCovariancesTest, JointEqualsTheDenseInverseOnAGraphWithManyLoops) {
           << actual;
     }
   }
+}
+
+// The map test's marginals updated by the edges added since their factorisation must be what a new
+// factorisation gives at the same poses: the grid factorised, then a chain of ten nodes driven from its
+// newest node (35), closures from three of them onto the grid (one onto the gauge, node 0) and one between
+// two grid nodes. Relative covariances between chain nodes (touched by an edge or not) and grid nodes equal
+// those of G factorised afresh; past the node cap, or with a node the chain does not reach, there is no update.
+TEST(MarginalCovariancesTest, EdgesAddedSinceTheFactorisationUpdateItsMarginalsExactly) {
+  PoseGraph graph = Grid();
+  const auto stale = internal::MarginalCovariances::Factorize(graph, 35);
+  ASSERT_TRUE(stale.has_value());
+  const auto edge = [&](NodeId from, NodeId to, EdgeKind kind, const Vector3& sigma2) {
+    Edge made;
+    made.from = from;
+    made.to = to;
+    made.measurement = graph.node(from).pose.inverse() * graph.node(to).pose * SE2(0.02, -0.01, 0.005);
+    made.information = EdgeInformationFromLeftCovariance(made.measurement, sigma2.asDiagonal());
+    made.kind = kind;
+    return made;
+  };
+  for (NodeId id = 36; id <= 45; ++id) {
+    const SE2 step(0.5, 0.05 * static_cast<double>(id % 3), 0.1);
+    ASSERT_THAT(graph.AddNode(Node{.id = id, .pose = graph.node(id - 1).pose * step}), IsOk());
+    ASSERT_THAT(graph.AddEdge(edge(id - 1, id, EdgeKind::kMotion, Vector3(0.004, 0.002, 0.001))), IsOk());
+  }
+  const auto chain_only = internal::MarginalCovariances::Factorize(graph, 45);
+  ASSERT_TRUE(chain_only.has_value());
+  for (const auto& [from, to] : {std::pair{38, 7}, std::pair{42, 21}, std::pair{45, 0}, std::pair{14, 30}}) {
+    ASSERT_THAT(graph.AddEdge(edge(from, to, EdgeKind::kObservation, Vector3(0.03, 0.03, 0.004))), IsOk());
+  }
+  const auto fresh = internal::MarginalCovariances::Factorize(graph, 45);
+  ASSERT_TRUE(fresh.has_value());
+  for (const auto& [a, b] : {std::pair{45, 5}, std::pair{40, 14}, std::pair{45, 38}, std::pair{42, 0}}) {
+    const std::optional<Matrix3> updated =
+        internal::RelativeCovarianceWithEdgesSince(graph, *stale, a, b, 48);
+    ASSERT_TRUE(updated.has_value()) << a << " → " << b;
+    const Matrix3 expected = fresh->Relative(a, b).covariance;
+    EXPECT_LT((*updated - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.cwiseAbs().maxCoeff())
+        << a << " → " << b << "\nexpected\n"
+        << expected << "\nupdated\n"
+        << *updated;
+    // And the closures did tell: without them the covariance is another.
+    EXPECT_GT((chain_only->Relative(a, b).covariance - expected).cwiseAbs().maxCoeff(),
+              1e-2 * expected.cwiseAbs().maxCoeff());
+  }
+  // Nodes touched: 7, 21, 14, 30 and 35 of the grid (0 is held), 38, 42, 45 and 40 of the chain.
+  EXPECT_TRUE(internal::RelativeCovarianceWithEdgesSince(graph, *stale, 40, 14, 9).has_value());
+  EXPECT_FALSE(internal::RelativeCovarianceWithEdgesSince(graph, *stale, 40, 14, 8).has_value());
+  // A node the chain does not reach (47 follows 45 with no 46) leaves the update's shape.
+  ASSERT_THAT(graph.AddNode(Node{.id = 47, .pose = SE2(9, 9, 0)}), IsOk());
+  ASSERT_THAT(graph.AddEdge(edge(47, 3, EdgeKind::kObservation, Vector3(0.03, 0.03, 0.004))), IsOk());
+  EXPECT_FALSE(internal::RelativeCovarianceWithEdgesSince(graph, *stale, 45, 5, 48).has_value());
 }
 
 // Wheel stasis as in mapper_test.cc's RecoveryTest: the robot stands at x = 1 while odometry (σ² = 1e-2 per
@@ -460,6 +518,8 @@ TEST(ConsistencyParamsTest, EveryNewFieldIsValidated) {
               HasSubstr("consistency.max_continuation_edges"));
   EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_edges_judged = 0; }).message(),
               HasSubstr("consistency.max_edges_judged"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_marginal_update_nodes = 257; }).message(),
+              HasSubstr("consistency.max_marginal_update_nodes"));
   EXPECT_THAT(MapperParams{}.Validate(), IsOk());
 }
 

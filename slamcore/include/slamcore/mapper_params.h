@@ -66,6 +66,10 @@ struct ConsistencyParams {
   int max_judged_per_check = 8;
   int max_retractions_per_check = 4;
   int max_edges_judged = 60;
+  /// The map test's marginals are updated by the edges added since their factorisation (a dense solve over
+  /// the nodes those edges touch) until the edges touch more than this many nodes, then factorised again;
+  /// 0 factorises whenever G changed.
+  int max_marginal_update_nodes = 48;
   /// The consistent-set check (mapper_consistent_set.cc): the accepted hypotheses of the run and the refused
   /// ones kept (at most max_kept_refused, the oldest forgotten first) are judged together by graduated
   /// non-convexity; those outside the largest consistent set are retracted, refused ones inside it accepted.
