@@ -38,8 +38,10 @@
 // conflict into the odometry between them. W fails when d² exceeds the χ² quantile at
 // retraction_confidence for the kept degrees of freedom.
 //
-// Costs: a factorisation of the component's information matrix when observation edges changed since the
-// last test; six sparse solves per map test; per verification a copy of G, one factorisation and 3 solves
+// Costs: per map test, the joint marginal of the nodes the edges added since the last factorisation touch
+// (path walks in its factor) and a dense solve over them (marginal_covariance.h:
+// RelativeCovarianceWithEdgesSince), or, past max_marginal_update_nodes of them or after edges were removed
+// or G re-posed, a new factorisation of the component's information matrix; per verification a copy of G, one factorisation and 3 solves
 // per node of the judged hypotheses (at most max_judged_per_check of them, each judged by at most
 // max_edges_judged of its edges, evenly spaced), plus one optimisation per retraction (at most
 // max_retractions_per_check).

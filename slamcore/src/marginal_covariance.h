@@ -12,7 +12,8 @@
 //
 // A factorisation describes the graph as it was; the Mapper reaches nodes added later by composing the
 // odometry chain from the newest factorised node (exact for a chain without loops, which is what new nodes
-// are until the next edge closes a loop).
+// are until the next edge closes a loop), and edges added later by updating the marginal of the few nodes
+// they touch (RelativeCovarianceWithEdgesSince) until they touch too many, when it factorises again.
 //
 // Thread safety: an immutable value after Factorize.
 #pragma once
