@@ -215,7 +215,7 @@ void Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {
   std::erase_if(accepted_, [&](const AcceptedObservation& edge) {
     return edge.hypothesis == hypothesis_id && edge.robot_node >= first_run_node_;
   });
-  NoteGraphChanged(GraphChange::kRestructured);
+  NoteGraphChanged(GraphChange::kEdgesRemoved);
   if (anchor_ && anchor_->hypothesis == hypothesis_id) anchor_.reset();
 }
 

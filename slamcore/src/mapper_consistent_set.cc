@@ -439,7 +439,7 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     kept_refused_.erase(kept_refused_.begin());
   }
   for (const Node& node : working.nodes()) map_.graph.mutable_node(node.id).pose = node.pose;
-  NoteGraphChanged(GraphChange::kRestructured);
+  NoteGraphChanged(GraphChange::kEdgesRemoved);  // or refused edges taken in, and G re-posed
   std::string note;  // a failed polish leaves G at the check's solution, which is already the inliers'
   OptimizeComponentOf(robot, &note);
   judged_at_last_check_ = retractable_.size() + kept_refused_.size();

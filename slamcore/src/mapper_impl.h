@@ -132,9 +132,10 @@ class Mapper::Impl {
                           bool direct);
   /// How G changed, for what the marginals factorised before it can still tell: while only direct edges
   /// were added they bound the map's covariance (MapPredictionBound); while only edges were added they are
-  /// the prior the new edges update (MapPrediction); after edges were removed, or G was restored or
-  /// re-posed as a whole, only a new factorisation describes it.
-  enum class GraphChange : std::uint8_t { kDirectEdgeAdded, kEdgesAdded, kRestructured };
+  /// the prior the new edges update (MapPrediction); after edges were removed (or G restored to before
+  /// some were added) or the whole component re-posed, only a new factorisation describes G's new edges.
+  /// A re-pose alone leaves current marginals current (to within the linearisation point).
+  enum class GraphChange : std::uint8_t { kDirectEdgeAdded, kEdgesAdded, kEdgesRemoved, kReposed };
   void NoteGraphChanged(GraphChange change);
   void RejectCompetitors(const internal::Hypothesis& accepted);
   /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional

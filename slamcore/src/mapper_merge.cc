@@ -49,7 +49,7 @@ void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
   for (Node& node : map_.graph.mutable_nodes()) {
     if (map_.graph.ComponentOf(node.id) == source) node.pose = target_T_source * node.pose;
   }
-  NoteGraphChanged(GraphChange::kRestructured);
+  NoteGraphChanged(GraphChange::kReposed);
   if (accepted.conditional) {
     overlay_.reset();  // G now holds the edges itself
     conditional_hypothesis_ = -1;

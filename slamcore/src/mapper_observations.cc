@@ -222,7 +222,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     anchor_ = saved->anchor;
     ambiguity_ = std::move(saved->ambiguity);
     pending_seeds_ = std::move(saved->pending_seeds);
-    NoteGraphChanged(GraphChange::kRestructured);
+    NoteGraphChanged(GraphChange::kEdgesRemoved);
     candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
                                                          params_.consistency.pass_gap_distance);
     Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
@@ -253,9 +253,10 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
 }
 
 void Mapper::Impl::NoteGraphChanged(GraphChange change) {
+  if (change == GraphChange::kEdgesRemoved || change == GraphChange::kReposed) ++structure_revision_;
+  if (change == GraphChange::kReposed) return;
   ++map_revision_;
   if (change != GraphChange::kDirectEdgeAdded) ++indirect_revision_;
-  if (change == GraphChange::kRestructured) ++structure_revision_;
 }
 
 Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation,
@@ -325,7 +326,7 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   OptimizerOptions options = params_.optimizer;
   options.component = node;
   const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
-  NoteGraphChanged(GraphChange::kRestructured);  // the whole component re-posed
+  NoteGraphChanged(GraphChange::kReposed);
   // Optimisation cannot fail on validated data; if Ceres does, G keeps its poses and the log says so.
   if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
 }
@@ -333,7 +334,7 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
 void Mapper::Impl::UpdateIncrementally(internal::IncrementalSolver::Start start) {
   const internal::IncrementalSummary summary = incremental_.Update(map_.graph, pending_seeds_, start);
   pending_seeds_.clear();
-  if (summary.whole_start) NoteGraphChanged(GraphChange::kRestructured);
+  if (summary.whole_start) NoteGraphChanged(GraphChange::kReposed);
 }
 
 // Below this innovation (Mahalanobis², 3 dof: about 0.6 σ per degree of freedom) a direct edge is not worth a
