@@ -93,10 +93,11 @@ Matrix3 RelativeCovariance(const SE2& pose_a, const SE2& pose_b, const Eigen::Ma
 /// joined to the one before by one of them: a motion edge); nullopt otherwise, or when more than
 /// `max_nodes` nodes carry them. By Bayes' rule on the linearised problem, the new edges act only on the
 /// nodes they touch (S), so the old graph enters through the marginal of S alone: the information of S is
-/// (Σ_SS)⁻¹ plus the new edges' Jᵀ Ω J, the chain's stretches between nodes of S composed into one edge each
-/// (eq. (3)), and its inverse holds a_T_b's joint — exact but for the linearisation points (the
+/// (Σ_SS)⁻¹ plus the new edges' Jᵀ Ω J, the chain's stretches between nodes of S each one factor with its
+/// inner nodes eliminated, and its inverse holds a_T_b's joint — exact but for the linearisation points (the
 /// factorisation's poses for Σ_SS, G's current poses for the new edges and a_T_b). The caller keeps to
-/// edges only added since (a removal, or G re-posed, calls for a new factorisation).
+/// edges only added since (a removal, or G re-posed, calls for a new factorisation). Its cost: the path
+/// walks of Σ_SS, a walk along the chain, and a dense factorisation of 3|S| unknowns.
 std::optional<Matrix3> RelativeCovarianceWithEdgesSince(const PoseGraph& graph,
                                                         const MarginalCovariances& marginals, NodeId a,
                                                         NodeId b, std::size_t max_nodes);
