@@ -144,8 +144,9 @@ class Mapper::Impl {
   void UpdateAmbiguityMarks();
   bool IsAmbiguous(ViewId view) const { return map_.graph.view(view).ambiguous; }
   void OptimizeComponentOf(NodeId node, std::string* note);
-  /// The incremental back-end's update from the pending seeds (which it clears).
-  void UpdateIncrementally(internal::IncrementalSolver::Start start);
+  /// The incremental back-end's update from the pending seeds (which it clears). When it started from the
+  /// whole component, its last factorisation becomes the marginals (true when it could).
+  bool UpdateIncrementally(internal::IncrementalSolver::Start start);
   /// The incremental back-end minimises plain χ²: with a robust loss the batch one is used.
   bool UsesIncrementalBackend() const {
     return params_.backend == MapperBackend::kIncremental &&

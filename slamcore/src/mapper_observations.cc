@@ -207,8 +207,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
     if (verify && UsesIncrementalBackend()) {
       direct_edges_since_full_optimization_ = 0;
       pending_seeds_.push_back(*current_node_);
-      UpdateIncrementally(internal::IncrementalSolver::Start::kWhole);
-      marginals_current = MarginalsFromTheSolve();
+      marginals_current = UpdateIncrementally(internal::IncrementalSolver::Start::kWhole);
     } else {
       OptimizeComponentOf(*current_node_, &note);
     }
@@ -331,10 +330,14 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
 }
 
-void Mapper::Impl::UpdateIncrementally(internal::IncrementalSolver::Start start) {
+bool Mapper::Impl::UpdateIncrementally(internal::IncrementalSolver::Start start) {
   const internal::IncrementalSummary summary = incremental_.Update(map_.graph, pending_seeds_, start);
   pending_seeds_.clear();
-  if (summary.whole_start) NoteGraphChanged(GraphChange::kReposed);
+  if (!summary.whole_start) return false;
+  // The whole component moved: the marginals factorised before no longer describe it, and the solve's own
+  // last factorisation does.
+  NoteGraphChanged(GraphChange::kReposed);
+  return MarginalsFromTheSolve();
 }
 
 // Below this innovation (Mahalanobis², 3 dof: about 0.6 σ per degree of freedom) a direct edge is not worth a
