@@ -41,10 +41,10 @@
 // Costs: per map test, the joint marginal of the nodes the edges added since the last factorisation touch
 // (path walks in its factor) and a dense solve over them (marginal_covariance.h:
 // RelativeCovarianceWithEdgesSince), or, past max_marginal_update_nodes of them or after edges were removed
-// or G re-posed, a new factorisation of the component's information matrix; per verification a copy of G, one factorisation and 3 solves
-// per node of the judged hypotheses (at most max_judged_per_check of them, each judged by at most
-// max_edges_judged of its edges, evenly spaced), plus one optimisation per retraction (at most
-// max_retractions_per_check).
+// or G re-posed, a new factorisation of the component's information matrix; per verification a copy of G,
+// one factorisation and 3 solves per node of the judged hypotheses (at most max_judged_per_check of them,
+// each judged by at most max_edges_judged of its edges, evenly spaced), plus one optimisation per retraction
+// (at most max_retractions_per_check).
 // Open hypotheses are capped at max_open_hypotheses.
 #include <algorithm>
 #include <sstream>
@@ -123,7 +123,7 @@ void Mapper::Impl::SetMarginals(std::optional<internal::MarginalCovariances> mar
   marginals_revision_ = map_revision_;
   marginals_indirect_revision_ = indirect_revision_;
   marginals_structure_revision_ = structure_revision_;
-  if (marginals_) variance_factor_ = {marginals_->variance_factor(), marginals_->redundancy()};
+  if (marginals_) variance_factor_ = marginals_->variance_factor();
   robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
 }
 

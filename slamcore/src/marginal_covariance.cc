@@ -41,6 +41,17 @@ struct MarginalCovariances::Factor {
   }
 };
 
+namespace {
+
+/// χ² over `edges` edges of a component with `free_nodes` nodes not held.
+VarianceFactor VarianceFactorOf(double chi2, long edges, long free_nodes) {
+  const long redundancy = 3 * edges - 3 * free_nodes;
+  if (redundancy <= 0) return {};
+  return {.factor = chi2 / static_cast<double>(redundancy), .redundancy = redundancy};
+}
+
+}  // namespace
+
 MarginalCovariances::~MarginalCovariances() = default;
 MarginalCovariances::MarginalCovariances(MarginalCovariances&&) noexcept = default;
 MarginalCovariances& MarginalCovariances::operator=(MarginalCovariances&&) noexcept = default;
@@ -93,7 +104,7 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
       add_block(b, a, d_to.transpose() * edge.information * d_from);
     }
   }
-  result.SetVarianceFactor(chi2, static_cast<long>(edges), blocks);
+  result.variance_factor_ = VarianceFactorOf(chi2, static_cast<long>(edges), blocks);
   Eigen::SparseMatrix<double> information(3 * blocks, 3 * blocks);
   information.setFromTriplets(triplets.begin(), triplets.end());
   information.makeCompressed();
@@ -101,14 +112,6 @@ std::optional<MarginalCovariances> MarginalCovariances::Factorize(const PoseGrap
   result.factor_ = std::make_unique<Factor>();
   if (!result.factor_->Compute(information)) return std::nullopt;
   return result;
-}
-
-void MarginalCovariances::SetVarianceFactor(double chi2, long edges, long free_nodes) {
-  // The a-posteriori variance factor σ̂₀² = χ² / redundancy (Förstner & Wrobel, Photogrammetric Computer
-  // Vision, 2016, §4.2.3): how far the declared covariances overstate the noise actually met.
-  const long redundancy = 3 * edges - 3 * free_nodes;
-  if (redundancy > 0) variance_factor_ = chi2 / static_cast<double>(redundancy);
-  redundancy_ = std::max(0L, redundancy);
 }
 
 std::optional<MarginalCovariances> MarginalCovariances::FromSolve(const PoseGraph& graph, NodeId node,
@@ -129,14 +132,7 @@ std::optional<MarginalCovariances> MarginalCovariances::FromSolve(const PoseGrap
   }
   if (held != gauge) return std::nullopt;  // Factorize holds the smallest id: the same gauge, or nothing
   result.num_edges_ = graph.num_edges();
-  double chi2 = 0.0;  // at the poses the solve ended with, as Factorize measures it
-  long edges = 0;
-  for (const Edge& edge : graph.edges()) {
-    if (graph.ComponentOf(edge.from) != component) continue;
-    chi2 += EdgeChi2(graph, edge);
-    ++edges;
-  }
-  result.SetVarianceFactor(chi2, edges, static_cast<long>(factorisation.first_column.size()) - 1);
+  result.variance_factor_ = ComponentVarianceFactor(graph, node);  // at the poses the solve ended with
   result.factor_ = std::make_unique<Factor>();
   result.factor_->cholesky = std::move(factorisation.cholesky);
   if (!result.factor_->TakeFactor()) return std::nullopt;
@@ -371,9 +367,7 @@ VarianceFactor ComponentVarianceFactor(const PoseGraph& graph, NodeId node) {
     chi2 += EdgeChi2(graph, edge);
     ++edges;
   }
-  const long redundancy = 3 * edges - 3 * (static_cast<long>(graph.ComponentSize(component)) - 1);
-  if (redundancy <= 0) return {};
-  return {.factor = chi2 / static_cast<double>(redundancy), .redundancy = redundancy};
+  return VarianceFactorOf(chi2, edges, static_cast<long>(graph.ComponentSize(component)) - 1);
 }
 
 std::vector<const Edge*> EvenlySpaced(std::span<const Edge* const> edges, std::size_t cap) {

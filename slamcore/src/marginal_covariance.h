@@ -32,6 +32,14 @@
 
 namespace slamcore::internal {
 
+/// The a-posteriori variance factor σ̂₀² = χ² / redundancy of a component (Förstner & Wrobel, Photogrammetric
+/// Computer Vision, 2016, §4.2.3: how far the declared covariances overstate the noise actually met), 1 when
+/// it has no redundancy, and the redundancy 3 · (edges − free nodes).
+struct VarianceFactor {
+  double factor = 1.0;
+  long redundancy = 0;
+};
+
 class MarginalCovariances {
  public:
   /// Factorises the component of `node`. nullopt when the information matrix is singular (a component
@@ -56,9 +64,8 @@ class MarginalCovariances {
   /// The newest (largest id) node of the factorised component.
   NodeId newest_node() const { return newest_node_; }
   std::size_t num_edges() const { return num_edges_; }
-  /// χ² / redundancy of the factorised component (1 when it has no redundancy), and the redundancy.
-  double variance_factor() const { return variance_factor_; }
-  long redundancy() const { return redundancy_; }
+  /// The variance factor of the factorised component at the poses it was factorised at.
+  const VarianceFactor& variance_factor() const { return variance_factor_; }
 
   /// a_T_b at the factorised poses, with the covariance of its left perturbation (in a's frame).
   /// Both nodes must be Contained.
@@ -71,16 +78,13 @@ class MarginalCovariances {
  private:
   struct Factor;
   MarginalCovariances() = default;
-  /// The a-posteriori variance factor from the component's χ² over `edges` edges and its free nodes.
-  void SetVarianceFactor(double chi2, long edges, long free_nodes);
 
   std::unordered_map<NodeId, int> index_;  // node → block column, −1 for the gauge node
   std::unordered_map<NodeId, SE2> poses_;  // at factorisation
   std::unique_ptr<Factor> factor_;
   NodeId newest_node_ = -1;
   std::size_t num_edges_ = 0;
-  double variance_factor_ = 1.0;
-  long redundancy_ = 0;
+  VarianceFactor variance_factor_;
 };
 
 /// The covariance of the left perturbation of a_T_b (in a's frame) from the joint covariance (6 × 6) of
@@ -102,13 +106,8 @@ std::optional<Matrix3> RelativeCovarianceWithEdgesSince(const PoseGraph& graph,
                                                         const MarginalCovariances& marginals, NodeId a,
                                                         NodeId b, std::size_t max_nodes);
 
-/// The a-posteriori variance factor χ² / redundancy of the component of `node` at G's poses (1 without
-/// redundancy), and the redundancy: what MarginalCovariances::variance_factor() and redundancy() hold for
-/// the graph as it was factorised.
-struct VarianceFactor {
-  double factor = 1.0;
-  long redundancy = 0;
-};
+/// The variance factor of the component of `node` at G's poses: what MarginalCovariances::variance_factor()
+/// holds for the graph as it was factorised.
 VarianceFactor ComponentVarianceFactor(const PoseGraph& graph, NodeId node);
 
 /// χ² of a set of edges W against a factorised graph, and its degrees of freedom.

@@ -176,10 +176,7 @@ TEST(MarginalCovariancesTest, TheLeaveOneOutChi2JudgesAnEdgeAgainstWhatTheOthers
 // closures are judged by the map test hundreds of times, most of them with edges added since) and Intel
 // (Vertigo) from data/. The update's own arithmetic is held to a fresh factorisation above.
 TEST(MapTestMarginalsTest, AnOutlierFreeReplayDecidesAsWithAFreshFactorisationEachTime) {
-  ManhattanOptions options;
-  options.poses = 2000;
-  options.seed = 3;
-  const Result<ManhattanWorld> world = GenerateManhattanWorld(options);
+  const Result<ManhattanWorld> world = GenerateManhattanWorld({.poses = 2000, .seed = 3});
   ASSERT_THAT(world, IsOk());
   TEST_DATA_FILE_OR_SKIP(intel_path, "posegraphs/vertigo/intel.g2o");
   const Result<PoseGraph> intel = ReadPoseGraph(intel_path);

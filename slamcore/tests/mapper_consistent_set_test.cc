@@ -104,10 +104,7 @@ TEST(ConsistentSetCheckTest, AtTheEndOfTheRunTheTruthIsAcceptedAndTheWrongPassRe
 // the check retracted 23 of its true hypotheses and kept 789 of the 1000 closures; confirmed at the noise the
 // inliers meet, none is retracted.
 TEST(ConsistentSetCheckTest, OnAGeneratedCityWithoutWrongClosuresNoTrueHypothesisIsRetracted) {
-  ManhattanOptions options;
-  options.poses = 2000;
-  options.seed = 2;
-  const Result<ManhattanWorld> world = GenerateManhattanWorld(options);
+  const Result<ManhattanWorld> world = GenerateManhattanWorld({.poses = 2000, .seed = 2});
   ASSERT_THAT(world, IsOk());
   const Result<ReplayResult> replay = ReplayPoseGraph(world->graph, MapperParams{});
   ASSERT_THAT(replay, IsOk());
