@@ -54,6 +54,14 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   ASSERT_FALSE(unbounded.ok());
   EXPECT_NE(unbounded.status().message().find("consistency.max_open_hypotheses"), std::string::npos)
       << unbounded.status().message();
+  // The map test's update solves densely over the nodes it allows: its cap is bounded both ways too.
+  for (const char* json : {R"({"consistency": {"maxMarginalUpdateNodes": 2147483647}})",
+                           R"({"consistency": {"maxMarginalUpdateNodes": -1}})"}) {
+    const auto refused = ParseParameterSetJson(json, "update.json");
+    ASSERT_FALSE(refused.ok()) << json;
+    EXPECT_NE(refused.status().message().find("consistency.max_marginal_update_nodes"), std::string::npos)
+        << refused.status().message();
+  }
 }
 
 TEST(ParametersTest, BareMapperObjectIsAccepted) {
