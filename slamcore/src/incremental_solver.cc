@@ -320,9 +320,21 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   // a rejection. Dividing λ by 10 on every success, as before, made badly conditioned weighted solves
   // alternate between an accepted and a rejected step for dozens of iterations.
   double cost = linearise(current), damping = 0.0, damping_growth = 2.0;
+  bool undamped_failed = false;
   const auto reject = [&] {
+    if (damping == 0.0) undamped_failed = true;
     damping = damping == 0.0 ? 1e-4 : damping * damping_growth;
     damping_growth *= 2.0;
+  };
+  // The last undamped factorisation, H at the solution to within the tolerances, for whoever asked for it.
+  const auto KeepFactorisation = [&] {
+    if (converged == nullptr) return;
+    if (std::unique_ptr<CholmodCholesky> cholesky = normal_equations.Release()) {
+      ComponentFactorisation kept{.cholesky = std::move(cholesky), .first_column = {}};
+      for (const std::size_t index : region)
+        kept.first_column.emplace_back(graph.nodes()[index].id, column[index]);
+      *converged = std::move(kept);
+    }
   };
   int iterations = 0;
   std::vector<SE2> saved(region.size());
@@ -406,13 +418,20 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       largest_angle = std::max(largest_angle, std::abs(step(c + 2)));
     }
     const double new_cost = linearise(trial);
+    const double scale = std::max(cost, 1e-300);
     if (!(new_cost <= cost)) {
       for (std::size_t k = 0; k < region.size(); ++k) graph.mutable_nodes()[region[k]].pose = saved[k];
+      // An undamped step that promised less than the tolerance and did not deliver it is rounding at the
+      // minimum: converged. (Damping it further only confirms that, at a factorisation per try.)
+      if (undamped && predicted < relative_cost_decrease * scale) {
+        KeepFactorisation();
+        break;
+      }
       reject();
       if (damping > 1e8) break;
       continue;
     }
-    const double actual = cost - new_cost, scale = std::max(cost, 1e-300);
+    const double actual = cost - new_cost;
     const double decrease = actual / scale;
     // How far the decrease strayed from the one the linearisation predicted, relative to the cost.
     const double model_error = std::abs(actual - predicted) / scale;
@@ -421,7 +440,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     std::swap(current, trial);
     damping *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain_ratio - 1.0, 3));
     damping_growth = 2.0;
-    if (damping < 1e-8) damping = 0.0;
+    if (damping < 1e-8 && !undamped_failed) damping = 0.0;
     const bool tiny_step = largest_position < 1e-2 * options_.position_tolerance &&
                            largest_angle < 1e-2 * options_.angle_tolerance;
     // The stopping rules are at the top of incremental_solver.h. The linear step applies only to a region
@@ -430,14 +449,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     const bool linear_enough =
         undamped && !to_convergence && converged == nullptr && model_error < relative_cost_decrease;
     if (decrease < relative_cost_decrease || (tiny_step && !to_convergence) || linear_enough) {
-      if (converged != nullptr && undamped) {
-        if (std::unique_ptr<CholmodCholesky> cholesky = normal_equations.Release()) {
-          ComponentFactorisation kept{.cholesky = std::move(cholesky), .first_column = {}};
-          for (const std::size_t index : region)
-            kept.first_column.emplace_back(graph.nodes()[index].id, column[index]);
-          *converged = std::move(kept);
-        }
-      }
+      if (undamped) KeepFactorisation();
       break;
     }
   }
