@@ -15,7 +15,8 @@
 //     stops when an iteration decreases χ² by less than `relative_cost_decrease` (relative) or moves no node
 //     by more than a hundredth of the tolerances below, or, for a region held at its boundary, when an
 //     undamped step decreased χ² by what its linearisation predicted, to within `relative_cost_decrease`:
-//     the problem is linear at that scale, and a further factorisation would only confirm it.
+//     the problem is linear at that scale, and a further factorisation would only confirm it. An undamped
+//     step rejected after predicting less than that tolerance is rounding at the minimum: it stops too.
 //  3. The wildfire test: for each held node next to the region, how much the update changed the step it
 //     would take alone (its own Gauss–Newton block, −H_uu⁻¹ g_u over its edges, with the region's poses
 //     after against before). When every change is below `position_tolerance` / `angle_tolerance`, the
