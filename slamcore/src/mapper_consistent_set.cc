@@ -406,17 +406,44 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     }
     return text.str();
   };
+  // A retracted hypothesis is wrong as a whole, not in every observation: one wrong observation can start
+  // a hypothesis that a true pass then joins (its gate wide after a long drive) and carries to acceptance,
+  // with the direct edges that pass anchored (RRR's intra-cluster test). Its edges had no pull on the
+  // solution of the inliers, so each is judged there as the direct gate judges an observation against the
+  // map: those within gate_chi2 stay, as direct edges; the others leave with the hypothesis. (When every
+  // edge fits on its own but the cluster failed — a lenient gate_chi2 — the cluster's verdict stands.)
   std::vector<KeptRefused> newly_refused;
+  std::vector<Edge> edges_that_fit;
   for (const std::size_t c : retract) {
     KeptRefused kept{.hypothesis = clusters[c].hypothesis, .edges = {}};
-    for (const std::size_t k : clusters[c].edges) kept.edges.push_back(map_.graph.edges()[k]);
+    std::vector<Edge> fit;
+    for (const std::size_t k : clusters[c].edges) {
+      Edge edge = map_.graph.edges()[k];
+      const bool fits = EdgeChi2(working, working.edges()[k]) <= params_.gate_chi2;
+      if (fits) edge.hypothesis.reset();
+      (fits ? fit : kept.edges).push_back(edge);
+    }
+    if (kept.edges.empty()) {
+      for (Edge& edge : fit) edge.hypothesis = clusters[c].hypothesis;
+      kept.edges = std::move(fit);
+    }
+    edges_that_fit.insert(edges_that_fit.end(), fit.begin(), fit.end());
+    std::string fit_note;
+    if (kept.edges.size() < clusters[c].edges.size()) {
+      fit_note = "; " + std::to_string(clusters[c].edges.size() - kept.edges.size()) + " of its " +
+                 std::to_string(clusters[c].edges.size()) +
+                 " edges fit that solution within the direct gate and stay as direct edges";
+    }
     newly_refused.push_back(std::move(kept));
     Log(DecisionKind::kRetracted, -1, clusters[c].hypothesis, HypothesisKind::kRecovery,
-        describe(c) + "; edges removed and the map re-optimised");
+        describe(c) + fit_note + "; edges removed and the map re-optimised");
   }
   for (const std::size_t c : retract) {
     RemoveHypothesisEdges(clusters[c].hypothesis);
     std::erase(retractable_, clusters[c].hypothesis);
+  }
+  for (const Edge& edge : edges_that_fit) {
+    if (map_.graph.AddEdge(edge).ok()) accepted_.push_back({.robot_node = edge.from, .view = *edge.view});
   }
   std::vector<std::size_t> accepted_kept;
   for (const std::size_t c : accept) {

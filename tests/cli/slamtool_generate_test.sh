@@ -34,6 +34,23 @@ assert len(a ^ b) <= 0.1 * closures, f"{len(a ^ b)} of {closures} closures decid
 assert abs(incremental["mapper_chi2"] - incremental["final_chi2"]) <= 1e-6 * incremental["final_chi2"] + 1e-9
 PY
 if "$slamtool" replay-g2o "$work/city.g2o" --backend fast 2>/dev/null; then fail "accepted an unknown back-end"; fi
+# The decision log, one JSON object per decision: every closure accepted is a direct edge or part of an
+# accepted hypothesis, and the log's direct edges are as many as the JSON summary counts.
+"$slamtool" replay-g2o "$work/city.g2o" --json --decisions "$work/decisions.jsonl" >"$work/summary.json"
+python3 - "$work/summary.json" "$work/decisions.jsonl" <<'PY'
+import json, sys
+summary = json.load(open(sys.argv[1]))
+decisions = [json.loads(line) for line in open(sys.argv[2])]
+kinds = [d["kind"] for d in decisions]
+assert kinds.count("direct_edge") == summary["direct_edges"], (kinds.count("direct_edge"), summary["direct_edges"])
+assert kinds[0] == "component_created", kinds[0]
+assert all({"time", "kind", "node", "view", "reason"} <= d.keys() for d in decisions)
+assert all(d["reason"] for d in decisions if d["kind"] == "direct_edge"), "a direct edge without its reason"
+PY
+if "$slamtool" replay-g2o "$work/city.g2o" --decisions "$work/missing/decisions.jsonl" 2>"$work/err.txt" >/dev/null; then
+  fail "wrote the decision log into a missing directory"
+fi
+grep -q "missing/decisions.jsonl" "$work/err.txt" || fail "unclear error: $(cat "$work/err.txt")"
 
 if "$slamtool" generate-manhattan --poses 1 "$work/bad.g2o" 2>"$work/err.txt"; then fail "accepted 1 pose"; fi
 grep -q -- "--poses" "$work/err.txt" || fail "unclear error: $(cat "$work/err.txt")"

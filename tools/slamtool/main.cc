@@ -1,7 +1,7 @@
 // slamtool: offline operations of the shared SLAM core on files.
 //
 //   slamtool optimize FILE [--out FILE.g2o] [--json] [--init linear|warm] [--robust-loss none|huber|cauchy]
-//   slamtool replay-g2o FILE [--params FILE] [--backend incremental|batch] [--json]
+//   slamtool replay-g2o FILE [--params FILE] [--backend incremental|batch] [--json] [--decisions FILE.jsonl]
 //   slamtool corrupt-g2o FILE --out FILE [--count N | --fraction F] [--mode random|local|first] [--group G]
 //            [--max-group G] [--single-fraction F] [--seed S]
 //   slamtool generate-manhattan --poses N [--seed S] [--truth FILE] OUT.g2o
@@ -91,7 +91,27 @@ struct ReplayArguments {
   std::string params_file;
   std::string backend = "incremental";
   bool json = false;
+  std::string decisions_file;
 };
+
+// One JSON object per line and decision, in the order the Mapper made them.
+slamcore::Status WriteDecisions(const std::vector<slamcore::Decision>& decisions, const std::string& path) {
+  return slamcore::WriteFileReplacing(path, [&](std::ostream& output) {
+    for (const slamcore::Decision& decision : decisions) {
+      nlohmann::json line = {{"time", decision.time},
+                             {"kind", slamcore::DecisionKindName(decision.kind)},
+                             {"node", decision.node},
+                             {"view", decision.view},
+                             {"reason", decision.reason}};
+      if (decision.hypothesis >= 0) line["hypothesis"] = decision.hypothesis;
+      if (decision.hypothesis_kind) {
+        line["hypothesis_kind"] =
+            *decision.hypothesis_kind == slamcore::HypothesisKind::kRecovery ? "recovery" : "merge";
+      }
+      output << line.dump() << "\n";
+    }
+  });
+}
 
 nlohmann::json PairsToJson(const std::vector<slamcore::VertexPair>& pairs) {
   nlohmann::json array = nlohmann::json::array();
@@ -114,6 +134,11 @@ int RunReplay(const ReplayArguments& arguments) {
       arguments.backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
   const auto result = slamcore::ReplayPoseGraph(*graph, params);
   if (!result.ok()) return Fail(result.status());
+  if (!arguments.decisions_file.empty()) {
+    if (const slamcore::Status status = WriteDecisions(result->decisions, arguments.decisions_file);
+        !status.ok())
+      return Fail(status);
+  }
   const slamcore::MapperStatistics& stats = result->statistics;
   if (arguments.json) {
     const nlohmann::json report = {
@@ -238,6 +263,10 @@ int main(int argc, char** argv) {
       ->add_option("--params", replay.params_file, "Mapper parameter set (JSON, fleet.v1.ParameterSet)")
       ->check(CLI::ExistingFile);
   replay_command->add_flag("--json", replay.json, "print one JSON object on stdout");
+  replay_command->add_option(
+      "--decisions", replay.decisions_file,
+      "write the Mapper's decision log here, one JSON object per line (kind, node, view, "
+      "hypothesis, reason)");
   replay_command
       ->add_option(
           "--backend", replay.backend,
