@@ -105,6 +105,8 @@ int main(int argc, char** argv) {
           total.true_total += outcome->score.true_total;
           total.wrong_accepted += outcome->score.wrong_accepted;
           total.wrong_total += outcome->score.wrong_total;
+          total.agreeing_accepted += outcome->score.agreeing_accepted;
+          total.agreeing_total += outcome->score.agreeing_total;
           retracted += outcome->retracted;
           if (outcome->replay_rmse) {
             has_truth = true;
@@ -116,9 +118,14 @@ int main(int argc, char** argv) {
         }
         char rmse[64] = "—";
         if (has_truth) std::snprintf(rmse, sizeof rmse, "%.3f / %.3f", replay_rmse, clean_replay_rmse);
-        std::printf("| %s | %s | %.0f %% | %.2f %% | %.2f %% | %d of %d | %d | %s | %.2f (%.2f) |\n",
+        char agreeing[64] = "";
+        if (total.agreeing_total > 0) {
+          std::snprintf(agreeing, sizeof agreeing, " (+%d of %d that agree with the optimum)",
+                        total.agreeing_accepted, total.agreeing_total);
+        }
+        std::printf("| %s | %s | %.0f %% | %.2f %% | %.2f %% | %d of %d%s | %d | %s | %.2f (%.2f) |\n",
                     name.c_str(), mode.c_str(), 100 * fraction, 100 * total.Precision(), 100 * total.Recall(),
-                    total.wrong_accepted, total.wrong_total, retracted, rmse, seconds,
+                    total.wrong_accepted, total.wrong_total, agreeing, retracted, rmse, seconds,
                     clean_seconds > 0 ? seconds / clean_seconds : 0.0);
         std::fflush(stdout);
       }

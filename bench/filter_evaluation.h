@@ -114,7 +114,7 @@ inline slamcore::Result<FilterOutcome> EvaluateFilter(const std::filesystem::pat
   ASSIGN_OR_RETURN(const auto clean_replay, CleanReplay(graphs, test_case, clean, params));
 
   FilterOutcome outcome;
-  outcome.score = slamcore::ScoreReplay(replay, corrupted.first_outlier_edge);
+  outcome.score = slamcore::ScoreReplay(replay, corrupted.first_outlier_edge, corrupted.agrees_with_optimum);
   outcome.retracted = replay.statistics.recovery_retracted;
   outcome.seconds = replay.seconds;
   outcome.clean_seconds = clean_replay.first;

@@ -6,6 +6,8 @@
 #include <numbers>
 #include <random>
 
+#include "slamcore/optimizer.h"
+
 namespace slamcore {
 namespace {
 
@@ -84,7 +86,7 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::uniform_int_distribution<long> shift(3, 10);
   std::bernoulli_distribution backwards(0.5);
 
-  CorruptedGraph corrupted{graph, {}, graph.num_edges()};
+  CorruptedGraph corrupted{graph, {}, graph.num_edges(), {}};
   const auto enough = [&](int groups) {
     return options.total_edges > 0 ? static_cast<int>(corrupted.outliers.size()) >= options.total_edges
                                    : groups >= options.count;
@@ -150,6 +152,15 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
       RETURN_IF_ERROR(corrupted.graph.AddEdge(edge).status());
       corrupted.outliers.emplace_back(edge.from, edge.to);
     }
+  }
+  PoseGraph optimum = graph;
+  OptimizerOptions solve;
+  solve.max_iterations = 100;
+  RETURN_IF_ERROR(Optimize(optimum, solve).status());
+  constexpr double kAgreesWithTheOptimumChi2 = 16.27;  // χ²₃ at 0.999
+  for (std::size_t k = corrupted.first_outlier_edge; k < corrupted.graph.num_edges(); ++k) {
+    corrupted.agrees_with_optimum.push_back(EdgeChi2(optimum, corrupted.graph.edges()[k]) <=
+                                            kAgreesWithTheOptimumChi2);
   }
   return corrupted;
 }

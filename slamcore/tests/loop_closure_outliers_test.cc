@@ -3,9 +3,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 #include "slamcore/loop_closure_outliers.h"
+#include "slamcore/manhattan_world.h"
+#include "slamcore/optimizer.h"
 #include "status_matchers.h"
 
 namespace slamcore {
@@ -65,6 +68,43 @@ TEST(LoopClosureOutliersTest, ShiftedRepeatsATrueClosuresMeasurementAFewVertices
     ++checked;
   }
   EXPECT_EQ(checked, 20);
+}
+
+// On a grid world a look-alike a few vertices along, or a local outlier a few vertices long, can be the
+// truth itself; such an edge is not wrong. Each outlier says whether it agrees with the input's optimum
+// within χ²₃(0.999) at its information, and the score leaves those out.
+TEST(LoopClosureOutliersTest, OutliersThatAgreeWithTheInputsOptimumAreMarkedAndNotScored) {
+  const Result<ManhattanWorld> world = GenerateManhattanWorld({.poses = 1500, .seed = 3});
+  ASSERT_THAT(world, IsOk());
+  PoseGraph optimum = world->graph;
+  ASSERT_THAT(Optimize(optimum), IsOk());
+  int agreeing = 0;
+  for (const OutlierOptions::Mode mode : {OutlierOptions::Mode::kShifted, OutlierOptions::Mode::kLocal}) {
+    OutlierOptions options{.mode = mode, .group_size = mode == OutlierOptions::Mode::kShifted ? 10 : 1};
+    options.total_edges = CountLoopClosures(world->graph);
+    const auto corrupted = AddLoopClosureOutliers(world->graph, options);
+    ASSERT_THAT(corrupted, IsOk());
+    ASSERT_EQ(corrupted->agrees_with_optimum.size(), corrupted->outliers.size());
+    for (std::size_t k = 0; k < corrupted->outliers.size(); ++k) {
+      const Edge& edge = corrupted->graph.edges()[corrupted->first_outlier_edge + k];
+      EXPECT_EQ(corrupted->agrees_with_optimum[k], EdgeChi2(optimum, edge) <= 16.27)
+          << edge.from << " → " << edge.to << ": χ² " << EdgeChi2(optimum, edge);
+      agreeing += corrupted->agrees_with_optimum[k] ? 1 : 0;
+    }
+    // Scored on a replay that accepted every closure: the agreeing ones count neither way.
+    ReplayResult all_accepted;
+    for (std::size_t k = 0; k < corrupted->graph.num_edges(); ++k) {
+      const Edge& edge = corrupted->graph.edges()[k];
+      if (edge.kind == EdgeKind::kObservation) all_accepted.accepted_edges.push_back(k);
+    }
+    const FilterScore score =
+        ScoreReplay(all_accepted, corrupted->first_outlier_edge, corrupted->agrees_with_optimum);
+    const int marked = static_cast<int>(
+        std::count(corrupted->agrees_with_optimum.begin(), corrupted->agrees_with_optimum.end(), true));
+    EXPECT_EQ(score.agreeing_accepted, marked);
+    EXPECT_EQ(score.wrong_accepted, static_cast<int>(corrupted->outliers.size()) - marked);
+  }
+  EXPECT_GT(agreeing, 0) << "this world has outliers that are the truth itself";
 }
 
 TEST(LoopClosureOutliersTest, UnboundedOptionsAreRefused) {

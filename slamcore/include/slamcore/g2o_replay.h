@@ -56,12 +56,17 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
 struct FilterScore {
   int true_accepted = 0, true_total = 0;
   int wrong_accepted = 0, wrong_total = 0;
+  /// Drawn as wrong but agreeing with the input's optimum (CorruptedGraph::agrees_with_optimum): counted
+  /// neither way.
+  int agreeing_accepted = 0, agreeing_total = 0;
   double Precision() const;  // true accepted / all accepted (1 when nothing was accepted)
   double Recall() const;     // true accepted / all true (1 when there were none)
 };
 /// `first_wrong_edge`: the replayed graph's edges from this index on are the wrong ones (as
 /// AddLoopClosureOutliers appends them), so a wrong closure written between the same vertices as a true
-/// one is scored as what it is.
-FilterScore ScoreReplay(const ReplayResult& result, std::size_t first_wrong_edge);
+/// one is scored as what it is. `agrees_with_optimum` (one per wrong edge, or empty) marks those that are
+/// not wrong after all.
+FilterScore ScoreReplay(const ReplayResult& result, std::size_t first_wrong_edge,
+                        const std::vector<bool>& agrees_with_optimum = {});
 
 }  // namespace slamcore

@@ -10,7 +10,10 @@
 //    `group_size` pairs, or a size drawn uniformly from [group_size, max_group_size] per group, and with
 //    `single_fraction` of the groups single outliers (mixed single and grouped);
 //  * measurement dx, dy ~ N(0, 0.3²), dθ ~ N(0, (10°)²), information copied from the first loop closure.
-// One seed makes it deterministic.
+// One seed makes it deterministic. Drawn as wrong is not always wrong: a shifted look-alike on a grid or a
+// ring, or a local outlier two vertices long, can be the truth itself, so each outlier is also judged
+// against the input's own optimum (`agrees_with_optimum`: χ² ≤ χ²₃(0.999) = 16.27 at its information), and
+// scores leave those out (ScoreReplay) — neither a wrong closure accepted nor a true one missed.
 //
 // Thread safety: free function without shared state.
 #pragma once
@@ -46,9 +49,12 @@ struct CorruptedGraph {
   PoseGraph graph;                     // the input with the outliers appended as observation edges
   std::vector<VertexPair> outliers;    // the appended edges, (from, to) as in the graph
   std::size_t first_outlier_edge = 0;  // their index in graph.edges(): every edge from it on
+  /// Per outlier: its measurement agrees with the input's optimum (see the top of this file).
+  std::vector<bool> agrees_with_optimum;
 };
 
-/// Fails when the graph has no loop closure to copy the information from, or too few vertices.
+/// Fails when the graph has no loop closure to copy the information from, too few vertices, or no optimum
+/// (the input is optimised once to judge the outliers).
 Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const OutlierOptions& options);
 
 }  // namespace slamcore
