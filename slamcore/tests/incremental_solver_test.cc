@@ -289,6 +289,24 @@ TEST(IncrementalSolverTest, AWeightedComponentSolveReachesCeresOptimumAtTheSameW
   EXPECT_GT(EdgeChi2(ours, ours.edges().back()), 100.0);
 }
 
+TEST(IncrementalSolverTest, ASolveStartedAtTheMinimumStopsAfterOneFactorisation) {
+  // At the minimum the undamped step predicts a decrease far below the tolerance, and whether χ² then
+  // rises or falls by rounding is chance. A rise used to be answered with damped retries, a factorisation
+  // each, up to 9 of them on 13 of these 30 generated cities; it is convergence.
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    ManhattanOptions options;
+    options.poses = 300;
+    options.seed = seed;
+    const auto world = GenerateManhattanWorld(options);
+    ASSERT_THAT(world, IsOk());
+    PoseGraph graph = world->graph;
+    const std::vector<double> weights(graph.num_edges(), 1.0);
+    IncrementalSolver solver;
+    (void)solver.SolveWeightedComponent(graph, 0, weights, 100, 1e-12);
+    EXPECT_EQ(solver.SolveWeightedComponent(graph, 0, weights, 20, 1e-6).iterations, 1) << "seed " << seed;
+  }
+}
+
 // ---- the Mapper with either back-end -----------------------------------------------------------------------
 
 std::set<VertexPair> Sorted(const std::vector<VertexPair>& pairs) { return {pairs.begin(), pairs.end()}; }
