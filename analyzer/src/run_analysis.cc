@@ -63,7 +63,7 @@ fleet::v1::Decision DecisionToProto(const Decision& decision) {
   proto.set_view(decision.view);
   proto.set_hypothesis(decision.hypothesis);
   if (decision.hypothesis_kind) {
-    proto.set_hypothesis_kind(*decision.hypothesis_kind == HypothesisKind::kMerge ? "merge" : "recovery");
+    proto.set_hypothesis_kind(slamcore::HypothesisKindName(*decision.hypothesis_kind));
   }
   proto.set_reason(decision.reason);
   return proto;

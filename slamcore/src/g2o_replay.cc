@@ -149,16 +149,16 @@ FilterScore ScoreReplay(const ReplayResult& result, std::size_t first_wrong_edge
   FilterScore score;
   for (const bool accepted : {true, false}) {
     for (const std::size_t edge : accepted ? result.accepted_edges : result.rejected_edges) {
-      if (edge >= first_wrong_edge && edge - first_wrong_edge < agrees_with_optimum.size() &&
-          agrees_with_optimum[edge - first_wrong_edge]) {
-        ++score.agreeing_total;
-        score.agreeing_accepted += accepted;
-      } else if (edge >= first_wrong_edge) {
-        ++score.wrong_total;
-        score.wrong_accepted += accepted;
-      } else {
+      if (edge < first_wrong_edge) {
         ++score.true_total;
         score.true_accepted += accepted;
+      } else if (edge - first_wrong_edge < agrees_with_optimum.size() &&
+                 agrees_with_optimum[edge - first_wrong_edge]) {
+        ++score.agreeing_total;
+        score.agreeing_accepted += accepted;
+      } else {
+        ++score.wrong_total;
+        score.wrong_accepted += accepted;
       }
     }
   }

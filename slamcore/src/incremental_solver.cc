@@ -329,7 +329,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     damping_growth *= 2.0;
   };
   // The last undamped factorisation, H at the solution to within the tolerances, for whoever asked for it.
-  const auto KeepFactorisation = [&] {
+  const auto keep_factorisation = [&] {
     if (converged == nullptr) return;
     if (std::unique_ptr<CholmodCholesky> cholesky = normal_equations.Release()) {
       ComponentFactorisation kept{.cholesky = std::move(cholesky), .first_column = {}};
@@ -426,7 +426,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
       // An undamped step that promised less than the tolerance and did not deliver it is rounding at the
       // minimum: converged. (Damping it further only confirms that, at a factorisation per try.)
       if (undamped && predicted < relative_cost_decrease * scale) {
-        KeepFactorisation();
+        keep_factorisation();
         break;
       }
       reject();
@@ -451,7 +451,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     const bool linear_enough =
         undamped && !to_convergence && converged == nullptr && model_error < relative_cost_decrease;
     if (decrease < relative_cost_decrease || (tiny_step && !to_convergence) || linear_enough) {
-      if (undamped) KeepFactorisation();
+      if (undamped) keep_factorisation();
       break;
     }
   }

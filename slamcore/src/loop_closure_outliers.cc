@@ -154,13 +154,10 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
     }
   }
   PoseGraph optimum = graph;
-  OptimizerOptions solve;
-  solve.max_iterations = 100;
-  RETURN_IF_ERROR(Optimize(optimum, solve).status());
-  constexpr double kAgreesWithTheOptimumChi2 = 16.27;  // χ²₃ at 0.999
+  RETURN_IF_ERROR(Optimize(optimum).status());
   for (std::size_t k = corrupted.first_outlier_edge; k < corrupted.graph.num_edges(); ++k) {
     corrupted.agrees_with_optimum.push_back(EdgeChi2(optimum, corrupted.graph.edges()[k]) <=
-                                            kAgreesWithTheOptimumChi2);
+                                            kAgreesWithOptimumChi2);
   }
   return corrupted;
 }

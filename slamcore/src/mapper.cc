@@ -28,6 +28,10 @@ const char* DecisionKindName(DecisionKind kind) {
   return "unknown";
 }
 
+const char* HypothesisKindName(HypothesisKind kind) {
+  return kind == HypothesisKind::kMerge ? "merge" : "recovery";
+}
+
 // ---- Impl: construction and dispatch -------------------------------------------------------------------
 
 Mapper::Impl::Impl(const MapperParams& params, Map parent)

@@ -415,23 +415,25 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   std::vector<KeptRefused> newly_refused;
   std::vector<Edge> edges_that_fit;
   for (const std::size_t c : retract) {
+    const std::vector<std::size_t>& edges = clusters[c].edges;
+    std::vector<bool> fits;
+    for (const std::size_t k : edges)
+      fits.push_back(EdgeChi2(working, working.edges()[k]) <= params_.gate_chi2);
+    const auto fitting = static_cast<std::size_t>(std::count(fits.begin(), fits.end(), true));
+    const bool split = fitting > 0 && fitting < edges.size();
     KeptRefused kept{.hypothesis = clusters[c].hypothesis, .edges = {}};
-    std::vector<Edge> fit;
-    for (const std::size_t k : clusters[c].edges) {
-      Edge edge = map_.graph.edges()[k];
-      const bool fits = EdgeChi2(working, working.edges()[k]) <= params_.gate_chi2;
-      if (fits) edge.hypothesis.reset();
-      (fits ? fit : kept.edges).push_back(edge);
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+      Edge edge = map_.graph.edges()[edges[i]];
+      if (split && fits[i]) {
+        edge.hypothesis.reset();
+        edges_that_fit.push_back(edge);
+      } else {
+        kept.edges.push_back(edge);
+      }
     }
-    if (kept.edges.empty()) {
-      for (Edge& edge : fit) edge.hypothesis = clusters[c].hypothesis;
-      kept.edges = std::move(fit);
-    }
-    edges_that_fit.insert(edges_that_fit.end(), fit.begin(), fit.end());
     std::string fit_note;
-    if (kept.edges.size() < clusters[c].edges.size()) {
-      fit_note = "; " + std::to_string(clusters[c].edges.size() - kept.edges.size()) + " of its " +
-                 std::to_string(clusters[c].edges.size()) +
+    if (split) {
+      fit_note = "; " + std::to_string(fitting) + " of its " + std::to_string(edges.size()) +
                  " edges fit that solution within the direct gate and stay as direct edges";
     }
     newly_refused.push_back(std::move(kept));

@@ -104,10 +104,8 @@ slamcore::Status WriteDecisions(const std::vector<slamcore::Decision>& decisions
                              {"view", decision.view},
                              {"reason", decision.reason}};
       if (decision.hypothesis >= 0) line["hypothesis"] = decision.hypothesis;
-      if (decision.hypothesis_kind) {
-        line["hypothesis_kind"] =
-            *decision.hypothesis_kind == slamcore::HypothesisKind::kRecovery ? "recovery" : "merge";
-      }
+      if (decision.hypothesis_kind)
+        line["hypothesis_kind"] = slamcore::HypothesisKindName(*decision.hypothesis_kind);
       output << line.dump() << "\n";
     }
   });
@@ -206,9 +204,9 @@ int RunCorrupt(const CorruptArguments& arguments) {
   const auto agreeing =
       std::count(corrupted->agrees_with_optimum.begin(), corrupted->agrees_with_optimum.end(), true);
   std::printf(
-      "%zu wrong loop closures appended (%td of them agree with the input's optimum, chi2 <= 16.27: not "
+      "%zu wrong loop closures appended (%td of them agree with the input's optimum, chi2 <= %.2f: not "
       "wrong after all); written to %s\n",
-      corrupted->outliers.size(), agreeing, arguments.output.c_str());
+      corrupted->outliers.size(), agreeing, slamcore::kAgreesWithOptimumChi2, arguments.output.c_str());
   return 0;
 }
 

@@ -27,6 +27,9 @@
 
 namespace slamcore {
 
+/// An outlier whose χ² against the input's optimum is at most this (χ²₃ at 0.999) agrees with it.
+inline constexpr double kAgreesWithOptimumChi2 = 16.27;
+
 struct OutlierOptions {
   enum class Mode : std::uint8_t { kRandom, kLocal, kFirst, kShifted };
   Mode mode = Mode::kRandom;

@@ -49,6 +49,8 @@ enum class DecisionKind : std::uint8_t {
 };
 
 const char* DecisionKindName(DecisionKind kind);
+/// "recovery" or "merge".
+const char* HypothesisKindName(HypothesisKind kind);
 
 struct Decision {
   double time = 0.0;
