@@ -9,9 +9,17 @@
 //    is evidence only when its first observation confirms the hypothesis: it started it, or joined it
 //    through a gate that an aliasing offset would have failed (the map test's informativeness check,
 //    applied to the passes themselves: after a long drive on noisy odometry the hypothesis could be
-//    anywhere within metres, and an observation that joins it then agrees with anything). Direct edges
-//    that follow an accepted recovery in the same pass belong to it (they were only possible because the
-//    robot believed it), so they share its fate.
+//    anywhere within metres, and an observation that joins it then agrees with anything). Such a pass
+//    does not join a hypothesis that the optimised map has already refused: it starts its own. Joined, it
+//    would add nothing to the evidence of a hypothesis suspected wrong but its observations to its fate:
+//    one started by a wrong observation, its gate ever wider, collected every later pass there (true
+//    passes of 200 observations refused with it, Intel with local wrong closures; RRR's intra-cluster
+//    consistency). A hypothesis never refused still takes such a pass, as the paper's filter does (on
+//    sparse views a traversal's observations are metres apart, each pass by our gaps). The observations of the
+//    competitors of an accepted recovery that fit the map it made (each edge within gate_chi2 at the
+//    re-optimised map) join it, so that an earlier pass of the same place kept apart is not lost when its
+//    competitor wins. Direct edges that follow an accepted recovery in the same pass belong to it (they
+//    were only possible because the robot believed it), so they share its fate.
 //  * The joint test against the map. When a recovery hypothesis meets the counts, its state G ≈ robot_T_ref
 //    is tested against the map's own prediction with the marginal covariance of the relative pose between
 //    the robot and the reference node (marginal_covariance.h), scaled by the component's a-posteriori

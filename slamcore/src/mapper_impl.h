@@ -138,6 +138,13 @@ class Mapper::Impl {
   enum class GraphChange : std::uint8_t { kDirectEdgeAdded, kEdgesAdded, kEdgesRemoved, kReposed };
   void NoteGraphChanged(GraphChange change);
   void RejectCompetitors(const internal::Hypothesis& accepted);
+  /// Observations of the competitors of a recovery just accepted that fit the map it made (each edge's χ²
+  /// within gate_chi2) join it as its edges, and the component is re-optimised (mapper_consistency.cc).
+  void AdoptFittingObservationsOfCompetitors(const internal::Hypothesis& accepted);
+  /// Whether an observation must not join `hypothesis`: the optimised map refused it, the observation
+  /// would start a new pass of it, and the join's gate is one an aliasing offset would pass too
+  /// (mapper_consistency.cc).
+  bool RefusedAndUntestable(const internal::Hypothesis& hypothesis, const internal::Innovation& join) const;
   /// Removes a hypothesis, logging `kind` (kRejected or kExpired) — or kRejected when it was a conditional
   /// merge, which is then undone — and feeding a merge hypothesis's observations to the rejected tracker.
   void DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind, const std::string& reason);

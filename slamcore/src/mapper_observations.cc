@@ -102,12 +102,17 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
                                        .covariance = Matrix3::Zero(),
                                        .mahalanobis2 = std::numeric_limits<double>::infinity()};
   PoseGaussian best_in_ref;
+  std::vector<std::int64_t> passed_by;  // refused hypotheses whose gate would take it without a test
   for (Hypothesis& hypothesis : hypotheses_) {
     if (hypothesis.kind != kind || !map_.graph.SameComponent(hypothesis.ref_node, view_node)) continue;
     const PoseGaussian in_ref = ExpressInRefFrame(z, view_node, hypothesis.ref_node);
     const internal::Innovation innovation = internal::ComputeInnovation(hypothesis.state, in_ref);
-    if (innovation.mahalanobis2 <= params_.gate_chi2 &&
-        innovation.mahalanobis2 < best_innovation.mahalanobis2) {
+    if (innovation.mahalanobis2 > params_.gate_chi2) continue;
+    if (kind == HypothesisKind::kRecovery && RefusedAndUntestable(hypothesis, innovation)) {
+      passed_by.push_back(hypothesis.id);
+      continue;
+    }
+    if (innovation.mahalanobis2 < best_innovation.mahalanobis2) {
       best = &hypothesis;
       best_innovation = innovation;
       best_in_ref = in_ref;
@@ -142,6 +147,11 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
     hypothesis.last_odometer = odometer_;
     hypotheses_.push_back(std::move(hypothesis));
     id = hypotheses_.back().id;
+    if (!passed_by.empty()) {
+      why += "; a new pass, kept apart from refused hypothesis " + std::to_string(passed_by.front()) +
+             (passed_by.size() > 1 ? " and " + std::to_string(passed_by.size() - 1) + " more" : "") +
+             " (an aliasing offset would have joined too)";
+    }
     Log(DecisionKind::kHypothesisCreated, event.view, &hypotheses_.back(), why);
     EnforceOpenHypothesisCap();
   }
@@ -235,7 +245,38 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
       EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) +
           (support.empty() ? "" : "; " + support) + note);
+  AdoptFittingObservationsOfCompetitors(accepted);
   RejectCompetitors(accepted);
+}
+
+bool Mapper::Impl::RefusedAndUntestable(const Hypothesis& hypothesis,
+                                        const internal::Innovation& join) const {
+  const ConsistencyParams& consistency = params_.consistency;
+  if (!consistency.enabled || hypothesis.refused_at_passes == 0) return false;
+  const bool new_pass = time_ - hypothesis.last_time > consistency.pass_gap_seconds ||
+                        odometer_ - hypothesis.last_odometer > consistency.pass_gap_distance;
+  return new_pass &&
+         !AliasingOffsetWouldFail(internal::LargestPositionVariance(join.covariance), params_.gate_chi2);
+}
+
+void Mapper::Impl::AdoptFittingObservationsOfCompetitors(const Hypothesis& accepted) {
+  if (!params_.consistency.enabled) return;
+  std::size_t adopted = 0;
+  for (Hypothesis& competitor : hypotheses_) {
+    if (competitor.kind != accepted.kind) continue;
+    std::erase_if(competitor.observations, [&](const HypothesisObservation& observation) {
+      const Edge edge = MakeObservationEdge(observation, accepted.id);
+      if (EdgeChi2(map_.graph, edge) > params_.gate_chi2) return false;
+      AddObservationEdge(observation, accepted.id, /*direct=*/false);
+      ++adopted;
+      return true;
+    });
+  }
+  if (adopted == 0) return;
+  std::string note;
+  if (params_.optimize_after_accept) OptimizeComponentOf(*current_node_, &note);
+  Log(DecisionKind::kHypothesisUpdated, accepted.ref_view, &accepted,
+      std::to_string(adopted) + " observations of its competitors fit the map it made and join it" + note);
 }
 
 void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, std::int64_t hypothesis_id,

@@ -170,6 +170,107 @@ TEST(ConsistentSetCheckTest, ARetractedHypothesisKeepsTheObservationsThatFitTheM
   EXPECT_GE(wrong_seen, 1) << "the retracted hypothesis held a wrong observation";
 }
 
+// Observations (robot node, view) that a replay's decisions show joining or starting `hypothesis`.
+std::set<VertexPair> ObservationsOf(const ReplayResult& replay, std::int64_t hypothesis) {
+  std::set<VertexPair> observed;
+  for (const Decision& d : replay.decisions) {
+    // Updates that are not joins (a refusal, an adoption) name the hypothesis's first view instead.
+    const bool observation =
+        d.kind == DecisionKind::kHypothesisCreated ||
+        (d.kind == DecisionKind::kHypothesisUpdated && d.reason.find("joined with") != std::string::npos);
+    if (d.hypothesis == hypothesis && observation) {
+      observed.emplace(std::min(d.node, d.view), std::max(d.node, d.view));
+    }
+  }
+  return observed;
+}
+
+std::set<VertexPair> AcceptedPairs(const ReplayResult& replay) {
+  std::set<VertexPair> accepted;
+  for (const auto& [from, to] : replay.accepted) accepted.emplace(std::min(from, to), std::max(from, to));
+  return accepted;
+}
+
+// Intel (SE-Sync) with one local wrong closure per true one, seed 11 (no table uses it). Wrong observations
+// made while the robot was unsure of itself start recovery hypotheses that the optimised map refuses; a
+// refused hypothesis's gate widens with every metre the robot drives, and before the rule every later pass
+// it could not test joined it, true passes of a hundred observations and more among them, refused with it
+// (recall 73.0 %, against 97.2 % with the rule).
+TEST(PassesTest, APassThatARefusedHypothesisCouldNotTestStartsItsOwn) {
+  const auto path = test_data::Find("posegraphs/sesync/intel.g2o");
+  ASSERT_TRUE(path.has_value()) << "data/posegraphs/sesync/intel.g2o is part of the repository";
+  const Result<PoseGraph> graph = ReadPoseGraph(*path);
+  ASSERT_THAT(graph, IsOk());
+  OutlierOptions options{.mode = OutlierOptions::Mode::kLocal, .seed = 11};
+  options.total_edges = CountLoopClosures(*graph);
+  const Result<CorruptedGraph> corrupted = AddLoopClosureOutliers(*graph, options);
+  ASSERT_THAT(corrupted, IsOk());
+  const Result<ReplayResult> replay = ReplayPoseGraph(corrupted->graph, MapperParams{});
+  ASSERT_THAT(replay, IsOk());
+
+  const std::set<VertexPair> accepted = AcceptedPairs(*replay);
+  const std::set<VertexPair> wrong(corrupted->outliers.begin(), corrupted->outliers.end());
+  int kept_apart = 0, long_true_passes = 0;
+  for (const Decision& d : replay->decisions) {
+    if (d.kind != DecisionKind::kHypothesisCreated ||
+        d.reason.find("kept apart from refused hypothesis") == std::string::npos) {
+      continue;
+    }
+    ++kept_apart;
+    // A long true pass kept apart (a wrong observation may have started the hypothesis it then built):
+    // its true observations are in G.
+    std::vector<VertexPair> true_observations;
+    for (const VertexPair& pair : ObservationsOf(*replay, d.hypothesis)) {
+      if (wrong.count(pair) == 0 && wrong.count({pair.second, pair.first}) == 0)
+        true_observations.push_back(pair);
+    }
+    if (true_observations.size() < 100) continue;
+    ++long_true_passes;
+    for (const VertexPair& pair : true_observations) {
+      EXPECT_EQ(accepted.count(pair), 1u) << pair.first << "-" << pair.second;
+    }
+  }
+  EXPECT_GE(kept_apart, 1);
+  EXPECT_GE(long_true_passes, 1);
+  const FilterScore score =
+      ScoreReplay(*replay, corrupted->first_outlier_edge, corrupted->agrees_with_optimum);
+  EXPECT_GE(score.Recall(), 0.95);
+  EXPECT_GE(score.Precision(), 0.98);
+}
+
+// data/'s Intel (Vertigo), no outliers: two passes of one place that the filter kept apart (the second did
+// not fit the first's estimate carried over metres of odometry) compete; when one is accepted, the other's
+// observations that fit the map it made join it instead of being dropped with it (881 of 893 true closures
+// accepted before, 883 now).
+TEST(PassesTest, ObservationsOfACompetitorThatFitTheAcceptedMapJoinIt) {
+  const auto path = test_data::Find("posegraphs/vertigo/intel.g2o");
+  ASSERT_TRUE(path.has_value()) << "data/posegraphs/vertigo/intel.g2o is part of the repository";
+  const Result<PoseGraph> graph = ReadPoseGraph(*path);
+  ASSERT_THAT(graph, IsOk());
+  const Result<ReplayResult> replay = ReplayPoseGraph(*graph, MapperParams{});
+  ASSERT_THAT(replay, IsOk());
+  const std::set<VertexPair> accepted = AcceptedPairs(*replay);
+  int adoptions = 0;
+  for (const Decision& d : replay->decisions) {
+    if (d.kind != DecisionKind::kRejected || d.reason.find("competitor ") == std::string::npos) continue;
+    const std::int64_t winner = std::stoll(d.reason.substr(d.reason.find("competitor ") + 11));
+    const auto adopted =
+        std::find_if(replay->decisions.begin(), replay->decisions.end(), [&](const Decision& e) {
+          return e.hypothesis == winner &&
+                 e.reason.find("fit the map it made and join it") != std::string::npos;
+        });
+    if (adopted == replay->decisions.end()) continue;
+    ++adoptions;
+    // Every observation of the dropped competitor is a true closure here, and each that fits is in G.
+    int in_g = 0;
+    for (const VertexPair& pair : ObservationsOf(*replay, d.hypothesis))
+      in_g += accepted.count(pair) > 0 ? 1 : 0;
+    EXPECT_GE(in_g, 1) << "competitor " << d.hypothesis << " of " << winner;
+  }
+  EXPECT_GE(adoptions, 1);
+  EXPECT_GE(replay->accepted.size(), 883u);
+}
+
 TEST(ConsistentSetCheckTest, ItsFieldsAreValidated) {
   const auto refused = [](auto change) {
     MapperParams params;
