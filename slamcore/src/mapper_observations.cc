@@ -267,6 +267,7 @@ void Mapper::Impl::AdoptFittingObservationsOfCompetitors(const Hypothesis& accep
     std::erase_if(competitor.observations, [&](const HypothesisObservation& observation) {
       const Edge edge = MakeObservationEdge(observation, accepted.id);
       if (EdgeChi2(map_.graph, edge) > params_.gate_chi2) return false;
+      ambiguity_.RemoveRejected(observation.view, observation.odometer);  // as for the accepted ones
       AddObservationEdge(observation, accepted.id, /*direct=*/false);
       ++adopted;
       return true;
