@@ -22,7 +22,14 @@
 // The weighted solves, within the optimiser's tolerance and iteration budget, are the incremental
 // back-end's Gauss–Newton (IncrementalSolver::SolveWeightedComponent), or Ceres with the batch baseline.
 //
-// Cost: a copy of G, at most gnc_max_iterations + 2 weighted solves of the robot's component per check,
+// Graduated non-convexity is local: started from G's poses, which the wrong groups accepted on the way may have
+// bent into another basin, it can keep true clusters out. Each check therefore also starts from the linear
+// initialisation of the inliers' graph (Carlone et al., "A linear approximation for graph-based simultaneous
+// localization and mapping", RSS 2011: linear_initialization.h) and keeps the solution whose truncated
+// least-squares objective is lower.
+//
+// Cost: a copy of G, at most gnc_max_iterations + 2 weighted solves of the robot's component per check (twice
+// that when the linear start, after kLinearStartProbeIterations iterations, already lowers the objective),
 // and, when accepted clusters fall outside the set, one more solve and one factorisation per retraction
 // confirmed plus one; checks run when the judged clusters have grown by consistent_set_growth (so
 // O(log n) times in a run) and once at the end of the run. Kept refused clusters are capped at
@@ -41,12 +48,16 @@
 #include "mapper_impl.h"
 #include "marginal_covariance.h"
 #include "slamcore/optimizer.h"
+#include "slamcore/linear_initialization.h"
 
 namespace slamcore {
 
 using internal::Hypothesis;
 
 namespace {
+
+// Gauss–Newton iterations from the linear start before the objective is compared (see the restart below).
+constexpr int kLinearStartProbeIterations = 3;
 
 struct Cluster {
   std::int64_t hypothesis = -1;
@@ -342,11 +353,17 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     for (const Cluster& cluster : clusters) s.push_back(NormalisedResidual(working, cluster));
     return s;
   };
-  solve(working, options);
-  std::vector<double> s = normalised_residuals();
-  const double largest = *std::max_element(s.begin(), s.end());
+  std::vector<double> s;
   int rounds = 0;
-  if (largest > 1.0) {
+  const auto graduated_non_convexity = [&] {
+    for (Cluster& cluster : clusters) {
+      cluster.weight = 1.0;
+      for (const std::size_t k : cluster.edges) options.edge_weights[k] = cluster.edge_scale;
+    }
+    solve(working, options);
+    s = normalised_residuals();
+    const double largest = *std::max_element(s.begin(), s.end());
+    if (largest <= 1.0) return;
     for (double mu = internal::InitialControlParameter(largest); rounds < consistency.gnc_max_iterations;
          mu *= internal::kControlParameterGrowth) {
       ++rounds;
@@ -361,7 +378,67 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
       s = normalised_residuals();
       if (binary) break;
     }
-  }
+  };
+  graduated_non_convexity();
+  // Graduated non-convexity is a local method, and it starts from G's poses, which the wrong groups accepted
+  // on the way may have bent into another basin: true clusters then stay out because the inliers' solution
+  // is a local minimum (Intel (SE-Sync), first 100 %, seed 1: refused true passes at s ≈ 4·10³ there, ≈ 4 at
+  // the same inliers solved from their linear initialisation). So it is started again from the linear
+  // initialisation of the inliers' graph (linear_initialization.h), and the solution with the lower
+  // truncated least-squares objective is kept. A few Gauss–Newton iterations from that start tell whether it
+  // leads anywhere better; when they do not lower the objective, the second run (as many solves as the first)
+  // is skipped.
+  const auto restart_from_the_inliers_linear_start = [&] {
+    const auto objective = [&](const PoseGraph& graph) {
+      std::vector<bool> in_cluster(graph.num_edges(), false);
+      double total = 0.0;
+      for (const Cluster& cluster : clusters) {
+        double chi2 = 0.0;
+        for (const std::size_t k : cluster.edges) {
+          in_cluster[k] = true;
+          chi2 += EdgeChi2(graph, graph.edges()[k]);
+        }
+        total += std::min(cluster.edge_scale * chi2, cluster.threshold);
+      }
+      for (std::size_t k = 0; k < graph.num_edges(); ++k) {
+        const Edge& edge = graph.edges()[k];
+        if (!in_cluster[k] && graph.SameComponent(edge.from, robot))
+          total += options.edge_weights[k] * EdgeChi2(graph, edge);
+      }
+      return total;
+    };
+    PoseGraph inliers;
+    for (const Node& node : working.nodes()) (void)inliers.AddNode(node);
+    for (std::size_t k = 0; k < working.num_edges(); ++k) {
+      if (options.edge_weights[k] > 0.0) (void)inliers.AddEdge(working.edges()[k]);
+    }
+    const double first = objective(working);
+    if (InitializeLinear(inliers, inliers.ComponentOf(robot)).ok()) {
+      PoseGraph restarted = working;
+      for (const Node& node : inliers.nodes()) restarted.mutable_node(node.id).pose = node.pose;
+      OptimizerOptions probe = options;
+      probe.max_iterations = kLinearStartProbeIterations;
+      solve(restarted, probe);
+      if (objective(restarted) < first) {
+        PoseGraph first_working = std::move(working);
+        const std::vector<double> first_edge_weights = options.edge_weights, first_s = s;
+        std::vector<double> first_weights;
+        for (const Cluster& cluster : clusters) first_weights.push_back(cluster.weight);
+        const int first_rounds = rounds;
+        working = std::move(restarted);
+        rounds = 0;
+        graduated_non_convexity();
+        if (objective(working) >= first) {
+          working = std::move(first_working);
+          options.edge_weights = first_edge_weights;
+          s = first_s;
+          for (std::size_t c = 0; c < clusters.size(); ++c) clusters[c].weight = first_weights[c];
+          rounds = first_rounds;
+        }
+      }
+    }
+  };
+  restart_from_the_inliers_linear_start();
 
   // Apply: retract the accepted outliers, accept the refused inliers, keep the solution of the inliers.
   std::vector<std::size_t> accept, retract;
