@@ -380,14 +380,10 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     }
   };
   graduated_non_convexity();
-  // Graduated non-convexity is a local method, and it starts from G's poses, which the wrong groups accepted
-  // on the way may have bent into another basin: true clusters then stay out because the inliers' solution
-  // is a local minimum (Intel (SE-Sync), first 100 %, seed 1: refused true passes at s ≈ 4·10³ there, ≈ 4 at
-  // the same inliers solved from their linear initialisation). So it is started again from the linear
-  // initialisation of the inliers' graph (linear_initialization.h), and the solution with the lower
-  // truncated least-squares objective is kept. A few Gauss–Newton iterations from that start tell whether it
-  // leads anywhere better; when they do not lower the objective, the second run (as many solves as the first)
-  // is skipped.
+  // Again from the linear initialisation of the inliers' graph (see the top of this file; Intel (SE-Sync),
+  // first 100 %, seed 1: refused true passes at s ≈ 4·10³ at the inliers' solution from G's poses, ≈ 4 from
+  // that start). A few Gauss–Newton iterations from it tell whether it leads anywhere better; when they do
+  // not lower the objective, the second run (as many solves as the first) is skipped.
   const auto restart_from_the_inliers_linear_start = [&] {
     const auto objective = [&](const PoseGraph& graph) {
       std::vector<bool> in_cluster(graph.num_edges(), false);
