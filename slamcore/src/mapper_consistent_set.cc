@@ -69,11 +69,16 @@ struct Cluster {
   double weight = 1.0;
 };
 
-// s_c = (passes / edges) · r_c² / c̄²: a cluster's residual against its threshold, one edge per pass.
-double NormalisedResidual(const PoseGraph& graph, const Cluster& cluster) {
+// (passes / edges) · r_c²: a cluster's χ², one edge per pass.
+double ScaledChi2(const PoseGraph& graph, const Cluster& cluster) {
   double chi2 = 0.0;
   for (const std::size_t k : cluster.edges) chi2 += EdgeChi2(graph, graph.edges()[k]);
-  return cluster.edge_scale * chi2 / cluster.threshold;
+  return cluster.edge_scale * chi2;
+}
+
+// s_c = (passes / edges) · r_c² / c̄²: a cluster's residual against its threshold, one edge per pass.
+double NormalisedResidual(const PoseGraph& graph, const Cluster& cluster) {
+  return ScaledChi2(graph, cluster) / cluster.threshold;
 }
 
 // The a-posteriori variance factor χ² / redundancy of the robot's component over the edges `counted`.
@@ -385,17 +390,15 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   // that start). A few Gauss–Newton iterations from it tell whether it leads anywhere better; when they do
   // not lower the objective, the second run (as many solves as the first) is skipped.
   const auto restart_from_the_inliers_linear_start = [&] {
+    // The working copy and the copies made of it share its edges, so the clusters' indices hold in each.
+    std::vector<bool> in_cluster(working.num_edges(), false);
+    for (const Cluster& cluster : clusters) {
+      for (const std::size_t k : cluster.edges) in_cluster[k] = true;
+    }
     const auto objective = [&](const PoseGraph& graph) {
-      std::vector<bool> in_cluster(graph.num_edges(), false);
       double total = 0.0;
-      for (const Cluster& cluster : clusters) {
-        double chi2 = 0.0;
-        for (const std::size_t k : cluster.edges) {
-          in_cluster[k] = true;
-          chi2 += EdgeChi2(graph, graph.edges()[k]);
-        }
-        total += std::min(cluster.edge_scale * chi2, cluster.threshold);
-      }
+      for (const Cluster& cluster : clusters)
+        total += std::min(ScaledChi2(graph, cluster), cluster.threshold);
       for (std::size_t k = 0; k < graph.num_edges(); ++k) {
         const Edge& edge = graph.edges()[k];
         if (!in_cluster[k] && graph.SameComponent(edge.from, robot))
