@@ -19,7 +19,13 @@
 //    competitors of an accepted recovery that fit the map it made (each edge within gate_chi2 at the
 //    re-optimised map) join it, so that an earlier pass of the same place kept apart is not lost when its
 //    competitor wins. Direct edges that follow an accepted recovery in the same pass belong to it (they
-//    were only possible because the robot believed it), so they share its fate.
+//    were only possible because the robot believed it), so they share its fate. The pass goes on while the
+//    robot keeps observing views within the pass gaps, whatever became of each observation: a wrong group
+//    seen from one traversal is often split — a hypothesis accepted, observations that fail the gate of
+//    the map it bent and gather in a new hypothesis, then more that pass it — and the later direct edges
+//    are as much that acceptance's as the first (Intel (SE-Sync) with the wrong group first, seed 2: 30
+//    wrong closures entered G as direct edges owned by nothing, every later consistent-set check held
+//    them as trusted, and 276 true closures stayed refused).
 //  * The joint test against the map. When a recovery hypothesis meets the counts, its state G ≈ robot_T_ref
 //    is tested against the map's own prediction with the marginal covariance of the relative pose between
 //    the robot and the reference node (marginal_covariance.h), scaled by the component's a-posteriori
@@ -309,17 +315,24 @@ void Mapper::Impl::LogRetractions(const std::vector<std::pair<std::int64_t, doub
   }
 }
 
-std::optional<std::int64_t> Mapper::Impl::AnchorForDirectEdge(const HypothesisObservation& observation) {
-  if (!anchor_) return std::nullopt;
+void Mapper::Impl::ContinueAnchorPass(double time) {
+  if (!anchor_) return;
   const ConsistencyParams& consistency = params_.consistency;
-  if (observation.time - anchor_->time > consistency.pass_gap_seconds ||
-      observation.odometer - anchor_->odometer > consistency.pass_gap_distance ||
-      anchor_->continuation_edges >= consistency.max_continuation_edges) {
+  if (time - anchor_->time > consistency.pass_gap_seconds ||
+      odometer_ - anchor_->odometer > consistency.pass_gap_distance) {
+    anchor_.reset();
+    return;
+  }
+  anchor_->time = time;
+  anchor_->odometer = odometer_;
+}
+
+std::optional<std::int64_t> Mapper::Impl::AnchorForDirectEdge() {
+  if (!anchor_) return std::nullopt;
+  if (anchor_->continuation_edges >= params_.consistency.max_continuation_edges) {
     anchor_.reset();
     return std::nullopt;
   }
-  anchor_->time = observation.time;
-  anchor_->odometer = observation.odometer;
   ++anchor_->continuation_edges;
   return anchor_->hypothesis;
 }

@@ -203,8 +203,10 @@ class Mapper::Impl {
   std::vector<std::int64_t> WorstFittingAccepted(int count) const;
   void RemoveHypothesisEdges(std::int64_t hypothesis_id);
   void LogRetractions(const std::vector<std::pair<std::int64_t, double>>& retracted, std::int64_t challenger);
+  /// An observation at `time` continues the pass of the anchor's acceptance, or ends it after a gap.
+  void ContinueAnchorPass(double time);
   /// The accepted hypothesis a direct edge continues (same pass), which then owns the edge.
-  std::optional<std::int64_t> AnchorForDirectEdge(const internal::HypothesisObservation& observation);
+  std::optional<std::int64_t> AnchorForDirectEdge();
   /// Drops the stalest open hypotheses beyond the cap.
   void EnforceOpenHypothesisCap();
 
@@ -269,7 +271,7 @@ class Mapper::Impl {
   /// The last accepted recovery hypothesis while the robot is still in the pass that accepted it.
   struct Anchor {
     std::int64_t hypothesis = -1;
-    double time = 0.0, odometer = 0.0;  // of its last edge
+    double time = 0.0, odometer = 0.0;  // of the pass's last observation
     int continuation_edges = 0;
   };
   std::optional<Anchor> anchor_;

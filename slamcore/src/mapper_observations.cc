@@ -29,6 +29,7 @@ std::string EvidenceText(const internal::EvidenceCount& count) {
 }  // namespace
 
 void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
+  ContinueAnchorPass(event.time);
   const NodeId view_node = map_.graph.view(event.view).node;
   const NodeId robot = *current_node_;
   if (!map_.graph.SameComponent(view_node, robot)) {
@@ -60,11 +61,12 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
                                       .robot_T_view = {event.robot_T_view, event.covariance},
                                       .time = event.time,
                                       .odometer = odometer_};
-    AddObservationEdge(observation,
-                       params_.consistency.enabled ? AnchorForDirectEdge(observation).value_or(-1) : -1,
-                       /*direct=*/true);
+    const std::optional<std::int64_t> owner =
+        params_.consistency.enabled ? AnchorForDirectEdge() : std::optional<std::int64_t>();
+    AddObservationEdge(observation, owner.value_or(-1), /*direct=*/true);
     robot_relative_covariance_ = event.covariance;
     std::string note;
+    if (owner) note = "; continues the pass of accepted hypothesis " + std::to_string(*owner);
     if (params_.optimize_after_accept) OptimizeAfterDirectEdge(robot, innovation.mahalanobis2, &note);
     Log(DecisionKind::kDirectEdge, event.view, nullptr,
         Chi2Text(innovation.mahalanobis2) + " within the gate" + note);
@@ -369,7 +371,7 @@ void Mapper::Impl::OptimizeComponentOf(NodeId node, std::string* note) {
   const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
   NoteGraphChanged(GraphChange::kReposed);
   // Optimisation cannot fail on validated data; if Ceres does, G keeps its poses and the log says so.
-  if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
+  if (!summary.ok()) *note += "; optimisation failed: " + summary.status().message();
 }
 
 bool Mapper::Impl::UpdateIncrementally(internal::IncrementalSolver::Start start) {
@@ -408,7 +410,7 @@ void Mapper::Impl::OptimizeAfterDirectEdge(NodeId robot, double innovation_chi2,
     if (map_.graph.HasNode(id) && map_.graph.SameComponent(id, robot)) options.variable_nodes.push_back(id);
   }
   const Result<OptimizerSummary> summary = Optimize(map_.graph, options);
-  if (!summary.ok()) *note = "; optimisation failed: " + summary.status().message();
+  if (!summary.ok()) *note += "; optimisation failed: " + summary.status().message();
 }
 
 std::optional<Hypothesis> Mapper::Impl::TakeHypothesis(std::int64_t id) {
