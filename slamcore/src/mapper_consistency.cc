@@ -247,6 +247,7 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
   // newcomer (refused; the caller restores G) or an earlier acceptance (retracted).
   if (!marginals_current) RefactorizeMarginals();
   std::vector<std::pair<std::int64_t, double>> retracted;
+  std::vector<KeptRefused> retracted_edges;
   bool refused = false;
   for (int round = 0; round <= params_.consistency.max_retractions_per_check; ++round) {
     std::int64_t worst = -1;
@@ -268,6 +269,11 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
       refused = true;
       break;
     }
+    KeptRefused kept{.hypothesis = worst, .edges = {}};
+    for (const Edge& edge : map_.graph.edges()) {
+      if (IsRetractableEdge(edge, worst)) kept.edges.push_back(edge);
+    }
+    retracted_edges.push_back(std::move(kept));
     RemoveHypothesisEdges(worst);
     std::erase(retractable_, worst);
     retracted.emplace_back(worst, worst_ratio);
@@ -276,6 +282,9 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
   if (refused)
     return false;  // the retractions go with the restored G: they were judged beside a newcomer that lost
   LogRetractions(retracted, hypothesis_id);
+  // Judged beside one newcomer: the consistent-set check may bring them back when the newcomer is itself
+  // retracted later, as it does with the ones it retracts.
+  for (KeptRefused& kept : retracted_edges) KeepForTheCheck(std::move(kept));
   if (!retracted.empty())
     *note += "; retracted " + std::to_string(retracted.size()) + " earlier acceptance(s)";
   return true;

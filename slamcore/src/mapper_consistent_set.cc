@@ -231,18 +231,22 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
 }  // namespace
 
 void Mapper::Impl::KeepRefused(const Hypothesis& hypothesis) {
-  const ConsistencyParams& consistency = params_.consistency;
-  if (!consistency.enabled || !consistency.consistent_set_check || consistency.max_kept_refused == 0) return;
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   if (!Meets(internal::CountEvidence(hypothesis, true, is_ambiguous), params_.recovery)) return;
   KeptRefused kept{.hypothesis = hypothesis.id, .edges = {}};
   for (const internal::HypothesisObservation& observation : hypothesis.observations) {
     kept.edges.push_back(MakeObservationEdge(observation, hypothesis.id));
   }
-  if (kept_refused_.size() >= static_cast<std::size_t>(consistency.max_kept_refused)) {
+  KeepForTheCheck(std::move(kept));
+}
+
+void Mapper::Impl::KeepForTheCheck(KeptRefused kept) {
+  const ConsistencyParams& consistency = params_.consistency;
+  if (!consistency.enabled || !consistency.consistent_set_check || consistency.max_kept_refused == 0) return;
+  kept_refused_.push_back(std::move(kept));
+  while (kept_refused_.size() > static_cast<std::size_t>(consistency.max_kept_refused)) {
     kept_refused_.erase(kept_refused_.begin());
   }
-  kept_refused_.push_back(std::move(kept));
 }
 
 void Mapper::Impl::MaybeCheckConsistentSet() {
@@ -539,10 +543,7 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   std::sort(accepted_kept.rbegin(), accepted_kept.rend());
   for (const std::size_t k : accepted_kept)
     kept_refused_.erase(kept_refused_.begin() + static_cast<std::ptrdiff_t>(k));
-  for (KeptRefused& kept : newly_refused) kept_refused_.push_back(std::move(kept));
-  while (kept_refused_.size() > static_cast<std::size_t>(consistency.max_kept_refused)) {
-    kept_refused_.erase(kept_refused_.begin());
-  }
+  for (KeptRefused& kept : newly_refused) KeepForTheCheck(std::move(kept));
   for (const Node& node : working.nodes()) map_.graph.mutable_node(node.id).pose = node.pose;
   NoteGraphChanged(GraphChange::kEdgesRemoved);  // or refused edges taken in, and G re-posed
   std::string note;  // a failed polish leaves G at the check's solution, which is already the inliers'

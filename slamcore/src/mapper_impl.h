@@ -219,6 +219,8 @@ class Mapper::Impl {
   };
   /// Keeps a dropped recovery hypothesis that met the counts (its observations as edges).
   void KeepRefused(const internal::Hypothesis& hypothesis);
+  /// Keeps refused or retracted edges for the consistent-set check (the oldest go beyond the cap).
+  void KeepForTheCheck(KeptRefused kept);
   /// Runs the check when the judged hypotheses have grown enough since the last one.
   void MaybeCheckConsistentSet();
   void CheckConsistentSet(const char* trigger);
