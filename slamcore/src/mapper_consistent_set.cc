@@ -214,60 +214,48 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
     if (declared.edges()[k].kind == EdgeKind::kMotion)
       options.edge_weights[k] = 1.0 / confirmation.variance_factor;
   }
-  std::vector<std::size_t> judged = candidates;
-  for (const std::size_t c : judged) {
-    for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
-  }
-  while (!judged.empty()) {
-    solve(declared, options);
-    const WeightedGraph weighted = WithWeightsInTheInformation(declared, options.edge_weights);
-    const std::optional<internal::MarginalCovariances> marginals =
-        internal::MarginalCovariances::Factorize(weighted.graph, robot);
-    std::optional<std::size_t> worst;
-    double worst_s = 0.0;
-    for (std::size_t i = 0; i < judged.size(); ++i) {
-      const Cluster& cluster = clusters[judged[i]];
-      std::optional<double> s;
-      if (marginals) {
-        s = LeaveOneOutNormalised(weighted, *marginals, cluster, consistency.max_edges_judged,
-                                  confirmation.confidence);
+  // With `judged` in the solve, each judged by its leave-one-out χ² at `confidence` (by its own residual where
+  // the marginals fail and `residual_fallback`); while any fails, the one the judged solves found worst goes.
+  // Those that went, with the s_c they failed with, and the rest, with theirs.
+  struct Verdicts {
+    std::vector<std::pair<std::size_t, double>> failed, passed;
+  };
+  const auto judge_until_none_fails = [&](std::vector<std::size_t> judged, double confidence,
+                                          bool residual_fallback) {
+    for (const std::size_t c : judged) {
+      for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
+    }
+    Verdicts verdicts;
+    while (!judged.empty()) {
+      solve(declared, options);
+      const WeightedGraph weighted = WithWeightsInTheInformation(declared, options.edge_weights);
+      const std::optional<internal::MarginalCovariances> marginals =
+          internal::MarginalCovariances::Factorize(weighted.graph, robot);
+      if (!marginals && !residual_fallback) break;
+      std::optional<std::size_t> worst;
+      std::vector<double> values;
+      for (std::size_t i = 0; i < judged.size(); ++i) {
+        const Cluster& cluster = clusters[judged[i]];
+        std::optional<double> s;
+        if (marginals)
+          s = LeaveOneOutNormalised(weighted, *marginals, cluster, consistency.max_edges_judged, confidence);
+        if (!s && residual_fallback) s = NormalisedResidual(declared, cluster);
+        values.push_back(s.value_or(std::numeric_limits<double>::infinity()));  // unjudged: it fails
+        if (values.back() > 1.0 && (!worst || judged_s[judged[i]] > judged_s[judged[*worst]])) worst = i;
       }
-      const double value = s ? *s : NormalisedResidual(declared, cluster);  // the fallback only when needed
-      if (value > 1.0 && (!worst || judged_s[judged[i]] > judged_s[judged[*worst]]))
-        worst = i, worst_s = value;
+      if (!worst) {
+        for (std::size_t i = 0; i < judged.size(); ++i) verdicts.passed.emplace_back(judged[i], values[i]);
+        break;
+      }
+      verdicts.failed.emplace_back(judged[*worst], values[*worst]);
+      for (const std::size_t k : clusters[judged[*worst]].edges) options.edge_weights[k] = 0.0;
+      judged.erase(judged.begin() + static_cast<std::ptrdiff_t>(*worst));
     }
-    if (!worst) break;
-    confirmation.confirmed.emplace_back(judged[*worst], worst_s);
-    for (const std::size_t k : clusters[judged[*worst]].edges) options.edge_weights[k] = 0.0;
-    judged.erase(judged.begin() + static_cast<std::ptrdiff_t>(*worst));
-  }
-  judged = near_refused;
-  for (const std::size_t c : judged) {
-    for (const std::size_t k : clusters[c].edges) options.edge_weights[k] = clusters[c].edge_scale;
-  }
-  while (!judged.empty()) {
-    solve(declared, options);
-    const WeightedGraph weighted = WithWeightsInTheInformation(declared, options.edge_weights);
-    const std::optional<internal::MarginalCovariances> marginals =
-        internal::MarginalCovariances::Factorize(weighted.graph, robot);
-    if (!marginals) return confirmation;
-    std::optional<std::size_t> worst;
-    std::vector<double> values;
-    for (std::size_t i = 0; i < judged.size(); ++i) {
-      const std::optional<double> s =
-          LeaveOneOutNormalised(weighted, *marginals, clusters[judged[i]], consistency.max_edges_judged,
-                                consistency.consistent_set_confidence);
-      values.push_back(s.value_or(std::numeric_limits<double>::infinity()));
-      if (values.back() > 1.0 && (!worst || judged_s[judged[i]] > judged_s[judged[*worst]])) worst = i;
-    }
-    if (!worst) {
-      for (std::size_t i = 0; i < judged.size(); ++i)
-        confirmation.admitted.emplace_back(judged[i], values[i]);
-      break;
-    }
-    for (const std::size_t k : clusters[judged[*worst]].edges) options.edge_weights[k] = 0.0;
-    judged.erase(judged.begin() + static_cast<std::ptrdiff_t>(*worst));
-  }
+    return verdicts;
+  };
+  confirmation.confirmed = judge_until_none_fails(candidates, confirmation.confidence, true).failed;
+  confirmation.admitted =
+      judge_until_none_fails(near_refused, consistency.consistent_set_confidence, false).passed;
   return confirmation;
 }
 
