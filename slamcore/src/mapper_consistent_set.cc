@@ -32,9 +32,9 @@
 // Cost: a copy of G, at most gnc_max_iterations + 2 weighted solves of the robot's component per check (twice
 // that when the linear start, after kLinearStartProbeIterations iterations, already lowers the objective),
 // and, when accepted clusters fall outside the set or refused ones just outside it, one more solve and one
-// factorisation per retraction confirmed or refused cluster not admitted, plus one or two; checks run when the judged clusters have grown by consistent_set_growth (so
-// O(log n) times in a run) and once at the end of the run. Kept refused clusters are capped at
-// max_kept_refused.
+// factorisation per retraction confirmed or refused cluster not admitted, plus one or two; checks run when
+// the judged clusters have grown by consistent_set_growth (so O(log n) times in a run) and once at the end
+// of the run. Kept refused clusters are capped at max_kept_refused.
 #include <algorithm>
 #include <cmath>
 #include <functional>
