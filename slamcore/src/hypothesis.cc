@@ -18,11 +18,16 @@ EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguou
   return count;
 }
 
+bool BeyondPassGap(const TraversalPoint& earlier, const TraversalPoint& later, double gap_seconds,
+                   double gap_distance) {
+  return later.time - earlier.time > gap_seconds ||
+         std::abs(later.odometer - earlier.odometer) > gap_distance;
+}
+
 int CountPasses(std::span<const TraversalPoint> points, double gap_seconds, double gap_distance) {
   int passes = 0;
   for (std::size_t k = 0; k < points.size(); ++k) {
-    if ((k == 0 || points[k].time - points[k - 1].time > gap_seconds ||
-         std::abs(points[k].odometer - points[k - 1].odometer) > gap_distance) &&
+    if ((k == 0 || BeyondPassGap(points[k - 1], points[k], gap_seconds, gap_distance)) &&
         points[k].confirms) {
       ++passes;
     }

@@ -57,6 +57,11 @@ struct TraversalPoint {
   bool confirms = true;  // see HypothesisObservation::confirms
 };
 
+/// Whether `later` starts a new pass after `earlier`: made more than `gap_seconds` or more than `gap_distance`
+/// (robot odometer) after it. The one rule of where a pass ends (CountPasses, the anchor of an acceptance,
+/// a refused hypothesis's next pass).
+bool BeyondPassGap(const TraversalPoint& earlier, const TraversalPoint& later, double gap_seconds,
+                   double gap_distance);
 /// Independent passes among observations in the order they were made: a pass is a run of observations, each
 /// made within `gap_seconds` and `gap_distance` (robot odometer) of the previous one. One traversal past a
 /// look-alike is one pass however many views it matched (mapper_consistency.cc). A pass whose first

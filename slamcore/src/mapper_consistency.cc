@@ -327,8 +327,9 @@ void Mapper::Impl::LogRetractions(const std::vector<std::pair<std::int64_t, doub
 void Mapper::Impl::ContinueAnchorPass(double time) {
   if (!anchor_) return;
   const ConsistencyParams& consistency = params_.consistency;
-  if (time - anchor_->time > consistency.pass_gap_seconds ||
-      odometer_ - anchor_->odometer > consistency.pass_gap_distance) {
+  if (internal::BeyondPassGap({.time = anchor_->time, .odometer = anchor_->odometer},
+                              {.time = time, .odometer = odometer_}, consistency.pass_gap_seconds,
+                              consistency.pass_gap_distance)) {
     anchor_.reset();
     return;
   }

@@ -255,8 +255,9 @@ bool Mapper::Impl::RefusedAndUntestable(const Hypothesis& hypothesis,
                                         const internal::Innovation& join) const {
   const ConsistencyParams& consistency = params_.consistency;
   if (!consistency.enabled || hypothesis.refused_at_passes == 0) return false;
-  const bool new_pass = time_ - hypothesis.last_time > consistency.pass_gap_seconds ||
-                        odometer_ - hypothesis.last_odometer > consistency.pass_gap_distance;
+  const bool new_pass = internal::BeyondPassGap(
+      {.time = hypothesis.last_time, .odometer = hypothesis.last_odometer},
+      {.time = time_, .odometer = odometer_}, consistency.pass_gap_seconds, consistency.pass_gap_distance);
   return new_pass &&
          !AliasingOffsetWouldFail(internal::LargestPositionVariance(join.covariance), params_.gate_chi2);
 }
