@@ -393,13 +393,15 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
     for (const Cluster& cluster : clusters) s.push_back(NormalisedResidual(working, cluster));
     return s;
   };
+  // A cluster's GNC weight, and its edges' weights in the solves (the one derived from the other).
+  const auto set_weight = [&](Cluster& cluster, double weight) {
+    cluster.weight = weight;
+    for (const std::size_t k : cluster.edges) options.edge_weights[k] = weight * cluster.edge_scale;
+  };
   std::vector<double> s;
   int rounds = 0;
   const auto graduated_non_convexity = [&] {
-    for (Cluster& cluster : clusters) {
-      cluster.weight = 1.0;
-      for (const std::size_t k : cluster.edges) options.edge_weights[k] = cluster.edge_scale;
-    }
+    for (Cluster& cluster : clusters) set_weight(cluster, 1.0);
     solve(working, options);
     s = normalised_residuals();
     const double largest = *std::max_element(s.begin(), s.end());
@@ -409,10 +411,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
       ++rounds;
       bool binary = true;
       for (std::size_t c = 0; c < clusters.size(); ++c) {
-        clusters[c].weight = internal::TruncatedLeastSquaresWeight(s[c], mu);
+        set_weight(clusters[c], internal::TruncatedLeastSquaresWeight(s[c], mu));
         binary = binary && (clusters[c].weight == 0.0 || clusters[c].weight == 1.0);
-        for (const std::size_t k : clusters[c].edges)
-          options.edge_weights[k] = clusters[c].weight * clusters[c].edge_scale;
       }
       solve(working, options);
       s = normalised_residuals();
@@ -454,8 +454,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
       probe.max_iterations = kLinearStartProbeIterations;
       solve(restarted, probe);
       if (objective(restarted) < first) {
+        // The first run's outcome: its solution and weights (the edges' weights and s follow from them).
         PoseGraph first_working = std::move(working);
-        const std::vector<double> first_edge_weights = options.edge_weights, first_s = s;
         std::vector<double> first_weights;
         for (const Cluster& cluster : clusters) first_weights.push_back(cluster.weight);
         const int first_rounds = rounds;
@@ -464,9 +464,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
         graduated_non_convexity();
         if (objective(working) >= first) {
           working = std::move(first_working);
-          options.edge_weights = first_edge_weights;
-          s = first_s;
-          for (std::size_t c = 0; c < clusters.size(); ++c) clusters[c].weight = first_weights[c];
+          for (std::size_t c = 0; c < clusters.size(); ++c) set_weight(clusters[c], first_weights[c]);
+          s = normalised_residuals();
           rounds = first_rounds;
         }
       }
