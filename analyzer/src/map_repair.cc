@@ -49,14 +49,61 @@ std::string Fixed(double value, int digits) {
   return out.str();
 }
 
-/// Whether removing `removed` (indices into graph.edges()) leaves the two ends of the first one apart.
-bool SplitsComponents(const slamcore::PoseGraph& graph, const std::set<std::size_t>& removed) {
-  if (removed.empty()) return false;
-  const Edge& first = graph.edges()[*removed.begin()];
-  slamcore::PoseGraph without = graph;
-  std::size_t index = 0;
-  without.RemoveEdgesIf([&](const Edge&) { return removed.contains(index++); });
-  return !without.SameComponent(first.from, first.to);
+/// What rejecting one of a run's hypotheses takes out of the map: its own observation edges and, when it was
+/// a merge, the run's observation edges that rest on it. Before a merge the run's observations of the other
+/// component could only feed merge hypotheses, so every observation edge joining the two parts that the run
+/// placed at or after the merge was placed in the frame the merge set up (a direct edge gated against it, or
+/// a hypothesis accepted in the merged map): without them the map is what it would be had the merge never
+/// been accepted, its two parts apart again. Leaving them would keep the parts joined at the merge's
+/// alignment with less of the evidence that set it, a map worse than either.
+struct Rejection {
+  std::set<std::size_t> edges;  // indices into graph.edges(): the hypothesis's and those resting on it
+  std::size_t own_edges = 0;
+  bool merge = false;
+};
+Rejection RejectionOf(const slamcore::PoseGraph& graph, const std::set<NodeId>& run_nodes,
+                      std::int64_t hypothesis) {
+  // When the run placed each of its observation edges: a hypothesis's at its acceptance (its last robot node
+  // in the run), a direct edge at its robot node. The run's nodes are numbered in creation order.
+  const auto of_run = [&](const Edge& edge) {
+    return edge.kind == EdgeKind::kObservation && run_nodes.contains(edge.from);
+  };
+  std::map<std::int64_t, NodeId> accepted_at;
+  for (const Edge& edge : graph.edges()) {
+    if (of_run(edge) && edge.hypothesis) {
+      NodeId& at = accepted_at.try_emplace(*edge.hypothesis, edge.from).first->second;
+      at = std::max(at, edge.from);
+    }
+  }
+  const auto placed_at = [&](const Edge& edge) {
+    return edge.hypothesis ? accepted_at.at(*edge.hypothesis) : edge.from;
+  };
+  Rejection rejection;
+  for (std::size_t i = 0; i < graph.num_edges(); ++i) {
+    if (of_run(graph.edges()[i]) && graph.edges()[i].hypothesis == hypothesis) rejection.edges.insert(i);
+  }
+  rejection.own_edges = rejection.edges.size();
+  if (rejection.edges.empty()) return rejection;
+  // The map as it was just before the acceptance: without the run's observation edges placed since.
+  const NodeId accepted = accepted_at.at(hypothesis);
+  slamcore::PoseGraph before = graph;
+  before.RemoveEdgesIf([&](const Edge& edge) { return of_run(edge) && placed_at(edge) >= accepted; });
+  const auto joined = std::find_if(rejection.edges.begin(), rejection.edges.end(), [&](std::size_t i) {
+    return !before.SameComponent(graph.edges()[i].from, graph.edges()[i].to);
+  });
+  if (joined == rejection.edges.end()) return rejection;
+  rejection.merge = true;
+  const slamcore::ComponentId run_side = before.ComponentOf(graph.edges()[*joined].from);
+  const slamcore::ComponentId other_side = before.ComponentOf(graph.edges()[*joined].to);
+  for (std::size_t i = 0; i < graph.num_edges(); ++i) {
+    const Edge& edge = graph.edges()[i];
+    if (!of_run(edge) || placed_at(edge) < accepted) continue;
+    const slamcore::ComponentId from = before.ComponentOf(edge.from), to = before.ComponentOf(edge.to);
+    if ((from == run_side && to == other_side) || (from == other_side && to == run_side)) {
+      rejection.edges.insert(i);
+    }
+  }
+  return rejection;
 }
 
 /// Calls `visit(node, cell_index, world_centre)` for every known cell of the patches of `nodes` that lie in
@@ -183,7 +230,7 @@ void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_n
         decisions.push_back(DecisionJson(decision));
       }
     }
-    const bool merge = SplitsComponents(map.graph, members);
+    const bool merge = RejectionOf(map.graph, run_nodes, hypothesis).merge;
     const Edge& first = map.graph.edges()[*members.begin()];
     fleet::v1::MapFinding finding;
     finding.set_finding_kind(fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS);
@@ -412,19 +459,23 @@ Result<Map> RejectEdge(const Map& map, NodeId from, NodeId to, std::optional<sla
 
 Result<Map> RejectHypothesis(const Map& map, const std::set<NodeId>& run_nodes, std::int64_t hypothesis,
                              std::string* detail) {
-  Map repaired = map;
-  const std::size_t components_before = repaired.graph.NumComponents();
-  const std::size_t removed = repaired.graph.RemoveEdgesIf([&](const Edge& edge) {
-    return edge.kind == EdgeKind::kObservation && edge.hypothesis == hypothesis &&
-           run_nodes.contains(edge.from);
-  });
-  if (removed == 0) {
+  const Rejection rejection = RejectionOf(map.graph, run_nodes, hypothesis);
+  if (rejection.edges.empty()) {
     return slamcore::InvalidArgument("the map has no edge that hypothesis " + std::to_string(hypothesis) +
                                      " of its run added (already rejected, or a hypothesis of another run)");
   }
+  Map repaired = map;
+  const std::size_t components_before = repaired.graph.NumComponents();
+  std::size_t index = 0;
+  repaired.graph.RemoveEdgesIf([&](const Edge&) { return rejection.edges.contains(index++); });
   RETURN_IF_ERROR(Reoptimize(repaired));
-  *detail = "rejected hypothesis " + std::to_string(hypothesis) + ": " + std::to_string(removed) +
-            " edge(s) removed; components " + std::to_string(components_before) + " → " +
+  const std::size_t resting = rejection.edges.size() - rejection.own_edges;
+  *detail = "rejected hypothesis " + std::to_string(hypothesis) + (rejection.merge ? " (a merge)" : "") +
+            ": " + std::to_string(rejection.own_edges) + " edge(s) removed" +
+            (resting > 0 ? ", and " + std::to_string(resting) +
+                               " later observation edge(s) of the run that joined the parts it merged"
+                         : "") +
+            "; components " + std::to_string(components_before) + " → " +
             std::to_string(repaired.graph.NumComponents());
   return repaired;
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "analyzer/telemetry_codec.h"
@@ -132,6 +133,72 @@ TEST(MapRepairTest, RejectingAMergeHypothesisSplitsTheComponentsAgain) {
   EXPECT_THAT(again, StatusIs(slamcore::StatusCode::kInvalidArgument));
   EXPECT_EQ(RejectHypothesis(s.child, {}, 4, &detail).status().code(),
             slamcore::StatusCode::kInvalidArgument);
+}
+
+/// An observation edge from run node `from` to node `to` (of view 100 + to) that fits where the nodes are.
+void AddObservation(Map& map, NodeId from, NodeId to, std::optional<std::int64_t> hypothesis) {
+  Edge edge;
+  edge.from = from;
+  edge.to = to;
+  edge.measurement = map.graph.node(from).pose.inverse() * map.graph.node(to).pose;
+  edge.kind = EdgeKind::kObservation;
+  edge.view = 100 + to;
+  edge.hypothesis = hypothesis;
+  edge.information = slamcore::Matrix3::Identity() * 50.0;
+  ASSERT_THAT(map.graph.AddEdge(edge), IsOk());
+}
+
+TEST(MapRepairTest, RejectingAMergeAlsoTakesTheLaterEdgesThatRestOnIt) {
+  // Merge hypothesis 4 observed at nodes 22 and 25 (accepted at 25); afterwards the robot, localised in the
+  // merged map, made direct edges to home at nodes 28 and 31, and one within its own run (30 → 21).
+  Scenario s = MakeScenario();
+  AddObservation(s.child, 28, 8, std::nullopt);
+  AddObservation(s.child, 31, 11, std::nullopt);
+  ASSERT_THAT(s.child.graph.AddView({.id = 121, .node = 21}), IsOk());
+  AddObservation(s.child, 30, 21, std::nullopt);
+  const auto run_nodes = NodesAddedByRun(s.child, s.parent);
+  std::string detail;
+  const auto repaired = RejectHypothesis(s.child, run_nodes, 4, &detail);
+  ASSERT_THAT(repaired, IsOk());
+  // Without the two direct edges to home the run's part would stay joined at the merge's alignment.
+  EXPECT_EQ(repaired->graph.NumComponents(), 2u) << detail;
+  EXPECT_EQ(repaired->graph.num_edges(), s.child.graph.num_edges() - 4);
+  EXPECT_FALSE(repaired->graph.SameComponent(20, 0));
+  EXPECT_EQ(detail,
+            "rejected hypothesis 4 (a merge): 2 edge(s) removed, and 2 later observation edge(s) of the run "
+            "that joined the parts it merged; components 1 → 2");
+  bool run_internal_kept = false;
+  for (const Edge& edge : repaired->graph.edges()) run_internal_kept |= edge.from == 30 && edge.to == 21;
+  EXPECT_TRUE(run_internal_kept);
+  // The server's rerun that did not merge names it a merge, not a loop closure.
+  Map rerun = s.parent;
+  for (int i = 0; i < kChain; ++i) (void)rerun.graph.AddNode({.id = 20 + i, .pose = SE2(0.5 * i, 3.0, 0.0)});
+  const fleet::v1::RunReport report = ReportWithRerun(rerun);
+  const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
+  const fleet::v1::MapFinding* unconfirmed = nullptr;
+  for (const fleet::v1::MapFinding& finding : findings) {
+    if (finding.finding_kind() == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS && finding.hypothesis() == 4)
+      unconfirmed = &finding;
+  }
+  ASSERT_NE(unconfirmed, nullptr);
+  EXPECT_EQ(unconfirmed->summary().rfind("merge by hypothesis 4", 0), 0u) << unconfirmed->summary();
+  EXPECT_DOUBLE_EQ(unconfirmed->severity(), 0.8);
+}
+
+TEST(MapRepairTest, RejectingALoopClosureAfterATrueMergeLeavesTheMergeAndItsEdges) {
+  // Merge 4 (accepted at node 25), then loop-closure hypothesis 9 observed at nodes 28 and 30 (accepted at
+  // 30), then a direct edge at node 31: hypothesis 9 joined nothing, so only its own edges go.
+  Scenario s = MakeScenario();
+  AddObservation(s.child, 28, 8, 9);
+  AddObservation(s.child, 30, 10, 9);
+  AddObservation(s.child, 31, 11, std::nullopt);
+  const auto run_nodes = NodesAddedByRun(s.child, s.parent);
+  std::string detail;
+  const auto repaired = RejectHypothesis(s.child, run_nodes, 9, &detail);
+  ASSERT_THAT(repaired, IsOk());
+  EXPECT_EQ(repaired->graph.NumComponents(), 1u);
+  EXPECT_EQ(repaired->graph.num_edges(), s.child.graph.num_edges() - 2);
+  EXPECT_EQ(detail, "rejected hypothesis 9: 2 edge(s) removed; components 1 → 1");
 }
 
 TEST(MapRepairTest, RejectEdgeRemovesOneObservationEdgeAndRefusesMotionEdges) {

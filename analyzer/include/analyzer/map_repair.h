@@ -76,7 +76,8 @@ slamcore::Result<slamcore::Map> RejectEdge(const slamcore::Map& map, slamcore::N
                                            slamcore::NodeId to, std::optional<slamcore::ViewId> view,
                                            std::string* detail);
 /// Removes every edge that hypothesis `hypothesis` of the run added (edges from `run_nodes` carrying that
-/// hypothesis id), splitting components again when it was a merge, and re-optimises.
+/// hypothesis id) and re-optimises. When it was a merge, the run's observation edges placed since that join
+/// the same two parts go with it (they were gated in the merged frame), so the components split again.
 slamcore::Result<slamcore::Map> RejectHypothesis(const slamcore::Map& map,
                                                  const std::set<slamcore::NodeId>& run_nodes,
                                                  std::int64_t hypothesis, std::string* detail);
