@@ -62,6 +62,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"incremental", "batch"}));
   bool no_verify = false;
   app.add_flag("--no-verify", no_verify, "consistency checks without the leave-one-out verification");
+  bool full_checks = false;
+  app.add_flag("--full-checks", full_checks,
+               "every consistent-set check runs its graduated non-convexity, also when the status quo holds");
   double consistent_set_growth = slamcore::MapperParams{}.consistency.consistent_set_growth;
   app.add_option("--consistent-set-growth", consistent_set_growth,
                  "growth of the judged hypotheses between two consistent-set checks (what-if of the default)")
@@ -93,6 +96,7 @@ int main(int argc, char** argv) {
           params.consistency.enabled = !counts_only;
           params.consistency.verify_after_optimization = !no_verify;
           params.consistency.consistent_set_growth = consistent_set_growth;
+          params.consistency.status_quo_first = !full_checks;
           params.backend =
               backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
           const auto outcome = bench::EvaluateFilter(data, test_case, params);

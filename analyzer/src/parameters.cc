@@ -47,6 +47,7 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   consistency->set_max_edges_judged(c.max_edges_judged);
   consistency->set_max_marginal_update_nodes(c.max_marginal_update_nodes);
   consistency->set_consistent_set_check(c.consistent_set_check);
+  consistency->set_status_quo_first(c.status_quo_first);
   consistency->set_consistent_set_confidence(c.consistent_set_confidence);
   consistency->set_consistent_set_growth(c.consistent_set_growth);
   consistency->set_max_kept_refused(c.max_kept_refused);
@@ -101,6 +102,7 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   if (from.has_max_edges_judged()) c.max_edges_judged = from.max_edges_judged();
   if (from.has_max_marginal_update_nodes()) c.max_marginal_update_nodes = from.max_marginal_update_nodes();
   if (from.has_consistent_set_check()) c.consistent_set_check = from.consistent_set_check();
+  if (from.has_status_quo_first()) c.status_quo_first = from.status_quo_first();
   if (from.has_consistent_set_confidence()) c.consistent_set_confidence = from.consistent_set_confidence();
   if (from.has_consistent_set_growth()) c.consistent_set_growth = from.consistent_set_growth();
   if (from.has_max_kept_refused()) c.max_kept_refused = from.max_kept_refused();

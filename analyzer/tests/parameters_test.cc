@@ -35,7 +35,8 @@ TEST(ParametersTest, JsonNamesOnlyWhatItChanges) {
 TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   // A what-if parameter set: the paper's filter alone, or other caps.
   const auto off = ParseParameterSetJson(
-      R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2, "maxMarginalUpdateNodes": 0}})",
+      R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2, "maxMarginalUpdateNodes": 0,
+                           "statusQuoFirst": false}})",
       "off.json");
   ASSERT_THAT(off, IsOk());
   const auto params = FromProto(off->mapper());
@@ -47,6 +48,8 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   ASSERT_THAT(round_trip, IsOk());
   EXPECT_EQ(round_trip->consistency.min_passes_against_map, 2);
   EXPECT_EQ(round_trip->consistency.max_marginal_update_nodes, 0);  // factorise whenever G changed
+  EXPECT_FALSE(round_trip->consistency.status_quo_first);           // every check in full
+  EXPECT_TRUE(slamcore::ConsistencyParams().status_quo_first);
   EXPECT_FALSE(round_trip->consistency.enabled);
   // Unbounded caps are refused, naming the field.
   const auto unbounded =

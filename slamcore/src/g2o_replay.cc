@@ -100,6 +100,7 @@ Result<ReplayResult> ReplayPoseGraph(const PoseGraph& graph, const MapperParams&
   result.graph = (mapper)->Finish().graph;
   result.mapper_chi2 = Chi2(result.graph);
   result.statistics = (mapper)->Statistics();
+  result.consistent_set_checks = (mapper)->consistent_set_checks();
   result.decisions = (mapper)->decisions();
   // An observation edge of G came from the observation at its (robot node, view) whose measurement it
   // carries: two loop closures of the file between the same vertices are told apart by it.

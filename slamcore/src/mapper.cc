@@ -245,5 +245,6 @@ const std::unordered_map<NodeId, SE2>& Mapper::ground_truth() const { return imp
 Map Mapper::Finish() { return impl_->Finish(); }
 
 MapperStatistics Mapper::Statistics() const { return ComputeStatistics(impl_->decisions()); }
+ConsistentSetChecks Mapper::consistent_set_checks() const { return impl_->consistent_set_checks(); }
 
 }  // namespace slamcore

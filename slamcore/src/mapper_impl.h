@@ -86,6 +86,7 @@ class Mapper::Impl {
   const Map& map() const { return map_; }
   const std::vector<Decision>& decisions() const { return decisions_; }
   const std::vector<AcceptedObservation>& accepted_observations() const { return accepted_; }
+  ConsistentSetChecks consistent_set_checks() const { return consistent_set_checks_; }
   const std::unordered_map<NodeId, SE2>& ground_truth() const { return ground_truth_; }
   Map Finish();
 
@@ -279,6 +280,7 @@ class Mapper::Impl {
   std::optional<Anchor> anchor_;
   std::vector<KeptRefused> kept_refused_;  // oldest first, at most consistency.max_kept_refused
   std::size_t judged_at_last_check_ = 0;
+  ConsistentSetChecks consistent_set_checks_;
 
   std::vector<Decision> decisions_;
   std::vector<AcceptedObservation> accepted_;

@@ -151,6 +151,10 @@ int RunReplay(const ReplayArguments& arguments) {
         {"recovery_hypotheses", stats.recovery_created},
         {"recovery_accepted", stats.recovery_accepted},
         {"views_marked_ambiguous", stats.views_marked_ambiguous},
+        {"recovery_retracted", stats.recovery_retracted},
+        {"consistent_set_checks",
+         {{"judged", result->consistent_set_checks.judged},
+          {"settled_by_status_quo", result->consistent_set_checks.settled_by_status_quo}}},
     };
     std::cout << report.dump() << "\n";
   } else {

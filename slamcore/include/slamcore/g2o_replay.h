@@ -43,6 +43,7 @@ struct ReplayResult {
   double mapper_chi2 = 0.0;  // of the Mapper's graph as the run finished, before that optimisation
   double seconds = 0.0;      // Mapper plus final optimisation
   MapperStatistics statistics;
+  ConsistentSetChecks consistent_set_checks;
   /// The Mapper's decision log (nodes are the Mapper's, numbered from 0 in vertex order; views are the
   /// file's vertex ids): why each closure was taken or refused.
   std::vector<Decision> decisions;

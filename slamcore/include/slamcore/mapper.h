@@ -78,6 +78,13 @@ struct MapperStatistics {
 /// merge_conditional_then_rejected counts hypotheses with a kConditionallyAccepted and a later kRejected.
 MapperStatistics ComputeStatistics(const std::vector<Decision>& decisions);
 
+/// The run's consistent-set checks (mapper_consistent_set.cc): those that judged anything, and of them those
+/// the status quo settled without the graduated non-convexity. A check that changes G logs its decisions.
+struct ConsistentSetChecks {
+  int judged = 0;
+  int settled_by_status_quo = 0;
+};
+
 /// An accepted observation edge as added to G, with the hypothesis that brought it (or -1 for direct).
 struct AcceptedObservation {
   NodeId robot_node = -1;
@@ -111,6 +118,7 @@ class Mapper {
   const Map& map() const;
   const std::vector<Decision>& decisions() const;
   MapperStatistics Statistics() const;
+  ConsistentSetChecks consistent_set_checks() const;
   /// Every observation edge in G, in the order added.
   const std::vector<AcceptedObservation>& accepted_observations() const;
   /// Ground truth kept aside, by node (the last GroundTruthEvent at or before each node's creation).
