@@ -79,7 +79,8 @@ struct MapperStatistics {
 MapperStatistics ComputeStatistics(const std::vector<Decision>& decisions);
 
 /// The run's consistent-set checks (mapper_consistent_set.cc): those that judged anything, and of them those
-/// the status quo settled without the graduated non-convexity. A check that changes G logs its decisions.
+/// the status quo settled without the graduated non-convexity (the second opinion may still take in refused
+/// hypotheses near the set). A check that changes G logs its decisions.
 struct ConsistentSetChecks {
   int judged = 0;
   int settled_by_status_quo = 0;
