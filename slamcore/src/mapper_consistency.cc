@@ -224,13 +224,19 @@ std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id)
   return test->chi2 / boost::math::quantile(distribution, params_.consistency.retraction_confidence);
 }
 
-void Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {
-  map_.graph.RemoveEdgesIf([&](const Edge& edge) { return IsRetractableEdge(edge, hypothesis_id); });
+std::vector<Edge> Mapper::Impl::RemoveHypothesisEdges(std::int64_t hypothesis_id) {
+  std::vector<Edge> removed;
+  map_.graph.RemoveEdgesIf([&](const Edge& edge) {
+    if (!IsRetractableEdge(edge, hypothesis_id)) return false;
+    removed.push_back(edge);
+    return true;
+  });
   std::erase_if(accepted_, [&](const AcceptedObservation& edge) {
     return edge.hypothesis == hypothesis_id && edge.robot_node >= first_run_node_;
   });
   NoteGraphChanged(GraphChange::kEdgesRemoved);
   if (anchor_ && anchor_->hypothesis == hypothesis_id) anchor_.reset();
+  return removed;
 }
 
 void Mapper::Impl::OptimizeAndFactorize() {
@@ -269,12 +275,7 @@ bool Mapper::Impl::VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse,
       refused = true;
       break;
     }
-    KeptRefused kept{.hypothesis = worst, .edges = {}};
-    for (const Edge& edge : map_.graph.edges()) {
-      if (IsRetractableEdge(edge, worst)) kept.edges.push_back(edge);
-    }
-    retracted_edges.push_back(std::move(kept));
-    RemoveHypothesisEdges(worst);
+    retracted_edges.push_back({.hypothesis = worst, .edges = RemoveHypothesisEdges(worst)});
     std::erase(retractable_, worst);
     retracted.emplace_back(worst, worst_ratio);
     OptimizeAndFactorize();

@@ -446,10 +446,9 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   std::optional<StatusQuo> status_quo;
   if (consistency.status_quo_first) {
     status_quo = JudgeTheStatusQuo(working, clusters, options, solve);
-    if (status_quo->verdict == StatusQuo::Verdict::kHolds) {
+    if (status_quo->verdict != StatusQuo::Verdict::kDoesNotHold)
       ++consistent_set_checks_.settled_by_status_quo;
-      return;
-    }
+    if (status_quo->verdict == StatusQuo::Verdict::kHolds) return;
   }
   const auto normalised_residuals = [&] {
     std::vector<double> s;
@@ -487,7 +486,6 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   const bool status_quo_stands =
       status_quo && status_quo->verdict == StatusQuo::Verdict::kHoldsBesideNearRefused;
   if (status_quo_stands) {
-    ++consistent_set_checks_.settled_by_status_quo;
     working = std::move(status_quo->solution);
     s = std::move(status_quo->s);
     for (Cluster& cluster : clusters) set_weight(cluster, cluster.kept < 0 ? 1.0 : 0.0);

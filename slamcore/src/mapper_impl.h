@@ -202,7 +202,8 @@ class Mapper::Impl {
   bool IsRetractableEdge(const Edge& edge, std::int64_t hypothesis_id) const;
   /// Accepted recovery hypotheses of this run, the worst-fitting first (mean χ² per edge), at most `count`.
   std::vector<std::int64_t> WorstFittingAccepted(int count) const;
-  void RemoveHypothesisEdges(std::int64_t hypothesis_id);
+  /// Removes the hypothesis's retractable edges from G and returns them, in G's order.
+  std::vector<Edge> RemoveHypothesisEdges(std::int64_t hypothesis_id);
   void LogRetractions(const std::vector<std::pair<std::int64_t, double>>& retracted, std::int64_t challenger);
   /// An observation at `time` continues the pass of the anchor's acceptance, or ends it after a gap.
   void ContinueAnchorPass(double time);

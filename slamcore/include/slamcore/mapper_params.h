@@ -77,10 +77,11 @@ struct ConsistencyParams {
   /// and at the end of the run. A hypothesis is consistent when its edges' χ² at the solution is within the
   /// quantile at consistent_set_confidence; at most gnc_max_iterations weighted solves per check.
   bool consistent_set_check = true;
-  /// A check first solves the status quo (the accepted clusters in, the refused ones out); when every
-  /// accepted cluster is within its threshold there and every refused one far outside it, the check would
-  /// change nothing and the graduated non-convexity is skipped (mapper_consistent_set.cc). False: every
-  /// check runs it in full (the what-if baseline).
+  /// A check first solves the status quo (the accepted clusters in, the refused ones out) and the map without
+  /// any judged cluster; when every accepted cluster is within its threshold at the first, and every refused
+  /// one beyond it at both, the graduated non-convexity is skipped: the check changes nothing, or, with
+  /// refused clusters near the set, only the second opinion judges those (mapper_consistent_set.cc). False:
+  /// every check runs it in full (the what-if baseline).
   bool status_quo_first = true;
   double consistent_set_confidence = 0.99;
   double consistent_set_growth = 3.0;
