@@ -65,6 +65,15 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
     EXPECT_NE(refused.status().message().find("consistency.max_marginal_update_nodes"), std::string::npos)
         << refused.status().message();
   }
+  // A switch takes a boolean (protobuf's JSON also reads "yes" / "no" as one); anything else is refused,
+  // naming the file and the field.
+  const auto not_a_switch =
+      ParseParameterSetJson(R"({"consistency": {"statusQuoFirst": "banana"}})", "switch.json");
+  ASSERT_FALSE(not_a_switch.ok());
+  EXPECT_NE(not_a_switch.status().message().find("switch.json"), std::string::npos)
+      << not_a_switch.status().message();
+  EXPECT_NE(not_a_switch.status().message().find("consistency.status_quo_first"), std::string::npos)
+      << not_a_switch.status().message();
 }
 
 TEST(ParametersTest, BareMapperObjectIsAccepted) {
