@@ -34,6 +34,7 @@ const std::map<std::string, Graph> kGraphs = {
     {"intel", {"vertigo/intel.g2o", ""}},
     {"intel-sesync", {"sesync/intel.g2o", ""}},
     {"csail", {"sesync/CSAIL.g2o", ""}},
+    {"mit", {"sesync/MIT.g2o", ""}},
 };
 
 }  // namespace
@@ -46,7 +47,7 @@ int main(int argc, char** argv) {
   std::vector<double> fractions{0.1, 0.5, 1.0};
   std::vector<int> seeds{1, 2, 3};
   std::string data = test_data::WidestDir("posegraphs").string();
-  app.add_option("--graph", graphs, "manhattan, ring, ringCity, intel, intel-sesync, csail");
+  app.add_option("--graph", graphs, "manhattan, ring, ringCity, intel, intel-sesync, csail, mit (held out)");
   app.add_option("--mode", modes,
                  "random, local, grouped, variable, mixed, first, shifted (held out: never tuned on)")
       ->check(CLI::IsMember({"random", "local", "grouped", "variable", "mixed", "first", "shifted"}));
@@ -69,6 +70,13 @@ int main(int argc, char** argv) {
   app.add_option("--consistent-set-growth", consistent_set_growth,
                  "growth of the judged hypotheses between two consistent-set checks (what-if of the default)")
       ->check(CLI::Range(1.01, 100.0));
+  slamcore::AcceptanceCriteria recovery = slamcore::MapperParams{}.recovery;
+  app.add_option("--recovery-observations", recovery.min_observations,
+                 "observations a recovery hypothesis needs (what-if of the default)")
+      ->check(CLI::Range(1, 1000));
+  app.add_option("--recovery-views", recovery.min_views,
+                 "distinct views a recovery hypothesis needs (what-if of the default)")
+      ->check(CLI::Range(1, 1000));
   CLI11_PARSE(app, argc, argv);
 
   std::printf(
@@ -97,6 +105,7 @@ int main(int argc, char** argv) {
           params.consistency.verify_after_optimization = !no_verify;
           params.consistency.consistent_set_growth = consistent_set_growth;
           params.consistency.status_quo_first = !full_checks;
+          params.recovery = recovery;
           params.backend =
               backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;
           const auto outcome = bench::EvaluateFilter(data, test_case, params);
@@ -127,8 +136,12 @@ int main(int argc, char** argv) {
           std::snprintf(agreeing, sizeof agreeing, " (+%d of %d that agree with the optimum)",
                         total.agreeing_accepted, total.agreeing_total);
         }
-        std::printf("| %s | %s | %.0f %% | %.2f %% | %.2f %% | %d of %d%s | %d | %s | %.2f (%.2f) |\n",
-                    name.c_str(), mode.c_str(), 100 * fraction, 100 * total.Precision(), 100 * total.Recall(),
+        // Precision of nothing accepted is undefined, not 100 %.
+        char precision[32] = "— (none accepted)";
+        if (total.true_accepted + total.wrong_accepted > 0)
+          std::snprintf(precision, sizeof precision, "%.2f %%", 100 * total.Precision());
+        std::printf("| %s | %s | %.0f %% | %s | %.2f %% | %d of %d%s | %d | %s | %.2f (%.2f) |\n",
+                    name.c_str(), mode.c_str(), 100 * fraction, precision, 100 * total.Recall(),
                     total.wrong_accepted, total.wrong_total, agreeing, retracted, rmse, seconds,
                     clean_seconds > 0 ? seconds / clean_seconds : 0.0);
         std::fflush(stdout);
