@@ -403,9 +403,13 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   }
 
   // Declared odometry noise is often far above the noise met: bending the odometry to absorb a wrong group
-  // then costs more than its declared information says. The a-posteriori variance factor of the odometry
-  // (robustly, the median of its edges' χ² over that of χ²₃, so that a bent part of the map does not
-  // inflate it; never below min_variance_factor) scales the odometry's weight in the judged solves.
+  // then costs more than its declared information says. The median of the odometry edges' χ² over that of
+  // χ²₃ (robust: a bent part of the map does not inflate it; never below min_variance_factor) scales the
+  // odometry's weight in the judged solves. It is not the a-posteriori variance factor χ²/redundancy: at the
+  // optimum each edge keeps only its share of the redundancy, so its χ² lies far below χ²₃ even at the
+  // declared noise. On the shared graphs it sits at or near the floor (0.01–0.03, where χ²/redundancy is
+  // 0.02–0.8), so the odometry counts 30–100× its declared information; the unbiased factor instead loses
+  // wrong groups to the flexible odometry (README, "The odometry's weight in the checks").
   double variance_factor = 1.0;
   {
     std::vector<double> motion_chi2;
