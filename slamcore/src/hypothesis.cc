@@ -18,6 +18,12 @@ EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguou
   return count;
 }
 
+std::string EvidenceText(const EvidenceCount& count) {
+  return std::to_string(count.observations) +
+         (count.observations == 1 ? " observation of " : " observations of ") + std::to_string(count.views) +
+         (count.views == 1 ? " view" : " views");
+}
+
 bool BeyondPassGap(const TraversalPoint& earlier, const TraversalPoint& later, double gap_seconds,
                    double gap_distance) {
   return later.time - earlier.time > gap_seconds ||

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "pose_gaussian.h"
@@ -49,6 +50,8 @@ struct EvidenceCount {
 };
 EvidenceCount CountEvidence(const Hypothesis& hypothesis, bool discount_ambiguous,
                             const std::function<bool(ViewId)>& is_ambiguous);
+/// "3 observations of 2 views", for the decision log.
+std::string EvidenceText(const EvidenceCount& count);
 
 /// When and where (robot odometer) an observation was made.
 struct TraversalPoint {

@@ -32,8 +32,7 @@ void Mapper::Impl::ConditionallyAccept(std::int64_t hypothesis_id) {
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   const internal::EvidenceCount count =
       internal::CountEvidence(*hypothesis, params_.discount_ambiguous_in_merge, is_ambiguous);
-  Log(DecisionKind::kConditionallyAccepted, hypothesis->ref_view, hypothesis,
-      std::to_string(count.observations) + " observations of " + std::to_string(count.views) + " views");
+  Log(DecisionKind::kConditionallyAccepted, hypothesis->ref_view, hypothesis, internal::EvidenceText(count));
 }
 
 void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
@@ -62,9 +61,7 @@ void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   const internal::EvidenceCount count =
       internal::CountEvidence(accepted, params_.discount_ambiguous_in_merge, is_ambiguous);
-  Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
-      std::to_string(count.observations) + " observations of " + std::to_string(count.views) + " views" +
-          note);
+  Log(DecisionKind::kAccepted, accepted.ref_view, &accepted, internal::EvidenceText(count) + note);
   Log(DecisionKind::kComponentsMerged, accepted.ref_view, &accepted,
       "component of node " + std::to_string(source) + " joined component of node " + std::to_string(target));
   RejectCompetitors(accepted);  // a competing conditional merge is undone here

@@ -22,10 +22,6 @@ std::string Chi2Text(double mahalanobis2) {
   return text.str();
 }
 
-std::string EvidenceText(const internal::EvidenceCount& count) {
-  return std::to_string(count.observations) + " observations of " + std::to_string(count.views) + " views";
-}
-
 }  // namespace
 
 void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
@@ -245,7 +241,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   retractable_.push_back(accepted.id);
   const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
-      EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) +
+      internal::EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) +
           (support.empty() ? "" : "; " + support) + note);
   AdoptFittingObservationsOfCompetitors(accepted);
   RejectCompetitors(accepted);
@@ -332,12 +328,24 @@ void Mapper::Impl::DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind,
   const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
   if (!taken) return;
   const Hypothesis& dropped = *taken;
+  // What it had gathered against what acceptance needs: the first question about a dropped hypothesis
+  // (a place seen once, as every loop closure of SE-Sync's MIT graph is, never meets the counts).
+  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
+  const bool recovery = dropped.kind == HypothesisKind::kRecovery;
+  const AcceptanceCriteria& needed = recovery ? params_.recovery : params_.merge_full;
+  const std::string evidence = "; it held " +
+                               internal::EvidenceText(internal::CountEvidence(
+                                   dropped, recovery || params_.discount_ambiguous_in_merge, is_ambiguous)) +
+                               (recovery ? ", acceptance needs " : ", a full merge needs ") +
+                               std::to_string(needed.min_observations) + " of " +
+                               std::to_string(needed.min_views);
   if (dropped.conditional) {
     overlay_.reset();  // G′ is simply dropped: G never saw the edges (IV-B)
     conditional_hypothesis_ = -1;
-    Log(DecisionKind::kRejected, dropped.ref_view, &dropped, "conditional merge undone: " + reason);
+    Log(DecisionKind::kRejected, dropped.ref_view, &dropped,
+        "conditional merge undone: " + reason + evidence);
   } else {
-    Log(kind, dropped.ref_view, &dropped, reason);
+    Log(kind, dropped.ref_view, &dropped, reason + evidence);
   }
   if (dropped.kind == HypothesisKind::kRecovery) KeepRefused(dropped);
   if (dropped.kind == HypothesisKind::kMerge) {

@@ -218,6 +218,19 @@ TEST_F(RecoveryTest, HypothesisExpiresAfterTheTimeLimit) {
   EXPECT_EQ(mapper_->decisions().back().kind, DecisionKind::kExpired);
 }
 
+TEST_F(RecoveryTest, ADroppedHypothesisSaysWhatItHeldAgainstWhatAcceptanceNeeds) {
+  // A place seen once (as every loop closure of SE-Sync's MIT graph is): the log says why it never counted.
+  robot_->Observe(1, SE2::Identity(), 1e-4);
+  for (int i = 0; i < 9; ++i) robot_->Drive(SE2(1.0, 0.0, 0.0), std::nullopt, 1e-2);
+  ASSERT_EQ(mapper_->Statistics().recovery_expired, 1);
+  const Decision* expired = nullptr;
+  for (const Decision& decision : mapper_->decisions()) {
+    if (decision.kind == DecisionKind::kExpired) expired = &decision;
+  }
+  ASSERT_NE(expired, nullptr);
+  EXPECT_THAT(expired->reason, HasSubstr("; it held 1 observation of 1 view, acceptance needs 3 of 2"));
+}
+
 TEST_F(RecoveryTest, HypothesisExpiresAfterTheDistanceLimit) {
   robot_->Observe(1, SE2::Identity(), 1e-4);
   // 8 m: not more than hypothesis_expiry_distance yet (1-s steps, far from the time limit).
