@@ -187,17 +187,29 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
       nlohmann::json runs = nlohmann::json::array();
       for (const RunHealth& run : robot) {
         runs.push_back({Round(run.map.trajectory_rmse_m, 0.001), Round(run.map.false_free_m2, 0.01),
-                        run.map.components, run.repairs_taken, Outcome(run)});
+                        run.map.components, run.repairs_taken, Outcome(run),
+                        Round(run.map.known_floor_m2, 0.01)});
       }
       robots.push_back(std::move(runs));
     }
     nlohmann::json by_run = nlohmann::json::array();
     for (const double share : result.corrupted_by_run) by_run.push_back(Round(share, 0.0001));
+    // The share of each home's true floor its robot's map knows after the last run, averaged over robots:
+    // a repair that cut real floor shows here, not in the corrupted share.
+    double known_share = 0.0;
+    int robots_measured = 0;
+    for (const auto& robot : result.statistics.health) {
+      if (robot.empty() || !(robot.back().map.home_floor_m2 > 0.0)) continue;
+      known_share += robot.back().map.known_floor_m2 / robot.back().map.home_floor_m2;
+      ++robots_measured;
+    }
+    if (robots_measured > 0) known_share /= robots_measured;
     regimes[result.name] = {{"corrupted_share", Round(result.corrupted_share, 0.0001)},
                             {"corrupted_by_run", by_run},
                             {"robots_ever_corrupted", result.robots_ever_corrupted},
                             {"mean_runs_to_corruption", Round(result.mean_runs_to_corruption, 0.01)},
                             {"runs_lost", result.runs_lost},
+                            {"known_floor_share", Round(known_share, 0.0001)},
                             {"repairs_taken", result.repairs_taken},
                             {"robots_healthy", result.statistics.robots_healthy},
                             {"robots_repaired", result.statistics.robots_repaired},
@@ -219,7 +231,8 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
       {"threshold",
        {{"trajectory_rmse_m", options.corruption.trajectory_rmse_m},
         {"false_free_m2", options.corruption.false_free_m2}}},
-      {"per_robot_fields", {"trajectory_rmse_m", "false_free_m2", "components", "repairs_taken", "outcome"}},
+      {"per_robot_fields",
+       {"trajectory_rmse_m", "false_free_m2", "components", "repairs_taken", "outcome", "known_floor_m2"}},
       {"regimes", regimes},
       {"regimes_to_come",
        std::vector<std::string>(options.regimes.begin() + finished, options.regimes.end())}};

@@ -14,6 +14,11 @@ MapHealthMeter::MapHealthMeter(const World& world, CorruptionThreshold threshold
   const Grid& grid = world.grid;
   reach_ = std::max(0, static_cast<int>(std::ceil(margin_m / grid.resolution())));
   const int reach = reach_;
+  long floor_cells = 0;
+  for (int j = 0; j < grid.height(); ++j) {
+    for (int i = 0; i < grid.width(); ++i) floor_cells += grid.at(i, j) == Cell::kFree ? 1 : 0;
+  }
+  floor_m2_ = static_cast<double>(floor_cells) * grid.resolution() * grid.resolution();
   near_floor_.assign(static_cast<std::size_t>(grid.width()) * static_cast<std::size_t>(grid.height()), 0);
   // Dilate the true floor by the margin: rows first, then columns (a square neighbourhood).
   std::vector<std::uint8_t> rows(near_floor_.size(), 0);
@@ -47,6 +52,7 @@ bool MapHealthMeter::NearFloor(const Vector2& point) const {
 slamcore::Result<MapHealth> MapHealthMeter::Measure(
     const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth) const {
   MapHealth health;
+  health.home_floor_m2 = floor_m2_;
   if (map.graph.num_nodes() == 0) return health;
   health.components = static_cast<int>(analyzer::ComputeFigures(map).components);
   int compared = 0;
@@ -56,6 +62,26 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(
   ASSIGN_OR_RETURN(const auto false_floor, FalseFloor(map, truth, grid));
   const auto false_cells = std::count(false_floor.begin(), false_floor.end(), 1);
   health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
+  // The true floor under the map's free cells, each world cell once.
+  ASSIGN_OR_RETURN(const std::optional<SE2> world_T_map, PlaceHome(map, truth));
+  if (world_T_map) {
+    const Grid& world = world_.grid;
+    std::vector<std::uint8_t> known(static_cast<std::size_t>(world.width()) * world.height(), 0);
+    long known_cells = 0;
+    for (int row = 0; row < grid.height; ++row) {
+      for (int col = 0; col < grid.width; ++col) {
+        if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
+        const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
+                             grid.origin_y + (row + 0.5) * grid.resolution);
+        const auto [i, j] = world.CellOf(*world_T_map * in_map);
+        if (world.at(i, j) != Cell::kFree) continue;
+        std::uint8_t& seen = known[static_cast<std::size_t>(j) * world.width() + i];
+        known_cells += seen ? 0 : 1;
+        seen = 1;
+      }
+    }
+    health.known_floor_m2 = static_cast<double>(known_cells) * world.resolution() * world.resolution();
+  }
   health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m ||
                      health.false_free_m2 > threshold_.false_free_m2;
   return health;
@@ -64,9 +90,25 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(
 slamcore::Result<std::vector<std::uint8_t>> MapHealthMeter::FalseFloor(
     const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth,
     const slamcore::OccupancyGrid& grid) const {
-  // The home component in the world's frame: its nodes aligned with their true positions.
   std::vector<std::uint8_t> false_floor;
-  if (map.graph.num_nodes() == 0) return false_floor;
+  ASSIGN_OR_RETURN(const std::optional<SE2> world_T_map, PlaceHome(map, truth));
+  if (!world_T_map) return false_floor;
+  false_floor.assign(grid.cells.size(), 0);
+  for (int row = 0; row < grid.height; ++row) {
+    for (int col = 0; col < grid.width; ++col) {
+      if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
+      const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
+                           grid.origin_y + (row + 0.5) * grid.resolution);
+      if (!NearFloor(*world_T_map * in_map))
+        false_floor[static_cast<std::size_t>(row) * grid.width + col] = 1;
+    }
+  }
+  return false_floor;
+}
+
+slamcore::Result<std::optional<SE2>> MapHealthMeter::PlaceHome(
+    const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth) const {
+  if (map.graph.num_nodes() == 0) return std::optional<SE2>();
   const slamcore::ComponentId home = analyzer::HomeComponent(map.graph);
   std::vector<Vector2> estimate, reference;
   for (const auto& [node, pose] : truth) {
@@ -74,18 +116,9 @@ slamcore::Result<std::vector<std::uint8_t>> MapHealthMeter::FalseFloor(
     estimate.push_back(map.graph.node(node).pose.translation());
     reference.push_back(pose.translation());
   }
-  if (estimate.size() < 2) return false_floor;
-  ASSIGN_OR_RETURN(const auto world_T_map, slamcore::AlignRigidly(estimate, reference));
-  false_floor.assign(grid.cells.size(), 0);
-  for (int row = 0; row < grid.height; ++row) {
-    for (int col = 0; col < grid.width; ++col) {
-      if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
-      const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
-                           grid.origin_y + (row + 0.5) * grid.resolution);
-      if (!NearFloor(world_T_map * in_map)) false_floor[static_cast<std::size_t>(row) * grid.width + col] = 1;
-    }
-  }
-  return false_floor;
+  if (estimate.size() < 2) return std::optional<SE2>();
+  ASSIGN_OR_RETURN(const SE2 world_T_map, slamcore::AlignRigidly(estimate, reference));
+  return std::optional<SE2>(world_T_map);
 }
 
 }  // namespace sim

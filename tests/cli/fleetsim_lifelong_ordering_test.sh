@@ -26,7 +26,8 @@ python3 - "$work" <<'PY'
 import json, sys
 last = lambda path: json.loads(open(path).read().strip().splitlines()[-1])["regimes"]
 mean = lambda regime: sum(regime["corrupted_by_run"]) / len(regime["corrupted_by_run"])
-# per_robot holds each robot's runs as [trajectory_rmse_m, false_free_m2, components, repairs_taken, outcome].
+# per_robot holds each robot's runs as [trajectory_rmse_m, false_free_m2, components, repairs_taken, outcome,
+# known_floor_m2].
 false_floor = lambda regime: sum(robot[-1][1] for robot in regime["per_robot"])
 total = {"filter": 0.0, "service": 0.0}
 for seed in (1, 2, 3):

@@ -59,8 +59,10 @@ for name, regime in regimes.items():
     assert len(regime["corrupted_by_run"]) == 2, (name, regime["corrupted_by_run"])
     assert regime["corrupted_share"] == regime["corrupted_by_run"][-1], name
     assert len(regime["per_robot"]) == 2 and all(len(robot) == 2 for robot in regime["per_robot"]), name
-    for rmse, false_m2, components, repairs, outcome in (run for robot in regime["per_robot"] for run in robot):
+    assert 0.0 < regime["known_floor_share"] <= 1.0, (name, regime["known_floor_share"])
+    for rmse, false_m2, components, repairs, outcome, known_m2 in (run for robot in regime["per_robot"] for run in robot):
         assert rmse >= 0 and false_m2 >= 0 and components >= 1 and repairs >= 0, (name, rmse, false_m2, components)
+        assert known_m2 > 0, (name, known_m2)
         assert outcome in ("healthy", "repaired", "corrupted"), outcome
         # the threshold (the printed figures are rounded: 1 mm, 0.01 m²)
         t = result["threshold"]

@@ -64,8 +64,9 @@ slamcore::Result<std::vector<RegimeResult>> RunLifelong(
 
 /// One JSON object: {"robots", "runs", "seed", "threshold", "regimes": {"none": {...}, ...},
 /// "regimes_to_come": [...]} with each finished regime's figures, corrupted_by_run and per robot and run
-/// [trajectory_rmse_m, false_free_m2, components, repairs_taken, outcome]; regimes_to_come names those of
-/// `options` not yet in `results` (empty once the experiment is complete).
+/// [trajectory_rmse_m, false_free_m2, components, repairs_taken, outcome, known_floor_m2], and
+/// known_floor_share (the mean share of each home's true floor its map knows after the last run);
+/// regimes_to_come names those of `options` not yet in `results` (empty once the experiment is complete).
 std::string LifelongJson(const LifelongOptions& options, const std::vector<RegimeResult>& results);
 /// A table for people: a row per regime, then the corrupted share every few runs.
 std::string LifelongText(const LifelongOptions& options, const std::vector<RegimeResult>& results);

@@ -6,6 +6,7 @@
 // Thread safety: a MapHealthMeter is immutable after construction; Measure may be called from any thread.
 #pragma once
 
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -26,6 +27,10 @@ struct CorruptionThreshold {
 struct MapHealth {
   double trajectory_rmse_m = 0.0;  // componentwise aligned RMS position error of the map's nodes
   double false_free_m2 = 0.0;  // free in the home component's grid, farther than the margin from true floor
+  /// The home's true floor that the home component's grid calls free: what a repair that cut real floor
+  /// takes away (health counts false floor only; this is the other side of the ledger).
+  double known_floor_m2 = 0.0;
+  double home_floor_m2 = 0.0;  // the home's true floor, which known_floor_m2 is a share of
   int components = 0;
   bool corrupted = false;
 };
@@ -48,14 +53,21 @@ class MapHealthMeter {
       const slamcore::OccupancyGrid& grid) const;
 
   const CorruptionThreshold& threshold() const { return threshold_; }
+  /// The home's true floor area (its free cells).
+  double floor_m2() const { return floor_m2_; }
 
  private:
   bool NearFloor(const Vector2& point) const;
+  /// The transform placing the home component in the world (its nodes aligned with their truth), or
+  /// nothing when fewer than two of its nodes carry truth.
+  slamcore::Result<std::optional<SE2>> PlaceHome(
+      const slamcore::Map& map, const std::unordered_map<slamcore::NodeId, SE2>& truth) const;
 
   const World& world_;
   CorruptionThreshold threshold_;
   int reach_ = 0;                         // the margin in world cells
   std::vector<std::uint8_t> near_floor_;  // per world cell: true floor within the margin
+  double floor_m2_ = 0.0;
 };
 
 }  // namespace sim
