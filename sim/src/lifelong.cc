@@ -128,6 +128,19 @@ const char* Outcome(const RunHealth& run) {
 
 double Round(double value, double unit) { return std::round(value / unit) * unit; }
 
+// The share of each home's true floor its robot's map knows after the last run, averaged over robots: a
+// repair that cut real floor shows here, not in the corrupted share.
+double KnownFloorShare(const RegimeResult& result) {
+  double share = 0.0;
+  int robots = 0;
+  for (const auto& robot : result.statistics.health) {
+    if (robot.empty() || !(robot.back().map.home_floor_m2 > 0.0)) continue;
+    share += robot.back().map.known_floor_m2 / robot.back().map.home_floor_m2;
+    ++robots;
+  }
+  return robots > 0 ? share / robots : 0.0;
+}
+
 }  // namespace
 
 slamcore::Status ValidateLifelong(const LifelongOptions& options) {
@@ -194,22 +207,12 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
     }
     nlohmann::json by_run = nlohmann::json::array();
     for (const double share : result.corrupted_by_run) by_run.push_back(Round(share, 0.0001));
-    // The share of each home's true floor its robot's map knows after the last run, averaged over robots:
-    // a repair that cut real floor shows here, not in the corrupted share.
-    double known_share = 0.0;
-    int robots_measured = 0;
-    for (const auto& robot : result.statistics.health) {
-      if (robot.empty() || !(robot.back().map.home_floor_m2 > 0.0)) continue;
-      known_share += robot.back().map.known_floor_m2 / robot.back().map.home_floor_m2;
-      ++robots_measured;
-    }
-    if (robots_measured > 0) known_share /= robots_measured;
     regimes[result.name] = {{"corrupted_share", Round(result.corrupted_share, 0.0001)},
                             {"corrupted_by_run", by_run},
                             {"robots_ever_corrupted", result.robots_ever_corrupted},
                             {"mean_runs_to_corruption", Round(result.mean_runs_to_corruption, 0.01)},
                             {"runs_lost", result.runs_lost},
-                            {"known_floor_share", Round(known_share, 0.0001)},
+                            {"known_floor_share", Round(KnownFloorShare(result), 0.0001)},
                             {"repairs_taken", result.repairs_taken},
                             {"robots_healthy", result.statistics.robots_healthy},
                             {"robots_repaired", result.statistics.robots_repaired},
@@ -251,11 +254,11 @@ std::string LifelongText(const LifelongOptions& options, const std::vector<Regim
   text += line;
   text +=
       "regime    corrupted after last run  ever corrupted  mean runs to corruption  runs lost  repairs taken "
-      " wall s\n";
+      " true floor known  wall s\n";
   for (const RegimeResult& r : results) {
-    std::snprintf(line, sizeof line, "%-9s %23.1f %%  %14d  %23.1f  %9d  %13d  %6.0f\n", r.name.c_str(),
-                  100 * r.corrupted_share, r.robots_ever_corrupted, r.mean_runs_to_corruption, r.runs_lost,
-                  r.repairs_taken, r.seconds);
+    std::snprintf(line, sizeof line, "%-9s %23.1f %%  %14d  %23.1f  %9d  %13d  %14.1f %%  %6.0f\n",
+                  r.name.c_str(), 100 * r.corrupted_share, r.robots_ever_corrupted, r.mean_runs_to_corruption,
+                  r.runs_lost, r.repairs_taken, 100 * KnownFloorShare(r), r.seconds);
     text += line;
   }
   text += "corrupted share by run:\nrun     ";
