@@ -223,10 +223,7 @@ TEST_F(RecoveryTest, ADroppedHypothesisSaysWhatItHeldAgainstWhatAcceptanceNeeds)
   robot_->Observe(1, SE2::Identity(), 1e-4);
   for (int i = 0; i < 9; ++i) robot_->Drive(SE2(1.0, 0.0, 0.0), std::nullopt, 1e-2);
   ASSERT_EQ(mapper_->Statistics().recovery_expired, 1);
-  const Decision* expired = nullptr;
-  for (const Decision& decision : mapper_->decisions()) {
-    if (decision.kind == DecisionKind::kExpired) expired = &decision;
-  }
+  const Decision* expired = testing::LastDecision(*mapper_, DecisionKind::kExpired);
   ASSERT_NE(expired, nullptr);
   EXPECT_THAT(expired->reason, HasSubstr("; it held 1 observation of 1 view, acceptance needs 3 of 2"));
 }
