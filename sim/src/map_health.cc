@@ -8,6 +8,22 @@
 #include "slamcore/trajectory_error.h"
 
 namespace sim {
+namespace {
+
+// Calls visit(col, row, centre in the world) for each free cell of `grid`, the map placed by world_T_map.
+template <typename Visit>
+void ForEachFreeCell(const slamcore::OccupancyGrid& grid, const SE2& world_T_map, const Visit& visit) {
+  for (int row = 0; row < grid.height; ++row) {
+    for (int col = 0; col < grid.width; ++col) {
+      if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
+      const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
+                           grid.origin_y + (row + 0.5) * grid.resolution);
+      visit(col, row, world_T_map * in_map);
+    }
+  }
+}
+
+}  // namespace
 
 MapHealthMeter::MapHealthMeter(const World& world, CorruptionThreshold threshold, double margin_m)
     : world_(world), threshold_(threshold) {
@@ -59,27 +75,22 @@ slamcore::Result<MapHealth> MapHealthMeter::Measure(
   health.trajectory_rmse_m = analyzer::ComponentwiseRmse(map.graph, truth, &compared).value_or(0.0);
 
   ASSIGN_OR_RETURN(const auto grid, analyzer::RenderHomeGrid(map));
-  ASSIGN_OR_RETURN(const auto false_floor, FalseFloor(map, truth, grid));
-  const auto false_cells = std::count(false_floor.begin(), false_floor.end(), 1);
-  health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
-  // The true floor under the map's free cells, each world cell once.
   ASSIGN_OR_RETURN(const std::optional<SE2> world_T_map, PlaceHome(map, truth));
   if (world_T_map) {
+    // One pass over the map's free cells: those away from true floor (false floor), and the true floor under
+    // them, each world cell once.
     const Grid& world = world_.grid;
     std::vector<std::uint8_t> known(static_cast<std::size_t>(world.width()) * world.height(), 0);
-    long known_cells = 0;
-    for (int row = 0; row < grid.height; ++row) {
-      for (int col = 0; col < grid.width; ++col) {
-        if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
-        const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
-                             grid.origin_y + (row + 0.5) * grid.resolution);
-        const auto [i, j] = world.CellOf(*world_T_map * in_map);
-        if (world.at(i, j) != Cell::kFree) continue;
-        std::uint8_t& seen = known[static_cast<std::size_t>(j) * world.width() + i];
-        known_cells += seen ? 0 : 1;
-        seen = 1;
-      }
-    }
+    long false_cells = 0, known_cells = 0;
+    ForEachFreeCell(grid, *world_T_map, [&](int, int, const Vector2& in_world) {
+      if (!NearFloor(in_world)) ++false_cells;
+      const auto [i, j] = world.CellOf(in_world);
+      if (world.at(i, j) != Cell::kFree) return;
+      std::uint8_t& seen = known[static_cast<std::size_t>(j) * world.width() + i];
+      known_cells += seen ? 0 : 1;
+      seen = 1;
+    });
+    health.false_free_m2 = static_cast<double>(false_cells) * grid.resolution * grid.resolution;
     health.known_floor_m2 = static_cast<double>(known_cells) * world.resolution() * world.resolution();
   }
   health.corrupted = health.trajectory_rmse_m > threshold_.trajectory_rmse_m ||
@@ -94,15 +105,9 @@ slamcore::Result<std::vector<std::uint8_t>> MapHealthMeter::FalseFloor(
   ASSIGN_OR_RETURN(const std::optional<SE2> world_T_map, PlaceHome(map, truth));
   if (!world_T_map) return false_floor;
   false_floor.assign(grid.cells.size(), 0);
-  for (int row = 0; row < grid.height; ++row) {
-    for (int col = 0; col < grid.width; ++col) {
-      if (grid.at(col, row) != static_cast<std::int8_t>(slamcore::CellState::kFree)) continue;
-      const Vector2 in_map(grid.origin_x + (col + 0.5) * grid.resolution,
-                           grid.origin_y + (row + 0.5) * grid.resolution);
-      if (!NearFloor(*world_T_map * in_map))
-        false_floor[static_cast<std::size_t>(row) * grid.width + col] = 1;
-    }
-  }
+  ForEachFreeCell(grid, *world_T_map, [&](int col, int row, const Vector2& in_world) {
+    if (!NearFloor(in_world)) false_floor[static_cast<std::size_t>(row) * grid.width + col] = 1;
+  });
   return false_floor;
 }
 
