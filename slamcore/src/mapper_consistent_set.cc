@@ -517,15 +517,15 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
       }
       return total;
     };
-    PoseGraph inliers;
-    for (const Node& node : working.nodes()) (void)inliers.AddNode(node);
-    for (std::size_t k = 0; k < working.num_edges(); ++k) {
-      if (options.edge_weights[k] > 0.0) (void)inliers.AddEdge(working.edges()[k]);
-    }
+    // At their declared information: a start from the judged weights (the odometry at 1/variance_factor)
+    // is in effect the odometry's (README, "Graphs outside every table").
+    std::vector<bool> inlier(working.num_edges());
+    for (std::size_t k = 0; k < working.num_edges(); ++k) inlier[k] = options.edge_weights[k] > 0.0;
+    Result<PoseGraph> inliers = working.WithEdges(inlier);
     const double first = objective(working);
-    if (InitializeLinear(inliers, inliers.ComponentOf(robot)).ok()) {
+    if (inliers.ok() && InitializeLinear(*inliers, inliers->ComponentOf(robot)).ok()) {
       PoseGraph restarted = working;
-      for (const Node& node : inliers.nodes()) restarted.mutable_node(node.id).pose = node.pose;
+      for (const Node& node : inliers->nodes()) restarted.mutable_node(node.id).pose = node.pose;
       OptimizerOptions probe = options;
       probe.max_iterations = kLinearStartProbeIterations;
       solve(restarted, probe);

@@ -58,6 +58,22 @@ Result<std::size_t> PoseGraph::AddEdge(const Edge& edge) {
   return edges_.size() - 1;
 }
 
+Result<PoseGraph> PoseGraph::WithEdges(const std::vector<bool>& keep) const {
+  if (keep.size() != edges_.size()) {
+    return InvalidArgument("WithEdges: " + std::to_string(keep.size()) + " flags for " +
+                           std::to_string(edges_.size()) + " edges");
+  }
+  // Nodes and views as they are (an observation edge names its view: a copy without the views would refuse
+  // every one of them), the kept edges, and the components they make.
+  PoseGraph kept = *this;
+  kept.edges_.clear();
+  for (std::size_t i = 0; i < edges_.size(); ++i) {
+    if (keep[i]) kept.edges_.push_back(edges_[i]);
+  }
+  kept.RebuildComponents();
+  return kept;
+}
+
 Status PoseGraph::AddView(const View& view) {
   if (view_index_.contains(view.id))
     return InvalidArgument("view " + std::to_string(view.id) + " already exists");

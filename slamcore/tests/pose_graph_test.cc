@@ -87,6 +87,32 @@ TEST(PoseGraphTest, ViewsAttachToNodes) {
   EXPECT_EQ(graph.AddView({.id = 70, .node = 7, .ambiguous = false}).code(), StatusCode::kInvalidArgument);
 }
 
+TEST(PoseGraphTest, AGraphOfSomeEdgesKeepsEveryNodeAndViewAndTheKeptEdgesObservationsIncluded) {
+  PoseGraph graph;
+  for (NodeId id = 0; id < 4; ++id) ASSERT_THAT(graph.AddNode(MakeNode(id, id)), IsOk());
+  ASSERT_THAT(graph.AddView({.id = 50, .node = 0, .ambiguous = false}), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(0, 1)), IsOk());
+  ASSERT_THAT(graph.AddEdge(MakeEdge(1, 2)), IsOk());
+  Edge observation = MakeEdge(3, 0, EdgeKind::kObservation);
+  observation.view = 50;
+  ASSERT_THAT(graph.AddEdge(observation), IsOk());
+  ASSERT_EQ(graph.NumComponents(), 1u);
+
+  // The second motion edge left out: the observation edge (naming view 50) stays, and so do all nodes.
+  const auto kept = graph.WithEdges({true, false, true});
+  ASSERT_THAT(kept, IsOk());
+  EXPECT_EQ(kept->num_nodes(), 4u);
+  ASSERT_EQ(kept->views().size(), 1u);
+  ASSERT_EQ(kept->num_edges(), 2u);
+  EXPECT_EQ(kept->edges()[1].kind, EdgeKind::kObservation);
+  EXPECT_EQ(kept->edges()[1].view, std::optional<ViewId>(50));
+  EXPECT_EQ(kept->NumComponents(), 2u);  // {0, 1, 3} {2}
+  EXPECT_TRUE(kept->SameComponent(3, 1));
+  EXPECT_FALSE(kept->SameComponent(1, 2));
+  EXPECT_EQ(graph.num_edges(), 3u) << "the graph itself is unchanged";
+  EXPECT_EQ(graph.WithEdges({true, false}).status().code(), StatusCode::kInvalidArgument);
+}
+
 TEST(PoseGraphTest, RejectsBadInputAndStaysUnchanged) {
   PoseGraph graph;
   ASSERT_THAT(graph.AddNode(MakeNode(0)), IsOk());

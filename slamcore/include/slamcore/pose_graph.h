@@ -69,6 +69,11 @@ class PoseGraph {
   template <typename Predicate>
   std::size_t RemoveEdgesIf(Predicate remove);
 
+  /// A copy with every node and view and the edges whose flag in `keep` (one per edge index) is set, in
+  /// their order: a graph of some of this one's edges (a judged solve's inliers). INVALID_ARGUMENT unless
+  /// `keep` has one flag per edge.
+  Result<PoseGraph> WithEdges(const std::vector<bool>& keep) const;
+
   bool HasNode(NodeId id) const { return index_of_.contains(id); }
   bool HasView(ViewId id) const { return view_index_.contains(id); }
   const Node& node(NodeId id) const { return nodes_[IndexOf(id)]; }
