@@ -4,7 +4,7 @@
 // variable groups (1–20), mixed (half single, half groups of 10) and first (groups of 10 that arrive before
 // the region's first true loop closure), as a fraction of the graph's loop-closure count; and, held out of
 // all tuning, shifted (groups of 10 that repeat a true loop closure's measurement 3–10 vertices away: a
-// look-alike rather than noise). Graphs: the README's table, and held out of it MIT (../shared) and
+// look-alike rather than noise). Graphs: the README's table, and held out of it MIT (data/) and
 // ais2klinik, city10000 and KITTI 00/02/05 (SE-Sync's data directory, under posegraphs/sesync/ of --data).
 // Prints one Markdown row per graph, mode and fraction (seeds summed); the README's table.
 //
@@ -36,7 +36,7 @@ const std::map<std::string, Graph> kGraphs = {
     {"intel-sesync", {"sesync/intel.g2o", ""}},
     {"csail", {"sesync/CSAIL.g2o", ""}},
     {"mit", {"sesync/MIT.g2o", ""}},
-    // Held out, and not in ../shared: SE-Sync's data directory (docs/filter-accuracy.md says where from).
+    // Held out, and not in ../shared: SE-Sync's data directory (README, "Graphs outside every table").
     {"ais2klinik", {"sesync/ais2klinik.g2o", ""}},
     {"city10000", {"sesync/city10000.g2o", ""}},
     {"kitti00", {"sesync/kitti_00.g2o", ""}},
