@@ -316,8 +316,7 @@ StatusQuo JudgeTheStatusQuo(const PoseGraph& working, const std::vector<Cluster>
 }  // namespace
 
 void Mapper::Impl::KeepRefused(const Hypothesis& hypothesis) {
-  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
-  if (!Meets(internal::CountEvidence(hypothesis, true, is_ambiguous), params_.recovery)) return;
+  if (!Meets(EvidenceOf(hypothesis), params_.recovery)) return;
   KeptRefused kept{.hypothesis = hypothesis.id, .edges = {}};
   for (const internal::HypothesisObservation& observation : hypothesis.observations) {
     kept.edges.push_back(MakeObservationEdge(observation, hypothesis.id));

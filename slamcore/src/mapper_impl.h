@@ -151,6 +151,9 @@ class Mapper::Impl {
   void DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind, const std::string& reason);
   void UpdateAmbiguityMarks();
   bool IsAmbiguous(ViewId view) const { return map_.graph.view(view).ambiguous; }
+  /// What a hypothesis holds as its kind counts it: ambiguous views never count toward a recovery (IV-A), and
+  /// toward a merge only without discount_ambiguous_in_merge.
+  internal::EvidenceCount EvidenceOf(const internal::Hypothesis& hypothesis) const;
   void OptimizeComponentOf(NodeId node, std::string* note);
   /// The incremental back-end's update from the pending seeds (which it clears). When it started from the
   /// whole component, its last factorisation becomes the marginals (true when it could).

@@ -29,10 +29,8 @@ void Mapper::Impl::ConditionallyAccept(std::int64_t hypothesis_id) {
     overlay_->AddEdge(MakeObservationEdge(observation, -1));
   }
   overlay_->SetAlignment(TargetFromSource(*hypothesis));
-  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
-  const internal::EvidenceCount count =
-      internal::CountEvidence(*hypothesis, params_.discount_ambiguous_in_merge, is_ambiguous);
-  Log(DecisionKind::kConditionallyAccepted, hypothesis->ref_view, hypothesis, internal::EvidenceText(count));
+  Log(DecisionKind::kConditionallyAccepted, hypothesis->ref_view, hypothesis,
+      internal::EvidenceText(EvidenceOf(*hypothesis)));
 }
 
 void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
@@ -58,10 +56,8 @@ void Mapper::Impl::AcceptMerge(std::int64_t hypothesis_id) {
   robot_relative_covariance_ = accepted.state.covariance;
   std::string note;
   if (params_.optimize_after_accept) OptimizeComponentOf(robot, &note);
-  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
-  const internal::EvidenceCount count =
-      internal::CountEvidence(accepted, params_.discount_ambiguous_in_merge, is_ambiguous);
-  Log(DecisionKind::kAccepted, accepted.ref_view, &accepted, internal::EvidenceText(count) + note);
+  Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
+      internal::EvidenceText(EvidenceOf(accepted)) + note);
   Log(DecisionKind::kComponentsMerged, accepted.ref_view, &accepted,
       "component of node " + std::to_string(source) + " joined component of node " + std::to_string(target));
   RejectCompetitors(accepted);  // a competing conditional merge is undone here

@@ -156,20 +156,24 @@ void Mapper::Impl::RouteToFilter(HypothesisKind kind, const ViewObservedEvent& e
   EvaluateAcceptance(id);
 }
 
+internal::EvidenceCount Mapper::Impl::EvidenceOf(const Hypothesis& hypothesis) const {
+  const bool discount_ambiguous =
+      hypothesis.kind == HypothesisKind::kRecovery || params_.discount_ambiguous_in_merge;
+  return internal::CountEvidence(hypothesis, discount_ambiguous,
+                                 [this](ViewId view) { return IsAmbiguous(view); });
+}
+
 void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   const Hypothesis* hypothesis = FindHypothesis(hypothesis_id);
   if (!hypothesis) return;
-  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
+  const internal::EvidenceCount count = EvidenceOf(*hypothesis);
   if (hypothesis->kind == HypothesisKind::kRecovery) {
-    // IV-A: ambiguous views never count toward recovery.
-    if (!Meets(internal::CountEvidence(*hypothesis, true, is_ambiguous), params_.recovery)) return;
+    if (!Meets(count, params_.recovery)) return;
     std::string support;
     const RecoveryVerdict verdict = JudgeRecovery(*hypothesis, &support);
     if (verdict != RecoveryVerdict::kWait) AcceptRecovery(hypothesis_id, support, verdict);
     return;
   }
-  const internal::EvidenceCount count =
-      internal::CountEvidence(*hypothesis, params_.discount_ambiguous_in_merge, is_ambiguous);
   if (Meets(count, params_.merge_full)) {
     AcceptMerge(hypothesis_id);
   } else if (params_.conditional_merge && !hypothesis->conditional && !overlay_ &&
@@ -239,10 +243,8 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
   const Hypothesis& accepted = *taken;
   retractable_.push_back(accepted.id);
-  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
-      internal::EvidenceText(internal::CountEvidence(accepted, true, is_ambiguous)) +
-          (support.empty() ? "" : "; " + support) + note);
+      internal::EvidenceText(EvidenceOf(accepted)) + (support.empty() ? "" : "; " + support) + note);
   AdoptFittingObservationsOfCompetitors(accepted);
   RejectCompetitors(accepted);
 }
@@ -330,12 +332,9 @@ void Mapper::Impl::DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind,
   const Hypothesis& dropped = *taken;
   // What it had gathered against what acceptance needs: the first question about a dropped hypothesis
   // (a place seen once, as every loop closure of SE-Sync's MIT graph is, never meets the counts).
-  const auto is_ambiguous = [this](ViewId view) { return IsAmbiguous(view); };
   const bool recovery = dropped.kind == HypothesisKind::kRecovery;
   const AcceptanceCriteria& needed = recovery ? params_.recovery : params_.merge_full;
-  const std::string evidence = "; it held " +
-                               internal::EvidenceText(internal::CountEvidence(
-                                   dropped, recovery || params_.discount_ambiguous_in_merge, is_ambiguous)) +
+  const std::string evidence = "; it held " + internal::EvidenceText(EvidenceOf(dropped)) +
                                (recovery ? ", acceptance needs " : ", a full merge needs ") +
                                std::to_string(needed.min_observations) + " of " +
                                std::to_string(needed.min_views);
