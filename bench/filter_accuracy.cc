@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
   app.add_option("--consistent-set-growth", consistent_set_growth,
                  "growth of the judged hypotheses between two consistent-set checks (what-if of the default)")
       ->check(CLI::Range(1.01, 100.0));
+  int max_contest_trials = slamcore::MapperParams{}.consistency.max_contest_trials;
+  app.add_option("--max-contest-trials", max_contest_trials,
+                 "trials of a contested acceptance (0: no contest, the what-if baseline)")
+      ->check(CLI::Range(0, 100));
   slamcore::AcceptanceCriteria recovery = slamcore::MapperParams{}.recovery;
   app.add_option("--recovery-observations", recovery.min_observations,
                  "observations a recovery hypothesis needs (what-if of the default)")
@@ -114,6 +118,7 @@ int main(int argc, char** argv) {
           params.consistency.verify_after_optimization = !no_verify;
           params.consistency.consistent_set_growth = consistent_set_growth;
           params.consistency.status_quo_first = !full_checks;
+          params.consistency.max_contest_trials = max_contest_trials;
           params.recovery = recovery;
           params.backend =
               backend == "batch" ? slamcore::MapperBackend::kBatch : slamcore::MapperBackend::kIncremental;

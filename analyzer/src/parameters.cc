@@ -45,6 +45,7 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   consistency->set_max_judged_per_check(c.max_judged_per_check);
   consistency->set_max_retractions_per_check(c.max_retractions_per_check);
   consistency->set_max_edges_judged(c.max_edges_judged);
+  consistency->set_max_contest_trials(c.max_contest_trials);
   consistency->set_max_marginal_update_nodes(c.max_marginal_update_nodes);
   consistency->set_consistent_set_check(c.consistent_set_check);
   consistency->set_status_quo_first(c.status_quo_first);
@@ -100,6 +101,7 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   if (from.has_max_judged_per_check()) c.max_judged_per_check = from.max_judged_per_check();
   if (from.has_max_retractions_per_check()) c.max_retractions_per_check = from.max_retractions_per_check();
   if (from.has_max_edges_judged()) c.max_edges_judged = from.max_edges_judged();
+  if (from.has_max_contest_trials()) c.max_contest_trials = from.max_contest_trials();
   if (from.has_max_marginal_update_nodes()) c.max_marginal_update_nodes = from.max_marginal_update_nodes();
   if (from.has_consistent_set_check()) c.consistent_set_check = from.consistent_set_check();
   if (from.has_status_quo_first()) c.status_quo_first = from.status_quo_first();

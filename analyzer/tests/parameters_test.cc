@@ -36,7 +36,7 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   // A what-if parameter set: the paper's filter alone, or other caps.
   const auto off = ParseParameterSetJson(
       R"({"consistency": {"enabled": false, "minPassesAgainstMap": 2, "maxMarginalUpdateNodes": 0,
-                           "statusQuoFirst": false}})",
+                           "statusQuoFirst": false, "maxContestTrials": 0}})",
       "off.json");
   ASSERT_THAT(off, IsOk());
   const auto params = FromProto(off->mapper());
@@ -50,6 +50,8 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
   EXPECT_EQ(round_trip->consistency.max_marginal_update_nodes, 0);  // factorise whenever G changed
   EXPECT_FALSE(round_trip->consistency.status_quo_first);           // every check in full
   EXPECT_TRUE(slamcore::ConsistencyParams().status_quo_first);
+  EXPECT_EQ(round_trip->consistency.max_contest_trials, 0);  // no contest: the what-if baseline
+  EXPECT_GT(slamcore::ConsistencyParams().max_contest_trials, 0);
   EXPECT_FALSE(round_trip->consistency.enabled);
   // Unbounded caps are refused, naming the field.
   const auto unbounded =
@@ -65,6 +67,12 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
     EXPECT_NE(refused.status().message().find("consistency.max_marginal_update_nodes"), std::string::npos)
         << refused.status().message();
   }
+  // Each contest trial is an optimisation of the component: bounded too.
+  const auto endless =
+      ParseParameterSetJson(R"({"consistency": {"maxContestTrials": 1000000}})", "contest.json");
+  ASSERT_FALSE(endless.ok());
+  EXPECT_NE(endless.status().message().find("consistency.max_contest_trials"), std::string::npos)
+      << endless.status().message();
   // A switch takes a boolean (protobuf's JSON also reads "yes" / "no" as one); anything else is refused,
   // naming the file and the field.
   const auto not_a_switch =

@@ -40,6 +40,8 @@ struct Hypothesis {
   double last_odometer = 0.0;  // likewise
   bool conditional = false;    // a merge hypothesis that is conditionally accepted (IV-B)
   int refused_at_passes = 0;   // passes when the optimised map last refused it (mapper_consistency.cc)
+  /// Why it last waited although it met the counts (the map test and its passes), for the log of its end.
+  std::string last_wait;
 };
 
 /// Observations and distinct views that count toward acceptance. With `discount_ambiguous`, observations of

@@ -107,6 +107,10 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
     const internal::PoseGaussian motion = internal::MotionFromIncrement(event.increment, event.covariance);
     for (Hypothesis& hypothesis : hypotheses_)
       hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
+    if (contested_) {
+      for (Contradiction& contradiction : contested_->contradictions)
+        contradiction.state = internal::PredictMotion(contradiction.state, motion);
+    }
     if (marginals_) robot_T_factorized_ = internal::PredictMotion(robot_T_factorized_, motion);
     robot_relative_covariance_ =
         internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
@@ -132,6 +136,7 @@ void Mapper::Impl::Apply(const KidnapEvent& event) {
   for (const std::int64_t id : open)
     DropHypothesis(id, DecisionKind::kRejected, "robot lost its position (" + cause + ")");
   ambiguity_.ForgetAccepted();
+  contested_.reset();  // its contradictions' states assumed continuous odometry too
   start_new_component_ = true;
   new_component_reason_ = "first node after a " + cause;
 }

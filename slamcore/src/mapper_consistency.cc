@@ -43,6 +43,7 @@
 //    its edges leave G, the decision log records kRetracted with the reason, and the component is
 //    re-optimised. A newcomer accepted on passes against the map is never refused, only what it
 //    contradicts is retracted.
+//  * Contested acceptances: mapper_contest.cc.
 //
 // The leave-one-out test of a hypothesis W: with its stacked edge residuals r at the optimum, the joint
 // covariance P of the nodes they touch and the edges' Jacobians J, d² = rᵀ (Σ_z − J P Jᵀ)⁺ r is the χ² of
@@ -169,7 +170,7 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
            << consistency.min_passes_against_map << " passes";
       *why = text.str();
       if (passes < consistency.min_passes_against_map || passes <= hypothesis.refused_at_passes) {
-        return RecoveryVerdict::kWait;
+        return RecoveryVerdict::kWaitAgainstMap;
       }
       return RecoveryVerdict::kAcceptOverMap;
     }
@@ -193,7 +194,8 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
        << (informative ? "informative" : "uninformative") << "), " << passes << " of " << needed << " passes";
   *why = text.str();
   // A hypothesis the optimised map refused waits for a new pass before it is tried again.
-  if (passes < needed || passes <= hypothesis.refused_at_passes) return RecoveryVerdict::kWait;
+  if (passes < needed || passes <= hypothesis.refused_at_passes)
+    return consistent ? RecoveryVerdict::kWait : RecoveryVerdict::kWaitAgainstMap;
   if (!consistent) return RecoveryVerdict::kAcceptOverMap;
   return informative ? RecoveryVerdict::kAccept : RecoveryVerdict::kAcceptAndVerify;
 }

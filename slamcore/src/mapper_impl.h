@@ -5,6 +5,8 @@
 //   mapper_merge.cc         conditional and full merges (G′ as a MergeOverlay);
 //   mapper_consistency.cc   correlated wrong observations: passes, the test against the map's marginal
 //                           covariance, retraction of accepted hypotheses.
+//   mapper_contest.cc       contested acceptances: later passes that agree take back a recovery the map
+//                           test could not judge.
 //   mapper_consistent_set.cc  the consistent-set check: accepted and refused hypotheses judged together
 //                           (graduated non-convexity), retracting or accepting what it decides.
 //
@@ -94,7 +96,8 @@ class Mapper::Impl {
   /// kAccept: the map's informative test agreed. kAcceptAndVerify: the test could not tell, so the optimised
   /// map gets the last word (VerifyAcceptance). kAcceptOverMap: independent passes overrule the map; what
   /// they contradict is retracted, they are not refused.
-  enum class RecoveryVerdict { kAccept, kAcceptAndVerify, kAcceptOverMap, kWait };
+  /// kWaitAgainstMap: the map test failed and the passes are too few to overrule the map.
+  enum class RecoveryVerdict { kAccept, kAcceptAndVerify, kAcceptOverMap, kWait, kWaitAgainstMap };
   // mapper_validation.cc: return an error naming the event, or Ok; never change anything.
   Status Validate(const OdometryEvent& event) const;
   Status Validate(const ViewCreatedEvent& event) const;
@@ -215,6 +218,21 @@ class Mapper::Impl {
   /// Drops the stalest open hypotheses beyond the cap.
   void EnforceOpenHypothesisCap();
 
+  // mapper_contest.cc
+  /// After a recovery is accepted: it starts a new contest when its map test could not tell, rides on the
+  /// contested acceptance when made in its pass (`anchored_to`: the anchor's hypothesis before this
+  /// acceptance), and otherwise supports it. `covariance_before`: Σ_rel before the acceptance reset it.
+  void NoteAcceptance(const internal::Hypothesis& accepted, RecoveryVerdict verdict,
+                      std::optional<std::int64_t> anchored_to, const Matrix3& covariance_before);
+  /// A direct edge, owned by `owner` (or nothing): beyond the contested acceptance's pass, a pass for it.
+  void NoteDirectEdge(std::optional<std::int64_t> owner);
+  /// A hypothesis that meets the counts but waits against the map: a contradiction of the contested
+  /// acceptance, which is retracted on trial when the contradictions that agree with this one outnumber
+  /// its support; the trial stands when the hypothesis then fits the map without it.
+  void ContestAcceptance(std::int64_t hypothesis_id);
+  /// Re-poses the robot's nodes after `first` (this run's, up to the current one) by chaining their odometry.
+  void DeadReckonSince(NodeId first);
+
   // mapper_consistent_set.cc
   /// A refused recovery hypothesis kept for the consistent-set check: the edges its acceptance would add
   /// (or, for a retracted one, the edges it had).
@@ -282,6 +300,38 @@ class Mapper::Impl {
     int continuation_edges = 0;
   };
   std::optional<Anchor> anchor_;
+  /// The last recovery accepted on a map test that could not tell, while no later pass has settled it
+  /// (mapper_contest.cc).
+  struct Contradiction {
+    std::int64_t hypothesis = -1;
+    NodeId ref_node = -1;
+    internal::PoseGaussian state;  // robot_T_ref, carried by the odometry like an open hypothesis's
+    int passes = 1;
+  };
+  struct Contested {
+    std::vector<std::int64_t> hypotheses;   // the acceptance, and those accepted in its pass after it
+    int support = 1;                        // its passes, and the later passes that agreed with it
+    internal::TraversalPoint last_support;  // the end of the last of those passes
+    double accepted_time = 0.0;
+    NodeId robot_node = -1;                       // where it was accepted
+    Matrix3 covariance_before = Matrix3::Zero();  // Σ_rel there before the acceptance reset it
+    std::vector<Contradiction> contradictions;    // at most consistency.max_open_hypotheses
+    std::vector<std::int64_t> unexplained;        // contradictions a trial found it does not explain
+    int trials = 0;
+  };
+  std::optional<Contested> contested_;
+  /// What an acceptance, or a retraction on trial, changes: restored exactly when it does not stand.
+  struct RestorePoint {
+    PoseGraph graph;
+    std::vector<AcceptedObservation> accepted;
+    std::vector<std::int64_t> retractable;
+    Matrix3 robot_relative_covariance;
+    std::optional<Anchor> anchor;
+    internal::AmbiguityTracker ambiguity;
+    std::vector<NodeId> pending_seeds;
+  };
+  RestorePoint SaveRestorePoint() const;
+  void Restore(RestorePoint saved);
   std::vector<KeptRefused> kept_refused_;  // oldest first, at most consistency.max_kept_refused
   std::size_t judged_at_last_check_ = 0;
   ConsistentSetChecks consistent_set_checks_;

@@ -60,6 +60,7 @@ void Mapper::Impl::DecideObservation(const ViewObservedEvent& event) {
     const std::optional<std::int64_t> owner =
         params_.consistency.enabled ? AnchorForDirectEdge() : std::optional<std::int64_t>();
     AddObservationEdge(observation, owner.value_or(-1), /*direct=*/true);
+    NoteDirectEdge(owner);
     robot_relative_covariance_ = event.covariance;
     std::string note;
     if (owner) note = "; continues the pass of accepted hypothesis " + std::to_string(*owner);
@@ -171,7 +172,12 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
     if (!Meets(count, params_.recovery)) return;
     std::string support;
     const RecoveryVerdict verdict = JudgeRecovery(*hypothesis, &support);
-    if (verdict != RecoveryVerdict::kWait) AcceptRecovery(hypothesis_id, support, verdict);
+    if (verdict == RecoveryVerdict::kWait || verdict == RecoveryVerdict::kWaitAgainstMap) {
+      FindHypothesis(hypothesis_id)->last_wait = std::move(support);
+      if (verdict == RecoveryVerdict::kWaitAgainstMap) ContestAcceptance(hypothesis_id);
+      return;
+    }
+    AcceptRecovery(hypothesis_id, support, verdict);
     return;
   }
   if (Meets(count, params_.merge_full)) {
@@ -187,22 +193,13 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   Hypothesis* candidate = FindHypothesis(hypothesis_id);
   if (!candidate) return;
   // What acceptance changes, to restore it exactly when the optimised map refuses the hypothesis.
-  struct Saved {
-    PoseGraph graph;
-    std::vector<AcceptedObservation> accepted;
-    std::vector<std::int64_t> retractable;
-    Matrix3 robot_relative_covariance;
-    std::optional<Anchor> anchor;
-    internal::AmbiguityTracker ambiguity;
-    std::vector<NodeId> pending_seeds;
-  };
   const bool verify = verdict != RecoveryVerdict::kAccept && params_.consistency.enabled &&
                       params_.consistency.verify_after_optimization && params_.optimize_after_accept;
-  std::optional<Saved> saved;
-  if (verify) {
-    saved = Saved{map_.graph, accepted_,  retractable_,  robot_relative_covariance_,
-                  anchor_,    ambiguity_, pending_seeds_};
-  }
+  std::optional<RestorePoint> saved;
+  if (verify) saved = SaveRestorePoint();
+  const std::optional<std::int64_t> anchored_to =
+      anchor_ ? std::optional<std::int64_t>(anchor_->hypothesis) : std::nullopt;
+  const Matrix3 covariance_before = robot_relative_covariance_;
   for (const HypothesisObservation& observation : candidate->observations) {
     // They failed the direct gate, but the evidence says they were right: no longer rejected (IV-A).
     ambiguity_.RemoveRejected(observation.view, observation.odometer);
@@ -226,14 +223,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   }
   if (verify && !VerifyAcceptance(hypothesis_id, verdict == RecoveryVerdict::kAcceptAndVerify,
                                   marginals_current, &note)) {
-    map_.graph = std::move(saved->graph);
-    accepted_ = std::move(saved->accepted);
-    retractable_ = std::move(saved->retractable);
-    robot_relative_covariance_ = saved->robot_relative_covariance;
-    anchor_ = saved->anchor;
-    ambiguity_ = std::move(saved->ambiguity);
-    pending_seeds_ = std::move(saved->pending_seeds);
-    NoteGraphChanged(GraphChange::kEdgesRemoved);
+    Restore(std::move(*saved));
     candidate->refused_at_passes = internal::CountPasses(*candidate, params_.consistency.pass_gap_seconds,
                                                          params_.consistency.pass_gap_distance);
     Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
@@ -245,8 +235,25 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   retractable_.push_back(accepted.id);
   Log(DecisionKind::kAccepted, accepted.ref_view, &accepted,
       internal::EvidenceText(EvidenceOf(accepted)) + (support.empty() ? "" : "; " + support) + note);
+  NoteAcceptance(accepted, verdict, anchored_to, covariance_before);
   AdoptFittingObservationsOfCompetitors(accepted);
   RejectCompetitors(accepted);
+}
+
+Mapper::Impl::RestorePoint Mapper::Impl::SaveRestorePoint() const {
+  return RestorePoint{map_.graph, accepted_,  retractable_,  robot_relative_covariance_,
+                      anchor_,    ambiguity_, pending_seeds_};
+}
+
+void Mapper::Impl::Restore(RestorePoint saved) {
+  map_.graph = std::move(saved.graph);
+  accepted_ = std::move(saved.accepted);
+  retractable_ = std::move(saved.retractable);
+  robot_relative_covariance_ = saved.robot_relative_covariance;
+  anchor_ = saved.anchor;
+  ambiguity_ = std::move(saved.ambiguity);
+  pending_seeds_ = std::move(saved.pending_seeds);
+  NoteGraphChanged(GraphChange::kEdgesRemoved);
 }
 
 bool Mapper::Impl::RefusedAndUntestable(const Hypothesis& hypothesis,
@@ -337,7 +344,8 @@ void Mapper::Impl::DropHypothesis(std::int64_t hypothesis_id, DecisionKind kind,
   const std::string evidence = "; it held " + internal::EvidenceText(EvidenceOf(dropped)) +
                                (recovery ? ", acceptance needs " : ", a full merge needs ") +
                                std::to_string(needed.min_observations) + " of " +
-                               std::to_string(needed.min_views);
+                               std::to_string(needed.min_views) +
+                               (dropped.last_wait.empty() ? "" : "; it last waited on " + dropped.last_wait);
   if (dropped.conditional) {
     overlay_.reset();  // G′ is simply dropped: G never saw the edges (IV-B)
     conditional_hypothesis_ = -1;

@@ -67,6 +67,7 @@ Status ValidateConsistency(const ConsistencyParams& c) {
   RETURN_IF_ERROR(CheckRange("consistency.max_continuation_edges", c.max_continuation_edges, 0, 1000));
   RETURN_IF_ERROR(CheckRange("consistency.max_judged_per_check", c.max_judged_per_check, 1, 100));
   RETURN_IF_ERROR(CheckRange("consistency.max_retractions_per_check", c.max_retractions_per_check, 0, 100));
+  RETURN_IF_ERROR(CheckRange("consistency.max_contest_trials", c.max_contest_trials, 0, 100));
   RETURN_IF_ERROR(CheckRange("consistency.max_edges_judged", c.max_edges_judged, 1, 1000));
   // The update's dense solve is cubic in the nodes: 256 nodes is a 768 × 768 factorisation.
   RETURN_IF_ERROR(CheckRange("consistency.max_marginal_update_nodes", c.max_marginal_update_nodes, 0, 256));

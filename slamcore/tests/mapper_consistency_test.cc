@@ -502,7 +502,8 @@ TEST(RetractionTest, LaterPassesRetractAnAcceptedWrongPassAndGIsAsIfItNeverWasAc
   const Decision* retracted = LastDecision(*with_wrong, DecisionKind::kRetracted);
   ASSERT_NE(retracted, nullptr);
   EXPECT_EQ(retracted->hypothesis_kind, HypothesisKind::kRecovery);
-  EXPECT_THAT(retracted->reason, HasSubstr("leave-one-out"));
+  // The second true pass outnumbers the wrong one (see ContestTest below).
+  EXPECT_THAT(retracted->reason, HasSubstr("contested: 2 later passes"));
   // The wrong hypothesis was the first accepted one; its edges left G and accepted_observations().
   const Decision* first_accepted = nullptr;
   for (const Decision& decision : with_wrong->decisions()) {
@@ -529,6 +530,92 @@ TEST(RetractionTest, LaterPassesRetractAnAcceptedWrongPassAndGIsAsIfItNeverWasAc
   EXPECT_NEAR(clean_graph.node(clean_graph.num_nodes() - 1).pose.x(), 2.0, 0.05);
 }
 
+// Without the contest, the third true pass overrules the map and the leave-one-out test at the optimum that
+// takes it in retracts the wrong pass: G is the same.
+TEST(RetractionTest, WithoutTheContestTheThirdPassOverrulesTheMapAndTheLeaveOneOutTestRetracts) {
+  MapperParams params = CorridorParams();
+  params.consistency.max_contest_trials = 0;
+  auto with_wrong = MakeMapper(params);
+  CorridorOutAndBack(*with_wrong, true, 3);
+  auto without = MakeMapper(params);
+  CorridorOutAndBack(*without, false, 3);
+  EXPECT_EQ(with_wrong->Statistics().recovery_retracted, 1);
+  const Decision* retracted = LastDecision(*with_wrong, DecisionKind::kRetracted);
+  ASSERT_NE(retracted, nullptr);
+  EXPECT_THAT(retracted->reason, HasSubstr("leave-one-out"));
+  EXPECT_EQ(EdgeSet(with_wrong->map().graph), EdgeSet(without->map().graph));
+}
+
+// Contested acceptances. The corridor's wrong pass is accepted on a test that cannot tell (the robot is
+// σ_x ≈ 1.5 m unsure after 22 loose steps); each true pass then fails the map test against the map it placed
+// (2.5 m off, the robot sure to centimetres since). Here the true passes are 130 s apart, beyond the 120 s
+// expiry, so each is a hypothesis of its own, one pass each: the map is never overruled by one hypothesis's
+// three passes. The second true pass agrees with the first (same views, the robot has not moved: innovation
+// 0), so two passes contradict the wrong one's one; without it the second fits the map (the robot at x = 2
+// by its exact odometry), so the wrong one is retracted and the second accepted.
+void CorridorWithSeparatePasses(Mapper& mapper, std::optional<SE2> second_pass_claims) {
+  SimulatedRobot robot(mapper);
+  constexpr double kOdometryVariance = 0.1;
+  robot.Drive(SE2::Identity(), std::nullopt, kOdometryVariance);
+  for (const ViewId view : {1, 2, 3}) {
+    robot.CreateView(view);
+    robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  }
+  for (int k = 0; k < 9; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  robot.Drive(SE2(0, 0, std::numbers::pi), std::nullopt, kOdometryVariance);
+  for (int k = 0; k < 10; ++k) robot.Drive(SE2(1, 0, 0), std::nullopt, kOdometryVariance);
+  const auto pass_as_if_at = [&](const SE2& world_T_robot) {
+    for (const ViewId view : {1, 2, 3})
+      robot.ObserveRaw(view, world_T_robot.inverse() * SE2(view - 1.0, 0, 0), 1e-4);
+  };
+  pass_as_if_at(SE2(4.5, 0, std::numbers::pi));  // the look-alike
+  robot.Wait(25.0);
+  pass_as_if_at(robot.truth());
+  robot.Wait(130.0);
+  pass_as_if_at(second_pass_claims.value_or(robot.truth()));
+}
+
+TEST(ContestTest, TwoLaterPassesThatAgreeRetractAnAcceptanceTheMapTestCouldNotTell) {
+  auto mapper = MakeMapper(CorridorParams());
+  CorridorWithSeparatePasses(*mapper, std::nullopt);
+  const MapperStatistics statistics = mapper->Statistics();
+  EXPECT_EQ(statistics.recovery_created, 3);
+  EXPECT_EQ(statistics.recovery_accepted, 2);
+  EXPECT_EQ(statistics.recovery_retracted, 1);
+  const Decision* retracted = LastDecision(*mapper, DecisionKind::kRetracted);
+  ASSERT_NE(retracted, nullptr);
+  EXPECT_EQ(retracted->hypothesis, 0);  // the look-alike's
+  EXPECT_THAT(retracted->reason, HasSubstr("contested: 2 later passes (hypotheses 1 2)"));
+  EXPECT_THAT(retracted->reason, HasSubstr("against its 1"));
+  const Decision* accepted = LastDecision(*mapper, DecisionKind::kAccepted);
+  ASSERT_NE(accepted, nullptr);
+  EXPECT_EQ(accepted->hypothesis, 2);
+  EXPECT_THAT(accepted->reason, HasSubstr("consistent, uninformative"));
+  for (const AcceptedObservation& edge : mapper->accepted_observations()) EXPECT_NE(edge.hypothesis, 0);
+  // The robot's node is where its exact odometry says, x = 2, not at the look-alike's 4.5.
+  const NodeId robot = *mapper->CurrentNode();
+  EXPECT_NEAR(mapper->map().graph.node(robot).pose.x(), 2.0, 0.05);
+
+  MapperParams params = CorridorParams();
+  params.consistency.max_contest_trials = 0;  // the what-if baseline: each true pass alone waits, and expires
+  auto baseline = MakeMapper(params);
+  CorridorWithSeparatePasses(*baseline, std::nullopt);
+  EXPECT_EQ(baseline->Statistics().recovery_retracted, 0);
+  EXPECT_EQ(baseline->Statistics().recovery_accepted, 1);
+  EXPECT_NEAR(baseline->map().graph.node(*baseline->CurrentNode()).pose.x(), 4.5, 0.05);
+}
+
+// The second contradiction claims yet another place (x = 0.5): it does not agree with the first (1.5 m apart,
+// both sure to centimetres), so each contradicting pass stands alone, one against one, and nothing is
+// retracted.
+TEST(ContestTest, ContradictionsThatDisagreeWithEachOtherRetractNothing) {
+  auto mapper = MakeMapper(CorridorParams());
+  CorridorWithSeparatePasses(*mapper, SE2(0.5, 0, std::numbers::pi));
+  EXPECT_EQ(mapper->Statistics().recovery_retracted, 0);
+  EXPECT_EQ(mapper->Statistics().recovery_accepted, 1);
+  EXPECT_NEAR(mapper->map().graph.node(*mapper->CurrentNode()).pose.x(), 4.5, 0.05);
+}
+
 TEST(ConsistencyParamsTest, EveryNewFieldIsValidated) {
   const auto refused = [](auto change) {
     MapperParams params;
@@ -545,6 +632,8 @@ TEST(ConsistencyParamsTest, EveryNewFieldIsValidated) {
               HasSubstr("consistency.max_open_hypotheses"));
   EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_continuation_edges = -1; }).message(),
               HasSubstr("consistency.max_continuation_edges"));
+  EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_contest_trials = -1; }).message(),
+              HasSubstr("consistency.max_contest_trials"));
   EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_edges_judged = 0; }).message(),
               HasSubstr("consistency.max_edges_judged"));
   EXPECT_THAT(refused([](MapperParams& p) { p.consistency.max_marginal_update_nodes = 257; }).message(),

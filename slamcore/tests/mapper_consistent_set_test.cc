@@ -278,7 +278,9 @@ TEST(PassesTest, DirectEdgesBelongToTheAcceptanceWhoseTraversalTheyContinue) {
     if (d.kind != DecisionKind::kDirectEdge || at == std::string::npos) continue;
     owned_by_retracted += retracted.count(std::stoll(d.reason.substr(at + 42))) > 0 ? 1 : 0;
   }
-  EXPECT_GE(owned_by_retracted, 10);
+  // 30 such edges when this case was traced; since contested acceptances (mapper_consistency.cc) the wrong
+  // acceptance is retracted by the next true passes, before its traversal has made more than a few.
+  EXPECT_GE(owned_by_retracted, 1);
 }
 
 // Intel (Vertigo, data/) with groups of ten wrong closures, as many as true ones, seed 7 (outside every

@@ -66,6 +66,12 @@ struct ConsistencyParams {
   int max_judged_per_check = 8;
   int max_retractions_per_check = 4;
   int max_edges_judged = 60;
+  /// Contested acceptances (mapper_consistency.cc): a recovery accepted on a map test that could not tell
+  /// (uninformative, or none) is retracted on trial when later passes that agree with each other contradict
+  /// it, outnumbering the passes that support it, and stays retracted when the contradicting hypothesis then
+  /// fits the map without it. At most this many trials (each an optimisation) per such acceptance; 0 turns
+  /// the contest off (the what-if baseline).
+  int max_contest_trials = 4;
   /// The map test's marginals are updated by the edges added since their factorisation (a dense solve over
   /// the nodes those edges touch) until the edges touch more than this many nodes, then factorised again;
   /// 0 factorises whenever G changed.
