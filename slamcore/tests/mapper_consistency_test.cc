@@ -553,7 +553,8 @@ TEST(RetractionTest, WithoutTheContestTheThirdPassOverrulesTheMapAndTheLeaveOneO
 // three passes. The second true pass agrees with the first (same views, the robot has not moved: innovation
 // 0), so two passes contradict the wrong one's one; without it the second fits the map (the robot at x = 2
 // by its exact odometry), so the wrong one is retracted and the second accepted.
-void CorridorWithSeparatePasses(Mapper& mapper, std::optional<SE2> second_pass_claims) {
+void CorridorWithSeparatePasses(Mapper& mapper, std::optional<SE2> second_pass_claims,
+                                bool with_look_alike = true) {
   SimulatedRobot robot(mapper);
   constexpr double kOdometryVariance = 0.1;
   robot.Drive(SE2::Identity(), std::nullopt, kOdometryVariance);
@@ -568,7 +569,7 @@ void CorridorWithSeparatePasses(Mapper& mapper, std::optional<SE2> second_pass_c
     for (const ViewId view : {1, 2, 3})
       robot.ObserveRaw(view, world_T_robot.inverse() * SE2(view - 1.0, 0, 0), 1e-4);
   };
-  pass_as_if_at(SE2(4.5, 0, std::numbers::pi));  // the look-alike
+  if (with_look_alike) pass_as_if_at(SE2(4.5, 0, std::numbers::pi));
   robot.Wait(25.0);
   pass_as_if_at(robot.truth());
   robot.Wait(130.0);
@@ -595,6 +596,15 @@ TEST(ContestTest, TwoLaterPassesThatAgreeRetractAnAcceptanceTheMapTestCouldNotTe
   // The robot's node is where its exact odometry says, x = 2, not at the look-alike's 4.5.
   const NodeId robot = *mapper->CurrentNode();
   EXPECT_NEAR(mapper->map().graph.node(robot).pose.x(), 2.0, 0.05);
+  // By the end of the run (its consistent-set check takes the first true pass back in) G holds the same edges
+  // as a run that never saw the look-alike.
+  auto never_fooled = MakeMapper(CorridorParams());
+  CorridorWithSeparatePasses(*never_fooled, std::nullopt, /*with_look_alike=*/false);
+  EXPECT_EQ(EdgeSet(mapper->Finish().graph), EdgeSet(never_fooled->Finish().graph));
+  const Decision* taken_back = LastDecision(*mapper, DecisionKind::kAccepted);
+  ASSERT_NE(taken_back, nullptr);
+  EXPECT_EQ(taken_back->hypothesis, 1);
+  EXPECT_THAT(taken_back->reason, HasSubstr("consistent-set check (the run ended"));
 
   MapperParams params = CorridorParams();
   params.consistency.max_contest_trials = 0;  // the what-if baseline: each true pass alone waits, and expires
