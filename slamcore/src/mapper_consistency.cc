@@ -152,7 +152,8 @@ bool Mapper::Impl::MarginalsFromTheSolve() {
   return true;
 }
 
-Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypothesis, std::string* why) {
+Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypothesis, std::string* why,
+                                                          Vector3* from_the_map) {
   const ConsistencyParams& consistency = params_.consistency;
   if (!consistency.enabled) return RecoveryVerdict::kAccept;
   const int passes =
@@ -164,7 +165,9 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
   // point, which the direct edges since have moved a little.
   constexpr double kBoundMargin = 2.0;
   if (const std::optional<PoseGaussian> bound = MapPredictionBound(hypothesis.ref_node)) {
-    const double lower_d2 = internal::ComputeInnovation(*bound, hypothesis.state).mahalanobis2;
+    const internal::Innovation against_bound = internal::ComputeInnovation(*bound, hypothesis.state);
+    const double lower_d2 = against_bound.mahalanobis2;
+    if (from_the_map) *from_the_map = against_bound.log;
     if (lower_d2 > kBoundMargin * consistency.map_gate_chi2) {
       text << "map test d²≥" << lower_d2 << " (inconsistent), " << passes << " of "
            << consistency.min_passes_against_map << " passes";
@@ -184,6 +187,7 @@ Mapper::Impl::RecoveryVerdict Mapper::Impl::JudgeRecovery(const Hypothesis& hypo
                : RecoveryVerdict::kWait;
   }
   const internal::Innovation innovation = internal::ComputeInnovation(*prediction, hypothesis.state);
+  if (from_the_map) *from_the_map = innovation.log;
   const double largest_variance = internal::LargestPositionVariance(innovation.covariance);
   const bool consistent = innovation.mahalanobis2 <= consistency.map_gate_chi2;
   const bool informative = AliasingOffsetWouldFail(largest_variance, consistency.map_gate_chi2);

@@ -175,7 +175,9 @@ class Mapper::Impl {
   // mapper_consistency.cc
   /// What a recovery hypothesis that meets the counts gets: its passes against the outcome of the test
   /// against the map. `why` says what decided.
-  RecoveryVerdict JudgeRecovery(const internal::Hypothesis& hypothesis, std::string* why);
+  /// `from_the_map`, when given: ln of the hypothesis's state against the map's prediction (when tested).
+  RecoveryVerdict JudgeRecovery(const internal::Hypothesis& hypothesis, std::string* why,
+                                Vector3* from_the_map = nullptr);
   /// Whether a test with this largest position variance (of its innovation) against `gate_chi2` is
   /// informative: an aliasing offset of consistency.aliasing_offset metres would have failed it.
   bool AliasingOffsetWouldFail(double largest_variance, double gate_chi2) const;
@@ -229,7 +231,8 @@ class Mapper::Impl {
   /// A hypothesis that meets the counts but waits against the map: a contradiction of the contested
   /// acceptance, which is retracted on trial when the contradictions that agree with this one outnumber
   /// its support; the trial stands when the hypothesis then fits the map without it.
-  void ContestAcceptance(std::int64_t hypothesis_id);
+  /// `from_the_map`: its innovation against the map's prediction, as its map test computed it.
+  void ContestAcceptance(std::int64_t hypothesis_id, const Vector3& from_the_map);
   /// Re-poses the robot's nodes after `first` (this run's, up to the current one) by chaining their odometry.
   void DeadReckonSince(NodeId first);
 
@@ -332,6 +335,17 @@ class Mapper::Impl {
   };
   RestorePoint SaveRestorePoint() const;
   void Restore(RestorePoint saved);
+  /// The map tests' marginals and what they were factorised at, taken out and put back whole.
+  struct MarginalState {
+    std::optional<internal::MarginalCovariances> marginals;
+    std::uint64_t marginals_revision = 0, map_revision = 0;
+    std::uint64_t marginals_indirect_revision = 0, indirect_revision = 0;
+    std::uint64_t marginals_structure_revision = 0, structure_revision = 0;
+    internal::VarianceFactor variance_factor;
+    internal::PoseGaussian robot_T_factorized;
+  };
+  MarginalState TakeMarginalState();
+  void PutBackMarginalState(MarginalState state);
   std::vector<KeptRefused> kept_refused_;  // oldest first, at most consistency.max_kept_refused
   std::size_t judged_at_last_check_ = 0;
   ConsistentSetChecks consistent_set_checks_;

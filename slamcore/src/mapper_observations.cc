@@ -171,10 +171,11 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   if (hypothesis->kind == HypothesisKind::kRecovery) {
     if (!Meets(count, params_.recovery)) return;
     std::string support;
-    const RecoveryVerdict verdict = JudgeRecovery(*hypothesis, &support);
+    Vector3 from_the_map = Vector3::Zero();
+    const RecoveryVerdict verdict = JudgeRecovery(*hypothesis, &support, &from_the_map);
     if (verdict == RecoveryVerdict::kWait || verdict == RecoveryVerdict::kWaitAgainstMap) {
       FindHypothesis(hypothesis_id)->last_wait = std::move(support);
-      if (verdict == RecoveryVerdict::kWaitAgainstMap) ContestAcceptance(hypothesis_id);
+      if (verdict == RecoveryVerdict::kWaitAgainstMap) ContestAcceptance(hypothesis_id, from_the_map);
       return;
     }
     AcceptRecovery(hypothesis_id, support, verdict);
@@ -243,6 +244,30 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
 Mapper::Impl::RestorePoint Mapper::Impl::SaveRestorePoint() const {
   return RestorePoint{map_.graph, accepted_,  retractable_,  robot_relative_covariance_,
                       anchor_,    ambiguity_, pending_seeds_};
+}
+
+Mapper::Impl::MarginalState Mapper::Impl::TakeMarginalState() {
+  return MarginalState{.marginals = std::move(marginals_),
+                       .marginals_revision = marginals_revision_,
+                       .map_revision = map_revision_,
+                       .marginals_indirect_revision = marginals_indirect_revision_,
+                       .indirect_revision = indirect_revision_,
+                       .marginals_structure_revision = marginals_structure_revision_,
+                       .structure_revision = structure_revision_,
+                       .variance_factor = variance_factor_,
+                       .robot_T_factorized = robot_T_factorized_};
+}
+
+void Mapper::Impl::PutBackMarginalState(MarginalState state) {
+  marginals_ = std::move(state.marginals);
+  marginals_revision_ = state.marginals_revision;
+  map_revision_ = state.map_revision;
+  marginals_indirect_revision_ = state.marginals_indirect_revision;
+  indirect_revision_ = state.indirect_revision;
+  marginals_structure_revision_ = state.marginals_structure_revision;
+  structure_revision_ = state.structure_revision;
+  variance_factor_ = state.variance_factor;
+  robot_T_factorized_ = state.robot_T_factorized;
 }
 
 void Mapper::Impl::Restore(RestorePoint saved) {
