@@ -15,6 +15,9 @@
 //    agree with anything);
 //  * its support is its passes and each later pass that agreed with the map it placed (a direct edge, an
 //    acceptance the test confirmed); acceptances made in its own pass ride on it and share its fate;
+//  * one hypothesis's own passes against the map are the over-map rule's (min_passes_against_map): the
+//    contest counts only when contradictions of more than one hypothesis agree (on a generated city, two
+//    traversals of one true pass against a true acceptance the map had placed a little off);
 //  * when the agreeing passes outnumber its support, the component is first optimised with it (a test
 //    against a G that lags what was accepted can fail a true pass the optimum takes: a generated city
 //    without wrong closures), and if the newest contradiction still waits against the map, the acceptance
@@ -24,7 +27,8 @@
 //    uncertainty the acceptance took, and the component is optimised. The retraction stands when the
 //    newest contradiction then passes the map test; it is judged as any hypothesis, and when accepted on a
 //    test that could not tell it is contested in turn, with the agreeing passes as its support. Otherwise G
-//    is restored exactly and that contradiction is not counted again.
+//    and the map tests' marginals are put back as they were (factorised at another time, they decide later
+//    tests otherwise) and that contradiction is not counted again.
 //
 // Cost: per contradiction, its state carried by each odometry step and one joint test per other one kept (at
 // most max_open_hypotheses); per trial (at most max_contest_trials per acceptance) a copy of G, two
