@@ -89,7 +89,7 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
   // information) before we got here.
   (void)map_.graph.AddNode(node);
   if (new_component) {
-    marginals_.reset();
+    map_test_.marginals.reset();
     robot_relative_covariance_.setZero();
     start_new_component_ = false;
     current_node_ = node.id;
@@ -111,7 +111,8 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
       for (Contradiction& contradiction : contested_->contradictions)
         contradiction.state = internal::PredictMotion(contradiction.state, motion);
     }
-    if (marginals_) robot_T_factorized_ = internal::PredictMotion(robot_T_factorized_, motion);
+    if (map_test_.marginals)
+      map_test_.robot_T_factorized = internal::PredictMotion(map_test_.robot_T_factorized, motion);
     robot_relative_covariance_ =
         internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
   }

@@ -79,52 +79,54 @@ using internal::PoseGaussian;
 
 double Mapper::Impl::DeclaredNoiseScale() const {
   const ConsistencyParams& consistency = params_.consistency;
-  if (!consistency.enabled || !marginals_ ||
-      variance_factor_.redundancy < consistency.min_redundancy_for_scaling) {
+  if (!consistency.enabled || !map_test_.marginals ||
+      map_test_.variance_factor.redundancy < consistency.min_redundancy_for_scaling) {
     return 1.0;
   }
-  return std::clamp(variance_factor_.factor, consistency.min_variance_factor, 1.0);
+  return std::clamp(map_test_.variance_factor.factor, consistency.min_variance_factor, 1.0);
 }
 
 std::optional<PoseGaussian> Mapper::Impl::MapPrediction(NodeId node) {
   const NodeId robot = *current_node_;
   if (!map_.graph.SameComponent(node, robot)) return std::nullopt;
   const SE2 robot_T_node = map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose;
-  if (marginals_ && marginals_revision_ != map_revision_ &&
-      marginals_structure_revision_ == structure_revision_) {
+  if (map_test_.marginals && map_test_.marginals_revision != map_test_.map_revision &&
+      map_test_.marginals_structure_revision == map_test_.structure_revision) {
     // Edges were only added since the factorisation: they update its marginals (a small dense solve)
     // until they touch more nodes than that is worth.
     if (const std::optional<Matrix3> covariance = internal::RelativeCovarianceWithEdgesSince(
-            map_.graph, *marginals_, robot, node,
+            map_.graph, *map_test_.marginals, robot, node,
             static_cast<std::size_t>(params_.consistency.max_marginal_update_nodes))) {
-      variance_factor_ = internal::ComponentVarianceFactor(map_.graph, robot);
+      map_test_.variance_factor = internal::ComponentVarianceFactor(map_.graph, robot);
       return PoseGaussian{robot_T_node, DeclaredNoiseScale() * *covariance};
     }
   }
-  if (!marginals_ || marginals_revision_ != map_revision_ || !marginals_->Contains(node)) {
+  if (!map_test_.marginals || map_test_.marginals_revision != map_test_.map_revision ||
+      !map_test_.marginals->Contains(node)) {
     RefactorizeMarginals();
-    if (!marginals_) return std::nullopt;
+    if (!map_test_.marginals) return std::nullopt;
   }
   // robot_T_node = robot_T_newest · newest_T_node: the chain since the factorisation, then the map.
-  PoseGaussian newest_T_node = marginals_->Relative(marginals_->newest_node(), node);
+  PoseGaussian newest_T_node = map_test_.marginals->Relative(map_test_.marginals->newest_node(), node);
   // The map's covariance as the noise met so far says, never above what was declared.
   newest_T_node.covariance *= DeclaredNoiseScale();
-  const Matrix3 covariance = internal::Compose(robot_T_factorized_, newest_T_node).covariance;
+  const Matrix3 covariance = internal::Compose(map_test_.robot_T_factorized, newest_T_node).covariance;
   return PoseGaussian{robot_T_node, covariance};
 }
 
 std::optional<PoseGaussian> Mapper::Impl::MapPredictionBound(NodeId node) const {
   const NodeId robot = *current_node_;
-  if (!marginals_ || marginals_revision_ == map_revision_ ||
-      marginals_indirect_revision_ != indirect_revision_ || !marginals_->Contains(node) ||
-      !map_.graph.SameComponent(node, robot)) {
+  if (!map_test_.marginals || map_test_.marginals_revision == map_test_.map_revision ||
+      map_test_.marginals_indirect_revision != map_test_.indirect_revision ||
+      !map_test_.marginals->Contains(node) || !map_.graph.SameComponent(node, robot)) {
     return std::nullopt;
   }
   // Direct edges only added information: the covariance of the marginals before them is no smaller
   // (at the linearisation point then; direct edges move the map little). The variance factor is taken at
   // its largest, 1, since the new edges change it.
   const Matrix3 covariance =
-      internal::Compose(robot_T_factorized_, marginals_->Relative(marginals_->newest_node(), node))
+      internal::Compose(map_test_.robot_T_factorized,
+                        map_test_.marginals->Relative(map_test_.marginals->newest_node(), node))
           .covariance;
   return PoseGaussian{map_.graph.node(robot).pose.inverse() * map_.graph.node(node).pose, covariance};
 }
@@ -134,12 +136,12 @@ void Mapper::Impl::RefactorizeMarginals() {
 }
 
 void Mapper::Impl::SetMarginals(std::optional<internal::MarginalCovariances> marginals) {
-  marginals_ = std::move(marginals);
-  marginals_revision_ = map_revision_;
-  marginals_indirect_revision_ = indirect_revision_;
-  marginals_structure_revision_ = structure_revision_;
-  if (marginals_) variance_factor_ = marginals_->variance_factor();
-  robot_T_factorized_ = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
+  map_test_.marginals = std::move(marginals);
+  map_test_.marginals_revision = map_test_.map_revision;
+  map_test_.marginals_indirect_revision = map_test_.indirect_revision;
+  map_test_.marginals_structure_revision = map_test_.structure_revision;
+  if (map_test_.marginals) map_test_.variance_factor = map_test_.marginals->variance_factor();
+  map_test_.robot_T_factorized = PoseGaussian{SE2::Identity(), Matrix3::Zero()};
 }
 
 bool Mapper::Impl::MarginalsFromTheSolve() {
@@ -219,11 +221,12 @@ std::optional<double> Mapper::Impl::LeaveOneOutRatio(std::int64_t hypothesis_id)
   for (const Edge& edge : map_.graph.edges()) {
     if (IsRetractableEdge(edge, hypothesis_id)) all_edges.push_back(&edge);
   }
-  if (all_edges.empty() || !marginals_) return std::nullopt;
+  if (all_edges.empty() || !map_test_.marginals) return std::nullopt;
   // A long hypothesis is judged by evenly spaced edges.
   const std::vector<const Edge*> edges =
       internal::EvenlySpaced(all_edges, static_cast<std::size_t>(params_.consistency.max_edges_judged));
-  const std::optional<internal::EdgeSetChi2> test = internal::LeaveOneOutChi2(map_.graph, *marginals_, edges);
+  const std::optional<internal::EdgeSetChi2> test =
+      internal::LeaveOneOutChi2(map_.graph, *map_test_.marginals, edges);
   if (!test) return std::nullopt;
   if (test->dof == 0) return 0.0;
   const boost::math::chi_squared_distribution<double> distribution(test->dof);

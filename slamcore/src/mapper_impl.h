@@ -62,6 +62,7 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "ambiguity_tracker.h"
@@ -182,7 +183,7 @@ class Mapper::Impl {
   /// informative: an aliasing offset of consistency.aliasing_offset metres would have failed it.
   bool AliasingOffsetWouldFail(double largest_variance, double gate_chi2) const;
   /// The factor by which the declared covariances overstate the noise the robot's component meets: the
-  /// a-posteriori variance factor the last map test measured (variance_factor_), clamped to
+  /// a-posteriori variance factor the last map test measured (map_test_.variance_factor), clamped to
   /// [consistency.min_variance_factor, 1], once its redundancy reaches consistency.min_redundancy_for_scaling;
   /// else (and with the consistency checks off) 1.
   double DeclaredNoiseScale() const;
@@ -195,13 +196,13 @@ class Mapper::Impl {
   /// Takes `marginals` as those of G as it is now.
   void SetMarginals(std::optional<internal::MarginalCovariances> marginals);
   /// The marginals from the factorisation the back-end's last whole-component solve ended with, when it
-  /// left one for the robot's component; false (marginals_ untouched) otherwise.
+  /// left one for the robot's component; false (map_test_.marginals untouched) otherwise.
   bool MarginalsFromTheSolve();
   void OptimizeAndFactorize();
   /// After a recovery's edges joined G and the component was optimised: false when its own edges fail the
   /// leave-one-out test (the caller restores G); else retracts the earlier acceptances that now fail it,
   /// the worst first. Appends what it found to `note`.
-  /// `marginals_current`: marginals_ were just made at this optimum (MarginalsFromTheSolve).
+  /// `marginals_current`: map_test_.marginals were just made at this optimum (MarginalsFromTheSolve).
   bool VerifyAcceptance(std::int64_t hypothesis_id, bool may_refuse, bool marginals_current,
                         std::string* note);
   /// d² of a hypothesis's edges against the rest of G over its χ² quantile (> 1 fails); nullopt when
@@ -280,18 +281,21 @@ class Mapper::Impl {
   internal::AmbiguityTracker ambiguity_;
   std::unordered_map<ViewId, std::size_t> view_creation_order_;
 
-  /// The map's marginal covariances, refactorised when observation edges changed since (map_revision_),
-  /// and the odometry chain from their newest node to the robot (robot_T_factorized_). While only direct
-  /// edges were added since (indirect_revision_ unchanged), G has only gained information, so stale
+  /// The map's marginal covariances, refactorised when observation edges changed since (map_test_.map_revision),
+  /// and the odometry chain from their newest node to the robot (map_test_.robot_T_factorized). While only direct
+  /// edges were added since (map_test_.indirect_revision unchanged), G has only gained information, so stale
   /// marginals still bound the map's covariance from above.
-  std::optional<internal::MarginalCovariances> marginals_;
-  std::uint64_t marginals_revision_ = 0, map_revision_ = 0;
-  std::uint64_t marginals_indirect_revision_ = 0, indirect_revision_ = 0;
-  std::uint64_t marginals_structure_revision_ = 0, structure_revision_ = 0;
-  /// The variance factor of the robot's component as the last map test measured it (from the marginals
-  /// when they were factorised for it, else from G): DeclaredNoiseScale's.
-  internal::VarianceFactor variance_factor_;
-  internal::PoseGaussian robot_T_factorized_;
+  struct MarginalState {
+    std::optional<internal::MarginalCovariances> marginals;
+    std::uint64_t marginals_revision = 0, map_revision = 0;
+    std::uint64_t marginals_indirect_revision = 0, indirect_revision = 0;
+    std::uint64_t marginals_structure_revision = 0, structure_revision = 0;
+    /// The variance factor of the robot's component as the last map test measured it (from the marginals
+    /// when they were factorised for it, else from G): DeclaredNoiseScale's.
+    internal::VarianceFactor variance_factor;
+    internal::PoseGaussian robot_T_factorized;
+  };
+  MarginalState map_test_;
   /// This run's first node: edges at or after it were added in this run (parent edges are never retracted).
   NodeId first_run_node_ = 0;
   /// Accepted recovery hypotheses of this run whose edges are in G, for retraction.
@@ -335,17 +339,9 @@ class Mapper::Impl {
   };
   RestorePoint SaveRestorePoint() const;
   void Restore(RestorePoint saved);
-  /// The map tests' marginals and what they were factorised at, taken out and put back whole.
-  struct MarginalState {
-    std::optional<internal::MarginalCovariances> marginals;
-    std::uint64_t marginals_revision = 0, map_revision = 0;
-    std::uint64_t marginals_indirect_revision = 0, indirect_revision = 0;
-    std::uint64_t marginals_structure_revision = 0, structure_revision = 0;
-    internal::VarianceFactor variance_factor;
-    internal::PoseGaussian robot_T_factorized;
-  };
-  MarginalState TakeMarginalState();
-  void PutBackMarginalState(MarginalState state);
+  /// The map test's state, taken out whole and put back (a contest that retracts nothing).
+  MarginalState TakeMarginalState() { return std::exchange(map_test_, {}); }
+  void PutBackMarginalState(MarginalState state) { map_test_ = std::move(state); }
   std::vector<KeptRefused> kept_refused_;  // oldest first, at most consistency.max_kept_refused
   std::size_t judged_at_last_check_ = 0;
   ConsistentSetChecks consistent_set_checks_;

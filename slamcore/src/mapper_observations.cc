@@ -246,30 +246,6 @@ Mapper::Impl::RestorePoint Mapper::Impl::SaveRestorePoint() const {
                       anchor_,    ambiguity_, pending_seeds_};
 }
 
-Mapper::Impl::MarginalState Mapper::Impl::TakeMarginalState() {
-  return MarginalState{.marginals = std::move(marginals_),
-                       .marginals_revision = marginals_revision_,
-                       .map_revision = map_revision_,
-                       .marginals_indirect_revision = marginals_indirect_revision_,
-                       .indirect_revision = indirect_revision_,
-                       .marginals_structure_revision = marginals_structure_revision_,
-                       .structure_revision = structure_revision_,
-                       .variance_factor = variance_factor_,
-                       .robot_T_factorized = robot_T_factorized_};
-}
-
-void Mapper::Impl::PutBackMarginalState(MarginalState state) {
-  marginals_ = std::move(state.marginals);
-  marginals_revision_ = state.marginals_revision;
-  map_revision_ = state.map_revision;
-  marginals_indirect_revision_ = state.marginals_indirect_revision;
-  indirect_revision_ = state.indirect_revision;
-  marginals_structure_revision_ = state.marginals_structure_revision;
-  structure_revision_ = state.structure_revision;
-  variance_factor_ = state.variance_factor;
-  robot_T_factorized_ = state.robot_T_factorized;
-}
-
 void Mapper::Impl::Restore(RestorePoint saved) {
   map_.graph = std::move(saved.graph);
   accepted_ = std::move(saved.accepted);
@@ -327,10 +303,10 @@ void Mapper::Impl::AddObservationEdge(const HypothesisObservation& observation, 
 }
 
 void Mapper::Impl::NoteGraphChanged(GraphChange change) {
-  if (change == GraphChange::kEdgesRemoved || change == GraphChange::kReposed) ++structure_revision_;
+  if (change == GraphChange::kEdgesRemoved || change == GraphChange::kReposed) ++map_test_.structure_revision;
   if (change == GraphChange::kReposed) return;
-  ++map_revision_;
-  if (change != GraphChange::kDirectEdgeAdded) ++indirect_revision_;
+  ++map_test_.map_revision;
+  if (change != GraphChange::kDirectEdgeAdded) ++map_test_.indirect_revision;
 }
 
 Edge Mapper::Impl::MakeObservationEdge(const HypothesisObservation& observation,
