@@ -6,6 +6,7 @@
 #include <openssl/sha.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 
@@ -178,25 +179,29 @@ void Authenticator::CacheLocked(const std::string& key, const Principal& princip
   }
 }
 
-bool Authenticator::BlockedLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
+double Authenticator::LockedForLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
   auto it = failures_.find(key);
-  if (it == failures_.end()) return false;
-  const double elapsed = std::chrono::duration<double>(now - it->second.last).count();
-  it->second.failures = std::max(0.0, it->second.failures - elapsed / kFailureRefillSeconds);
-  it->second.last = now;
-  if (it->second.failures <= 0.0) {
+  if (it == failures_.end()) return 0.0;
+  FailureBucket& bucket = it->second;
+  const double elapsed = std::chrono::duration<double>(now - bucket.last).count();
+  bucket.failures = std::max(0.0, bucket.failures - elapsed / kFailureRefillSeconds);
+  bucket.last = now;
+  if (bucket.failures <= 0.0) {
     failures_.erase(it);
-    return false;
+    return 0.0;
   }
-  return it->second.failures >= kFailureBurst;
+  if (bucket.locked && bucket.failures <= kFailuresKeptAtUnlock) bucket.locked = false;
+  return bucket.locked ? (bucket.failures - kFailuresKeptAtUnlock) * kFailureRefillSeconds : 0.0;
 }
 
 void Authenticator::RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now) {
   if (failures_.size() > 100000) failures_.clear();  // bound memory against spraying many names
-  BlockedLocked(key, now);                           // decays the earlier failures first
+  LockedForLocked(key, now);                         // decays the earlier failures first
   FailureBucket& bucket = failures_[key];
   bucket.failures += 1.0;
   bucket.last = now;
+  // The kFailureBurst-th failure in quick succession locks (the earlier ones have decayed a little).
+  if (bucket.failures > kFailureBurst - 1.0) bucket.locked = true;
 }
 
 Authenticator::Verdict Authenticator::Authenticate(const std::string& authorization,
@@ -237,9 +242,12 @@ Authenticator::Verdict Authenticator::Authenticate(const std::string& authorizat
   const std::string principal_key = "principal:" + principal->name;
   {
     std::lock_guard lock(mutex_);
-    if (BlockedLocked(principal_key, now) || (!peer_key.empty() && BlockedLocked(peer_key, now))) {
+    const double locked_for = std::max(LockedForLocked(principal_key, now),
+                                       peer_key.empty() ? 0.0 : LockedForLocked(peer_key, now));
+    if (locked_for > 0.0) {
       verdict.message = "authorization: too many failed attempts for " + principal->name +
-                        " or from this address; retry later";
+                        " or from this address; retry in " +
+                        std::to_string(static_cast<int>(std::ceil(locked_for))) + " s";
       return verdict;
     }
   }

@@ -283,15 +283,25 @@ TEST(AddressFloodTest, WrongSecretsCostLittleAndAreLimitedBeforeHashing) {
       "300 wrong secrets: known principal %.3f s (%d refused before hashing), unknown principals %.3f s\n",
       known, refused_before_hashing, unknown);
   EXPECT_LT(known, 10.0) << "PBKDF2 cost 57 s here";
-  // Only the burst and one attempt per refill interval since reach the hash; every other one is refused
-  // first. (Which attempt comes last is luck: the one let through after a refill may be it.) The limits are
-  // fleetd's documented ones (server/include/server/auth.h: a burst of 20, then one per second).
+  // Only the burst, then kFailureBurst - kFailuresKeptAtUnlock more each time the lock ends (one per refill
+  // interval on average), reach the hash; every other one is refused first. The limits are fleetd's
+  // documented ones (server/include/server/auth.h).
   constexpr double kFailureBurst = 20.0, kFailureRefillSeconds = 1.0;
   const int hashed_at_most = static_cast<int>(kFailureBurst + flood_seconds / kFailureRefillSeconds) + 1;
   EXPECT_GE(refused_before_hashing, 300 - hashed_at_most) << refusal;
-  // The robot's own token, verified before the flood, still works (the cache answers first); a valid token
-  // not yet verified is refused from the flooding address until its failures decay.
+  EXPECT_NE(refusal.find("; retry in "), std::string::npos) << refusal;
+  // The robot's own token, verified before the flood, still works (the cache answers first).
   EXPECT_NE(get_map(robot_token).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  // A valid token not yet verified is refused from the flooding address while its lock holds. The lock's
+  // own answer says how long: wait for a refusal that holds at least two more seconds (a lock that just
+  // ended takes at most kFailureBurst - kFailuresKeptAtUnlock more failures to close again).
+  int lock_seconds = 0;
+  for (int k = 0; k < 40 && lock_seconds < 2; ++k) {
+    const std::string message = attempt("robot:nobody-after-" + std::to_string(k)).second;
+    const std::size_t at = message.find("; retry in ");
+    if (at != std::string::npos) lock_seconds = std::stoi(message.substr(at + 11));
+  }
+  ASSERT_GE(lock_seconds, 2) << "the flooding address never locked";
   fleet::v1::ListRunsRequest request;
   fleet::v1::ListRunsResponse response;
   auto context = Context(engineer_token);

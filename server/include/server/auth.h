@@ -7,8 +7,9 @@
 //
 // Order of a check, cheapest first: the header's shape; an LRU of verified tokens (keyed by the token's
 // SHA-256, never the token; entries live `cache_ttl`); the principal's syntax; failed-attempt limits per
-// principal and per peer (kFailureBurst failures, then one per kFailureRefillSeconds), which refuse before
-// any lookup or hashing; then the credential store. Unknown principals cost the store the same hash as
+// principal and per peer, which refuse before any lookup or hashing (kFailureBurst failures lock the key
+// until all but kFailuresKeptAtUnlock have decayed at one per kFailureRefillSeconds, so at most one
+// guess a second in the long run, and a refusal says how long the lock still holds); then the credential store. Unknown principals cost the store the same hash as
 // known ones. A token already verified keeps working while its principal is under attack (the LRU answers
 // first). Replacing or revoking a credential through this Authenticator drops the principal's cached
 // entries at once; every other process sharing the database drops them at its next poll of the credential
@@ -81,6 +82,7 @@ class Authenticator {
   Verdict Authenticate(const std::string& authorization, const std::string& peer = "");
 
   static constexpr double kFailureBurst = 20.0;
+  static constexpr double kFailuresKeptAtUnlock = 10.0;
   static constexpr double kFailureRefillSeconds = 1.0;
   static constexpr std::size_t kCacheCapacity = 10000;
 
@@ -109,13 +111,16 @@ class Authenticator {
   };
   struct FailureBucket {
     double failures = 0.0;
+    bool locked = false;  // reached kFailureBurst and not yet decayed to kFailuresKeptAtUnlock
     std::chrono::steady_clock::time_point last;
   };
   std::optional<Principal> CachedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
   void CacheLocked(const std::string& key, const Principal& principal,
                    std::chrono::steady_clock::time_point now);
-  /// True when `key` has used up its failures (decays them first).
-  bool BlockedLocked(const std::string& key, std::chrono::steady_clock::time_point now);
+  /// Seconds until `key` may try again, 0 when it may now (decays its failures first). A lock ends only
+  /// once failures decay to kFailuresKeptAtUnlock: a bucket hovering at the burst would let every caller
+  /// from a flooding address through a moment after each refill, which nobody could rely on.
+  double LockedForLocked(const std::string& key, std::chrono::steady_clock::time_point now);
   void RecordFailureLocked(const std::string& key, std::chrono::steady_clock::time_point now);
   void DropCachedLocked(const std::string& principal);
   /// Polls the credential epochs when due and drops the cached tokens of changed principals.
