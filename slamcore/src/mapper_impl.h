@@ -344,6 +344,7 @@ class Mapper::Impl {
   void PutBackMarginalState(MarginalState state) { map_test_ = std::move(state); }
   std::vector<KeptRefused> kept_refused_;  // oldest first, at most consistency.max_kept_refused
   std::size_t judged_at_last_check_ = 0;
+  bool judge_next_check_in_full_ = false;  // the next check then runs in full (CheckConsistentSet)
   ConsistentSetChecks consistent_set_checks_;
 
   std::vector<Decision> decisions_;
