@@ -25,10 +25,11 @@
 //    where their odometry says (after hundreds of metres lost the bend is more than the optimiser's few
 //    iterations undo, and every later true pass would be refused at a non-optimum), the robot gets back the
 //    uncertainty the acceptance took, and the component is optimised. The retraction stands when the
-//    newest contradiction then passes the map test; it is judged as any hypothesis, and when accepted on a
-//    test that could not tell it is contested in turn, with the agreeing passes as its support. Otherwise G
-//    and the map tests' marginals are put back as they were (factorised at another time, they decide later
-//    tests otherwise) and that contradiction is not counted again.
+//    newest contradiction then passes the map test and is accepted in its place, verification included
+//    (a refusal judged beside the contested acceptance is lifted first); when accepted on a test that could
+//    not tell it is contested in turn, with the agreeing passes as its support. Otherwise G and the map
+//    tests' marginals are put back as they were (factorised at another time, they decide later tests
+//    otherwise) and that contradiction is not counted again.
 //
 // Cost: per contradiction, its state carried by each odometry step and one joint test per other one kept (at
 // most max_open_hypotheses); per trial (at most max_contest_trials per acceptance) a copy of G, two
@@ -36,6 +37,7 @@
 #include <algorithm>
 #include <sstream>
 #include <unordered_map>
+#include <utility>
 
 #include "mapper_impl.h"
 
@@ -98,7 +100,7 @@ void Mapper::Impl::ContestAcceptance(std::int64_t hypothesis_id, const Vector3& 
     contested_.reset();
     return;
   }
-  const Hypothesis* challenger = FindHypothesis(hypothesis_id);
+  Hypothesis* challenger = FindHypothesis(hypothesis_id);
   if (!challenger || challenger->observations.front().time < contested.accepted_time ||
       std::ranges::count(contested.unexplained, hypothesis_id) > 0) {
     return;
@@ -194,29 +196,57 @@ void Mapper::Impl::ContestAcceptance(std::int64_t hypothesis_id, const Vector3& 
   robot_relative_covariance_ += internal::Compose({robot_T_accepted_at, Matrix3::Zero()},
                                                   {SE2::Identity(), contested.covariance_before})
                                     .covariance;
+  // A verification that refused it beside the contested acceptance judged it against the map this trial
+  // changes: it is judged afresh, not kept waiting for another pass.
+  const int refused_at_passes = std::exchange(challenger->refused_at_passes, 0);
   OptimizeAndFactorize();
   verdict = JudgeRecovery(*challenger, &support);
-  if (verdict == RecoveryVerdict::kWaitAgainstMap) {
-    restore();
-    contested.unexplained.push_back(hypothesis_id);
-    std::erase_if(contested.contradictions,
+  // The retraction stands only with the challenger accepted in its place: a map test passed at the σ of
+  // hundreds of metres the retraction gives back tells nothing, and a retraction whose challenger the
+  // verification then refused left the robot lost, to take the next wrong group (ais2klinik, first 100 %,
+  // seed 3: σ 841 m, then a wrong group at σ 793 m and a dozen more after it).
+  const auto unexplained = [&] {
+    contested_->unexplained.push_back(hypothesis_id);
+    std::erase_if(contested_->contradictions,
                   [&](const Contradiction& c) { return c.hypothesis == hypothesis_id; });
+  };
+  if (verdict == RecoveryVerdict::kWaitAgainstMap || verdict == RecoveryVerdict::kWait) {
+    restore();
+    challenger->refused_at_passes = refused_at_passes;
+    unexplained();
+    return;
+  }
+  const int support_before = contested.support;
+  const std::vector<std::int64_t> retracted = contested.hypotheses;
+  std::vector<std::int64_t> agreeing_hypotheses;
+  for (const auto& [contradiction, covariance] : agreeing)
+    agreeing_hypotheses.push_back(contradiction->hypothesis);
+  const std::string last_wait = challenger->last_wait;
+  Contested before_trial = std::move(contested);
+  contested_.reset();
+  const std::size_t decided_before = decisions_.size();
+  if (!AcceptRecovery(hypothesis_id, support, verdict)) {
+    restore();  // the refusal AcceptRecovery logged and recorded stays: it was judged on trial
+    contested_ = std::move(before_trial);
+    unexplained();
     return;
   }
   std::ostringstream reason;
   reason << "contested: " << against << " later passes (hypotheses";
-  for (const auto& [contradiction, covariance] : agreeing) reason << ' ' << contradiction->hypothesis;
+  for (const std::int64_t id : agreeing_hypotheses) reason << ' ' << id;
   reason << ' ' << hypothesis_id;
-  reason << ") that agree with each other contradict it, against its " << contested.support
-         << "; with it hypothesis " << hypothesis_id << " waited on " << challenger->last_wait
+  reason << ") that agree with each other contradict it, against its " << support_before
+         << "; with it hypothesis " << hypothesis_id << " waited on " << last_wait
          << ", without it it fits the map (" << support
-         << "); it was accepted on a map test that could not tell; edges removed and the map re-optimised";
-  for (const std::int64_t id : contested.hypotheses)
+         << ") and was accepted; it was accepted on a map test that could not tell; edges removed and the "
+            "map re-optimised";
+  // Logged before the challenger's acceptance, which it made possible.
+  const std::size_t decided = decisions_.size();
+  for (const std::int64_t id : retracted)
     Log(DecisionKind::kRetracted, -1, id, HypothesisKind::kRecovery, reason.str());
+  std::rotate(decisions_.begin() + static_cast<std::ptrdiff_t>(decided_before),
+              decisions_.begin() + static_cast<std::ptrdiff_t>(decided), decisions_.end());
   for (KeptRefused& kept : removed) KeepForTheCheck(std::move(kept));
-  contested_.reset();
-  if (verdict == RecoveryVerdict::kWait) return;
-  AcceptRecovery(hypothesis_id, support, verdict);
   // Accepted on a test that could not tell, it is contested in turn, with the agreeing passes as its support.
   if (contested_ && contested_->hypotheses.front() == hypothesis_id) contested_->support = against;
 }

@@ -128,7 +128,8 @@ class Mapper::Impl {
   internal::PoseGaussian ExpressInRefFrame(const internal::PoseGaussian& robot_T_view, NodeId view_node,
                                            NodeId ref_node) const;
   void EvaluateAcceptance(std::int64_t hypothesis_id);
-  void AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict);
+  /// False when the verification refused it (G restored, the refusal logged).
+  bool AcceptRecovery(std::int64_t hypothesis_id, const std::string& support, RecoveryVerdict verdict);
   Edge MakeObservationEdge(const internal::HypothesisObservation& observation,
                            std::int64_t hypothesis_id) const;
   /// `direct`: a direct edge (it passed the gate with a robot sure of its position), the one change to G

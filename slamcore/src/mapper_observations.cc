@@ -189,10 +189,10 @@ void Mapper::Impl::EvaluateAcceptance(std::int64_t hypothesis_id) {
   }
 }
 
-void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support,
+bool Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string& support,
                                   RecoveryVerdict verdict) {
   Hypothesis* candidate = FindHypothesis(hypothesis_id);
-  if (!candidate) return;
+  if (!candidate) return false;
   // What acceptance changes, to restore it exactly when the optimised map refuses the hypothesis.
   const bool verify = verdict != RecoveryVerdict::kAccept && params_.consistency.enabled &&
                       params_.consistency.verify_after_optimization && params_.optimize_after_accept;
@@ -229,7 +229,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
                                                          params_.consistency.pass_gap_distance);
     Log(DecisionKind::kHypothesisUpdated, candidate->ref_view, candidate,
         "not accepted: " + support + note + "; it waits for another pass");
-    return;
+    return false;
   }
   const std::optional<Hypothesis> taken = TakeHypothesis(hypothesis_id);
   const Hypothesis& accepted = *taken;
@@ -239,6 +239,7 @@ void Mapper::Impl::AcceptRecovery(std::int64_t hypothesis_id, const std::string&
   NoteAcceptance(accepted, verdict, anchored_to, covariance_before);
   AdoptFittingObservationsOfCompetitors(accepted);
   RejectCompetitors(accepted);
+  return true;
 }
 
 Mapper::Impl::RestorePoint Mapper::Impl::SaveRestorePoint() const {

@@ -572,10 +572,13 @@ TEST(ContestTest, TwoLaterPassesThatAgreeRetractAnAcceptanceTheMapTestCouldNotTe
   EXPECT_EQ(retracted->hypothesis, 0);  // the look-alike's
   EXPECT_THAT(retracted->reason, HasSubstr("contested: 2 later passes (hypotheses 1 2)"));
   EXPECT_THAT(retracted->reason, HasSubstr("against its 1"));
+  EXPECT_THAT(retracted->reason, HasSubstr(") and was accepted"));
   const Decision* accepted = LastDecision(*mapper, DecisionKind::kAccepted);
   ASSERT_NE(accepted, nullptr);
   EXPECT_EQ(accepted->hypothesis, 2);
   EXPECT_THAT(accepted->reason, HasSubstr("consistent, uninformative"));
+  // The retraction stands only with the challenger accepted in its place, and the log says it in that order.
+  EXPECT_EQ(accepted - retracted, 1);
   for (const AcceptedObservation& edge : mapper->accepted_observations()) EXPECT_NE(edge.hypothesis, 0);
   // The robot's node is where its exact odometry says, x = 2, not at the look-alike's 4.5.
   const NodeId robot = *mapper->CurrentNode();

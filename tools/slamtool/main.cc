@@ -154,7 +154,8 @@ int RunReplay(const ReplayArguments& arguments) {
         {"recovery_retracted", stats.recovery_retracted},
         {"consistent_set_checks",
          {{"judged", result->consistent_set_checks.judged},
-          {"settled_by_status_quo", result->consistent_set_checks.settled_by_status_quo}}},
+          {"settled_by_status_quo", result->consistent_set_checks.settled_by_status_quo},
+          {"status_quo_below_gnc", result->consistent_set_checks.status_quo_below_gnc}}},
     };
     std::cout << report.dump() << "\n";
   } else {

@@ -78,12 +78,14 @@ struct MapperStatistics {
 /// merge_conditional_then_rejected counts hypotheses with a kConditionallyAccepted and a later kRejected.
 MapperStatistics ComputeStatistics(const std::vector<Decision>& decisions);
 
-/// The run's consistent-set checks (mapper_consistent_set.cc): those that judged anything, and of them those
+/// The run's consistent-set checks (mapper_consistent_set.cc): those that judged anything; of them those
 /// the status quo settled without the graduated non-convexity (the second opinion may still take in refused
-/// hypotheses near the set). A check that changes G logs its decisions.
+/// hypotheses near the set); and those whose graduated non-convexity ended above the status quo's
+/// objective, so that the status quo stayed the set. A check that changes G logs its decisions.
 struct ConsistentSetChecks {
   int judged = 0;
   int settled_by_status_quo = 0;
+  int status_quo_below_gnc = 0;
 };
 
 /// An accepted observation edge as added to G, with the hypothesis that brought it (or -1 for direct).
