@@ -31,16 +31,17 @@
 // bent into another basin, it can keep true clusters out. Each check therefore also starts from the linear
 // initialisation of the inliers' graph (Carlone et al., "A linear approximation for graph-based simultaneous
 // localization and mapping", RSS 2011: linear_initialization.h) and keeps the solution whose truncated
-// least-squares objective is lower — and keeps the status quo when neither run ends below its objective. A set
-// a check changed is judged in full by the next check (the status quo's local test cannot overturn it).
+// least-squares objective is lower — and keeps the status quo when neither run ends below its objective.
+// A set a check changed is judged in full by the next check (the status quo's local test cannot overturn
+// it).
 //
-// Cost: a copy of G and two weighted solves of the robot's component (the status quo); when the status
-// quo does not hold, at most gnc_max_iterations + 2 more weighted solves per check (twice
-// that when the linear start, after kLinearStartProbeIterations iterations, already lowers the objective),
-// and, when accepted clusters fall outside the set or refused ones just outside it, one more solve and one
-// factorisation per retraction confirmed or refused cluster not admitted, plus one or two; checks run when
-// the judged clusters have grown by consistent_set_growth (so O(log n) times in a run) and once at the end
-// of the run. Kept refused clusters are capped at max_kept_refused.
+// Cost: a copy of G and one or two weighted solves of the robot's component (the status quo); when the status
+// quo does not hold (or the last check changed the set), at most gnc_max_iterations + 2 more weighted solves
+// per check (twice that when the linear start, after kLinearStartProbeIterations iterations, already lowers
+// the objective), and, when accepted clusters fall outside the set or refused ones just outside it, one more
+// solve and one factorisation per retraction confirmed or refused cluster not admitted, plus one or two;
+// checks run when the judged clusters have grown by consistent_set_growth (so O(log n) times in a run) and
+// once at the end of the run. Kept refused clusters are capped at max_kept_refused.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -558,10 +559,10 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   if (!status_quo_stands) restart_from_the_inliers_linear_start();
   // Graduated non-convexity minimises the truncated least-squares objective but is local: with hundreds of
   // judged clusters, half of them wrong groups, it can end far above the status quo's own objective
-  // (ais2klinik, first 100 %, seed 2: 2.2·10⁵ against 1.4·10³, 28 accepted true passes called outliers; the
-  // end-of-run check after it retracted eight of them, recall 58.7 %). Such a set is not the largest
-  // consistent one it stands for: the status quo stays the set, and only its accepted clusters beyond their
-  // threshold there are put to the leave-one-out confirmation below.
+  // (ais2klinik, first 100 %, seed 2: 2.2·10⁵ against 1.4·10³, 28 accepted passes called outliers, 27 of them
+  // true; the end-of-run check after it retracted eight true ones, recall 58.7 %). Such a set is not the
+  // largest consistent one it stands for: the status quo stays the set, and only its accepted clusters beyond
+  // their threshold there are put to the leave-one-out confirmation below.
   bool kept_status_quo = false;
   if (status_quo && !status_quo_stands && objective(working) > objective(status_quo->solution)) {
     working = std::move(status_quo->solution);
