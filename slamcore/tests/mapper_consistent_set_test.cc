@@ -198,9 +198,9 @@ TEST(ConsistentSetCheckTest, AConsistentStatusQuoSettlesTheCheckAsTheFullCheckWo
 // as true ones, seed 1. A check on 12 hypotheses took in a wrong group (the second half of a look-alike pass
 // whose first half it retracted) against a true pass of 26 views; every later check found that status quo
 // consistent, and a pass of 77 views closing the loop back to the start, which fits only together with the
-// refused true one, stayed out with it (771 of 901 true closures, 3 wrong kept). A set a check chose is
-// judged in full by the next: it swaps them (888 of 901, none wrong).
-TEST(ConsistentSetCheckTest, ASetTheLastCheckChoseIsJudgedInFullByTheNext) {
+// refused true one, stayed out with it (771 of 901 true closures, 3 wrong kept). A set a check swapped is
+// judged in full by the next: it swaps them back (888 of 901, none wrong).
+TEST(ConsistentSetCheckTest, ASetTheLastCheckSwappedIsJudgedInFullByTheNext) {
   if (!test_data::Find("posegraphs/vertigo/ringCity.g2o"))
     GTEST_SKIP() << "needs posegraphs/vertigo/ringCity.g2o (the larger data set, ../shared/data)";
   const Result<ReplayedWithOutliers> run = ReplayWithOutliers(
