@@ -301,12 +301,15 @@ StatusQuo JudgeTheStatusQuo(const PoseGraph& working, const std::vector<Cluster>
     return solved;
   };
   StatusQuo status_quo{.verdict = StatusQuo::Verdict::kDoesNotHold, .solution = solved_with(true), .s = {}};
+  // Every cluster's s_c, also when the verdict is already known: a check that does not stop here may keep
+  // the status quo as its set after all (the objective guard in CheckConsistentSet), and reads them all.
+  for (const Cluster& cluster : clusters)
+    status_quo.s.push_back(NormalisedResidual(status_quo.solution, cluster));
   bool near = false;
-  for (const Cluster& cluster : clusters) {
-    const double s = NormalisedResidual(status_quo.solution, cluster);
-    status_quo.s.push_back(s);
-    if (cluster.kept < 0 ? s > 1.0 : s <= 1.0) return status_quo;
-    near = near || (cluster.kept >= 0 && s <= kSecondOpinionBound);
+  for (std::size_t c = 0; c < clusters.size(); ++c) {
+    const double s = status_quo.s[c];
+    if (clusters[c].kept < 0 ? s > 1.0 : s <= 1.0) return status_quo;
+    near = near || (clusters[c].kept >= 0 && s <= kSecondOpinionBound);
   }
   const PoseGraph uncontested = solved_with(false);
   for (const Cluster& cluster : clusters) {
