@@ -232,7 +232,7 @@ class Mapper::Impl {
   void NoteDirectEdge(std::optional<std::int64_t> owner);
   /// A hypothesis that meets the counts but waits against the map: a contradiction of the contested
   /// acceptance, which is retracted on trial when the contradictions that agree with this one outnumber
-  /// its support; the trial stands when the hypothesis then fits the map without it.
+  /// its support; the trial stands when the hypothesis then fits the map without it and is accepted.
   /// `from_the_map`: its innovation against the map's prediction, as its map test computed it.
   void ContestAcceptance(std::int64_t hypothesis_id, const Vector3& from_the_map);
   /// Re-poses the robot's nodes after `first` (this run's, up to the current one) by chaining their odometry.

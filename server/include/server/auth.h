@@ -8,14 +8,15 @@
 // Order of a check, cheapest first: the header's shape; an LRU of verified tokens (keyed by the token's
 // SHA-256, never the token; entries live `cache_ttl`); the principal's syntax; failed-attempt limits per
 // principal and per peer, which refuse before any lookup or hashing (kFailureBurst failures lock the key
-// until all but kFailuresKeptAtUnlock have decayed at one per kFailureRefillSeconds, so at most one
-// guess a second in the long run, and a refusal says how long the lock still holds); then the credential store. Unknown principals cost the store the same hash as
-// known ones. A token already verified keeps working while its principal is under attack (the LRU answers
-// first). Replacing or revoking a credential through this Authenticator drops the principal's cached
-// entries at once; every other process sharing the database drops them at its next poll of the credential
-// epochs (storage::Repository::CredentialChangesSince, at most every `revocation_poll`, default 1 s, done by
-// the first call after the interval), so a revoked or rotated token is refused everywhere within about a
-// second. While the poll fails (database unreachable) cached entries still end after `cache_ttl`.
+// until all but kFailuresKeptAtUnlock have decayed at one per kFailureRefillSeconds, so at most one guess a
+// second in the long run, and a refusal says how long the lock still holds); then the credential store.
+// Unknown principals cost the store the same hash as known ones. A token already verified keeps working while
+// its principal is under attack (the LRU answers first). Replacing or revoking a credential through this
+// Authenticator drops the principal's cached entries at once; every other process sharing the database drops
+// them at its next poll of the credential epochs (storage::Repository::CredentialChangesSince, at most every
+// `revocation_poll`, default 1 s, done by the first call after the interval), so a revoked or rotated token
+// is refused everywhere within about a second. While the poll fails (database unreachable) cached entries
+// still end after `cache_ttl`.
 //
 // Thread safety: Authenticator is safe to use from many threads (one internal mutex for the cache).
 #pragma once
