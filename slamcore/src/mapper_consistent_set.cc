@@ -282,7 +282,7 @@ std::optional<Confirmation> JudgeAtTheNoiseTheInliersMeet(
 // table, the held-out and the out-of-sample cases (1162 checks, every one run in full beside the test):
 // the status quo held with none near in 815 checks, 814 of which changed nothing; the one that did swapped
 // a wrong accepted group for a refused pass 91× over its threshold at the status quo, and the tables came
-// out the same without it.
+// out the same without it. With `solution_only`, the first solve and the s_c alone (verdict kDoesNotHold).
 struct StatusQuo {
   enum class Verdict : std::uint8_t { kHolds, kHoldsBesideNearRefused, kDoesNotHold };
   Verdict verdict = Verdict::kDoesNotHold;
@@ -290,7 +290,7 @@ struct StatusQuo {
   std::vector<double> s;  // each cluster's s_c there
 };
 StatusQuo JudgeTheStatusQuo(const PoseGraph& working, const std::vector<Cluster>& clusters,
-                            OptimizerOptions options, const WeightedSolve& solve) {
+                            OptimizerOptions options, const WeightedSolve& solve, bool solution_only) {
   const auto solved_with = [&](bool accepted_in) {
     for (const Cluster& cluster : clusters) {
       const double weight = accepted_in && cluster.kept < 0 ? cluster.edge_scale : 0.0;
@@ -305,6 +305,7 @@ StatusQuo JudgeTheStatusQuo(const PoseGraph& working, const std::vector<Cluster>
   // the status quo as its set after all (the objective guard in CheckConsistentSet), and reads them all.
   for (const Cluster& cluster : clusters)
     status_quo.s.push_back(NormalisedResidual(status_quo.solution, cluster));
+  if (solution_only) return status_quo;
   bool near = false;
   for (std::size_t c = 0; c < clusters.size(); ++c) {
     const double s = status_quo.s[c];
@@ -458,14 +459,14 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   for (const Cluster& cluster : clusters) {
     for (const std::size_t k : cluster.edges) in_cluster[k] = true;
   }
-  const std::vector<double> other_weights = options.edge_weights;
+  // The other edges' weights in `options` stay as set above through the whole check (only the clusters' move).
   const auto objective = [&](const PoseGraph& graph) {
     double total = 0.0;
     for (const Cluster& cluster : clusters) total += std::min(ScaledChi2(graph, cluster), cluster.threshold);
     for (std::size_t k = 0; k < graph.num_edges(); ++k) {
       const Edge& edge = graph.edges()[k];
       if (!in_cluster[k] && graph.SameComponent(edge.from, robot))
-        total += other_weights[k] * EdgeChi2(graph, edge);
+        total += options.edge_weights[k] * EdgeChi2(graph, edge);
     }
     return total;
   };
@@ -478,7 +479,8 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   const bool reexamine = std::exchange(judge_next_check_in_full_, false);
   std::optional<StatusQuo> status_quo;
   if (consistency.status_quo_first) {
-    status_quo = JudgeTheStatusQuo(working, clusters, options, solve);
+    // A re-examined check reads only the status quo's solution (the objective guard below), not its verdict.
+    status_quo = JudgeTheStatusQuo(working, clusters, options, solve, /*solution_only=*/reexamine);
     if (!reexamine && status_quo->verdict != StatusQuo::Verdict::kDoesNotHold)
       ++consistent_set_checks_.settled_by_status_quo;
     if (!reexamine && status_quo->verdict == StatusQuo::Verdict::kHolds) return;
