@@ -459,7 +459,7 @@ void Mapper::Impl::CheckConsistentSet(const char* trigger) {
   for (const Cluster& cluster : clusters) {
     for (const std::size_t k : cluster.edges) in_cluster[k] = true;
   }
-  // The other edges' weights in `options` stay as set above through the whole check (only the clusters' move).
+  // The other edges' weights in `options` stay as set above for the whole check (only clusters' move).
   const auto objective = [&](const PoseGraph& graph) {
     double total = 0.0;
     for (const Cluster& cluster : clusters) total += std::min(ScaledChi2(graph, cluster), cluster.threshold);
