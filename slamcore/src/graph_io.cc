@@ -123,6 +123,19 @@ void InitialiseBySpanningTree(const std::map<NodeId, std::size_t>& ids, const st
   }
 }
 
+/// Why a tag is refused, naming what is read instead: a user handing us a 3D or a landmark graph learns that
+/// it is the kind of graph, not a typo, that is refused.
+std::string UnknownTagReason(std::string_view tag) {
+  std::string reason = "unknown tag '" + std::string(tag) + "'";
+  const bool three_d = tag.find("SE3") != std::string_view::npos || tag == "VERTEX3" || tag == "EDGE3" ||
+                       tag.find("XYZ") != std::string_view::npos;
+  const bool landmark =
+      tag.starts_with("VERTEX_XY") || (tag.starts_with("EDGE_") && tag.find("XY") != std::string_view::npos);
+  if (three_d) return reason + ": a 3D graph; only 2D pose graphs (SE(2)) are read";
+  if (landmark) return reason + ": landmarks are not read, only poses and the edges between them";
+  return reason + " (read: VERTEX_SE2, EDGE_SE2, FIX; TORO's VERTEX2, EDGE2)";
+}
+
 }  // namespace
 
 Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_name) {
@@ -143,7 +156,7 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
     const std::string_view tag = fields[0];
     const bool g2o_tag = tag == "VERTEX_SE2" || tag == "EDGE_SE2" || tag == "FIX";
     const bool toro_tag = tag == "VERTEX2" || tag == "EDGE2";
-    if (!g2o_tag && !toro_tag) return InvalidArgument(location + ": unknown tag '" + std::string(tag) + "'");
+    if (!g2o_tag && !toro_tag) return InvalidArgument(location + ": " + UnknownTagReason(tag));
     const GraphFormat line_format = g2o_tag ? GraphFormat::kG2o : GraphFormat::kToro;
     if (format && *format != line_format) {
       return InvalidArgument(location + ": tag '" + std::string(tag) + "' mixes g2o and TORO formats");

@@ -129,7 +129,15 @@ TEST(GraphIoTest, RealGraphsRoundTripIdentically) {
 }
 
 TEST(GraphIoTest, MalformedInputIsRefusedWithFileLineAndReason) {
-  ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_XY 1 0 0\n", "test.g2o:2: unknown tag 'VERTEX_XY'");
+  ExpectError(
+      "VERTEX_SE2 0 0 0 0\nVERTEX_XY 1 0 0\n",
+      "test.g2o:2: unknown tag 'VERTEX_XY': landmarks are not read, only poses and the edges between them");
+  ExpectError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n", "test.g2o:1: unknown tag 'VERTEX_SE3:QUAT': a 3D graph");
+  ExpectError("VERTEX_SE2 0 0 0 0\nEDGE_SE2_XY 0 1 1 1 1 0 1\n",
+              "test.g2o:2: unknown tag 'EDGE_SE2_XY': landmarks");
+  ExpectError("VERTEX_SE2 0 0 0 0\nEDGE_SE2_PRIOR 0 0 0 0 1 0 0 1 0 1\n",
+              "unknown tag 'EDGE_SE2_PRIOR' (read: VERTEX_SE2, EDGE_SE2, FIX; TORO's VERTEX2, EDGE2)");
+  ExpectError("VERTX_SE2 0 0 0 0\n", "test.g2o:1: unknown tag 'VERTX_SE2' (read: VERTEX_SE2, EDGE_SE2, FIX");
   ExpectError("VERTEX_SE2 0 0 0\n", "test.g2o:1: VERTEX_SE2 needs 4 fields, found 3");
   ExpectError("VERTEX_SE2 0 0 0 0 7\n", "needs 4 fields, found 5");
   ExpectError("VERTEX_SE2 0 abc 0 0\n", "test.g2o:1: field 2 'abc' is not a number");
