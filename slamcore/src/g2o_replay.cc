@@ -28,15 +28,27 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
     }
   }
 
-  std::map<NodeId, const Edge*> odometry_into;         // node k → edge k−1 → k
+  // Node k's odometry: the first edge k−1 → k in file order, else the first k → k−1 (a file that writes its
+  // odometry backwards), read inverted.
+  struct Odometry {
+    const Edge* edge = nullptr;
+    bool reversed = false;
+  };
+  std::map<NodeId, Odometry> odometry_into;
+  for (const Edge& edge : graph.edges()) {
+    if (edge.to == edge.from + 1 && !odometry_into.contains(edge.to)) odometry_into[edge.to] = {&edge, false};
+  }
+  for (const Edge& edge : graph.edges()) {
+    if (edge.from == edge.to + 1 && !odometry_into.contains(edge.from))
+      odometry_into[edge.from] = {&edge, true};
+  }
   std::multimap<NodeId, std::size_t> observations_at;  // robot node → loop closures (edge index), file order
   for (std::size_t index = 0; index < graph.num_edges(); ++index) {
     const Edge& edge = graph.edges()[index];
-    if (edge.to == edge.from + 1 && !odometry_into.contains(edge.to)) {
-      odometry_into.emplace(edge.to, &edge);
-    } else {
-      observations_at.emplace(std::max(edge.from, edge.to), index);
-    }
+    const NodeId later = std::max(edge.from, edge.to);
+    const auto odometry = odometry_into.find(later);
+    if (odometry == odometry_into.end() || odometry->second.edge != &edge)
+      observations_at.emplace(later, index);
   }
 
   G2oRun run;
@@ -50,11 +62,14 @@ Result<G2oRun> RunFromPoseGraph(const PoseGraph& graph, double seconds_per_node)
       run.events.push_back(OdometryEvent{
           .time = time, .increment = SE2::Identity(), .covariance = Matrix3::Identity() * 1e-6});
     } else {
-      const Edge& edge = *odometry->second;
+      // Reversed, the increment is the measurement's inverse, whose left perturbations are the measurement's
+      // right ones: (z·exp(e))⁻¹ = exp(−e)·z⁻¹ (as for an observation edge that ends at the robot, below).
+      const auto& [edge, reversed] = odometry->second;
       run.events.push_back(
           OdometryEvent{.time = time,
-                        .increment = edge.measurement,
-                        .covariance = LeftCovarianceFromEdgeInformation(edge.measurement, edge.information)});
+                        .increment = reversed ? edge->measurement.inverse() : edge->measurement,
+                        .covariance = LeftCovarianceFromEdgeInformation(
+                            reversed ? SE2::Identity() : edge->measurement, edge->information)});
     }
     run.events.push_back(ViewCreatedEvent{.time = time, .view = id});
     const auto [begin, end] = observations_at.equal_range(id);

@@ -2,8 +2,9 @@
 // hypothesis filter against public benchmarks (with or without injected wrong loop closures).
 //
 // Translation of a file into a run: vertices in increasing id order are the robot's nodes, one every
-// `seconds_per_node`; vertex k creates view k at node k. Edge k−1 → k is the odometry that creates node k
-// (a missing one is a kidnap: node k starts a new component). Any other edge between i and j is an
+// `seconds_per_node`; vertex k creates view k at node k. Edge k−1 → k is the odometry that creates node k, or,
+// in a file that writes it backwards, edge k → k−1 inverted (neither: a kidnap, node k starts a new
+// component). Any other edge between i and j is an
 // observation made at node max(i, j) of the view of the other vertex, issued right after that node is
 // created, in file order: z = robot_T_view is the edge's measurement or its inverse. Covariances are the
 // inverse of the file's information, moved into the left-perturbation convention of events.h.
