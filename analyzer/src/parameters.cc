@@ -1,11 +1,42 @@
 #include "analyzer/parameters.h"
 
+#include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 namespace analyzer {
+namespace {
+
+/// The first key of the JSON object `object` that `message` has no field for, as a dotted path, with the
+/// names that level does know: protobuf's own refusal ("Cannot find field.") names neither.
+std::optional<std::string> UnknownField(const nlohmann::json& object,
+                                        const google::protobuf::Descriptor& message,
+                                        const std::string& prefix) {
+  for (const auto& [key, value] : object.items()) {
+    const google::protobuf::FieldDescriptor* field = message.FindFieldByName(key);
+    for (int k = 0; field == nullptr && k < message.field_count(); ++k) {
+      if (message.field(k)->json_name() == key) field = message.field(k);
+    }
+    if (field == nullptr) {
+      std::string known;
+      for (int k = 0; k < message.field_count(); ++k)
+        known += (k == 0 ? "" : ", ") + message.field(k)->json_name();
+      return "unknown parameter '" + prefix + key + "' (known" +
+             (prefix.empty() ? "" : " in " + prefix.substr(0, prefix.size() - 1)) + ": " + known + ")";
+    }
+    if (field->type() == google::protobuf::FieldDescriptor::TYPE_MESSAGE && !field->is_repeated() &&
+        value.is_object()) {
+      if (auto unknown = UnknownField(value, *field->message_type(), prefix + key + ".")) return unknown;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   fleet::v1::MapperParameters proto;
@@ -117,22 +148,30 @@ slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::strin
                                                                 const std::string& source) {
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;
-  fleet::v1::ParameterSet set;
-  if (google::protobuf::util::JsonStringToMessage(json, &set, options).ok() && set.has_mapper()) {
-    if (const auto params = FromProto(set.mapper()); !params.ok()) {
-      return slamcore::InvalidArgument(source + ": " + params.status().message());
-    }
-    return set;
+  // A whole set ({"name", "mapper": {…}}) or the mapper's parameters alone. Each is parsed, and an unknown
+  // key named, as the shape the file has (trying one shape and then the other reported the second's
+  // complaint about the first's keys: "mapper: Cannot find field.").
+  const nlohmann::json parsed = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
+  const bool whole_set = parsed.is_object() && (parsed.contains("mapper") || parsed.contains("name") ||
+                                                parsed.contains("description"));
+  if (parsed.is_object()) {
+    const google::protobuf::Descriptor& shape =
+        whole_set ? *fleet::v1::ParameterSet::descriptor() : *fleet::v1::MapperParameters::descriptor();
+    if (const auto unknown = UnknownField(parsed, shape, ""))
+      return slamcore::InvalidArgument(source + ": " + *unknown);
   }
-  fleet::v1::MapperParameters bare;
-  const auto status = google::protobuf::util::JsonStringToMessage(json, &bare, options);
-  if (!status.ok()) {
+  fleet::v1::ParameterSet set;
+  if (whole_set) {
+    if (const auto status = google::protobuf::util::JsonStringToMessage(json, &set, options); !status.ok())
+      return slamcore::InvalidArgument(source + ": " + std::string(status.message()));
+    if (!set.has_mapper()) return slamcore::InvalidArgument(source + ": a parameter set needs \"mapper\"");
+  } else if (const auto status =
+                 google::protobuf::util::JsonStringToMessage(json, set.mutable_mapper(), options);
+             !status.ok()) {
     return slamcore::InvalidArgument(source + ": " + std::string(status.message()));
   }
-  if (const auto params = FromProto(bare); !params.ok()) {
+  if (const auto params = FromProto(set.mapper()); !params.ok())
     return slamcore::InvalidArgument(source + ": " + params.status().message());
-  }
-  *set.mutable_mapper() = bare;
   return set;
 }
 

@@ -1,5 +1,6 @@
 #include "analyzer/parameters.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "status_matchers.h"
@@ -82,6 +83,31 @@ TEST(ParametersTest, ConsistencyChecksAreParametersToo) {
       << not_a_switch.status().message();
   EXPECT_NE(not_a_switch.status().message().find("consistency.status_quo_first"), std::string::npos)
       << not_a_switch.status().message();
+}
+
+// A misspelt or unknown key is named with its path and the keys that level knows, in either shape of file;
+// a wrong value inside a whole set is named by its path too (trying a set, then bare parameters, reported
+// "mapper: Cannot find field." for all three).
+TEST(ParametersTest, AnUnknownKeyOrAWrongValueIsNamedWhereItIs) {
+  const auto misspelt = ParseParameterSetJson(
+      R"({"name": "x", "mapper": {"consistency": {"maxContestTrial": 1}}})", "set.json");
+  ASSERT_FALSE(misspelt.ok());
+  EXPECT_THAT(std::string(misspelt.status().message()),
+              ::testing::StartsWith("set.json: unknown parameter 'mapper.consistency.maxContestTrial' (known "
+                                    "in mapper.consistency: enabled, "));
+  EXPECT_NE(misspelt.status().message().find("maxContestTrials"), std::string::npos);
+  const auto bare = ParseParameterSetJson(R"({"gateChi2": 9, "gateChi": 9})", "bare.json");
+  ASSERT_FALSE(bare.ok());
+  EXPECT_THAT(std::string(bare.status().message()),
+              ::testing::StartsWith("bare.json: unknown parameter 'gateChi' (known: gateChi2, "));
+  const auto wrong_value =
+      ParseParameterSetJson(R"({"mapper": {"recovery": {"minObservations": "three"}}})", "value.json");
+  ASSERT_FALSE(wrong_value.ok());
+  EXPECT_NE(wrong_value.status().message().find("mapper.recovery.min_observations"), std::string::npos)
+      << wrong_value.status().message();
+  const auto no_mapper = ParseParameterSetJson(R"({"name": "empty"})", "empty.json");
+  ASSERT_FALSE(no_mapper.ok());
+  EXPECT_EQ(no_mapper.status().message(), "empty.json: a parameter set needs \"mapper\"");
 }
 
 TEST(ParametersTest, BareMapperObjectIsAccepted) {
