@@ -3,6 +3,7 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -11,16 +12,23 @@
 namespace analyzer {
 namespace {
 
+/// The field of `message` a JSON key names, by its proto or its JSON name (protobuf's JSON reads both).
+const google::protobuf::FieldDescriptor* FieldNamed(const google::protobuf::Descriptor& message,
+                                                    const std::string& key) {
+  const google::protobuf::FieldDescriptor* field = message.FindFieldByName(key);
+  for (int k = 0; field == nullptr && k < message.field_count(); ++k) {
+    if (message.field(k)->json_name() == key) field = message.field(k);
+  }
+  return field;
+}
+
 /// The first key of the JSON object `object` that `message` has no field for, as a dotted path, with the
 /// names that level does know: protobuf's own refusal ("Cannot find field.") names neither.
 std::optional<std::string> UnknownField(const nlohmann::json& object,
                                         const google::protobuf::Descriptor& message,
                                         const std::string& prefix) {
   for (const auto& [key, value] : object.items()) {
-    const google::protobuf::FieldDescriptor* field = message.FindFieldByName(key);
-    for (int k = 0; field == nullptr && k < message.field_count(); ++k) {
-      if (message.field(k)->json_name() == key) field = message.field(k);
-    }
+    const google::protobuf::FieldDescriptor* field = FieldNamed(message, key);
     if (field == nullptr) {
       std::string known;
       for (int k = 0; k < message.field_count(); ++k)
@@ -152,11 +160,14 @@ slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::strin
   // key named, as the shape the file has (trying one shape and then the other reported the second's
   // complaint about the first's keys: "mapper: Cannot find field.").
   const nlohmann::json parsed = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
-  const bool whole_set = parsed.is_object() && (parsed.contains("mapper") || parsed.contains("name") ||
-                                                parsed.contains("description"));
+  const google::protobuf::Descriptor& whole = *fleet::v1::ParameterSet::descriptor();
+  // A key of ParameterSet's own ("name", "mapper", …) makes the file a whole set.
+  const bool whole_set = parsed.is_object() && std::ranges::any_of(parsed.items(), [&](const auto& item) {
+                           return FieldNamed(whole, item.key()) != nullptr;
+                         });
   if (parsed.is_object()) {
     const google::protobuf::Descriptor& shape =
-        whole_set ? *fleet::v1::ParameterSet::descriptor() : *fleet::v1::MapperParameters::descriptor();
+        whole_set ? whole : *fleet::v1::MapperParameters::descriptor();
     if (const auto unknown = UnknownField(parsed, shape, ""))
       return slamcore::InvalidArgument(source + ": " + *unknown);
   }
