@@ -7,7 +7,6 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <sstream>
 
 namespace analyzer {
 namespace {
@@ -154,6 +153,10 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
 
 slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json,
                                                                 const std::string& source) {
+  if (json.size() > kMaxParameterSetJsonBytes) {
+    return slamcore::InvalidArgument(source + ": " + std::to_string(json.size()) + " bytes, more than the " +
+                                     std::to_string(kMaxParameterSetJsonBytes) + " a parameter set may have");
+  }
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;
   // A whole set ({"name", "mapper": {…}}) or the mapper's parameters alone. Each is parsed, and an unknown
@@ -187,11 +190,17 @@ slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::strin
 }
 
 slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string& path) {
-  std::ifstream input(path);
+  std::ifstream input(path, std::ios::binary);
   if (!input) return slamcore::NotFound(path + ": cannot open file");
-  std::ostringstream text;
-  text << input.rdbuf();
-  return ParseParameterSetJson(text.str(), path);
+  // Read one byte past the bound at most, so that an oversized file is refused without being loaded.
+  std::string text(kMaxParameterSetJsonBytes + 1, '\0');
+  input.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(input.gcount()));
+  if (text.size() > kMaxParameterSetJsonBytes) {
+    return slamcore::InvalidArgument(path + ": more than the " + std::to_string(kMaxParameterSetJsonBytes) +
+                                     " bytes a parameter set may have");
+  }
+  return ParseParameterSetJson(text, path);
 }
 
 }  // namespace analyzer

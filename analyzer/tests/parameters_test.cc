@@ -3,6 +3,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "status_matchers.h"
 
 namespace analyzer {
@@ -108,6 +111,30 @@ TEST(ParametersTest, AnUnknownKeyOrAWrongValueIsNamedWhereItIs) {
   const auto no_mapper = ParseParameterSetJson(R"({"name": "empty"})", "empty.json");
   ASSERT_FALSE(no_mapper.ok());
   EXPECT_EQ(no_mapper.status().message(), "empty.json: a parameter set needs \"mapper\"");
+}
+
+// Hostile files: an oversized one is refused by its size before either parse, read no further than the
+// bound; nesting far deeper than any parameter set (inside the bound) is refused, not a crash.
+TEST(ParametersTest, OversizedOrDeeplyNestedJsonIsRefused) {
+  const std::string padded =
+      R"({"name": ")" + std::string(kMaxParameterSetJsonBytes, 'x') + R"(", "mapper": {}})";
+  const auto oversized = ParseParameterSetJson(padded, "big.json");
+  ASSERT_FALSE(oversized.ok());
+  EXPECT_NE(oversized.status().message().find("a parameter set may have"), std::string::npos)
+      << oversized.status().message();
+  const std::filesystem::path file = std::filesystem::temp_directory_path() / "parameters_test_big.json";
+  { std::ofstream(file) << padded; }
+  const auto from_file = ReadParameterSetFile(file.string());
+  std::filesystem::remove(file);
+  ASSERT_FALSE(from_file.ok());
+  EXPECT_NE(from_file.status().message().find("a parameter set may have"), std::string::npos);
+  const int depth = 50000;
+  const std::string nested =
+      R"({"mapper": {"recovery": )" + std::string(depth, '[') + std::string(depth, ']') + "}}";
+  ASSERT_LE(nested.size(), kMaxParameterSetJsonBytes);
+  const auto deep = ParseParameterSetJson(nested, "deep.json");
+  ASSERT_FALSE(deep.ok());
+  EXPECT_NE(deep.status().message().find("deep.json"), std::string::npos) << deep.status().message();
 }
 
 TEST(ParametersTest, BareMapperObjectIsAccepted) {

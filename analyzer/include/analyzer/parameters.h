@@ -5,6 +5,7 @@
 // Thread safety: free functions without shared state.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "fleet/v1/report.pb.h"
@@ -18,8 +19,12 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params);
 /// Unset fields keep slamcore's defaults: a parameter set names only what it changes.
 slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParameters& proto);
 
+/// The largest parameter-set JSON accepted: a whole set with every field is about 2 kB, so this leaves room
+/// for a long description while bounding the two parses of it (keys, then values).
+inline constexpr std::size_t kMaxParameterSetJsonBytes = 256 * 1024;
+
 /// Parses a JSON parameter set, e.g. {"name": "strict", "mapper": {"gate_chi2": 9.0}}, or a bare
-/// MapperParameters object ({"gate_chi2": 9.0}); `source` prefixes errors.
+/// MapperParameters object ({"gate_chi2": 9.0}); `source` prefixes errors. At most kMaxParameterSetJsonBytes.
 slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json,
                                                                 const std::string& source);
 slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string& path);
