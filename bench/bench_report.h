@@ -19,6 +19,10 @@ class RatioReporter : public benchmark::ConsoleReporter {
   void ReportRuns(const std::vector<Run>& runs) override {
     ConsoleReporter::ReportRuns(runs);
     for (const Run& run : runs) {
+      // With --benchmark_repetitions the median stands for the benchmark; the single repetitions and the
+      // other aggregates (mean, stddev, cv: the last reported) would otherwise overwrite it.
+      const bool repeated = run.repetitions > 1;
+      if (repeated && (run.run_type != Run::RT_Aggregate || run.aggregate_name != "median")) continue;
       const std::string name = run.run_name.function_name;
       const std::size_t slash = name.rfind('/');
       if (slash == std::string::npos) continue;
