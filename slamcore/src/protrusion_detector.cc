@@ -30,39 +30,83 @@ Status CheckGrid(const OccupancyGrid& grid, const char* which) {
   return Status::Ok();
 }
 
-/// What every region's features look up in the whole pair, computed once per pair.
-struct PairContext {
-  cv::Mat parent_walls;  // CV_8U: 255 where the aligned parent (dilated by one cell) has a wall
-  cv::Mat parent_free;   // CV_8U: 255 where the aligned parent has floor
-  cv::Mat reachable;     // CV_8U: child floor connected to the parent's floor without crossing its walls
-};
+/// What every region's features look up in the whole pair. Each part is computed near the regions that
+/// ask for it, so that the cost follows the changes, not the size of the map.
+class PairContext {
+ public:
+  PairContext(const cv::Mat& child_cells, const cv::Mat& parent_cells)
+      : child_cells_(child_cells), parent_cells_(parent_cells) {}
 
-PairContext MakePairContext(const cv::Mat& child_cells, const cv::Mat& parent_cells) {
-  PairContext context;
-  context.parent_free = parent_cells == kFree;
-  cv::dilate(parent_cells == kOccupied, context.parent_walls, cv::Mat::ones(3, 3, CV_8U));
-  // A robot reaches new floor from known floor through a gap; a stuck robot's band lies beyond the wall
-  // it pushed. Floor is connected here through child floor the parent did not hold as a wall.
-  cv::Mat passable = (child_cells == kFree) & (parent_cells != kOccupied);
-  cv::Mat labels;
-  const int count = cv::connectedComponents(passable, labels, 4, CV_32S);
-  std::vector<std::uint8_t> touches_known(static_cast<std::size_t>(count), 0);
-  for (int row = 0; row < labels.rows; ++row) {
-    const int* label = labels.ptr<int>(row);
-    const std::int8_t* parent = parent_cells.ptr<std::int8_t>(row);
-    for (int col = 0; col < labels.cols; ++col) {
-      if (label[col] > 0 && parent[col] == kFree) touches_known[static_cast<std::size_t>(label[col])] = 1;
+  /// CV_8U over `where`: 255 where the aligned parent, dilated by one cell, has a wall.
+  cv::Mat ParentWalls(const cv::Rect& where) const {
+    const cv::Rect grown = Grown(where, 1);
+    cv::Mat walls;
+    cv::dilate(parent_cells_(grown) == kOccupied, walls, cv::Mat::ones(3, 3, CV_8U));
+    return walls(cv::Rect(where.x - grown.x, where.y - grown.y, where.width, where.height)).clone();
+  }
+  /// CV_8U over `where`: 255 where the aligned parent has floor.
+  cv::Mat ParentFloor(const cv::Rect& where) const { return parent_cells_(where) == kFree; }
+  cv::Rect Bounds() const { return cv::Rect(0, 0, child_cells_.cols, child_cells_.rows); }
+
+  /// Whether the child's floor cell (col, row) is reachable: connected (4-neighbours) to the parent's floor
+  /// through child floor the parent did not hold as a wall. A robot reaches new floor from known floor
+  /// through a gap; a stuck robot's band lies beyond the wall it pushed. A flood from the cell stops at the
+  /// first known floor, and every cell it visited is then classed, so no cell is flooded twice.
+  bool Reachable(int col, int row) {
+    if (reach_.empty()) reach_.assign(child_cells_.total(), kUnvisited);
+    const auto index = [&](int c, int r) { return static_cast<std::size_t>(r) * child_cells_.cols + c; };
+    if (reach_[index(col, row)] != kUnvisited) return reach_[index(col, row)] == kReachable;
+    if (!Passable(col, row)) return false;
+    std::vector<cv::Point>& visited = flood_;
+    visited.assign(1, cv::Point(col, row));
+    reach_[index(col, row)] = kQueued;
+    bool reachable = false;
+    for (std::size_t next = 0; next < visited.size() && !reachable; ++next) {
+      const cv::Point cell = visited[next];
+      if (parent_cells_.at<std::int8_t>(cell.y, cell.x) == kFree) {
+        reachable = true;
+        break;
+      }
+      for (const cv::Point step : {cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1), cv::Point(0, -1)}) {
+        const cv::Point neighbour = cell + step;
+        if (neighbour.x < 0 || neighbour.y < 0 || neighbour.x >= child_cells_.cols ||
+            neighbour.y >= child_cells_.rows || !Passable(neighbour.x, neighbour.y)) {
+          continue;
+        }
+        std::uint8_t& state = reach_[index(neighbour.x, neighbour.y)];
+        if (state == kReachable) {
+          reachable = true;
+          break;
+        }
+        if (state == kUnvisited) {
+          state = kQueued;
+          visited.push_back(neighbour);
+        }
+      }
     }
+    // A flood that stopped early visited part of a reachable component; one that ran out, all of an
+    // unreachable one.
+    for (const cv::Point cell : visited)
+      reach_[index(cell.x, cell.y)] = reachable ? kReachable : kUnreachable;
+    return reachable;
   }
-  context.reachable = cv::Mat::zeros(labels.size(), CV_8U);
-  for (int row = 0; row < labels.rows; ++row) {
-    const int* label = labels.ptr<int>(row);
-    std::uint8_t* out = context.reachable.ptr<std::uint8_t>(row);
-    for (int col = 0; col < labels.cols; ++col)
-      out[col] = label[col] > 0 && touches_known[static_cast<std::size_t>(label[col])];
+
+ private:
+  static constexpr std::uint8_t kUnvisited = 0, kQueued = 1, kReachable = 2, kUnreachable = 3;
+
+  bool Passable(int col, int row) const {
+    return child_cells_.at<std::int8_t>(row, col) == kFree &&
+           parent_cells_.at<std::int8_t>(row, col) != kOccupied;
   }
-  return context;
-}
+  cv::Rect Grown(const cv::Rect& where, int by) const {
+    return cv::Rect(where.x - by, where.y - by, where.width + 2 * by, where.height + 2 * by) &
+           cv::Rect(0, 0, child_cells_.cols, child_cells_.rows);
+  }
+
+  cv::Mat child_cells_, parent_cells_;
+  std::vector<std::uint8_t> reach_;  // per child cell, one of the k* states; allocated when first asked
+  std::vector<cv::Point> flood_;
+};
 
 /// Repetition of the surroundings: the translation (0.3–6 m) under which the region's walls and floor best
 /// land on the parent's walls and floor, and how well they do. A stuck robot draws copies of what it sees
@@ -84,12 +128,11 @@ ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, c
                                static_cast<int>(std::ceil(std::max(where.width, where.height) / 100.0))});
   const int reach = static_cast<int>(std::ceil(6.0 / resolution));
   const cv::Rect window(where.x - reach, where.y - reach, where.width + 2 * reach, where.height + 2 * reach);
-  const cv::Rect inside = window & cv::Rect(0, 0, context.parent_walls.cols, context.parent_walls.rows);
+  const cv::Rect inside = window & context.Bounds();
   auto crop = [&](const cv::Mat& image) {
     cv::Mat padded = cv::Mat::zeros(window.size(), CV_32F);
-    image(inside).convertTo(
-        padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)), CV_32F,
-        1.0 / 255.0);
+    image.convertTo(padded(cv::Rect(inside.x - window.x, inside.y - window.y, inside.width, inside.height)),
+                    CV_32F, 1.0 / 255.0);
     if (factor > 1) cv::resize(padded, padded, {}, 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
     return padded;
   };
@@ -99,7 +142,8 @@ ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, c
     if (factor > 1) cv::resize(out, out, {}, 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
     return out;
   };
-  const cv::Mat walls_image = crop(context.parent_walls), floor_image = crop(context.parent_free);
+  const cv::Mat walls_image = crop(context.ParentWalls(inside)),
+                floor_image = crop(context.ParentFloor(inside));
   const cv::Mat walls_template = templ(region_walls), floor_template = templ(region_floor);
   if (walls_template.cols > walls_image.cols || walls_template.rows > walls_image.rows) return best;
   cv::Mat wall_scores, floor_scores;
@@ -131,7 +175,7 @@ ShiftMatch BestShift(const cv::Mat& region_walls, const cv::Mat& region_floor, c
 /// The features of one region, `mask` being its cleaned cells inside `roi` (1 inside, 0 outside) with at
 /// least one cell of margin on every side; `roi` is where mask's inner part lies in the child's image.
 std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi, const cv::Mat& parent_roi,
-                                   const cv::Rect& roi, const PairContext& context, double resolution) {
+                                   const cv::Rect& roi, PairContext& context, double resolution) {
   const double r = resolution, r2 = resolution * resolution;
   const double area = cv::countNonZero(mask);
   const cv::Rect box = cv::boundingRect(mask);
@@ -198,8 +242,14 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
 
   // The mask's inner part (without the 1-cell pad) in the child's image, for the pair-wide lookups.
   const cv::Rect inner(1, 1, roi.width, roi.height);
-  cv::Mat reachable;
-  cv::bitwise_and(context.reachable(roi), child_floor(inner), reachable);
+  const cv::Mat floor_inner = child_floor(inner);
+  double reachable_cells = 0.0;
+  for (int row = 0; row < floor_inner.rows; ++row) {
+    const std::uint8_t* floor = floor_inner.ptr<std::uint8_t>(row);
+    for (int col = 0; col < floor_inner.cols; ++col) {
+      if (floor[col] && context.Reachable(roi.x + col, roi.y + row)) ++reachable_cells;
+    }
+  }
   const double floor_cells = cv::countNonZero(child_floor);
   const ShiftMatch shift = BestShift(child_walls(inner), child_floor(inner), roi, context, resolution);
   // Image rows grow downwards; the moments' axis angle is in the same image frame.
@@ -220,7 +270,7 @@ std::vector<double> RegionFeatures(const cv::Mat& mask, const cv::Mat& child_roi
           contact_cells / boundary_cells,
           cv::countNonZero(child_walls) / area,
           cv::countNonZero(parent_walls) / area,
-          floor_cells > 0 ? cv::countNonZero(reachable) / floor_cells : 0.0,
+          floor_cells > 0 ? reachable_cells / floor_cells : 0.0,
           cv::countNonZero(wall_contact) / boundary_cells,
           cv::countNonZero(crossed) * r2,
           shift.walls,
@@ -263,6 +313,32 @@ cv::Mat WallsOpened(const cv::Mat& child_cells, const cv::Mat& parent_cells, dou
   const int grow = static_cast<int>(std::ceil(tolerance_cells));
   cv::dilate(opened, opened, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * grow + 1, 2 * grow + 1}));
   return opened & crossed;
+}
+
+/// One region's cells that survive the clean-up (CV_8U, 255 = kept), over a window around it: the opening
+/// of its cells (of the region alone, which is the whole difference's opening on them: a kernel square of
+/// difference cells is connected, so it lies in one region), and its walls opened (WallsOpened) that form
+/// pieces of at least `min_cells`. Walls that became floor survive whatever their thickness: a wall is one
+/// or two cells thick, and a hole in it (a door opened, a stuck robot's band drawn through it) is a change,
+/// not speckle. The opened walls are taken over the whole window, as a region's may be grown back through
+/// a neighbour's; a piece of this region's lies inside it (the pieces are connected difference cells).
+cv::Mat CleanedRegion(const cv::Mat& in_region, const cv::Mat& child_cells, const cv::Mat& parent_cells,
+                      const cv::Mat& opening_kernel, double tolerance_cells, const cv::Mat& explained,
+                      double min_cells) {
+  cv::Mat clean;
+  if (opening_kernel.rows >= 2) {
+    cv::morphologyEx(in_region, clean, cv::MORPH_OPEN, opening_kernel);
+  } else {
+    clean = in_region.clone();
+  }
+  const cv::Mat opened = WallsOpened(child_cells, parent_cells, tolerance_cells, explained) & in_region;
+  cv::Mat piece_labels, piece_stats, unused;
+  const int pieces = cv::connectedComponentsWithStats(opened, piece_labels, piece_stats, unused, 8, CV_32S);
+  for (int piece = 1; piece < pieces; ++piece) {
+    if (piece_stats.at<int>(piece, cv::CC_STAT_AREA) < min_cells) continue;
+    clean.setTo(255, piece_labels == piece);
+  }
+  return clean;
 }
 
 }  // namespace
@@ -320,18 +396,28 @@ Result<OccupancyGrid> AlignParentToChild(const OccupancyGrid& parent, const Occu
                                                        child.origin_y));
   aligned.origin_yaw = child.origin_yaw;
   const int col_begin = std::max(0, shift_x), col_end = std::min(child.width, shift_x + parent.width);
-  for (int row = std::max(0, shift_y); row < std::min(child.height, shift_y + parent.height); ++row) {
-    for (int col = col_begin; col < col_end; ++col)
-      aligned.at(col, row) = parent.at(col - shift_x, row - shift_y);
+  if (col_begin < col_end) {
+    for (int row = std::max(0, shift_y); row < std::min(child.height, shift_y + parent.height); ++row) {
+      const auto source = parent.cells.begin() + static_cast<std::ptrdiff_t>(row - shift_y) * parent.width;
+      std::copy(source + (col_begin - shift_x), source + (col_end - shift_x),
+                aligned.cells.begin() + static_cast<std::ptrdiff_t>(row) * child.width + col_begin);
+    }
   }
   return aligned;
 }
 
 std::vector<std::uint8_t> DifferenceMask(const OccupancyGrid& aligned_parent, const OccupancyGrid& child) {
   std::vector<std::uint8_t> mask(child.cells.size(), 0);
-  for (std::size_t i = 0; i < mask.size(); ++i) {
-    const std::int8_t before = aligned_parent.cells[i], now = child.cells[i];
-    mask[i] = (now != kUnknown && before == kUnknown) || (now == kFree && before == kOccupied) ? 1 : 0;
+  // Plain pointers and operators that do not short-circuit: a loop without branches or reloads, which
+  // the compiler vectorises (the output cannot alias the grids' cells).
+  const std::int8_t* before = aligned_parent.cells.data();
+  const std::int8_t* now = child.cells.data();
+  std::uint8_t* out = mask.data();
+  const std::size_t size = mask.size();
+#pragma GCC ivdep
+  for (std::size_t i = 0; i < size; ++i) {
+    out[i] = static_cast<std::uint8_t>(((now[i] != kUnknown) & (before[i] == kUnknown)) |
+                                       ((now[i] == kFree) & (before[i] == kOccupied)));
   }
   return mask;
 }
@@ -358,65 +444,47 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   const cv::Mat child_cells(child.height, child.width, CV_8S, const_cast<std::int8_t*>(child.cells.data()));
   const cv::Mat parent_cells(child.height, child.width, CV_8S, aligned.cells.data());
 
-  const cv::Mat explained =
-      tolerance_cells > 0.0 ? ExplainedByRegistrationError(raw, child_cells, parent_cells, tolerance_cells)
-                            : cv::Mat();
-  // An odd kernel, so that the opening is centred and does not shift regions by half a cell.
-  const int kernel = static_cast<int>(std::lround(options.clean_up_size_m / r)) | 1;
-  cv::Mat clean;
-  if (kernel >= 2) {
-    cv::morphologyEx(raw, clean, cv::MORPH_OPEN, cv::Mat::ones(kernel, kernel, CV_8U));
-  } else {
-    clean = raw;
-  }
-  // Walls that became floor survive the clean-up whatever their thickness when they form a piece of at
-  // least the minimum area that is not the same wall drawn beside itself: a wall is one or two cells
-  // thick, and a hole in it (a door opened, a stuck robot's band drawn through it) is a change, not speckle.
-  {
-    cv::Mat crossed = WallsOpened(child_cells, parent_cells, tolerance_cells, explained), crossed_labels,
-            crossed_stats, unused;
-    const int pieces =
-        cv::connectedComponentsWithStats(crossed, crossed_labels, crossed_stats, unused, 8, CV_32S);
-    const double min_piece = std::max(1.0, options.min_region_area_m2 / (r * r));
-    std::vector<std::uint8_t> kept(static_cast<std::size_t>(pieces), 0);
-    for (int piece = 1; piece < pieces; ++piece) {
-      kept[static_cast<std::size_t>(piece)] = crossed_stats.at<int>(piece, cv::CC_STAT_AREA) >= min_piece;
-    }
-    // One pass over the image, however many pieces there are.
-    for (int row = 0; row < clean.rows; ++row) {
-      const int* label = crossed_labels.ptr<int>(row);
-      std::uint8_t* out = clean.ptr<std::uint8_t>(row);
-      for (int col = 0; col < clean.cols; ++col) {
-        if (kept[static_cast<std::size_t>(label[col])]) out[col] = 1;
-      }
-    }
-  }
   // Regions are the connected components of the RAW difference, described by their cells that survive
   // the clean-up: an opening cuts a room at a narrow neck, but the pieces are still one change.
   cv::Mat labels, stats, centroids;
   const int count = cv::connectedComponentsWithStats(raw, labels, stats, centroids, 8, CV_32S);
-  const PairContext context = MakePairContext(child_cells, parent_cells);
+  PairContext context(child_cells, parent_cells);
   const double min_cells = std::max(1.0, options.min_region_area_m2 / (r * r));
+  // An odd kernel, so that the opening is centred and does not shift regions by half a cell.
+  const int kernel = static_cast<int>(std::lround(options.clean_up_size_m / r)) | 1;
+  const cv::Mat opening_kernel = cv::Mat::ones(kernel, kernel, CV_8U);
   const cv::Mat dilation_kernel = cv::Mat::ones(2 * kernel + 1, 2 * kernel + 1, CV_8U);
+  const int pad = kernel + 1;
+  // Each region is cleaned up inside a window around it, wide enough that nothing beyond it can change
+  // the result: the opening reaches a kernel, the registration test its tolerance from each cell it judges,
+  // and those cells lie up to a tolerance beyond the region (the walls opened are grown back by it).
+  const int work_pad = pad + 2 * static_cast<int>(std::ceil(tolerance_cells)) + 1;
+  const cv::Rect bounds(0, 0, child.width, child.height);
 
   std::vector<ProtrusionRegion> regions;
   for (int label = 1; label < count; ++label) {
     if (stats.at<int>(label, cv::CC_STAT_AREA) < min_cells) continue;  // too small even before clean-up
     const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
     const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
-    const int pad = kernel + 1;
-    const cv::Rect roi =
-        cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & cv::Rect(0, 0, child.width, child.height);
+    const cv::Rect roi = cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & bounds;
+    const cv::Rect work = cv::Rect(x - work_pad, y - work_pad, w + 2 * work_pad, h + 2 * work_pad) & bounds;
+    const cv::Rect roi_in_work(roi.x - work.x, roi.y - work.y, roi.width, roi.height);
+    const cv::Mat in_region = labels(work) == label;
+    const cv::Mat explained =
+        tolerance_cells > 0.0
+            ? ExplainedByRegistrationError(raw(work), child_cells(work), parent_cells(work), tolerance_cells)
+            : cv::Mat();
+    cv::Mat clean = CleanedRegion(in_region, child_cells(work), parent_cells(work), opening_kernel,
+                                  tolerance_cells, explained, min_cells);
     // A padded copy so that the distance transform and contours see background around the region.
     cv::Mat mask = cv::Mat::zeros(roi.height + 2, roi.width + 2, CV_8U);
     cv::Mat mask_inner = mask(cv::Rect(1, 1, roi.width, roi.height));
-    cv::compare(labels(roi), label, mask_inner, cv::CMP_EQ);
-    mask_inner.setTo(0, clean(roi) == 0);
+    clean(roi_in_work).copyTo(mask_inner);
     const int area = cv::countNonZero(mask_inner);
     if (area < min_cells) continue;
     // A region with any cell beyond the registration error is kept whole (a fragment of a real change near
     // known space keeps its shape); one that registration explains entirely is no change.
-    if (!explained.empty() && cv::countNonZero(mask_inner & (explained(roi) == 0)) == 0) continue;
+    if (!explained.empty() && cv::countNonZero(mask_inner & (explained(roi_in_work) == 0)) == 0) continue;
     const cv::Rect local = cv::boundingRect(mask_inner);
     const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
     cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S),
