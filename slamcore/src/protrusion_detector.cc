@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace slamcore {
 namespace {
@@ -435,6 +436,14 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
                            std::to_string(kMaxRegistrationToleranceM) + " m");
   }
   const double r = child.resolution;
+  if (r < kMinDetectorResolutionM) {
+    char message[160];
+    std::snprintf(message, sizeof message,
+                  "maps at %g mm per cell are finer than the %g mm the protrusion detector takes; check the "
+                  "map's resolution (metres per cell)",
+                  r * 1000.0, kMinDetectorResolutionM * 1000.0);
+    return InvalidArgument(message);
+  }
   // 0.15 / 0.05 is 2.99…: a hair more, so that three cells are within 0.15 m.
   const double tolerance_cells =
       options.registration_tolerance_m > 0.0 ? options.registration_tolerance_m / r + 1e-6 : 0.0;

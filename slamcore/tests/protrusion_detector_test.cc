@@ -168,6 +168,13 @@ TEST(ProtrusionDetector, AlignsWholeCellShiftsAndRefusesWhatCannotBeAligned) {
   OccupancyGrid broken = scene.child;
   broken.cells.pop_back();
   EXPECT_FALSE(ExtractRegions(scene.parent, broken).ok());
+  // A resolution written in the wrong unit (micrometres for metres) would make the 0.15 m tolerance a disk
+  // of 300,000 cells a side: refused, naming the resolution, before anything is allocated.
+  OccupancyGrid fine_parent = scene.parent, fine_child = scene.child;
+  fine_parent.resolution = fine_child.resolution = 1e-7;
+  refused = ExtractRegions(fine_parent, fine_child);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("mm per cell are finer"), std::string::npos);
 }
 
 TEST(ProtrusionAnova, MatchesAHandComputedOneWayAnova) {

@@ -96,7 +96,9 @@ TEST(ProtrusionPhysics, StuckRobotsPaintBandsTheDetectorFinds) {
     ASSERT_THAT(aligned, IsOk());
     const auto difference = DifferenceMask(*aligned, pair->child);
     for (std::size_t i = 0; i < pair->truth.size(); ++i) {
-      if (pair->truth[i] != 0) ASSERT_EQ(difference[i], 1) << "cell " << i;
+      if (pair->truth[i] != 0) {
+        ASSERT_EQ(difference[i], 1) << "cell " << i;
+      }
     }
     // Parent and child are drawn on one grid here, so a detector without registration tolerance sees every
     // band (with the default 0.15 m, slivers of bands that hug known space are given up: README).

@@ -42,6 +42,9 @@ struct DetectorOptions {
   double registration_tolerance_m = 0.15;
 };
 inline constexpr double kMaxRegistrationToleranceM = 1.0;
+/// The finest map the detector takes: its clean-up, tolerance and shift search are lengths in metres, so
+/// their kernels grow as the cells shrink. Robot maps are drawn at 1–10 cm.
+inline constexpr double kMinDetectorResolutionM = 0.001;
 
 /// A bounding box in the child map's IMAGE (x right, y down from the top-left, as in the PGM), in cells.
 struct ImageBox {
