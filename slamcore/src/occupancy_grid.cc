@@ -203,12 +203,14 @@ std::string EncodePgm(const OccupancyGrid& grid) {
   return bytes;
 }
 
-Result<std::string> ReadFileBytes(const std::string& path) {
+Result<std::string> ReadFileBytes(const std::string& path, std::uintmax_t max_bytes) {
   std::error_code error;
   const auto size = std::filesystem::file_size(path, error);
   if (error) return NotFound(path + ": cannot read (" + error.message() + ")");
-  if (size > (std::uintmax_t{1} << 31))
-    return InvalidArgument(path + ": absurd file size " + std::to_string(size));
+  if (size > max_bytes) {
+    return InvalidArgument(path + ": " + std::to_string(size) + " bytes, more than the " +
+                           std::to_string(max_bytes) + " it may have");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) return NotFound(path + ": cannot open");
   std::string bytes(static_cast<std::size_t>(size), '\0');

@@ -9,7 +9,7 @@
 #include <map>
 #include <set>
 
-#include "slamcore/occupancy_grid.h"  // WriteFileBytes
+#include "slamcore/occupancy_grid.h"  // ReadFileBytes, WriteFileBytes
 #include "slamcore/protrusion_detector.h"
 
 namespace slamcore {
@@ -226,16 +226,90 @@ Status ProtrusionClassifier::Save(const std::string& path) const {
   return WriteFileBytes(path, *bytes);
 }
 
-Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const std::string& source,
-                                                                         bool in_memory) {
-  // `path` names the model in every message: the file, or what the bytes are.
-  const std::string path = in_memory ? "model" : source;
+namespace {
+
+/// How deeply a YAML text nests, bounded from above: flow brackets open at once, plus the indentation and
+/// block-sequence dashes that start the line ("- - - x" nests three deep in six characters). OpenCV's
+/// parser recurses once per level, so a file nesting tens of thousands deep overflows the stack.
+int YamlNestingBound(const std::string& text) {
+  int flow = 0, deepest = 0;
+  bool line_start = true;
+  int leading = 0;
+  char quote = 0;
+  for (const char c : text) {
+    if (c == '\n') {
+      line_start = true;
+      leading = 0;
+      continue;
+    }
+    if (line_start && (c == ' ' || c == '-' || c == '\t')) {
+      deepest = std::max(deepest, flow + ++leading);
+      continue;
+    }
+    line_start = false;
+    if (quote != 0) {
+      if (c == quote) quote = 0;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++flow + leading);
+    } else if ((c == ']' || c == '}') && flow > 0) {
+      --flow;
+    }
+  }
+  return deepest;
+}
+
+/// A tree model's structure, checked before it predicts anything: OpenCV's predict follows the class and
+/// variable indices as the file gives them, so a file whose indices point outside its arrays would crash it.
+Status CheckTrees(const cv::ml::DTrees& trees, const cv::FileNode& node, int variables,
+                  const std::string& name) {
+  std::vector<int> class_labels, variable_types;
+  node["class_labels"] >> class_labels;
+  if (class_labels != std::vector<int>{0, 1}) {
+    return InvalidArgument(name + ": the model's class labels must be [0, 1] (new space, protrusion)");
+  }
+  // Every feature is a number (ordered) and the response a class: a split on a categorical variable would
+  // index the model's category subsets, which these models never have.
+  node["var_type"] >> variable_types;
+  std::vector<int> expected_types(static_cast<std::size_t>(variables), 0);
+  expected_types.push_back(1);
+  if (variable_types != expected_types) {
+    return InvalidArgument(name + ": the model's variable types must be " + std::to_string(variables) +
+                           " ordered features and a categorical response");
+  }
+  // OpenCV links the nodes and splits as it reads them; the variable each split tests and the class each
+  // leaf names come from the file.
+  for (const cv::ml::DTrees::Node& tree_node : trees.getNodes()) {
+    if (tree_node.left < 0 && (tree_node.classIdx < 0 || tree_node.classIdx > 1)) {
+      return InvalidArgument(name + ": a leaf names class " + std::to_string(tree_node.classIdx) + " of 2");
+    }
+  }
+  for (const cv::ml::DTrees::Split& split : trees.getSplits()) {
+    if (split.varIdx < 0 || split.varIdx >= variables) {
+      return InvalidArgument(name + ": a split tests variable " + std::to_string(split.varIdx) + " of " +
+                             std::to_string(variables));
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const std::string& bytes,
+                                                                         const std::string& path) {
+  if (bytes.size() > kMaxModelBytes) {
+    return InvalidArgument(path + ": " + std::to_string(bytes.size()) +
+                           " bytes, more than a model file may be (" + std::to_string(kMaxModelBytes) + ")");
+  }
+  if (const int nesting = YamlNestingBound(bytes); nesting > kMaxModelNesting) {
+    return InvalidArgument(path + ": nests " + std::to_string(nesting) +
+                           " levels deep, more than a model file's " + std::to_string(kMaxModelNesting));
+  }
   std::unique_ptr<ProtrusionClassifier> classifier(new ProtrusionClassifier());
   try {
-    cv::FileStorage file(source, cv::FileStorage::READ | (in_memory ? cv::FileStorage::MEMORY : 0));
-    if (!file.isOpened())
-      return in_memory ? InvalidArgument("model: not a model file")
-                       : NotFound(path + ": cannot open model file");
+    cv::FileStorage file(bytes, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    if (!file.isOpened()) return InvalidArgument(path + ": not a model file");
     std::string format, kind_name;
     int version = 0;
     file["format"] >> format;
@@ -268,6 +342,11 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const s
       return InvalidArgument(path +
                              ": selected features, mean and scale are missing or of different lengths");
     }
+    for (std::size_t j = 0; j < selected; ++j) {
+      if (!std::isfinite(classifier->mean_[j]) || !std::isfinite(classifier->scale_[j])) {
+        return InvalidArgument(path + ": the standardisation (mean, scale) has a value that is not finite");
+      }
+    }
     for (const int index : classifier->selected_) {
       if (index < 0 || index >= static_cast<int>(expected.size())) {
         return InvalidArgument(path + ": selected feature index " + std::to_string(index) + " out of range");
@@ -287,6 +366,9 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const s
       return InvalidArgument(path + ": the model section is not a trained " + kind_name + " over " +
                              std::to_string(selected) + " features");
     }
+    if (const auto trees = model.dynamicCast<cv::ml::DTrees>()) {
+      RETURN_IF_ERROR(CheckTrees(*trees, node, static_cast<int>(selected), path));
+    }
     classifier->model_->model = model;
   } catch (const cv::Exception& e) {
     return DataLoss(path + ": corrupt model file: " + e.what());
@@ -295,12 +377,14 @@ Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Read(const s
 }
 
 Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::Load(const std::string& path) {
-  return Read(path, false);
+  ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path, kMaxModelBytes));
+  if (bytes.empty()) return InvalidArgument(path + ": empty");
+  return Read(bytes, path);
 }
 
 Result<std::unique_ptr<ProtrusionClassifier>> ProtrusionClassifier::LoadFromBytes(const std::string& bytes) {
   if (bytes.empty()) return InvalidArgument("model: empty");
-  return Read(bytes, true);
+  return Read(bytes, "model");
 }
 
 Result<CrossValidationResult> CrossValidate(const std::vector<LabelledRegion>& data,

@@ -698,8 +698,25 @@ Result<GeneratedPair> GeneratePair(const OccupancyGrid& real_map, std::uint64_t 
     if (options.stuck_robot_share > 0.0)
       longest_reach = std::max(longest_reach, options.stuck.stuck_travel_m.high + band.range_m.high);
   }
+  // The pairs are for the detector, which takes maps of 1 mm per cell or coarser; a resolution below
+  // that is almost always one written in the wrong unit, and would make the padding below overflow.
+  if (!(real_map.resolution >= kMinDetectorResolutionM)) {
+    return InvalidArgument("generator: the real map's resolution, " + MessageNumber(real_map.resolution) +
+                           " m per cell, is finer than the protrusion detector's " +
+                           MessageNumber(kMinDetectorResolutionM) + " m; check its unit (metres per cell)");
+  }
   // Pad by the farthest reach so that a slip out of the map's edge stays inside the child's image.
-  const int pad = static_cast<int>(std::ceil((longest_reach + 1.0) / real_map.resolution));
+  const double pad_cells = std::ceil((longest_reach + 1.0) / real_map.resolution);
+  if (real_map.width + 2.0 * pad_cells > kMaxGridSide || real_map.height + 2.0 * pad_cells > kMaxGridSide ||
+      (real_map.width + 2.0 * pad_cells) * (real_map.height + 2.0 * pad_cells) > kMaxGridCells) {
+    return InvalidArgument(
+        "generator: the real map (" + std::to_string(real_map.width) + " x " +
+        std::to_string(real_map.height) + " cells of " + MessageNumber(real_map.resolution) +
+        " m) with the " + MessageNumber(longest_reach + 1.0) +
+        " m a stuck robot may reach beyond each edge is larger than a map may be (" +
+        std::to_string(kMaxGridSide) + " cells a side, " + std::to_string(kMaxGridCells) + " in all)");
+  }
+  const int pad = static_cast<int>(pad_cells);
   ASSIGN_OR_RETURN(auto base,
                    OccupancyGrid::Create(real_map.width + 2 * pad, real_map.height + 2 * pad,
                                          real_map.resolution, real_map.origin_x - pad * real_map.resolution,

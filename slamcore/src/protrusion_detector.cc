@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
 namespace slamcore {
 namespace {
@@ -437,12 +436,9 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   }
   const double r = child.resolution;
   if (r < kMinDetectorResolutionM) {
-    char message[160];
-    std::snprintf(message, sizeof message,
-                  "maps at %g mm per cell are finer than the %g mm the protrusion detector takes; check the "
-                  "map's resolution (metres per cell)",
-                  r * 1000.0, kMinDetectorResolutionM * 1000.0);
-    return InvalidArgument(message);
+    return InvalidArgument("maps at " + MessageNumber(r * 1000.0) + " mm per cell are finer than the " +
+                           MessageNumber(kMinDetectorResolutionM * 1000.0) +
+                           " mm the protrusion detector takes; check the map's resolution (metres per cell)");
   }
   // 0.15 / 0.05 is 2.99…: a hair more, so that three cells are within 0.15 m.
   const double tolerance_cells =

@@ -68,6 +68,17 @@ TEST(ProtrusionData, GeneratorIsSeededAndLabelsBothClasses) {
   EXPECT_EQ(std::count(labelled->labels.begin(), labelled->labels.end(), 1), first->protrusions);
   EXPECT_EQ(labelled->missed_protrusions, 0);
   EXPECT_FALSE(GeneratePair(OccupancyGrid{}, 1).ok());
+  // A resolution in the wrong unit made the stuck robot's reach billions of cells (and the padding wrap).
+  OccupancyGrid micro = *map;
+  micro.resolution = 1e-9;
+  auto refused = GeneratePair(micro, 1, options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("finer than"), std::string::npos) << refused.status().ToString();
+  micro.resolution = 0.001;  // accepted by the detector, but a 20 m reach is 20,000 cells beyond each edge
+  refused = GeneratePair(micro, 1, options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("larger than a map may be"), std::string::npos)
+      << refused.status().ToString();
 }
 
 TEST(ProtrusionData, DatasetRoundTripsAndRefusesBrokenIndexes) {
@@ -165,6 +176,47 @@ TEST(ProtrusionClassifier, SavesLoadsAndRefusesMismatchedModels) {
   EXPECT_EQ(ProtrusionClassifier::Load((dir / "missing.yml").string()).status().code(),
             StatusCode::kNotFound);
   std::filesystem::remove_all(dir);
+}
+
+// A model file is read by OpenCV, whose tree predictions follow the file's indices as they are and whose
+// YAML parser recurses per level: what could crash it is refused first, by name.
+TEST(ProtrusionClassifier, RefusesModelFilesThatWouldCrashThePrediction) {
+  const std::vector<RealMap> maps = ReadRealMaps(kMaps);
+  const auto regions = Regions({maps.begin(), maps.begin() + 2}, 6, nullptr);
+  ClassifierOptions options;
+  options.kind = ClassifierKind::kRandomForest;
+  options.selected_features = {5, 6, 7, 12};
+  auto trained = ProtrusionClassifier::Train(regions, options);
+  ASSERT_THAT(trained, IsOk());
+  auto bytes = (*trained)->ToBytes();
+  ASSERT_THAT(bytes, IsOk());
+  ASSERT_THAT(ProtrusionClassifier::LoadFromBytes(*bytes), IsOk());
+  const auto refusal = [](const std::string& text) {
+    const auto loaded = ProtrusionClassifier::LoadFromBytes(text);
+    return loaded.ok() ? std::string("loaded") : loaded.status().message();
+  };
+  const auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string text = *bytes;
+    const std::size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return at == std::string::npos ? text : text.replace(at, from.size(), to);
+  };
+  EXPECT_NE(refusal(replaced("class_labels: [ 0, 1 ]", "class_labels: [ ]")).find("class labels"),
+            std::string::npos);
+  EXPECT_NE(refusal(replaced("var_type: [ 0,", "var_type: [ 1,")).find("variable types"), std::string::npos);
+  std::string not_a_number = *bytes;
+  const std::size_t first_mean = not_a_number.find("mean: [ ") + 8;
+  not_a_number.replace(first_mean, not_a_number.find(',', first_mean) - first_mean, ".Nan");
+  EXPECT_NE(refusal(not_a_number).find("not finite"), std::string::npos);
+  // 50,000 levels of flow sequences overflowed the parser's stack; "- - - …" nests as deep in two bytes a level.
+  const std::string deep =
+      "%YAML:1.0\n---\nformat: " + std::string(50'000, '[') + std::string(50'000, ']') + "\n";
+  EXPECT_NE(refusal(deep).find("levels deep"), std::string::npos);
+  std::string dashes = "%YAML:1.0\n---\nformat:\n";
+  for (int level = 0; level < 20'000; ++level) dashes += "- ";
+  EXPECT_NE(refusal(dashes + "x\n").find("levels deep"), std::string::npos);
+  EXPECT_NE(refusal(std::string(kMaxModelBytes + 1, ' ')).find("more than a model file may be"),
+            std::string::npos);
 }
 
 // The acceptance test of IV-C "done better than the paper": every home (and so every real map) is held out

@@ -79,7 +79,9 @@ Result<OccupancyGrid> DecodePng(const std::string& bytes, double resolution, dou
                                 bool negate = false);
 Result<std::string> EncodePng(const OccupancyGrid& grid);
 
-Result<std::string> ReadFileBytes(const std::string& path);
+/// A whole file; refused (naming the file and both sizes) when larger than `max_bytes`, before it is read.
+Result<std::string> ReadFileBytes(const std::string& path,
+                                  std::uintmax_t max_bytes = std::uintmax_t{1} << 31);
 Status WriteFileBytes(const std::string& path, const std::string& bytes);
 
 /// Checks that node `node`'s local map can be read cell by cell: a size within kMaxGridSide, width × height

@@ -20,6 +20,10 @@
 namespace slamcore {
 
 inline constexpr int kProtrusionModelVersion = 1;
+/// Bounds on a model file, checked before OpenCV parses it: its size (the default model is about 1 MB) and
+/// how deeply its YAML nests (a few levels; OpenCV's parser recurses once per level).
+inline constexpr std::size_t kMaxModelBytes = 64u << 20;
+inline constexpr int kMaxModelNesting = 256;
 
 enum class ClassifierKind { kDecisionTree, kRandomForest, kSvm };
 const char* ClassifierKindName(ClassifierKind kind);  // "decision_tree", "random_forest", "svm"
@@ -76,7 +80,9 @@ class ProtrusionClassifier {
  private:
   class Model;
   ProtrusionClassifier();
-  static Result<std::unique_ptr<ProtrusionClassifier>> Read(const std::string& source, bool in_memory);
+  /// `bytes` of a model file, named by `path` in every message (the file, or "model" for bytes).
+  static Result<std::unique_ptr<ProtrusionClassifier>> Read(const std::string& bytes,
+                                                            const std::string& path);
   ClassifierKind kind_ = ClassifierKind::kRandomForest;
   double threshold_ = 0.5;
   std::vector<int> selected_;

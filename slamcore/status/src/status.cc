@@ -1,5 +1,7 @@
 #include "slamcore/status.h"
 
+#include <cstdio>
+
 namespace slamcore {
 
 const char* StatusCodeName(StatusCode code) {
@@ -20,6 +22,12 @@ const char* StatusCodeName(StatusCode code) {
 std::string Status::ToString() const {
   if (ok()) return "OK";
   return std::string(StatusCodeName(code_)) + ": " + message_;
+}
+
+std::string MessageNumber(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
 }
 
 }  // namespace slamcore

@@ -29,6 +29,10 @@ enum class StatusCode {
 /// "INVALID_ARGUMENT", ... (the gRPC spelling).
 const char* StatusCodeName(StatusCode code);
 
+/// A number as an error message shows it: the shortest of %g's forms ("0.05", "1e-09"), where
+/// std::to_string prints six fixed decimals ("0.000000" for 1e-9).
+std::string MessageNumber(double value);
+
 class [[nodiscard]] Status {
  public:
   Status() = default;
