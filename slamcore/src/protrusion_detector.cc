@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace slamcore {
 namespace {
@@ -315,25 +316,50 @@ cv::Mat WallsOpened(const cv::Mat& child_cells, const cv::Mat& parent_cells, dou
   return opened & crossed;
 }
 
-/// One region's cells that survive the clean-up (CV_8U, 255 = kept), over a window around it: the opening
-/// of its cells (of the region alone, which is the whole difference's opening on them: a kernel square of
-/// difference cells is connected, so it lies in one region), and its walls opened (WallsOpened) that form
-/// pieces of at least `min_cells`. Walls that became floor survive whatever their thickness: a wall is one
-/// or two cells thick, and a hole in it (a door opened, a stuck robot's band drawn through it) is a change,
-/// not speckle. The opened walls are taken over the whole window, as a region's may be grown back through
-/// a neighbour's; a piece of this region's lies inside it (the pieces are connected difference cells).
-cv::Mat CleanedRegion(const cv::Mat& in_region, const cv::Mat& child_cells, const cv::Mat& parent_cells,
-                      const cv::Mat& opening_kernel, double tolerance_cells, const cv::Mat& explained,
-                      double min_cells) {
-  cv::Mat clean;
-  if (opening_kernel.rows >= 2) {
-    cv::morphologyEx(in_region, clean, cv::MORPH_OPEN, opening_kernel);
-  } else {
-    clean = in_region.clone();
+/// The clean-up's images over a window of the pair (CV_8U, non-zero = set): the difference's cells that the
+/// registration error explains (empty without a tolerance), the difference opened by the clean-up kernel,
+/// and the walls opened (WallsOpened). Each cell's value depends on cells within a kernel or twice the
+/// tolerance of it, so a window that reaches that far past a region gives the region's cells the values a
+/// computation over the whole pair gives them.
+struct CleanUpImages {
+  cv::Rect window;
+  cv::Mat explained, opened, walls_opened;
+};
+
+CleanUpImages CleanUpOver(const cv::Rect& window, const cv::Mat& raw, const cv::Mat& child_cells,
+                          const cv::Mat& parent_cells, const cv::Mat& opening_kernel,
+                          double tolerance_cells) {
+  CleanUpImages images;
+  images.window = window;
+  const cv::Mat raw_window = raw(window), child_window = child_cells(window),
+                parent_window = parent_cells(window);
+  if (tolerance_cells > 0.0) {
+    images.explained = ExplainedByRegistrationError(raw_window, child_window, parent_window, tolerance_cells);
   }
-  const cv::Mat opened = WallsOpened(child_cells, parent_cells, tolerance_cells, explained) & in_region;
+  if (opening_kernel.rows >= 2) {
+    cv::morphologyEx(raw_window, images.opened, cv::MORPH_OPEN, opening_kernel);
+  } else {
+    images.opened = raw_window;
+  }
+  images.walls_opened = WallsOpened(child_window, parent_window, tolerance_cells, images.explained);
+  return images;
+}
+
+/// One region's cells that survive the clean-up (CV_8U, 255 = kept) over `roi`, a rectangle around it
+/// inside the images' window: its opened cells (the whole difference's opening on a region's cells is the
+/// region's own: a kernel square of difference cells is connected, so it lies in one region), and its walls
+/// opened that form pieces of at least `min_cells`. Walls that became floor survive whatever their
+/// thickness: a wall is one or two cells thick, and a hole in it (a door opened, a stuck robot's band drawn
+/// through it) is a change, not speckle. A piece lies inside its region (pieces are connected difference
+/// cells), so it is measured there.
+cv::Mat CleanedRegion(const cv::Mat& in_region, const CleanUpImages& images, const cv::Rect& roi,
+                      double min_cells) {
+  const cv::Rect in_images(roi.x - images.window.x, roi.y - images.window.y, roi.width, roi.height);
+  cv::Mat clean = (images.opened(in_images) != 0) & in_region;
+  const cv::Mat opened_walls = (images.walls_opened(in_images) != 0) & in_region;
   cv::Mat piece_labels, piece_stats, unused;
-  const int pieces = cv::connectedComponentsWithStats(opened, piece_labels, piece_stats, unused, 8, CV_32S);
+  const int pieces =
+      cv::connectedComponentsWithStats(opened_walls, piece_labels, piece_stats, unused, 8, CV_32S);
   for (int piece = 1; piece < pieces; ++piece) {
     if (piece_stats.at<int>(piece, cv::CC_STAT_AREA) < min_cells) continue;
     clean.setTo(255, piece_labels == piece);
@@ -434,6 +460,11 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     return InvalidArgument("detector: registration tolerance above " +
                            std::to_string(kMaxRegistrationToleranceM) + " m");
   }
+  if (static_cast<std::int64_t>(child.width) * child.height > kMaxDetectorCells) {
+    return InvalidArgument("the child map has " + std::to_string(child.width) + " x " +
+                           std::to_string(child.height) + " cells, more than the " +
+                           std::to_string(kMaxDetectorCells) + " the protrusion detector takes");
+  }
   const double r = child.resolution;
   if (r < kMinDetectorResolutionM) {
     return InvalidArgument("maps at " + MessageNumber(r * 1000.0) + " mm per cell are finer than the " +
@@ -460,11 +491,26 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   const cv::Mat opening_kernel = cv::Mat::ones(kernel, kernel, CV_8U);
   const cv::Mat dilation_kernel = cv::Mat::ones(2 * kernel + 1, 2 * kernel + 1, CV_8U);
   const int pad = kernel + 1;
-  // Each region is cleaned up inside a window around it, wide enough that nothing beyond it can change
-  // the result: the opening reaches a kernel, the registration test its tolerance from each cell it judges,
-  // and those cells lie up to a tolerance beyond the region (the walls opened are grown back by it).
+  // The clean-up of each region needs its images within a window around it, wide enough that nothing
+  // beyond it can change them: the opening reaches a kernel, the registration test its tolerance from each
+  // cell it judges, and those cells lie up to a tolerance beyond the region (the walls opened are grown
+  // back by it). Windows follow the changes, so a large map with a few changes costs what they cost; when
+  // the windows would cover more than the pair (many regions close together), the images are made once.
   const int work_pad = pad + 2 * static_cast<int>(std::ceil(tolerance_cells)) + 1;
   const cv::Rect bounds(0, 0, child.width, child.height);
+  const auto work_window = [&](int label) {
+    const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
+    const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
+    return cv::Rect(x - work_pad, y - work_pad, w + 2 * work_pad, h + 2 * work_pad) & bounds;
+  };
+  double window_cells = 0.0;
+  for (int label = 1; label < count; ++label) {
+    if (stats.at<int>(label, cv::CC_STAT_AREA) >= min_cells) window_cells += work_window(label).area();
+  }
+  std::optional<CleanUpImages> whole_pair;
+  if (window_cells > bounds.area()) {
+    whole_pair = CleanUpOver(bounds, raw, child_cells, parent_cells, opening_kernel, tolerance_cells);
+  }
 
   std::vector<ProtrusionRegion> regions;
   for (int label = 1; label < count; ++label) {
@@ -472,24 +518,22 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
     const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
     const cv::Rect roi = cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & bounds;
-    const cv::Rect work = cv::Rect(x - work_pad, y - work_pad, w + 2 * work_pad, h + 2 * work_pad) & bounds;
-    const cv::Rect roi_in_work(roi.x - work.x, roi.y - work.y, roi.width, roi.height);
-    const cv::Mat in_region = labels(work) == label;
-    const cv::Mat explained =
-        tolerance_cells > 0.0
-            ? ExplainedByRegistrationError(raw(work), child_cells(work), parent_cells(work), tolerance_cells)
-            : cv::Mat();
-    cv::Mat clean = CleanedRegion(in_region, child_cells(work), parent_cells(work), opening_kernel,
-                                  tolerance_cells, explained, min_cells);
+    const CleanUpImages images = whole_pair ? *whole_pair
+                                            : CleanUpOver(work_window(label), raw, child_cells, parent_cells,
+                                                          opening_kernel, tolerance_cells);
+    const cv::Mat clean = CleanedRegion(labels(roi) == label, images, roi, min_cells);
     // A padded copy so that the distance transform and contours see background around the region.
     cv::Mat mask = cv::Mat::zeros(roi.height + 2, roi.width + 2, CV_8U);
     cv::Mat mask_inner = mask(cv::Rect(1, 1, roi.width, roi.height));
-    clean(roi_in_work).copyTo(mask_inner);
+    clean.copyTo(mask_inner);
     const int area = cv::countNonZero(mask_inner);
     if (area < min_cells) continue;
     // A region with any cell beyond the registration error is kept whole (a fragment of a real change near
     // known space keeps its shape); one that registration explains entirely is no change.
-    if (!explained.empty() && cv::countNonZero(mask_inner & (explained(roi_in_work) == 0)) == 0) continue;
+    if (!images.explained.empty()) {
+      const cv::Rect in_images(roi.x - images.window.x, roi.y - images.window.y, roi.width, roi.height);
+      if (cv::countNonZero(mask_inner & (images.explained(in_images) == 0)) == 0) continue;
+    }
     const cv::Rect local = cv::boundingRect(mask_inner);
     const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
     cv::Mat child_roi = cv::Mat::zeros(mask.size(), CV_8S),

@@ -74,6 +74,33 @@ TEST(ProtrusionDetector, FindsTheCorridorAndTheRoomWithTheirShapes) {
   }
 }
 
+// The clean-up runs in a window around each region, or over the whole pair when the windows of many
+// regions close together would cover more: either way a region is described by what lies near it.
+TEST(ProtrusionDetector, ARegionIsDescribedTheSameBesideManyOthers) {
+  const Scene scene = MakeScene();
+  auto alone = ExtractRegions(scene.parent, scene.child);
+  ASSERT_THAT(alone, IsOk());
+  // The same scene in the lower half of a canvas twice as tall, whose upper half holds 100 one-cell-wide
+  // strips 150 cells long (speckle the clean-up removes), each with its window: together far more than
+  // the canvas.
+  Scene crowded{*OccupancyGrid::Create(200, 400, 0.05), *OccupancyGrid::Create(200, 400, 0.05)};
+  for (int row = 0; row < 200; ++row) {
+    for (int col = 0; col < 200; ++col) {
+      crowded.parent.at(col, row) = scene.parent.at(col, row);
+      crowded.child.at(col, row) = scene.child.at(col, row);
+    }
+  }
+  for (int strip = 0; strip < 100; ++strip) FillRect(crowded.child, 2 * strip, 240, 1, 150, kFree);
+  auto beside = ExtractRegions(crowded.parent, crowded.child);
+  ASSERT_THAT(beside, IsOk());
+  ASSERT_EQ(beside->size(), alone->size());
+  for (std::size_t k = 0; k < alone->size(); ++k) {
+    EXPECT_EQ((*beside)[k].features, (*alone)[k].features) << "region " << k;
+    EXPECT_EQ((*beside)[k].clean_area_cells, (*alone)[k].clean_area_cells);
+    EXPECT_EQ((*beside)[k].cells.size(), (*alone)[k].cells.size());
+  }
+}
+
 TEST(ProtrusionDetector, CleanUpRemovesSpeckleAndFringes) {
   Scene scene = MakeScene();
   scene.child = scene.parent;
@@ -175,6 +202,12 @@ TEST(ProtrusionDetector, AlignsWholeCellShiftsAndRefusesWhatCannotBeAligned) {
   refused = ExtractRegions(fine_parent, fine_child);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("mm per cell are finer"), std::string::npos);
+  // A child larger than the detector's bound (its labels and distance transforms would take gigabytes).
+  OccupancyGrid huge = *OccupancyGrid::Create(5001, 5000, 0.05);
+  refused = ExtractRegions(huge, huge);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("5001 x 5000 cells, more than"), std::string::npos)
+      << refused.status().ToString();
 }
 
 TEST(ProtrusionAnova, MatchesAHandComputedOneWayAnova) {

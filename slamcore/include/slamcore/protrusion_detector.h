@@ -45,6 +45,9 @@ inline constexpr double kMaxRegistrationToleranceM = 1.0;
 /// The finest map the detector takes: its clean-up, tolerance and shift search are lengths in metres, so
 /// their kernels grow as the cells shrink. Robot maps are drawn at 1–10 cm.
 inline constexpr double kMinDetectorResolutionM = 0.001;
+/// The largest child map the detector takes (a quarter of the largest grid: 250 m × 250 m at 5 cm), which
+/// bounds its memory (labels, features' distance transforms) to about a gigabyte.
+inline constexpr std::int64_t kMaxDetectorCells = 25'000'000;
 
 /// A bounding box in the child map's IMAGE (x right, y down from the top-left, as in the PGM), in cells.
 struct ImageBox {
