@@ -14,6 +14,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 
 namespace analyzer {
 namespace {
@@ -21,6 +22,53 @@ namespace {
 using json = nlohmann::json;
 using slamcore::InvalidArgument;
 using slamcore::Status;
+
+/// The shape of a JSON text, read without building it (nlohmann's SAX interface): it stops at the first
+/// value past `max_values` or level past `max_depth`, so a text that would take gigabytes as a document is
+/// refused having cost nothing but the scan.
+class JsonShapeCheck {
+ public:
+  JsonShapeCheck(std::size_t max_values, int max_depth) : max_values_(max_values), max_depth_(max_depth) {}
+
+  bool null() { return Value(); }
+  bool boolean(bool) { return Value(); }
+  bool number_integer(json::number_integer_t) { return Value(); }
+  bool number_unsigned(json::number_unsigned_t) { return Value(); }
+  bool number_float(json::number_float_t, const json::string_t&) { return Value(); }
+  bool string(json::string_t&) { return Value(); }
+  bool binary(json::binary_t&) { return Value(); }
+  bool start_object(std::size_t) { return Open(); }
+  bool key(json::string_t&) { return true; }
+  bool end_object() { return Close(); }
+  bool start_array(std::size_t) { return Open(); }
+  bool end_array() { return Close(); }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) { return false; }
+
+  /// Why the scan stopped, or nothing when the text is within the bounds (or not JSON: the parse says so).
+  std::optional<std::string> Refusal() const {
+    if (too_deep_) return "nests deeper than " + std::to_string(max_depth_) + " levels";
+    if (too_many_) return "holds more than " + std::to_string(max_values_) + " JSON values";
+    return std::nullopt;
+  }
+
+ private:
+  bool Value() {
+    too_many_ = ++values_ > max_values_;
+    return !too_many_;
+  }
+  bool Open() {
+    too_deep_ = ++depth_ > max_depth_;
+    return !too_deep_ && Value();
+  }
+  bool Close() {
+    --depth_;
+    return true;
+  }
+
+  std::size_t max_values_, values_ = 0;
+  int max_depth_, depth_ = 0;
+  bool too_many_ = false, too_deep_ = false;
+};
 
 /// zlib stream header (RFC 1950): CMF 0x78 and a check byte making CMF·256 + FLG a multiple of 31.
 bool LooksDeflated(std::string_view bytes) {
@@ -370,6 +418,11 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
     ASSIGN_OR_RETURN(auto text, Inflate(bytes, source, limits.max_inflated_bytes));
     inflated = std::move(text);
     bytes = inflated;
+  }
+  JsonShapeCheck shape(limits.max_json_values, limits.max_json_depth);
+  (void)json::sax_parse(bytes.begin(), bytes.end(), &shape);
+  if (const std::optional<std::string> refusal = shape.Refusal()) {
+    return InvalidArgument(source + ": " + *refusal + ", more than a map export may");
   }
   const json root = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
   if (root.is_discarded()) return InvalidArgument(source + ": not valid JSON (nor zlib-deflated JSON)");

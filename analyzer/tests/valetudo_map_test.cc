@@ -228,6 +228,28 @@ TEST(ValetudoMapTest, ZlibDeflatedExportAsPublishedOverMqttImports) {
   EXPECT_NE(bomb.status().message().find("inflates to more than 1000 bytes"), std::string::npos);
 }
 
+// Within the byte limits a text can still cost gigabytes as a document (268 MB of "0," inflated from a
+// 260 kB download): values and nesting are counted first, and the count stops at the bound.
+TEST(ValetudoMapTest, TextsThatWouldTakeGigabytesAsADocumentAreRefusedByTheirShape) {
+  const auto path = test_data::Sample() / "valetudo/dreame_d9_1058_with_segments.json";
+  const std::string real = ReadText(path);
+  ValetudoLimits tight;
+  tight.max_json_values = 1000;
+  auto refused = ParseValetudoMap(real, "export", tight);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("holds more than 1000 JSON values"), std::string::npos)
+      << refused.status().ToString();
+  // The real export is within the defaults, deflated or not.
+  ASSERT_THAT(ParseValetudoMap(real, "export"), IsOk());
+  ASSERT_THAT(ParseValetudoMap(Deflate(real), "export"), IsOk());
+  // A million levels: the document parser would build them all before the import could say no.
+  const std::string deep = std::string(1'000'000, '[') + std::string(1'000'000, ']');
+  refused = ParseValetudoMap(Deflate(deep), "export");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("nests deeper than 64 levels"), std::string::npos)
+      << refused.status().ToString();
+}
+
 TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
   const json valid =
       ReadJson(test_data::Sample() / "valetudo/dreame_1c_1096_virtualwall_and_forbidden_zone.json");

@@ -34,8 +34,13 @@ namespace analyzer {
 struct ValetudoLimits {
   std::size_t max_input_bytes = 64u << 20;      // JSON or deflated bytes as read
   std::size_t max_inflated_bytes = 256u << 20;  // after zlib
-  int max_map_side = 20000;                     // size.x, size.y in map pixels (slamcore::kMaxGridSide)
-  std::int64_t max_layer_pixels = 50'000'000;   // pixels one layer may cover
+  // JSON values (numbers, strings, …) and nesting, counted before the document is built: each value takes
+  // some 16 bytes and more in memory, so 268 MB of "0," would take gigabytes. 32 million values hold a
+  // v1 layer of 16 million pixels; a real export has a few hundred thousand.
+  std::size_t max_json_values = 32'000'000;
+  int max_json_depth = 64;
+  int max_map_side = 20000;                    // size.x, size.y in map pixels (slamcore::kMaxGridSide)
+  std::int64_t max_layer_pixels = 50'000'000;  // pixels one layer may cover
   std::size_t max_layers = 1000;
   std::size_t max_entities = 10000;
   std::size_t max_points = 1'000'000;  // coordinates in one entity
