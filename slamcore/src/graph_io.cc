@@ -282,15 +282,23 @@ Status WriteFileReplacing(const std::filesystem::path& path,
   // Write to a temporary file and rename, so a failed write never leaves a half-written file behind.
   const std::filesystem::path temporary = path.string() + ".tmp";
   {
-    std::ofstream output(temporary, std::ios::trunc);
+    std::ofstream output(temporary, std::ios::binary | std::ios::trunc);
     if (!output) return NotFound(temporary.string() + ": cannot open for writing");
     write(output);
     output.flush();
-    if (!output) return DataLoss(temporary.string() + ": write failed");
+    if (!output) {
+      std::error_code ignored;
+      std::filesystem::remove(temporary, ignored);
+      return DataLoss(temporary.string() + ": write failed");
+    }
   }
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
-  if (error) return DataLoss(path.string() + ": " + error.message());
+  if (error) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
+    return DataLoss(path.string() + ": " + error.message());
+  }
   return Status::Ok();
 }
 

@@ -48,6 +48,10 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
         "outlier options: count >= 0, total_edges >= 0, group_size >= 1, local_window >= 2 and "
         "single_fraction in [0, 1] are required");
   }
+  if (options.max_group_size != 0 && options.max_group_size < options.group_size) {
+    return InvalidArgument("outlier options: the largest group (" + std::to_string(options.max_group_size) +
+                           ") is smaller than the smallest (" + std::to_string(options.group_size) + ")");
+  }
   const int largest_group = std::max(options.group_size, options.max_group_size);
   if (largest_group > 1000) return InvalidArgument("outlier options: groups of at most 1000 pairs");
   const auto first_loop_closure =
@@ -61,8 +65,13 @@ Result<CorruptedGraph> AddLoopClosureOutliers(const PoseGraph& graph, const Outl
   std::sort(ids.begin(), ids.end());
   const long last = static_cast<long>(ids.size()) - 1 - largest_group;  // v + group size stays inside
   if (last < 3) return InvalidArgument("the graph has too few vertices for outlier groups of this size");
-  if (options.total_edges > 100 * static_cast<long>(ids.size())) {
-    return InvalidArgument("outlier options: total_edges is more than 100 per vertex");
+  // Each wrong edge costs memory and a χ² against the optimum: at most 100 per vertex, as a total or as
+  // groups of the largest size.
+  const long most_edges = 100 * static_cast<long>(ids.size());
+  if (options.total_edges > most_edges ||
+      (options.total_edges == 0 && static_cast<long>(options.count) * largest_group > most_edges)) {
+    return InvalidArgument("outlier options: more than 100 wrong edges per vertex (" +
+                           std::to_string(most_edges) + " for this graph)");
   }
 
   std::mt19937_64 random(options.seed);

@@ -4,6 +4,8 @@
 // cv::FileStorage: FileStorage wants a "%YAML:1.0" header and rejects the plain YAML that map_saver writes.
 #include "slamcore/occupancy_grid.h"
 
+#include "slamcore/graph_io.h"
+
 #include "grid_pixels.h"
 
 #include <algorithm>
@@ -220,12 +222,9 @@ Result<std::string> ReadFileBytes(const std::string& path, std::uintmax_t max_by
 }
 
 Status WriteFileBytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return NotFound(path + ": cannot open for writing");
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  out.close();
-  if (!out) return Internal(path + ": write failed");
-  return Status::Ok();
+  return WriteFileReplacing(path, [&](std::ostream& output) {
+    output.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  });
 }
 
 Result<OccupancyGrid> ReadMapServerYaml(const std::string& yaml_path) {
@@ -311,6 +310,11 @@ Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_pat
     return InvalidArgument(yaml_path + ": grid cells do not match width x height");
   }
   std::filesystem::path image = std::filesystem::path(yaml_path).replace_extension(png ? ".png" : ".pgm");
+  if (image == std::filesystem::path(yaml_path)) {
+    return InvalidArgument(yaml_path + ": names the map's image; the YAML needs its own name (e.g. " +
+                           std::filesystem::path(yaml_path).replace_extension(".yaml").string() +
+                           "), and the image is written beside it");
+  }
   std::string bytes;
   if (png) {
     ASSIGN_OR_RETURN(auto encoded, EncodePng(grid));
@@ -323,13 +327,16 @@ Status WriteMapServerYaml(const OccupancyGrid& grid, const std::string& yaml_pat
 }
 
 std::string MapServerYaml(const OccupancyGrid& grid, const std::string& image_file) {
-  char yaml[256];
-  std::snprintf(
-      yaml, sizeof(yaml),
-      "resolution: %.6f\norigin: [%.6f, %.6f, %.6f]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
-      grid.resolution, grid.origin_x, grid.origin_y, grid.origin_yaw);
-  // The file name goes in unformatted: it may be longer than any fixed buffer.
-  return "image: " + image_file + "\n" + yaml;
+  // The shortest text that reads back as the same double: a resolution of 1e-7 or an origin of 1e300 is
+  // written as it is (fixed decimals wrote "0.000000", and a long origin was cut off by a fixed buffer).
+  const auto number = [](double value) {
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, value).ptr;
+    return std::string(text, end);
+  };
+  return "image: " + image_file + "\nresolution: " + number(grid.resolution) + "\norigin: [" +
+         number(grid.origin_x) + ", " + number(grid.origin_y) + ", " + number(grid.origin_yaw) +
+         "]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
 }
 
 }  // namespace slamcore

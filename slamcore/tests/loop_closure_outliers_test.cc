@@ -115,7 +115,17 @@ TEST(LoopClosureOutliersTest, UnboundedOptionsAreRefused) {
   OutlierOptions too_many;
   too_many.total_edges = 100 * 60 + 1;
   EXPECT_THAT(AddLoopClosureOutliers(graph, too_many).status().message(),
-              HasSubstr("more than 100 per vertex"));
+              HasSubstr("more than 100 wrong edges per vertex"));
+  // Counted in groups as well (a count of 10⁸ groups ended slamtool with bad_alloc).
+  OutlierOptions too_many_groups;
+  too_many_groups.count = 100'000'000;
+  EXPECT_THAT(AddLoopClosureOutliers(graph, too_many_groups).status().message(),
+              HasSubstr("more than 100 wrong edges per vertex"));
+  OutlierOptions upside_down;
+  upside_down.group_size = 10;
+  upside_down.max_group_size = 2;
+  EXPECT_THAT(AddLoopClosureOutliers(graph, upside_down).status().message(),
+              HasSubstr("smaller than the smallest"));
   OutlierOptions bad_share;
   bad_share.single_fraction = 1.5;
   EXPECT_THAT(AddLoopClosureOutliers(graph, bad_share).status().message(), HasSubstr("single_fraction"));

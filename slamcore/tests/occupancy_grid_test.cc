@@ -71,6 +71,35 @@ TEST(OccupancyGridIo, PgmAndPngRoundTripTheRealMaps) {
   std::filesystem::remove_all(dir);
 }
 
+// The YAML keeps every number as it was (fixed decimals wrote a 1e-7 m resolution as 0, and a fixed
+// buffer cut a long origin off), and a YAML named like its own image is refused instead of written over it.
+TEST(OccupancyGridIo, YamlKeepsEveryNumberAndNeverReplacesItsImage) {
+  const auto dir = TempDir("numbers");
+  OccupancyGrid grid = *OccupancyGrid::Create(4, 3, 1e-7, -1e300, 123456.78901234567);
+  grid.origin_yaw = 0.1;
+  grid.at(1, 1) = static_cast<std::int8_t>(CellState::kFree);
+  ASSERT_THAT(WriteMapServerYaml(grid, (dir / "map.yaml").string()), IsOk());
+  auto back = ReadMapServerYaml((dir / "map.yaml").string());
+  ASSERT_THAT(back, IsOk());
+  EXPECT_EQ(back->resolution, grid.resolution);
+  EXPECT_EQ(back->origin_x, grid.origin_x);
+  EXPECT_EQ(back->origin_y, grid.origin_y);
+  EXPECT_EQ(back->origin_yaw, grid.origin_yaw);
+  EXPECT_EQ(back->cells, grid.cells);
+  for (const bool png : {false, true}) {
+    const auto image = dir / (png ? "map.png" : "map.pgm");
+    const auto refused = WriteMapServerYaml(grid, image.string(), png);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.message().find("names the map's image"), std::string::npos) << refused.ToString();
+  }
+  // The image written above is intact, and no temporary file is left beside it.
+  EXPECT_THAT(ReadMapServerYaml((dir / "map.yaml").string()), IsOk());
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    EXPECT_NE(entry.path().extension(), ".tmp") << entry.path();
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(OccupancyGridIo, RefusesCorruptPgmWithClearErrors) {
   auto check = [](const std::string& bytes, const std::string& expected) {
     auto grid = DecodePgm(bytes, 0.05, 0, 0);

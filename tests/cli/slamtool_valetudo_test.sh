@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # slamtool valetudo-to-map as a user runs it on a real Valetudo export from data/valetudo: the written
-# map_server YAML + PGM, the printed areas against the file's own metaData.area, and a refused broken file.
+# map_server YAML + PGM, the printed areas against the file's own metaData.area, a refused broken file, and
+# refused output names that would replace an image or an input map.
 # Arguments: slamtool, a data directory (the repository's data/).
 set -euo pipefail
 slamtool=$1
@@ -48,4 +49,20 @@ fi
 grep -q "INVALID_ARGUMENT: .*broken.json: layers\[0\].compressedPixels: length .* is not a multiple of 3" "$work/err.txt" \
   || fail "unclear error: $(cat "$work/err.txt")"
 [[ ! -e "$work/broken.yaml" ]] || fail "wrote a map for refused input"
+
+# An --out named like the image would have been written over by its own YAML: refused, the image kept.
+cp "$work/home.pgm" "$work/kept.pgm"
+if "$slamtool" valetudo-to-map "$export_file" --out "$work/kept.pgm" 2>"$work/err.txt"; then
+  fail "wrote the YAML over its own image"
+fi
+grep -q "kept.pgm: names the map's image" "$work/err.txt" || fail "unclear error: $(cat "$work/err.txt")"
+cmp "$work/kept.pgm" "$work/home.pgm" || fail "the image named by --out was changed"
+
+# protrusions --repair writes beside its inputs, never over them.
+cp "$work/home.yaml" "$work/parent.yaml"; sed -i 's/^image: .*/image: home.pgm/' "$work/parent.yaml"
+if "$slamtool" protrusions --parent "$work/parent.yaml" --child "$work/home.yaml" --repair cut \
+    --repaired "$work/parent.yaml" >/dev/null 2>"$work/err.txt"; then
+  fail "--repaired replaced the parent map"
+fi
+grep -q "would overwrite the input" "$work/err.txt" || fail "unclear error: $(cat "$work/err.txt")"
 echo "slamtool valetudo-to-map: all checks passed"

@@ -94,6 +94,20 @@ void RunDetect(const DetectArguments& arguments) {
   }
   if (arguments.repair != "none") {
     if (arguments.repaired.empty()) Fail(slamcore::InvalidArgument("--repair needs --repaired OUT.yaml"));
+    // The repaired map goes beside the inputs, never over them (the parent and child stay as they were).
+    const auto same = [](const std::filesystem::path& a, const std::filesystem::path& b) {
+      return std::filesystem::weakly_canonical(a) == std::filesystem::weakly_canonical(b);
+    };
+    const std::filesystem::path out = arguments.repaired;
+    for (const std::string& input : {arguments.parent, arguments.child}) {
+      for (const char* extension : {".yaml", ".pgm", ".png"}) {
+        if (same(std::filesystem::path(out).replace_extension(extension),
+                 std::filesystem::path(input).replace_extension(extension))) {
+          Fail(slamcore::InvalidArgument("--repaired " + arguments.repaired + " would overwrite the input " +
+                                         input + " (or its image); name another file"));
+        }
+      }
+    }
     const auto mode =
         arguments.repair == "cut" ? slamcore::RepairMode::kCutOut : slamcore::RepairMode::kFallBackToParent;
     const auto repaired = slamcore::RepairChild(aligned, child, protrusions, mode);
