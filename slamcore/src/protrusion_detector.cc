@@ -450,27 +450,29 @@ std::vector<std::uint8_t> DifferenceMask(const OccupancyGrid& aligned_parent, co
 
 Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent, const OccupancyGrid& child,
                                                      const DetectorOptions& options) {
-  ASSIGN_OR_RETURN(auto aligned, AlignParentToChild(parent, child));
-  if (!(options.clean_up_size_m >= 0.0) || !(options.min_region_area_m2 >= 0.0) ||
-      !(options.registration_tolerance_m >= 0.0)) {
-    return InvalidArgument("detector options must be non-negative");
-  }
-  // Its disk is dilated over the whole pair: bounded, and a tolerance past a metre would hide rooms.
-  if (options.registration_tolerance_m > kMaxRegistrationToleranceM) {
-    return InvalidArgument("detector: registration tolerance above " +
-                           std::to_string(kMaxRegistrationToleranceM) + " m");
-  }
+  // Size and resolution first: a map in the wrong unit fails them before its origins look absurdly far.
   if (static_cast<std::int64_t>(child.width) * child.height > kMaxDetectorCells) {
     return InvalidArgument("the child map has " + std::to_string(child.width) + " x " +
                            std::to_string(child.height) + " cells, more than the " +
                            std::to_string(kMaxDetectorCells) + " the protrusion detector takes");
   }
-  const double r = child.resolution;
-  if (r < kMinDetectorResolutionM) {
-    return InvalidArgument("maps at " + MessageNumber(r * 1000.0) + " mm per cell are finer than the " +
+  if (child.resolution < kMinDetectorResolutionM) {
+    return InvalidArgument("maps at " + MessageNumber(child.resolution * 1000.0) +
+                           " mm per cell are finer than the " +
                            MessageNumber(kMinDetectorResolutionM * 1000.0) +
                            " mm the protrusion detector takes; check the map's resolution (metres per cell)");
   }
+  ASSIGN_OR_RETURN(auto aligned, AlignParentToChild(parent, child));
+  if (!(options.clean_up_size_m >= 0.0) || !(options.min_region_area_m2 >= 0.0) ||
+      !(options.registration_tolerance_m >= 0.0)) {
+    return InvalidArgument("detector options must be non-negative");
+  }
+  // Its disk is dilated around every region: bounded, and a tolerance past a metre would hide rooms.
+  if (options.registration_tolerance_m > kMaxRegistrationToleranceM) {
+    return InvalidArgument("detector: registration tolerance above " +
+                           std::to_string(kMaxRegistrationToleranceM) + " m");
+  }
+  const double r = child.resolution;
   // 0.15 / 0.05 is 2.99…: a hair more, so that three cells are within 0.15 m.
   const double tolerance_cells =
       options.registration_tolerance_m > 0.0 ? options.registration_tolerance_m / r + 1e-6 : 0.0;
