@@ -1,5 +1,7 @@
 #include "slamcore/graph_io.h"
 
+#include <Eigen/LU>
+
 #include <functional>
 
 #include <charconv>
@@ -169,6 +171,11 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
       double pose[3];
       RETURN_IF_ERROR(parser.Id(1, &id));
       RETURN_IF_ERROR(parser.Numbers(2, 3, pose));
+      if (std::abs(pose[0]) > kMaxFileCoordinateM || std::abs(pose[1]) > kMaxFileCoordinateM) {
+        return InvalidArgument(location + ": vertex " + std::to_string(id) + " lies " +
+                               MessageNumber(std::max(std::abs(pose[0]), std::abs(pose[1]))) +
+                               " m out, beyond the " + MessageNumber(kMaxFileCoordinateM) + " m a pose may");
+      }
       if (vertex_poses.contains(id)) {
         return InvalidArgument(location + ": vertex " + std::to_string(id) + " already declared at " +
                                vertex_locations[id]);
@@ -200,6 +207,20 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
       }
       if (const Status status = CheckPositiveDefinite(info, "information"); !status.ok()) {
         return InvalidArgument(location + ": " + status.message());
+      }
+      if (std::abs(values[0]) > kMaxFileCoordinateM || std::abs(values[1]) > kMaxFileCoordinateM) {
+        return InvalidArgument(location + ": the edge's measurement reaches " +
+                               MessageNumber(std::max(std::abs(values[0]), std::abs(values[1]))) +
+                               " m, beyond the " + MessageNumber(kMaxFileCoordinateM) + " m a pose may");
+      }
+      // An information this large or this small makes the optimiser's weights overflow, or the edge's
+      // covariance infinite: no sensor is that sure, or that unsure.
+      const Matrix3 covariance = info.inverse();
+      if (info.cwiseAbs().maxCoeff() > kMaxFileInformation || !covariance.allFinite() ||
+          covariance.cwiseAbs().maxCoeff() > kMaxFileInformation) {
+        return InvalidArgument(location + ": information " + MessageNumber(info.cwiseAbs().maxCoeff()) +
+                               " at most, covariance " + MessageNumber(covariance.cwiseAbs().maxCoeff()) +
+                               ": each must stay within " + MessageNumber(kMaxFileInformation));
       }
       edge.kind = edge.to == edge.from + 1 ? EdgeKind::kMotion : EdgeKind::kObservation;
       edges.push_back({edge, location});

@@ -155,6 +155,14 @@ TEST(GraphIoTest, MalformedInputIsRefusedWithFileLineAndReason) {
   ExpectError("VERTEX_SE2 0 0 0 0\nFIX 3\n", "test.g2o:2: FIX of vertex 3, which is not declared");
   ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX2 1 0 0 0\n", "mixes g2o and TORO");
   ExpectError("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 0 1 0 0 1 0 0 1 0 1\n", "joins vertex 0 to itself");
+  // Finite but absurd: the optimiser met infinities ("linear initialisation: solve failed").
+  ExpectError("VERTEX_SE2 0 1e308 0 0\n", "test.g2o:1: vertex 0 lies 1e+308 m out, beyond the 1e+07 m");
+  ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0 0\nEDGE_SE2 0 1 0 -2e7 0 1 0 0 1 0 1\n",
+              "test.g2o:3: the edge's measurement reaches 2e+07 m");
+  ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0 0\nEDGE_SE2 0 1 1 0 0 1e-308 0 0 1 0 1\n",
+              "test.g2o:3: information 1 at most, covariance");
+  ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0 0\nEDGE_SE2 0 1 1 0 0 1e13 0 0 1 0 1\n",
+              "each must stay within 1e+12");
 }
 
 TEST(GraphIoTest, MissingFileIsNotFound) {

@@ -3,8 +3,8 @@
 // g2o:  VERTEX_SE2 id x y θ | EDGE_SE2 i j dx dy dθ I11 I12 I13 I22 I23 I33 | FIX id
 // TORO: VERTEX2 id x y θ     | EDGE2 i j dx dy dθ I11 I12 I22 I33 I13 I23
 // Blank lines and lines starting with '#' are skipped. Any other problem (unknown tag, missing or extra
-// fields, NaN/inf, information not positive definite, an edge to a vertex that was not declared, a
-// duplicate vertex) fails the whole read with "FILE:LINE: reason"; nothing is half-loaded.
+// fields, NaN/inf, information not positive definite, a number past the bounds below, an edge to a vertex
+// that was not declared, a duplicate vertex) fails the whole read with "FILE:LINE: reason"; nothing is half-loaded.
 // A file with edges but no vertex lines at all (e.g. the SE-Sync benchmarks) gets its initial poses by
 // composing edge measurements along a breadth-first spanning tree from the smallest vertex id.
 // Edges i→i+1 are read as motion edges, all others as observation edges.
@@ -22,6 +22,12 @@
 namespace slamcore {
 
 enum class GraphFormat { kG2o, kToro };
+
+/// Bounds on what a file may say (docs/formats/pose-graph-files.md): poses and measurements within
+/// 10,000 km of the origin, information entries and their covariance's entries at most 10¹² (σ from a
+/// micrometre to a thousand kilometres). The real graphs' largest information is 4·10⁸ (CSAIL).
+inline constexpr double kMaxFileCoordinateM = 1e7;
+inline constexpr double kMaxFileInformation = 1e12;
 
 /// Reads a g2o or TORO file; the format is taken from the first tag in the file.
 Result<PoseGraph> ReadPoseGraph(const std::filesystem::path& path);
