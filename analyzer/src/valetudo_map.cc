@@ -106,15 +106,25 @@ slamcore::Result<std::string> Inflate(std::string_view bytes, const std::string&
 }
 
 /// Reads field `key` of `object` as an integer in [lo, hi]; `where` names the object in errors.
+/// An integer JSON value as int64: one past its range (unsigned, up to 2⁶⁴ − 1) saturates to its maximum, so
+/// that range checks refuse it; messages print the file's own text (`dump()`), not a wrapped number.
+std::int64_t SaturatedInt(const json& value) {
+  if (value.is_number_unsigned() &&
+      value.get<std::uint64_t>() > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+    return std::numeric_limits<std::int64_t>::max();
+  }
+  return value.get<std::int64_t>();
+}
+
 slamcore::Result<std::int64_t> IntField(const json& object, const char* key, const std::string& where,
                                         std::int64_t lo, std::int64_t hi) {
   const auto it = object.find(key);
   if (it == object.end()) return InvalidArgument(where + "." + key + ": missing");
   if (!it->is_number_integer()) return InvalidArgument(where + "." + key + ": not an integer");
-  const std::int64_t value = it->get<std::int64_t>();
+  const std::int64_t value = SaturatedInt(*it);
   if (value < lo || value > hi) {
-    return InvalidArgument(where + "." + key + ": " + std::to_string(value) + " is outside [" +
-                           std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return InvalidArgument(where + "." + key + ": " + it->dump() + " is outside [" + std::to_string(lo) +
+                           ", " + std::to_string(hi) + "]");
   }
   return value;
 }
@@ -122,14 +132,14 @@ slamcore::Result<std::int64_t> IntField(const json& object, const char* key, con
 std::optional<std::int64_t> OptionalInt(const json& object, const char* key) {
   const auto it = object.find(key);
   if (it == object.end() || !it->is_number_integer()) return std::nullopt;
-  return it->get<std::int64_t>();
+  return SaturatedInt(*it);
 }
 
 std::string OptionalString(const json& object, const char* key) {
   const auto it = object.find(key);
   if (it == object.end()) return {};
   if (it->is_string()) return it->get<std::string>();
-  if (it->is_number_integer()) return std::to_string(it->get<std::int64_t>());
+  if (it->is_number_integer()) return it->dump();
   return {};
 }
 
@@ -171,11 +181,11 @@ class LayerPixels {
       const json& count_value = array[i + 2];
       const std::string at = where + "[" + std::to_string(i + 2) + "]";
       if (!count_value.is_number_integer()) return InvalidArgument(at + ": run length is not an integer");
-      const std::int64_t count = count_value.get<std::int64_t>();
-      if (count < 1) return InvalidArgument(at + ": run length " + std::to_string(count) + " < 1");
-      if (x + count > size_x_) {
+      const std::int64_t count = SaturatedInt(count_value);
+      if (count < 1) return InvalidArgument(at + ": run length " + count_value.dump() + " < 1");
+      if (count > size_x_ - x) {
         return InvalidArgument(at + ": run leaves the map (x " + std::to_string(x) + " + count " +
-                               std::to_string(count) + " > size.x " + std::to_string(size_x_) + ")");
+                               count_value.dump() + " > size.x " + std::to_string(size_x_) + ")");
       }
       total += count;
       if (total > max_pixels) {
@@ -199,9 +209,9 @@ class LayerPixels {
                            const char* bound_name, int* out) {
     const std::string at = where + "[" + std::to_string(index) + "]";
     if (!value.is_number_integer()) return InvalidArgument(at + ": not an integer");
-    const std::int64_t v = value.get<std::int64_t>();
+    const std::int64_t v = SaturatedInt(value);
     if (v < 0 || v >= bound) {
-      return InvalidArgument(at + ": " + std::to_string(v) + " is outside the map [0, " + bound_name + " " +
+      return InvalidArgument(at + ": " + value.dump() + " is outside the map [0, " + bound_name + " " +
                              std::to_string(bound) + ")");
     }
     *out = static_cast<int>(v);
@@ -446,9 +456,8 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   for (const json* holder : {&*meta, &root}) {
     const auto stamp = holder->find("timestamp");
     if (stamp == holder->end() || map.timestamp_ms) continue;
-    if (stamp->is_number_integer() && stamp->get<std::int64_t>() >= 0 &&
-        stamp->get<std::int64_t>() <= kLatestTimeMs) {
-      map.timestamp_ms = stamp->get<std::int64_t>();
+    if (stamp->is_number_integer() && SaturatedInt(*stamp) >= 0 && SaturatedInt(*stamp) <= kLatestTimeMs) {
+      map.timestamp_ms = SaturatedInt(*stamp);
     }
     if (stamp->is_string()) map.timestamp_ms = ParseIsoDateTime(stamp->get<std::string>());
     if (!map.timestamp_ms) {

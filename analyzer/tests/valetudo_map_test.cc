@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <limits>
+
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -266,6 +268,12 @@ TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {
       {"pixelSize", [](json& m) { m["pixelSize"] = 0; }, "map.pixelSize: 0 is outside [1, 100]"},
       {"absurd size", [](json& m) { m["size"]["x"] = 10'000'000; }, "size.x: 10000000 is outside [1, 20000]"},
       {"size type", [](json& m) { m["size"]["y"] = "big"; }, "size.y: not an integer"},
+      // Past int64's range: named as written, not wrapped to a negative number.
+      {"size past int64", [](json& m) { m["size"]["x"] = std::numeric_limits<std::uint64_t>::max(); },
+       "size.x: 18446744073709551615 is outside [1, 20000]"},
+      {"run past int64",
+       [](json& m) { m["layers"][0]["compressedPixels"][2] = std::numeric_limits<std::uint64_t>::max(); },
+       "layers[0].compressedPixels[2]: run leaves the map (x"},
       {"layers", [](json& m) { m["layers"] = 5; }, "layers: missing or not an array"},
       {"layer type", [](json& m) { m["layers"][1]["type"] = "carpet"; },
        "layers[1].type: unknown layer type \"carpet\""},

@@ -26,10 +26,15 @@ Status CheckSize(std::int64_t width, std::int64_t height, const std::string& wha
     return InvalidArgument(what + ": empty map (" + std::to_string(width) + " x " + std::to_string(height) +
                            ")");
   }
-  if (width > kMaxGridSide || height > kMaxGridSide || width * height > kMaxGridCells) {
-    return InvalidArgument(what + ": absurd map size " + std::to_string(width) + " x " +
-                           std::to_string(height) + " (limit " + std::to_string(kMaxGridSide) +
-                           " per side, " + std::to_string(kMaxGridCells) + " cells)");
+  if (width > kMaxGridSide || height > kMaxGridSide) {
+    return InvalidArgument(what + ": map of " + std::to_string(width) + " x " + std::to_string(height) +
+                           " cells is wider or taller than the " + std::to_string(kMaxGridSide) +
+                           " cells a side a map may have");
+  }
+  if (width * height > kMaxGridCells) {
+    return InvalidArgument(what + ": map of " + std::to_string(width) + " x " + std::to_string(height) +
+                           " = " + std::to_string(width * height) + " cells, more than the " +
+                           std::to_string(kMaxGridCells) + " a map may have");
   }
   return Status::Ok();
 }
