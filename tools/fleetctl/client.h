@@ -94,9 +94,10 @@ class Client {
   std::shared_ptr<grpc::Channel> channel_;
 };
 
-inline int Fail(const grpc::Status& status) {
-  std::cerr << "fleetctl: " << fleet::GrpcCodeName(status.error_code()) << ": " << status.error_message()
-            << "\n";
+/// Prints "fleetctl: [WHAT: ]CODE: message" on one line and returns the exit code 1.
+inline int Fail(const grpc::Status& status, const std::string& what = "") {
+  std::cerr << "fleetctl: " << (what.empty() ? "" : what + ": ") << fleet::GrpcCodeName(status.error_code())
+            << ": " << status.error_message() << "\n";
   return 1;
 }
 

@@ -92,8 +92,7 @@ std::optional<int> ImportCommands::Run(Client& client, const Global& global) con
     fleet::v1::ImportMapResponse response;
     auto context = client.Context(120);
     if (grpc::Status status = client.maps->ImportMap(context.get(), request, &response); !status.ok()) {
-      std::fprintf(stderr, "fleetctl: %s: ", file.c_str());
-      return Fail(status);
+      return Fail(status, file);
     }
     ++imported;
     if (global.json) {
