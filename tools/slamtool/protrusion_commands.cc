@@ -482,6 +482,10 @@ void RunEval(const EvalArguments& arguments) {
       for (const auto& region : training_regions) {
         if (region.group != home) train.push_back(region);
       }
+      if (train.empty()) {
+        Fail(slamcore::InvalidArgument("leave one home out: no region of any home but " + home +
+                                       " to train on; the training data need at least two homes"));
+      }
       options.selected_features = SelectFeatures(Anova(train), SplitList(arguments.features));
       const auto classifier = Check(slamcore::ProtrusionClassifier::Train(train, options));
       for (const auto& pair : pairs) {
