@@ -100,8 +100,7 @@ class PairContext {
            parent_cells_.at<std::int8_t>(row, col) != kOccupied;
   }
   cv::Rect Grown(const cv::Rect& where, int by) const {
-    return cv::Rect(where.x - by, where.y - by, where.width + 2 * by, where.height + 2 * by) &
-           cv::Rect(0, 0, child_cells_.cols, child_cells_.rows);
+    return cv::Rect(where.x - by, where.y - by, where.width + 2 * by, where.height + 2 * by) & Bounds();
   }
 
   cv::Mat child_cells_, parent_cells_;
