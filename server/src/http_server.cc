@@ -5,11 +5,12 @@
 #include <boost/beast/http.hpp>
 
 #include <sys/socket.h>
-#include <sys/time.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -103,6 +104,15 @@ HttpResponse HttpRouter::Handle(const HttpRequest& request) const {
   }
 }
 
+/// The status a request that failed to parse gets: 413 for a body over the limit, 431 for headers over
+/// theirs, 400 for anything else malformed; 0 when the client closed or went silent (nothing to answer).
+int ParseRefusalStatus(const beast::error_code& ec) {
+  if (ec == http::error::body_limit) return 413;
+  if (ec == http::error::header_limit) return 431;
+  if (ec == http::error::end_of_stream || ec == http::error::partial_message) return 0;
+  return ec.category() == http::make_error_code(http::error::bad_method).category() ? 400 : 0;
+}
+
 class HttpServer::Impl {
  public:
   Impl(const HttpRouter& router, HttpServerOptions options)
@@ -154,6 +164,7 @@ class HttpServer::Impl {
 
   void Start() {
     accept_thread_ = std::thread([this] { AcceptLoop(); });
+    watchdog_thread_ = std::thread([this] { Watchdog(); });
   }
 
   void Stop() {
@@ -176,11 +187,13 @@ class HttpServer::Impl {
     acceptor_.close(ec);
     {
       std::lock_guard lock(mutex_);
-      for (auto* socket : sockets_) {
+      for (Connection* connection : connections_list_) {
         beast::error_code ignored;
-        socket->shutdown(tcp::socket::shutdown_receive, ignored);
+        connection->socket.shutdown(tcp::socket::shutdown_receive, ignored);
       }
     }
+    watchdog_wake_.notify_all();
+    if (watchdog_thread_.joinable()) watchdog_thread_.join();
     std::unique_lock lock(mutex_);
     idle_.wait(lock, [this] { return connections_ == 0; });
   }
@@ -195,15 +208,22 @@ class HttpServer::Impl {
         if (stopping_) return;
         continue;
       }
+      beast::error_code peer_error;
+      const auto remote = socket.remote_endpoint(peer_error);
+      const std::string peer = peer_error ? "" : remote.address().to_string();
       std::lock_guard lock(mutex_);
-      if (connections_ >= options_.max_connections) {
-        socket.close(ec);  // over the cap: refuse rather than queue threads without bound
+      // Over either cap the connection is closed at once, rather than queueing threads without bound; the
+      // per-address cap keeps one client from taking every slot.
+      if (connections_ >= options_.max_connections ||
+          per_peer_[peer] >= options_.max_connections_per_address) {
+        socket.close(ec);
         continue;
       }
       ++connections_;
-      std::thread([this, owned = std::make_unique<tcp::socket>(std::move(socket))]() mutable {
-        Serve(std::move(owned));
-      }).detach();
+      ++per_peer_[peer];
+      auto connection = std::make_unique<Connection>(std::move(socket), peer);
+      connections_list_.push_back(connection.get());
+      std::thread([this, owned = std::move(connection)]() mutable { Serve(std::move(owned)); }).detach();
     }
   }
 
@@ -242,47 +262,83 @@ class HttpServer::Impl {
     return std::nullopt;
   }
 
-  void Serve(std::unique_ptr<tcp::socket> owned) {
-    tcp::socket& socket = *owned;
-    {
-      std::lock_guard lock(mutex_);
-      sockets_.push_back(&socket);
+  /// One connection: its socket, its peer, and by when its current read or write must be done.
+  struct Connection {
+    Connection(tcp::socket accepted, std::string from) : socket(std::move(accepted)), peer(std::move(from)) {}
+    tcp::socket socket;
+    const std::string peer;
+    /// Steady-clock nanoseconds by which the request being read, or the response being written, must be
+    /// through; 0 while a handler runs. The watchdog shuts the socket down past it.
+    std::atomic<std::int64_t> deadline{0};
+  };
+
+  static std::int64_t Now() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+
+  /// Every request must arrive, and every response leave, within the I/O timeout, however the client
+  /// trickles its bytes: a socket past its deadline is shut down, which ends the blocking read or write
+  /// (a timeout per receive call would let a client sending a byte now and then hold its thread forever).
+  void Watchdog() {
+    std::unique_lock lock(mutex_);
+    while (!stopping_) {
+      watchdog_wake_.wait_for(lock, std::chrono::milliseconds(200));
+      const std::int64_t now = Now();
+      for (Connection* connection : connections_list_) {
+        const std::int64_t deadline = connection->deadline.load();
+        if (deadline != 0 && now > deadline) {
+          ::shutdown(connection->socket.native_handle(), SHUT_RDWR);
+          connection->deadline = 0;
+        }
+      }
     }
-    {
-      // Blocking reads and writes: a slow or silent client is cut after the timeout instead of holding a
-      // thread forever.
-      timeval timeout{};
-      timeout.tv_sec = options_.io_timeout_seconds;
-      setsockopt(socket.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-      setsockopt(socket.native_handle(), SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
-    }
-    beast::error_code peer_error;
-    const auto remote = socket.remote_endpoint(peer_error);
-    const std::string peer = peer_error ? "" : remote.address().to_string();
+  }
+
+  void Serve(std::unique_ptr<Connection> owned) {
+    Connection& connection = *owned;
+    tcp::socket& socket = connection.socket;
+    const std::string& peer = connection.peer;
+    const std::int64_t timeout = std::int64_t{options_.io_timeout_seconds} * 1'000'000'000;
     beast::flat_buffer buffer;
     while (!stopping_) {
       http::request_parser<http::string_body> parser;
       parser.body_limit(1 << 20);
       beast::error_code ec;
+      connection.deadline = Now() + timeout;
       http::read(socket, buffer, parser, ec);
-      if (ec) break;
-      const auto& message = parser.get();
+      connection.deadline = 0;
       HttpRequest request;
-      request.method = std::string(message.method_string());
-      request.target = std::string(message.target());
-      const std::size_t question = request.target.find('?');
-      request.path = request.target.substr(0, question);
-      request.query = question == std::string::npos ? "" : request.target.substr(question + 1);
-      for (const auto& field : message) {
-        std::string name(field.name_string());
-        std::transform(name.begin(), name.end(), name.begin(),
-                       [](unsigned char c) { return std::tolower(c); });
-        request.headers[name] = std::string(field.value());
+      HttpResponse handled;
+      unsigned version = 11;
+      bool keep_alive = false;
+      if (ec) {
+        // A request that does not parse or is too large gets its status before the connection closes
+        // (none when the client went away or the deadline cut it off).
+        const int status = ParseRefusalStatus(ec);
+        if (status == 0) break;
+        handled = Refusal(status, "malformed or oversized request: " + ec.message());
+      } else {
+        const auto& message = parser.get();
+        version = message.version();
+        keep_alive = message.keep_alive();
+        request.method = std::string(message.method_string());
+        request.target = std::string(message.target());
+        const std::size_t question = request.target.find('?');
+        request.path = request.target.substr(0, question);
+        request.query = question == std::string::npos ? "" : request.target.substr(question + 1);
+        for (const auto& field : message) {
+          std::string name(field.name_string());
+          std::transform(name.begin(), name.end(), name.begin(),
+                         [](unsigned char c) { return std::tolower(c); });
+          request.headers[name] = std::string(field.value());
+        }
+        request.body = message.body();
+        request.peer = peer;
+        auto screened = Screen(request);
+        handled = screened ? std::move(*screened) : router_.Handle(request);
       }
-      request.body = message.body();
-      request.peer = peer;
-      auto screened = Screen(request);
-      HttpResponse handled = screened ? std::move(*screened) : router_.Handle(request);
       const bool unsafe_header =
           std::any_of(handled.headers.begin(), handled.headers.end(), [](const auto& header) {
             return HasControlCharacters(header.first) || HasControlCharacters(header.second);
@@ -290,8 +346,7 @@ class HttpServer::Impl {
       if (unsafe_header || HasControlCharacters(handled.content_type)) {
         handled = Refusal(500, "internal error: a response header carried control characters");
       }
-      http::response<http::string_body> response{static_cast<http::status>(handled.status),
-                                                 message.version()};
+      http::response<http::string_body> response{static_cast<http::status>(handled.status), version};
       response.set(http::field::server, "fleetd");
       response.set(http::field::content_type, handled.content_type);
       for (const auto& [name, value] : handled.headers) response.set(name, value);
@@ -300,17 +355,21 @@ class HttpServer::Impl {
       response.set("Referrer-Policy", "no-referrer");
       response.set("Content-Security-Policy", kContentSecurityPolicy);
       if (request.path.rfind("/static/", 0) != 0) response.set(http::field::cache_control, "no-store");
-      response.keep_alive(message.keep_alive() && !stopping_);
+      response.keep_alive(keep_alive && !stopping_);
       if (request.method != "HEAD") response.body() = handled.body;
       response.prepare_payload();
       if (request.method == "HEAD") response.body().clear();
+      connection.deadline = Now() + timeout;
       http::write(socket, response, ec);
+      connection.deadline = 0;
       if (ec || !response.keep_alive()) break;
     }
     beast::error_code ignored;
     socket.shutdown(tcp::socket::shutdown_both, ignored);
     std::lock_guard lock(mutex_);
-    sockets_.erase(std::remove(sockets_.begin(), sockets_.end(), &socket), sockets_.end());
+    connections_list_.erase(std::remove(connections_list_.begin(), connections_list_.end(), &connection),
+                            connections_list_.end());
+    if (--per_peer_[peer] == 0) per_peer_.erase(peer);
     // Destroyed before the count drops: once it is 0 the server may destroy io_, whose socket service a
     // socket's destructor uses.
     owned.reset();
@@ -323,12 +382,13 @@ class HttpServer::Impl {
   asio::ip::address bound_ip_;
   asio::io_context io_;
   tcp::acceptor acceptor_;
-  std::thread accept_thread_;
+  std::thread accept_thread_, watchdog_thread_;
   std::atomic<bool> stopping_{false};
-  std::mutex mutex_;  // guards connections_, sockets_
-  std::condition_variable idle_;
+  std::mutex mutex_;  // guards connections_, connections_list_, per_peer_
+  std::condition_variable idle_, watchdog_wake_;
   int connections_ = 0;
-  std::vector<tcp::socket*> sockets_;
+  std::vector<Connection*> connections_list_;
+  std::map<std::string, int> per_peer_;  // open connections by peer address
 };
 
 std::unique_ptr<HttpServer> HttpServer::Create(const std::string& address, const HttpRouter& router,

@@ -64,8 +64,9 @@ struct HttpServerOptions {
   /// Host names (or host:port) accepted in the Host header besides the bound address and "localhost"; the
   /// loopback addresses are accepted on a loopback binding, any IP literal on a wildcard (0.0.0.0) binding.
   std::vector<std::string> allowed_hosts;
-  int max_connections = 256;    // more are closed at once
-  int io_timeout_seconds = 30;  // a request must arrive, and a response leave, within this
+  int max_connections = 256;             // more are closed at once
+  int max_connections_per_address = 32;  // from one peer address; more are closed at once
+  int io_timeout_seconds = 30;           // a request must arrive, and a response leave, within this
 };
 
 class HttpServer {
