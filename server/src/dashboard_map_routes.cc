@@ -1,5 +1,6 @@
 // The dashboard's map review endpoints (see dashboard_routes.h for the list). Reads are open to whoever
 // reaches the HTTP port, like the rest of the dashboard; repairs and reviews need an engineer's token.
+#include <atomic>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -207,8 +208,17 @@ class MapRoutes {
     const auto type = request.headers.find("content-type");
     const bool form = type != request.headers.end() && type->second.rfind("multipart/form-data", 0) == 0;
     std::string source = "dashboard upload";
+    // A deflated body of 1 MiB can inflate to the upload limit and cost some ten times that as a JSON
+    // document: decodes are counted, and one past the limit is told to come back.
+    if (decoding_.fetch_add(1) >= kMaxConcurrentDecodes) {
+      --decoding_;
+      HttpResponse busy = Error(503, "busy decoding other map uploads; retry in a few seconds");
+      busy.headers.emplace_back("Retry-After", "5");
+      return busy;
+    }
     auto imported =
         form ? MapServerUpload(type->second, request.body, &source) : ValetudoUpload(request.body);
+    --decoding_;
     // Everything wrong with an upload is the uploader's (DATA_LOSS from a malformed PGM included): 400.
     if (!imported.ok()) return Error(400, imported.status().message());
     auto version = history_.Import(robot_id, imported->snapshot, imported->metadata, source,
@@ -218,8 +228,15 @@ class MapRoutes {
   }
 
  private:
+  static constexpr int kMaxConcurrentDecodes = 2;
+
+  /// An upload is held to far less than a file on the engineer's disk (the largest real export we hold is
+  /// 640 kB): 32 MiB inflated and 4 million JSON values, a few hundred MB at most as a document.
   static slamcore::Result<analyzer::ImportedMap> ValetudoUpload(const std::string& body) {
-    ASSIGN_OR_RETURN(auto map, analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export"));
+    analyzer::ValetudoLimits limits;
+    limits.max_inflated_bytes = 32u << 20;
+    limits.max_json_values = 4'000'000;
+    ASSIGN_OR_RETURN(auto map, analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export", limits));
     return analyzer::ImportValetudo(map);
   }
 
@@ -462,6 +479,7 @@ class MapRoutes {
   Authenticator& authenticator_;
   MapHistory history_;
   RateLimiter limiter_;
+  std::atomic<int> decoding_{0};  // uploads being decoded now (Import)
   // Rendered grids by snapshot id.
   RenderCache<slamcore::OccupancyGrid> grid_cache_{
       256u << 20, [](const slamcore::OccupancyGrid& grid) { return sizeof grid + grid.cells.size(); }};

@@ -2,6 +2,7 @@
 // the status code, that nothing was stored or leaked, that fleetd stayed up and answered a legitimate
 // request meanwhile, and records fleetd's peak RSS (VmHWM) as a test property.
 #include <gtest/gtest.h>
+#include <zlib.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -178,6 +179,31 @@ TEST_F(HostileTest, ForeignHostAndCrossOriginWritesAreRefused) {
         "X-Frame-Options: DENY", "Referrer-Policy: no-referrer", "Cache-Control: no-store"}) {
     EXPECT_NE(response.find(header), std::string::npos) << header;
   }
+  ExpectStillServing();
+}
+
+// A 1 MiB body of deflated JSON could inflate to 256 MiB and build a document ten times that: the map page's
+// upload inflates no further than 32 MiB, and refuses what lies past it by name.
+TEST_F(HostileTest, ADeflatedMapUploadThatInflatesTooFarIsRefusedByName) {
+  const std::string& address = server_->http_address();
+  std::string text = R"({"__class": "ValetudoMap", "metaData": {"version": 2}, "pad": ")";
+  text += std::string(40u << 20, ' ');
+  text += "\"}";
+  uLongf deflated_size = compressBound(static_cast<uLong>(text.size()));
+  std::string deflated(deflated_size, '\0');
+  ASSERT_EQ(compress2(reinterpret_cast<Bytef*>(deflated.data()), &deflated_size,
+                      reinterpret_cast<const Bytef*>(text.data()), static_cast<uLong>(text.size()), 9),
+            Z_OK);
+  deflated.resize(deflated_size);
+  ASSERT_LT(deflated.size(), 1u << 20);
+  const std::string response =
+      HttpRaw(address, "POST /api/robots/" + RobotId(0) + "/maps/import HTTP/1.1\r\nHost: " + address +
+                           "\r\nAuthorization: Bearer " + *engineer_ +
+                           "\r\nContent-Type: application/json\r\nContent-Length: " +
+                           std::to_string(deflated.size()) + "\r\nConnection: close\r\n\r\n" + deflated);
+  EXPECT_EQ(StatusOf(response), 400) << response.substr(0, 400);
+  EXPECT_NE(response.find("inflates to more than 33554432 bytes"), std::string::npos)
+      << response.substr(0, 400);
   ExpectStillServing();
 }
 
