@@ -1,10 +1,22 @@
 #include "run_lookup.h"
 
+#include <utility>
+
+#include "analyzer/telemetry_codec.h"
+
 namespace server {
 
 storage::Result<storage::RunKey> ResolveRun(storage::Repository& repository, const Principal& caller,
                                             const std::string& robot_id, const std::string& run_id) {
   if (run_id.empty()) return storage::InvalidArgument("run_id: required");
+  // Ids that no upload can have are refused by their syntax, not looked up (a 20 kB id came back in a
+  // NOT_FOUND message too large for the reply's metadata).
+  for (const auto& [value, field] : {std::pair{&run_id, "run_id"}, std::pair{&robot_id, "robot_id"}}) {
+    if (value->empty()) continue;
+    if (const slamcore::Status bad = analyzer::ValidateId(*value, field); !bad.ok()) {
+      return storage::InvalidArgument(bad.message());
+    }
+  }
   if (caller.role == Role::kRobot) {
     if (!robot_id.empty() && robot_id != caller.id) return storage::NotFound("run " + run_id + ": not found");
     return storage::RunKey{caller.id, run_id};

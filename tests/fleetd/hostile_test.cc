@@ -207,6 +207,21 @@ TEST_F(HostileTest, ADeflatedMapUploadThatInflatesTooFarIsRefusedByName) {
   ExpectStillServing();
 }
 
+// An id no upload can have is refused by its syntax, not looked up and echoed: a 20 kB run id came back
+// in a NOT_FOUND message too large for the reply's metadata (RESOURCE_EXHAUSTED, which says retry).
+TEST_F(HostileTest, IdsNoUploadCanHaveAreInvalidNotMissing) {
+  for (const std::string& run_id : {std::string(20'000, 'a'), std::string("a/b"), std::string(129, 'r')}) {
+    fleet::v1::GetRunReportRequest request;
+    request.set_run_id(run_id);
+    fleet::v1::GetRunReportResponse response;
+    auto context = Context(*engineer_);
+    const grpc::Status status = queries_->GetRunReport(context.get(), request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_LT(status.error_message().size(), 200u);
+  }
+  ExpectStillServing();
+}
+
 TEST_F(HostileTest, APatchAt400MetresPerCellIsRefusedBeforeStoring) {
   const int before = CountRuns();
   RunFile run = RunOf(0, "hostile-400m");

@@ -19,6 +19,11 @@ bool ValidName(const std::string& name) {
   });
 }
 
+/// What a parameter set's name must be; the name given is not echoed (it may be megabytes long).
+std::string NameRule(const std::string& field) {
+  return field + ": 1-64 characters of [A-Za-z0-9_.-] required";
+}
+
 bool Terminal(const std::string& state) {
   return state == "done" || state == "failed" || state == "cancelled";
 }
@@ -28,10 +33,7 @@ bool Terminal(const std::string& state) {
 grpc::Status ReprocessingHandler::StoreParameterSet(storage::Repository& repository,
                                                     const fleet::v1::ParameterSet& set,
                                                     const std::string& field, bool* already_present) {
-  if (!ValidName(set.name())) {
-    return InvalidArgument(field + ".name: 1-64 characters of [A-Za-z0-9_.-] required, got \"" + set.name() +
-                           "\"");
-  }
+  if (!ValidName(set.name())) return InvalidArgument(NameRule(field + ".name"));
   if (auto mapper = analyzer::FromProto(set.mapper()); !mapper.ok()) {
     return InvalidArgument(field + ".mapper: " + mapper.status().message());
   }
@@ -113,6 +115,7 @@ grpc::Status ReprocessingHandler::StartJob(grpc::ServerContext* call,
     return scope.Done(denied);
   }
   if (request->parameter_set().empty()) return scope.Done(InvalidArgument("parameter_set: required"));
+  if (!ValidName(request->parameter_set())) return scope.Done(InvalidArgument(NameRule("parameter_set")));
   auto stored = context_.repository->GetParameterSet(request->parameter_set());
   if (!stored.ok()) {
     if (stored.status().code() == storage::StatusCode::kNotFound) {
