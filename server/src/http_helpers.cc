@@ -1,7 +1,8 @@
 #include "http_helpers.h"
 
+#include <charconv>
+
 #include <algorithm>
-#include <cstdlib>
 
 namespace server::http {
 
@@ -114,10 +115,11 @@ std::optional<PathParams> MatchPath(const std::string& pattern, const std::strin
 }
 
 std::optional<std::int64_t> ParseInt(const std::string& text) {
-  if (text.empty()) return std::nullopt;
-  char* end = nullptr;
-  const long long value = std::strtoll(text.c_str(), &end, 10);
-  if (end == nullptr || *end != '\0') return std::nullopt;
+  // from_chars, not strtoll: a number past int64's range is no number (strtoll clamped it, and
+  // 99999999999999999999 became version 9223372036854775807 and a 404 instead of a 400).
+  std::int64_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size()) return std::nullopt;
   return value;
 }
 

@@ -3,6 +3,8 @@
 // however it spaces its bytes, and one address cannot take every connection.
 #include "server/http_server.h"
 
+#include "http_helpers.h"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -127,6 +129,17 @@ TEST(HttpServerTest, OneAddressCannotTakeEveryConnection) {
   RawClient later(served.port);
   ASSERT_TRUE(later.Send("GET /hello HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"));
   EXPECT_NE(later.ReadAll().find("hello"), std::string::npos);
+}
+
+// Path integers: a number past int64's range is refused, not clamped to its maximum.
+TEST(HttpHelpersTest, IntegersPastInt64AreNoNumber) {
+  EXPECT_EQ(http::ParseInt("42"), 42);
+  EXPECT_EQ(http::ParseInt("-7"), -7);
+  EXPECT_EQ(http::ParseInt("9223372036854775807"), INT64_MAX);
+  EXPECT_EQ(http::ParseInt("99999999999999999999"), std::nullopt);
+  EXPECT_EQ(http::ParseInt(""), std::nullopt);
+  EXPECT_EQ(http::ParseInt("12abc"), std::nullopt);
+  EXPECT_EQ(http::ParseInt(" 12"), std::nullopt);
 }
 
 }  // namespace
