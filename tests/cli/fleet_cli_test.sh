@@ -3,14 +3,12 @@
 # fleetsim --upload, then runs, report, stats (table and --json), credentials (mint, token files, rotate, list,
 # revoke), label-from-truth, and
 # refusals (no token, a robot token reading). Arguments: the build's bin directory, a data directory (the repository's data/).
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 bin=$1
 data=$2
-work=$(mktemp -d)
 fleetd_pid=
 cleanup() { [[ -n "$fleetd_pid" ]] && kill "$fleetd_pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$work"; }
 trap cleanup EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 admin="admin:cli-test.$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
 FLEETD_BOOTSTRAP_ADMIN_TOKEN=$admin "$bin/fleetd" --db "sqlite:$work/fleet.db" --listen 127.0.0.1:0 \

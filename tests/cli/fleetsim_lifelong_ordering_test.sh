@@ -8,11 +8,9 @@
 # the filter end with the same share corrupted: what is left corrupts by trajectory error (wrong acceptances
 # the server's rerun accepts too), which no repair of false floor mends.
 # Arguments: the build's bin directory, a data directory.
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 bin=$1
 data=$2
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 common=(--lifelong --world "$data/floorplans" --robots 6 --minutes 4 --json)
 pids=()
 for seed in 1 2 3; do

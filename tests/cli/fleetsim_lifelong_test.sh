@@ -5,12 +5,9 @@
 # corrupted_share and corrupted_by_run (one share per run), writes the same object to --results, and keeps its
 # progress on one updating line of stderr; a regime that fails after another finished leaves the finished one
 # in --results with the rest named in regimes_to_come. Arguments: the build's bin directory, a data directory.
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 bin=$1
 data=$2
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 refused() {  # refused EXPECTED-MESSAGE ARGS...
   local expected=$1

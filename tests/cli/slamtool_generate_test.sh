@@ -2,11 +2,8 @@
 # slamtool generate-manhattan as a user runs it: the graph and its ground truth are written, the same seed
 # writes the same files, the graph replays, and bad input is refused naming the option with nothing written.
 # Argument: slamtool.
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 slamtool=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 "$slamtool" generate-manhattan --poses 300 --seed 4 "$work/city.g2o" >"$work/out.txt"
 grep -q "300 poses" "$work/out.txt" || fail "summary: $(cat "$work/out.txt")"

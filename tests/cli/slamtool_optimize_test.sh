@@ -1,12 +1,9 @@
 #!/usr/bin/env bash
 # slamtool optimize as a user runs it: JSON keys and values, the written file, and refusals of bad input.
 # Arguments: slamtool, a data directory (the repository's data/: the ring graph, optimum χ² 11.1631).
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 slamtool=$1
 data=$2
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 "$slamtool" optimize "$data/posegraphs/vertigo/ring.g2o" --json --out "$work/out.g2o" >"$work/report.json"
 python3 - "$work/report.json" <<'PY'

@@ -2,13 +2,10 @@
 # The parameter sets shipped in docs/parameter-sets/, used as a user would: `slamtool replay-g2o --params`.
 # Arguments: slamtool, the repository's docs/parameter-sets, its data/ (SE-Sync's MIT graph: 20 loop
 # closures, each a single observation of its place).
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 slamtool=$1
 sets=$2
 data=$3
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 mit="$data/posegraphs/sesync/MIT.g2o"
 
 # Every shipped set parses and validates (a replay of a small graph with it succeeds).

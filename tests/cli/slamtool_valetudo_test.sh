@@ -3,12 +3,9 @@
 # map_server YAML + PGM, the printed areas against the file's own metaData.area, a refused broken file, and
 # refused output names that would replace an image or an input map.
 # Arguments: slamtool, a data directory (the repository's data/).
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 slamtool=$1
 data=$2
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 export_file="$data/valetudo/dreame_d9_1058_with_segments.json"
 
 "$slamtool" valetudo-to-map "$export_file" --out "$work/home.yaml" --json >"$work/report.json"
