@@ -105,7 +105,6 @@ slamcore::Result<std::string> Inflate(std::string_view bytes, const std::string&
   return out;
 }
 
-/// Reads field `key` of `object` as an integer in [lo, hi]; `where` names the object in errors.
 /// An integer JSON value as int64: one past its range (unsigned, up to 2⁶⁴ − 1) saturates to its maximum, so
 /// that range checks refuse it; messages print the file's own text (`dump()`), not a wrapped number.
 std::int64_t SaturatedInt(const json& value) {
@@ -116,6 +115,7 @@ std::int64_t SaturatedInt(const json& value) {
   return value.get<std::int64_t>();
 }
 
+/// Reads field `key` of `object` as an integer in [lo, hi]; `where` names the object in errors.
 slamcore::Result<std::int64_t> IntField(const json& object, const char* key, const std::string& where,
                                         std::int64_t lo, std::int64_t hi) {
   const auto it = object.find(key);
@@ -456,8 +456,9 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
   for (const json* holder : {&*meta, &root}) {
     const auto stamp = holder->find("timestamp");
     if (stamp == holder->end() || map.timestamp_ms) continue;
-    if (stamp->is_number_integer() && SaturatedInt(*stamp) >= 0 && SaturatedInt(*stamp) <= kLatestTimeMs) {
-      map.timestamp_ms = SaturatedInt(*stamp);
+    if (stamp->is_number_integer()) {
+      const std::int64_t stamp_ms = SaturatedInt(*stamp);
+      if (stamp_ms >= 0 && stamp_ms <= kLatestTimeMs) map.timestamp_ms = stamp_ms;
     }
     if (stamp->is_string()) map.timestamp_ms = ParseIsoDateTime(stamp->get<std::string>());
     if (!map.timestamp_ms) {

@@ -125,6 +125,9 @@ void InitialiseBySpanningTree(const std::map<NodeId, std::size_t>& ids, const st
   }
 }
 
+/// How far out a pose or a measurement (x, y, θ) reaches: its larger coordinate, in metres.
+double Reach(const double* pose) { return std::max(std::abs(pose[0]), std::abs(pose[1])); }
+
 /// Why a tag is refused, naming what is read instead: a user handing us a 3D or a landmark graph learns that
 /// it is the kind of graph, not a typo, that is refused.
 std::string UnknownTagReason(std::string_view tag) {
@@ -171,9 +174,8 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
       double pose[3];
       RETURN_IF_ERROR(parser.Id(1, &id));
       RETURN_IF_ERROR(parser.Numbers(2, 3, pose));
-      if (std::abs(pose[0]) > kMaxFileCoordinateM || std::abs(pose[1]) > kMaxFileCoordinateM) {
-        return InvalidArgument(location + ": vertex " + std::to_string(id) + " lies " +
-                               MessageNumber(std::max(std::abs(pose[0]), std::abs(pose[1]))) +
+      if (const double reach = Reach(pose); reach > kMaxFileCoordinateM) {
+        return InvalidArgument(location + ": vertex " + std::to_string(id) + " lies " + MessageNumber(reach) +
                                " m out, beyond the " + MessageNumber(kMaxFileCoordinateM) + " m a pose may");
       }
       if (vertex_poses.contains(id)) {
@@ -208,18 +210,19 @@ Result<PoseGraph> ReadPoseGraph(std::istream& input, const std::string& source_n
       if (const Status status = CheckPositiveDefinite(info, "information"); !status.ok()) {
         return InvalidArgument(location + ": " + status.message());
       }
-      if (std::abs(values[0]) > kMaxFileCoordinateM || std::abs(values[1]) > kMaxFileCoordinateM) {
-        return InvalidArgument(location + ": the edge's measurement reaches " +
-                               MessageNumber(std::max(std::abs(values[0]), std::abs(values[1]))) +
+      if (const double reach = Reach(values); reach > kMaxFileCoordinateM) {
+        return InvalidArgument(location + ": the edge's measurement reaches " + MessageNumber(reach) +
                                " m, beyond the " + MessageNumber(kMaxFileCoordinateM) + " m a pose may");
       }
       // An information this large or this small makes the optimiser's weights overflow, or the edge's
       // covariance infinite: no sensor is that sure, or that unsure.
       const Matrix3 covariance = info.inverse();
-      if (info.cwiseAbs().maxCoeff() > kMaxFileInformation || !covariance.allFinite() ||
-          covariance.cwiseAbs().maxCoeff() > kMaxFileInformation) {
-        return InvalidArgument(location + ": information " + MessageNumber(info.cwiseAbs().maxCoeff()) +
-                               " at most, covariance " + MessageNumber(covariance.cwiseAbs().maxCoeff()) +
+      const double largest_information = info.cwiseAbs().maxCoeff();
+      const double largest_covariance = covariance.cwiseAbs().maxCoeff();
+      if (largest_information > kMaxFileInformation || !covariance.allFinite() ||
+          largest_covariance > kMaxFileInformation) {
+        return InvalidArgument(location + ": information " + MessageNumber(largest_information) +
+                               " at most, covariance " + MessageNumber(largest_covariance) +
                                ": each must stay within " + MessageNumber(kMaxFileInformation));
       }
       edge.kind = edge.to == edge.from + 1 ? EdgeKind::kMotion : EdgeKind::kObservation;
@@ -302,24 +305,21 @@ Status WriteFileReplacing(const std::filesystem::path& path,
                           const std::function<void(std::ostream&)>& write) {
   // Write to a temporary file and rename, so a failed write never leaves a half-written file behind.
   const std::filesystem::path temporary = path.string() + ".tmp";
+  const auto discard = [&](Status failure) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
+    return failure;
+  };
   {
     std::ofstream output(temporary, std::ios::binary | std::ios::trunc);
     if (!output) return NotFound(temporary.string() + ": cannot open for writing");
     write(output);
     output.flush();
-    if (!output) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      return DataLoss(temporary.string() + ": write failed");
-    }
+    if (!output) return discard(DataLoss(temporary.string() + ": write failed"));
   }
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    return DataLoss(path.string() + ": " + error.message());
-  }
+  if (error) return discard(DataLoss(path.string() + ": " + error.message()));
   return Status::Ok();
 }
 

@@ -323,6 +323,11 @@ cv::Mat WallsOpened(const cv::Mat& child_cells, const cv::Mat& parent_cells, dou
 struct CleanUpImages {
   cv::Rect window;
   cv::Mat explained, opened, walls_opened;
+
+  /// `roi` of the pair (inside the window) in the images' own coordinates.
+  cv::Rect Within(const cv::Rect& roi) const {
+    return cv::Rect(roi.x - window.x, roi.y - window.y, roi.width, roi.height);
+  }
 };
 
 CleanUpImages CleanUpOver(const cv::Rect& window, const cv::Mat& raw, const cv::Mat& child_cells,
@@ -353,9 +358,8 @@ CleanUpImages CleanUpOver(const cv::Rect& window, const cv::Mat& raw, const cv::
 /// cells), so it is measured there.
 cv::Mat CleanedRegion(const cv::Mat& in_region, const CleanUpImages& images, const cv::Rect& roi,
                       double min_cells) {
-  const cv::Rect in_images(roi.x - images.window.x, roi.y - images.window.y, roi.width, roi.height);
-  cv::Mat clean = (images.opened(in_images) != 0) & in_region;
-  const cv::Mat opened_walls = (images.walls_opened(in_images) != 0) & in_region;
+  cv::Mat clean = (images.opened(images.Within(roi)) != 0) & in_region;
+  const cv::Mat opened_walls = (images.walls_opened(images.Within(roi)) != 0) & in_region;
   cv::Mat piece_labels, piece_stats, unused;
   const int pieces =
       cv::connectedComponentsWithStats(opened_walls, piece_labels, piece_stats, unused, 8, CV_32S);
@@ -499,14 +503,15 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   // the windows would cover more than the pair (many regions close together), the images are made once.
   const int work_pad = pad + 2 * static_cast<int>(std::ceil(tolerance_cells)) + 1;
   const cv::Rect bounds(0, 0, child.width, child.height);
-  const auto work_window = [&](int label) {
+  // A region's bounding box grown by `by` cells on every side, within the pair.
+  const auto around = [&](int label, int by) {
     const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
     const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
-    return cv::Rect(x - work_pad, y - work_pad, w + 2 * work_pad, h + 2 * work_pad) & bounds;
+    return cv::Rect(x - by, y - by, w + 2 * by, h + 2 * by) & bounds;
   };
   double window_cells = 0.0;
   for (int label = 1; label < count; ++label) {
-    if (stats.at<int>(label, cv::CC_STAT_AREA) >= min_cells) window_cells += work_window(label).area();
+    if (stats.at<int>(label, cv::CC_STAT_AREA) >= min_cells) window_cells += around(label, work_pad).area();
   }
   std::optional<CleanUpImages> whole_pair;
   if (window_cells > bounds.area()) {
@@ -516,12 +521,10 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
   std::vector<ProtrusionRegion> regions;
   for (int label = 1; label < count; ++label) {
     if (stats.at<int>(label, cv::CC_STAT_AREA) < min_cells) continue;  // too small even before clean-up
-    const int x = stats.at<int>(label, cv::CC_STAT_LEFT), y = stats.at<int>(label, cv::CC_STAT_TOP);
-    const int w = stats.at<int>(label, cv::CC_STAT_WIDTH), h = stats.at<int>(label, cv::CC_STAT_HEIGHT);
-    const cv::Rect roi = cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & bounds;
+    const cv::Rect roi = around(label, pad);
     const CleanUpImages images = whole_pair ? *whole_pair
-                                            : CleanUpOver(work_window(label), raw, child_cells, parent_cells,
-                                                          opening_kernel, tolerance_cells);
+                                            : CleanUpOver(around(label, work_pad), raw, child_cells,
+                                                          parent_cells, opening_kernel, tolerance_cells);
     const cv::Mat clean = CleanedRegion(labels(roi) == label, images, roi, min_cells);
     // A padded copy so that the distance transform and contours see background around the region.
     cv::Mat mask = cv::Mat::zeros(roi.height + 2, roi.width + 2, CV_8U);
@@ -531,9 +534,9 @@ Result<std::vector<ProtrusionRegion>> ExtractRegions(const OccupancyGrid& parent
     if (area < min_cells) continue;
     // A region with any cell beyond the registration error is kept whole (a fragment of a real change near
     // known space keeps its shape); one that registration explains entirely is no change.
-    if (!images.explained.empty()) {
-      const cv::Rect in_images(roi.x - images.window.x, roi.y - images.window.y, roi.width, roi.height);
-      if (cv::countNonZero(mask_inner & (images.explained(in_images) == 0)) == 0) continue;
+    if (!images.explained.empty() &&
+        cv::countNonZero(mask_inner & (images.explained(images.Within(roi)) == 0)) == 0) {
+      continue;
     }
     const cv::Rect local = cv::boundingRect(mask_inner);
     const cv::Rect inner(roi.x + local.x, roi.y + local.y, local.width, local.height);
