@@ -336,8 +336,11 @@ TEST(AddressFloodTest, WrongSecretsCostLittleAndAreLimitedBeforeHashing) {
   // A valid token not yet verified is refused from the flooding address while its lock holds. The lock's
   // own answer says how long: wait for a refusal that holds at least two more seconds (a lock that just
   // ended takes at most kFailureBurst - kFailuresKeptAtUnlock more failures to close again).
+  // Bounded by time, not by count: under a sanitizer one refused attempt takes ~20 ms, so a lock's last
+  // second alone outlasts dozens of attempts.
   int lock_seconds = 0;
-  for (int k = 0; k < 40 && lock_seconds < 2; ++k) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+  for (int k = 0; lock_seconds < 2 && std::chrono::steady_clock::now() < give_up; ++k) {
     const std::string message = attempt("robot:nobody-after-" + std::to_string(k)).second;
     const std::size_t at = message.find("; retry in ");
     if (at != std::string::npos) lock_seconds = std::stoi(message.substr(at + 11));
