@@ -5,6 +5,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <span>
 
 #include "cholmod_cholesky.h"
 
@@ -57,16 +58,15 @@ class NormalEquations {
 /// ordering (Amestoy, Davis, Duff, SIAM J. Matrix Anal. Appl. 1996; Eigen's) eliminates them, over the graph
 /// of their shared edges: the ordering of H's 3×3 blocks, as CHOLMOD's analysis orders a large system's
 /// (cholmod_cholesky.cc), on a pattern nine times smaller than H's.
-std::vector<std::size_t> FillReducingOrder(const PoseGraph& graph, const std::vector<std::uint32_t>& edges,
+std::vector<std::size_t> FillReducingOrder(std::span<const std::pair<std::size_t, std::size_t>> edge_ends,
                                            const std::vector<std::size_t>& variables,
                                            const std::vector<int>& column) {
   const int count = static_cast<int>(variables.size());
   std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(variables.size() + 2 * edges.size());
+  entries.reserve(variables.size() + 2 * edge_ends.size());
   for (int k = 0; k < count; ++k) entries.emplace_back(k, k, 1.0);
-  for (const std::uint32_t e : edges) {
-    const Edge& edge = graph.edges()[e];
-    const int from = column[graph.IndexOf(edge.from)], to = column[graph.IndexOf(edge.to)];
+  for (const auto& [from_index, to_index] : edge_ends) {
+    const int from = column[from_index], to = column[to_index];
     if (from >= 0 && to >= 0 && from != to) {
       entries.emplace_back(from / 3, to / 3, 1.0);
       entries.emplace_back(to / 3, from / 3, 1.0);
@@ -87,11 +87,14 @@ void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
   const std::span<const Edge> edges = graph.edges();
   if (edges.size() < known_edges_ || (known_edges_ > 0 && !SameEdge(edges[known_edges_ - 1], last_edge_))) {
     incident_.clear();  // edges were removed or G replaced: start over
+    ends_.clear();
     known_edges_ = 0;
   }
   incident_.resize(graph.num_nodes());
+  ends_.resize(edges.size());
   for (std::size_t k = known_edges_; k < edges.size(); ++k) {
     const std::size_t from = graph.IndexOf(edges[k].from), to = graph.IndexOf(edges[k].to);
+    ends_[k] = {static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to)};
     incident_[from].push_back(static_cast<std::uint32_t>(k));
     if (to != from) incident_[to].push_back(static_cast<std::uint32_t>(k));
   }
@@ -164,9 +167,7 @@ IncrementalSummary IncrementalSolver::Run(PoseGraph& graph, const std::vector<No
     bool anchored = false, free_neighbour = false;
     for (const std::size_t index : region) {
       for (const std::uint32_t e : incident_[index]) {
-        const Edge& edge = graph.edges()[e];
-        for (const NodeId id : {edge.from, edge.to}) {
-          const std::size_t other = graph.IndexOf(id);
+        for (const std::size_t other : {ends_[e].from, ends_[e].to}) {
           if (in_region_[other]) continue;
           anchored = true;
           free_neighbour = free_neighbour || !graph.nodes()[other].fixed;
@@ -210,9 +211,7 @@ void IncrementalSolver::Grow(const PoseGraph& graph, std::vector<std::size_t>& r
   }
   for (std::size_t head = 0; head < queue.size() && added < count; ++head) {
     for (const std::uint32_t e : incident_[queue[head]]) {
-      const Edge& edge = graph.edges()[e];
-      for (const NodeId id : {edge.from, edge.to}) {
-        const std::size_t index = graph.IndexOf(id);
+      for (const std::size_t index : {ends_[e].from, ends_[e].to}) {
         if (in_region_[index] || graph.nodes()[index].fixed || added >= count) continue;
         in_region_[index] = 1;
         original_[index] = graph.nodes()[index].pose;
@@ -246,8 +245,7 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
   std::vector<std::uint32_t> edges;
   for (const std::size_t index : region) {
     for (const std::uint32_t e : incident_[index]) {
-      const Edge& edge = graph.edges()[e];
-      const std::size_t from = graph.IndexOf(edge.from);
+      const std::size_t from = ends_[e].from;
       if (from == index || !in_region_[from]) edges.push_back(e);
     }
   }
@@ -263,6 +261,15 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     for (const std::uint32_t e : edges)
       weighted_information.push_back((*weights)[e] * graph.edges()[e].information);
   }
+  // Each edge's ends (graph indices) and its measurement's rotation, constant across the iterations.
+  std::vector<std::pair<std::size_t, std::size_t>> ends;
+  std::vector<Matrix2> measurement_rotation_t;
+  ends.reserve(edges.size());
+  measurement_rotation_t.reserve(edges.size());
+  for (const std::uint32_t e : edges) {
+    ends.emplace_back(ends_[e].from, ends_[e].to);
+    measurement_rotation_t.push_back(graph.edges()[e].measurement.rotation().transpose());
+  }
   NormalEquations normal_equations(3 * columns);
   if (!NormalEquations::IsLarge(3 * columns)) {
     // A small region's columns in a fill-reducing order (column[] holds region order: the positions).
@@ -271,28 +278,19 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     for (const std::size_t index : region) {
       if (index != gauge) variables.push_back(index);
     }
-    const std::vector<std::size_t> ordered = FillReducingOrder(graph, edges, variables, column);
+    const std::vector<std::size_t> ordered = FillReducingOrder(ends, variables, column);
     for (std::size_t k = 0; k < ordered.size(); ++k) column[ordered[k]] = 3 * static_cast<int>(k);
   }
   const auto information = [&](std::size_t k) -> const Matrix3& {
     return weights != nullptr ? weighted_information[k] : graph.edges()[edges[k]].information;
   };
 
-  // Each edge's ends (graph indices) and its error and Jacobians at the current poses: the χ² that judges a
-  // step is computed with the Jacobians the next iteration linearises with, once per pose set.
+  // Each edge's error and Jacobians at the current poses: the χ² that judges a step is computed with the
+  // Jacobians the next iteration linearises with, once per pose set.
   struct Linearised {
     Vector3 error;
     Matrix3 d_from, d_to;
   };
-  std::vector<std::pair<std::size_t, std::size_t>> ends;
-  std::vector<Matrix2> measurement_rotation_t;  // constant across the iterations
-  ends.reserve(edges.size());
-  measurement_rotation_t.reserve(edges.size());
-  for (const std::uint32_t e : edges) {
-    const Edge& edge = graph.edges()[e];
-    ends.emplace_back(graph.IndexOf(edge.from), graph.IndexOf(edge.to));
-    measurement_rotation_t.push_back(edge.measurement.rotation().transpose());
-  }
   const auto linearise = [&](std::vector<Linearised>& out) {
     out.resize(edges.size());
     double sum = 0.0;
@@ -464,9 +462,7 @@ std::vector<std::size_t> IncrementalSolver::MovingNeighbours(const PoseGraph& gr
   std::vector<std::size_t> checked;
   for (const std::size_t index : region) {
     for (const std::uint32_t e : incident_[index]) {
-      const Edge& edge = graph.edges()[e];
-      for (const NodeId id : {edge.from, edge.to}) {
-        const std::size_t held = graph.IndexOf(id);
+      for (const std::size_t held : {ends_[e].from, ends_[e].to}) {
         if (in_region_[held] || graph.nodes()[held].fixed || column_[held] == -2) continue;
         column_[held] = -2;  // checked (column_ is rebuilt by the next solve)
         checked.push_back(held);
@@ -491,7 +487,7 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
   // it: so an edge's term "as before", and its term "now" when it does not touch the region, is its term at
   // the poses the update started from. That term is computed once per update and kept (start_terms_): the
   // same held nodes are checked again after every round.
-  // The edge's ends by graph index (`from`, `to`), looked up once per edge by the loop below.
+  // The edge's ends by graph index (`from`, `to`).
   const auto term = [&](const Edge& edge, std::size_t from, std::size_t to, bool region_as_before,
                         Matrix3& block, Vector3& gradient) {
     const auto pose = [&](std::size_t index) -> const SE2& {
@@ -509,7 +505,7 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
   Vector3 gradient;
   for (const std::uint32_t e : incident_[held]) {
     const Edge& edge = graph.edges()[e];
-    const std::size_t from = graph.IndexOf(edge.from), to = graph.IndexOf(edge.to);
+    const std::size_t from = ends_[e].from, to = ends_[e].to;
     StartTerm& start = start_terms_[2 * e + (from == held ? 0 : 1)];
     if (start.update != updates_) {
       term(edge, from, to, true, start.block, start.gradient);

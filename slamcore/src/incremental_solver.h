@@ -132,6 +132,11 @@ class IncrementalSolver {
 
   IncrementalSolverOptions options_;
   std::vector<std::vector<std::uint32_t>> incident_;  // node index → incident edge indices
+  /// Edge index → its ends' node indices, looked up once: the hot loops read this instead of hashing ids.
+  struct EdgeEnds {
+    std::uint32_t from, to;
+  };
+  std::vector<EdgeEnds> ends_;
   std::size_t known_edges_ = 0;
   Edge last_edge_;               // graph.edges()[known_edges_ − 1] when known_edges_ > 0
   std::vector<char> in_region_;  // by node index; all 0 between updates
