@@ -114,9 +114,14 @@ class MapRoutes {
 
   HttpResponse Get(const HttpRequest& request) {
     if (http::MatchPath("/api/robots", request.path)) return Robots(http::ParseQuery(request.query));
-    if (auto path = http::MatchPath("/api/robots/{robot}", request.path)) return Robot(path->at("robot"));
-    if (auto path = http::MatchPath("/api/robots/{robot}/maps", request.path))
+    if (auto path = http::MatchPath("/api/robots/{robot}", request.path)) {
+      if (auto malformed = http::RefuseMalformedIds(*path)) return std::move(*malformed);
+      return Robot(path->at("robot"));
+    }
+    if (auto path = http::MatchPath("/api/robots/{robot}/maps", request.path)) {
+      if (auto malformed = http::RefuseMalformedIds(*path)) return std::move(*malformed);
       return Versions(path->at("robot"));
+    }
     // The routes of one version: {version} is a number or "current".
     using VersionRoute = HttpResponse (MapRoutes::*)(const std::string& robot, std::int64_t version,
                                                      const http::PathParams& path);
@@ -129,6 +134,7 @@ class MapRoutes {
     for (const auto& [pattern, route] : kVersionRoutes) {
       const auto path = http::MatchPath(pattern, request.path);
       if (!path) continue;
+      if (auto malformed = http::RefuseMalformedIds(*path)) return std::move(*malformed);
       const std::string& text = path->at("version");
       const auto version = VersionOf(text);
       if (!version)
@@ -144,6 +150,7 @@ class MapRoutes {
     const auto review_path = http::MatchPath("/api/robots/{robot}/maps/{version}/review", request.path);
     const auto& path = import_path ? import_path : repair_path ? repair_path : review_path;
     if (!path) return Error(404, "no such endpoint: POST " + request.path);
+    if (auto malformed = http::RefuseMalformedIds(*path)) return std::move(*malformed);
     const std::string& robot = path->at("robot");
     HttpResponse refusal;
     const auto principal =
@@ -204,7 +211,6 @@ class MapRoutes {
   /// history, compared with the previous one as `fleetctl import` does (MapHistory::Import).
   HttpResponse Import(const std::string& robot_id, const HttpRequest& request,
                       const std::string& requested_by) {
-    if (auto bad = analyzer::ValidateId(robot_id, "robot_id"); !bad.ok()) return Error(400, bad.message());
     const auto type = request.headers.find("content-type");
     const bool form = type != request.headers.end() && type->second.rfind("multipart/form-data", 0) == 0;
     std::string source = "dashboard upload";

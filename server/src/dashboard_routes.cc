@@ -56,8 +56,10 @@ class Dashboard {
   HttpResponse Api(const HttpRequest& request) {
     const auto query = ParseQuery(request.query);
     for (const ReadRoute& route : read_routes_) {
-      if (auto path = http::MatchPath(route.pattern, request.path))
+      if (auto path = http::MatchPath(route.pattern, request.path)) {
+        if (auto malformed = http::RefuseMalformedIds(*path)) return std::move(*malformed);
         return (this->*route.handler)(request, *path, query);
+      }
     }
     return Error(404, "no such endpoint: " + request.path);
   }
@@ -66,6 +68,7 @@ class Dashboard {
   HttpResponse Label(const HttpRequest& request) {
     const auto path = http::MatchPath("/api/runs/{run}/regions/{region}/label", request.path);
     if (!path) return Error(404, "no such endpoint: POST " + request.path);
+    if (auto malformed = http::RefuseMalformedIds(*path)) return std::move(*malformed);
     const std::string& run_id = path->at("run");
     const std::string& region_text = path->at("region");
     HttpResponse refusal;

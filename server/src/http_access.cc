@@ -49,6 +49,7 @@ HttpGuard MakeHttpAccessGuard(storage::Repository& repository, Authenticator& au
         if (parts.size() >= 3 && parts[0] == "api" && parts[1] == "robots" && parts[2] == caller.id)
           return std::nullopt;
         if (parts.size() >= 3 && parts[0] == "api" && parts[1] == "runs") {
+          if (auto malformed = http::RefuseMalformedIds({{"run", parts[2]}})) return malformed;
           // Another robot's run answers exactly like a missing one: its existence is not revealed.
           auto run = repository.GetRun(storage::RunKey{caller.id, parts[2]});
           if (run.ok()) return std::nullopt;

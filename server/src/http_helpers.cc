@@ -1,5 +1,7 @@
 #include "http_helpers.h"
 
+#include "analyzer/telemetry_codec.h"
+
 #include <charconv>
 
 #include <algorithm>
@@ -112,6 +114,17 @@ std::optional<PathParams> MatchPath(const std::string& pattern, const std::strin
     }
   }
   return params;
+}
+
+std::optional<HttpResponse> RefuseMalformedIds(const PathParams& path) {
+  for (const char* name : {"robot", "run"}) {
+    const auto it = path.find(name);
+    if (it == path.end()) continue;
+    // The id is not echoed: it may be kilobytes long or carry what a log should not hold.
+    const slamcore::Status bad = analyzer::ValidateId(it->second, std::string(name) + "_id");
+    if (!bad.ok()) return Error(400, bad.message());
+  }
+  return std::nullopt;
 }
 
 std::optional<std::int64_t> ParseInt(const std::string& text) {

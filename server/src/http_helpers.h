@@ -33,6 +33,9 @@ using PathParams = std::map<std::string, std::string>;
 /// Matches a path against a template such as "/api/runs/{run}/graph": the segments in braces are returned by
 /// name (URL-decoded), the others must be equal; nullopt when the path does not fit.
 std::optional<PathParams> MatchPath(const std::string& pattern, const std::string& path);
+/// A 400 naming the first of the path's {robot} and {run} segments that no upload could have as its id
+/// (analyzer::ValidateId's syntax), checked before any lookup; nullopt when they are well-formed.
+std::optional<HttpResponse> RefuseMalformedIds(const PathParams& path);
 /// A whole decimal integer, or nullopt.
 std::optional<std::int64_t> ParseInt(const std::string& text);
 /// A query parameter as an integer in [low, high]; nullopt when absent or empty, and then also when malformed

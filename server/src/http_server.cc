@@ -7,16 +7,25 @@
 #include <sys/socket.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string_view>
 #include <thread>
 
 namespace server {
 namespace {
+
+/// Headers fleetd reads as one value (RFC 9110 §5.3: a field that is no list must not repeat).
+bool IsSingleValued(const std::string& lower_name) {
+  static constexpr std::array<std::string_view, 7> kSingle = {
+      "host", "authorization", "origin", "content-type", "content-length", "cookie", "transfer-encoding"};
+  return std::find(kSingle.begin(), kSingle.end(), lower_name) != kSingle.end();
+}
 
 std::string Lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -328,16 +337,24 @@ class HttpServer::Impl {
         const std::size_t question = request.target.find('?');
         request.path = request.target.substr(0, question);
         request.query = question == std::string::npos ? "" : request.target.substr(question + 1);
+        std::string repeated;  // a single-valued header given twice
         for (const auto& field : message) {
           std::string name(field.name_string());
           std::transform(name.begin(), name.end(), name.begin(),
                          [](unsigned char c) { return std::tolower(c); });
-          request.headers[name] = std::string(field.value());
+          const bool inserted = request.headers.try_emplace(name, field.value()).second;
+          if (!inserted && repeated.empty() && IsSingleValued(name)) repeated = name;
         }
         request.body = message.body();
         request.peer = peer;
-        auto screened = Screen(request);
-        handled = screened ? std::move(*screened) : router_.Handle(request);
+        if (!repeated.empty()) {
+          // Which copy counts differs between a proxy in front and fleetd: refuse rather than pick one.
+          handled = Refusal(400, "header \"" + repeated + "\" given more than once");
+          keep_alive = false;
+        } else {
+          auto screened = Screen(request);
+          handled = screened ? std::move(*screened) : router_.Handle(request);
+        }
       }
       const bool unsafe_header =
           std::any_of(handled.headers.begin(), handled.headers.end(), [](const auto& header) {

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <string>
 #include <thread>
@@ -50,6 +51,11 @@ class RawClient {
   bool connected_ = false;
 };
 
+std::string Lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  return text;
+}
+
 struct Served {
   std::unique_ptr<HttpServer> server;
   int port = 0;
@@ -83,6 +89,31 @@ TEST(HttpServerTest, RequestsThatDoNotParseGetTheirStatus) {
   ASSERT_TRUE(huge_header.Send(
       "GET /hello HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Pad: " + std::string(200'000, 'a') + "\r\n\r\n"));
   EXPECT_EQ(huge_header.ReadAll().rfind("HTTP/1.1 431", 0), 0u);
+}
+
+// A proxy in front may read the first copy of a header and fleetd the last: a single-valued header given
+// twice is refused by name, whichever it is, while list-valued headers may repeat.
+TEST(HttpServerTest, ASingleValuedHeaderGivenTwiceIsRefusedByName) {
+  Served served = Serve({});
+  for (const std::string header : {"Authorization: Bearer a.b", "Host: 127.0.0.1", "Origin: http://127.0.0.1",
+                                   "Content-Type: text/plain", "Cookie: a=1"}) {
+    RawClient twice(served.port);
+    ASSERT_TRUE(
+        twice.Send("GET /hello HTTP/1.1\r\nHost: 127.0.0.1\r\n" + header + "\r\n" + header + "\r\n\r\n"));
+    const std::string answer = twice.ReadAll();
+    EXPECT_EQ(answer.rfind("HTTP/1.1 400", 0), 0u) << header << "\n" << answer;
+    const std::string name = Lower(header.substr(0, header.find(':')));
+    // The body is JSON: the name's quotes come escaped.
+    EXPECT_NE(answer.find("header \\\"" + name + "\\\" given more than once"), std::string::npos) << answer;
+    EXPECT_EQ(answer.find("hello\n"), std::string::npos) << "the route ran";
+  }
+  RawClient listed(served.port);
+  ASSERT_TRUE(
+      listed.Send("GET /hello HTTP/1.1\r\nHost: 127.0.0.1\r\nAccept: text/plain\r\nAccept: */*\r\n"
+                  "Connection: close\r\n\r\n"));
+  const std::string answer = listed.ReadAll();
+  EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << answer;
+  EXPECT_NE(answer.find("hello\n"), std::string::npos);
 }
 
 TEST(HttpServerTest, AClientTricklingItsRequestIsCutOffAtTheDeadline) {

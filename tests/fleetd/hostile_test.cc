@@ -219,6 +219,25 @@ TEST_F(HostileTest, IdsNoUploadCanHaveAreInvalidNotMissing) {
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
     EXPECT_LT(status.error_message().size(), 200u);
   }
+  // The same over HTTP: 400 naming the field, not 404, on every route that takes a run or robot id.
+  const std::string long_id(129, 'r');
+  for (const std::string& path :
+       {"/api/runs/" + long_id, std::string("/api/runs/a%2Fb/map/info.json"), "/api/robots/" + long_id,
+        "/api/robots/" + long_id + "/maps", std::string("/api/robots/a%20b/maps/current"),
+        "/api/robots/" + long_id + "/maps/1/export/map.pgm"}) {
+    std::string body;
+    EXPECT_EQ(HttpGet(server_->http_address(), path, &body, *engineer_), 400) << path << ": " << body;
+    const bool names_field =
+        body.find("run_id: ") != std::string::npos || body.find("robot_id: ") != std::string::npos;
+    EXPECT_TRUE(names_field) << path << ": " << body;
+  }
+  // A robot's reads of runs are looked up before the route (its own runs only): the id is checked first.
+  std::string body;
+  EXPECT_EQ(
+      HttpGet(server_->http_address(), "/api/runs/" + std::string(1000, 'a'), &body, RobotToken(RobotId(0))),
+      400)
+      << body.substr(0, 200);
+  EXPECT_LT(body.size(), 200u);
   ExpectStillServing();
 }
 
