@@ -3,6 +3,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/support/server_interceptor.h>
 
 #include <fstream>
 #include <sstream>
@@ -25,6 +26,37 @@ slamcore::Result<std::string> ReadFile(const std::string& path) {
   out << in.rdbuf();
   return out.str();
 }
+
+/// gRPC answers a request that does not parse as its message (in proto3, most often a string field holding
+/// bytes that are not UTF-8) with INTERNAL and no message before any handler runs: it reads as fleetd's
+/// fault, and the client cannot tell what to fix. This turns that one answer into INVALID_ARGUMENT naming the
+/// method. No handler of fleetd sends INTERNAL without a message (ToGrpc keeps every status's text).
+class UnparsedRequestInterceptor : public grpc::experimental::Interceptor {
+ public:
+  explicit UnparsedRequestInterceptor(std::string method) : method_(std::move(method)) {}
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(grpc::experimental::InterceptionHookPoints::PRE_SEND_STATUS)) {
+      const grpc::Status status = methods->GetSendStatus();
+      if (status.error_code() == grpc::StatusCode::INTERNAL && status.error_message().empty()) {
+        methods->ModifySendStatus(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                               "request: does not parse as the message " + method_ +
+                                                   " takes (a string field holding bytes that are not UTF-8, "
+                                                   "or bytes that are no such message)"));
+      }
+    }
+    methods->Proceed();
+  }
+
+ private:
+  std::string method_;
+};
+
+class UnparsedRequestInterceptorFactory : public grpc::experimental::ServerInterceptorFactoryInterface {
+ public:
+  grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) override {
+    return new UnparsedRequestInterceptor(info->method() ? info->method() : "this method");
+  }
+};
 
 }  // namespace
 
@@ -120,6 +152,9 @@ slamcore::Result<std::unique_ptr<FleetServer>> FleetServer::Create(const FleetdC
   builder.RegisterService(impl->models.get());
   builder.RegisterService(impl->admin.get());
   builder.RegisterService(impl->maps.get());
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<UnparsedRequestInterceptorFactory>());
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   impl->server = builder.BuildAndStart();
   if (!impl->server || port == 0)
     return slamcore::Unavailable("listen: cannot bind gRPC to " + config.listen);

@@ -241,6 +241,33 @@ TEST_F(HostileTest, IdsNoUploadCanHaveAreInvalidNotMissing) {
   ExpectStillServing();
 }
 
+// proto3 strings must be UTF-8: gRPC refuses such a request before any handler, and fleetd's answer says
+// what is wrong instead of gRPC's bare INTERNAL. An upload whose header holds such bytes stores nothing.
+TEST_F(HostileTest, AStringThatIsNotUtf8IsAnInvalidArgumentNotAnInternalError) {
+  fleet::v1::GetRunReportRequest request;
+  request.set_run_id("run-\xff\xfe");
+  fleet::v1::GetRunReportResponse response;
+  auto context = Context(*engineer_);
+  const grpc::Status status = queries_->GetRunReport(context.get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("/fleet.v1.Queries/GetRunReport"), std::string::npos)
+      << status.error_message();
+  EXPECT_NE(status.error_message().find("not UTF-8"), std::string::npos) << status.error_message();
+
+  const int before = CountRuns();
+  RunFile run = RunOf(0, "hostile-utf8");
+  run.mutable_header()->set_firmware("fw-\xc3\x28");
+  UploadRunResponse uploaded;
+  const grpc::Status upload = Upload(*ingest_, RobotToken(RobotId(0)), run, &uploaded);
+  EXPECT_NE(upload.error_code(), grpc::StatusCode::OK);
+  EXPECT_NE(upload.error_code(), grpc::StatusCode::INTERNAL) << upload.error_message();
+  EXPECT_NE(upload.error_message().find("header: the stream ended before message[0] (or it did not parse"),
+            std::string::npos)
+      << upload.error_message();
+  EXPECT_EQ(CountRuns(), before);
+  ExpectStillServing();
+}
+
 TEST_F(HostileTest, APatchAt400MetresPerCellIsRefusedBeforeStoring) {
   const int before = CountRuns();
   RunFile run = RunOf(0, "hostile-400m");

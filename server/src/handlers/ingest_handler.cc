@@ -120,9 +120,16 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   }
   if (call->IsCancelled())
     return {grpc::StatusCode::CANCELLED, "upload cancelled by the client; nothing stored"};
-  if (!have_header) return InvalidArgument("header: the stream carried no messages");
-  if (!have_child)
-    return InvalidArgument("child_snapshot: missing; the stream ended without it and nothing was stored");
+  // gRPC ends a stream's reads at a message that does not parse as it ends them at the stream's end: say
+  // both, naming the message.
+  const std::string unparsed = "message[" + std::to_string(index) +
+                               "] (or it did not parse as an UploadRunRequest: a string field holding bytes "
+                               "that are not UTF-8, or bytes that are no such message)";
+  if (!have_header) return InvalidArgument("header: the stream ended before " + unparsed);
+  if (!have_child) {
+    return InvalidArgument("child_snapshot: missing; the stream ended before " + unparsed +
+                           " and nothing was stored");
+  }
 
   // Validate everything before storing anything.
   fleet::v1::RunHeader& header = *run.mutable_header();
