@@ -1,10 +1,9 @@
 #include "http_helpers.h"
 
-#include "analyzer/telemetry_codec.h"
-
+#include <algorithm>
 #include <charconv>
 
-#include <algorithm>
+#include "analyzer/telemetry_codec.h"
 
 namespace server::http {
 
