@@ -17,6 +17,11 @@
 // with a lidar, and writes each run's parent/child maps with per-cell ground truth as a protrusion data set
 // (docs/fleetsim.md).
 //
+//   fleetsim ... --params FILE
+//
+// runs the robots' on-board Mapper with a parameter set (JSON, fleet.v1.ParameterSet, as `slamtool replay-g2o
+// --params` and fleetd take) instead of slamcore's defaults: a candidate set tried on a simulated fleet.
+//
 //   fleetsim --lifelong --world DIR [--robots N] [--runs M] [--seed S] [--minutes T] [--json] [--results FILE]
 //            [--regimes none,filter,service,review] [--review-every K] [--min-severity X] [--fleetd BIN]
 //
@@ -31,6 +36,7 @@
 #include <unistd.h>
 #include <iostream>
 
+#include "analyzer/parameters.h"
 #include "fleet_client/local_fleetd.h"
 #include "fleet_client/upload_files.h"
 #include "fleet_client/uploader.h"
@@ -159,6 +165,12 @@ int main(int argc, char** argv) {
   app.add_option("--protrusion-data", protrusion_data,
                  "write each run's parent/child maps with per-cell truth here (protrusion data-set layout)");
   app.add_flag("--json", json, "print the statistics as one JSON object on the last line");
+  std::string params_file;
+  app.add_option(
+         "--params", params_file,
+         "the robots' on-board Mapper parameter set (JSON, fleet.v1.ParameterSet; not with --lifelong, "
+         "whose regimes set their own)")
+      ->check(CLI::ExistingFile);
   fleet_client::UploadFilesOptions upload;
   app.add_option("--upload", upload.uploader.server, "also upload every run to this fleetd (host:port)");
   std::string token_file;
@@ -189,6 +201,19 @@ int main(int argc, char** argv) {
   app.add_option("--work-dir", work_dir,
                  "--lifelong: where the service regimes' fleetd keep their databases");
   CLI11_PARSE(app, argc, argv);
+  if (!params_file.empty()) {
+    if (lifelong) {
+      std::cerr << "fleetsim: --params: not with --lifelong, whose regimes set the robots' parameters\n";
+      return 2;
+    }
+    const auto set = analyzer::ReadParameterSetFile(params_file);
+    const auto mapper = set.ok() ? analyzer::FromProto(set->mapper()) : set.status();
+    if (!mapper.ok()) {
+      std::cerr << "fleetsim: --params: " << mapper.status().ToString() << "\n";
+      return 2;
+    }
+    options.params.mapper = *mapper;
+  }
   if (lifelong) {
     life.robots = app.count("--robots") ? options.robots : 20;
     life.runs = app.count("--runs") ? options.runs : 40;
