@@ -91,15 +91,27 @@ void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
     known_edges_ = 0;
   }
   incident_.resize(graph.num_nodes());
+  node_rotation_t_.resize(graph.num_nodes());
   ends_.resize(edges.size());
+  measurement_rotation_t_.resize(edges.size());
   for (std::size_t k = known_edges_; k < edges.size(); ++k) {
     const std::size_t from = graph.IndexOf(edges[k].from), to = graph.IndexOf(edges[k].to);
     ends_[k] = {static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to)};
+    measurement_rotation_t_[k] = edges[k].measurement.rotation().transpose();
     incident_[from].push_back(static_cast<std::uint32_t>(k));
     if (to != from) incident_[to].push_back(static_cast<std::uint32_t>(k));
   }
   known_edges_ = edges.size();
   if (known_edges_ > 0) last_edge_ = edges.back();
+}
+
+const Matrix2& IncrementalSolver::RotationT(std::size_t index, const SE2& pose) {
+  NodeRotation& kept = node_rotation_t_[index];
+  if (kept.theta != pose.theta()) {  // also when never asked (NaN)
+    kept.transposed = pose.rotation().transpose();
+    kept.theta = pose.theta();
+  }
+  return kept.transposed;
 }
 
 IncrementalSummary IncrementalSolver::Update(PoseGraph& graph, const std::vector<NodeId>& seeds,
@@ -261,15 +273,10 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     for (const std::uint32_t e : edges)
       weighted_information.push_back((*weights)[e] * graph.edges()[e].information);
   }
-  // Each edge's ends (graph indices) and its measurement's rotation, constant across the iterations.
+  // Each edge's ends (graph indices).
   std::vector<std::pair<std::size_t, std::size_t>> ends;
-  std::vector<Matrix2> measurement_rotation_t;
   ends.reserve(edges.size());
-  measurement_rotation_t.reserve(edges.size());
-  for (const std::uint32_t e : edges) {
-    ends.emplace_back(ends_[e].from, ends_[e].to);
-    measurement_rotation_t.push_back(graph.edges()[e].measurement.rotation().transpose());
-  }
+  for (const std::uint32_t e : edges) ends.emplace_back(ends_[e].from, ends_[e].to);
   NormalEquations normal_equations(3 * columns);
   if (!NormalEquations::IsLarge(3 * columns)) {
     // A small region's columns in a fill-reducing order (column[] holds region order: the positions).
@@ -297,8 +304,9 @@ int IncrementalSolver::SolveRegion(PoseGraph& graph, const std::vector<std::size
     for (std::size_t k = 0; k < edges.size(); ++k) {
       const Edge& edge = graph.edges()[edges[k]];
       Linearised& at = out[k];
-      at.error = EdgeError(graph.nodes()[ends[k].first].pose, graph.nodes()[ends[k].second].pose,
-                           edge.measurement, measurement_rotation_t[k], &at.d_from, &at.d_to);
+      const SE2& from = graph.nodes()[ends[k].first].pose;
+      at.error = EdgeError(from, RotationT(ends[k].first, from), graph.nodes()[ends[k].second].pose,
+                           edge.measurement, measurement_rotation_t_[edges[k]], &at.d_from, &at.d_to);
       sum += at.error.dot(information(k) * at.error);
     }
     return sum;
@@ -487,14 +495,17 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
   // it: so an edge's term "as before", and its term "now" when it does not touch the region, is its term at
   // the poses the update started from. That term is computed once per update and kept (start_terms_): the
   // same held nodes are checked again after every round.
-  // The edge's ends by graph index (`from`, `to`).
-  const auto term = [&](const Edge& edge, std::size_t from, std::size_t to, bool region_as_before,
+  // Edge `e`'s term, its ends by graph index (`from`, `to`).
+  const auto term = [&](std::uint32_t e, std::size_t from, std::size_t to, bool region_as_before,
                         Matrix3& block, Vector3& gradient) {
+    const Edge& edge = graph.edges()[e];
     const auto pose = [&](std::size_t index) -> const SE2& {
       return region_as_before && in_region_[index] ? original_[index] : graph.nodes()[index].pose;
     };
     Matrix3 d_from, d_to;
-    const Vector3 error = EdgeError(pose(from), pose(to), edge.measurement, &d_from, &d_to);
+    const SE2& from_pose = pose(from);
+    const Vector3 error = EdgeError(from_pose, RotationT(from, from_pose), pose(to), edge.measurement,
+                                    measurement_rotation_t_[e], &d_from, &d_to);
     const Matrix3& jacobian = from == held ? d_from : d_to;
     block = jacobian.transpose() * edge.information * jacobian;
     gradient = jacobian.transpose() * edge.information * error;
@@ -504,15 +515,14 @@ Vector3 IncrementalSolver::LoneStepChange(const PoseGraph& graph, std::size_t he
   Matrix3 block;
   Vector3 gradient;
   for (const std::uint32_t e : incident_[held]) {
-    const Edge& edge = graph.edges()[e];
     const std::size_t from = ends_[e].from, to = ends_[e].to;
     StartTerm& start = start_terms_[2 * e + (from == held ? 0 : 1)];
     if (start.update != updates_) {
-      term(edge, from, to, true, start.block, start.gradient);
+      term(e, from, to, true, start.block, start.gradient);
       start.update = updates_;
     }
     if (in_region_[from] || in_region_[to]) {
-      term(edge, from, to, false, block, gradient);
+      term(e, from, to, false, block, gradient);
       block_now += block;
       gradient_now += gradient;
     } else {

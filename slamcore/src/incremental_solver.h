@@ -36,6 +36,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -137,6 +138,15 @@ class IncrementalSolver {
     std::uint32_t from, to;
   };
   std::vector<EdgeEnds> ends_;
+  std::vector<Matrix2> measurement_rotation_t_;  // edge index → Rᵀ of its measurement, which never changes
+  /// A node's Rᵀ for the angle it was last asked at: most edges are evaluated at poses that stay put (held
+  /// nodes, a region between iterations), so their sine and cosine are not redone.
+  struct NodeRotation {
+    double theta = std::numeric_limits<double>::quiet_NaN();
+    Matrix2 transposed;
+  };
+  std::vector<NodeRotation> node_rotation_t_;
+  const Matrix2& RotationT(std::size_t index, const SE2& pose);
   std::size_t known_edges_ = 0;
   Edge last_edge_;               // graph.edges()[known_edges_ − 1] when known_edges_ > 0
   std::vector<char> in_region_;  // by node index; all 0 between updates

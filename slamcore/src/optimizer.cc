@@ -22,7 +22,11 @@ Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix
 
 Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, const Matrix2& rotation_z_t,
                   Matrix3* d_from, Matrix3* d_to) {
-  const Matrix2 rotation_from_t = from.rotation().transpose();
+  return EdgeError(from, from.rotation().transpose(), to, measurement, rotation_z_t, d_from, d_to);
+}
+
+Vector3 EdgeError(const SE2& from, const Matrix2& rotation_from_t, const SE2& to, const SE2& measurement,
+                  const Matrix2& rotation_z_t, Matrix3* d_from, Matrix3* d_to) {
   const Vector2 local = rotation_from_t * (to.translation() - from.translation());  // R_iᵀ (t_j − t_i)
   Vector3 error;
   error.head<2>() = rotation_z_t * (local - measurement.translation());

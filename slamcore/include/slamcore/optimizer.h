@@ -67,6 +67,10 @@ Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement, Matrix
 /// linearise one edge many times: the measurement does not change, its sine and cosine need not be redone.
 Vector3 EdgeError(const SE2& from, const SE2& to, const SE2& measurement,
                   const Matrix2& measurement_rotation_t, Matrix3* d_from = nullptr, Matrix3* d_to = nullptr);
+/// The same with Rᵀ of `from` given too (`from.rotation().transpose()`): a solver that evaluates many edges
+/// at poses that mostly stay put keeps each node's, and redoes it only when the node turned.
+Vector3 EdgeError(const SE2& from, const Matrix2& from_rotation_t, const SE2& to, const SE2& measurement,
+                  const Matrix2& measurement_rotation_t, Matrix3* d_from = nullptr, Matrix3* d_to = nullptr);
 
 /// The information matrix of an edge z = from_T_to over the error above, from a covariance of left
 /// perturbations of z (the convention of events.h): z·exp(e) = exp(Adj_z e)·z, so Σ_e = Adj_z⁻¹ Σ Adj_z⁻ᵀ.
