@@ -4,6 +4,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <span>
 
@@ -107,9 +108,12 @@ void IncrementalSolver::SyncAdjacency(const PoseGraph& graph) {
 
 const Matrix2& IncrementalSolver::RotationT(std::size_t index, const SE2& pose) {
   NodeRotation& kept = node_rotation_t_[index];
-  if (kept.theta != pose.theta()) {  // also when never asked (NaN)
+  // The same bits, not an equal value: −0 and +0 compare equal but give sines of opposite sign.
+  const auto bits = std::bit_cast<std::uint64_t>(pose.theta());
+  if (!kept.valid || kept.theta_bits != bits) {
     kept.transposed = pose.rotation().transpose();
-    kept.theta = pose.theta();
+    kept.theta_bits = bits;
+    kept.valid = true;
   }
   return kept.transposed;
 }

@@ -36,7 +36,6 @@
 #pragma once
 
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -142,7 +141,8 @@ class IncrementalSolver {
   /// A node's Rᵀ for the angle it was last asked at: most edges are evaluated at poses that stay put (held
   /// nodes, a region between iterations), so their sine and cosine are not redone.
   struct NodeRotation {
-    double theta = std::numeric_limits<double>::quiet_NaN();
+    std::uint64_t theta_bits = 0;
+    bool valid = false;
     Matrix2 transposed;
   };
   std::vector<NodeRotation> node_rotation_t_;
