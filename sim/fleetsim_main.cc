@@ -206,8 +206,7 @@ int main(int argc, char** argv) {
       std::cerr << "fleetsim: --params: not with --lifelong, whose regimes set the robots' parameters\n";
       return 2;
     }
-    const auto set = analyzer::ReadParameterSetFile(params_file);
-    const auto mapper = set.ok() ? analyzer::FromProto(set->mapper()) : set.status();
+    const auto mapper = analyzer::ReadMapperParamsFile(params_file);
     if (!mapper.ok()) {
       std::cerr << "fleetsim: --params: " << mapper.status().ToString() << "\n";
       return 2;

@@ -203,4 +203,9 @@ slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string
   return ParseParameterSetJson(text, path);
 }
 
+slamcore::Result<slamcore::MapperParams> ReadMapperParamsFile(const std::string& path) {
+  ASSIGN_OR_RETURN(const fleet::v1::ParameterSet set, ReadParameterSetFile(path));
+  return FromProto(set.mapper());
+}
+
 }  // namespace analyzer

@@ -122,9 +122,7 @@ int RunReplay(const ReplayArguments& arguments) {
   if (!graph.ok()) return Fail(graph.status());
   slamcore::MapperParams params;
   if (!arguments.params_file.empty()) {
-    const auto set = analyzer::ReadParameterSetFile(arguments.params_file);
-    if (!set.ok()) return Fail(set.status());
-    const auto loaded = analyzer::FromProto(set->mapper());
+    const auto loaded = analyzer::ReadMapperParamsFile(arguments.params_file);
     if (!loaded.ok()) return Fail(loaded.status());
     params = *loaded;
   }

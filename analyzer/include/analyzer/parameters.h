@@ -28,5 +28,8 @@ inline constexpr std::size_t kMaxParameterSetJsonBytes = 256 * 1024;
 slamcore::Result<fleet::v1::ParameterSet> ParseParameterSetJson(const std::string& json,
                                                                 const std::string& source);
 slamcore::Result<fleet::v1::ParameterSet> ReadParameterSetFile(const std::string& path);
+/// The Mapper parameters a parameter-set file names (ReadParameterSetFile, then FromProto): what the tools'
+/// `--params FILE` runs the Mapper with.
+slamcore::Result<slamcore::MapperParams> ReadMapperParamsFile(const std::string& path);
 
 }  // namespace analyzer

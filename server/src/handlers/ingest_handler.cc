@@ -121,14 +121,16 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   if (call->IsCancelled())
     return {grpc::StatusCode::CANCELLED, "upload cancelled by the client; nothing stored"};
   // gRPC ends a stream's reads at a message that does not parse as it ends them at the stream's end: say
-  // both, naming the message.
-  const std::string unparsed = "message[" + std::to_string(index) +
-                               "] (or it did not parse as an UploadRunRequest: a string field holding bytes "
-                               "that are not UTF-8, or bytes that are no such message)";
-  if (!have_header) return InvalidArgument("header: the stream ended before " + unparsed);
+  // both, naming the message (only when refusing: an upload that went through builds no such text).
+  const auto ended_before = [index] {
+    return "the stream ended before message[" + std::to_string(index) +
+           "] (or it did not parse as an UploadRunRequest: a string field holding bytes that are not UTF-8, "
+           "or "
+           "bytes that are no such message)";
+  };
+  if (!have_header) return InvalidArgument("header: " + ended_before());
   if (!have_child) {
-    return InvalidArgument("child_snapshot: missing; the stream ended before " + unparsed +
-                           " and nothing was stored");
+    return InvalidArgument("child_snapshot: missing; " + ended_before() + " and nothing was stored");
   }
 
   // Validate everything before storing anything.
