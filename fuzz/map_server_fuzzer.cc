@@ -16,14 +16,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     (void)slamcore::DecodePgm(bytes, 0.05, 0.0, 0.0);
     return 0;
   }
-  static const std::filesystem::path directory = [] {
-    auto dir = std::filesystem::temp_directory_path() / ("map-server-fuzz-" + std::to_string(getpid()));
-    std::filesystem::create_directories(dir);
-    std::ofstream(dir / "map.pgm", std::ios::binary) << "P5\n2 2\n255\n"
-                                                     << std::string("\xfe\x00\xcd\xfe", 4);
-    return dir;
-  }();
-  std::ofstream(directory / "map.yaml", std::ios::binary | std::ios::trunc) << bytes;
-  (void)slamcore::ReadMapServerYaml((directory / "map.yaml").string());
+  // The scratch directory goes when the fuzzer exits (libFuzzer ends a timed run with exit()).
+  static const struct ScratchDirectory {
+    std::filesystem::path path =
+        std::filesystem::temp_directory_path() / ("map-server-fuzz-" + std::to_string(getpid()));
+    ScratchDirectory() {
+      std::filesystem::create_directories(path);
+      std::ofstream(path / "map.pgm", std::ios::binary) << "P5\n2 2\n255\n"
+                                                        << std::string("\xfe\x00\xcd\xfe", 4);
+    }
+    ~ScratchDirectory() {
+      std::error_code ignored;
+      std::filesystem::remove_all(path, ignored);
+    }
+  } directory;
+  std::ofstream(directory.path / "map.yaml", std::ios::binary | std::ios::trunc) << bytes;
+  (void)slamcore::ReadMapServerYaml((directory.path / "map.yaml").string());
   return 0;
 }

@@ -135,6 +135,7 @@ int main(int argc, char** argv) {
   std::string world;
   sim::FleetOptions options;
   std::string out;
+  bool upload_staging = false;  // out is a temporary directory of this process, for --server only
   bool json = false;
   app.add_option("--world", world, "directory of floor plans (.txt) and maps (.yaml), or one such file")
       ->required();
@@ -257,6 +258,7 @@ int main(int argc, char** argv) {
       upload.uploader.token = std::getenv("FLEET_TOKEN");
     if (out.empty() && !follow) {
       out = (std::filesystem::temp_directory_path() / ("fleetsim-" + std::to_string(getpid()))).string();
+      upload_staging = true;
     }
   }
   if (follow) {
@@ -278,12 +280,21 @@ int main(int argc, char** argv) {
   });
   if (!statistics.ok()) {
     std::cerr << "fleetsim: " << statistics.status().ToString() << "\n";
+    std::error_code ignored;
+    if (upload_staging) std::filesystem::remove_all(out, ignored);
     return 1;
   }
   if (!upload.uploader.server.empty() && !follow) {
     const auto uploaded = fleet_client::UploadFiles({out}, upload);
     std::fprintf(stderr, "fleetsim: %s\n", uploaded.Summary().c_str());
-    if (uploaded.failed > 0) return 1;
+    if (uploaded.failed > 0) {
+      if (upload_staging)
+        std::fprintf(stderr, "fleetsim: the runs are kept in %s for a retry\n", out.c_str());
+      return 1;
+    }
+    // Runs staged only for this upload are gone once the server has them (with --out they are the user's).
+    std::error_code ignored;
+    if (upload_staging) std::filesystem::remove_all(out, ignored);
   }
   if (json) {
     std::cout << statistics->ToJson() << "\n";

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <pqxx/pqxx>
 #include <random>
+#include <vector>
 
 #include "status_matchers.h"
 
@@ -151,6 +152,19 @@ Result<std::string> NewDatabaseUrl(Backend backend) {
     static std::atomic<int> counter{0};
     const std::string dir = MakeTempDir("storage_sqlite_");
     if (dir.empty()) return Internal("cannot create a temp dir");
+    // A test that opens its own database by URL does not remove it; the process does, when it ends.
+    static struct RemovedAtExit {
+      std::mutex mutex;
+      std::vector<std::string> dirs;
+      ~RemovedAtExit() {
+        std::error_code ignored;
+        for (const std::string& path : dirs) fs::remove_all(path, ignored);
+      }
+    } created;
+    {
+      std::lock_guard lock(created.mutex);
+      created.dirs.push_back(dir);
+    }
     return "sqlite:" + dir + "/fleet" + std::to_string(counter++) + ".db";
   }
   ASSIGN_OR_RETURN(auto server, PostgresTestServer::Instance());

@@ -304,4 +304,14 @@ if "$bin/fleetctl" import valetudo "$work/absurd.json" --robot viomi-home 2>"$wo
 grep -q "INVALID_ARGUMENT: metadata.zones: 5004 shapes, more than the limit 1000" "$work/err" || fail "unclear refusal: $(cat "$work/err")"
 [[ $("$bin/fleetctl" maps list viomi-home --json | python3 -c 'import json,sys; print(len(json.load(sys.stdin)["versions"]))') == 1 ]] ||
   fail "a refused import was stored"
+# Without --out, fleetsim stages the runs in a temporary directory of its own and removes it once they are
+# uploaded; a failed upload keeps them and says where.
+mkdir -p "$work/tmp"
+TMPDIR=$work/tmp "$bin/fleetsim" --world "$data/floorplans" --robots 1 --runs 1 --minutes 1 --seed 6 \
+  --upload "$FLEET_SERVER" >/dev/null 2>"$work/err" || fail "fleetsim upload without --out: $(cat "$work/err")"
+[[ -z $(ls -A "$work/tmp") ]] || fail "fleetsim left its staged runs behind: $(ls -A "$work/tmp")"
+if TMPDIR=$work/tmp FLEET_TOKEN=not-a-token "$bin/fleetsim" --world "$data/floorplans" --robots 1 --runs 1 --minutes 1 \
+  --seed 6 --upload "$FLEET_SERVER" >/dev/null 2>"$work/err"; then fail "an upload with a bad token succeeded"; fi
+grep -q "the runs are kept in $work/tmp/fleetsim-" "$work/err" || fail "a failed upload did not say where the runs are: $(cat "$work/err")"
+[[ -n $(ls -A "$work/tmp") ]] || fail "a failed upload removed the runs"
 echo "fleetctl against fleetd: all checks passed"
