@@ -81,6 +81,7 @@ double SecondsToMerge(const std::vector<Decision>& decisions, DecisionKind kind,
 /// Protrusion regions between the parent map and the rerun child (RenderComparedGrids).
 slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::Map& child,
                                    bool has_ground_truth, const std::set<NodeId>& slipping_nodes,
+                                   const std::unordered_map<NodeId, slamcore::SE2>& truth_poses,
                                    const AnalysisOptions& options, fleet::v1::RunReport* report) {
   for (const std::string& name : slamcore::ProtrusionFeatureNames()) report->add_feature_names(name);
   if (parent.local_maps.empty() || parent.graph.num_nodes() == 0) return slamcore::Status::Ok();
@@ -95,7 +96,9 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
   RETURN_IF_ERROR(regions.status());
   std::optional<RegionCover> truth;
   if (has_ground_truth) {
-    ASSIGN_OR_RETURN(auto labelled, RegionsCoveredBy(child, slipping_nodes, grids, *regions));
+    ASSIGN_OR_RETURN(
+        auto labelled,
+        RegionsDrawnAway(child, WhereStuckNodesWere(child, slipping_nodes, &truth_poses), grids, *regions));
     truth = std::move(labelled);
   }
   ASSIGN_OR_RETURN(const auto classes, ClassifyRegions(parent, child, grids, *regions, classifier));
@@ -164,38 +167,87 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
   return part;
 }
 
-Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child, const std::set<NodeId>& nodes,
+std::unordered_map<NodeId, slamcore::SE2> WhereStuckNodesWere(
+    const slamcore::Map& child, const std::set<NodeId>& stuck_nodes,
+    const std::unordered_map<NodeId, slamcore::SE2>* truth) {
+  std::unordered_map<NodeId, slamcore::SE2> really_at;
+  std::optional<NodeId> anchor;
+  for (const slamcore::Node& node : child.graph.nodes()) {  // in creation order
+    if (!stuck_nodes.contains(node.id)) {
+      if (truth == nullptr || truth->contains(node.id)) anchor = node.id;
+      continue;
+    }
+    if (!anchor || child.graph.ComponentOf(*anchor) != child.graph.ComponentOf(node.id)) continue;
+    const slamcore::SE2& anchor_pose = child.graph.node(*anchor).pose;
+    if (truth == nullptr) {
+      really_at.emplace(node.id, anchor_pose);
+    } else if (const auto it = truth->find(node.id); it != truth->end()) {
+      really_at.emplace(node.id, anchor_pose * slamcore::SE2::Inverse(truth->at(*anchor)) * it->second);
+    }
+  }
+  return really_at;
+}
+
+Result<RegionCover> RegionsDrawnAway(const slamcore::Map& child,
+                                     const std::unordered_map<NodeId, slamcore::SE2>& really_at,
                                      const ComparedGrids& grids,
-                                     const std::vector<slamcore::ProtrusionRegion>& regions) {
+                                     const std::vector<slamcore::ProtrusionRegion>& regions,
+                                     double tolerance_m) {
   const slamcore::OccupancyGrid& child_grid = grids.child;
   RegionCover result;
   result.covered.assign(
       static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
-  std::set<NodeId> drawing;
+  // The nodes' patches drawn at their estimates and where the robot was (only nodes of the compared
+  // component: the grids render no other).
+  slamcore::Map drawn, seen;
   for (const NodeId node : grids.child_nodes) {
-    // Only nodes with a local map paint anything (a lidar robot attaches one to every 6th node).
-    if (nodes.contains(node) && child.local_maps.contains(node)) drawing.insert(node);
+    const auto where = really_at.find(node);
+    const auto patch = child.local_maps.find(node);
+    if (where == really_at.end() || patch == child.local_maps.end()) continue;
+    slamcore::Node at_estimate = child.graph.node(node), at_place = at_estimate;
+    at_place.pose = where->second;
+    RETURN_IF_ERROR(drawn.graph.AddNode(at_estimate));
+    RETURN_IF_ERROR(seen.graph.AddNode(at_place));
+    drawn.local_maps.emplace(node, patch->second);
+    seen.local_maps.emplace(node, patch->second);
   }
-  if (!drawing.empty()) {
-    slamcore::GlobalGridRenderer renderer;
-    RETURN_IF_ERROR(renderer.RenderAll(ComponentMap(child, drawing)));
-    const slamcore::OccupancyGrid& cover = renderer.grid();
-    for (int row = 0; row < child_grid.height; ++row) {
-      for (int col = 0; col < child_grid.width; ++col) {
-        const double x = child_grid.origin_x + (col + 0.5) * child_grid.resolution;
-        const double y = child_grid.origin_y + (row + 0.5) * child_grid.resolution;
-        const int cover_col = static_cast<int>(std::floor((x - cover.origin_x) / cover.resolution));
-        const int cover_row = static_cast<int>(std::floor((y - cover.origin_y) / cover.resolution));
-        if (cover.InBounds(cover_col, cover_row) && cover.at(cover_col, cover_row) != -1) {
-          result.covered[static_cast<std::size_t>(row) * child_grid.width + col] = 1;
+  std::vector<std::size_t> drawn_away(regions.size(), 0);
+  if (!drawn.local_maps.empty()) {
+    slamcore::GlobalGridRenderer drawn_renderer, seen_renderer;
+    RETURN_IF_ERROR(drawn_renderer.RenderAll(drawn));
+    RETURN_IF_ERROR(seen_renderer.RenderAll(seen));
+    const slamcore::OccupancyGrid& at_estimate = drawn_renderer.grid();
+    const slamcore::OccupancyGrid& in_place = seen_renderer.grid();
+    const int reach = static_cast<int>(std::ceil(tolerance_m / in_place.resolution - 1e-9));
+    const auto cell_of = [](const slamcore::OccupancyGrid& grid, double x, double y) {
+      return std::pair{static_cast<int>(std::floor((x - grid.origin_x) / grid.resolution)),
+                       static_cast<int>(std::floor((y - grid.origin_y) / grid.resolution))};
+    };
+    for (std::size_t k = 0; k < regions.size(); ++k) {
+      for (const std::int32_t cell : regions[k].cells) {
+        const double x = child_grid.origin_x + (cell % child_grid.width + 0.5) * child_grid.resolution;
+        const double y = child_grid.origin_y + (cell / child_grid.width + 0.5) * child_grid.resolution;
+        const auto [col, row] = cell_of(at_estimate, x, y);
+        if (!at_estimate.InBounds(col, row) || at_estimate.at(col, row) == -1) continue;
+        const std::int8_t state = at_estimate.at(col, row);
+        // The patches in place give the cell the same state nearby: what the sensor saw there.
+        const auto [place_col, place_row] = cell_of(in_place, x, y);
+        bool seen_there = false;
+        for (int dr = -reach; dr <= reach && !seen_there; ++dr) {
+          for (int dc = -reach; dc <= reach && !seen_there; ++dc) {
+            seen_there = in_place.InBounds(place_col + dc, place_row + dr) &&
+                         in_place.at(place_col + dc, place_row + dr) == state;
+          }
         }
+        if (seen_there) continue;
+        result.covered[static_cast<std::size_t>(cell)] = 1;
+        ++drawn_away[k];
       }
     }
   }
-  for (const slamcore::ProtrusionRegion& region : regions) {
-    std::size_t covered = 0;
-    for (const std::int32_t cell : region.cells) covered += result.covered[static_cast<std::size_t>(cell)];
-    result.region_is_covered.push_back(!region.cells.empty() && 2 * covered >= region.cells.size());
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    // More than half: a data set's region is labelled by the majority of its cells' truth (ExtractAndLabel).
+    result.region_is_covered.push_back(2 * drawn_away[k] > regions[k].cells.size());
   }
   return result;
 }
@@ -214,11 +266,14 @@ Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, co
                                                  const std::vector<slamcore::ProtrusionRegion>& regions,
                                                  const slamcore::ProtrusionClassifier* classifier) {
   ASSIGN_OR_RETURN(const auto findings, slamcore::FindSlipNodes(child));
-  std::set<NodeId> slipped;
+  // Where the slipped robot was: at the earlier node whose view contradicts its estimate (it had not moved
+  // from there; the views say it stood still, or could not have crossed the wall beyond it).
+  std::unordered_map<NodeId, slamcore::SE2> really_at;
   for (const slamcore::SlipFinding& finding : findings) {
-    if (!parent.graph.HasNode(finding.node)) slipped.insert(finding.node);
+    if (!parent.graph.HasNode(finding.node))
+      really_at.emplace(finding.node, child.graph.node(finding.judged_against).pose);
   }
-  ASSIGN_OR_RETURN(const auto cover, RegionsCoveredBy(child, slipped, grids, regions));
+  ASSIGN_OR_RETURN(const auto cover, RegionsDrawnAway(child, really_at, grids, regions));
   std::vector<RegionClass> classes(regions.size());
   for (std::size_t index = 0; index < regions.size(); ++index) {
     RegionClass& out = classes[index];
@@ -355,7 +410,8 @@ Result<fleet::v1::RunReport> AnalyzeRun(const fleet::v1::RunFile& run, const Run
   report.set_replay_seconds(Seconds(std::chrono::steady_clock::now() - replay_start));
 
   const auto detection_start = std::chrono::steady_clock::now();
-  RETURN_IF_ERROR(DetectProtrusions(parent, child, has_ground_truth, slipping_nodes, options, &report));
+  RETURN_IF_ERROR(
+      DetectProtrusions(parent, child, has_ground_truth, slipping_nodes, truth, options, &report));
   report.set_detection_seconds(Seconds(std::chrono::steady_clock::now() - detection_start));
 
   // Divergence from the map the robot uploaded: sizes, and node positions over the nodes both hold.

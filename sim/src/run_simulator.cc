@@ -457,11 +457,15 @@ slamcore::Status Run::Kidnap(bool reboot) {
 
 slamcore::Status Run::LabelRegions() {
   // The detector's regions between parent and child, labelled by the rule fleetd's reports use; the
-  // per-cell truth marks a changed cell as protrusion when a stuck node's patch lies on it.
+  // per-cell truth marks a changed cell as protrusion when a stuck node's patch drew it only because the
+  // node was not where its estimate says.
   if (parent_.local_maps.empty() || parent_.graph.num_nodes() == 0) return slamcore::Status::Ok();
   ASSIGN_OR_RETURN(const auto grids, analyzer::RenderComparedGrids(parent_, s_.map));
   ASSIGN_OR_RETURN(const auto regions, slamcore::ExtractRegions(grids.parent, grids.child));
-  ASSIGN_OR_RETURN(const auto truth, analyzer::RegionsCoveredBy(s_.map, stuck_nodes_, grids, regions));
+  ASSIGN_OR_RETURN(
+      const auto truth,
+      analyzer::RegionsDrawnAway(s_.map, analyzer::WhereStuckNodesWere(s_.map, stuck_nodes_, &s_.node_truth),
+                                 grids, regions));
   // How the analysis would class them (the run's views, then the built-in model), against that truth.
   ASSIGN_OR_RETURN(const auto classifier, slamcore::DefaultProtrusionClassifier());
   ASSIGN_OR_RETURN(const auto classes,

@@ -52,24 +52,37 @@ struct ComparedGrids {
 };
 slamcore::Result<ComparedGrids> RenderComparedGrids(const slamcore::Map& parent, const slamcore::Map& child);
 
-/// The detector's regions drawn by some nodes: a region is covered when at least half of its cells lie
-/// under the local maps of `nodes`, rendered at their poses in `child`. With the nodes a simulator made
-/// while the robot was stuck this is the ground truth of a simulated run; with the nodes whose slip the
-/// run's own views show (slamcore::FindSlipNodes) it is the analysis' evidence. `covered` holds, per cell
-/// of `grids.child`, 1 where such a local map lies.
+/// Which of the detector's regions some nodes drew (RegionsDrawnAway), per region and per cell of the child.
 struct RegionCover {
-  std::vector<std::uint8_t> covered;
+  std::vector<std::uint8_t> covered;    // per cell of `grids.child`
   std::vector<bool> region_is_covered;  // in the order of `regions`
 };
-slamcore::Result<RegionCover> RegionsCoveredBy(const slamcore::Map& child,
-                                               const std::set<slamcore::NodeId>& nodes,
-                                               const ComparedGrids& grids,
-                                               const std::vector<slamcore::ProtrusionRegion>& regions);
 
-/// How the analysis classes a region. When the run's own views show that the nodes of this run (those of
-/// `child` that `parent` does not hold) which drew it had slipped (slamcore::FindSlipNodes: a path through a seen wall, a view
-/// that stood still), it is a protrusion whatever its shape; otherwise the map-only classifier decides
-/// (paper IV-C), or nothing when there is none.
+/// The detector's regions drawn where the robot was not (paper IV-C): a region cell is drawn away when a patch
+/// of a node of `really_at` gives it a state (free or wall) at the node's estimate in `child`, and the same
+/// patches drawn at `really_at` (where the robot really was, in the map's frame) give no cell within
+/// `tolerance_m` that state — the band a stuck robot draws, not the surroundings its sensor saw in their
+/// place. A region is covered when more than half of its cells are drawn away; `covered` is 1 on those
+/// cells. With the nodes a simulator made while the robot was stuck (WhereStuckNodesWere with its truth)
+/// this is the ground truth of a simulated run; with the nodes whose slip the run's own views show
+/// (slamcore::FindSlipNodes, each where its contradicting view was) it is the analysis' evidence.
+slamcore::Result<RegionCover> RegionsDrawnAway(
+    const slamcore::Map& child, const std::unordered_map<slamcore::NodeId, slamcore::SE2>& really_at,
+    const ComparedGrids& grids, const std::vector<slamcore::ProtrusionRegion>& regions,
+    double tolerance_m = 0.15);
+
+/// Where the robot really was at each of `stuck_nodes` of `child`, in the map's frame: the estimate of the
+/// last earlier node of its component that was not stuck, moved by the true motion since (`truth`, a
+/// simulator's poses: a stuck robot rocks and creeps) or, without truth, by none (it stood still).
+std::unordered_map<slamcore::NodeId, slamcore::SE2> WhereStuckNodesWere(
+    const slamcore::Map& child, const std::set<slamcore::NodeId>& stuck_nodes,
+    const std::unordered_map<slamcore::NodeId, slamcore::SE2>* truth);
+
+/// How the analysis classes a region. When the run's own views show that nodes of this run (those of
+/// `child` that `parent` does not hold) had slipped (slamcore::FindSlipNodes: a path through a seen wall, a
+/// view that stood still) and their patches drew most of the region away from where their contradicting
+/// views put the robot (RegionsDrawnAway), it is a protrusion whatever its shape; otherwise the map-only
+/// classifier decides (paper IV-C), or nothing when there is none.
 struct RegionClass {
   enum class DecidedBy : std::uint8_t { kViews, kClassifier, kNone };
   bool protrusion = false;

@@ -52,9 +52,9 @@ struct RunOutcome {
   std::size_t views_total = 0, views_ambiguous = 0;  // in the child map
   double simulated_seconds = 0.0;
   // Ground truth of the protrusion detector's regions between this run's parent and child maps
-  // (analyzer::RegionsCoveredBy the stuck nodes, the rule fleetd's reports use); with
-  // SimParams::keep_truth_pairs, the pair itself with per-cell truth (1 protrusion: under a stuck node's
-  // patch; 2 new space; 0 unchanged). The confusion matrices class the same regions as the analysis does
+  // (analyzer::RegionsDrawnAway by the stuck nodes, the rule fleetd's reports use); with
+  // SimParams::keep_truth_pairs, the pair itself with per-cell truth (1 protrusion: drawn by a stuck node's
+  // patch where the robot was not; 2 new space; 0 unchanged). The confusion matrices class the same regions as the analysis does
   // (analyzer::ClassifyRegions with the built-in model), by the built-in model alone, and by the slip the
   // run's views show alone (protrusion where they show it, new space elsewhere).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
