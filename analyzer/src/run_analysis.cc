@@ -266,12 +266,16 @@ Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, co
                                                  const std::vector<slamcore::ProtrusionRegion>& regions,
                                                  const slamcore::ProtrusionClassifier* classifier) {
   ASSIGN_OR_RETURN(const auto findings, slamcore::FindSlipNodes(child));
-  // Where the slipped robot was: at the earlier node whose view contradicts its estimate (it had not moved
-  // from there; the views say it stood still, or could not have crossed the wall beyond it).
+  // Where the slipped robot was: where it was at the earlier node whose view contradicts its estimate (it
+  // had not moved from there; the views say it stood still, or could not have crossed the wall beyond it).
+  // That node may have slipped itself (a long episode is judged view by view), and then the robot was where
+  // it was at that node's judge: findings come in chain order, so its place is known by then.
   std::unordered_map<NodeId, slamcore::SE2> really_at;
   for (const slamcore::SlipFinding& finding : findings) {
-    if (!parent.graph.HasNode(finding.node))
-      really_at.emplace(finding.node, child.graph.node(finding.judged_against).pose);
+    if (parent.graph.HasNode(finding.node)) continue;
+    const auto judge = really_at.find(finding.judged_against);
+    really_at.emplace(finding.node, judge != really_at.end() ? judge->second
+                                                             : child.graph.node(finding.judged_against).pose);
   }
   ASSIGN_OR_RETURN(const auto cover, RegionsDrawnAway(child, really_at, grids, regions));
   std::vector<RegionClass> classes(regions.size());
