@@ -98,7 +98,7 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
   if (has_ground_truth) {
     ASSIGN_OR_RETURN(
         auto labelled,
-        RegionsDrawnAway(child, WhereStuckNodesWere(child, slipping_nodes, &truth_poses), grids, *regions));
+        RegionsDrawnAway(child, WhereStuckNodesWere(child, slipping_nodes, truth_poses), grids, *regions));
     truth = std::move(labelled);
   }
   ASSIGN_OR_RETURN(const auto classes, ClassifyRegions(parent, child, grids, *regions, classifier));
@@ -169,21 +169,21 @@ slamcore::Map ComponentMap(const slamcore::Map& map, const std::set<NodeId>& nod
 
 std::unordered_map<NodeId, slamcore::SE2> WhereStuckNodesWere(
     const slamcore::Map& child, const std::set<NodeId>& stuck_nodes,
-    const std::unordered_map<NodeId, slamcore::SE2>* truth) {
+    const std::unordered_map<NodeId, slamcore::SE2>& truth) {
   std::unordered_map<NodeId, slamcore::SE2> really_at;
   std::optional<NodeId> anchor;
   for (const slamcore::Node& node : child.graph.nodes()) {  // in creation order
     if (!stuck_nodes.contains(node.id)) {
-      if (truth == nullptr || truth->contains(node.id)) anchor = node.id;
+      if (truth.contains(node.id)) anchor = node.id;
       continue;
     }
-    if (!anchor || child.graph.ComponentOf(*anchor) != child.graph.ComponentOf(node.id)) continue;
-    const slamcore::SE2& anchor_pose = child.graph.node(*anchor).pose;
-    if (truth == nullptr) {
-      really_at.emplace(node.id, anchor_pose);
-    } else if (const auto it = truth->find(node.id); it != truth->end()) {
-      really_at.emplace(node.id, anchor_pose * slamcore::SE2::Inverse(truth->at(*anchor)) * it->second);
+    const auto true_pose = truth.find(node.id);
+    if (!anchor || true_pose == truth.end() ||
+        child.graph.ComponentOf(*anchor) != child.graph.ComponentOf(node.id)) {
+      continue;
     }
+    really_at.emplace(node.id, child.graph.node(*anchor).pose * slamcore::SE2::Inverse(truth.at(*anchor)) *
+                                   true_pose->second);
   }
   return really_at;
 }

@@ -464,7 +464,7 @@ slamcore::Status Run::LabelRegions() {
   ASSIGN_OR_RETURN(const auto regions, slamcore::ExtractRegions(grids.parent, grids.child));
   ASSIGN_OR_RETURN(
       const auto truth,
-      analyzer::RegionsDrawnAway(s_.map, analyzer::WhereStuckNodesWere(s_.map, stuck_nodes_, &s_.node_truth),
+      analyzer::RegionsDrawnAway(s_.map, analyzer::WhereStuckNodesWere(s_.map, stuck_nodes_, s_.node_truth),
                                  grids, regions));
   // How the analysis would class them (the run's views, then the built-in model), against that truth.
   ASSIGN_OR_RETURN(const auto classifier, slamcore::DefaultProtrusionClassifier());

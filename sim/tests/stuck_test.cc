@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <unordered_map>
 
 #include "analyzer/run_analysis.h"
 #include "sim/fleet.h"
@@ -279,11 +280,39 @@ TEST(StuckTest, StuckNodesWithoutAPatchLabelNothingAndFailNothing) {
   ASSERT_THAT(grids, IsOk());
   const auto regions = slamcore::ExtractRegions(grids->parent, grids->child);
   ASSERT_THAT(regions, IsOk());
-  const auto truth = analyzer::RegionsDrawnAway(child, analyzer::WhereStuckNodesWere(child, {1, 2}, nullptr),
-                                                *grids, *regions);  // stuck nodes 1, 2: no patch
+  std::unordered_map<slamcore::NodeId, SE2> true_poses;
+  for (const slamcore::Node& node : child.graph.nodes()) true_poses.emplace(node.id, node.pose);
+  const auto where = analyzer::WhereStuckNodesWere(child, {1, 2}, true_poses);  // stuck nodes 1, 2: no patch
+  EXPECT_EQ(where.size(), 2u);
+  const auto truth = analyzer::RegionsDrawnAway(child, where, *grids, *regions);
   ASSERT_THAT(truth, IsOk());
   for (const bool protrusion : truth->region_is_covered) EXPECT_FALSE(protrusion);
   for (const std::uint8_t covered : truth->covered) EXPECT_EQ(covered, 0);
+}
+
+TEST(StuckTest, AStuckRobotWasWhereItsLastFreeNodeWasMovedByItsTrueMotion) {
+  // Node 0 is estimated at (1, 1) facing +y and truly at the origin facing +x; node 1 is stuck, estimated
+  // 2 m on, truly 0.1 m ahead of node 0 (it crept). In the map's frame it was 0.1 m ahead of node 0's
+  // estimate, along node 0's heading: (1, 1.1), facing +y. Node 2 (stuck, no truth) is left out; node 3,
+  // stuck in another component, has no free node before it there and is left out too.
+  slamcore::Map child;
+  const double quarter = std::numbers::pi / 2;
+  ASSERT_THAT(child.graph.AddNode({.id = 0, .pose = SE2(1.0, 1.0, quarter)}), IsOk());
+  ASSERT_THAT(child.graph.AddNode({.id = 1, .pose = SE2(1.0, 3.0, quarter)}), IsOk());
+  ASSERT_THAT(child.graph.AddNode({.id = 2, .pose = SE2(1.0, 3.3, quarter)}), IsOk());
+  ASSERT_THAT(child.graph.AddNode({.id = 3, .pose = SE2(5.0, 5.0, 0.0)}), IsOk());
+  for (const slamcore::NodeId to : {1, 2}) {
+    ASSERT_THAT(child.graph.AddEdge(slamcore::Edge{.from = to - 1, .to = to, .measurement = SE2(1, 0, 0)}),
+                IsOk());
+  }
+  const std::unordered_map<slamcore::NodeId, SE2> truth = {
+      {0, SE2(0.0, 0.0, 0.0)}, {1, SE2(0.1, 0.0, 0.0)}, {3, SE2(4.0, 0.0, 0.0)}};
+  const auto where = analyzer::WhereStuckNodesWere(child, {1, 2, 3}, truth);
+  ASSERT_EQ(where.size(), 1u);
+  const SE2& at = where.at(1);
+  EXPECT_NEAR(at.x(), 1.0, 1e-12);
+  EXPECT_NEAR(at.y(), 1.1, 1e-12);
+  EXPECT_NEAR(at.theta(), quarter, 1e-12);
 }
 
 TEST(StuckTest, ARegionIsAProtrusionWhereThePatchInPlaceDrawsNothingOfIt) {

@@ -65,7 +65,8 @@ struct RegionCover {
 /// place. A region is covered when more than half of its cells are drawn away; `covered` is 1 on those
 /// cells. With the nodes a simulator made while the robot was stuck (WhereStuckNodesWere with its truth)
 /// this is the ground truth of a simulated run; with the nodes whose slip the run's own views show
-/// (slamcore::FindSlipNodes, each where its contradicting view was) it is the analysis' evidence.
+/// (slamcore::FindSlipNodes, each where the robot was at its contradicting view) it is the analysis'
+/// evidence (ClassifyRegions).
 slamcore::Result<RegionCover> RegionsDrawnAway(
     const slamcore::Map& child, const std::unordered_map<slamcore::NodeId, slamcore::SE2>& really_at,
     const ComparedGrids& grids, const std::vector<slamcore::ProtrusionRegion>& regions,
@@ -73,10 +74,10 @@ slamcore::Result<RegionCover> RegionsDrawnAway(
 
 /// Where the robot really was at each of `stuck_nodes` of `child`, in the map's frame: the estimate of the
 /// last earlier node of its component that was not stuck, moved by the true motion since (`truth`, a
-/// simulator's poses: a stuck robot rocks and creeps) or, without truth, by none (it stood still).
+/// simulator's poses: a stuck robot rocks and creeps). Nodes without truth are left out.
 std::unordered_map<slamcore::NodeId, slamcore::SE2> WhereStuckNodesWere(
     const slamcore::Map& child, const std::set<slamcore::NodeId>& stuck_nodes,
-    const std::unordered_map<slamcore::NodeId, slamcore::SE2>* truth);
+    const std::unordered_map<slamcore::NodeId, slamcore::SE2>& truth);
 
 /// How the analysis classes a region. When the run's own views show that nodes of this run (those of
 /// `child` that `parent` does not hold) had slipped (slamcore::FindSlipNodes: a path through a seen wall, a

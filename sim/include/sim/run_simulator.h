@@ -54,9 +54,9 @@ struct RunOutcome {
   // Ground truth of the protrusion detector's regions between this run's parent and child maps
   // (analyzer::RegionsDrawnAway by the stuck nodes, the rule fleetd's reports use); with
   // SimParams::keep_truth_pairs, the pair itself with per-cell truth (1 protrusion: drawn by a stuck node's
-  // patch where the robot was not; 2 new space; 0 unchanged). The confusion matrices class the same regions as the analysis does
-  // (analyzer::ClassifyRegions with the built-in model), by the built-in model alone, and by the slip the
-  // run's views show alone (protrusion where they show it, new space elsewhere).
+  // patch where the robot was not; 2 new space; 0 unchanged). The confusion matrices class the same regions
+  // as the analysis does (analyzer::ClassifyRegions with the built-in model), by the built-in model alone,
+  // and by the slip the run's views show alone (protrusion where they show it, new space elsewhere).
   int truth_protrusion_regions = 0, truth_new_space_regions = 0;
   RegionConfusion analysis_confusion, classifier_confusion, views_confusion;
   // The same regions against the world's truth: a region is erroneous when it is a protrusion above or
