@@ -408,20 +408,26 @@ struct EvalArguments {
   double threshold = 0.5;
   bool leave_one_home_out = false;
   bool list_errors = false;
+  bool list_regions = false;
   bool json = false;
 };
 
-/// Like slamcore::AccumulateConfusion, and names each misclassified region on stderr when asked.
-void Accumulate(const slamcore::ProtrusionClassifier& classifier, const LoadedPair& pair, bool list_errors,
-                slamcore::ConfusionMatrix* confusion) {
+/// Which regions Accumulate names on stderr, with their truth, probability and features.
+enum class RegionListing : std::uint8_t { kNone, kErrors, kAll };
+
+/// Like slamcore::AccumulateConfusion, and names the misclassified regions (or all) on stderr when asked.
+void Accumulate(const slamcore::ProtrusionClassifier& classifier, const LoadedPair& pair,
+                RegionListing listing, slamcore::ConfusionMatrix* confusion) {
   if (auto status = slamcore::AccumulateConfusion(classifier, pair.labelled, confusion); !status.ok())
     Fail(status);
-  if (!list_errors) return;
+  if (listing == RegionListing::kNone) return;
   const auto& names = slamcore::ProtrusionFeatureNames();
   for (std::size_t i = 0; i < pair.labelled.regions.size(); ++i) {
     const auto& region = pair.labelled.regions[i];
     const double probability = Check(classifier.Probability(region.features));
-    if (classifier.IsProtrusion(probability) == (pair.labelled.labels[i] == 1)) continue;
+    if (listing == RegionListing::kErrors &&
+        classifier.IsProtrusion(probability) == (pair.labelled.labels[i] == 1))
+      continue;
     std::fprintf(stderr, "%s region %d truth %s p=%.3f bbox [%d, %d, %d, %d]", pair.entry.pair_id.c_str(),
                  region.id, pair.labelled.labels[i] == 1 ? "protrusion" : "new_space", probability,
                  region.bbox.x, region.bbox.y, region.bbox.width, region.bbox.height);
@@ -448,6 +454,9 @@ void RunEval(const EvalArguments& arguments) {
     if (only.empty() || only.contains(pair.entry.home_id)) pairs.push_back(pair);
   }
   if (pairs.empty()) Fail(slamcore::InvalidArgument("no pairs to evaluate (check --homes)"));
+  const RegionListing listing = arguments.list_regions  ? RegionListing::kAll
+                                : arguments.list_errors ? RegionListing::kErrors
+                                                        : RegionListing::kNone;
   slamcore::ConfusionMatrix confusion;
   int missed = 0, spurious = 0;
   for (const auto& pair : pairs) {
@@ -465,7 +474,7 @@ void RunEval(const EvalArguments& arguments) {
                                       Check(slamcore::ProtrusionClassifier::Load(arguments.model)));
     selected = classifier->selected_features();
     classifier_name = slamcore::ClassifierKindName(classifier->kind());
-    for (const auto& pair : pairs) Accumulate(*classifier, pair, arguments.list_errors, &confusion);
+    for (const auto& pair : pairs) Accumulate(*classifier, pair, listing, &confusion);
   } else {
     // Leave one home out: per home, ANOVA selection and training on every other home, test on it.
     slamcore::ClassifierOptions options;
@@ -489,7 +498,7 @@ void RunEval(const EvalArguments& arguments) {
       options.selected_features = SelectFeatures(Anova(train), SplitList(arguments.features));
       const auto classifier = Check(slamcore::ProtrusionClassifier::Train(train, options));
       for (const auto& pair : pairs) {
-        if (pair.entry.home_id == home) Accumulate(*classifier, pair, arguments.list_errors, &confusion);
+        if (pair.entry.home_id == home) Accumulate(*classifier, pair, listing, &confusion);
       }
     }
     selected = SelectFeatures(anova);
@@ -608,6 +617,11 @@ void AddProtrusionCommands(CLI::App& app) {
   eval_command->add_option("--threshold", eval->threshold, "with --leave-one-home-out: decision threshold")
       ->check(CLI::Range(0.01, 0.99));
   eval_command->add_flag("--json", eval->json, "print one JSON object on stdout");
-  eval_command->add_flag("--list-errors", eval->list_errors, "print every misclassified region to stderr");
+  auto* list_errors = eval_command->add_flag("--list-errors", eval->list_errors,
+                                             "print every misclassified region to stderr");
+  eval_command
+      ->add_flag("--list-regions", eval->list_regions,
+                 "print every region to stderr (its truth, P(protrusion), bounding box and features)")
+      ->excludes(list_errors);
   eval_command->callback([eval] { RunEval(*eval); });
 }
