@@ -96,10 +96,11 @@ slamcore::Status DetectProtrusions(const slamcore::Map& parent, const slamcore::
   RETURN_IF_ERROR(regions.status());
   std::optional<RegionCover> truth;
   if (has_ground_truth) {
-    ASSIGN_OR_RETURN(
-        auto labelled,
-        RegionsDrawnAway(child, WhereStuckNodesWere(child, slipping_nodes, truth_poses), grids, *regions));
-    truth = std::move(labelled);
+    // A simulator's truth is for evaluation only: truth that cannot be drawn (stuck nodes placed absurdly
+    // far, beyond what a grid may span) labels no region, and the analysis stands without it.
+    auto labelled =
+        RegionsDrawnAway(child, WhereStuckNodesWere(child, slipping_nodes, truth_poses), grids, *regions);
+    if (labelled.ok()) truth = std::move(labelled).value();
   }
   ASSIGN_OR_RETURN(const auto classes, ClassifyRegions(parent, child, grids, *regions, classifier));
   const slamcore::OccupancyGrid& child_grid = grids.child;
