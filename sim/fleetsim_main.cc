@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
   std::string world;
   sim::FleetOptions options;
   std::string out;
-  bool upload_staging = false;  // out is a temporary directory of this process, for --server only
+  bool upload_staging = false;  // out is a temporary directory of this process, for --upload only
   bool json = false;
   app.add_option("--world", world, "directory of floor plans (.txt) and maps (.yaml), or one such file")
       ->required();
@@ -267,6 +267,10 @@ int main(int argc, char** argv) {
     sim::FollowService(follow_options, options);
   }
   options.out = out;
+  const auto remove_staged_runs = [&] {
+    std::error_code ignored;
+    if (upload_staging) std::filesystem::remove_all(out, ignored);
+  };
   const bool interactive = isatty(fileno(stderr));
   const auto statistics = sim::SimulateFleet(options, [interactive](int done, int total) {
     if (interactive) {
@@ -280,8 +284,7 @@ int main(int argc, char** argv) {
   });
   if (!statistics.ok()) {
     std::cerr << "fleetsim: " << statistics.status().ToString() << "\n";
-    std::error_code ignored;
-    if (upload_staging) std::filesystem::remove_all(out, ignored);
+    remove_staged_runs();
     return 1;
   }
   if (!upload.uploader.server.empty() && !follow) {
@@ -293,8 +296,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     // Runs staged only for this upload are gone once the server has them (with --out they are the user's).
-    std::error_code ignored;
-    if (upload_staging) std::filesystem::remove_all(out, ignored);
+    remove_staged_runs();
   }
   if (json) {
     std::cout << statistics->ToJson() << "\n";

@@ -200,18 +200,13 @@ Result<RegionCover> RegionsDrawnAway(const slamcore::Map& child,
       static_cast<std::size_t>(child_grid.width) * static_cast<std::size_t>(child_grid.height), 0);
   // The nodes' patches drawn at their estimates and where the robot was (only nodes of the compared
   // component: the grids render no other).
-  slamcore::Map drawn, seen;
+  std::set<NodeId> placed;
   for (const NodeId node : grids.child_nodes) {
-    const auto where = really_at.find(node);
-    const auto patch = child.local_maps.find(node);
-    if (where == really_at.end() || patch == child.local_maps.end()) continue;
-    slamcore::Node at_estimate = child.graph.node(node), at_place = at_estimate;
-    at_place.pose = where->second;
-    RETURN_IF_ERROR(drawn.graph.AddNode(at_estimate));
-    RETURN_IF_ERROR(seen.graph.AddNode(at_place));
-    drawn.local_maps.emplace(node, patch->second);
-    seen.local_maps.emplace(node, patch->second);
+    if (really_at.contains(node) && child.local_maps.contains(node)) placed.insert(node);
   }
+  const slamcore::Map drawn = ComponentMap(child, placed);
+  slamcore::Map seen = drawn;
+  for (slamcore::Node& node : seen.graph.mutable_nodes()) node.pose = really_at.at(node.id);
   std::vector<std::size_t> drawn_away(regions.size(), 0);
   if (!drawn.local_maps.empty()) {
     slamcore::GlobalGridRenderer drawn_renderer, seen_renderer;

@@ -124,9 +124,8 @@ grpc::Status IngestHandler::Upload(grpc::ServerContext* call,
   // both, naming the message (only when refusing: an upload that went through builds no such text).
   const auto ended_before = [index] {
     return "the stream ended before message[" + std::to_string(index) +
-           "] (or it did not parse as an UploadRunRequest: a string field holding bytes that are not UTF-8, "
-           "or "
-           "bytes that are no such message)";
+           "] (or it did not parse as an UploadRunRequest: a string field holding bytes that are not "
+           "UTF-8, or bytes that are no such message)";
   };
   if (!have_header) return InvalidArgument("header: " + ended_before());
   if (!have_child) {
