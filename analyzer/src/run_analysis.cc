@@ -270,8 +270,9 @@ Result<std::vector<RegionClass>> ClassifyRegions(const slamcore::Map& parent, co
   for (const slamcore::SlipFinding& finding : findings) {
     if (parent.graph.HasNode(finding.node)) continue;
     const auto judge = really_at.find(finding.judged_against);
-    really_at.emplace(finding.node, judge != really_at.end() ? judge->second
-                                                             : child.graph.node(finding.judged_against).pose);
+    const slamcore::SE2 judge_at =
+        judge != really_at.end() ? judge->second : child.graph.node(finding.judged_against).pose;
+    really_at.emplace(finding.node, judge_at * finding.judge_T_stood);
   }
   ASSIGN_OR_RETURN(const auto cover, RegionsDrawnAway(child, really_at, grids, regions));
   std::vector<RegionClass> classes(regions.size());

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
+#include <span>
 #include <string>
 
 #include "slamcore/occupancy_grid.h"
@@ -14,6 +16,9 @@ namespace {
 
 constexpr std::int8_t kOccupiedFrom = 50;  // a patch cell at or above this is a wall (as the renderer votes)
 constexpr double kShadowDepthM = 0.15;     // how far past a wall the view must have seen nothing
+constexpr double kShortestJudgedStepM = 0.15;  // three cells: beyond WallAgreement's one-cell tolerance
+constexpr double kPathStepM = 0.1;             // placements along the claimed motion, this far apart
+constexpr int kMaxPathSteps = 40;              // and at most this many (max_path_m is bounded too)
 
 std::int8_t PatchCell(const LocalMapEvent& patch, int col, int row) {
   if (col < 0 || row < 0 || col >= patch.width || row >= patch.height) return -1;
@@ -71,29 +76,121 @@ Status Check(const SlipDetectionParams& params) {
   return Status::Ok();
 }
 
+/// The centres of `patch`'s wall cells in its node frame: a view's walls, taken once for the many
+/// placements a judgement tries.
+std::vector<Vector2> WallPoints(const LocalMapEvent& patch) {
+  std::vector<Vector2> points;
+  for (int row = 0; row < patch.height; ++row) {
+    for (int col = 0; col < patch.width; ++col) {
+      if (PatchCell(patch, col, row) < kOccupiedFrom) continue;
+      points.push_back(patch.node_T_origin *
+                       Vector2((col + 0.5) * patch.resolution, (row + 0.5) * patch.resolution));
+    }
+  }
+  return points;
+}
+
+/// How many of a view's walls land on another view's known cells, and how many of those on (within one cell
+/// of) its walls.
+struct WallCounts {
+  int landed = 0, agreeing = 0;
+  double share() const { return landed > 0 ? static_cast<double>(agreeing) / landed : 0.0; }
+};
+
+/// WallAgreement's counts, for the later view's walls given as points in its node frame.
+WallCounts CountAgreement(const LocalMapEvent& earlier, std::span<const Vector2> later_walls,
+                          const SE2& earlier_T_later) {
+  // One transform from the later node's frame to the earlier patch's cell frame, applied to every point.
+  const SE2 origin_T_later = earlier.node_T_origin.inverse() * earlier_T_later;
+  const Matrix2 rotation = origin_T_later.rotation();
+  const Vector2 translation = origin_T_later.translation();
+  WallCounts counts;
+  for (const Vector2& wall : later_walls) {
+    const Vector2 local = rotation * wall + translation;
+    const int earlier_col = static_cast<int>(std::floor(local.x() / earlier.resolution));
+    const int earlier_row = static_cast<int>(std::floor(local.y() / earlier.resolution));
+    if (PatchCell(earlier, earlier_col, earlier_row) < 0) continue;  // unseen there: no judgement
+    ++counts.landed;
+    bool wall_near = false;
+    for (int dr = -1; dr <= 1 && !wall_near; ++dr) {
+      for (int dc = -1; dc <= 1 && !wall_near; ++dc)
+        wall_near = PatchCell(earlier, earlier_col + dc, earlier_row + dr) >= kOccupiedFrom;
+    }
+    counts.agreeing += wall_near;
+  }
+  return counts;
+}
+
+/// A node's view and its wall points.
+struct PatchWithWalls {
+  const LocalMapEvent* patch;
+  std::vector<Vector2> walls;
+};
+
+/// Each view's walls against the other's, pooled: a view placed past a wall the other saw head-on puts its
+/// own wall in the other's shadow (no judgement), but the other's wall on its own floor.
+WallCounts CountBothWays(const PatchWithWalls& earlier, const PatchWithWalls& later,
+                         const SE2& earlier_T_later) {
+  const WallCounts forward = CountAgreement(*earlier.patch, later.walls, earlier_T_later);
+  const WallCounts backward = CountAgreement(*later.patch, earlier.walls, earlier_T_later.inverse());
+  return {.landed = forward.landed + backward.landed, .agreeing = forward.agreeing + backward.agreeing};
+}
+
+/// Where `later`'s view says its node stood, in `earlier`'s node frame, when that is short of where odometry
+/// moved it (`earlier_T_later`) — the header's "view that stood still", for a robot that may have moved part
+/// of the way before its wheels lost grip. The view is placed at steps along the claimed motion (turned as
+/// odometry says at that point of it, or by the whole claimed turn: a wedged robot may still turn in place);
+/// a placement is judged when at least `min_wall_cells` walls land (both ways, CountBothWays). A slip is
+/// claimed when the best-agreeing placement agrees well, lies at least `min_still_motion_m` short of the
+/// odometry's end, and the farthest judged placement beyond it disagrees by the margin: that placement asks
+/// whether the view's structure along the motion could have told a move at all, so a featureless wall or
+/// corridor along the motion claims nothing.
+std::optional<SE2> StoodShort(const PatchWithWalls& earlier, const PatchWithWalls& later,
+                              const SE2& earlier_T_later, const SlipDetectionParams& params) {
+  const double motion = earlier_T_later.translation().norm();
+  if (motion < params.min_still_motion_m) return std::nullopt;
+  const int steps = std::min(kMaxPathSteps, static_cast<int>(std::ceil(motion / kPathStepM)));
+  struct Placement {
+    SE2 pose;
+    double agreement = -1.0;  // −1: not judged (too few walls landed)
+  };
+  std::vector<Placement> along(static_cast<std::size_t>(steps) + 1);
+  for (int k = 0; k <= steps; ++k) {
+    const double fraction = static_cast<double>(k) / steps;
+    const Vector2 position = fraction * earlier_T_later.translation();
+    for (const double turn : {fraction * earlier_T_later.theta(), earlier_T_later.theta()}) {
+      const SE2 pose(position, turn);
+      const WallCounts counts = CountBothWays(earlier, later, pose);
+      Placement& best = along[static_cast<std::size_t>(k)];
+      if (counts.landed >= params.min_wall_cells && counts.share() > best.agreement)
+        best = {pose, counts.share()};
+    }
+  }
+  std::size_t stood = 0;  // the first of a tie: the one nearest the earlier view
+  for (std::size_t k = 1; k < along.size(); ++k) {
+    if (along[k].agreement > along[stood].agreement) stood = k;
+  }
+  const Placement& at = along[stood];
+  if (at.agreement < params.min_still_agreement ||
+      (earlier_T_later.translation() - at.pose.translation()).norm() < params.min_still_motion_m) {
+    return std::nullopt;
+  }
+  for (std::size_t k = along.size() - 1; k > stood; --k) {
+    if ((along[k].pose.translation() - at.pose.translation()).norm() < kShortestJudgedStepM) break;
+    if (along[k].agreement < 0.0) continue;
+    if (at.agreement - along[k].agreement >= params.min_agreement_margin) return at.pose;
+    break;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 double WallAgreement(const LocalMapEvent& earlier, const LocalMapEvent& later, const SE2& earlier_T_later,
                      int* landed) {
-  int count = 0, agreeing = 0;
-  for (int row = 0; row < later.height; ++row) {
-    for (int col = 0; col < later.width; ++col) {
-      if (PatchCell(later, col, row) < kOccupiedFrom) continue;
-      const Vector2 centre((col + 0.5) * later.resolution, (row + 0.5) * later.resolution);
-      const auto [earlier_col, earlier_row] =
-          CellOf(earlier, earlier_T_later * (later.node_T_origin * centre));
-      if (PatchCell(earlier, earlier_col, earlier_row) < 0) continue;  // unseen there: no judgement
-      ++count;
-      bool wall_near = false;
-      for (int dr = -1; dr <= 1 && !wall_near; ++dr) {
-        for (int dc = -1; dc <= 1 && !wall_near; ++dc)
-          wall_near = PatchCell(earlier, earlier_col + dc, earlier_row + dr) >= kOccupiedFrom;
-      }
-      agreeing += wall_near;
-    }
-  }
-  if (landed != nullptr) *landed = count;
-  return count > 0 ? static_cast<double>(agreeing) / count : 0.0;
+  const WallCounts counts = CountAgreement(earlier, WallPoints(later), earlier_T_later);
+  if (landed != nullptr) *landed = counts.landed;
+  return counts.share();
 }
 
 Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetectionParams& params) {
@@ -113,7 +210,7 @@ Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetecti
   for (const auto& [start, unused] : next) {
     if (has_predecessor.contains(start)) continue;
     // The last node with a view, where it stood, and the path walked since (in the world frame).
-    const LocalMapEvent* reference = nullptr;
+    std::optional<PatchWithWalls> reference;
     NodeId reference_node = 0;
     SE2 world_T_reference;
     double path_m = 0.0;
@@ -122,33 +219,26 @@ Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetecti
     for (NodeId node = start;;) {
       if (!walked.insert(node).second) break;  // a cycle of motion edges (a malformed map): stop there
       const SE2& pose = graph.node(node).pose;
-      const LocalMapEvent* view = nullptr;
+      std::optional<PatchWithWalls> view;
       if (const auto it = map.local_maps.find(node);
           it != map.local_maps.end() && ValidateLocalMap(node, it->second).ok())
-        view = &it->second;
-      if (reference != nullptr && node != start) {
+        view = PatchWithWalls{&it->second, WallPoints(it->second)};
+      if (reference && node != start) {
         const SE2 reference_T_world = world_T_reference.inverse();
         const Vector2 from = reference_T_world * graph.node(previous).pose.translation();
         const Vector2 to = reference_T_world * pose.translation();
         path_m += (to - from).norm();
-        through_wall = through_wall || CrossesWall(*reference, from, to);
+        through_wall = through_wall || CrossesWall(*reference->patch, from, to);
         if (through_wall) {
-          findings.push_back({node, SlipEvidence::kPathThroughWall, reference_node});
-        } else if (view != nullptr) {
-          const SE2 reference_T_node = reference_T_world * pose;
-          int landed_still = 0, landed_moved = 0;
-          const double still = WallAgreement(*reference, *view, SE2(), &landed_still);
-          const double moved = WallAgreement(*reference, *view, reference_T_node, &landed_moved);
-          if (reference_T_node.translation().norm() >= params.min_still_motion_m &&
-              landed_still >= params.min_wall_cells && landed_moved >= params.min_wall_cells &&
-              still >= params.min_still_agreement && still - moved >= params.min_agreement_margin) {
-            findings.push_back({node, SlipEvidence::kViewStoodStill, reference_node});
-          }
+          findings.push_back({node, SlipEvidence::kPathThroughWall, reference_node, SE2()});
+        } else if (view) {
+          if (const auto stood = StoodShort(*reference, *view, reference_T_world * pose, params))
+            findings.push_back({node, SlipEvidence::kViewStoodStill, reference_node, *stood});
         }
-        if (path_m > params.max_path_m) reference = nullptr;
+        if (path_m > params.max_path_m) reference.reset();
       }
-      if (view != nullptr) {
-        reference = view;
+      if (view) {
+        reference = std::move(view);
         reference_node = node;
         world_T_reference = pose;
         path_m = 0.0;

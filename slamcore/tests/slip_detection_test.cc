@@ -94,9 +94,9 @@ TEST(SlipDetectionTest, DrivingUpToAWallAndTurningAwayIsNoSlip) {
 }
 
 /// A lidar's view of a 5 m × 5 m room from the point (x, 0) inside it.
-LocalMapEvent RoomSeenFrom(double x) {
+LocalMapEvent RoomSeenFrom(double x, double y = 0.0) {
   return Patch(3.0, [=](double px, double py) {
-    const double wx = px + x, wy = py;
+    const double wx = px + x, wy = py + y;
     if (std::abs(wx) > 2.55 || std::abs(wy) > 2.55) return kUnseen;
     return (std::abs(wx) > 2.5 || std::abs(wy) > 2.5) ? kWall : kFree;
   });
@@ -115,6 +115,53 @@ TEST(SlipDetectionTest, AViewThatStoodStillWhileOdometryMovedIsFound) {
                                            Field(&SlipFinding::judged_against, 0))));
   // The same motion, made for real: the later view sees the room from 1.8 m further.
   const auto moved = FindSlipNodes(Chain(poses, {RoomSeenFrom(0.0), {}, {}, {}, {}, {}, RoomSeenFrom(1.8)}));
+  ASSERT_THAT(moved, IsOk());
+  EXPECT_THAT(*moved, IsEmpty());
+}
+
+TEST(SlipDetectionTest, ARobotThatMovedPartOfTheWayIsPlacedWhereItsWheelsLostGrip) {
+  // The wheels claim 1.8 m across the room, diagonally; the robot made 0.6 m of it before the rug lifted
+  // it. Its view agrees with the earlier one only 0.6 m along the claimed motion: that is where it stood.
+  const double diagonal = std::sqrt(0.5);
+  std::vector<SE2> poses;
+  for (int k = 0; k <= 6; ++k) poses.emplace_back(0.3 * k * diagonal, 0.3 * k * diagonal, 0.0);
+  const auto stopped_after = [&](double metres) {
+    return FindSlipNodes(Chain(
+        poses, {RoomSeenFrom(0.0), {}, {}, {}, {}, {}, RoomSeenFrom(metres * diagonal, metres * diagonal)}));
+  };
+  const auto findings = stopped_after(0.6);
+  ASSERT_THAT(findings, IsOk());
+  ASSERT_EQ(findings->size(), 1u);
+  const SlipFinding& finding = findings->front();
+  EXPECT_EQ(finding.node, 6);
+  EXPECT_EQ(finding.evidence, SlipEvidence::kViewStoodStill);
+  EXPECT_EQ(finding.judged_against, 0);
+  // Placements are 0.1 m apart along the motion, and a wall within a cell (0.05 m on each axis) agrees, so
+  // the neighbouring placement can tie with the true one; the first of a tie is taken.
+  EXPECT_NEAR(finding.judge_T_stood.x(), 0.5 * diagonal, 1e-9);
+  EXPECT_NEAR(finding.judge_T_stood.y(), 0.5 * diagonal, 1e-9);
+  EXPECT_NEAR(finding.judge_T_stood.theta(), 0.0, 1e-12);
+  // Stopped 0.2 m short (1.6 m of 1.8): less than min_still_motion_m (0.25 m) short, so nothing.
+  const auto nearly = stopped_after(1.6);
+  ASSERT_THAT(nearly, IsOk());
+  EXPECT_THAT(*nearly, IsEmpty());
+}
+
+TEST(SlipDetectionTest, AShortRangeViewOfAWallAheadIsJudgedBothWays) {
+  // A front sensor sees a wall 1 m ahead, and the wheels claim 0.6 m toward it (the path stops short of the
+  // wall). Placed 0.6 m on, the later view's wall falls in the earlier view's shadow, where nothing can be
+  // judged; but the earlier view's wall then falls on the later view's floor, 0.4 m in front of it.
+  const std::vector<SE2> poses = {SE2(0.0, 0.0, 0.0), SE2(0.3, 0.0, 0.0), SE2(0.6, 0.0, 0.0)};
+  int landed = 0;
+  EXPECT_EQ(WallAgreement(FacingWall(1.0), FacingWall(1.0), poses[2], &landed), 0.0);
+  EXPECT_EQ(landed, 0);  // one way alone: no judgement
+  const auto stuck = FindSlipNodes(Chain(poses, {FacingWall(1.0), {}, FacingWall(1.0)}));
+  ASSERT_THAT(stuck, IsOk());
+  EXPECT_THAT(*stuck, ElementsAre(AllOf(Field(&SlipFinding::node, 2),
+                                        Field(&SlipFinding::evidence, SlipEvidence::kViewStoodStill),
+                                        Field(&SlipFinding::judged_against, 0))));
+  // Driven for real, the wall is 0.4 m ahead of the later view.
+  const auto moved = FindSlipNodes(Chain(poses, {FacingWall(1.0), {}, FacingWall(0.4)}));
   ASSERT_THAT(moved, IsOk());
   EXPECT_THAT(*moved, IsEmpty());
 }

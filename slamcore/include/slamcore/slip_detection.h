@@ -4,8 +4,10 @@
 // sensor and however long the episode:
 //  * the path through the wall: the nodes' estimated path runs through a cell that the view of an earlier
 //    node of the same chain held as a wall (the robot cannot have gone there);
-//  * the view that stood still: a view agrees with the view before it when both are placed at the earlier
-//    node's pose, and not when placed where odometry says the robot went (it did not move).
+//  * the view that stood still: placed along the motion odometry claims since the view before it, a view
+//    agrees best short of where odometry put it (at the earlier node's place, or where the robot was when
+//    its wheels lost grip), and disagrees beyond: it did not move on. Agreement is counted both ways (each
+//    view's walls on the other's), so a short-range view of a wall ahead is judged too.
 // Where neither can be seen (open floor with a short-range sensor, a featureless corridor along the
 // motion) nothing is claimed: the judgement is "slip seen", never "no slip".
 //
@@ -23,11 +25,11 @@ struct SlipDetectionParams {
   /// A node is judged against the last view before it along this much path at most (metres): farther on,
   /// drift makes an earlier view a poor judge of where the robot can be.
   double max_path_m = 3.0;
-  /// Views stood still: the estimated motion between the two views must be at least this long (metres),
-  /// the earlier view's walls must explain at least `min_still_agreement` of the later view's walls when
-  /// the later view is put at the earlier pose, and at least `min_agreement_margin` more than when it is
-  /// put where odometry says the robot went. Both placements must have `min_wall_cells` of the later
-  /// view's walls fall inside the earlier view's known cells.
+  /// Views stood still: the place where the views agree best must lie at least this far (metres) short of
+  /// where odometry put the later view; there at least `min_still_agreement` of the walls that land on the
+  /// other view's known cells must lie on (within a cell of) its walls, and at least `min_agreement_margin`
+  /// more than at the farthest placement beyond it that can be judged. A placement is judged when at least
+  /// `min_wall_cells` walls land.
   double min_still_motion_m = 0.25;
   double min_still_agreement = 0.8;
   double min_agreement_margin = 0.35;
@@ -41,11 +43,16 @@ struct SlipFinding {
   NodeId node = 0;
   SlipEvidence evidence = SlipEvidence::kPathThroughWall;
   NodeId judged_against = 0;  // the earlier node whose view contradicts this node's pose
+  /// Where the views say the node stood, in `judged_against`'s frame: where its view agrees best along the
+  /// claimed motion (kViewStoodStill), or `judged_against`'s own pose (kPathThroughWall: somewhere short of
+  /// the wall, which the path does not say).
+  SE2 judge_T_stood;
 };
 
-/// The nodes of `map` whose poses the map's own views contradict, in chain order. Chains follow motion
-/// edges (a run's start or a kidnap starts a new chain; a node with several motion successors continues
-/// along the one with the smallest id). Fails on an invalid parameter.
+/// The nodes of `map` whose poses the map's own views contradict, in chain order; each node with a view is
+/// judged against the last view before it on its chain. Chains follow motion edges (a run's start or a
+/// kidnap starts a new chain; a node with several motion successors continues along the one with the
+/// smallest id). Fails on an invalid parameter.
 Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetectionParams& params = {});
 
 /// Share of `later`'s wall cells that land on (within one cell of) a wall of `earlier` when `later`'s node is
