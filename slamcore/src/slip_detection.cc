@@ -158,10 +158,11 @@ std::optional<SE2> StoodShort(const PatchWithWalls& earlier, const PatchWithWall
   for (int k = 0; k <= steps; ++k) {
     const double fraction = static_cast<double>(k) / steps;
     const Vector2 position = fraction * earlier_T_later.translation();
+    Placement& best = along[static_cast<std::size_t>(k)];
+    best.pose = SE2(position, fraction * earlier_T_later.theta());  // where it lies, judged or not
     for (const double turn : {fraction * earlier_T_later.theta(), earlier_T_later.theta()}) {
       const SE2 pose(position, turn);
       const WallCounts counts = CountBothWays(earlier, later, pose);
-      Placement& best = along[static_cast<std::size_t>(k)];
       if (counts.landed >= params.min_wall_cells && counts.share() > best.agreement)
         best = {pose, counts.share()};
     }

@@ -166,6 +166,31 @@ TEST(SlipDetectionTest, AShortRangeViewOfAWallAheadIsJudgedBothWays) {
   EXPECT_THAT(*moved, IsEmpty());
 }
 
+TEST(SlipDetectionTest, WhereOdometryPutsTheViewBeyondAllJudgementAShorterStepJudges) {
+  // A front sensor sees a wall ahead with a step in it (1 m away to the right, 0.6 m to the left); the
+  // wheels claim 1.5 m sideways (the robot stuck, its odometry carried off) along the wall, so the path
+  // crosses nothing. 1.5 m on, neither view's walls land on the other's seen cells; part of the way, the
+  // step lands on floor.
+  const auto step_ahead = Patch(1.5, [](double x, double y) {
+    if (x < -0.2 || std::abs(y) > 0.6) return kUnseen;
+    const double wall_x = y < 0.0 ? 1.0 : 0.6;
+    if (x < wall_x) return kFree;
+    return x < wall_x + 0.05 ? kWall : kUnseen;
+  });
+  const std::vector<SE2> poses = {SE2(0.0, 0.0, 0.0), SE2(0.0, 0.75, 0.0), SE2(0.0, 1.5, 0.0)};
+  int landed = 0;
+  (void)WallAgreement(step_ahead, step_ahead, poses[2], &landed);
+  EXPECT_EQ(landed, 0);
+  (void)WallAgreement(step_ahead, step_ahead, poses[2].inverse(), &landed);
+  EXPECT_EQ(landed, 0);
+  const auto findings = FindSlipNodes(Chain(poses, {step_ahead, {}, step_ahead}));
+  ASSERT_THAT(findings, IsOk());
+  ASSERT_EQ(findings->size(), 1u);
+  EXPECT_EQ(findings->front().node, 2);
+  EXPECT_EQ(findings->front().evidence, SlipEvidence::kViewStoodStill);
+  EXPECT_NEAR(findings->front().judge_T_stood.translation().norm(), 0.0, 1e-12);
+}
+
 TEST(SlipDetectionTest, AFeaturelessCorridorAlongTheMotionClaimsNothing) {
   // Walls 0.6 m to either side, running along the motion: every view looks the same wherever the robot is,
   // so the views cannot tell whether it moved.
