@@ -131,6 +131,10 @@ int main(int argc, char** argv) {
   app.add_option("--auto-repair-min-severity", config.auto_repair_min_severity,
                  "the repair policy acts only on findings at least this severe (0..1)")
       ->capture_default_str();
+  app.add_option("--auto-repair-protrusions", config.auto_repair_protrusions,
+                 "any: the policy cuts every protrusion finding; views: only those the run's own views show "
+                 "(a slip), leaving the map-only model's calls to an engineer")
+      ->capture_default_str();
   app.add_flag("--auto-approve", config.auto_approve,
                "policy repairs reach robots without an engineer's review");
   app.add_option(

@@ -23,7 +23,8 @@
 // --params` and fleetd take) instead of slamcore's defaults: a candidate set tried on a simulated fleet.
 //
 //   fleetsim --lifelong --world DIR [--robots N] [--runs M] [--seed S] [--minutes T] [--json] [--results FILE]
-//            [--regimes none,filter,service,review] [--review-every K] [--min-severity X] [--fleetd BIN]
+//            [--regimes none,filter,service,review] [--review-every K] [--min-severity X]
+//            [--cut-protrusions any|views] [--fleetd BIN]
 //
 // the lifelong experiment (sim/lifelong.h; default 20 robots × 40 runs of 10 minutes): the four regimes on the
 // same seeds, a fleetd of its own for the service regimes (the one beside this program unless --fleetd), a
@@ -197,6 +198,10 @@ int main(int argc, char** argv) {
                  "--lifelong review: an engineer approves every K runs");
   app.add_option("--min-severity", life.min_severity,
                  "--lifelong: the repair policy acts on findings this severe");
+  app.add_option("--cut-protrusions", life.protrusions,
+                 "--lifelong: which protrusion findings the policy cuts: any, or views (those the run's own "
+                 "views show; the map-only model's calls wait for review)")
+      ->capture_default_str();
   app.add_option("--results", results_file, "--lifelong: also write the JSON object to this file");
   app.add_option("--fleetd", fleetd, "--lifelong: the fleetd binary (default: beside fleetsim)");
   app.add_option("--work-dir", work_dir,

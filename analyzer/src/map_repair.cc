@@ -258,7 +258,11 @@ void UnconfirmedHypothesisFindings(const Map& map, const std::set<NodeId>& run_n
 void ProtrusionFindings(const Map& map, const std::set<NodeId>& run_nodes, const fleet::v1::RunReport& report,
                         const FindingOptions& options, std::vector<fleet::v1::MapFinding>* findings) {
   for (const fleet::v1::ProtrusionRegion& region : report.protrusion_regions()) {
-    if (region.predicted_class() != "protrusion" || region.probability() < options.protrusion_probability ||
+    // The run's own views showing the slip are evidence in their own right (analyzer::ClassifyRegions),
+    // whatever the map-only model's probability; the model's calls count from its threshold up.
+    const bool seen_by_views = region.decided_by() == "views";
+    if (region.predicted_class() != "protrusion" ||
+        (!seen_by_views && region.probability() < options.protrusion_probability) ||
         region.world_bbox_size() != 4) {
       continue;
     }
@@ -267,14 +271,18 @@ void ProtrusionFindings(const Map& map, const std::set<NodeId>& run_nodes, const
     const std::int64_t cells = RunCellsInside(map, run_nodes, box);
     fleet::v1::MapFinding finding;
     finding.set_finding_kind(fleet::v1::FINDING_KIND_PROTRUSION);
-    finding.set_severity(0.9 * region.probability());
+    finding.set_severity(seen_by_views ? 0.9 : 0.9 * region.probability());
     finding.set_finding_state(cells > 0 ? fleet::v1::FINDING_STATE_OPEN : fleet::v1::FINDING_STATE_RESOLVED);
     finding.set_summary("protrusion region " + std::to_string(region.id()) + " (" +
-                        Fixed((box[2] - box[0]) * (box[3] - box[1]), 2) + " m², probability " +
-                        Fixed(region.probability(), 2) + ")" + (cells > 0 ? "" : ": cut out"));
+                        Fixed((box[2] - box[0]) * (box[3] - box[1]), 2) + " m², " +
+                        (seen_by_views
+                             ? std::string("the run's views show the robot slipped")
+                             : "probability " + Fixed(region.probability(), 2) + " by the map-only model") +
+                        ")" + (cells > 0 ? "" : ": cut out"));
     for (const double value : box) finding.add_world_bbox(value);
     finding.set_evidence_json(
         json{{"region_id", region.id()},
+             {"decided_by", region.decided_by()},
              {"probability", region.probability()},
              {"run_cells_inside", cells},
              {"image_bbox", std::vector<int>(region.bbox().begin(), region.bbox().end())}}

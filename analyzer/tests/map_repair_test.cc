@@ -299,6 +299,48 @@ TEST(MapRepairTest, CuttingAProtrusionClearsOnlyTheRunsCellsAndResolvesTheFindin
             slamcore::StatusCode::kInvalidArgument);
 }
 
+TEST(MapRepairTest, AProtrusionTheRunsViewsShowIsAFindingWhateverTheModelSays) {
+  const Scenario s = MakeScenario();
+  fleet::v1::RunReport report = ReportWithRerun(s.child);
+  const auto add_region = [&](int id, const std::string& decided_by, double probability) {
+    fleet::v1::ProtrusionRegion* region = report.add_protrusion_regions();
+    region->set_id(id);
+    region->set_predicted_class("protrusion");
+    region->set_decided_by(decided_by);
+    region->set_probability(probability);
+    for (const double value : {1.8, 2.6, 3.2, 3.4}) region->add_world_bbox(value);
+  };
+  // The map-only model's call below its threshold (0.5) is no finding; the views' is, at the views'
+  // severity (0.9), not 0.9 × the model's 0.2.
+  add_region(7, "classifier", 0.2);
+  add_region(8, "views", 0.2);
+  const auto findings = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
+  std::vector<const fleet::v1::MapFinding*> protrusions;
+  for (const auto& finding : findings) {
+    if (finding.finding_kind() == fleet::v1::FINDING_KIND_PROTRUSION) protrusions.push_back(&finding);
+  }
+  ASSERT_EQ(protrusions.size(), 1u);
+  EXPECT_DOUBLE_EQ(protrusions[0]->severity(), 0.9);
+  EXPECT_NE(protrusions[0]->summary().find("views show the robot slipped"), std::string::npos);
+  const auto evidence = nlohmann::json::parse(protrusions[0]->evidence_json());
+  EXPECT_EQ(evidence["region_id"], 8);
+  EXPECT_EQ(evidence["decided_by"], "views");
+  EXPECT_DOUBLE_EQ(evidence["probability"].get<double>(), 0.2);
+  // The model's call at its threshold or above is a finding at 0.9 × its probability, and says so.
+  report.mutable_protrusion_regions(0)->set_probability(0.8);
+  const auto both = FindMapFindings({.map = &s.child, .run_parent = &s.parent, .report = &report});
+  int count = 0;
+  for (const auto& finding : both) {
+    if (finding.finding_kind() != fleet::v1::FINDING_KIND_PROTRUSION) continue;
+    ++count;
+    if (nlohmann::json::parse(finding.evidence_json())["decided_by"] == "classifier") {
+      EXPECT_DOUBLE_EQ(finding.severity(), 0.9 * 0.8);
+      EXPECT_NE(finding.summary().find("probability 0.80 by the map-only model"), std::string::npos);
+    }
+  }
+  EXPECT_EQ(count, 2);
+}
+
 constexpr std::size_t kCentreCell = 10 * 20 + 10;
 
 /// The scenario's child with a later run on top: nodes 40..42 after the run's last node, and the run's node 25

@@ -75,6 +75,10 @@ slamcore::Status FleetdConfig::Validate() const {
     return slamcore::InvalidArgument(
         "auto_repair: expected none, cut_protrusions or repair_findings, got \"" + auto_repair + "\"");
   }
+  if (auto_repair_protrusions != "any" && auto_repair_protrusions != "views") {
+    return slamcore::InvalidArgument("auto_repair_protrusions: expected any or views, got \"" +
+                                     auto_repair_protrusions + "\"");
+  }
   if (!(auto_repair_min_severity >= 0.0 && auto_repair_min_severity <= 1.0)) {
     return slamcore::InvalidArgument("auto_repair_min_severity: expected 0 .. 1");
   }
@@ -156,6 +160,8 @@ slamcore::Status LoadConfigFile(const std::string& path, FleetdConfig& config) {
       {"log_format", [&](const nlohmann::json& v) { config.log_format = v.get<std::string>(); }},
       {"auto_repair", [&](const nlohmann::json& v) { config.auto_repair = v.get<std::string>(); }},
       {"auto_approve", [&](const nlohmann::json& v) { config.auto_approve = v.get<bool>(); }},
+      {"auto_repair_protrusions",
+       [&](const nlohmann::json& v) { config.auto_repair_protrusions = v.get<std::string>(); }},
       {"auto_repair_min_severity",
        [&](const nlohmann::json& v) { config.auto_repair_min_severity = v.get<double>(); }},
       {"retain_runs_days", [&](const nlohmann::json& v) { config.retain_runs_days = v.get<double>(); }},

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include <nlohmann/json.hpp>
+
 #include "analyzer/map_comparison.h"
 #include "analyzer/map_metadata.h"
 #include "analyzer/map_repair.h"
@@ -15,9 +17,21 @@ namespace server {
 
 using namespace map_history_internal;
 
+namespace {
+
+/// Whether a protrusion finding rests on the run's own views (its evidence says so), not on the map-only
+/// model alone.
+bool SeenByViews(const fleet::v1::MapFinding& finding) {
+  const auto evidence = nlohmann::json::parse(finding.evidence_json(), nullptr, /*allow_exceptions=*/false);
+  return evidence.is_object() && evidence.value("decided_by", std::string()) == "views";
+}
+
+}  // namespace
+
 MapPolicy MapPolicyOf(const FleetdConfig& config) {
   return {.auto_repair = config.auto_repair,
           .min_severity = config.auto_repair_min_severity,
+          .protrusions = config.auto_repair_protrusions,
           .auto_approve = config.auto_approve,
           .default_parameter_set = config.default_parameter_set,
           .model_name = config.model_name};
@@ -138,7 +152,8 @@ storage::Status MapHistory::OnUploadAnalysed(const storage::RunKey& run, const f
         continue;
       }
       const fleet::v1::FindingKind kind = finding.finding_kind();
-      const bool repairable = kind == fleet::v1::FINDING_KIND_PROTRUSION ||
+      const bool repairable = (kind == fleet::v1::FINDING_KIND_PROTRUSION &&
+                               (policy_.protrusions == "any" || SeenByViews(finding))) ||
                               (all_findings && (kind == fleet::v1::FINDING_KIND_UNCONFIRMED_HYPOTHESIS ||
                                                 kind == fleet::v1::FINDING_KIND_HIGH_RESIDUAL_EDGE));
       key = std::string(NameOf(kind)) + ":" + std::to_string(finding.hypothesis()) + ":" +

@@ -30,13 +30,15 @@ class ConfigTest : public ::testing::Test {
 TEST_F(ConfigTest, TheRepairPolicyKeysReachTheMapPolicyAndOutOfRangeValuesAreNamed) {
   FleetdConfig config;
   ASSERT_THAT(
-      Load(R"({"auto_repair": "repair_findings", "auto_repair_min_severity": 0.6, "auto_approve": true})",
+      Load(R"({"auto_repair": "repair_findings", "auto_repair_min_severity": 0.6, "auto_approve": true,
+               "auto_repair_protrusions": "views"})",
            config),
       IsOk());
   EXPECT_THAT(config.Validate(), IsOk());
   const MapPolicy policy = MapPolicyOf(config);
   EXPECT_EQ(policy.auto_repair, "repair_findings");
   EXPECT_DOUBLE_EQ(policy.min_severity, 0.6);
+  EXPECT_EQ(policy.protrusions, "views");
   EXPECT_TRUE(policy.auto_approve);
 
   const auto refused = [&config](const std::string& expected) {
@@ -47,6 +49,9 @@ TEST_F(ConfigTest, TheRepairPolicyKeysReachTheMapPolicyAndOutOfRangeValuesAreNam
   config.auto_repair_min_severity = 1.5;
   refused("auto_repair_min_severity: expected 0 .. 1");
   config.auto_repair_min_severity = 0.6;
+  config.auto_repair_protrusions = "model";
+  refused("auto_repair_protrusions: expected any or views, got \"model\"");
+  config.auto_repair_protrusions = "any";
   config.auto_repair = "cut_everything";
   refused("auto_repair: expected none, cut_protrusions or repair_findings, got \"cut_everything\"");
 }

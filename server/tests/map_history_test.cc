@@ -84,7 +84,7 @@ class MapHistoryTest : public SqliteRepositoryTest {
 
   /// The default set's report of the second run, stored as a worker stores it: the rerun agrees with the
   /// robot, one protrusion region around run nodes 13..16 (x 6.5..8.0), clear of the home map (x up to 5.0).
-  fleet::v1::RunReport Report() {
+  fleet::v1::RunReport Report(const std::string& decided_by = "classifier") {
     fleet::v1::RunReport report;
     report.set_robot_id("r1");
     report.set_run_id("run-1");
@@ -94,6 +94,7 @@ class MapHistoryTest : public SqliteRepositoryTest {
     region->set_id(1);
     region->set_predicted_class("protrusion");
     region->set_probability(0.93);
+    region->set_decided_by(decided_by);
     for (const double value : {6.4, -0.4, 8.1, 0.4}) region->add_world_bbox(value);
     EXPECT_THAT(repository_->PutReport(ToReportBundle(report)), IsOk());
     return report;
@@ -213,6 +214,26 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   EXPECT_EQ(history.List("r1", &current, &head)->size(), 3u);
   EXPECT_EQ(current, 2);
   EXPECT_EQ(head, 3) << "the pending repair is what further repairs start from";
+}
+
+TEST_F(MapHistoryTest, CuttingOnlyWhatTheViewsShowLeavesTheModelsCallsToAnEngineer) {
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .protrusions = "views"});
+  UploadBoth(history);
+  // The map-only model's call: an open finding, no repair.
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report("classifier")), IsOk());
+  std::int64_t current = 0, head = 0;
+  EXPECT_EQ(history.List("r1", &current, &head)->size(), 2u);
+  auto detail = history.Get("r1", 2);
+  ASSERT_THAT(detail, IsOk());
+  ASSERT_EQ(detail->findings.size(), 1u);
+  EXPECT_EQ(detail->findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
+  // The same region shown by the run's own views (a reanalysis): cut.
+  ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report("views")), IsOk());
+  auto repaired = history.Get("r1", 3);
+  ASSERT_THAT(repaired, IsOk());
+  EXPECT_EQ(repaired->version.version_action(), fleet::v1::MAP_ACTION_CUT_REGION);
+  EXPECT_EQ(repaired->version.created_by(), "policy:cut_protrusions");
+  EXPECT_EQ(repaired->version.open_findings(), 0);
 }
 
 TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase) {

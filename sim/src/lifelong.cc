@@ -102,7 +102,9 @@ slamcore::Result<RegimeResult> RunRegime(const LifelongOptions& options, const s
                    "--auto-repair",
                    "repair_findings",
                    "--auto-repair-min-severity",
-                   std::to_string(options.min_severity)};
+                   std::to_string(options.min_severity),
+                   "--auto-repair-protrusions",
+                   options.protrusions};
   if (name == "service") service.flags.push_back("--auto-approve");
   service.admin_token = fleet_client::RandomToken("admin:lifelong");
   fleet_client::LocalFleetd fleetd;
@@ -162,6 +164,10 @@ slamcore::Status ValidateLifelong(const LifelongOptions& options) {
   }
   if (!(options.min_severity >= 0.0 && options.min_severity <= 1.0)) {
     return slamcore::InvalidArgument("--min-severity: expected 0..1");
+  }
+  if (options.protrusions != "any" && options.protrusions != "views") {
+    return slamcore::InvalidArgument("--cut-protrusions: expected any or views, got \"" +
+                                     options.protrusions + "\"");
   }
   if (options.regimes.empty()) return slamcore::InvalidArgument("--regimes: name at least one regime");
   for (const std::string& regime : options.regimes) {
@@ -231,6 +237,7 @@ std::string LifelongJson(const LifelongOptions& options, const std::vector<Regim
       {"minutes", options.run_minutes},
       {"review_every_runs", options.review_every_runs},
       {"min_severity", options.min_severity},
+      {"cut_protrusions", options.protrusions},
       {"threshold",
        {{"trajectory_rmse_m", options.corruption.trajectory_rmse_m},
         {"false_free_m2", options.corruption.false_free_m2}}},

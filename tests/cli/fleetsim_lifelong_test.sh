@@ -23,6 +23,7 @@ refused "--robots: expected 1..200, got 201" --robots 201
 refused "--runs: expected 1..400, got 401" --runs 401
 refused "--regimes: \"magic\" is not one of none, filter, service, review" --regimes filter,magic
 refused "--min-severity: expected 0..1" --min-severity 2
+refused "--cut-protrusions: expected any or views, got \"model\"" --cut-protrusions model
 refused "--review-every: expected 1..400 runs" --review-every 0
 refused "is not an executable" --regimes service --fleetd "$work/no-such-fleetd" --robots 1 --runs 1 --minutes 1
 # A regime that fails after another finished: the finished one is kept in --results, the rest named.

@@ -41,6 +41,10 @@ struct MapPolicy {
   /// Only findings of at least `min_severity` are acted on.
   std::string auto_repair = "none";
   double min_severity = 0.0;
+  /// "any": every protrusion finding is cut; "views": only those the run's own views show (a slip seen,
+  /// analyzer::ClassifyRegions) — the map-only model's calls stay open for an engineer, since on robot-drawn
+  /// maps it also calls real new floor a protrusion (README "Erroneous protrusions").
+  std::string protrusions = "any";
   /// Policy repairs are approved at once (robots get them on their next GetMap) instead of waiting for review.
   bool auto_approve = false;
   std::string default_parameter_set = "default";

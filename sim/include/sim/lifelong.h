@@ -30,11 +30,12 @@ struct LifelongOptions {
   int runs = 40;
   std::uint64_t seed = 1;
   double run_minutes = 10.0;
-  int threads = 0;                 // 0: all cores
-  std::filesystem::path fleetd;    // the fleetd binary for the service regimes
-  std::filesystem::path work_dir;  // their databases and logs
-  int review_every_runs = 7;       // review: an engineer approves repairs once a week
-  double min_severity = 0.6;       // the policy acts on findings at least this severe
+  int threads = 0;                  // 0: all cores
+  std::filesystem::path fleetd;     // the fleetd binary for the service regimes
+  std::filesystem::path work_dir;   // their databases and logs
+  int review_every_runs = 7;        // review: an engineer approves repairs once a week
+  double min_severity = 0.6;        // the policy acts on findings at least this severe
+  std::string protrusions = "any";  // which protrusions it cuts: "any", or "views" (fleetd's MapPolicy)
   CorruptionThreshold corruption;
   std::vector<std::string> regimes = {"none", "filter", "service", "review"};
   SimParams params;  // the homes' clutter and the robots' physics
