@@ -18,7 +18,7 @@ constexpr std::int8_t kOccupiedFrom = 50;  // a patch cell at or above this is a
 constexpr double kShadowDepthM = 0.15;     // how far past a wall the view must have seen nothing
 constexpr double kShortestJudgedStepM = 0.15;  // three cells: beyond WallAgreement's one-cell tolerance
 constexpr double kPathStepM = 0.1;             // placements along the claimed motion, this far apart
-constexpr int kMaxPathSteps = 40;              // and at most this many (max_path_m is bounded too)
+constexpr int kMaxPathSteps = 40;              // and at most this many: the work per view is bounded
 
 std::int8_t PatchCell(const LocalMapEvent& patch, int col, int row) {
   if (col < 0 || row < 0 || col >= patch.width || row >= patch.height) return -1;
