@@ -19,6 +19,7 @@ constexpr double kShadowDepthM = 0.15;     // how far past a wall the view must 
 constexpr double kShortestJudgedStepM = 0.15;  // three cells: beyond WallAgreement's one-cell tolerance
 constexpr double kPathStepM = 0.1;             // placements along the claimed motion, this far apart
 constexpr int kMaxPathSteps = 40;              // and at most this many: the work per view is bounded
+constexpr std::size_t kMaxWallPoints = 4096;   // walls of a view judged (WallPoints)
 
 std::int8_t PatchCell(const LocalMapEvent& patch, int col, int row) {
   if (col < 0 || row < 0 || col >= patch.width || row >= patch.height) return -1;
@@ -77,15 +78,26 @@ Status Check(const SlipDetectionParams& params) {
 }
 
 /// The centres of `patch`'s wall cells in its node frame: a view's walls, taken once for the many
-/// placements a judgement tries.
+/// placements a judgement tries. At most kMaxWallPoints of them, evenly spaced in row order: agreement is a
+/// share, and an uploaded patch may hold millions of wall cells (2048² at most), which every placement
+/// would otherwise visit.
 std::vector<Vector2> WallPoints(const LocalMapEvent& patch) {
+  const auto is_wall = [&](std::size_t cell) { return patch.cells[cell] >= kOccupiedFrom; };
+  std::size_t count = 0;
+  for (std::size_t cell = 0; cell < patch.cells.size(); ++cell) count += is_wall(cell);
+  const std::size_t kept = std::min(count, kMaxWallPoints);
   std::vector<Vector2> points;
-  for (int row = 0; row < patch.height; ++row) {
-    for (int col = 0; col < patch.width; ++col) {
-      if (PatchCell(patch, col, row) < kOccupiedFrom) continue;
+  points.reserve(kept);
+  for (std::size_t cell = 0, seen = 0; cell < patch.cells.size(); ++cell) {
+    if (!is_wall(cell)) continue;
+    // The seen-th wall is kept when it starts a new 1/kept share of them (all of them when kept == count).
+    if ((seen * kept) / count != ((seen + 1) * kept) / count) {
+      const auto col = static_cast<double>(cell % static_cast<std::size_t>(patch.width));
+      const auto row = static_cast<double>(cell / static_cast<std::size_t>(patch.width));
       points.push_back(patch.node_T_origin *
                        Vector2((col + 0.5) * patch.resolution, (row + 0.5) * patch.resolution));
     }
+    ++seen;
   }
   return points;
 }

@@ -191,6 +191,15 @@ TEST(SlipDetectionTest, WhereOdometryPutsTheViewBeyondAllJudgementAShorterStepJu
   EXPECT_NEAR(findings->front().judge_T_stood.translation().norm(), 0.0, 1e-12);
 }
 
+TEST(SlipDetectionTest, AViewFullOfWallsIsJudgedOnABoundedSampleOfThem) {
+  // 100 × 100 wall cells (an upload may hold up to 2048²): 4096 of them, evenly spaced, are tried.
+  const LocalMapEvent solid = Patch(2.5, [](double, double) { return kWall; });
+  ASSERT_EQ(solid.cells.size(), 10000u);
+  int landed = 0;
+  EXPECT_EQ(WallAgreement(solid, solid, SE2(), &landed), 1.0);
+  EXPECT_EQ(landed, 4096);
+}
+
 TEST(SlipDetectionTest, AFeaturelessCorridorAlongTheMotionClaimsNothing) {
   // Walls 0.6 m to either side, running along the motion: every view looks the same wherever the robot is,
   // so the views cannot tell whether it moved.
