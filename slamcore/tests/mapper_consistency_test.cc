@@ -169,6 +169,19 @@ TEST(MarginalCovariancesTest, TheLeaveOneOutChi2JudgesAnEdgeAgainstWhatTheOthers
   const Edge elsewhere = edge(2, 5.0, EdgeKind::kObservation);
   const Edge* outside[] = {&elsewhere};
   EXPECT_FALSE(internal::LeaveOneOutChi2(graph, *marginals, outside).has_value());
+
+  // A node that only a judged edge holds: nothing else predicts its three directions, so they are not
+  // testable and drop out (the residual covariance there is σ² − σ² = 0) — d² and the degrees of freedom
+  // are the closure's alone.
+  ASSERT_THAT(graph.AddNode(Node{.id = 3, .pose = SE2(2.0, 0, 0)}), IsOk());
+  ASSERT_THAT(graph.AddEdge(edge(3, 2.0, EdgeKind::kObservation)), IsOk());
+  const auto with_leaf = internal::MarginalCovariances::Factorize(graph, 1);
+  ASSERT_TRUE(with_leaf.has_value());
+  const Edge* closure_and_leaf[] = {&graph.edges()[1], &graph.edges()[2]};
+  const auto judged = internal::LeaveOneOutChi2(graph, *with_leaf, closure_and_leaf);
+  ASSERT_TRUE(judged.has_value());
+  EXPECT_NEAR(judged->chi2, 4.5, 1e-9);
+  EXPECT_EQ(judged->dof, 3);
 }
 
 // The Mapper's map test with its marginals updated by the edges added since their factorisation decides as
