@@ -93,7 +93,7 @@ TEST(SlipDetectionTest, DrivingUpToAWallAndTurningAwayIsNoSlip) {
   EXPECT_THAT(*findings, IsEmpty());
 }
 
-/// A lidar's view of a 5 m × 5 m room from the point (x, 0) inside it.
+/// A lidar's view of a 5 m × 5 m room from the point (x, y) inside it.
 LocalMapEvent RoomSeenFrom(double x, double y = 0.0) {
   return Patch(3.0, [=](double px, double py) {
     const double wx = px + x, wy = py + y;
