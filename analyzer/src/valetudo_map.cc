@@ -143,20 +143,39 @@ std::string OptionalString(const json& object, const char* key) {
   return {};
 }
 
+/// How many pixels a layer may still cover: the lesser of its own limit and what the layers before it left
+/// of the limit on all layers together (each pixel is 8 bytes while the layers are decoded).
+struct PixelBudget {
+  std::int64_t pixels = 0;
+  bool by_total = false;  // the limit on all layers together is the lesser one
+  std::int64_t limit = 0;
+
+  static PixelBudget For(const ValetudoLimits& limits, std::int64_t covered_so_far) {
+    const std::int64_t left = std::max<std::int64_t>(0, limits.max_total_pixels - covered_so_far);
+    if (left < limits.max_layer_pixels) return {left, true, limits.max_total_pixels};
+    return {limits.max_layer_pixels, false, limits.max_layer_pixels};
+  }
+  std::string Describe() const {
+    if (!by_total) return "the limit of " + std::to_string(limit) + " pixels a layer may cover";
+    return "the " + std::to_string(pixels) + " pixels left of the " + std::to_string(limit) +
+           " all layers together may cover";
+  }
+};
+
 /// A layer's pixels, decoded and checked against the map's size, as a set of cell indices.
 class LayerPixels {
  public:
   LayerPixels(int size_x, int size_y) : size_x_(size_x), size_y_(size_y) {}
 
-  /// `pixels`: [x, y, x, y, ...].
-  Status AddExpanded(const json& array, const std::string& where, std::int64_t max_pixels) {
+  /// `pixels`: [x, y, x, y, ...]; at most `budget.pixels` of them.
+  Status AddExpanded(const json& array, const std::string& where, const PixelBudget& budget) {
     if (array.size() % 2 != 0) {
       return InvalidArgument(where + ": length " + std::to_string(array.size()) +
                              " is not a multiple of 2 (x, y pairs)");
     }
-    if (static_cast<std::int64_t>(array.size() / 2) > max_pixels) {
-      return InvalidArgument(where + ": " + std::to_string(array.size() / 2) +
-                             " pixels, more than the limit " + std::to_string(max_pixels));
+    if (static_cast<std::int64_t>(array.size() / 2) > budget.pixels) {
+      return InvalidArgument(where + ": " + std::to_string(array.size() / 2) + " pixels, more than " +
+                             budget.Describe());
     }
     for (std::size_t i = 0; i < array.size(); i += 2) {
       int x = 0, y = 0;
@@ -167,8 +186,9 @@ class LayerPixels {
     return Status::Ok();
   }
 
-  /// `compressedPixels`: [x, y, count, ...], each run covering (x .. x + count − 1, y).
-  Status AddCompressed(const json& array, const std::string& where, std::int64_t max_pixels) {
+  /// `compressedPixels`: [x, y, count, ...], each run covering (x .. x + count − 1, y); at most
+  /// `budget.pixels` in all, checked before a run is expanded (a run of 3 numbers may cover 20,000 pixels).
+  Status AddCompressed(const json& array, const std::string& where, const PixelBudget& budget) {
     if (array.size() % 3 != 0) {
       return InvalidArgument(where + ": length " + std::to_string(array.size()) +
                              " is not a multiple of 3 (x, y, count runs): truncated?");
@@ -188,9 +208,7 @@ class LayerPixels {
                                count_value.dump() + " > size.x " + std::to_string(size_x_) + ")");
       }
       total += count;
-      if (total > max_pixels) {
-        return InvalidArgument(where + ": more than the limit of " + std::to_string(max_pixels) + " pixels");
-      }
+      if (total > budget.pixels) return InvalidArgument(where + ": more than " + budget.Describe());
       for (std::int64_t k = 0; k < count; ++k)
         cells_.push_back(static_cast<std::int64_t>(y) * size_x_ + x + k);
     }
@@ -228,7 +246,7 @@ struct DecodedLayer {
 };
 
 slamcore::Result<DecodedLayer> DecodeLayer(const json& value, std::size_t index, const ValetudoMap& map,
-                                           const ValetudoLimits& limits) {
+                                           const PixelBudget& budget) {
   const std::string where = "layers[" + std::to_string(index) + "]";
   if (!value.is_object()) return InvalidArgument(where + ": not an object");
   DecodedLayer decoded;
@@ -257,14 +275,12 @@ slamcore::Result<DecodedLayer> DecodeLayer(const json& value, std::size_t index,
     return InvalidArgument(where + ": both pixels and compressedPixels are set; a layer has one encoding");
   }
   if (has_compressed && !has_expanded) {
-    if (Status status =
-            pixels.AddCompressed(*compressed, where + ".compressedPixels", limits.max_layer_pixels);
+    if (Status status = pixels.AddCompressed(*compressed, where + ".compressedPixels", budget);
         !status.ok()) {
       return status;
     }
   } else if (expanded != value.end() && expanded->is_array()) {
-    if (Status status = pixels.AddExpanded(*expanded, where + ".pixels", limits.max_layer_pixels);
-        !status.ok()) {
+    if (Status status = pixels.AddExpanded(*expanded, where + ".pixels", budget); !status.ok()) {
       return status;
     }
   } else {
@@ -377,7 +393,8 @@ Status DecodeEntity(const json& value, std::size_t index, const ValetudoLimits& 
 
 /// Floor and segments free, walls occupied (walls win where layers overlap), cropped with a margin.
 slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map,
-                                                    const std::vector<DecodedLayer>& layers, int margin) {
+                                                    const std::vector<DecodedLayer>& layers, int margin,
+                                                    std::int64_t max_cells) {
   int min_x = std::numeric_limits<int>::max(), min_y = min_x, max_x = -1, max_y = -1;
   for (const DecodedLayer& decoded : layers) {
     if (decoded.layer.pixel_count == 0) continue;
@@ -387,12 +404,20 @@ slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map,
     max_y = std::max(max_y, decoded.layer.max_py);
   }
   if (max_x < 0) return InvalidArgument("layers: no layer covers any pixel; there is no map");
+  const std::int64_t width = std::int64_t{max_x} - min_x + 1 + 2 * margin,
+                     height = std::int64_t{max_y} - min_y + 1 + 2 * margin;
+  if (width * height > max_cells) {
+    return InvalidArgument("layers: their pixels span " + std::to_string(max_x - min_x + 1) + " x " +
+                           std::to_string(max_y - min_y + 1) + " map pixels, a grid of " +
+                           std::to_string(width * height) + " cells with the margin, more than the " +
+                           std::to_string(max_cells) + " this import accepts");
+  }
   const double resolution = map.pixel_size_cm / 100.0;
   const int left = min_x - margin, bottom = max_y + margin;
   // Pixel (px, py) has its lower-left corner at (px·s, −py·s): the lowest row of the grid is py = bottom.
-  ASSIGN_OR_RETURN(auto grid, slamcore::OccupancyGrid::Create(max_x - min_x + 1 + 2 * margin,
-                                                              max_y - min_y + 1 + 2 * margin, resolution,
-                                                              left * resolution, -bottom * resolution));
+  ASSIGN_OR_RETURN(auto grid,
+                   slamcore::OccupancyGrid::Create(static_cast<int>(width), static_cast<int>(height),
+                                                   resolution, left * resolution, -bottom * resolution));
   for (const bool walls : {false, true}) {
     for (const DecodedLayer& decoded : layers) {
       if ((decoded.layer.type == "wall") != walls) continue;
@@ -487,9 +512,11 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
                            " layers, more than the limit " + std::to_string(limits.max_layers));
   }
   std::vector<DecodedLayer> decoded;
+  std::int64_t covered = 0;  // pixels of the layers decoded so far
   for (std::size_t i = 0; i < layers->size(); ++i) {
-    auto layer = DecodeLayer((*layers)[i], i, map, limits);
+    auto layer = DecodeLayer((*layers)[i], i, map, PixelBudget::For(limits, covered));
     if (!layer.ok()) return InvalidArgument(where + layer.status().message());
+    covered += layer->layer.pixel_count;
     map.layers.push_back(layer->layer);
     decoded.push_back(std::move(layer).value());
   }
@@ -506,7 +533,7 @@ slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std
       }
     }
   }
-  auto grid = Rasterise(map, decoded, limits.grid_margin_px);
+  auto grid = Rasterise(map, decoded, limits.grid_margin_px, limits.max_grid_cells);
   if (!grid.ok()) return InvalidArgument(where + grid.status().message());
   map.grid = std::move(grid).value();
   return map;

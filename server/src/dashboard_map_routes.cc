@@ -235,13 +235,19 @@ class MapRoutes {
 
  private:
   static constexpr int kMaxConcurrentDecodes = 2;
+  /// Cells an uploaded map may decode to: a map_server PNG inflates, a Valetudo export's pixel runs and
+  /// corners span far more than their bytes (a PGM is bounded by the 1 MiB body already).
+  static constexpr std::int64_t kMaxUploadCells = 16'000'000;
 
   /// An upload is held to far less than a file on the engineer's disk (the largest real export we hold is
-  /// 640 kB): 32 MiB inflated and 4 million JSON values, a few hundred MB at most as a document.
+  /// 640 kB and spans 0.6 million cells): 32 MiB inflated and 4 million JSON values, a few hundred MB at
+  /// most as a document; its pixels and the grid they span no larger than a map_server upload's image.
   static slamcore::Result<analyzer::ImportedMap> ValetudoUpload(const std::string& body) {
     analyzer::ValetudoLimits limits;
     limits.max_inflated_bytes = 32u << 20;
     limits.max_json_values = 4'000'000;
+    limits.max_total_pixels = kMaxUploadCells;
+    limits.max_grid_cells = kMaxUploadCells;
     ASSIGN_OR_RETURN(auto map, analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export", limits));
     return analyzer::ImportValetudo(map);
   }
@@ -281,7 +287,7 @@ class MapRoutes {
             value = value << 8 | static_cast<unsigned char>(image->body[at + i]);
           return value;
         };
-        if (be32(16) * be32(20) > kMaxUploadCells) {
+        if (be32(16) * be32(20) > static_cast<std::uint64_t>(kMaxUploadCells)) {
           return slamcore::InvalidArgument(
               "image: " + std::to_string(be32(16)) + " x " + std::to_string(be32(20)) +
               " pixels, more than the upload limit of " + std::to_string(kMaxUploadCells));
@@ -294,9 +300,6 @@ class MapRoutes {
               image->filename;
     return analyzer::ImportMapServer(grid);
   }
-
-  /// Cells a map_server upload may decode to (a PNG inflates; a PGM is bounded by the 1 MiB body already).
-  static constexpr std::uint64_t kMaxUploadCells = 16'000'000;
 
   /// "current" is 0 (MapHistory's "the current version").
   static std::optional<std::int64_t> VersionOf(const std::string& text) {

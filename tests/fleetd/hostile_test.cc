@@ -207,6 +207,51 @@ TEST_F(HostileTest, ADeflatedMapUploadThatInflatesTooFarIsRefusedByName) {
   ExpectStillServing();
 }
 
+// A few hundred bytes of export may describe a huge map: pixels at two far corners span a grid of 64 million
+// cells, and 800 runs of three numbers cover 16 million pixels. The map page refuses both by name, before the
+// memory is taken, and stores nothing.
+TEST_F(HostileTest, ASmallMapUploadThatDescribesAHugeMapIsRefusedByWhatItWouldCost) {
+  const std::string& address = server_->http_address();
+  const auto upload = [&](const std::string& body) {
+    return HttpRaw(address, "POST /api/robots/" + RobotId(1) + "/maps/import HTTP/1.1\r\nHost: " + address +
+                                "\r\nAuthorization: Bearer " + *engineer_ +
+                                "\r\nContent-Type: application/json\r\nContent-Length: " +
+                                std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body);
+  };
+  const auto export_of = [](const std::string& layers) {
+    return R"({"__class": "ValetudoMap", "metaData": {"version": 2}, "size": {"x": 20000, "y": 20000}, )"
+           R"("pixelSize": 5, "entities": [], "layers": [)" +
+           layers + "]}";
+  };
+  std::string versions_before;
+  ASSERT_EQ(HttpGet(address, "/api/robots/" + RobotId(1) + "/maps", &versions_before, *engineer_), 200);
+
+  const std::string corners = export_of(R"({"type": "floor", "compressedPixels": [0, 0, 1, 7999, 7999, 1]})");
+  ASSERT_LT(corners.size(), 300u);
+  std::string response = upload(corners);
+  EXPECT_EQ(StatusOf(response), 400) << response.substr(0, 400);
+  EXPECT_NE(
+      response.find("their pixels span 8000 x 8000 map pixels, a grid of 64320400 cells with the margin, "
+                    "more than the 16000000 this import accepts"),
+      std::string::npos)
+      << response.substr(0, 400);
+
+  std::string runs;
+  for (int row = 0; row < 801; ++row) runs += (row ? ", 0, " : "0, ") + std::to_string(row) + ", 20000";
+  response = upload(export_of(R"({"type": "floor", "compressedPixels": [)" + runs + "]}"));
+  EXPECT_EQ(StatusOf(response), 400) << response.substr(0, 400);
+  EXPECT_NE(
+      response.find("layers[0].compressedPixels: more than the 16000000 pixels left of the 16000000 all "
+                    "layers together may cover"),
+      std::string::npos)
+      << response.substr(0, 400);
+
+  std::string versions_after;
+  ASSERT_EQ(HttpGet(address, "/api/robots/" + RobotId(1) + "/maps", &versions_after, *engineer_), 200);
+  EXPECT_EQ(versions_after, versions_before);
+  ExpectStillServing();
+}
+
 // An id no upload can have is refused by its syntax, not looked up and echoed: a 20 kB run id came back
 // in a NOT_FOUND message too large for the reply's metadata (RESOURCE_EXHAUSTED, which says retry).
 TEST_F(HostileTest, IdsNoUploadCanHaveAreInvalidNotMissing) {

@@ -41,10 +41,17 @@ struct ValetudoLimits {
   int max_json_depth = 64;
   int max_map_side = 20000;                    // size.x, size.y in map pixels (slamcore::kMaxGridSide)
   std::int64_t max_layer_pixels = 50'000'000;  // pixels one layer may cover
+  // Pixels all layers together may cover (8 bytes each while decoding): without it, a thousand layers of
+  // run-length rows, each within its own limit, would ask for hundreds of GB.
+  std::int64_t max_total_pixels = 100'000'000;
   std::size_t max_layers = 1000;
   std::size_t max_entities = 10000;
   std::size_t max_points = 1'000'000;  // coordinates in one entity
   int grid_margin_px = 10;             // unknown border around the layers' bounding box
+  // Cells of the grid the layers' bounding box (with the margin) spans: two pixels in opposite corners of
+  // a large map make a grid of hundreds of MB from a file of a few hundred bytes. The default is the most
+  // any grid may hold; fleetd's map upload takes far less (the largest real export we hold spans 0.6 M).
+  std::int64_t max_grid_cells = slamcore::kMaxGridCells;
 };
 
 /// One layer: what it covers and what the file says about it.
