@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer harnesses with Debian's clang (their own build directory, build-fuzz/) against the main
 # build (build/, made first by deploy/build.sh), then runs each for FUZZ_SECONDS (default 60) on a seed corpus:
-# fuzz/corpus/<harness>/ (checked in); for telemetry a few runs written by fleetsim; for g2o and
-# map_server excerpts of data/. Prints executions
+# fuzz/corpus/<harness>/ (checked in); for telemetry a few runs written by fleetsim; for g2o, map_server
+# and valetudo excerpts or files of data/. Prints executions
 # per harness; exits non-zero when a harness crashed (the input is left as build-fuzz/<harness>/crash-*;
 # turn it into a regression test).
 #
@@ -36,14 +36,20 @@ if [[ ! -d $out/seeds/g2o ]]; then
   printf 'P5\n4 2\n255\n\xfe\x00\xcd\xfe\x00\x00\xfe\xcd' >"$out/seeds/map_server/small.pgm"
   printf 'P2\n2 2\n255\n254 0\n205 254\n' >"$out/seeds/map_server/ascii.pgm"
 fi
+# Valetudo seeds: data/'s real exports and fuzz/corpus/valetudo's small hand-made ones (one deflated, as
+# Valetudo publishes over MQTT).
+if [[ ! -d $out/seeds/valetudo ]]; then
+  mkdir -p "$out/seeds/valetudo"
+  cp "$root"/data/valetudo/*.json "$root"/fuzz/corpus/valetudo/* "$out/seeds/valetudo/"
+fi
 
 status=0
-for harness in telemetry parameters http_request g2o map_server; do
+for harness in telemetry parameters valetudo http_request g2o map_server; do
   work=$out/$harness
   mkdir -p "$work/corpus"
   seeds=$root/fuzz/corpus/$harness
   [[ $harness == telemetry ]] && seeds=$telemetry_seeds
-  [[ $harness == g2o || $harness == map_server ]] && seeds=$out/seeds/$harness
+  [[ $harness == g2o || $harness == map_server || $harness == valetudo ]] && seeds=$out/seeds/$harness
   log=$work/fuzz.log
   if (cd "$work" && "$out/${harness}_fuzzer" -max_total_time="$seconds" -rss_limit_mb=2048 -max_len=1048576 \
         -print_final_stats=1 corpus "$seeds" >"$log" 2>&1); then
