@@ -263,25 +263,28 @@ TEST(ValetudoMapTest, SmallTextsThatDescribeHugeMapsAreRefusedByWhatTheyWouldCos
         .dump();
   };
   const auto floor = [](json runs) { return json{{"type", "floor"}, {"compressedPixels", std::move(runs)}}; };
+  const auto expect_refused_naming = [](const std::string& text, const ValetudoLimits& limits,
+                                        const std::string& naming) {
+    const auto refused = ParseValetudoMap(text, "export.json", limits);
+    ASSERT_THAT(refused, StatusIs(slamcore::StatusCode::kInvalidArgument));
+    EXPECT_NE(refused.status().message().find("export.json: " + naming), std::string::npos)
+        << refused.status().message();
+  };
   // Pixels (0, 0) and (2999, 2999): 3000 × 3000 pixels, 3020 × 3020 = 9,120,400 cells with the 10-cell margin.
   const std::string corners = map_of(3000, json::array({floor({0, 0, 1, 2999, 2999, 1})}));
   ValetudoLimits limits;
   limits.max_grid_cells = 9'120'399;
-  auto refused = ParseValetudoMap(corners, "corners.json", limits);
-  ASSERT_THAT(refused, StatusIs(slamcore::StatusCode::kInvalidArgument));
-  EXPECT_NE(
-      refused.status().message().find("corners.json: layers: their pixels span 3000 x 3000 map pixels, a "
-                                      "grid of 9120400 cells with the margin, more than the 9120399"),
-      std::string::npos)
-      << refused.status().message();
+  expect_refused_naming(corners, limits,
+                        "layers: their pixels span 3000 x 3000 map pixels, a grid of 9120400 cells with the "
+                        "margin, more than the 9120399");
   limits.max_grid_cells = 9'120'400;
-  const auto accepted = ParseValetudoMap(corners, "corners.json", limits);
+  const auto accepted = ParseValetudoMap(corners, "export.json", limits);
   ASSERT_THAT(accepted, IsOk());
   EXPECT_EQ(accepted->grid.width, 3020);
   EXPECT_EQ(accepted->grid.height, 3020);
 
   // Three layers of two full rows each (2 × 1000 pixels), against 5000 pixels for all layers: the third
-  // layer is refused after its first row (4000 + 1000 covered, the next 1000 past what was left).
+  // layer is refused at its second row (4000 + 1000 covered, the next 1000 past what was left).
   json rows = json::array();
   for (int layer = 0; layer < 3; ++layer) {
     rows.push_back(json{{"type", layer == 2 ? "wall" : "segment"},
@@ -290,24 +293,16 @@ TEST(ValetudoMapTest, SmallTextsThatDescribeHugeMapsAreRefusedByWhatTheyWouldCos
   }
   limits = {};
   limits.max_total_pixels = 5000;
-  refused = ParseValetudoMap(map_of(1000, rows), "rows.json", limits);
-  ASSERT_THAT(refused, StatusIs(slamcore::StatusCode::kInvalidArgument));
-  EXPECT_NE(
-      refused.status().message().find("rows.json: layers[2].compressedPixels: more than the 1000 pixels "
-                                      "left of the 5000 all layers together may cover"),
-      std::string::npos)
-      << refused.status().message();
+  expect_refused_naming(map_of(1000, rows), limits,
+                        "layers[2].compressedPixels: more than the 1000 pixels left of the 5000 all layers "
+                        "together may cover");
   limits.max_total_pixels = 6000;
-  ASSERT_THAT(ParseValetudoMap(map_of(1000, rows), "rows.json", limits), IsOk());
+  ASSERT_THAT(ParseValetudoMap(map_of(1000, rows), "export.json", limits), IsOk());
   // The per-layer limit, when it is the lesser, is named as before.
   limits = {};
   limits.max_layer_pixels = 1500;
-  refused = ParseValetudoMap(map_of(1000, rows), "rows.json", limits);
-  EXPECT_NE(
-      refused.status().message().find("layers[0].compressedPixels: more than the limit of 1500 pixels a "
-                                      "layer may cover"),
-      std::string::npos)
-      << refused.status().message();
+  expect_refused_naming(map_of(1000, rows), limits,
+                        "layers[0].compressedPixels: more than the limit of 1500 pixels a layer may cover");
 }
 
 TEST(ValetudoMapTest, RefusesMalformedExportsNamingTheField) {

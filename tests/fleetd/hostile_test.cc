@@ -226,25 +226,21 @@ TEST_F(HostileTest, ASmallMapUploadThatDescribesAHugeMapIsRefusedByWhatItWouldCo
   std::string versions_before;
   ASSERT_EQ(HttpGet(address, "/api/robots/" + RobotId(1) + "/maps", &versions_before, *engineer_), 200);
 
+  const auto expect_refused_naming = [&](const std::string& body, const std::string& naming) {
+    const std::string response = upload(body);
+    EXPECT_EQ(StatusOf(response), 400) << response.substr(0, 400);
+    EXPECT_NE(response.find(naming), std::string::npos) << response.substr(0, 400);
+  };
   const std::string corners = export_of(R"({"type": "floor", "compressedPixels": [0, 0, 1, 7999, 7999, 1]})");
   ASSERT_LT(corners.size(), 300u);
-  std::string response = upload(corners);
-  EXPECT_EQ(StatusOf(response), 400) << response.substr(0, 400);
-  EXPECT_NE(
-      response.find("their pixels span 8000 x 8000 map pixels, a grid of 64320400 cells with the margin, "
-                    "more than the 16000000 this import accepts"),
-      std::string::npos)
-      << response.substr(0, 400);
-
+  expect_refused_naming(corners,
+                        "their pixels span 8000 x 8000 map pixels, a grid of 64320400 cells with the margin, "
+                        "more than the 16000000 this import accepts");
   std::string runs;
   for (int row = 0; row < 801; ++row) runs += (row ? ", 0, " : "0, ") + std::to_string(row) + ", 20000";
-  response = upload(export_of(R"({"type": "floor", "compressedPixels": [)" + runs + "]}"));
-  EXPECT_EQ(StatusOf(response), 400) << response.substr(0, 400);
-  EXPECT_NE(
-      response.find("layers[0].compressedPixels: more than the 16000000 pixels left of the 16000000 all "
-                    "layers together may cover"),
-      std::string::npos)
-      << response.substr(0, 400);
+  expect_refused_naming(export_of(R"({"type": "floor", "compressedPixels": [)" + runs + "]}"),
+                        "layers[0].compressedPixels: more than the 16000000 pixels left of the 16000000 all "
+                        "layers together may cover");
 
   std::string versions_after;
   ASSERT_EQ(HttpGet(address, "/api/robots/" + RobotId(1) + "/maps", &versions_after, *engineer_), 200);
