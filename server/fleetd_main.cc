@@ -132,8 +132,8 @@ int main(int argc, char** argv) {
                  "the repair policy acts only on findings at least this severe (0..1)")
       ->capture_default_str();
   app.add_option("--auto-repair-protrusions", config.auto_repair_protrusions,
-                 "any: the policy cuts every protrusion finding; views: only those the run's own views show "
-                 "(a slip), leaving the map-only model's calls to an engineer")
+                 "views: the policy cuts only the protrusions the run's own views show (a slip), leaving the "
+                 "map-only model's calls to an engineer; any: every protrusion finding")
       ->capture_default_str();
   app.add_flag("--auto-approve", config.auto_approve,
                "policy repairs reach robots without an engineer's review");

@@ -31,15 +31,16 @@ TEST_F(ConfigTest, TheRepairPolicyKeysReachTheMapPolicyAndOutOfRangeValuesAreNam
   FleetdConfig config;
   ASSERT_THAT(
       Load(R"({"auto_repair": "repair_findings", "auto_repair_min_severity": 0.6, "auto_approve": true,
-               "auto_repair_protrusions": "views"})",
+               "auto_repair_protrusions": "any"})",
            config),
       IsOk());
   EXPECT_THAT(config.Validate(), IsOk());
   const MapPolicy policy = MapPolicyOf(config);
   EXPECT_EQ(policy.auto_repair, "repair_findings");
   EXPECT_DOUBLE_EQ(policy.min_severity, 0.6);
-  EXPECT_EQ(policy.protrusions, "views");
+  EXPECT_EQ(policy.protrusions, "any");
   EXPECT_TRUE(policy.auto_approve);
+  EXPECT_EQ(MapPolicyOf(FleetdConfig{}).protrusions, "views") << "the default cuts only what the views show";
 
   const auto refused = [&config](const std::string& expected) {
     const slamcore::Status status = config.Validate();

@@ -190,7 +190,7 @@ TEST_F(MapHistoryTest, FindingsStoredWhileKindAndStateWereStringsReadAsBefore) {
 }
 
 TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
-  MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .protrusions = "any"});
   UploadBoth(history);
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
@@ -216,8 +216,10 @@ TEST_F(MapHistoryTest, TheCutProtrusionsPolicyRepairsAndWaitsForReview) {
   EXPECT_EQ(head, 3) << "the pending repair is what further repairs start from";
 }
 
+// The default: the map-only model's calls wait for an engineer (on robot-drawn maps it also calls real new
+// floor a protrusion); what the run's own views show is cut.
 TEST_F(MapHistoryTest, CuttingOnlyWhatTheViewsShowLeavesTheModelsCallsToAnEngineer) {
-  MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .protrusions = "views"});
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
   UploadBoth(history);
   // The map-only model's call: an open finding, no repair.
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report("classifier")), IsOk());
@@ -237,7 +239,7 @@ TEST_F(MapHistoryTest, CuttingOnlyWhatTheViewsShowLeavesTheModelsCallsToAnEngine
 }
 
 TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase) {
-  MapHistory history(*repository_, {.auto_repair = "cut_protrusions"});
+  MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .protrusions = "any"});
   UploadBoth(history);
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   ASSERT_THAT(history.Review("r1", 3, /*approve=*/false, "engineer:ana"), IsOk());
@@ -267,7 +269,8 @@ TEST_F(MapHistoryTest, ARejectedRepairIsASideBranchAndRepairsContinueFromItsBase
 }
 
 TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
-  MapHistory history(*repository_, {.auto_repair = "cut_protrusions", .auto_approve = true});
+  MapHistory history(*repository_,
+                     {.auto_repair = "cut_protrusions", .protrusions = "any", .auto_approve = true});
   UploadBoth(history);
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   bool up_to_date = true;
@@ -282,7 +285,8 @@ TEST_F(MapHistoryTest, WithAutomaticApprovalTheRobotGetsTheCutMapAtOnce) {
 
 TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereAsItsThreshold) {
   {
-    MapHistory history(*repository_, {.auto_repair = "repair_findings", .min_severity = 1.0});
+    MapHistory history(*repository_,
+                       {.auto_repair = "repair_findings", .min_severity = 1.0, .protrusions = "any"});
     UploadBoth(history);
     ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
     std::int64_t current = 0, head = 0;
@@ -290,8 +294,9 @@ TEST_F(MapHistoryTest, TheRepairFindingsPolicyActsOnlyOnFindingsAtLeastAsSevereA
         << "a protrusion below severity 1 is left open";
     EXPECT_EQ(history.Get("r1", 2)->findings[0].finding_state(), fleet::v1::FINDING_STATE_OPEN);
   }
-  MapHistory history(*repository_,
-                     {.auto_repair = "repair_findings", .min_severity = 0.1, .auto_approve = true});
+  MapHistory history(
+      *repository_,
+      {.auto_repair = "repair_findings", .min_severity = 0.1, .protrusions = "any", .auto_approve = true});
   ASSERT_THAT(history.OnRunAnalysed({"r1", "run-1"}, Report()), IsOk());
   auto repaired = history.Get("r1", 3);
   ASSERT_THAT(repaired, IsOk());

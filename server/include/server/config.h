@@ -43,11 +43,11 @@ struct FleetdConfig {
   double analysis_budget_seconds = 600.0;  // one run's analysis; past it the job fails with a clear error
   int auth_cache_seconds = 60;
   std::string log_level = "info";
-  std::string log_format = "json";              // "json" or "text"
-  std::string auto_repair = "none";             // "none", "cut_protrusions" or "repair_findings" (MapPolicy)
-  double auto_repair_min_severity = 0.0;        // the policy acts on findings at least this severe (0..1)
-  std::string auto_repair_protrusions = "any";  // "any" or "views": which protrusions it cuts (MapPolicy)
-  bool auto_approve = false;                    // policy repairs reach robots without an engineer's review
+  std::string log_format = "json";        // "json" or "text"
+  std::string auto_repair = "none";       // "none", "cut_protrusions" or "repair_findings" (MapPolicy)
+  double auto_repair_min_severity = 0.0;  // the policy acts on findings at least this severe (0..1)
+  std::string auto_repair_protrusions = "views";  // "views" or "any": which protrusions it cuts (MapPolicy)
+  bool auto_approve = false;                      // policy repairs reach robots without an engineer's review
   double retain_runs_days = 0.0;  // run events older than this are dropped (reports, maps kept); 0: never
   double retain_jobs_days = 7.0;  // finished jobs older than this are deleted; 0: never
   double retention_interval_seconds = 3600.0;  // how often the server applies retention
