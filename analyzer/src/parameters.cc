@@ -65,6 +65,7 @@ fleet::v1::MapperParameters ToProto(const slamcore::MapperParams& params) {
   proto.set_optimize_after_accept(params.optimize_after_accept);
   proto.set_local_window_nodes(params.local_window_nodes);
   proto.set_full_optimization_every(params.full_optimization_every);
+  proto.set_correct_slip_from_views(params.correct_slip_from_views);
   const slamcore::ConsistencyParams& c = params.consistency;
   fleet::v1::ConsistencyParameters* consistency = proto.mutable_consistency();
   consistency->set_enabled(c.enabled);
@@ -107,6 +108,7 @@ slamcore::Result<slamcore::MapperParams> FromProto(const fleet::v1::MapperParame
   criteria(proto.merge_conditional(), &params.merge_conditional);
   criteria(proto.merge_full(), &params.merge_full);
   if (proto.has_conditional_merge()) params.conditional_merge = proto.conditional_merge();
+  if (proto.has_correct_slip_from_views()) params.correct_slip_from_views = proto.correct_slip_from_views();
   if (proto.has_hypothesis_expiry_seconds())
     params.hypothesis_expiry_seconds = proto.hypothesis_expiry_seconds();
   if (proto.has_hypothesis_expiry_distance())

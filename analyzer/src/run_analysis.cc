@@ -42,6 +42,7 @@ fleet::v1::MapperCounts CountsToProto(const slamcore::MapperStatistics& stats) {
   counts.set_recovery_created(stats.recovery_created);
   counts.set_recovery_accepted(stats.recovery_accepted);
   counts.set_recovery_retracted(stats.recovery_retracted);
+  counts.set_slip_corrections(stats.slip_corrections);
   counts.set_recovery_expired(stats.recovery_expired);
   counts.set_recovery_rejected(stats.recovery_rejected);
   counts.set_merge_created(stats.merge_created);

@@ -81,6 +81,7 @@ slamcore::MapperParams UnprotectedMapperParams() {
   params.merge_full = {.min_observations = 1, .min_views = 1};
   params.recovery = {.min_observations = 1, .min_views = 1};
   params.consistency.enabled = false;
+  params.correct_slip_from_views = false;
   return params;
 }
 

@@ -40,6 +40,7 @@ MapperStatistics ComputeStatistics(const std::vector<Decision>& decisions) {
       case DecisionKind::kComponentCreated: ++statistics.components_created; break;
       case DecisionKind::kComponentsMerged: break;
       case DecisionKind::kRetracted: statistics.recovery_retracted += recovery; break;
+      case DecisionKind::kSlipCorrected: ++statistics.slip_corrections; break;
     }
   }
   return statistics;

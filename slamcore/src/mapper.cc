@@ -3,9 +3,11 @@
 #include "slamcore/mapper.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <sstream>
 
 #include "mapper_impl.h"
+#include "slamcore/occupancy_grid.h"
 
 namespace slamcore {
 
@@ -24,6 +26,7 @@ const char* DecisionKindName(DecisionKind kind) {
     case DecisionKind::kComponentCreated: return "component_created";
     case DecisionKind::kComponentsMerged: return "components_merged";
     case DecisionKind::kRetracted: return "retracted";
+    case DecisionKind::kSlipCorrected: return "slip_corrected";
   }
   return "unknown";
 }
@@ -77,9 +80,11 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
   node.id = next_node_id_++;
   node.time = event.time;
   const bool new_component = start_new_component_ || !current_node_;
+  observed_at_current_node_ = false;
   if (new_component) {
     node.pose = SE2::Identity();
     node.odometer = odometer_;
+    slip_reference_.reset();
   } else {
     odometer_ += event.increment.translation().norm();
     node.pose = map_.graph.node(*current_node_).pose * event.increment;
@@ -103,6 +108,7 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
     edge.kind = EdgeKind::kMotion;
     (void)map_.graph.AddEdge(edge);
     current_node_ = node.id;
+    if (slip_reference_) slip_reference_->since.push_back(node.id);
     // Eq. (3) for every hypothesis, and for the robot's own relative uncertainty.
     const internal::PoseGaussian motion = internal::MotionFromIncrement(event.increment, event.covariance);
     for (Hypothesis& hypothesis : hypotheses_)
@@ -125,12 +131,82 @@ void Mapper::Impl::Apply(const ViewCreatedEvent& event) {
   view_creation_order_.emplace(event.view, view_creation_order_.size());
 }
 
-void Mapper::Impl::Apply(const ViewObservedEvent& event) { DecideObservation(event); }
+void Mapper::Impl::Apply(const ViewObservedEvent& event) {
+  observed_at_current_node_ = true;
+  DecideObservation(event);
+}
 
-void Mapper::Impl::Apply(const LocalMapEvent& event) { map_.local_maps[*current_node_] = event; }
+void Mapper::Impl::Apply(const LocalMapEvent& event) {
+  const NodeId node = *current_node_;
+  if (params_.correct_slip_from_views && ValidateLocalMap(node, event).ok()) {
+    SlipReference judged(node, event);  // the judge of the next local map
+    CorrectSlip(node, judged.judge);
+    slip_reference_ = std::move(judged);
+  }
+  map_.local_maps[node] = event;
+}
+
+void Mapper::Impl::CorrectSlip(NodeId node, const ViewSlipJudge& view) {
+  if (!slip_reference_ || slip_reference_->since.empty() || slip_reference_->since.back() != node ||
+      observed_at_current_node_) {
+    return;
+  }
+  const SlipDetectionParams judged;  // slip_detection.h's defaults, as the analysis judges
+  const PoseGraph& graph = map_.graph;
+  const SE2 reference_pose = graph.node(slip_reference_->node).pose;
+  double path_m = 0.0;
+  NodeId previous = slip_reference_->node;
+  for (const NodeId next : slip_reference_->since) {
+    path_m += (graph.node(next).pose.translation() - graph.node(previous).pose.translation()).norm();
+    if (next != node) previous = next;
+  }
+  if (path_m > judged.max_path_m) return;
+  const SE2 claimed = graph.node(node).pose;  // a copy: the node moves below
+  const SE2 reference_T_claimed = reference_pose.inverse() * claimed;
+  const std::optional<SE2> stood = slip_reference_->judge.StoodShort(view, reference_T_claimed, judged);
+  if (!stood) return;
+  // The motion edge into the node now says where the views put it; the node goes there, and the filter's
+  // states, which odometry carried to the claimed pose, move with it (as by one more odometry increment).
+  const SE2 corrected = reference_pose * *stood;
+  const SE2 claimed_T_corrected = claimed.inverse() * corrected;
+  Matrix3 information = Matrix3::Identity();
+  map_.graph.RemoveEdgesIf([&](const Edge& edge) {
+    if (edge.kind != EdgeKind::kMotion || edge.from != previous || edge.to != node) return false;
+    information = edge.information;
+    return true;
+  });
+  Edge edge;
+  edge.from = previous;
+  edge.to = node;
+  edge.measurement = graph.node(previous).pose.inverse() * corrected;
+  edge.information = information;
+  edge.kind = EdgeKind::kMotion;
+  (void)map_.graph.AddEdge(edge);
+  map_.graph.mutable_node(node).pose = corrected;
+  NoteGraphChanged(GraphChange::kEdgesRemoved);
+  const internal::PoseGaussian correction{claimed_T_corrected, Matrix3::Zero()};
+  for (Hypothesis& hypothesis : hypotheses_)
+    hypothesis.state = internal::PredictMotion(hypothesis.state, correction);
+  if (contested_) {
+    for (Contradiction& contradiction : contested_->contradictions)
+      contradiction.state = internal::PredictMotion(contradiction.state, correction);
+  }
+  if (map_test_.marginals)
+    map_test_.robot_T_factorized = internal::PredictMotion(map_test_.robot_T_factorized, correction);
+  robot_relative_covariance_ =
+      internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, correction).covariance;
+  char reason[160];
+  std::snprintf(
+      reason, sizeof(reason),
+      "slip: its local map stood %.2f m short of where odometry put it, %.2f m from node %lld's; moved there",
+      (reference_T_claimed.translation() - stood->translation()).norm(),
+      reference_T_claimed.translation().norm(), static_cast<long long>(slip_reference_->node));
+  Log(DecisionKind::kSlipCorrected, -1, nullptr, reason);
+}
 
 void Mapper::Impl::Apply(const KidnapEvent& event) {
   const std::string cause = event.cause == KidnapEvent::Cause::kReboot ? "reboot" : "kidnap";
+  slip_reference_.reset();
   // Every hypothesis state robot_T_ref assumed continuous odometry; after a kidnap it means nothing.
   std::vector<std::int64_t> open;
   for (const Hypothesis& hypothesis : hypotheses_) open.push_back(hypothesis.id);

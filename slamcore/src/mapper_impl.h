@@ -59,6 +59,7 @@
 
 #include <Eigen/LU>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <unordered_map>
@@ -71,6 +72,7 @@
 #include "marginal_covariance.h"
 #include "merge_overlay.h"
 #include "slamcore/mapper.h"
+#include "slamcore/slip_detection.h"
 
 namespace slamcore {
 
@@ -117,6 +119,9 @@ class Mapper::Impl {
   void Apply(const KidnapEvent& event);
   void Apply(const GroundTruthEvent& event);
   void ExpireHypotheses();
+  /// MapperParams::correct_slip_from_views: judges `node`'s local map (`view`) against the last one on its
+  /// chain and, when it stood still, moves the node to where its view says it stood (mapper.cc).
+  void CorrectSlip(NodeId node, const ViewSlipJudge& view);
   void Log(DecisionKind kind, ViewId view, const internal::Hypothesis* hypothesis, std::string reason);
   /// For a hypothesis no longer open (a retraction names one already accepted).
   void Log(DecisionKind kind, ViewId view, std::int64_t hypothesis,
@@ -273,6 +278,21 @@ class Mapper::Impl {
   internal::IncrementalSolver incremental_;
   /// Endpoints of the edges added since the incremental back-end's last update.
   std::vector<NodeId> pending_seeds_;
+
+  /// The last local map kept on the robot's chain, as the judge of the next (CorrectSlip), and the nodes
+  /// driven since; reset with the chain (a new component).
+  struct SlipReference {
+    SlipReference(NodeId at, const LocalMapEvent& event)
+        : node(at), view(std::make_unique<const LocalMapEvent>(event)), judge(*view) {}
+    NodeId node;
+    std::unique_ptr<const LocalMapEvent> view;  // on the heap: the judge refers to it
+    ViewSlipJudge judge;
+    std::vector<NodeId> since;
+  };
+  std::optional<SlipReference> slip_reference_;
+  /// A view was observed at the current node: its pose is anchored by (or tested against) the views, and
+  /// its slip, if any, is the filter's to judge.
+  bool observed_at_current_node_ = false;
 
   std::vector<internal::Hypothesis> hypotheses_;  // open ones, in creation order
   std::int64_t next_hypothesis_id_ = 0;

@@ -133,18 +133,13 @@ WallCounts CountAgreement(const LocalMapEvent& earlier, std::span<const Vector2>
   return counts;
 }
 
-/// A node's view and its wall points.
-struct PatchWithWalls {
-  const LocalMapEvent* patch;
-  std::vector<Vector2> walls;
-};
-
 /// Each view's walls against the other's, pooled: a view placed past a wall the other saw head-on puts its
 /// own wall in the other's shadow (no judgement), but the other's wall on its own floor.
-WallCounts CountBothWays(const PatchWithWalls& earlier, const PatchWithWalls& later,
+WallCounts CountBothWays(const LocalMapEvent& earlier, std::span<const Vector2> earlier_walls,
+                         const LocalMapEvent& later, std::span<const Vector2> later_walls,
                          const SE2& earlier_T_later) {
-  const WallCounts forward = CountAgreement(*earlier.patch, later.walls, earlier_T_later);
-  const WallCounts backward = CountAgreement(*later.patch, earlier.walls, earlier_T_later.inverse());
+  const WallCounts forward = CountAgreement(earlier, later_walls, earlier_T_later);
+  const WallCounts backward = CountAgreement(later, earlier_walls, earlier_T_later.inverse());
   return {.landed = forward.landed + backward.landed, .agreeing = forward.agreeing + backward.agreeing};
 }
 
@@ -157,7 +152,8 @@ WallCounts CountBothWays(const PatchWithWalls& earlier, const PatchWithWalls& la
 /// odometry's end, and the farthest judged placement beyond it disagrees by the margin: that placement asks
 /// whether the view's structure along the motion could have told a move at all, so a featureless wall or
 /// corridor along the motion claims nothing.
-std::optional<SE2> StoodShort(const PatchWithWalls& earlier, const PatchWithWalls& later,
+std::optional<SE2> StoodShort(const LocalMapEvent& earlier, std::span<const Vector2> earlier_walls,
+                              const LocalMapEvent& later, std::span<const Vector2> later_walls,
                               const SE2& earlier_T_later, const SlipDetectionParams& params) {
   const double motion = earlier_T_later.translation().norm();
   if (motion < params.min_still_motion_m) return std::nullopt;
@@ -174,7 +170,7 @@ std::optional<SE2> StoodShort(const PatchWithWalls& earlier, const PatchWithWall
     best.pose = SE2(position, fraction * earlier_T_later.theta());  // where it lies, judged or not
     for (const double turn : {fraction * earlier_T_later.theta(), earlier_T_later.theta()}) {
       const SE2 pose(position, turn);
-      const WallCounts counts = CountBothWays(earlier, later, pose);
+      const WallCounts counts = CountBothWays(earlier, earlier_walls, later, later_walls, pose);
       if (counts.landed >= params.min_wall_cells && counts.share() > best.agreement)
         best = {pose, counts.share()};
     }
@@ -198,6 +194,17 @@ std::optional<SE2> StoodShort(const PatchWithWalls& earlier, const PatchWithWall
 }
 
 }  // namespace
+
+ViewSlipJudge::ViewSlipJudge(const LocalMapEvent& view) : view_(&view), walls_(WallPoints(view)) {}
+
+bool ViewSlipJudge::CrossesWall(const Vector2& from, const Vector2& to) const {
+  return slamcore::CrossesWall(*view_, from, to);
+}
+
+std::optional<SE2> ViewSlipJudge::StoodShort(const ViewSlipJudge& later, const SE2& judge_T_later,
+                                             const SlipDetectionParams& params) const {
+  return slamcore::StoodShort(*view_, walls_, *later.view_, later.walls_, judge_T_later, params);
+}
 
 double WallAgreement(const LocalMapEvent& earlier, const LocalMapEvent& later, const SE2& earlier_T_later,
                      int* landed) {
@@ -223,7 +230,7 @@ Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetecti
   for (const auto& [start, unused] : next) {
     if (has_predecessor.contains(start)) continue;
     // The last node with a view, where it stood, and the path walked since (in the world frame).
-    std::optional<PatchWithWalls> reference;
+    std::optional<ViewSlipJudge> reference;
     NodeId reference_node = 0;
     SE2 world_T_reference;
     double path_m = 0.0;
@@ -232,20 +239,20 @@ Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetecti
     for (NodeId node = start;;) {
       if (!walked.insert(node).second) break;  // a cycle of motion edges (a malformed map): stop there
       const SE2& pose = graph.node(node).pose;
-      std::optional<PatchWithWalls> view;
+      std::optional<ViewSlipJudge> view;
       if (const auto it = map.local_maps.find(node);
           it != map.local_maps.end() && ValidateLocalMap(node, it->second).ok())
-        view = PatchWithWalls{&it->second, WallPoints(it->second)};
+        view.emplace(it->second);
       if (reference && node != start) {
         const SE2 reference_T_world = world_T_reference.inverse();
         const Vector2 from = reference_T_world * graph.node(previous).pose.translation();
         const Vector2 to = reference_T_world * pose.translation();
         path_m += (to - from).norm();
-        through_wall = through_wall || CrossesWall(*reference->patch, from, to);
+        through_wall = through_wall || reference->CrossesWall(from, to);
         if (through_wall) {
           findings.push_back({node, SlipEvidence::kPathThroughWall, reference_node, SE2()});
         } else if (view) {
-          if (const auto stood = StoodShort(*reference, *view, reference_T_world * pose, params))
+          if (const auto stood = reference->StoodShort(*view, reference_T_world * pose, params))
             findings.push_back({node, SlipEvidence::kViewStoodStill, reference_node, *stood});
         }
         if (path_m > params.max_path_m) reference.reset();

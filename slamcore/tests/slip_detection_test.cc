@@ -254,5 +254,49 @@ TEST(SlipDetectionTest, RefusesParametersOutsideTheirRange) {
   EXPECT_THAT(FindSlipNodes(map, params), StatusIs(StatusCode::kInvalidArgument, "min_wall_cells"));
 }
 
+/// A robot driving +x toward a wall at x = 1.5 in 0.3 m steps, each node's local map seen from its true x
+/// (`true_x[k]`) while odometry claims the 0.3 m steps: its nodes' estimated x after the run.
+std::vector<double> EstimatedXAfter(const std::vector<double>& true_x, bool correct,
+                                    MapperStatistics* stats) {
+  MapperParams params;
+  params.correct_slip_from_views = correct;
+  auto mapper = Mapper::Create(params);
+  EXPECT_THAT(mapper, IsOk());
+  for (std::size_t k = 0; k < true_x.size(); ++k) {
+    const double time = static_cast<double>(k);
+    const SE2 step = k == 0 ? SE2() : SE2(0.3, 0.0, 0.0);
+    EXPECT_THAT((*mapper)->Process(OdometryEvent{.time = time, .increment = step}), IsOk());
+    LocalMapEvent view = FacingWall(1.5 - true_x[k]);
+    view.time = time;
+    EXPECT_THAT((*mapper)->Process(view), IsOk());
+  }
+  *stats = (*mapper)->Statistics();
+  std::vector<double> x;
+  for (std::size_t k = 0; k < true_x.size(); ++k) x.push_back((*mapper)->PoseOf(static_cast<NodeId>(k)).x());
+  return x;
+}
+
+TEST(SlipCorrectionTest, NodesStayWhereTheirViewsStoodWhileTheWheelsTurnOn) {
+  // Three steps to x = 0.6, then stuck there while odometry claims six more (to x = 2.4, through the wall).
+  const std::vector<double> true_x = {0.0, 0.3, 0.6, 0.6, 0.6, 0.6, 0.6, 0.6, 0.6};
+  MapperStatistics stats;
+  const std::vector<double> uncorrected = EstimatedXAfter(true_x, /*correct=*/false, &stats);
+  EXPECT_NEAR(uncorrected.back(), 2.4, 1e-6);
+  EXPECT_EQ(stats.slip_corrections, 0);
+  const std::vector<double> corrected = EstimatedXAfter(true_x, /*correct=*/true, &stats);
+  // Each stuck node is judged against the node before it, whose view stood at the same place: placed at
+  // 0, 0.1, 0.2 and 0.3 m along the claimed step, the wall 0.9 m ahead agrees at 0 only.
+  EXPECT_EQ(stats.slip_corrections, 6);
+  for (std::size_t k = 0; k < true_x.size(); ++k) EXPECT_NEAR(corrected[k], true_x[k], 1e-6) << "node " << k;
+}
+
+TEST(SlipCorrectionTest, ARobotThatMovesAsOdometrySaysIsLeftAlone) {
+  const std::vector<double> true_x = {0.0, 0.3, 0.6, 0.9, 1.2};
+  MapperStatistics stats;
+  const std::vector<double> x = EstimatedXAfter(true_x, /*correct=*/true, &stats);
+  EXPECT_EQ(stats.slip_corrections, 0);
+  for (std::size_t k = 0; k < true_x.size(); ++k) EXPECT_NEAR(x[k], true_x[k], 1e-6) << "node " << k;
+}
+
 }  // namespace
 }  // namespace slamcore

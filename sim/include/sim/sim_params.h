@@ -76,7 +76,8 @@ struct SimParams {
 };
 
 /// Robot firmware without the paper's protection: a merge or loop closure on the first observation, no
-/// conditional stage, no checks against the map's own uncertainty (the lifelong experiment's regime "none").
+/// conditional stage, no checks against the map's own uncertainty, no slip correction (the lifelong experiment's
+/// regime "none").
 slamcore::MapperParams UnprotectedMapperParams();
 
 }  // namespace sim

@@ -45,7 +45,8 @@ enum class DecisionKind : std::uint8_t {
   kViewMarkedAmbiguous,
   kComponentCreated,  // first node, kidnap or reboot
   kComponentsMerged,
-  kRetracted,  // an accepted hypothesis's edges left G: later evidence contradicted them
+  kRetracted,      // an accepted hypothesis's edges left G: later evidence contradicted them
+  kSlipCorrected,  // a node's local map showed the wheels slipped: the node moved where it stood
 };
 
 const char* DecisionKindName(DecisionKind kind);
@@ -72,6 +73,7 @@ struct MapperStatistics {
   int recovery_retracted = 0;  // accepted, later retracted (counted in recovery_accepted too)
   int views_marked_ambiguous = 0;
   int components_created = 0;
+  int slip_corrections = 0;  // MapperParams::correct_slip_from_views
 };
 
 /// The counts of a decision log (what Mapper::Statistics returns), also for logs read back from storage.

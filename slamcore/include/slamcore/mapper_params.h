@@ -156,6 +156,13 @@ struct MapperParams {
   int local_window_nodes = 30;
   int full_optimization_every = 100;
   OptimizerOptions optimizer = DefaultOptimizerOptions();
+  /// Wheel slip corrected as it happens (slip_detection.h): when a node's local map, placed along the motion
+  /// odometry claims since the last local map on its chain, agrees with that one short of where odometry
+  /// put it and disagrees beyond (the view that stood still), and no view observation anchors the node, its
+  /// motion edge is replaced by the motion the views show, so neither it nor the nodes after it march on with
+  /// the wheels, and their local maps draw no protrusion. Not in the paper (whose robots leave protrusions
+  /// to the service to find, IV-C): docs/parameter-sets/paper-filter.json turns it off.
+  bool correct_slip_from_views = true;
 
   ConsistencyParams consistency;
 

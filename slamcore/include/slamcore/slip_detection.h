@@ -14,7 +14,9 @@
 // Thread safety: free functions over const data.
 #pragma once
 
+#include <optional>
 #include <set>
+#include <vector>
 
 #include "slamcore/mapper.h"
 #include "slamcore/status.h"
@@ -54,6 +56,26 @@ struct SlipFinding {
 /// kidnap starts a new chain; a node with several motion successors continues along the one with the
 /// smallest id). Fails on an invalid parameter.
 Result<std::vector<SlipFinding>> FindSlipNodes(const Map& map, const SlipDetectionParams& params = {});
+
+/// A view as the judge of the nodes after it on its chain: what FindSlipNodes asks node by node, and the
+/// Mapper online when it corrects slip (MapperParams::correct_slip_from_views). Refers to the view, which
+/// must outlive it.
+class ViewSlipJudge {
+ public:
+  explicit ViewSlipJudge(const LocalMapEvent& view);
+
+  /// Whether the path segment from `from` to `to` (in this view's node frame) passes through one of its
+  /// walls into the space behind it that it did not see: the robot cannot have gone there.
+  bool CrossesWall(const Vector2& from, const Vector2& to) const;
+  /// Where `later`'s view says its node stood, in this view's node frame, when that is short of where
+  /// odometry put it (`judge_T_later`) and the two views disagree beyond: the view that stood still.
+  std::optional<SE2> StoodShort(const ViewSlipJudge& later, const SE2& judge_T_later,
+                                const SlipDetectionParams& params) const;
+
+ private:
+  const LocalMapEvent* view_;
+  std::vector<Vector2> walls_;  // its wall cells' centres in its node frame (at most 4096, evenly spaced)
+};
 
 /// Share of `later`'s wall cells that land on (within one cell of) a wall of `earlier` when `later`'s node is
 /// placed at `earlier_T_later` in `earlier`'s node frame, among those that land on `earlier`'s known cells;
