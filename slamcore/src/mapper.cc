@@ -109,21 +109,25 @@ void Mapper::Impl::Apply(const OdometryEvent& event) {
     (void)map_.graph.AddEdge(edge);
     current_node_ = node.id;
     if (slip_reference_) slip_reference_->since.push_back(node.id);
-    // Eq. (3) for every hypothesis, and for the robot's own relative uncertainty.
-    const internal::PoseGaussian motion = internal::MotionFromIncrement(event.increment, event.covariance);
-    for (Hypothesis& hypothesis : hypotheses_)
-      hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
-    if (contested_) {
-      for (Contradiction& contradiction : contested_->contradictions)
-        contradiction.state = internal::PredictMotion(contradiction.state, motion);
-    }
-    if (map_test_.marginals)
-      map_test_.robot_T_factorized = internal::PredictMotion(map_test_.robot_T_factorized, motion);
-    robot_relative_covariance_ =
-        internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
+    MoveRobot(event.increment, event.covariance);
   }
   if (latest_ground_truth_) ground_truth_[node.id] = latest_ground_truth_->world_T_robot;
   ambiguity_.Forget(odometer_);
+}
+
+void Mapper::Impl::MoveRobot(const SE2& increment, const Matrix3& covariance) {
+  // Eq. (3) for every hypothesis, and for the robot's own relative uncertainty.
+  const internal::PoseGaussian motion = internal::MotionFromIncrement(increment, covariance);
+  for (Hypothesis& hypothesis : hypotheses_)
+    hypothesis.state = internal::PredictMotion(hypothesis.state, motion);
+  if (contested_) {
+    for (Contradiction& contradiction : contested_->contradictions)
+      contradiction.state = internal::PredictMotion(contradiction.state, motion);
+  }
+  if (map_test_.marginals)
+    map_test_.robot_T_factorized = internal::PredictMotion(map_test_.robot_T_factorized, motion);
+  robot_relative_covariance_ =
+      internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, motion).covariance;
 }
 
 void Mapper::Impl::Apply(const ViewCreatedEvent& event) {
@@ -166,7 +170,7 @@ void Mapper::Impl::CorrectSlip(NodeId node, const ViewSlipJudge& view) {
   const std::optional<SE2> stood = slip_reference_->judge.StoodShort(view, reference_T_claimed, judged);
   if (!stood) return;
   // The motion edge into the node now says where the views put it; the node goes there, and the filter's
-  // states, which odometry carried to the claimed pose, move with it (as by one more odometry increment).
+  // states, which odometry carried to the claimed pose, move with it: one more odometry increment, exact.
   const SE2 corrected = reference_pose * *stood;
   const SE2 claimed_T_corrected = claimed.inverse() * corrected;
   Matrix3 information = Matrix3::Identity();
@@ -184,17 +188,7 @@ void Mapper::Impl::CorrectSlip(NodeId node, const ViewSlipJudge& view) {
   (void)map_.graph.AddEdge(edge);
   map_.graph.mutable_node(node).pose = corrected;
   NoteGraphChanged(GraphChange::kEdgesRemoved);
-  const internal::PoseGaussian correction{claimed_T_corrected, Matrix3::Zero()};
-  for (Hypothesis& hypothesis : hypotheses_)
-    hypothesis.state = internal::PredictMotion(hypothesis.state, correction);
-  if (contested_) {
-    for (Contradiction& contradiction : contested_->contradictions)
-      contradiction.state = internal::PredictMotion(contradiction.state, correction);
-  }
-  if (map_test_.marginals)
-    map_test_.robot_T_factorized = internal::PredictMotion(map_test_.robot_T_factorized, correction);
-  robot_relative_covariance_ =
-      internal::PredictMotion({SE2::Identity(), robot_relative_covariance_}, correction).covariance;
+  MoveRobot(claimed_T_corrected, Matrix3::Zero());
   char reason[160];
   std::snprintf(
       reason, sizeof(reason),

@@ -119,6 +119,9 @@ class Mapper::Impl {
   void Apply(const KidnapEvent& event);
   void Apply(const GroundTruthEvent& event);
   void ExpireHypotheses();
+  /// The robot moved by `increment` (its covariance `covariance`): every hypothesis's state, the contested
+  /// acceptance's, the map test's odometry chain and the robot's relative uncertainty follow (eq. (3)).
+  void MoveRobot(const SE2& increment, const Matrix3& covariance);
   /// MapperParams::correct_slip_from_views: judges `node`'s local map (`view`) against the last one on its
   /// chain and, when it stood still, moves the node to where its view says it stood (mapper.cc).
   void CorrectSlip(NodeId node, const ViewSlipJudge& view);
