@@ -434,6 +434,15 @@ slamcore::Result<slamcore::OccupancyGrid> Rasterise(const ValetudoMap& map,
 
 }  // namespace
 
+ValetudoLimits ValetudoUploadLimits() {
+  ValetudoLimits limits;
+  limits.max_inflated_bytes = 32u << 20;
+  limits.max_json_values = 4'000'000;
+  limits.max_total_pixels = kMaxUploadedMapCells;
+  limits.max_grid_cells = kMaxUploadedMapCells;
+  return limits;
+}
+
 std::int64_t ValetudoMap::AreaOf(std::string_view type) const {
   std::int64_t area = 0;
   for (const ValetudoLayer& layer : layers) {

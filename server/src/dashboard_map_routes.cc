@@ -235,20 +235,13 @@ class MapRoutes {
 
  private:
   static constexpr int kMaxConcurrentDecodes = 2;
-  /// Cells an uploaded map may decode to: a map_server PNG inflates, a Valetudo export's pixel runs and
-  /// corners span far more than their bytes (a PGM is bounded by the 1 MiB body already).
-  static constexpr std::int64_t kMaxUploadCells = 16'000'000;
+  /// Cells an uploaded map may decode to (a PGM is bounded by the 1 MiB body already).
+  static constexpr std::int64_t kMaxUploadCells = analyzer::kMaxUploadedMapCells;
 
-  /// An upload is held to far less than a file on the engineer's disk (the largest real export we hold is
-  /// 640 kB and spans 0.6 million cells): 32 MiB inflated and 4 million JSON values, a few hundred MB at
-  /// most as a document; its pixels and the grid they span no larger than a map_server upload's image.
+  /// An upload is held to far less than a file on the engineer's disk (analyzer::ValetudoUploadLimits).
   static slamcore::Result<analyzer::ImportedMap> ValetudoUpload(const std::string& body) {
-    analyzer::ValetudoLimits limits;
-    limits.max_inflated_bytes = 32u << 20;
-    limits.max_json_values = 4'000'000;
-    limits.max_total_pixels = kMaxUploadCells;
-    limits.max_grid_cells = kMaxUploadCells;
-    ASSIGN_OR_RETURN(auto map, analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export", limits));
+    ASSIGN_OR_RETURN(auto map, analyzer::ParseValetudoMap(body, "uploaded ValetudoMap export",
+                                                          analyzer::ValetudoUploadLimits()));
     return analyzer::ImportValetudo(map);
   }
 

@@ -99,6 +99,16 @@ struct ValetudoMap {
   std::int64_t AreaOf(std::string_view type) const;
 };
 
+/// Cells a map uploaded over the network (fleetd's map page) may decode to, whatever its format: a map_server
+/// PNG inflates, a Valetudo export's pixel runs and far corners span far more than their bytes. The largest
+/// real export we hold spans 0.6 million.
+inline constexpr std::int64_t kMaxUploadedMapCells = 16'000'000;
+
+/// What an upload over the network may hold, far less than a file on an engineer's disk: 32 MiB inflated, 4
+/// million JSON values (a few hundred MB at most as a document), and pixels and the grid they span within
+/// kMaxUploadedMapCells.
+ValetudoLimits ValetudoUploadLimits();
+
 /// Parses a ValetudoMap from JSON text or zlib-deflated JSON. `source` names the input in errors.
 slamcore::Result<ValetudoMap> ParseValetudoMap(std::string_view bytes, const std::string& source,
                                                const ValetudoLimits& limits = {});
